@@ -1,0 +1,81 @@
+#include "common/lcm_bus.h"
+
+#include <poll.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "common/clock.h"
+#include "common/log.h"
+
+namespace imuqual {
+
+std::string BusAddress::ToUrl() const {
+  return "udpm://" + group + ":" + std::to_string(port) + "?ttl=" + std::to_string(ttl) +
+         "&recv_buf_size=" + std::to_string(recv_buf_bytes);
+}
+
+LcmBus::LcmBus(std::string url) : url_(std::move(url)) {}
+LcmBus::~LcmBus() = default;
+
+Result<std::unique_ptr<LcmBus>> LcmBus::Open(const std::string& url) {
+  if (url.rfind("udpm://", 0) != 0 && url.rfind("file://", 0) != 0 &&
+      url.rfind("memq://", 0) != 0) {
+    return Status::InvalidArgument("LCM URL must start with udpm://, file:// or memq://: '" + url +
+                                   "'");
+  }
+  std::unique_ptr<LcmBus> bus(new LcmBus(url));
+  bus->lcm_ = std::make_unique<lcm::LCM>(url);
+  if (!bus->lcm_->good()) {
+    return Status::Unavailable("cannot open LCM bus '" + url +
+                               "' (is multicast routed on this interface?)");
+  }
+  return bus;
+}
+
+Status LcmBus::HandleFor(int timeout_ms) {
+  int fd = lcm_->getFileno();
+  if (fd < 0) return Status::Unavailable("LCM bus has no receive socket: " + url_);
+  const double deadline = MonotonicSeconds() + timeout_ms / 1000.0;
+  int wait_ms = timeout_ms;
+  bool dispatched = false;
+  for (;;) {
+    pollfd pfd{fd, POLLIN, 0};
+    int rc = ::poll(&pfd, 1, dispatched ? 0 : wait_ms);
+    if (rc < 0) {
+      if (errno == EINTR) return Status::Ok();
+      return Status::IoError(std::string("poll on LCM bus: ") + std::strerror(errno));
+    }
+    if (rc == 0) return Status::Ok();
+    if (lcm_->handle() != 0) return Status::IoError("LCM handle() failed on " + url_);
+    dispatched = true;
+    // Keep draining what is already queued, but never past the deadline.
+    if (MonotonicSeconds() >= deadline) return Status::Ok();
+    wait_ms = 0;
+  }
+}
+
+Status LcmBus::PublishBytes(const std::string& channel, const std::vector<uint8_t>& bytes) {
+  if (lcm_->publish(channel, bytes.data(), static_cast<unsigned>(bytes.size())) != 0) {
+    ++publish_errors_;
+    return Status::IoError("LCM publish failed on channel " + channel);
+  }
+  return Status::Ok();
+}
+
+void LcmBus::NoteDecodeError(const std::string& channel, const std::string& type_name,
+                             const char* why) {
+  ++decode_errors_;
+  std::lock_guard<std::mutex> lock(warned_mu_);
+  if (warned_channels_.insert(channel).second) {
+    LogWarning("rejected a message on " + channel + " (expected " + type_name + "): " + why +
+               " (further rejections on this channel are counted, not logged)");
+  }
+}
+
+void LcmBus::NoteHandlerError(const std::string& channel, const std::string& what) {
+  ++handler_errors_;
+  LogError("handler for " + channel + " failed: " + what);
+}
+
+}  // namespace imuqual

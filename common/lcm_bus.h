@@ -1,0 +1,154 @@
+// LcmBus: one LCM instance with typed, checked publish/subscribe (after
+// Drake's DrakeLcm). A message is handed to a handler only if it decodes
+// completely as the subscribed type: right fingerprint and every byte
+// accounted for. Anything else is counted as a decode error and logged once
+// per channel. No exception escapes an LCM handler: a handler that throws is
+// counted as a handler error.
+//
+// Threading: Publish() may be called from any thread (LCM serializes sends).
+// Subscribe() and HandleFor() must be called from one thread, the bus thread;
+// handlers run on it and must only copy and enqueue.
+#ifndef IMUQUAL_COMMON_LCM_BUS_H_
+#define IMUQUAL_COMMON_LCM_BUS_H_
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/status.h"
+
+namespace imuqual {
+
+// A station bus URL: multicast group and port, TTL and kernel receive buffer.
+struct BusAddress {
+  std::string group = "239.255.76.67";
+  int port = 7667;
+  int ttl = 0;                          // 0: never leaves this host
+  int recv_buf_bytes = 4 * 1024 * 1024; // SO_RCVBUF request (capped by net.core.rmem_max)
+  std::string ToUrl() const;
+};
+
+class LcmBus {
+ public:
+  // Connects to `url` (e.g. "udpm://239.255.76.67:7701?ttl=0"). Fails with a
+  // clear error if LCM cannot open it.
+  static Result<std::unique_ptr<LcmBus>> Open(const std::string& url);
+  ~LcmBus();
+  LcmBus(const LcmBus&) = delete;
+  LcmBus& operator=(const LcmBus&) = delete;
+
+  // Subscribes to channels matching `channel_regex` (anchored by LCM).
+  // `queue_capacity` is the number of messages LCM keeps for this
+  // subscription between HandleFor() calls; beyond it LCM drops silently, so
+  // size it to what can be in flight. `handler(channel, msg, recv_utime)`.
+  template <typename T>
+  void Subscribe(const std::string& channel_regex, int queue_capacity,
+                 std::function<void(const std::string&, T&&, int64_t)> handler);
+
+  // Encodes and publishes. Fails if encoding or sending fails.
+  template <typename T>
+  Status Publish(const std::string& channel, const T& msg);
+
+  // Dispatches arriving messages for up to `timeout_ms` (returns earlier
+  // after dispatching at least one message and draining what is queued).
+  Status HandleFor(int timeout_ms);
+
+  const std::string& url() const { return url_; }
+  uint64_t decode_errors() const { return decode_errors_; }
+  uint64_t handler_errors() const { return handler_errors_; }
+  uint64_t received() const { return received_; }
+  uint64_t publish_errors() const { return publish_errors_; }
+
+ private:
+  struct RawSubscription {
+    std::function<void(const lcm::ReceiveBuffer*, const std::string&)> fn;
+    void OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) { fn(rbuf, channel); }
+  };
+
+  explicit LcmBus(std::string url);
+  void NoteDecodeError(const std::string& channel, const std::string& type_name, const char* why);
+  void NoteHandlerError(const std::string& channel, const std::string& what);
+  Status PublishBytes(const std::string& channel, const std::vector<uint8_t>& bytes);
+
+  std::string url_;
+  std::unique_ptr<lcm::LCM> lcm_;
+  std::vector<std::unique_ptr<RawSubscription>> subscriptions_;
+  std::atomic<uint64_t> decode_errors_{0};
+  std::atomic<uint64_t> handler_errors_{0};
+  std::atomic<uint64_t> received_{0};
+  std::atomic<uint64_t> publish_errors_{0};
+  std::mutex warned_mu_;
+  std::set<std::string> warned_channels_;
+};
+
+// Decodes `size` bytes as T: the fingerprint must match and the message must
+// use every byte. Lying length fields fail (never crash). Used by the bus
+// and by the fuzzers.
+template <typename T>
+Status DecodeExactly(const void* data, int size, T* out) {
+  try {
+    int used = out->decode(data, 0, size);
+    if (used < 0) return Status::Corruption("does not decode as " + T::getTypeName());
+    if (used != size) {
+      return Status::Corruption("decodes as " + T::getTypeName() + " but leaves " +
+                                std::to_string(size - used) + " trailing bytes");
+    }
+  } catch (const std::exception& e) {
+    return Status::Corruption("length fields of " + T::getTypeName() + " do not fit (" +
+                              e.what() + ")");
+  }
+  return Status::Ok();
+}
+
+template <typename T>
+void LcmBus::Subscribe(const std::string& channel_regex, int queue_capacity,
+                       std::function<void(const std::string&, T&&, int64_t)> handler) {
+  auto sub = std::make_unique<RawSubscription>();
+  sub->fn = [this, handler = std::move(handler)](const lcm::ReceiveBuffer* rbuf,
+                                                 const std::string& channel) {
+    ++received_;
+    T msg;
+    Status st = DecodeExactly(rbuf->data, static_cast<int>(rbuf->data_size), &msg);
+    if (!st.ok()) {
+      NoteDecodeError(channel, T::getTypeName(), st.message().c_str());
+      return;
+    }
+    try {
+      handler(channel, std::move(msg), rbuf->recv_utime);
+    } catch (const std::exception& e) {
+      NoteHandlerError(channel, e.what());
+    } catch (...) {
+      NoteHandlerError(channel, "unknown exception");
+    }
+  };
+  lcm::Subscription* s = lcm_->subscribe(channel_regex, &RawSubscription::OnMessage, sub.get());
+  if (s != nullptr) s->setQueueCapacity(queue_capacity);
+  subscriptions_.push_back(std::move(sub));
+}
+
+template <typename T>
+Status LcmBus::Publish(const std::string& channel, const T& msg) {
+  std::vector<uint8_t> bytes;
+  try {
+    int size = msg.getEncodedSize();
+    if (size < 0) return Status::InvalidArgument("cannot size " + T::getTypeName());
+    bytes.resize(static_cast<size_t>(size));
+    if (msg.encode(bytes.data(), 0, size) != size) {
+      return Status::InvalidArgument("cannot encode " + T::getTypeName() + " (inconsistent lengths)");
+    }
+  } catch (const std::exception& e) {
+    return Status::InvalidArgument("cannot encode " + T::getTypeName() + ": " + e.what());
+  }
+  return PublishBytes(channel, bytes);
+}
+
+}  // namespace imuqual
+
+#endif  // IMUQUAL_COMMON_LCM_BUS_H_

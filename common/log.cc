@@ -1,0 +1,53 @@
+#include "common/log.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <mutex>
+
+namespace imuqual {
+namespace {
+
+std::mutex& NameMutex() {
+  static std::mutex mu;
+  return mu;
+}
+std::string& ProgramName() {
+  static std::string name = "imuqual";
+  return name;
+}
+std::atomic<bool> g_quiet{false};
+
+void Write(const char* level, const std::string& message) {
+  std::string line;
+  {
+    std::lock_guard<std::mutex> lock(NameMutex());
+    line = ProgramName();
+  }
+  line += ": ";
+  if (level[0] != '\0') {
+    line += level;
+    line += ": ";
+  }
+  line += message;
+  line += '\n';
+  // One write() per line keeps lines from different threads whole.
+  ssize_t ignored = ::write(STDERR_FILENO, line.data(), line.size());
+  (void)ignored;
+}
+
+}  // namespace
+
+void SetLogProgramName(const std::string& name) {
+  std::lock_guard<std::mutex> lock(NameMutex());
+  ProgramName() = name;
+}
+void SetLogQuiet(bool quiet) { g_quiet = quiet; }
+
+void LogInfo(const std::string& message) {
+  if (!g_quiet) Write("", message);
+}
+void LogWarning(const std::string& message) { Write("warning", message); }
+void LogError(const std::string& message) { Write("error", message); }
+
+}  // namespace imuqual
