@@ -1,0 +1,51 @@
+#include "analyze/allan/units.h"
+
+#include <cmath>
+
+namespace imuqual::allan {
+
+double WhiteRateStdDevToNoiseDensity(double sd, double tau0_s) { return sd * std::sqrt(tau0_s); }
+
+std::string_view BaseUnit(NoiseTerm term, SensorKind kind) {
+  const bool gyro = kind == SensorKind::kGyro;
+  switch (term) {
+    case NoiseTerm::kQuantization:
+      return gyro ? "deg" : "m/s";
+    case NoiseTerm::kAngleRandomWalk:
+      return gyro ? "deg/sqrt(s)" : "m/s/sqrt(s)";
+    case NoiseTerm::kBiasInstability:
+      return gyro ? "deg/s" : "m/s^2";
+    case NoiseTerm::kRateRandomWalk:
+      return gyro ? "deg/s/sqrt(s)" : "m/s^2/sqrt(s)";
+    case NoiseTerm::kRateRamp:
+      return gyro ? "deg/s^2" : "m/s^3";
+  }
+  return "";
+}
+
+DatasheetValue ToDatasheetUnits(NoiseTerm term, SensorKind kind, double base_value) {
+  if (kind == SensorKind::kGyro) {
+    switch (term) {
+      case NoiseTerm::kQuantization:
+        return {base_value, "deg"};
+      case NoiseTerm::kAngleRandomWalk:
+        return {DegPerRootSecToDegPerRootHour(base_value), "deg/sqrt(h)"};
+      case NoiseTerm::kBiasInstability:
+        return {DegPerSecToDegPerHour(base_value), "deg/h"};
+      case NoiseTerm::kRateRandomWalk:
+        return {DegPerSecPerRootSecToDegPerHourPerRootHour(base_value), "deg/h/sqrt(h)"};
+      case NoiseTerm::kRateRamp:
+        return {DegPerSecSqToDegPerHourSq(base_value), "deg/h^2"};
+    }
+  }
+  switch (term) {
+    case NoiseTerm::kAngleRandomWalk:
+      return {MetersPerSecSqPerRootHzToMetersPerSecPerRootHour(base_value), "m/s/sqrt(h)"};
+    case NoiseTerm::kBiasInstability:
+      return {MetersPerSecSqToMicroG(base_value), "ug"};
+    default:
+      return {base_value, BaseUnit(term, kind)};
+  }
+}
+
+}  // namespace imuqual::allan

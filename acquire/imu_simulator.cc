@@ -1,0 +1,155 @@
+#include "acquire/imu_simulator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <numbers>
+#include <string>
+
+namespace imuqual::sim {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kSectionsPerDecade = 2.0;
+// Lowest frequency that follows 1/f: ~116 days, far beyond any soak, so the
+// flicker floor holds over every tau a record can show.
+constexpr double kFlickerLowHz = 1e-7;
+constexpr double kAmbientC = 25.0;
+
+uint64_t AxisSeed(uint64_t unit_seed, int axis) {
+  uint64_t s = unit_seed ^ (0xa0761d6478bd642fULL * static_cast<uint64_t>(axis + 1));
+  return SplitMix64(&s);
+}
+
+}  // namespace
+
+// Each section H_i(z) = (1 - z_i z^-1) / (1 - p_i z^-1) is a matched-z pole at
+// f_p and zero at f_z = f_p sqrt(r) (r = 10^(1/2)): -20 dB/decade over half
+// of every interval, -10 dB/decade on average, i.e. |H|^2 ~ c / f. The gain g
+// is set from the geometric mean of |H(f)|^2 f over the band so that
+// 2 tau0 g^2 |H|^2 = B^2 / (pi f) (unit white input has one-sided PSD 2 tau0).
+FlickerNoise::FlickerNoise(double bias_instability, double tau0_s, double f_low_hz,
+                           double f_high_hz)
+    : tau0_s_(tau0_s) {
+  const double r = std::pow(10.0, 1.0 / kSectionsPerDecade);
+  for (double fp = f_low_hz; fp * std::sqrt(r) <= f_high_hz; fp *= r) {
+    const double fz = fp * std::sqrt(r);
+    sections_.push_back({std::exp(-2 * kPi * fp * tau0_s), std::exp(-2 * kPi * fz * tau0_s)});
+  }
+  if (sections_.empty() || bias_instability <= 0) {
+    sections_.clear();
+    gain_ = 0;
+    return;
+  }
+  // Geometric mean of |H|^2 f over the interior of the band (one section
+  // interval in from each edge), 64 points per decade.
+  const double f_top = -std::log(sections_.back().zero) / (2 * kPi * tau0_s);
+  const double f_from = f_low_hz * r;
+  const double f_to = std::max(f_top / r, f_from * r);
+  const int points = std::max(8, static_cast<int>(64 * std::log10(f_to / f_from)));
+  double sum_log = 0;
+  for (int i = 0; i < points; ++i) {
+    const double f = f_from * std::pow(f_to / f_from, (i + 0.5) / points);
+    sum_log += std::log(ResponseSquared(f) * f);
+  }
+  const double c = std::exp(sum_log / points);
+  gain_ = bias_instability / std::sqrt(2 * kPi * tau0_s * c);
+}
+
+double FlickerNoise::ResponseSquared(double f_hz) const {
+  const std::complex<double> zinv = std::polar(1.0, -2 * kPi * f_hz * tau0_s_);
+  std::complex<double> h = 1.0;
+  for (const Section& s : sections_) h *= (1.0 - s.zero * zinv) / (1.0 - s.pole * zinv);
+  return std::norm(h);
+}
+
+double FlickerNoise::Psd(double f_hz) const {
+  return 2 * tau0_s_ * gain_ * gain_ * ResponseSquared(f_hz);
+}
+
+double FlickerNoise::Next(Random& rng) {
+  if (sections_.empty()) return 0;
+  double x = rng.Gaussian();
+  for (Section& s : sections_) {
+    const double y = x - s.zero * s.x_prev + s.pole * s.y_prev;
+    s.x_prev = x;
+    s.y_prev = y;
+    x = y;
+  }
+  return gain_ * x;
+}
+
+ImuSimulator::ImuSimulator(const pb::SimTruth& truth)
+    : truth_(truth), tau0_s_(1.0 / truth.actual_rate_hz()) {}
+
+Result<ImuSimulator> ImuSimulator::Create(const pb::SimTruth& truth) {
+  if (!(truth.actual_rate_hz() > 0) || !std::isfinite(truth.actual_rate_hz())) {
+    return Status::InvalidArgument("sim truth: actual_rate_hz must be positive");
+  }
+  if (truth.axes_size() == 0) return Status::InvalidArgument("sim truth: no axes");
+  for (const pb::AxisTruth& a : truth.axes()) {
+    const std::string where = "sim truth axis '" + a.axis() + "': ";
+    for (auto [name, v] : {std::pair{"quantization", a.quantization()},
+                           {"random_walk", a.random_walk()},
+                           {"bias_instability", a.bias_instability()},
+                           {"rate_random_walk", a.rate_random_walk()},
+                           {"sine_frequency_hz", a.sine_frequency_hz()}}) {
+      if (!(v >= 0) || !std::isfinite(v)) {
+        return Status::InvalidArgument(where + name + " must be finite and >= 0");
+      }
+    }
+    for (double v : {a.bias(), a.rate_ramp(), a.sine_amplitude(), a.temp_coefficient()}) {
+      if (!std::isfinite(v)) return Status::InvalidArgument(where + "parameters must be finite");
+    }
+  }
+  ImuSimulator sim(truth);
+  const double f_high = 0.25 / sim.tau0_s_;  // half of Nyquist: keeps matched-z zeros accurate
+  for (int i = 0; i < truth.axes_size(); ++i) {
+    const pb::AxisTruth& a = truth.axes(i);
+    Random rng(AxisSeed(truth.seed(), i));
+    const double phase = 2 * kPi * rng.Uniform();
+    sim.axes_.push_back(AxisState{
+        a, rng, FlickerNoise(a.bias_instability(), sim.tau0_s_, kFlickerLowHz, f_high),
+        a.random_walk() / std::sqrt(sim.tau0_s_), a.rate_random_walk() * std::sqrt(sim.tau0_s_),
+        0.0, a.quantization() * std::sqrt(12.0), 0.0, phase});
+  }
+  return sim;
+}
+
+// Warm-up from ambient to 35 C (15 min time constant) with a 0.5 C, 1 h
+// chamber cycle on top.
+double ImuSimulator::temperature_c() const {
+  const double t = static_cast<double>(k_) * tau0_s_;
+  return kAmbientC + 10.0 * (1.0 - std::exp(-t / 900.0)) + 0.5 * std::sin(2 * kPi * t / 3600.0);
+}
+
+void ImuSimulator::Generate(int count, std::vector<std::vector<float>>& samples) {
+  for (int i = 0; i < count; ++i, ++k_) {
+    const double t = static_cast<double>(k_) * tau0_s_;
+    const double temp_offset = temperature_c() - kAmbientC;
+    for (size_t a = 0; a < axes_.size(); ++a) {
+      AxisState& s = axes_[a];
+      const pb::AxisTruth& p = s.truth;
+      double y = p.bias() + p.rate_ramp() * t + p.temp_coefficient() * temp_offset;
+      if (s.white_scale > 0) y += s.white_scale * s.rng.Gaussian();
+      y += s.flicker.Next(s.rng);
+      if (s.walk_step > 0) {
+        y += s.walk;
+        s.walk += s.walk_step * s.rng.Gaussian();
+      }
+      if (p.sine_amplitude() != 0) {
+        y += p.sine_amplitude() * std::sin(2 * kPi * p.sine_frequency_hz() * t + s.sine_phase);
+      }
+      if (s.quantum > 0) {
+        // Output whole quanta of accumulated angle; carry the remainder.
+        s.residual += y * tau0_s_;
+        const double quanta = std::floor(s.residual / s.quantum);
+        s.residual -= quanta * s.quantum;
+        y = quanta * s.quantum / tau0_s_;
+      }
+      samples[a].push_back(static_cast<float>(y));
+    }
+  }
+}
+
+}  // namespace imuqual::sim

@@ -1,0 +1,133 @@
+#include "acquire/lot_profile.h"
+
+#include <cmath>
+
+#include "acquire/random.h"
+
+namespace imuqual::sim {
+namespace {
+
+constexpr double kDegPerHour = 1.0 / 3600.0;          // deg/h -> deg/s
+constexpr double kDegPerRootHour = 1.0 / 60.0;        // deg/sqrt(h) -> deg/sqrt(s)
+constexpr double kDegPerHourRootHour = 1.0 / 216000;  // deg/h/sqrt(h) -> deg/s/sqrt(s)
+constexpr double kMicroG = 9.80665e-6;                // ug -> m/s^2
+constexpr double kStandardGravity = 9.80665;
+
+pb::AxisTruth Gyro(double q_deg, double arw_deg_rt_h, double b_deg_h, double rrw_deg_h_rt_h,
+                   double bias_spread_deg_s) {
+  pb::AxisTruth t;
+  t.set_quantization(q_deg);
+  t.set_random_walk(arw_deg_rt_h * kDegPerRootHour);
+  t.set_bias_instability(b_deg_h * kDegPerHour);
+  t.set_rate_random_walk(rrw_deg_h_rt_h * kDegPerHourRootHour);
+  t.set_bias(bias_spread_deg_s);
+  return t;
+}
+
+pb::AxisTruth Accel(double q_m_s, double vrw_m_s_rt_h, double b_ug, double k_ug_rt_s,
+                    double bias_spread_m_s2) {
+  pb::AxisTruth t;
+  t.set_quantization(q_m_s);
+  t.set_random_walk(vrw_m_s_rt_h / 60.0);
+  t.set_bias_instability(b_ug * kMicroG);
+  t.set_rate_random_walk(k_ug_rt_s * kMicroG);
+  t.set_bias(bias_spread_m_s2);
+  return t;
+}
+
+LotProfile Vg700() {
+  // The seed note's VG700CA: ~0.38 deg/s peak-to-peak rate noise at 100 Hz
+  // (white sd ~0.06 deg/s, N = 0.006 deg/sqrt(s) = 0.36 deg/sqrt(h)) and a
+  // bias stability well under 20 deg/h at 10-15 s. The rate random walk is
+  // set so that sqrt(3) N / K puts the minimum near 12 s; the flicker floor
+  // (B = 8 deg/h) and that knee give a curve minimum of ~10 deg/h.
+  LotProfile p;
+  p.name = "vg700";
+  p.description = "VG700CA-like rate-grade vertical gyro, 3 gyro axes, 100 Hz";
+  p.nominal_rate_hz = 100;
+  for (const char* axis : {"x", "y", "z"}) {
+    p.axes.push_back({axis, pb::GYRO, Gyro(5e-5, 0.36, 8.0, 187.0, 0.2)});
+  }
+  return p;
+}
+
+LotProfile Tactical() {
+  LotProfile p;
+  p.name = "tactical";
+  p.description = "tactical-grade MEMS IMU, 3 gyro + 3 accel axes, 200 Hz";
+  p.nominal_rate_hz = 200;
+  for (const char* axis : {"gx", "gy", "gz"}) {
+    p.axes.push_back({axis, pb::GYRO, Gyro(1e-6, 0.15, 1.0, 3.0, 0.05)});
+  }
+  for (const char* axis : {"ax", "ay", "az"}) {
+    p.axes.push_back({axis, pb::ACCEL, Accel(1e-6, 0.05, 20.0, 2.0, 0.02)});
+  }
+  return p;
+}
+
+LotProfile Fog() {
+  LotProfile p;
+  p.name = "fog";
+  p.description = "navigation-grade fibre-optic gyro, 1 axis, 100 Hz";
+  p.nominal_rate_hz = 100;
+  p.axes.push_back({"z", pb::GYRO, Gyro(1e-7, 0.002, 0.005, 0.002, 0.001)});
+  return p;
+}
+
+}  // namespace
+
+std::vector<std::string> LotProfileNames() { return {"vg700", "tactical", "fog"}; }
+
+Result<LotProfile> LotProfileByName(std::string_view name) {
+  if (name == "vg700") return Vg700();
+  if (name == "tactical") return Tactical();
+  if (name == "fog") return Fog();
+  return Status::InvalidArgument("unknown lot profile '" + std::string(name) +
+                                 "' (known: vg700, tactical, fog)");
+}
+
+uint64_t SeedFromName(std::string_view name) {
+  uint64_t h = 0xcbf29ce484222325ULL;
+  for (unsigned char c : name) {
+    h ^= c;
+    h *= 0x100000001b3ULL;
+  }
+  return h;
+}
+
+pb::SimTruth MakeUnitTruth(const LotProfile& profile, uint64_t lot_seed, int index,
+                           double rate_hz) {
+  uint64_t mix = lot_seed ^ (0x9e3779b97f4a7c15ULL * static_cast<uint64_t>(index + 1));
+  Random rng(SplitMix64(&mix));
+  const bool planted_fail =
+      profile.planted_fail_every > 0 && (index + 1) % profile.planted_fail_every == 0;
+
+  pb::SimTruth truth;
+  truth.set_seed(rng.Next());
+  truth.set_actual_rate_hz(rate_hz);
+  truth.set_profile(profile.name + (planted_fail ? "/planted-fail" : "/typical"));
+  for (const AxisProfile& axis : profile.axes) {
+    const pb::AxisTruth& typ = axis.typical;
+    auto spread = [&](double v) { return v * std::exp(profile.spread * rng.Gaussian()); };
+    pb::AxisTruth* t = truth.add_axes();
+    t->set_axis(axis.name);
+    t->set_quantization(spread(typ.quantization()));
+    t->set_random_walk(spread(typ.random_walk()));
+    t->set_bias_instability(spread(typ.bias_instability()) *
+                            (planted_fail ? profile.fail_bias_instability_factor : 1.0));
+    t->set_rate_random_walk(spread(typ.rate_random_walk()) *
+                            (planted_fail ? profile.fail_rate_random_walk_factor : 1.0));
+    t->set_rate_ramp(typ.rate_ramp());
+    t->set_sine_amplitude(typ.sine_amplitude());
+    t->set_sine_frequency_hz(typ.sine_frequency_hz());
+    t->set_temp_coefficient(typ.temp_coefficient());
+    // Constant offset uniform in +/- the profile's spread; accelerometer z
+    // axes see gravity (unit level, z up).
+    double bias = typ.bias() * (2 * rng.Uniform() - 1);
+    if (axis.kind == pb::ACCEL && axis.name.back() == 'z') bias += kStandardGravity;
+    t->set_bias(bias);
+  }
+  return truth;
+}
+
+}  // namespace imuqual::sim

@@ -1,0 +1,53 @@
+// Lot profiles for the simulator: the typical unit of a product line (per
+// axis IEEE 952 terms), the unit-to-unit spread, and planted failures, so a
+// simulated lot looks like a production lot with known truth per unit.
+#ifndef IMUQUAL_ACQUIRE_LOT_PROFILE_H_
+#define IMUQUAL_ACQUIRE_LOT_PROFILE_H_
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/status.h"
+#include "imuqual/plan.pb.h"
+#include "imuqual/sim.pb.h"
+
+namespace imuqual::sim {
+
+struct AxisProfile {
+  std::string name;
+  pb::AxisKind kind = pb::GYRO;
+  // Typical unit (bias is the spread of the constant offset, +/-).
+  pb::AxisTruth typical;
+};
+
+struct LotProfile {
+  std::string name;
+  std::string description;
+  double nominal_rate_hz = 100;
+  std::vector<AxisProfile> axes;
+  double spread = 0.15;          // lognormal sigma of each noise term, unit to unit
+  int planted_fail_every = 8;    // unit i is planted to fail when (i + 1) % every == 0; 0: none
+  double fail_bias_instability_factor = 4.0;
+  double fail_rate_random_walk_factor = 3.0;
+};
+
+// Built-in profiles: "vg700" (the seed's VG700CA-like rate-grade vertical
+// gyro, 3 gyro axes, 100 Hz), "tactical" (MEMS IMU, 3 gyro + 3 accel,
+// 200 Hz), "fog" (navigation-grade fibre-optic gyro, 1 axis, 100 Hz).
+Result<LotProfile> LotProfileByName(std::string_view name);
+std::vector<std::string> LotProfileNames();
+
+// Truth for unit `index` (0-based) of a lot: every noise term of the typical
+// unit scaled by exp(spread * g), g standard normal from (lot_seed, index);
+// planted failures get their bias instability and rate random walk
+// multiplied by the fail factors. `rate_hz` is the unit's true rate.
+pb::SimTruth MakeUnitTruth(const LotProfile& profile, uint64_t lot_seed, int index, double rate_hz);
+
+// A stable 64-bit seed from a lot name (FNV-1a), so a lot is reproducible.
+uint64_t SeedFromName(std::string_view name);
+
+}  // namespace imuqual::sim
+
+#endif  // IMUQUAL_ACQUIRE_LOT_PROFILE_H_

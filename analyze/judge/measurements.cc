@@ -1,0 +1,38 @@
+#include "analyze/judge/measurements.h"
+
+namespace imuqual::judge {
+
+const std::vector<MeasurementDef>& MeasurementCatalog() {
+  static const std::vector<MeasurementDef> kCatalog = {
+      {kBiasInstability, false, "deg/h", "ug",
+       "minimum of the Allan deviation curve (the seed note's and most datasheets' convention)"},
+      {kBiasInstabilityIeee, false, "deg/h", "ug",
+       "IEEE 952 bias instability B = curve minimum / 0.664"},
+      {kTauAtMinimum, false, "s", "s", "averaging time at the curve minimum"},
+      {kAngleRandomWalk, false, "deg/sqrt(h)", "",
+       "angle random walk N, read at tau = 1 s on the -1/2 slope line"},
+      {kVelocityRandomWalk, false, "", "m/s/sqrt(h)",
+       "velocity random walk N, read at tau = 1 s on the -1/2 slope line"},
+      {kRateRandomWalk, false, "deg/h/sqrt(h)", "ug/sqrt(h)",
+       "rate random walk K, read at tau = 3 s on the +1/2 slope line"},
+      {kBiasOffset, false, "deg/h", "ug", "mean output over the analysed record"},
+      {kGapFraction, true, "1", "1", "fraction of samples that never arrived"},
+      {kInvalidFraction, true, "1", "1", "fraction of samples flagged invalid, NaN or saturated"},
+      {kDuration, true, "s", "s", "analysed duration after warm-up"},
+  };
+  return kCatalog;
+}
+
+const MeasurementDef* FindMeasurement(std::string_view name) {
+  for (const MeasurementDef& def : MeasurementCatalog()) {
+    if (def.name == name) return &def;
+  }
+  return nullptr;
+}
+
+std::string_view UnitFor(const MeasurementDef& def, pb::AxisKind kind) {
+  if (def.run_level) return def.gyro_unit;
+  return kind == pb::ACCEL ? def.accel_unit : def.gyro_unit;
+}
+
+}  // namespace imuqual::judge

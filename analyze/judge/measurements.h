@@ -1,0 +1,43 @@
+// The catalogue of measurements a run can produce and a plan can limit, with
+// the unit each carries per axis kind (the units datasheets use). A plan
+// limit must name a catalogued measurement in its unit.
+#ifndef IMUQUAL_ANALYZE_JUDGE_MEASUREMENTS_H_
+#define IMUQUAL_ANALYZE_JUDGE_MEASUREMENTS_H_
+
+#include <string_view>
+#include <vector>
+
+#include "imuqual/plan.pb.h"
+
+namespace imuqual::judge {
+
+struct MeasurementDef {
+  std::string_view name;
+  bool run_level;               // true: one value per run (axis ""), else per axis
+  std::string_view gyro_unit;   // "" = not defined for gyro axes
+  std::string_view accel_unit;  // "" = not defined for accelerometer axes
+  std::string_view description;
+};
+
+// Measurement names.
+inline constexpr std::string_view kBiasInstability = "bias_instability";
+inline constexpr std::string_view kBiasInstabilityIeee = "bias_instability_ieee";
+inline constexpr std::string_view kTauAtMinimum = "tau_at_minimum";
+inline constexpr std::string_view kAngleRandomWalk = "angle_random_walk";
+inline constexpr std::string_view kVelocityRandomWalk = "velocity_random_walk";
+inline constexpr std::string_view kRateRandomWalk = "rate_random_walk";
+inline constexpr std::string_view kBiasOffset = "bias_offset";
+inline constexpr std::string_view kGapFraction = "gap_fraction";
+inline constexpr std::string_view kInvalidFraction = "invalid_fraction";
+inline constexpr std::string_view kDuration = "duration";
+
+const std::vector<MeasurementDef>& MeasurementCatalog();
+// nullptr if `name` is not catalogued.
+const MeasurementDef* FindMeasurement(std::string_view name);
+// The unit of `def` on an axis of `kind` ("" if not defined there). Run-level
+// measurements use gyro_unit whatever the kind.
+std::string_view UnitFor(const MeasurementDef& def, pb::AxisKind kind);
+
+}  // namespace imuqual::judge
+
+#endif  // IMUQUAL_ANALYZE_JUDGE_MEASUREMENTS_H_

@@ -1,0 +1,249 @@
+#include "analyze/judge/plan.h"
+
+#include <google/protobuf/io/tokenizer.h>
+#include <google/protobuf/text_format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <tuple>
+#include <functional>
+#include <map>
+#include <set>
+
+#include "analyze/judge/builtin_plans.h"
+#include "analyze/judge/measurements.h"
+
+namespace imuqual::judge {
+namespace {
+
+using google::protobuf::FieldDescriptor;
+using google::protobuf::TextFormat;
+
+// Collects the first parse error with its 1-based line.
+class FirstErrorCollector : public google::protobuf::io::ErrorCollector {
+ public:
+  void AddError(int line, google::protobuf::io::ColumnNumber column,
+                const std::string& message) override {
+    if (!has_error_) {
+      has_error_ = true;
+      first_ = std::to_string(line + 1) + ":" + std::to_string(column + 1) + ": " + message;
+    }
+  }
+  bool has_error() const { return has_error_; }
+  const std::string& first() const { return first_; }
+
+ private:
+  bool has_error_ = false;
+  std::string first_;
+};
+
+// Maps a top-level field (and index) to its line in the source text, if the
+// plan came from text.
+// `sub` optionally names a field inside the index-th message of `field`.
+using Locator = std::function<int(const char* field, int index, const char* sub)>;
+
+bool Finite(double v) { return std::isfinite(v); }
+
+Status Fail(const Locator& where, const char* field, int index, const std::string& path,
+            const std::string& problem, const char* sub = nullptr) {
+  const int line = where ? where(field, index, sub) : -1;
+  std::string prefix = line > 0 ? std::to_string(line) + ": " : std::string();
+  return Status::InvalidArgument(prefix + path + ": " + problem);
+}
+
+std::string Num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+Status ValidateLimits(const pb::TestPlan& plan, const Locator& where) {
+  std::map<std::string, pb::AxisKind> axis_kinds;
+  for (const pb::Axis& a : plan.axes()) axis_kinds[a.name()] = a.kind();
+  for (int i = 0; i < plan.limits_size(); ++i) {
+    const pb::Limit& lim = plan.limits(i);
+    const std::string path = "limits[" + std::to_string(i) + "]";
+    // `sub` is ".field" or "" (the whole limit).
+    auto fail = [&](const std::string& sub, const std::string& problem) {
+      return Fail(where, "limits", i, path + sub, problem, sub.empty() ? nullptr : sub.c_str() + 1);
+    };
+    const MeasurementDef* def = FindMeasurement(lim.measurement());
+    if (def == nullptr) {
+      std::string known;
+      for (const MeasurementDef& d : MeasurementCatalog()) {
+        known += (known.empty() ? "" : ", ") + std::string(d.name);
+      }
+      return fail(".measurement", "unknown measurement '" + lim.measurement() + "' (known: " +
+                                      known + ")");
+    }
+    for (const std::string& axis : lim.axes()) {
+      if (!axis_kinds.count(axis)) return fail(".axes", "no axis named '" + axis + "' in the plan");
+    }
+    // The unit must be the measurement's unit on every axis kind it applies
+    // to: the named axes' kinds, the limit's kind, or every kind.
+    std::vector<pb::AxisKind> kinds;
+    if (def->run_level || lim.axis_kind() != pb::AXIS_KIND_UNSPECIFIED) {
+      kinds.push_back(def->run_level ? pb::GYRO : lim.axis_kind());
+    } else if (lim.axes_size() > 0) {
+      for (const std::string& axis : lim.axes()) {
+        if (std::find(kinds.begin(), kinds.end(), axis_kinds[axis]) == kinds.end()) {
+          kinds.push_back(axis_kinds[axis]);
+        }
+      }
+    } else {
+      if (!def->gyro_unit.empty()) kinds.push_back(pb::GYRO);
+      if (!def->accel_unit.empty()) kinds.push_back(pb::ACCEL);
+    }
+    for (pb::AxisKind kind : kinds) {
+      const std::string_view unit = UnitFor(*def, kind);
+      const char* kind_name = kind == pb::ACCEL ? "accelerometer" : "gyro";
+      if (unit.empty()) {
+        return fail(".axis_kind", std::string(def->name) + " is not defined on " + kind_name +
+                                      " axes");
+      }
+      if (lim.unit() != unit) {
+        return fail(".unit", "'" + lim.unit() + "' is not the unit of " + std::string(def->name) +
+                                 (def->run_level ? std::string()
+                                                 : std::string(" on ") + kind_name + " axes") +
+                                 " (" + std::string(unit) + ")" +
+                                 (kinds.size() > 1 ? "; set axis_kind" : ""));
+      }
+    }
+    if (!lim.has_low() && !lim.has_high()) return fail("", "needs low, high or both");
+    for (auto [name, has, v] :
+         {std::tuple{".low", lim.has_low(), lim.low()}, {".high", lim.has_high(), lim.high()},
+          {".marginal_low", lim.has_marginal_low(), lim.marginal_low()},
+          {".marginal_high", lim.has_marginal_high(), lim.marginal_high()}}) {
+      if (has && !Finite(v)) return fail(name, "must be a finite number");
+    }
+    if (lim.has_low() && lim.has_high() && lim.low() > lim.high()) {
+      return fail("", "low " + Num(lim.low()) + " is above high " + Num(lim.high()));
+    }
+    if (lim.has_marginal_low()) {
+      if (!lim.has_low()) return fail(".marginal_low", "needs low");
+      if (lim.marginal_low() < lim.low() || (lim.has_high() && lim.marginal_low() > lim.high())) {
+        return fail(".marginal_low", "must lie within [low, high]");
+      }
+    }
+    if (lim.has_marginal_high()) {
+      if (!lim.has_high()) return fail(".marginal_high", "needs high");
+      if (lim.marginal_high() > lim.high() || (lim.has_low() && lim.marginal_high() < lim.low())) {
+        return fail(".marginal_high", "must lie within [low, high]");
+      }
+    }
+    if (lim.has_marginal_low() && lim.has_marginal_high() &&
+        lim.marginal_low() > lim.marginal_high()) {
+      return fail("", "marginal_low is above marginal_high");
+    }
+  }
+  return Status::Ok();
+}
+
+Status Validate(const pb::TestPlan& plan, const Locator& where) {
+  if (!(plan.nominal_rate_hz() > 0) || !Finite(plan.nominal_rate_hz())) {
+    return Fail(where, "nominal_rate_hz", -1, "nominal_rate_hz", "must be a positive rate in Hz");
+  }
+  if (!(plan.min_duration_s() >= 0) || !Finite(plan.min_duration_s())) {
+    return Fail(where, "min_duration_s", -1, "min_duration_s", "must be >= 0 s");
+  }
+  if (!(plan.warmup_s() >= 0) || !Finite(plan.warmup_s())) {
+    return Fail(where, "warmup_s", -1, "warmup_s", "must be >= 0 s");
+  }
+  std::set<std::string> names;
+  for (int i = 0; i < plan.axes_size(); ++i) {
+    const pb::Axis& a = plan.axes(i);
+    const std::string path = "axes[" + std::to_string(i) + "]";
+    if (a.name().empty() || a.name().size() > 32 ||
+        a.name().find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                   "0123456789_-") != std::string::npos) {
+      return Fail(where, "axes", i, path + ".name",
+                  "'" + a.name() + "' must be 1-32 letters, digits, '_' or '-'", "name");
+    }
+    if (!names.insert(a.name()).second) {
+      return Fail(where, "axes", i, path + ".name", "duplicate axis '" + a.name() + "'", "name");
+    }
+    if (a.kind() == pb::AXIS_KIND_UNSPECIFIED) {
+      return Fail(where, "axes", i, path + ".kind", "must be GYRO or ACCEL", "kind");
+    }
+  }
+  const pb::TauGrid& grid = plan.grid();
+  if (grid.kind() == pb::TauGrid::LOG_DENSE &&
+      (grid.points_per_decade() < 1 || grid.points_per_decade() > 100)) {
+    return Fail(where, "grid", -1, "grid.points_per_decade", "must be 1..100 for LOG_DENSE");
+  }
+  if (grid.kind() == pb::TauGrid::EXPLICIT) {
+    if (grid.tau_s_size() == 0) return Fail(where, "grid", -1, "grid.tau_s", "EXPLICIT needs taus");
+    for (double t : grid.tau_s()) {
+      if (!(t > 0) || !Finite(t)) return Fail(where, "grid", -1, "grid.tau_s", "taus must be > 0");
+    }
+  }
+  const std::string& stop = plan.stop_rule();
+  if (!stop.empty() && stop != "bins9" && stop != "stable32" && stop != "none") {
+    return Fail(where, "stop_rule", -1, "stop_rule",
+                "'" + stop + "' is not one of bins9, stable32, none");
+  }
+  return ValidateLimits(plan, where);
+}
+
+}  // namespace
+
+Status ValidatePlan(const pb::TestPlan& plan) { return Validate(plan, nullptr); }
+
+Result<pb::TestPlan> ParsePlanText(std::string_view text, std::string_view source_name) {
+  pb::TestPlan plan;
+  TextFormat::Parser parser;
+  FirstErrorCollector errors;
+  TextFormat::ParseInfoTree tree;
+  parser.RecordErrorsTo(&errors);
+  parser.WriteLocationsTo(&tree);
+  const std::string src(source_name);
+  if (!parser.ParseFromString(std::string(text), &plan)) {
+    return Status::InvalidArgument(src + ":" +
+                                   (errors.has_error() ? errors.first() : "cannot parse plan"));
+  }
+  Locator where = [&](const char* field, int index, const char* sub) {
+    const FieldDescriptor* fd = pb::TestPlan::descriptor()->FindFieldByName(field);
+    if (fd == nullptr) return -1;
+    const int idx = fd->is_repeated() ? index : -1;
+    int line = tree.GetLocation(fd, idx).line;
+    if (sub != nullptr && fd->message_type() != nullptr) {
+      const FieldDescriptor* sd = fd->message_type()->FindFieldByName(sub);
+      const TextFormat::ParseInfoTree* nested = tree.GetTreeForNested(fd, idx);
+      if (sd != nullptr && nested != nullptr) {
+        const int sub_line = nested->GetLocation(sd, sd->is_repeated() ? 0 : -1).line;
+        if (sub_line >= 0) line = sub_line;
+      }
+    }
+    return line < 0 ? -1 : line + 1;
+  };
+  Status st = Validate(plan, where);
+  if (!st.ok()) {
+    // Located messages start with the line number: "src:14: ..."; others "src: ...".
+    const bool located = !st.message().empty() && std::isdigit(st.message()[0]);
+    return Status::InvalidArgument(src + (located ? ":" : ": ") + st.message());
+  }
+  return plan;
+}
+
+std::vector<std::string> BuiltinPlanNames() {
+  std::vector<std::string> names;
+  for (const BuiltinPlanFile& f : BuiltinPlanFiles()) names.emplace_back(f.name);
+  return names;
+}
+
+Result<pb::TestPlan> BuiltinPlan(std::string_view name) {
+  for (const BuiltinPlanFile& f : BuiltinPlanFiles()) {
+    if (f.name == name) return ParsePlanText(f.text, "builtin:" + std::string(name));
+  }
+  std::string known;
+  for (const std::string& n : BuiltinPlanNames()) known += (known.empty() ? "" : ", ") + n;
+  return Status::NotFound("no built-in plan '" + std::string(name) + "' (built in: " + known + ")");
+}
+
+std::string_view PlanStopRule(const pb::TestPlan& plan) {
+  return plan.stop_rule().empty() ? std::string_view("bins9") : plan.stop_rule();
+}
+
+}  // namespace imuqual::judge

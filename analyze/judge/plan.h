@@ -1,0 +1,36 @@
+// Test plans: parsing protobuf text format and validating it once, up front,
+// with errors that name the source line and the field
+// ("vg.textproto:14: limits[1].unit: 'deg/hr' is not the unit of
+// bias_instability on gyro axes (deg/h)"). Pure: takes text, not files.
+#ifndef IMUQUAL_ANALYZE_JUDGE_PLAN_H_
+#define IMUQUAL_ANALYZE_JUDGE_PLAN_H_
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/status.h"
+#include "imuqual/plan.pb.h"
+
+namespace imuqual::judge {
+
+// Parses and validates a plan. `source_name` prefixes every error (a file
+// name, or "builtin:vg700ca").
+Result<pb::TestPlan> ParsePlanText(std::string_view text, std::string_view source_name);
+
+// Checks a plan that did not come from text (e.g. decoded from run_t): every
+// field's range, limits against the measurement catalogue and the plan's
+// axes. The error names the field.
+Status ValidatePlan(const pb::TestPlan& plan);
+
+// Built-in plans (the files in plans/, compiled in): "vg700ca", "tactical",
+// "fog". The default plan of `imuqual run` is "vg700ca".
+std::vector<std::string> BuiltinPlanNames();
+Result<pb::TestPlan> BuiltinPlan(std::string_view name);
+
+// The stop rule named by the plan ("" means the default, bins9).
+std::string_view PlanStopRule(const pb::TestPlan& plan);
+
+}  // namespace imuqual::judge
+
+#endif  // IMUQUAL_ANALYZE_JUDGE_PLAN_H_

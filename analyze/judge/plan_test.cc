@@ -1,0 +1,112 @@
+#include "analyze/judge/plan.h"
+
+#include <gtest/gtest.h>
+
+namespace imuqual::judge {
+namespace {
+
+constexpr char kGood[] = R"pb(
+name: "t"
+axes { name: "x" kind: GYRO }
+axes { name: "ax" kind: ACCEL }
+nominal_rate_hz: 200
+limits { measurement: "bias_instability" axis_kind: GYRO high: 20 marginal_high: 16 unit: "deg/h" }
+limits { measurement: "bias_instability" axis_kind: ACCEL high: 50 unit: "ug" }
+limits { measurement: "gap_fraction" high: 0.001 unit: "1" }
+)pb";
+
+// Returns the error message of parsing `text` ("" if it parses).
+std::string ErrorOf(const std::string& text) {
+  auto plan = ParsePlanText(text, "p.textproto");
+  return plan.ok() ? "" : plan.status().message();
+}
+
+TEST(PlanTest, ParsesAGoodPlan) {
+  auto plan = ParsePlanText(kGood, "good");
+  ASSERT_TRUE(plan.ok()) << plan.status().ToString();
+  EXPECT_EQ(plan->axes_size(), 2);
+  EXPECT_EQ(plan->limits(0).high(), 20);
+  EXPECT_EQ(PlanStopRule(*plan), "bins9");
+}
+
+TEST(PlanTest, SyntaxErrorNamesLineAndField) {
+  const std::string err = ErrorOf("name: \"t\"\nnominal_rate_hz: 100\nbias_instabilty: 3\n");
+  EXPECT_EQ(err.rfind("p.textproto:3:", 0), 0u) << err;
+  EXPECT_NE(err.find("bias_instabilty"), std::string::npos) << err;
+}
+
+TEST(PlanTest, WrongUnitNamesLineFieldAndRightUnit) {
+  const std::string err = ErrorOf(
+      "nominal_rate_hz: 100\n"
+      "limits {\n"
+      "  measurement: \"bias_instability\"\n"
+      "  axis_kind: GYRO\n"
+      "  high: 20\n"
+      "  unit: \"deg/hr\"\n"
+      "}\n");
+  EXPECT_EQ(err, "p.textproto:6: limits[0].unit: 'deg/hr' is not the unit of bias_instability "
+                 "on gyro axes (deg/h)");
+}
+
+TEST(PlanTest, RejectsBadPlans) {
+  struct Case {
+    const char* text;
+    const char* expect;  // substring of the error
+  };
+  const Case cases[] = {
+      {"nominal_rate_hz: 0", "nominal_rate_hz: must be a positive rate"},
+      {"nominal_rate_hz: 100 warmup_s: -1", "warmup_s"},
+      {"nominal_rate_hz: 100 axes { name: \"x\" kind: GYRO } axes { name: \"x\" kind: GYRO }",
+       "axes[1].name: duplicate axis 'x'"},
+      {"nominal_rate_hz: 100 axes { name: \"x\" }", "axes[0].kind"},
+      {"nominal_rate_hz: 100 axes { name: \"a b\" kind: GYRO }", "axes[0].name"},
+      {"nominal_rate_hz: 100 limits { measurement: \"nope\" high: 1 unit: \"s\" }",
+       "unknown measurement 'nope'"},
+      {"nominal_rate_hz: 100 limits { measurement: \"tau_at_minimum\" unit: \"s\" }",
+       "needs low, high or both"},
+      {"nominal_rate_hz: 100 limits { measurement: \"tau_at_minimum\" low: 5 high: 2 unit: \"s\" }",
+       "low 5 is above high 2"},
+      {"nominal_rate_hz: 100 limits { measurement: \"tau_at_minimum\" high: 5 marginal_high: 6 "
+       "unit: \"s\" }",
+       "marginal_high: must lie within"},
+      {"nominal_rate_hz: 100 limits { measurement: \"bias_instability\" high: 5 unit: \"deg/h\" }",
+       "set axis_kind"},
+      {"nominal_rate_hz: 100 limits { measurement: \"angle_random_walk\" axis_kind: ACCEL high: 5 "
+       "unit: \"deg/sqrt(h)\" }",
+       "not defined on accelerometer axes"},
+      {"nominal_rate_hz: 100 limits { measurement: \"duration\" low: 5 unit: \"s\" axes: \"q\" }",
+       "no axis named 'q'"},
+      {"nominal_rate_hz: 100 stop_rule: \"bins8\"", "stop_rule"},
+      {"nominal_rate_hz: 100 grid { kind: EXPLICIT }", "grid.tau_s"},
+      {"nominal_rate_hz: 100 grid { kind: LOG_DENSE points_per_decade: 0 }",
+       "grid.points_per_decade"},
+  };
+  for (const Case& c : cases) {
+    const std::string err = ErrorOf(c.text);
+    EXPECT_NE(err.find(c.expect), std::string::npos) << c.text << "\n -> " << err;
+    EXPECT_EQ(err.rfind("p.textproto:", 0), 0u) << err;
+  }
+}
+
+TEST(PlanTest, BuiltinPlansParse) {
+  ASSERT_FALSE(BuiltinPlanNames().empty());
+  for (const std::string& name : BuiltinPlanNames()) {
+    auto plan = BuiltinPlan(name);
+    EXPECT_TRUE(plan.ok()) << name << ": " << plan.status().ToString();
+  }
+  auto vg = BuiltinPlan("vg700ca");
+  ASSERT_TRUE(vg.ok());
+  EXPECT_EQ(vg->nominal_rate_hz(), 100);
+  EXPECT_FALSE(BuiltinPlan("nope").ok());
+}
+
+TEST(PlanTest, ValidatePlanChecksDecodedPlans) {
+  pb::TestPlan plan;
+  plan.set_nominal_rate_hz(100);
+  EXPECT_TRUE(ValidatePlan(plan).ok());
+  plan.set_min_duration_s(-5);
+  EXPECT_EQ(ValidatePlan(plan).message(), "min_duration_s: must be >= 0 s");
+}
+
+}  // namespace
+}  // namespace imuqual::judge
