@@ -1,0 +1,433 @@
+#include "analyze/allan/confidence.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "analyze/allan/noise_id.h"
+
+namespace imuqual::allan {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+constexpr int kMaxGammaIterations = 100000;
+
+// log of the common factor x^a e^{-x} / Gamma(a) of both incomplete gamma
+// expansions.
+double LogGammaPrefactor(double a, double x) { return a * std::log(x) - x - std::lgamma(a); }
+
+// P(a, x) by its power series, for x < a + 1:
+//   P = x^a e^{-x} / Gamma(a) * sum_{n>=0} x^n / (a (a+1) ... (a+n)).
+double GammaPSeries(double a, double x) {
+  double term = 1.0 / a;
+  double sum = term;
+  for (int n = 1; n < kMaxGammaIterations; ++n) {
+    term *= x / (a + n);
+    sum += term;
+    if (term < sum * kEpsilon) break;
+  }
+  return sum * std::exp(LogGammaPrefactor(a, x));
+}
+
+// Q(a, x) = 1 - P(a, x) by its continued fraction, for x >= a + 1:
+//   Q = x^a e^{-x} / Gamma(a) * 1/(x+1-a - 1(1-a)/(x+3-a - 2(2-a)/(x+5-a - ...))),
+// evaluated with the modified Lentz method.
+double GammaQContinuedFraction(double a, double x) {
+  constexpr double kTiny = 1e-300;
+  double b = x + 1.0 - a;
+  double c = 1.0 / kTiny;
+  double d = 1.0 / b;
+  double h = d;
+  for (int i = 1; i < kMaxGammaIterations; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::fabs(d) < kTiny) d = kTiny;
+    c = b + an / c;
+    if (std::fabs(c) < kTiny) c = kTiny;
+    d = 1.0 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::fabs(delta - 1.0) < kEpsilon) break;
+  }
+  return h * std::exp(LogGammaPrefactor(a, x));
+}
+
+double RegularizedGammaQ(double a, double x) {
+  if (x <= 0.0) return 1.0;
+  if (x < a + 1.0) return 1.0 - GammaPSeries(a, x);
+  return GammaQContinuedFraction(a, x);
+}
+
+// Standard normal quantile, Abramowitz & Stegun 26.2.23 (|error| < 4.5e-4);
+// only a starting point for Chi2Inv.
+double ApproximateNormalQuantile(double p) {
+  const double tail = std::min(p, 1.0 - p);
+  const double t = std::sqrt(-2.0 * std::log(tail));
+  const double z =
+      t - (2.515517 + 0.802853 * t + 0.010328 * t * t) /
+              (1.0 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t * t * t);
+  return p < 0.5 ? -z : z;
+}
+
+double Binomial(int n, int k) {
+  if (k < 0 || k > n) return 0.0;
+  double result = 1.0;
+  for (int i = 1; i <= k; ++i) result = result * (n - k + i) / i;
+  return result;
+}
+
+// ---- Greenhall & Riley (2003) ----
+
+// sw(t) for power-law alpha (signs are irrelevant: only ratios of squares
+// are used; log terms are 0 at t = 0).
+double Sw(double t, int alpha) {
+  const double a = std::fabs(t);
+  const double log_a = a > 0.0 ? std::log(a) : 0.0;
+  switch (alpha) {
+    case 2:
+      return -a;
+    case 1:
+      return t * t * log_a;
+    case 0:
+      return a * a * a;
+    case -1:
+      return -std::pow(t, 4) * log_a;
+    case -2:
+      return -std::pow(a, 5);
+    case -3:
+      return std::pow(t, 6) * log_a;
+    case -4:
+      return std::pow(a, 7);
+    default:
+      return std::nan("");
+  }
+}
+
+// sx(t, F) = F^2 [2 sw(t) - sw(t - 1/F) - sw(t + 1/F)];  sx(t, inf) = sw_{alpha+2}(t).
+double Sx(double t, double f, int alpha) {
+  if (std::isinf(f)) return Sw(t, alpha + 2);
+  return f * f * (2.0 * Sw(t, alpha) - Sw(t - 1.0 / f, alpha) - Sw(t + 1.0 / f, alpha));
+}
+
+// sz(t, F) = sum_{k=-d}^{d} (-1)^k C(2d, d+k) sx(t + k, F).
+double Sz(double t, double f, int alpha, int d) {
+  double sum = 0.0;
+  for (int k = -d; k <= d; ++k) {
+    const double sign = (k % 2 == 0) ? 1.0 : -1.0;
+    sum += sign * Binomial(2 * d, d + k) * Sx(t + k, f, alpha);
+  }
+  return sum;
+}
+
+// BS(J, M, S, F) = sz(0)^2 + (1 - J/M) sz(J/S)^2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)^2.
+double BasicSum(double J, double M, double S, double f, int alpha, int d) {
+  const double sz0 = Sz(0.0, f, alpha, d);
+  const double szj = Sz(J / S, f, alpha, d);
+  double sum = sz0 * sz0 + (1.0 - J / M) * szj * szj;
+  for (int j = 1; j < J; ++j) {
+    const double sz = Sz(j / S, f, alpha, d);
+    sum += 2.0 * (1.0 - j / M) * sz * sz;
+  }
+  return sum;
+}
+
+struct TableEntry {
+  double a0;
+  double a1;
+};
+constexpr double kMissing = -1.0;
+
+// Greenhall & Riley Tables 1 (modified, "T1") and 2 (unmodified, "T2"): rows
+// alpha = 2, 1, 0, -1, -2, -3, -4; columns d = 1, 2, 3.
+constexpr std::array<std::array<TableEntry, 3>, 7> kTable1 = {{
+    {{{2.0 / 3, 1.0 / 3}, {7.0 / 9, 1.0 / 2}, {22.0 / 25, 2.0 / 3}}},
+    {{{0.840, 0.345}, {0.997, 0.616}, {1.141, 0.843}}},
+    {{{1.079, 0.368}, {1.033, 0.607}, {1.184, 0.848}}},
+    {{{kMissing, 0}, {1.048, 0.534}, {1.180, 0.816}}},
+    {{{kMissing, 0}, {1.302, 0.535}, {1.175, 0.777}}},
+    {{{kMissing, 0}, {kMissing, 0}, {1.194, 0.703}}},
+    {{{kMissing, 0}, {kMissing, 0}, {1.489, 0.702}}},
+}};
+constexpr std::array<std::array<TableEntry, 3>, 7> kTable2 = {{
+    {{{3.0 / 2, 1.0 / 2}, {35.0 / 18, 1.0}, {231.0 / 100, 3.0 / 2}}},
+    {{{78.6, 25.2}, {790.0, 410.0}, {9950.0, 6520.0}}},
+    {{{2.0 / 3, 1.0 / 6}, {2.0 / 3, 1.0 / 3}, {7.0 / 9, 1.0 / 2}}},
+    {{{kMissing, 0}, {0.852, 0.375}, {0.997, 0.617}}},
+    {{{kMissing, 0}, {1.079, 0.368}, {1.033, 0.607}}},
+    {{{kMissing, 0}, {kMissing, 0}, {1.053, 0.553}}},
+    {{{kMissing, 0}, {kMissing, 0}, {1.302, 0.535}}},
+}};
+// Table 3 (alpha = 1, unmodified): (b0, b1) for d = 1, 2, 3.
+constexpr std::array<TableEntry, 3> kTable3 = {{{6.0, 4.0}, {15.23, 12.0}, {47.8, 40.0}}};
+
+// 1/nu from a table: (a0 - a1/r)/r.
+std::optional<double> TableInverseEdf(const std::array<std::array<TableEntry, 3>, 7>& table,
+                                      int alpha, int d, double r) {
+  const TableEntry entry = table[2 - alpha][d - 1];
+  if (entry.a0 == kMissing) return std::nullopt;
+  return (entry.a0 - entry.a1 / r) / r;
+}
+
+std::optional<double> GreenhallInverseEdf(int alpha, int d, double m, double n, double f,
+                                          double s) {
+  constexpr double kJmax = 100.0;
+  const double L = m / f + m * d;
+  if (n < L) return std::nullopt;
+  const double M = 1.0 + std::floor(s * (n - L) / m);
+  const double J = std::min(M, std::floor((d + 1) * s));
+  const double r = M / s;
+
+  if (f == 1.0) {  // Case 1: modified variances (and m = 1), all alpha.
+    if (J <= kJmax) return BasicSum(J, M, s, 1.0, alpha, d) / (M * std::pow(Sz(0, 1.0, alpha, d), 2));
+    if (r >= d + 1) return TableInverseEdf(kTable1, alpha, d, r);
+    const double m_prime = kJmax / r;
+    return BasicSum(kJmax, kJmax, m_prime, 1.0, alpha, d) /
+           (kJmax * std::pow(Sz(0, 1.0, alpha, d), 2));
+  }
+  if (alpha <= 0) {  // Case 2: unmodified, alpha <= 0.
+    if (J <= kJmax) {
+      const double f_prime = m * (d + 1) <= kJmax ? f : kInf;
+      return BasicSum(J, M, s, f_prime, alpha, d) / (M * std::pow(Sz(0, f_prime, alpha, d), 2));
+    }
+    if (r >= d + 1) return TableInverseEdf(kTable2, alpha, d, r);
+    const double m_prime = kJmax / r;
+    return BasicSum(kJmax, kJmax, m_prime, kInf, alpha, d) /
+           (kJmax * std::pow(Sz(0, kInf, alpha, d), 2));
+  }
+  if (alpha == 1) {  // Case 3: unmodified, flicker PM.
+    if (J <= kJmax) return BasicSum(J, M, s, f, alpha, d) / (M * std::pow(Sz(0, f, alpha, d), 2));
+    const TableEntry b = kTable3[d - 1];
+    const double log_factor = std::pow(b.a0 + b.a1 * std::log(m), 2);
+    if (r >= d + 1) {
+      const std::optional<double> inverse = TableInverseEdf(kTable2, alpha, d, r);
+      if (!inverse) return std::nullopt;
+      return *inverse / log_factor;
+    }
+    const double m_prime = kJmax / r;
+    return BasicSum(kJmax, kJmax, m_prime, m_prime, alpha, d) / (kJmax * log_factor);
+  }
+  // Case 4: unmodified, white PM (alpha = 2).
+  const double K = std::ceil(r);
+  const double c2d = Binomial(2 * d, d);
+  if (K <= d) {
+    double sum = 0.0;
+    for (int k = 1; k < K; ++k) sum += (1.0 - k / r) * std::pow(Binomial(2 * d, d - k), 2);
+    return (1.0 + 2.0 * sum / (c2d * c2d)) / M;
+  }
+  const double a0 = Binomial(4 * d, 2 * d) / (c2d * c2d);
+  const double a1 = d / 2.0;
+  return (a0 - a1 / r) / M;
+}
+
+}  // namespace
+
+double SimpleErrorFraction(int64_t clusters) {
+  if (clusters < 2) return std::nan("");
+  return 1.0 / std::sqrt(2.0 * static_cast<double>(clusters - 1));
+}
+
+double RegularizedGammaP(double a, double x) {
+  if (!(a > 0.0) || !(x >= 0.0)) return std::nan("");
+  if (x == 0.0) return 0.0;
+  if (std::isinf(x)) return 1.0;
+  if (x < a + 1.0) return GammaPSeries(a, x);
+  return 1.0 - GammaQContinuedFraction(a, x);
+}
+
+// Newton's method on g(x) = P(nu/2, x/2) - p (or q - Q(nu/2, x/2) with
+// q = 1 - p for p > 1/2, so that the smaller tail is matched without
+// cancellation), g' = chi-square density, kept inside a bracket that shrinks
+// with every evaluation; a step leaving the bracket is replaced by bisection.
+// Start: Wilson-Hilferty x0 = nu (1 - 2/(9nu) + z sqrt(2/(9nu)))^3, or for a
+// far lower tail the leading term of the series, x0 = 2 (p Gamma(a+1))^{1/a}.
+double Chi2Inv(double p, double nu) {
+  if (std::isnan(p) || !(nu > 0.0)) return std::nan("");
+  if (p <= 0.0) return 0.0;
+  if (p >= 1.0) return kInf;
+  const double a = 0.5 * nu;
+  const bool upper = p > 0.5;
+  const double target = upper ? 1.0 - p : p;
+  const auto g = [&](double x) {
+    return upper ? target - RegularizedGammaQ(a, 0.5 * x) : RegularizedGammaP(a, 0.5 * x) - target;
+  };
+  const double log_gamma_a = std::lgamma(a);
+  const auto density = [&](double x) {
+    return 0.5 * std::exp((a - 1.0) * std::log(0.5 * x) - 0.5 * x - log_gamma_a);
+  };
+
+  const double h = 2.0 / (9.0 * nu);
+  double x = nu * std::pow(1.0 - h + ApproximateNormalQuantile(p) * std::sqrt(h), 3);
+  if (!(x > 0.0) || !std::isfinite(x)) x = 2.0 * std::exp((std::log(p) + std::lgamma(a + 1.0)) / a);
+  double lo = 0.0;
+  double hi = kInf;
+  for (int iteration = 0; iteration < 500; ++iteration) {
+    const double gx = g(x);
+    if (gx == 0.0) return x;
+    if (gx < 0.0) {
+      lo = x;
+    } else {
+      hi = x;
+    }
+    double next = x - gx / density(x);
+    if (!(next > lo && next < hi)) next = std::isinf(hi) ? 2.0 * x : 0.5 * (lo + hi);
+    if (std::fabs(next - x) <= 4.0 * kEpsilon * x) return next;
+    x = next;
+  }
+  return x;
+}
+
+std::optional<double> GreenhallEdf(int alpha, int d, int64_t m, int64_t n_phase, double F,
+                                   double S) {
+  if (d < 1 || d > 3 || alpha < -4 || alpha > 2 || alpha + 2 * d <= 1) return std::nullopt;
+  if (m < 1 || !(F > 0.0) || !(S > 0.0)) return std::nullopt;
+  const std::optional<double> inverse = GreenhallInverseEdf(
+      alpha, d, static_cast<double>(m), static_cast<double>(n_phase), F, S);
+  if (!inverse || !(*inverse > 0.0) || !std::isfinite(*inverse)) return std::nullopt;
+  return 1.0 / *inverse;
+}
+
+std::optional<double> TotalDeviationEdf(int alpha, int64_t m, int64_t n_phase) {
+  if (m < 1) return std::nullopt;
+  double b = 0.0;
+  double c = 0.0;
+  switch (alpha) {
+    case 0:
+      b = 1.50;
+      c = 0.0;
+      break;
+    case -1:
+      b = 1.17;
+      c = 0.22;
+      break;
+    case -2:
+      b = 0.93;
+      c = 0.36;
+      break;
+    default: {
+      const double md = static_cast<double>(m);
+      return GreenhallEdf(alpha, 2, m, n_phase, md, md);
+    }
+  }
+  const double edf = b * static_cast<double>(n_phase) / static_cast<double>(m) - c;
+  if (!(edf > 0.0)) return std::nullopt;
+  return edf;
+}
+
+std::optional<double> DeviationEdf(Deviation dev, int alpha, int64_t m, int64_t n_phase) {
+  const double md = static_cast<double>(m);
+  switch (dev) {
+    case Deviation::kAdev:
+      return GreenhallEdf(alpha, 2, m, n_phase, md, 1.0);
+    case Deviation::kOadev:
+      return GreenhallEdf(alpha, 2, m, n_phase, md, md);
+    case Deviation::kMdev:
+    case Deviation::kTdev:
+      return GreenhallEdf(alpha, 2, m, n_phase, 1.0, md);
+    case Deviation::kHdev:
+      return GreenhallEdf(alpha, 3, m, n_phase, md, 1.0);
+    case Deviation::kOhdev:
+      return GreenhallEdf(alpha, 3, m, n_phase, md, md);
+    case Deviation::kTotdev:
+      return TotalDeviationEdf(alpha, m, n_phase);
+  }
+  return std::nullopt;
+}
+
+std::pair<double, double> Chi2Interval(double dev, double edf, double confidence) {
+  const double nan = std::nan("");
+  if (!std::isfinite(dev) || !std::isfinite(edf) || !(edf > 0.0) || !(confidence > 0.0) ||
+      !(confidence < 1.0)) {
+    return {nan, nan};
+  }
+  const double p = 0.5 * (1.0 - confidence);
+  const double lo = dev * std::sqrt(edf / Chi2Inv(1.0 - p, edf));
+  const double hi = dev * std::sqrt(edf / Chi2Inv(p, edf));
+  return {lo, hi};
+}
+
+namespace {
+
+// The gap-free record length that gives `n` terms of `dev` at m (the inverse
+// of the term counts in estimators.h), capped at n_phase.
+int64_t EquivalentPhaseLength(Deviation dev, int64_t m, int64_t n, int64_t n_phase) {
+  int64_t length = n_phase;
+  switch (dev) {
+    case Deviation::kAdev:
+      length = (n + 1) * m + 1;
+      break;
+    case Deviation::kOadev:
+      length = n + 2 * m;
+      break;
+    case Deviation::kMdev:
+    case Deviation::kTdev:
+      length = n + 3 * m - 1;
+      break;
+    case Deviation::kHdev:
+      length = (n + 2) * m + 1;
+      break;
+    case Deviation::kOhdev:
+      length = n + 3 * m;
+      break;
+    case Deviation::kTotdev:
+      length = n + 2;
+      break;
+  }
+  return std::min(length, n_phase);
+}
+
+void ClearInterval(CurvePoint* point) {
+  point->lo = kNaN;
+  point->hi = kNaN;
+  point->edf = kNaN;
+  point->alpha.reset();
+}
+
+}  // namespace
+
+void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confidence, Curve* curve) {
+  curve->ci = method;
+  curve->confidence = method == CiMethod::kSimple ? kOneSigmaConfidence : confidence;
+  const int64_t valid_rate_samples = std::max<int64_t>(phase.size() - 1, 0) - phase.invalid_count();
+  const bool has_gaps = phase.invalid_count() > 0;
+  const int dmax =
+      (curve->deviation == Deviation::kHdev || curve->deviation == Deviation::kOhdev) ? 3 : 2;
+  for (CurvePoint& point : curve->points) {
+    ClearInterval(&point);
+    if (point.m < 1) continue;
+    switch (method) {
+      case CiMethod::kNone:
+        break;
+      case CiMethod::kSimple: {
+        const int64_t clusters = valid_rate_samples / point.m;
+        if (clusters < 2) break;
+        const double fraction = SimpleErrorFraction(clusters);
+        point.lo = point.dev * (1.0 - fraction);
+        point.hi = point.dev * (1.0 + fraction);
+        point.edf = static_cast<double>(clusters - 1);
+        break;
+      }
+      case CiMethod::kChi2: {
+        const std::optional<NoiseId> noise = IdentifyNoiseLag1(phase, point.m, dmax);
+        if (!noise) break;
+        point.alpha = noise->alpha;
+        const int64_t n_phase =
+            has_gaps ? EquivalentPhaseLength(curve->deviation, point.m, point.n, phase.size())
+                     : phase.size();
+        const std::optional<double> edf = DeviationEdf(curve->deviation, noise->alpha, point.m,
+                                                       n_phase);
+        if (!edf) break;
+        const auto [lo, hi] = Chi2Interval(point.dev, *edf, confidence);
+        if (std::isnan(lo) || std::isnan(hi)) break;
+        point.edf = *edf;
+        point.lo = lo;
+        point.hi = hi;
+        break;
+      }
+    }
+  }
+}
+
+}  // namespace imuqual::allan

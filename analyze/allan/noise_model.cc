@@ -1,0 +1,408 @@
+#include "analyze/allan/noise_model.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+
+#include "analyze/allan/confidence.h"
+#include "analyze/allan/tau_grid.h"
+
+namespace imuqual::allan {
+namespace {
+
+constexpr int kTerms = 5;
+constexpr double kBiasAvarFactor = 2.0 * std::numbers::ln2 / std::numbers::pi;  // 2 ln2/pi
+
+struct Row {
+  int64_t m = 0;
+  double tau_s = 0;
+  double avar = 0;
+  int64_t n_eff = 0;          // phase points spanned by the valid terms
+  double point_edf = kNaN;    // the curve's own edf, if any
+  double local_slope = kNaN;  // d ln AVAR / d ln tau
+};
+
+// Local slope of ln sigma against ln tau at each point: to both neighbours
+// (central), or to the one neighbour at the ends. NaN with one point.
+std::vector<double> LocalDevSlopes(const std::vector<double>& tau, const std::vector<double>& dev) {
+  const size_t n = tau.size();
+  std::vector<double> slope(n, kNaN);
+  if (n < 2) return slope;
+  for (size_t i = 0; i < n; ++i) {
+    const size_t a = i == 0 ? 0 : i - 1;
+    const size_t b = i + 1 == n ? n - 1 : i + 1;
+    slope[i] = std::log(dev[b] / dev[a]) / std::log(tau[b] / tau[a]);
+  }
+  return slope;
+}
+
+// alpha from the AVAR slope mu = -alpha - 1, clamped to [-2, 1]: a slope cannot
+// tell white from flicker phase noise, and alpha = 1 is the conservative one.
+int AlphaFromAvarSlope(double mu) {
+  if (!std::isfinite(mu)) return 0;
+  return static_cast<int>(std::clamp(std::lround(-mu - 1.0), -2L, 1L));
+}
+
+// Greenhall edf for an AVAR-family point (d = 2, F = m), or the non-overlapped
+// cluster count K - 1 when Greenhall is undefined.
+double PointEdf(int alpha, const Row& row, bool overlapped) {
+  const double md = static_cast<double>(row.m);
+  const std::optional<double> nu =
+      GreenhallEdf(alpha, /*d=*/2, row.m, row.n_eff, /*F=*/md, /*S=*/overlapped ? md : 1.0);
+  if (nu.has_value() && std::isfinite(*nu) && *nu > 0) return *nu;
+  return std::max<double>(1.0, static_cast<double>((row.n_eff - 1) / row.m - 1));
+}
+
+struct SubsetSolution {
+  unsigned mask = 0;
+  std::array<double, kTerms> coef{};  // c_t = coef_t^2, 0 outside the mask
+  Eigen::MatrixXd covariance;         // of the active c_t, in mask order
+  double ssr = kNaN;
+};
+
+// Exact NNLS of min ||W (A c - b)||^2, c >= 0, by enumeration of active sets.
+std::optional<SubsetSolution> SolveNnls(const Eigen::MatrixXd& weighted_a,
+                                        const Eigen::VectorXd& weighted_b) {
+  const int rows = static_cast<int>(weighted_a.rows());
+  // Column scaling: the basis spans many decades; unit-norm columns keep the
+  // QR well conditioned. c = x / scale.
+  Eigen::VectorXd scale(kTerms);
+  for (int t = 0; t < kTerms; ++t) scale(t) = weighted_a.col(t).norm();
+  std::optional<SubsetSolution> best;
+  for (unsigned mask = 1; mask < (1u << kTerms); ++mask) {
+    std::vector<int> cols;
+    for (int t = 0; t < kTerms; ++t) {
+      if (mask & (1u << t)) cols.push_back(t);
+    }
+    const int k = static_cast<int>(cols.size());
+    const bool zero_column =
+        std::any_of(cols.begin(), cols.end(), [&](int t) { return !(scale(t) > 0); });
+    if (k > rows || zero_column) continue;
+    Eigen::MatrixXd a(rows, k);
+    for (int i = 0; i < k; ++i) a.col(i) = weighted_a.col(cols[i]) / scale(cols[i]);
+    {
+      Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+      if (qr.rank() < k) continue;
+      const Eigen::VectorXd x = qr.solve(weighted_b);
+      if ((x.array() < 0).any()) continue;
+      const double ssr = (a * x - weighted_b).squaredNorm();
+      if (best.has_value() && !(ssr < best->ssr)) continue;
+      SubsetSolution s;
+      s.mask = mask;
+      s.ssr = ssr;
+      // Cov(x) = (a'a)^-1 for unit-variance weighted rows; c = x / scale.
+      const Eigen::MatrixXd cov_x = (a.transpose() * a).inverse();
+      s.covariance.resize(k, k);
+      for (int i = 0; i < k; ++i) {
+        s.coef[cols[i]] = x(i) / scale(cols[i]);
+        for (int j = 0; j < k; ++j) {
+          s.covariance(i, j) = cov_x(i, j) / (scale(cols[i]) * scale(cols[j]));
+        }
+      }
+      best = std::move(s);
+    }
+  }
+  return best;
+}
+
+double ModelAvar(const std::array<double, kTerms>& coef, double tau_s) {
+  double v = 0;
+  for (int t = 0; t < kTerms; ++t) v += coef[t] * NoiseTermAvarBasis(kNoiseTerms[t], tau_s);
+  return v;
+}
+
+// The term that contributes most to the model at tau_s.
+NoiseTerm DominantTerm(const std::array<double, kTerms>& coef, double tau_s) {
+  int best = 1;
+  double best_v = -1;
+  for (int t = 0; t < kTerms; ++t) {
+    const double v = coef[t] * NoiseTermAvarBasis(kNoiseTerms[t], tau_s);
+    if (v > best_v) {
+      best_v = v;
+      best = t;
+    }
+  }
+  return kNoiseTerms[best];
+}
+
+}  // namespace
+
+std::string_view NoiseTermName(NoiseTerm t) {
+  switch (t) {
+    case NoiseTerm::kQuantization:
+      return "quantization";
+    case NoiseTerm::kAngleRandomWalk:
+      return "angle_random_walk";
+    case NoiseTerm::kBiasInstability:
+      return "bias_instability";
+    case NoiseTerm::kRateRandomWalk:
+      return "rate_random_walk";
+    case NoiseTerm::kRateRamp:
+      return "rate_ramp";
+  }
+  return "";
+}
+
+double NoiseTermAvarBasis(NoiseTerm t, double tau_s) {
+  switch (t) {
+    case NoiseTerm::kQuantization:
+      return 3.0 / (tau_s * tau_s);
+    case NoiseTerm::kAngleRandomWalk:
+      return 1.0 / tau_s;
+    case NoiseTerm::kBiasInstability:
+      return kBiasAvarFactor;
+    case NoiseTerm::kRateRandomWalk:
+      return tau_s / 3.0;
+    case NoiseTerm::kRateRamp:
+      return tau_s * tau_s / 2.0;
+  }
+  return kNaN;
+}
+
+int NoiseTermAlpha(NoiseTerm t) {
+  switch (t) {
+    case NoiseTerm::kQuantization:
+      return 2;
+    case NoiseTerm::kAngleRandomWalk:
+      return 0;
+    case NoiseTerm::kBiasInstability:
+      return -1;
+    case NoiseTerm::kRateRandomWalk:
+    case NoiseTerm::kRateRamp:
+      return -2;
+  }
+  return 0;
+}
+
+const TermEstimate& NoiseFit::term(NoiseTerm t) const {
+  switch (t) {
+    case NoiseTerm::kQuantization:
+      return q;
+    case NoiseTerm::kAngleRandomWalk:
+      return n;
+    case NoiseTerm::kBiasInstability:
+      return b;
+    case NoiseTerm::kRateRandomWalk:
+      return k;
+    case NoiseTerm::kRateRamp:
+      return r;
+  }
+  return n;
+}
+
+double NoiseFit::ModelDeviation(double tau_s) const {
+  double v = 0;
+  for (NoiseTerm t : kNoiseTerms) {
+    const TermEstimate& e = term(t);
+    if (e.active && std::isfinite(e.value)) v += e.value * e.value * NoiseTermAvarBasis(t, tau_s);
+  }
+  return std::sqrt(v);
+}
+
+Status FitOptions::Validate() const {
+  if (irls_passes < 0 || irls_passes > 20) {
+    return Status::InvalidArgument("irls_passes must be in [0, 20], got " +
+                                   std::to_string(irls_passes));
+  }
+  return Status::Ok();
+}
+
+Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options) {
+  IMUQUAL_RETURN_IF_ERROR(options.Validate());
+  if (curve.deviation != Deviation::kOadev && curve.deviation != Deviation::kAdev) {
+    return Status::InvalidArgument("noise model fit needs an ADEV or OADEV curve, got " +
+                                   std::string(DeviationName(curve.deviation)));
+  }
+  const bool overlapped = curve.deviation == Deviation::kOadev;
+  const int64_t n_phase = curve.n_phase;
+  const int64_t m_max = options.stop == StopRule::kNone
+                           ? std::numeric_limits<int64_t>::max()
+                           : StopRuleMaxAveragingFactor(options.stop, curve.deviation, n_phase);
+
+  // 1. Usable points, ascending m, optionally thinned to about one per octave.
+  std::vector<CurvePoint> usable;
+  for (const CurvePoint& p : curve.points) {
+    if (p.m >= 1 && p.m <= m_max && p.n > 1 && std::isfinite(p.dev) && p.dev > 0 &&
+        std::isfinite(p.tau_s) && p.tau_s > 0) {
+      usable.push_back(p);
+    }
+  }
+  std::sort(usable.begin(), usable.end(),
+            [](const CurvePoint& a, const CurvePoint& b) { return a.m < b.m; });
+  std::vector<Row> rows;
+  for (const CurvePoint& p : usable) {
+    if (!rows.empty() && p.m == rows.back().m) continue;
+    if (options.thin_to_octaves && !rows.empty() && p.m < 2 * rows.back().m) continue;
+    Row row;
+    row.m = p.m;
+    row.tau_s = p.tau_s;
+    row.avar = p.dev * p.dev;
+    const int64_t stride = overlapped ? 1 : p.m;
+    row.n_eff = std::min(n_phase, (p.n - 1) * stride + 2 * p.m + 1);
+    row.point_edf = p.edf;
+    rows.push_back(row);
+  }
+  const int num_rows = static_cast<int>(rows.size());
+  if (num_rows < 2) {
+    return Status::InvalidArgument("noise model fit needs at least 2 usable curve points, got " +
+                                   std::to_string(num_rows));
+  }
+  {
+    std::vector<double> tau, dev;
+    for (const Row& row : rows) {
+      tau.push_back(row.tau_s);
+      dev.push_back(std::sqrt(row.avar));
+    }
+    const std::vector<double> slope = LocalDevSlopes(tau, dev);
+    for (int i = 0; i < num_rows; ++i) rows[i].local_slope = 2.0 * slope[i];
+  }
+
+  NoiseFit fit;
+  fit.points.resize(num_rows);
+  std::optional<SubsetSolution> solution;
+  for (int pass = 0; pass <= options.irls_passes; ++pass) {
+    // 2. Weights: w_j = sqrt(nu_j / 2) / ref_j.
+    Eigen::MatrixXd a(num_rows, kTerms);
+    Eigen::VectorXd b(num_rows);
+    for (int j = 0; j < num_rows; ++j) {
+      const Row& row = rows[j];
+      FitPoint& fp = fit.points[j];
+      double ref = row.avar;
+      if (pass == 0) {
+        fp.alpha = AlphaFromAvarSlope(row.local_slope);
+        fp.edf = std::isfinite(row.point_edf) && row.point_edf > 0
+                     ? row.point_edf
+                     : PointEdf(fp.alpha, row, overlapped);
+      } else {
+        const double model = ModelAvar(solution->coef, row.tau_s);
+        if (model > 0) ref = model;
+        fp.alpha = NoiseTermAlpha(DominantTerm(solution->coef, row.tau_s));
+        fp.edf = PointEdf(fp.alpha, row, overlapped);
+      }
+      const double w = std::sqrt(fp.edf / 2.0) / ref;
+      for (int t = 0; t < kTerms; ++t) a(j, t) = w * NoiseTermAvarBasis(kNoiseTerms[t], row.tau_s);
+      b(j) = w * row.avar;
+    }
+    // 3.-5.
+    std::optional<SubsetSolution> next = SolveNnls(a, b);
+    if (!next.has_value()) {
+      if (!solution.has_value()) {
+        return Status::InvalidArgument("noise model fit: no non-negative solution");
+      }
+      break;
+    }
+    solution = std::move(next);
+    fit.irls_passes = pass;
+  }
+
+  fit.points_used = num_rows;
+  fit.weighted_ssr = solution->ssr;
+  int active_index = 0;
+  for (int t = 0; t < kTerms; ++t) {
+    TermEstimate* terms[kTerms] = {&fit.q, &fit.n, &fit.b, &fit.k, &fit.r};
+    TermEstimate& e = *terms[t];
+    e.active = (solution->mask >> t) & 1u;
+    if (!e.active) {
+      e.value = 0.0;
+      continue;
+    }
+    const double c = solution->coef[t];
+    const double var_c = solution->covariance(active_index, active_index);
+    ++active_index;
+    e.value = std::sqrt(c);
+    // c = coef^2, so sd(coef) = sd(c) / (2 coef).
+    e.sigma = std::sqrt(std::max(var_c, 0.0)) / (2.0 * e.value);
+  }
+  for (int j = 0; j < num_rows; ++j) {
+    fit.points[j].m = rows[j].m;
+    fit.points[j].tau_s = rows[j].tau_s;
+    fit.points[j].avar = rows[j].avar;
+    fit.points[j].model_avar = ModelAvar(solution->coef, rows[j].tau_s);
+  }
+  return fit;
+}
+
+SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
+  SlopeReadoff out;
+  std::vector<double> tau, dev;
+  for (const CurvePoint& p : curve.points) {
+    if (std::isfinite(p.dev) && p.dev > 0 && std::isfinite(p.tau_s) && p.tau_s > 0) {
+      tau.push_back(p.tau_s);
+      dev.push_back(p.dev);
+    }
+  }
+  if (tau.empty()) {
+    out.upper_bound_only = true;
+    return out;
+  }
+  // Slope s, read-off tau, and the tangent bound min_j sigma_j (tau_read/tau_j)^s
+  // (the line of slope s through a point, read at tau_read).
+  double slope = 0, tau_read = 1;
+  switch (term) {
+    case NoiseTerm::kQuantization:
+      slope = -1.0;
+      tau_read = std::sqrt(3.0);
+      break;
+    case NoiseTerm::kAngleRandomWalk:
+      slope = -0.5;
+      tau_read = 1.0;
+      break;
+    case NoiseTerm::kBiasInstability:
+      slope = 0.0;
+      break;
+    case NoiseTerm::kRateRandomWalk:
+      slope = 0.5;
+      tau_read = 3.0;
+      break;
+    case NoiseTerm::kRateRamp:
+      slope = 1.0;
+      tau_read = std::sqrt(2.0);
+      break;
+  }
+  const std::vector<double> local = LocalDevSlopes(tau, dev);
+  double bound = std::numeric_limits<double>::infinity();
+  double intercept_sum = 0;
+  for (size_t i = 0; i < tau.size(); ++i) {
+    bound = std::min(bound, dev[i] * std::pow(tau_read / tau[i], slope));
+    if (std::fabs(local[i] - slope) <= 0.1) {
+      ++out.points_on_slope;
+      intercept_sum += std::log(dev[i]) - slope * std::log(tau[i]);
+    }
+  }
+  if (term == NoiseTerm::kBiasInstability) {
+    // B = sigma_min / 0.664: the flat level (2 ln2/pi) B^2 is the minimum.
+    out.tangent_bound = bound / kBiasInstabilityFactor;
+    out.value = out.tangent_bound;
+  } else {
+    out.tangent_bound = bound;
+    if (out.points_on_slope > 0) {
+      const double c = intercept_sum / out.points_on_slope;
+      out.value = std::exp(c + slope * std::log(tau_read));
+    }
+  }
+  if (out.points_on_slope == 0) {
+    out.value = out.tangent_bound;
+    out.upper_bound_only = true;
+  }
+  return out;
+}
+
+std::optional<CurveMinimum> FindCurveMinimum(const Curve& curve) {
+  std::optional<CurveMinimum> best;
+  for (const CurvePoint& p : curve.points) {
+    if (!(std::isfinite(p.dev) && p.dev > 0)) continue;
+    if (best.has_value() && !(p.dev < best->dev)) continue;
+    CurveMinimum c;
+    c.dev = p.dev;
+    c.tau_s = p.tau_s;
+    c.m = p.m;
+    c.bias_instability_ieee = p.dev / kBiasInstabilityFactor;
+    best = c;
+  }
+  return best;
+}
+
+}  // namespace imuqual::allan

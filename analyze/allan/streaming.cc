@@ -7,6 +7,7 @@
 #include <string>
 
 #include "analyze/allan/confidence.h"
+#include "analyze/allan/tau_grid.h"
 
 namespace imuqual::allan {
 namespace {
@@ -291,11 +292,11 @@ Curve StreamingAllan::Oadev(StreamGrid grid, StopRule stop, CiMethod ci, double 
   curve.n_phase = samples_ + 1;
   curve.invalid_rate_samples = invalid_samples();
   curve.ci = ci;
-  curve.confidence = confidence;
+  // The simple band is 1 sigma whatever the level asked for.
+  curve.confidence = ci == CiMethod::kSimple ? kOneSigmaConfidence : confidence;
 
-  int64_t m_stop = options_.max_m;
-  if (stop == StopRule::kBins9) m_stop = std::min(m_stop, samples_ / 9);
-  if (stop == StopRule::kStable32) m_stop = std::min(m_stop, (samples_ + 1) / 4);
+  const int64_t m_stop = std::min(
+      options_.max_m, StopRuleMaxAveragingFactor(stop, Deviation::kOadev, curve.n_phase));
 
   // Every tracked point within the stop rule, in increasing m.
   struct Tracked {

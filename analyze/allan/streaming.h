@@ -105,7 +105,8 @@ class StreamingAllan {
   // Points carry m, tau_s = m tau0, dev (rate unit), n = valid terms.
   // Confidence per `ci` at level `confidence` in (0, 1):
   //  - kSimple: K = floor(valid samples / m) clusters, dev (1 -+ 1/sqrt(2(K-1))),
-  //    edf = K - 1 (none when K < 2).
+  //    edf = K - 1 (none when K < 2). A 1-sigma band whatever `confidence`
+  //    says; the curve's confidence is then the 1-sigma level.
   //  - kChi2: chi-square interval with the Greenhall edf for d = 2, F = m and
   //    the engine's stride factor S (m below 2C, c beyond), on the phase points
   //    the valid terms span, N_eff = (n - 1) m/S + 2m + 1 (the record length

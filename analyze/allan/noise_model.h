@@ -1,0 +1,152 @@
+// IEEE Std 952 (Annex C) noise model of a gyro or accelerometer and its
+// estimation from an Allan deviation curve (ALGORITHMS.md §3):
+//
+//   sigma^2(tau) = 3 Q^2/tau^2 + N^2/tau + (2 ln2/pi) B^2 + K^2 tau/3 + R^2 tau^2/2
+//
+// Q quantization, N angle (velocity) random walk, B bias instability, K rate
+// random walk, R rate ramp. Base units (tau in s, rate in deg/s or m/s^2):
+//   gyro:  Q deg, N deg/sqrt(s), B deg/s, K deg/s/sqrt(s), R deg/s^2;
+//   accel: Q m/s, N m/s/sqrt(s), B m/s^2, K m/s^2/sqrt(s), R m/s^3.
+// units.h converts them to datasheet units.
+//
+// Two estimators:
+//  - FitNoiseModel: weighted non-negative least squares on AVAR with
+//    iteratively re-weighted passes (the recommended one; gives uncertainties);
+//  - ReadSlopeLine / FindCurveMinimum: the IEEE 952 slope-line read-offs.
+// All functions are pure and thread-safe.
+#ifndef IMUQUAL_ANALYZE_ALLAN_NOISE_MODEL_H_
+#define IMUQUAL_ANALYZE_ALLAN_NOISE_MODEL_H_
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include "analyze/allan/curve.h"
+#include "common/status.h"
+
+namespace imuqual::allan {
+
+enum class NoiseTerm { kQuantization, kAngleRandomWalk, kBiasInstability, kRateRandomWalk, kRateRamp };
+inline constexpr std::array<NoiseTerm, 5> kNoiseTerms = {
+    NoiseTerm::kQuantization, NoiseTerm::kAngleRandomWalk, NoiseTerm::kBiasInstability,
+    NoiseTerm::kRateRandomWalk, NoiseTerm::kRateRamp};
+
+// "quantization", "angle_random_walk", "bias_instability", "rate_random_walk",
+// "rate_ramp".
+std::string_view NoiseTermName(NoiseTerm t);
+
+// sqrt(2 ln2 / pi) = 0.664: the flat AVAR level of bias instability is
+// (2 ln2/pi) B^2, so B = sigma_min / 0.664 (IEEE convention).
+inline constexpr double kBiasInstabilityFactor = 0.66428090415820631;
+
+// AVAR basis function of a term at tau_s: sigma^2 = sum_t coef_t^2 basis_t(tau):
+// 3/tau^2, 1/tau, 2 ln2/pi, tau/3, tau^2/2.
+double NoiseTermAvarBasis(NoiseTerm t, double tau_s);
+
+// Power-law exponent alpha (ALGORITHMS.md §2, model-based identification) of
+// the noise a term produces: Q 2, N 0, B -1, K -2, R -2 (a ramp is a drift,
+// not a power law; -2 keeps AVAR edf defined).
+int NoiseTermAlpha(NoiseTerm t);
+
+struct TermEstimate {
+  double value = kNaN;  // coefficient in base units (0 when the fit left it out)
+  double sigma = kNaN;  // 1-sigma uncertainty of value (NaN when not active)
+  bool active = false;  // in the fit's non-negative active set
+};
+
+// Per-point diagnostics of the final pass.
+struct FitPoint {
+  int64_t m = 0;
+  double tau_s = kNaN;
+  double avar = kNaN;        // measured AVAR (dev^2)
+  double model_avar = kNaN;  // fitted model at tau_s
+  double edf = kNaN;         // nu used for the weight
+  int alpha = 0;             // noise exponent behind that nu
+};
+
+struct NoiseFit {
+  TermEstimate q, n, b, k, r;
+  int points_used = 0;
+  int irls_passes = 0;        // re-weighted passes done after the first
+  double weighted_ssr = kNaN;  // sum_j w_j^2 (avar_j - model_j)^2 of the last pass
+  std::vector<FitPoint> points;
+
+  const TermEstimate& term(NoiseTerm t) const;
+  // sqrt(3Q^2/tau^2 + N^2/tau + (2ln2/pi)B^2 + K^2 tau/3 + R^2 tau^2/2) over
+  // the active terms, rate unit; tau_s > 0.
+  double ModelDeviation(double tau_s) const;
+};
+
+struct FitOptions {
+  // Re-weighted passes after the first, in [0, 20]. Pass 1 weights by the
+  // measured AVAR; later passes by the previous model (removes the bias of
+  // weighting by a noisy value). 2-5 is plenty.
+  int irls_passes = 3;
+  // Points with m beyond the rule are ignored (kBins9: m <= floor(M/9),
+  // M = n_phase - 1; kStable32: m <= floor(N/4) OADEV, floor(N/5) ADEV).
+  StopRule stop = StopRule::kBins9;
+  // Keep about one point per octave (greedily: the first point, then each point
+  // with m >= 2 x the last kept m). Neighbouring AVARs of a dense grid are
+  // strongly correlated, and the fit treats the points as independent.
+  bool thin_to_octaves = true;
+
+  // Ok, or InvalidArgument naming the offending field.
+  Status Validate() const;
+};
+
+// Weighted NNLS with IRLS over an OADEV or ADEV curve (ALGORITHMS.md §3):
+//  1. rows j: A_jt = basis_t(tau_j), b_j = dev_j^2; unknowns c_t = coef_t^2 >= 0;
+//  2. row weight w_j = sqrt(nu_j/2)/ref_j, since Var(avar_hat) = 2 avar^2/nu.
+//     Pass 1: ref_j = avar_hat_j, nu_j = the point's edf when present, else the
+//     Greenhall edf for the alpha of the local slope. Later passes: ref_j =
+//     model_j and nu_j = Greenhall (d = 2, F = m, S = m for OADEV, 1 for ADEV)
+//     with the alpha of the term that dominates the model at tau_j. N for
+//     Greenhall is the span of the valid terms, min(n_phase, (n-1) s + 2m + 1)
+//     with stride s = 1 (OADEV) or m (ADEV);
+//  3. columns of W A scaled to unit norm, solved by column-pivoting QR;
+//  4. exact NNLS: all 31 non-empty subsets, those with a negative coefficient
+//     discarded, the smallest weighted SSR kept;
+//  5. covariance (A' W A)^-1 on the active set; sd(coef) = sd(coef^2)/(2 coef).
+// The covariance ignores the correlation of neighbouring AVARs, so it
+// understates the error somewhat (the octave thinning limits that).
+// Curves from the streaming engine (stride m/c) have a few % less edf than
+// full overlap in the ARW/BI/RRW regions; the refreshed nu ignore that.
+// Errors: unsupported deviation, fewer than 2 usable points, bad options.
+Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options = {});
+
+// IEEE 952 slope-line read-off. The local log-log slope at a point is the
+// slope to its neighbours (central; one-sided at the ends). Points within +-0.1
+// of the term's slope s (Q -1, N -1/2, B 0, K +1/2, R +1) define a line
+// ln sigma = c + s ln tau with c = mean(ln sigma_j - s ln tau_j), read at
+// tau = sqrt(3) (Q), 1 (N), 3 (K), sqrt(2) (R). B = sigma_min/0.664.
+// Each term is non-negative, so each tangent line bounds it from above:
+//   Q <= min sigma_j tau_j/sqrt(3), N <= min sigma_j sqrt(tau_j),
+//   K <= min sigma_j sqrt(3/tau_j), R <= min sigma_j sqrt(2)/tau_j,
+//   B <= sigma_min/0.664.
+// When no point has the slope, value = tangent_bound and upper_bound_only.
+// Points with a non-positive or non-finite dev are ignored; an empty curve
+// gives NaN values with upper_bound_only = true.
+struct SlopeReadoff {
+  double value = kNaN;
+  bool upper_bound_only = false;
+  int points_on_slope = 0;
+  double tangent_bound = kNaN;
+};
+SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term);
+
+// The curve's minimum (the convention of many datasheets, and of the seed's
+// "bias instability") and min/0.664 (IEEE 952's B), both in the rate unit.
+// nullopt when no point has a positive finite dev.
+struct CurveMinimum {
+  double dev = kNaN;
+  double tau_s = kNaN;
+  int64_t m = 0;
+  double bias_instability_ieee = kNaN;  // dev / sqrt(2 ln2/pi)
+};
+std::optional<CurveMinimum> FindCurveMinimum(const Curve& curve);
+
+}  // namespace imuqual::allan
+
+#endif  // IMUQUAL_ANALYZE_ALLAN_NOISE_MODEL_H_

@@ -1,0 +1,445 @@
+#include "store/archive.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "store/schema.h"
+
+namespace imuqual::store {
+namespace {
+
+// Statement cache slots.
+enum StmtId {
+  kInsertLot,
+  kInsertUnit,
+  kUpsertRun,
+  kInsertAxis,
+  kInsertChunk,
+  kFindRun,
+  kNumStmts
+};
+
+const char* UnitOf(pb::AxisKind kind) { return kind == pb::ACCEL ? "m/s^2" : "deg/s"; }
+
+}  // namespace
+
+const char* AxisKindName(pb::AxisKind kind) { return kind == pb::ACCEL ? "accel" : "gyro"; }
+pb::AxisKind ParseAxisKind(const std::string& name) {
+  return name == "accel" ? pb::ACCEL : pb::GYRO;
+}
+
+Archive::~Archive() = default;
+
+Result<std::unique_ptr<Archive>> Archive::Open(const std::string& path, Mode mode) {
+  if (mode == Mode::kRead && ::access(path.c_str(), F_OK) != 0) {
+    return Status::NotFound("no archive at " + path);
+  }
+  if (mode == Mode::kWrite) {
+    // Say plainly when the directory is not writable: SQLite's own error
+    // ("unable to open database file") does not.
+    std::string dir = path.substr(0, path.find_last_of('/') + 1);
+    if (dir.empty()) dir = ".";
+    if (::access(dir.c_str(), W_OK) != 0) {
+      return Status::IoError("cannot write the archive " + path + ": directory " + dir + ": " +
+                             std::strerror(errno));
+    }
+  }
+  auto db = Db::Open(path, mode == Mode::kWrite ? Db::Mode::kReadWrite : Db::Mode::kReadOnly);
+  if (!db.ok()) return db.status();
+  std::unique_ptr<Archive> archive(new Archive(std::move(*db)));
+  Db& d = *archive->db_;
+  if (mode == Mode::kWrite) {
+    IMUQUAL_RETURN_IF_ERROR(Migrate(d));
+    auto wal = d.Prepare("PRAGMA journal_mode=WAL");
+    if (!wal.ok()) return wal.status();
+    auto row = wal->Step();
+    if (!row.ok()) return row.status();
+    IMUQUAL_RETURN_IF_ERROR(d.Exec("PRAGMA synchronous=NORMAL; PRAGMA foreign_keys=ON;"));
+  } else {
+    IMUQUAL_RETURN_IF_ERROR(CheckReadable(d));
+  }
+  archive->cache_.resize(kNumStmts);
+  return archive;
+}
+
+Result<Stmt*> Archive::Cached(int id, const char* sql) {
+  if (!cache_[id]) {
+    auto stmt = db_->Prepare(sql);
+    if (!stmt.ok()) return stmt.status();
+    cache_[id] = std::make_unique<Stmt>(std::move(*stmt));
+  }
+  return cache_[id].get();
+}
+
+Status Archive::Begin() { return db_->Exec("BEGIN IMMEDIATE"); }
+Status Archive::Commit() { return db_->Exec("COMMIT"); }
+Status Archive::Rollback() { return db_->Exec("ROLLBACK"); }
+
+Result<int64_t> Archive::UpsertRun(const RunInfo& run) {
+  auto lot = Cached(kInsertLot, "INSERT OR IGNORE INTO lots(lot, first_seen_utime) VALUES(?, ?)");
+  if (!lot.ok()) return lot.status();
+  IMUQUAL_RETURN_IF_ERROR((*lot)->Bind(1, run.lot).Bind(2, run.start_utime).Run());
+  auto unit =
+      Cached(kInsertUnit, "INSERT OR IGNORE INTO units(serial, first_seen_utime) VALUES(?, ?)");
+  if (!unit.ok()) return unit.status();
+  IMUQUAL_RETURN_IF_ERROR((*unit)->Bind(1, run.serial).Bind(2, run.start_utime).Run());
+
+  auto up = Cached(kUpsertRun, R"sql(
+INSERT INTO runs(run_id, serial, lot, station, slot, operator, source, software_version,
+                 start_utime, end_utime, state, nominal_rate_hz, last_seq, samples_announced,
+                 plan, plan_sha256, truth)
+VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)
+ON CONFLICT(run_id) DO UPDATE SET
+  state = CASE WHEN runs.state IN ('complete', 'aborted') THEN runs.state ELSE excluded.state END,
+  end_utime = COALESCE(runs.end_utime, excluded.end_utime),
+  last_seq = MAX(runs.last_seq, excluded.last_seq),
+  samples_announced = MAX(runs.samples_announced, excluded.samples_announced)
+RETURNING run_key)sql");
+  if (!up.ok()) return up.status();
+  Stmt& s = **up;
+  s.Bind(1, run.run_id).Bind(2, run.serial).Bind(3, run.lot).Bind(4, run.station);
+  s.Bind(5, run.slot).Bind(6, run.operator_name).Bind(7, run.source).Bind(8, run.software_version);
+  s.Bind(9, run.start_utime);
+  if (run.end_utime) {
+    s.Bind(10, *run.end_utime);
+  } else {
+    s.BindNull(10);
+  }
+  s.Bind(11, run.state).Bind(12, run.nominal_rate_hz).Bind(13, run.last_seq);
+  s.Bind(14, run.samples_announced);
+  s.BindBlob(15, {reinterpret_cast<const uint8_t*>(run.plan.data()), run.plan.size()});
+  s.Bind(16, run.plan_sha256);
+  s.BindBlob(17, {reinterpret_cast<const uint8_t*>(run.truth.data()), run.truth.size()});
+  auto row = s.Step();
+  if (!row.ok()) return row.status();
+  if (!*row) {
+    s.Reset();
+    return Status::InvalidArgument("upsert of run " + run.run_id + " returned no key");
+  }
+  const int64_t key = s.Int(0);
+  s.Reset();
+
+  auto axis = Cached(kInsertAxis,
+                     "INSERT OR IGNORE INTO run_axes(run_key, axis_index, axis, kind, unit) "
+                     "VALUES(?, ?, ?, ?, ?)");
+  if (!axis.ok()) return axis.status();
+  for (size_t i = 0; i < run.axes.size(); ++i) {
+    IMUQUAL_RETURN_IF_ERROR((*axis)
+                                ->Bind(1, key)
+                                .Bind(2, static_cast<int64_t>(i))
+                                .Bind(3, run.axes[i].name)
+                                .Bind(4, AxisKindName(run.axes[i].kind))
+                                .Bind(5, UnitOf(run.axes[i].kind))
+                                .Run());
+  }
+  return key;
+}
+
+Status Archive::InsertChunk(int64_t run_key, const ChunkRecord& c, bool* inserted) {
+  auto st = Cached(kInsertChunk,
+                   "INSERT OR IGNORE INTO raw_chunks(run_key, seq, first_sample, num_samples, "
+                   "host_utime, temperature_c, codec, data) VALUES(?, ?, ?, ?, ?, ?, ?, ?)");
+  if (!st.ok()) return st.status();
+  Stmt& s = **st;
+  s.Bind(1, run_key).Bind(2, c.seq).Bind(3, c.first_sample).Bind(4, c.num_samples);
+  s.Bind(5, c.host_utime).Bind(6, c.temperature_c).Bind(7, c.codec).BindBlob(8, c.data);
+  IMUQUAL_RETURN_IF_ERROR(s.Run());
+  if (inserted) *inserted = sqlite3_changes(db_->handle()) > 0;
+  return Status::Ok();
+}
+
+Status Archive::RecomputeGaps(int64_t run_key, int64_t last_seq, int64_t now_utime) {
+  auto del = db_->Prepare("DELETE FROM gaps WHERE run_key = ?");
+  if (!del.ok()) return del.status();
+  IMUQUAL_RETURN_IF_ERROR(del->Bind(1, run_key).Run());
+  // Holes between consecutive archived seqs, plus a leading hole before the
+  // first chunk and a trailing one after the last (up to last_seq). Sample
+  // ranges come from the device counters around the hole where known.
+  auto ins = db_->Prepare(R"sql(
+WITH c AS (
+  SELECT seq, first_sample, num_samples,
+         LAG(seq) OVER w AS prev_seq,
+         LAG(first_sample + num_samples) OVER w AS prev_end
+  FROM raw_chunks WHERE run_key = ?1 WINDOW w AS (ORDER BY seq)
+),
+holes AS (
+  SELECT COALESCE(prev_seq + 1, 0) AS first_seq, seq - 1 AS last_seq,
+         prev_end AS first_sample,
+         CASE WHEN prev_end IS NULL THEN NULL ELSE first_sample - prev_end END AS num_samples,
+         CASE WHEN seq - COALESCE(prev_seq, -1) > 1 THEN 'seq' ELSE 'counter' END AS reason
+  FROM c
+  WHERE seq - COALESCE(prev_seq, -1) > 1
+     OR (prev_end IS NOT NULL AND first_sample <> prev_end)
+  UNION ALL
+  SELECT COALESCE(MAX(seq) + 1, 0), ?2, MAX(first_sample + num_samples), NULL, 'seq'
+  FROM raw_chunks WHERE run_key = ?1
+  HAVING COALESCE(MAX(seq), -1) < ?2
+)
+INSERT INTO gaps(run_key, first_seq, last_seq, first_sample, num_samples, reason, detected_utime)
+SELECT ?1, first_seq, last_seq, first_sample, num_samples, reason, ?3 FROM holes)sql");
+  if (!ins.ok()) return ins.status();
+  return ins->Bind(1, run_key).Bind(2, last_seq).Bind(3, now_utime).Run();
+}
+
+Status Archive::PutCurve(int64_t run_key, const CurveRecord& rec) {
+  const std::string est(allan::DeviationName(rec.curve.deviation));
+  auto del = db_->Prepare("DELETE FROM curve_points WHERE run_key = ? AND axis = ? AND estimator = ?");
+  if (!del.ok()) return del.status();
+  IMUQUAL_RETURN_IF_ERROR(del->Bind(1, run_key).Bind(2, rec.axis).Bind(3, est).Run());
+  auto cur = db_->Prepare(
+      "INSERT OR REPLACE INTO curves(run_key, axis, estimator, ci_method, tau0_s, samples, "
+      "valid_samples, computed_utime) VALUES(?, ?, ?, ?, ?, ?, ?, ?)");
+  if (!cur.ok()) return cur.status();
+  IMUQUAL_RETURN_IF_ERROR(cur->Bind(1, run_key)
+                              .Bind(2, rec.axis)
+                              .Bind(3, est)
+                              .Bind(4, allan::CiMethodName(rec.curve.ci))
+                              .Bind(5, rec.curve.tau0_s)
+                              .Bind(6, rec.samples)
+                              .Bind(7, rec.valid_samples)
+                              .Bind(8, rec.computed_utime)
+                              .Run());
+  auto pt = db_->Prepare(
+      "INSERT INTO curve_points(run_key, axis, estimator, m, tau_s, dev, lo, hi, edf, n_terms) "
+      "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  if (!pt.ok()) return pt.status();
+  for (const allan::CurvePoint& p : rec.curve.points) {
+    IMUQUAL_RETURN_IF_ERROR(pt->Bind(1, run_key)
+                                .Bind(2, rec.axis)
+                                .Bind(3, est)
+                                .Bind(4, p.m)
+                                .Bind(5, p.tau_s)
+                                .Bind(6, p.dev)
+                                .Bind(7, p.lo)
+                                .Bind(8, p.hi)
+                                .Bind(9, p.edf)
+                                .Bind(10, p.n)
+                                .Run());
+  }
+  return Status::Ok();
+}
+
+Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
+  auto del = db_->Prepare("DELETE FROM measurements WHERE run_key = ?");
+  if (!del.ok()) return del.status();
+  IMUQUAL_RETURN_IF_ERROR(del->Bind(1, run_key).Run());
+  auto ins = db_->Prepare(
+      "INSERT OR REPLACE INTO measurements(run_key, axis, name, value, unit, low, high, "
+      "marginal_low, marginal_high, outcome, note) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  if (!ins.ok()) return ins.status();
+  for (const pb::Measurement& m : r.measurements) {
+    auto opt = [](bool has, double v) { return has ? std::optional<double>(v) : std::nullopt; };
+    Stmt& s = *ins;
+    s.Bind(1, run_key).Bind(2, m.axis()).Bind(3, m.name()).Bind(4, m.value()).Bind(5, m.unit());
+    s.Bind(6, opt(m.has_low(), m.low())).Bind(7, opt(m.has_high(), m.high()));
+    s.Bind(8, opt(m.has_marginal_low(), m.marginal_low()));
+    s.Bind(9, opt(m.has_marginal_high(), m.marginal_high()));
+    switch (m.outcome()) {
+      case pb::PASS: s.Bind(10, "PASS"); break;
+      case pb::MARGINAL: s.Bind(10, "MARGINAL"); break;
+      case pb::FAIL: s.Bind(10, "FAIL"); break;
+      default: s.BindNull(10);
+    }
+    s.Bind(11, m.note());
+    IMUQUAL_RETURN_IF_ERROR(s.Run());
+  }
+  std::string reasons;
+  for (const std::string& reason : r.reasons) reasons += (reasons.empty() ? "" : "\n") + reason;
+  auto up = db_->Prepare(
+      "UPDATE runs SET verdict = ?, reasons = ?, samples = ?, gap_samples = ?, "
+      "invalid_samples = ?, record = ?, result_utime = ? WHERE run_key = ?");
+  if (!up.ok()) return up.status();
+  if (r.verdict.empty()) {
+    up->BindNull(1);
+  } else {
+    up->Bind(1, r.verdict);
+  }
+  return up->Bind(2, reasons)
+      .Bind(3, r.samples)
+      .Bind(4, r.gap_samples)
+      .Bind(5, r.invalid_samples)
+      .BindBlob(6, {reinterpret_cast<const uint8_t*>(r.record.data()), r.record.size()})
+      .Bind(7, r.result_utime)
+      .Bind(8, run_key)
+      .Run();
+}
+
+Result<int> Archive::MarkStaleRunsIncomplete(int64_t before_utime) {
+  auto up = db_->Prepare(
+      "UPDATE runs SET state = 'incomplete' WHERE state = 'running' AND start_utime < ?");
+  if (!up.ok()) return up.status();
+  IMUQUAL_RETURN_IF_ERROR(up->Bind(1, before_utime).Run());
+  return sqlite3_changes(db_->handle());
+}
+
+Result<std::optional<int64_t>> Archive::FindRunKey(const std::string& run_id) {
+  auto st = Cached(kFindRun, "SELECT run_key FROM runs WHERE run_id = ?");
+  if (!st.ok()) return st.status();
+  Stmt& s = **st;
+  s.Bind(1, run_id);
+  auto row = s.Step();
+  if (!row.ok()) return row.status();
+  std::optional<int64_t> key;
+  if (*row) key = s.Int(0);
+  s.Reset();
+  return key;
+}
+
+Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
+  auto s = db_->Prepare(
+      "SELECT run_key, serial, lot, station, slot, operator, source, software_version, "
+      "start_utime, end_utime, state, nominal_rate_hz, last_seq, samples_announced, plan, "
+      "plan_sha256, truth FROM runs WHERE run_id = ?");
+  if (!s.ok()) return s.status();
+  s->Bind(1, run_id);
+  auto row = s->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) return Status::NotFound("no run '" + run_id + "' in " + path());
+  RunInfo r;
+  const int64_t key = s->Int(0);
+  r.run_id = run_id;
+  r.serial = s->Text(1);
+  r.lot = s->Text(2);
+  r.station = s->Text(3);
+  r.slot = s->Text(4);
+  r.operator_name = s->Text(5);
+  r.source = s->Text(6);
+  r.software_version = s->Text(7);
+  r.start_utime = s->Int(8);
+  if (!s->IsNull(9)) r.end_utime = s->Int(9);
+  r.state = s->Text(10);
+  r.nominal_rate_hz = s->Real(11);
+  r.last_seq = s->Int(12);
+  r.samples_announced = s->Int(13);
+  const std::vector<uint8_t> plan = s->Blob(14);
+  r.plan.assign(plan.begin(), plan.end());
+  r.plan_sha256 = s->Text(15);
+  const std::vector<uint8_t> truth = s->Blob(16);
+  r.truth.assign(truth.begin(), truth.end());
+  auto ax = db_->Prepare("SELECT axis, kind FROM run_axes WHERE run_key = ? ORDER BY axis_index");
+  if (!ax.ok()) return ax.status();
+  ax->Bind(1, key);
+  for (;;) {
+    auto arow = ax->Step();
+    if (!arow.ok()) return arow.status();
+    if (!*arow) break;
+    r.axes.push_back({ax->Text(0), ParseAxisKind(ax->Text(1))});
+  }
+  return r;
+}
+
+Result<int64_t> Archive::NextMissingSeq(int64_t run_key) {
+  auto s = db_->Prepare(R"sql(
+SELECT CASE WHEN NOT EXISTS (SELECT 1 FROM raw_chunks WHERE run_key = ?1 AND seq = 0) THEN 0
+       ELSE (SELECT MIN(c.seq + 1) FROM raw_chunks c WHERE c.run_key = ?1 AND NOT EXISTS
+               (SELECT 1 FROM raw_chunks d WHERE d.run_key = ?1 AND d.seq = c.seq + 1)) END)sql");
+  if (!s.ok()) return s.status();
+  s->Bind(1, run_key);
+  auto row = s->Step();
+  if (!row.ok()) return row.status();
+  return *row ? s->Int(0) : 0;
+}
+
+Result<std::vector<int64_t>> Archive::ArchivedSeqsFrom(int64_t run_key, int64_t from_seq) {
+  auto s = db_->Prepare("SELECT seq FROM raw_chunks WHERE run_key = ? AND seq >= ? ORDER BY seq");
+  if (!s.ok()) return s.status();
+  s->Bind(1, run_key).Bind(2, from_seq);
+  std::vector<int64_t> seqs;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    seqs.push_back(s->Int(0));
+  }
+  return seqs;
+}
+
+Status Archive::ForEachChunk(int64_t run_key,
+                             const std::function<Status(const ChunkRecord&)>& fn) {
+  auto s = db_->Prepare(
+      "SELECT seq, first_sample, num_samples, host_utime, temperature_c, codec, data "
+      "FROM raw_chunks WHERE run_key = ? ORDER BY seq");
+  if (!s.ok()) return s.status();
+  s->Bind(1, run_key);
+  ChunkRecord c;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return Status::Ok();
+    c.seq = s->Int(0);
+    c.first_sample = s->Int(1);
+    c.num_samples = s->Int(2);
+    c.host_utime = s->Int(3);
+    c.temperature_c = s->IsNull(4) ? std::nullopt : std::optional<double>(s->Real(4));
+    c.codec = static_cast<int>(s->Int(5));
+    c.data = s->Blob(6);
+    IMUQUAL_RETURN_IF_ERROR(fn(c));
+  }
+}
+
+Result<std::vector<GapRecord>> Archive::LoadGaps(int64_t run_key) {
+  auto s = db_->Prepare(
+      "SELECT first_seq, last_seq, first_sample, num_samples, reason, detected_utime "
+      "FROM gaps WHERE run_key = ? ORDER BY first_seq");
+  if (!s.ok()) return s.status();
+  s->Bind(1, run_key);
+  std::vector<GapRecord> gaps;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    GapRecord g;
+    g.first_seq = s->Int(0);
+    g.last_seq = s->Int(1);
+    if (!s->IsNull(2)) g.first_sample = s->Int(2);
+    if (!s->IsNull(3)) g.num_samples = s->Int(3);
+    g.reason = s->Text(4);
+    g.detected_utime = s->Int(5);
+    gaps.push_back(g);
+  }
+  return gaps;
+}
+
+Result<std::vector<CurveRecord>> Archive::LoadCurves(int64_t run_key) {
+  auto s = db_->Prepare(
+      "SELECT c.axis, c.estimator, c.ci_method, c.tau0_s, c.samples, c.valid_samples, "
+      "c.computed_utime, p.m, p.tau_s, p.dev, p.lo, p.hi, p.edf, p.n_terms "
+      "FROM curves c JOIN curve_points p USING (run_key, axis, estimator) "
+      "WHERE c.run_key = ? ORDER BY c.axis, c.estimator, p.m");
+  if (!s.ok()) return s.status();
+  s->Bind(1, run_key);
+  std::vector<CurveRecord> curves;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    const std::string axis = s->Text(0), est = s->Text(1);
+    if (curves.empty() || curves.back().axis != axis ||
+        allan::DeviationName(curves.back().curve.deviation) != est) {
+      CurveRecord rec;
+      rec.axis = axis;
+      rec.curve.deviation = allan::ParseDeviation(est).value_or(allan::Deviation::kOadev);
+      rec.curve.ci = allan::ParseCiMethod(s->Text(2)).value_or(allan::CiMethod::kNone);
+      rec.curve.tau0_s = s->Real(3);
+      rec.samples = s->Int(4);
+      rec.valid_samples = s->Int(5);
+      rec.computed_utime = s->Int(6);
+      curves.push_back(std::move(rec));
+    }
+    allan::CurvePoint p;
+    p.m = s->Int(7);
+    p.tau_s = s->Real(8);
+    p.dev = s->Real(9);
+    p.lo = s->Real(10);
+    p.hi = s->Real(11);
+    p.edf = s->Real(12);
+    p.n = s->Int(13);
+    curves.back().curve.points.push_back(p);
+  }
+  return curves;
+}
+
+}  // namespace imuqual::store

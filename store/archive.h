@@ -1,0 +1,148 @@
+// The SQLite archive of a station: runs, raw chunks, gaps, curves and
+// results (schema: store/SCHEMA.md). One Archive is one connection; a
+// read-write Archive belongs to one writer thread, read-only ones (queries,
+// re-analysis) may be opened by any number of readers at once (WAL: readers
+// never block the writer).
+#ifndef IMUQUAL_STORE_ARCHIVE_H_
+#define IMUQUAL_STORE_ARCHIVE_H_
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analyze/allan/curve.h"
+#include "common/status.h"
+#include "imuqual/plan.pb.h"
+#include "imuqual/record.pb.h"
+#include "store/sqlite.h"
+
+namespace imuqual::store {
+
+struct AxisInfo {
+  std::string name;
+  pb::AxisKind kind = pb::GYRO;
+};
+
+// What a run_t announces.
+struct RunInfo {
+  std::string run_id;
+  std::string serial;
+  std::string lot;
+  std::string station;
+  std::string slot;
+  std::string operator_name;
+  std::string source;
+  std::string software_version;
+  int64_t start_utime = 0;
+  double nominal_rate_hz = 0;
+  std::vector<AxisInfo> axes;
+  std::string plan;         // serialized pb::TestPlan
+  std::string plan_sha256;
+  std::string truth;        // serialized pb::SimTruth, "" for real units
+  std::string state = "running";  // running / complete / aborted / incomplete
+  int64_t last_seq = -1;
+  int64_t samples_announced = 0;
+  std::optional<int64_t> end_utime;
+};
+
+struct ChunkRecord {
+  int64_t seq = 0;
+  int64_t first_sample = 0;
+  int64_t num_samples = 0;
+  int64_t host_utime = 0;
+  std::optional<double> temperature_c;
+  int codec = 0;
+  std::vector<uint8_t> data;
+};
+
+struct GapRecord {
+  int64_t first_seq = 0;
+  int64_t last_seq = 0;
+  std::optional<int64_t> first_sample;
+  std::optional<int64_t> num_samples;
+  std::string reason;  // "seq": batches never archived; "counter": device counter jumped
+  int64_t detected_utime = 0;
+};
+
+struct CurveRecord {
+  std::string axis;
+  allan::Curve curve;
+  int64_t samples = 0;
+  int64_t valid_samples = 0;
+  int64_t computed_utime = 0;
+};
+
+struct ResultRecord {
+  std::string verdict;  // "PASS", "MARGINAL", "FAIL" or "" (not judged)
+  std::vector<std::string> reasons;
+  int64_t samples = 0;
+  int64_t gap_samples = 0;
+  int64_t invalid_samples = 0;
+  std::vector<pb::Measurement> measurements;
+  std::string record;   // serialized pb::RunRecord
+  int64_t result_utime = 0;
+};
+
+class Archive {
+ public:
+  enum class Mode { kWrite, kRead };
+  // kWrite creates/migrates the file and sets WAL + synchronous=NORMAL.
+  // kRead requires an existing archive at the current schema. Errors name
+  // the file and what is wrong with it (missing, not SQLite, not imuqual,
+  // newer schema, read-only directory, ...).
+  static Result<std::unique_ptr<Archive>> Open(const std::string& path, Mode mode);
+  ~Archive();
+
+  Status Begin();
+  Status Commit();
+  Status Rollback();
+
+  // --- writes (kWrite) ---
+  // Inserts the run (and its lot, unit and axes) or updates its state,
+  // last_seq and counts. A finished run (complete/aborted) never goes back
+  // to running. Returns the run's key.
+  Result<int64_t> UpsertRun(const RunInfo& run);
+  // Idempotent on (run, seq): a duplicate or resent chunk changes nothing.
+  // *inserted says whether the row is new.
+  Status InsertChunk(int64_t run_key, const ChunkRecord& chunk, bool* inserted);
+  // Replaces the run's gap rows with the holes in seq 0..last_seq and the
+  // jumps in the device counter between consecutive archived chunks.
+  Status RecomputeGaps(int64_t run_key, int64_t last_seq, int64_t now_utime);
+  Status PutCurve(int64_t run_key, const CurveRecord& curve);
+  Status PutResult(int64_t run_key, const ResultRecord& result);
+  // Marks runs still 'running' whose last announcement is older than
+  // `before_utime` as 'incomplete'. Returns how many.
+  Result<int> MarkStaleRunsIncomplete(int64_t before_utime);
+
+  // --- reads ---
+  Result<std::optional<int64_t>> FindRunKey(const std::string& run_id);
+  Result<RunInfo> LoadRun(const std::string& run_id);
+  // The smallest seq not archived for the run (0 if none).
+  Result<int64_t> NextMissingSeq(int64_t run_key);
+  // Seqs archived at or above `from_seq`, ascending.
+  Result<std::vector<int64_t>> ArchivedSeqsFrom(int64_t run_key, int64_t from_seq);
+  // Every chunk in seq order.
+  Status ForEachChunk(int64_t run_key, const std::function<Status(const ChunkRecord&)>& fn);
+  Result<std::vector<GapRecord>> LoadGaps(int64_t run_key);
+  Result<std::vector<CurveRecord>> LoadCurves(int64_t run_key);
+
+  Db& db() { return *db_; }
+  const std::string& path() const { return db_->path(); }
+
+ private:
+  explicit Archive(std::unique_ptr<Db> db) : db_(std::move(db)) {}
+  Result<Stmt*> Cached(int id, const char* sql);
+
+  std::unique_ptr<Db> db_;
+  std::vector<std::unique_ptr<Stmt>> cache_;
+};
+
+const char* AxisKindName(pb::AxisKind kind);  // "gyro" / "accel"
+pb::AxisKind ParseAxisKind(const std::string& name);
+
+}  // namespace imuqual::store
+
+#endif  // IMUQUAL_STORE_ARCHIVE_H_

@@ -1,0 +1,266 @@
+#include "store/archive.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <cstring>
+#include <fstream>
+
+#include "store/chunk_codec.h"
+#include "store/schema.h"
+
+namespace imuqual::store {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ArchiveTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("imuqual_archive_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    path_ = (dir_ / "a.db").string();
+  }
+  void TearDown() override {
+    fs::permissions(dir_, fs::perms::owner_all);
+    fs::remove_all(dir_);
+  }
+
+  static RunInfo Run(const std::string& id) {
+    RunInfo r;
+    r.run_id = id;
+    r.serial = "U1";
+    r.lot = "L1";
+    r.start_utime = 1000;
+    r.nominal_rate_hz = 100;
+    r.axes = {{"x", pb::GYRO}, {"ax", pb::ACCEL}};
+    r.plan = "planbytes";
+    r.last_seq = -1;
+    return r;
+  }
+
+  static ChunkRecord Chunk(int64_t seq, int64_t first, int n) {
+    ChunkData d;
+    d.num_axes = 2;
+    d.num_samples = n;
+    for (int i = 0; i < 2 * n; ++i) d.samples.push_back(static_cast<float>(seq * 1000 + i));
+    ChunkRecord c;
+    c.seq = seq;
+    c.first_sample = first;
+    c.num_samples = n;
+    c.host_utime = 5;
+    c.codec = kCodecRawFloat32;
+    c.data = EncodeChunk(d, kCodecRawFloat32);
+    return c;
+  }
+
+  fs::path dir_;
+  std::string path_;
+};
+
+TEST_F(ArchiveTest, RunsChunksAndGapsRoundTrip) {
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  ASSERT_TRUE((*a)->Begin().ok());
+  auto key = (*a)->UpsertRun(Run("R1"));
+  ASSERT_TRUE(key.ok()) << key.status().ToString();
+  bool inserted = false;
+  // seq 0, 1, 3 (2 missing), 4 with a counter jump of 7 samples, and a duplicate of 1.
+  ASSERT_TRUE((*a)->InsertChunk(*key, Chunk(0, 0, 10), &inserted).ok());
+  EXPECT_TRUE(inserted);
+  ASSERT_TRUE((*a)->InsertChunk(*key, Chunk(1, 10, 10), &inserted).ok());
+  ASSERT_TRUE((*a)->InsertChunk(*key, Chunk(3, 30, 10), &inserted).ok());
+  ASSERT_TRUE((*a)->InsertChunk(*key, Chunk(4, 47, 10), &inserted).ok());
+  ASSERT_TRUE((*a)->InsertChunk(*key, Chunk(1, 10, 10), &inserted).ok());
+  EXPECT_FALSE(inserted);
+  EXPECT_EQ(*(*a)->NextMissingSeq(*key), 2);
+  // The run completes with last_seq 6: seqs 5 and 6 never arrived.
+  RunInfo done = Run("R1");
+  done.state = "complete";
+  done.last_seq = 6;
+  done.end_utime = 2000;
+  ASSERT_EQ(*(*a)->UpsertRun(done), *key);
+  ASSERT_TRUE((*a)->RecomputeGaps(*key, 6, 3000).ok());
+  ASSERT_TRUE((*a)->Commit().ok());
+  // A late heartbeat saying "running" does not reopen a finished run.
+  ASSERT_TRUE((*a)->UpsertRun(Run("R1")).ok());
+
+  auto gaps = (*a)->LoadGaps(*key);
+  ASSERT_TRUE(gaps.ok());
+  ASSERT_EQ(gaps->size(), 3u);
+  EXPECT_EQ((*gaps)[0].reason, "seq");
+  EXPECT_EQ((*gaps)[0].first_seq, 2);
+  EXPECT_EQ((*gaps)[0].last_seq, 2);
+  EXPECT_EQ((*gaps)[0].first_sample.value(), 20);
+  EXPECT_EQ((*gaps)[0].num_samples.value(), 10);
+  EXPECT_EQ((*gaps)[1].reason, "counter");
+  EXPECT_EQ((*gaps)[1].num_samples.value(), 7);
+  EXPECT_EQ((*gaps)[2].first_seq, 5);
+  EXPECT_EQ((*gaps)[2].last_seq, 6);
+
+  // A reader sees it all, in seq order, bit-exact.
+  auto r = Archive::Open(path_, Archive::Mode::kRead);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  auto run = (*r)->LoadRun("R1");
+  ASSERT_TRUE(run.ok());
+  EXPECT_EQ(run->state, "complete");
+  EXPECT_EQ(run->last_seq, 6);
+  EXPECT_EQ(run->plan, "planbytes");
+  ASSERT_EQ(run->axes.size(), 2u);
+  EXPECT_EQ(run->axes[1].kind, pb::ACCEL);
+  std::vector<int64_t> seqs;
+  ASSERT_TRUE((*r)->ForEachChunk(*key, [&](const ChunkRecord& c) {
+                  seqs.push_back(c.seq);
+                  auto d = DecodeChunk(c.data, c.codec);
+                  EXPECT_TRUE(d.ok());
+                  EXPECT_EQ(d->at(1, 0), static_cast<float>(c.seq * 1000 + c.num_samples));
+                  return Status::Ok();
+                }).ok());
+  EXPECT_EQ(seqs, (std::vector<int64_t>{0, 1, 3, 4}));
+}
+
+TEST_F(ArchiveTest, ResultsAndCurvesReplaceEarlierOnes) {
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_TRUE(a.ok());
+  auto key = (*a)->UpsertRun(Run("R2"));
+  ASSERT_TRUE(key.ok());
+  CurveRecord c;
+  c.axis = "x";
+  c.curve.tau0_s = 0.01;
+  c.curve.ci = allan::CiMethod::kSimple;
+  for (int64_t m : {1, 2, 4}) {
+    allan::CurvePoint p;
+    p.m = m;
+    p.tau_s = m * 0.01;
+    p.dev = 1.0 / m;
+    p.n = 100 - m;
+    p.lo = 0.9 / m;
+    p.hi = 1.1 / m;
+    p.edf = 50;
+    c.curve.points.push_back(p);
+  }
+  ASSERT_TRUE((*a)->PutCurve(*key, c).ok());
+  c.curve.points.pop_back();
+  ASSERT_TRUE((*a)->PutCurve(*key, c).ok());
+  auto curves = (*a)->LoadCurves(*key);
+  ASSERT_TRUE(curves.ok());
+  ASSERT_EQ(curves->size(), 1u);
+  EXPECT_EQ((*curves)[0].curve.points.size(), 2u);
+  EXPECT_EQ((*curves)[0].curve.points[1].dev, 0.5);
+  EXPECT_EQ((*curves)[0].curve.ci, allan::CiMethod::kSimple);
+
+  ResultRecord res;
+  res.verdict = "FAIL";
+  res.reasons = {"x: bias_instability 30 deg/h above high limit 20 deg/h"};
+  pb::Measurement m;
+  m.set_axis("x");
+  m.set_name("bias_instability");
+  m.set_value(30);
+  m.set_unit("deg/h");
+  m.set_high(20);
+  m.set_outcome(pb::FAIL);
+  res.measurements.push_back(m);
+  ASSERT_TRUE((*a)->PutResult(*key, res).ok());
+  res.verdict = "PASS";
+  res.measurements[0].set_value(10);
+  res.measurements[0].set_outcome(pb::PASS);
+  ASSERT_TRUE((*a)->PutResult(*key, res).ok());
+  auto n = (*a)->db().QueryInt("SELECT COUNT(*) FROM measurements");
+  EXPECT_EQ(*n, 1);
+  auto stmt = (*a)->db().Prepare(
+      "SELECT bias_instability, axis_verdict, run_verdict FROM axis_results WHERE axis = 'x'");
+  ASSERT_TRUE(stmt.ok());
+  ASSERT_TRUE(*stmt->Step());
+  EXPECT_EQ(stmt->Real(0), 10);
+  EXPECT_EQ(stmt->Text(1), "PASS");
+  EXPECT_EQ(stmt->Text(2), "PASS");
+}
+
+TEST_F(ArchiveTest, RefusesFilesThatAreNotArchives) {
+  // Not SQLite at all.
+  { std::ofstream(path_) << "this is not a database, just some text that is long enough....."; }
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_FALSE(a.ok());
+  EXPECT_NE(a.status().message().find("not an imuqual archive"), std::string::npos)
+      << a.status().message();
+  // The file was not touched.
+  std::ifstream in(path_);
+  std::string first;
+  std::getline(in, first);
+  EXPECT_EQ(first.rfind("this is not a database", 0), 0u);
+
+  // SQLite, but another application's.
+  const std::string other = (dir_ / "other.db").string();
+  {
+    auto db = Db::Open(other, Db::Mode::kReadWrite);
+    ASSERT_TRUE(db.ok());
+    ASSERT_TRUE((*db)->Exec("CREATE TABLE t(x)").ok());
+  }
+  a = Archive::Open(other, Archive::Mode::kWrite);
+  ASSERT_FALSE(a.ok());
+  EXPECT_NE(a.status().message().find("SQLite database but not an imuqual archive"),
+            std::string::npos);
+
+  // Missing file for reading.
+  a = Archive::Open((dir_ / "missing.db").string(), Archive::Mode::kRead);
+  ASSERT_FALSE(a.ok());
+  EXPECT_EQ(a.status().code(), Status::Code::kNotFound);
+}
+
+TEST_F(ArchiveTest, RefusesANewerSchema) {
+  {
+    auto a = Archive::Open(path_, Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok());
+    ASSERT_TRUE((*a)->db().Exec("PRAGMA user_version = 999").ok());
+  }
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_FALSE(a.ok());
+  EXPECT_NE(a.status().message().find("newer than this imuqual"), std::string::npos);
+}
+
+TEST_F(ArchiveTest, ReadOnlyDirectoryIsAClearError) {
+  if (::geteuid() == 0) {
+    // root ignores directory permissions; the check is exercised through
+    // access(2) anyway, so emulate with a path under a non-directory.
+    auto a = Archive::Open((dir_ / "a.db" / "x.db").string(), Archive::Mode::kWrite);
+    ASSERT_FALSE(a.ok());
+    EXPECT_NE(a.status().message().find("cannot write the archive"), std::string::npos)
+        << a.status().message();
+    return;
+  }
+  fs::permissions(dir_, fs::perms::owner_read | fs::perms::owner_exec);
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_FALSE(a.ok());
+  EXPECT_NE(a.status().message().find("cannot write the archive"), std::string::npos);
+}
+
+TEST(ChunkCodecTest, RoundTripsExactlyAndRejectsLies) {
+  ChunkData d;
+  d.num_axes = 3;
+  d.num_samples = 4;
+  d.samples = {1.5f, -0.0f, 3e-38f, 1e38f, 0, 1, 2, 3, 4, 5, 6, std::nanf("")};
+  d.flags = {{2, 1, 1}, {3, 2, 2}};
+  const std::vector<uint8_t> blob = EncodeChunk(d, kCodecRawFloat32);
+  auto back = DecodeChunk(blob, kCodecRawFloat32);
+  ASSERT_TRUE(back.ok());
+  ASSERT_EQ(back->samples.size(), d.samples.size());
+  EXPECT_EQ(std::memcmp(back->samples.data(), d.samples.data(), d.samples.size() * 4), 0);
+  EXPECT_EQ(back->flags, d.flags);
+  // Truncated, padded, wrong codec, flag outside.
+  EXPECT_FALSE(DecodeChunk(std::span(blob).first(blob.size() - 1), kCodecRawFloat32).ok());
+  std::vector<uint8_t> padded = blob;
+  padded.push_back(0);
+  EXPECT_FALSE(DecodeChunk(padded, kCodecRawFloat32).ok());
+  EXPECT_FALSE(DecodeChunk(blob, 99).ok());
+  std::vector<uint8_t> lying = blob;
+  lying[lying.size() - 4] = 200;  // last flag's sample index
+  EXPECT_FALSE(DecodeChunk(lying, kCodecRawFloat32).ok());
+  EXPECT_FALSE(DecodeChunk({}, kCodecRawFloat32).ok());
+}
+
+}  // namespace
+}  // namespace imuqual::store

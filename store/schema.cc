@@ -1,0 +1,248 @@
+#include "store/schema.h"
+
+#include <string>
+#include <vector>
+
+namespace imuqual::store {
+namespace {
+
+// Migration i takes the schema from version i to version i + 1.
+const std::vector<std::string>& Migrations() {
+  static const std::vector<std::string> kMigrations = {
+      // 0 -> 1: the initial schema.
+      R"sql(
+CREATE TABLE lots (
+  lot               TEXT PRIMARY KEY,
+  first_seen_utime  INTEGER NOT NULL
+);
+CREATE TABLE units (
+  serial            TEXT PRIMARY KEY,
+  first_seen_utime  INTEGER NOT NULL
+);
+CREATE TABLE runs (
+  run_key           INTEGER PRIMARY KEY,
+  run_id            TEXT NOT NULL UNIQUE,
+  serial            TEXT NOT NULL REFERENCES units(serial),
+  lot               TEXT NOT NULL REFERENCES lots(lot),
+  station           TEXT NOT NULL DEFAULT '',
+  slot              TEXT NOT NULL DEFAULT '',
+  operator          TEXT NOT NULL DEFAULT '',
+  source            TEXT NOT NULL DEFAULT '',
+  software_version  TEXT NOT NULL DEFAULT '',
+  start_utime       INTEGER NOT NULL,
+  end_utime         INTEGER,
+  state             TEXT NOT NULL CHECK (state IN ('running', 'complete', 'aborted', 'incomplete')),
+  nominal_rate_hz   REAL NOT NULL,
+  last_seq          INTEGER NOT NULL DEFAULT -1,
+  samples_announced INTEGER NOT NULL DEFAULT 0,
+  plan              BLOB,
+  plan_sha256       TEXT,
+  truth             BLOB,
+  samples           INTEGER,
+  gap_samples       INTEGER,
+  invalid_samples   INTEGER,
+  verdict           TEXT CHECK (verdict IN ('PASS', 'MARGINAL', 'FAIL')),
+  reasons           TEXT,
+  record            BLOB,
+  result_utime      INTEGER
+);
+CREATE INDEX runs_by_lot ON runs(lot, start_utime);
+CREATE INDEX runs_by_serial ON runs(serial, start_utime);
+
+CREATE TABLE run_axes (
+  run_key     INTEGER NOT NULL REFERENCES runs(run_key),
+  axis_index  INTEGER NOT NULL,
+  axis        TEXT NOT NULL,
+  kind        TEXT NOT NULL CHECK (kind IN ('gyro', 'accel')),
+  unit        TEXT NOT NULL,
+  PRIMARY KEY (run_key, axis_index)
+);
+
+CREATE TABLE raw_chunks (
+  run_key       INTEGER NOT NULL REFERENCES runs(run_key),
+  seq           INTEGER NOT NULL,
+  first_sample  INTEGER NOT NULL,
+  num_samples   INTEGER NOT NULL,
+  host_utime    INTEGER NOT NULL,
+  temperature_c REAL,
+  codec         INTEGER NOT NULL,
+  data          BLOB NOT NULL,
+  PRIMARY KEY (run_key, seq)
+);
+
+CREATE TABLE gaps (
+  run_key        INTEGER NOT NULL REFERENCES runs(run_key),
+  first_seq      INTEGER NOT NULL,
+  last_seq       INTEGER NOT NULL,
+  first_sample   INTEGER,
+  num_samples    INTEGER,
+  reason         TEXT NOT NULL,
+  detected_utime INTEGER NOT NULL,
+  PRIMARY KEY (run_key, first_seq)
+);
+
+CREATE TABLE curves (
+  run_key        INTEGER NOT NULL REFERENCES runs(run_key),
+  axis           TEXT NOT NULL,
+  estimator      TEXT NOT NULL,
+  ci_method      TEXT NOT NULL,
+  tau0_s         REAL NOT NULL,
+  samples        INTEGER NOT NULL,
+  valid_samples  INTEGER NOT NULL,
+  computed_utime INTEGER NOT NULL,
+  PRIMARY KEY (run_key, axis, estimator)
+);
+CREATE TABLE curve_points (
+  run_key    INTEGER NOT NULL,
+  axis       TEXT NOT NULL,
+  estimator  TEXT NOT NULL,
+  m          INTEGER NOT NULL,
+  tau_s      REAL NOT NULL,
+  dev        REAL NOT NULL,
+  lo         REAL,
+  hi         REAL,
+  edf        REAL,
+  n_terms    INTEGER NOT NULL,
+  PRIMARY KEY (run_key, axis, estimator, m),
+  FOREIGN KEY (run_key, axis, estimator) REFERENCES curves(run_key, axis, estimator)
+);
+
+CREATE TABLE measurements (
+  run_key        INTEGER NOT NULL REFERENCES runs(run_key),
+  axis           TEXT NOT NULL,
+  name           TEXT NOT NULL,
+  value          REAL,
+  unit           TEXT NOT NULL,
+  low            REAL,
+  high           REAL,
+  marginal_low   REAL,
+  marginal_high  REAL,
+  outcome        TEXT CHECK (outcome IN ('PASS', 'MARGINAL', 'FAIL')),
+  note           TEXT NOT NULL DEFAULT '',
+  PRIMARY KEY (run_key, axis, name)
+);
+CREATE INDEX measurements_by_name ON measurements(name, axis);
+
+-- One row per run and axis with the headline figures.
+CREATE VIEW axis_results AS
+SELECT r.lot, r.serial AS unit, r.run_id, r.start_utime, r.state, ra.axis, ra.kind,
+       MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.value END) AS random_walk,
+       MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.unit END) AS random_walk_unit,
+       MAX(CASE WHEN m.name = 'bias_instability' THEN m.value END) AS bias_instability,
+       MAX(CASE WHEN m.name = 'bias_instability_ieee' THEN m.value END) AS bias_instability_ieee,
+       MAX(CASE WHEN m.name = 'bias_instability' THEN m.unit END) AS bias_instability_unit,
+       MAX(CASE WHEN m.name = 'tau_at_minimum' THEN m.value END) AS tau_min_s,
+       MAX(CASE WHEN m.name = 'rate_random_walk' THEN m.value END) AS rate_random_walk,
+       r.gap_samples, r.invalid_samples, r.samples,
+       CASE WHEN SUM(m.outcome = 'FAIL') > 0 THEN 'FAIL'
+            WHEN SUM(m.outcome = 'MARGINAL') > 0 THEN 'MARGINAL'
+            WHEN SUM(m.outcome = 'PASS') > 0 THEN 'PASS' END AS axis_verdict,
+       r.verdict AS run_verdict
+FROM runs r
+JOIN run_axes ra ON ra.run_key = r.run_key
+LEFT JOIN measurements m ON m.run_key = r.run_key AND m.axis = ra.axis
+GROUP BY r.run_key, ra.axis_index;
+
+-- Every judged value with its run's lot and unit, for generic lot queries.
+CREATE VIEW lot_measurements AS
+SELECT r.lot, r.serial AS unit, r.run_id, r.start_utime, m.axis,
+       COALESCE(ra.kind, '') AS kind, m.name, m.value, m.unit, m.low, m.high,
+       m.marginal_low, m.marginal_high, m.outcome
+FROM measurements m
+JOIN runs r ON r.run_key = m.run_key
+LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis;
+
+-- Per lot: runs, finished runs, verdict counts and yield.
+CREATE VIEW lot_overview AS
+SELECT lot, COUNT(*) AS runs, COUNT(DISTINCT serial) AS units,
+       SUM(verdict = 'PASS') AS pass, SUM(verdict = 'MARGINAL') AS marginal,
+       SUM(verdict = 'FAIL') AS fail, SUM(verdict IS NULL) AS unjudged,
+       1.0 * SUM(verdict IN ('PASS', 'MARGINAL')) / NULLIF(SUM(verdict IS NOT NULL), 0) AS yield,
+       MIN(start_utime) AS first_start_utime, MAX(start_utime) AS last_start_utime
+FROM runs GROUP BY lot;
+
+-- Per lot, measurement and axis kind: count, mean, sd, min, max, pass rate.
+CREATE VIEW lot_statistics AS
+SELECT lot, kind, name, unit, COUNT(value) AS n, AVG(value) AS mean,
+       SQRT(MAX(AVG(value * value) - AVG(value) * AVG(value), 0) * COUNT(value) / NULLIF(COUNT(value) - 1, 0)) AS sd,
+       MIN(value) AS min, MAX(value) AS max,
+       1.0 * SUM(outcome IN ('PASS', 'MARGINAL')) / NULLIF(SUM(outcome IS NOT NULL), 0) AS pass_rate
+FROM lot_measurements GROUP BY lot, kind, name, unit;
+
+-- Archive completeness per run: chunks and samples held, gaps recorded.
+CREATE VIEW run_archive AS
+SELECT r.run_id, r.lot, r.serial AS unit, r.state, r.last_seq,
+       (SELECT COUNT(*) FROM raw_chunks c WHERE c.run_key = r.run_key) AS chunks,
+       (SELECT COALESCE(SUM(num_samples), 0) FROM raw_chunks c WHERE c.run_key = r.run_key) AS samples_archived,
+       (SELECT COUNT(*) FROM gaps g WHERE g.run_key = r.run_key) AS gap_ranges,
+       (SELECT COALESCE(SUM(num_samples), 0) FROM gaps g WHERE g.run_key = r.run_key) AS gap_samples
+FROM runs r;
+)sql",
+  };
+  return kMigrations;
+}
+
+Status CheckIdentity(Db& db, bool* empty) {
+  // The first read of the file: a non-SQLite file fails here.
+  auto app = db.QueryInt("PRAGMA application_id");
+  if (!app.ok()) {
+    return Status::Corruption(db.path() + " is not an imuqual archive (" + app.status().message() +
+                              ")");
+  }
+  auto tables = db.QueryInt("SELECT COUNT(*) FROM sqlite_schema");
+  if (!tables.ok()) {
+    return Status::Corruption(db.path() + " is not an imuqual archive (" +
+                              tables.status().message() + ")");
+  }
+  *empty = *tables == 0;
+  if (!*empty && *app != kApplicationId) {
+    return Status::InvalidArgument(db.path() +
+                                   " is an SQLite database but not an imuqual archive");
+  }
+  auto version = db.QueryInt("PRAGMA user_version");
+  if (!version.ok()) return version.status();
+  if (*version > SchemaVersion()) {
+    return Status::InvalidArgument(db.path() + " has schema version " + std::to_string(*version) +
+                                   ", newer than this imuqual's " +
+                                   std::to_string(SchemaVersion()) + "; upgrade imuqual");
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+int SchemaVersion() { return static_cast<int>(Migrations().size()); }
+
+Status CheckReadable(Db& db) {
+  bool empty = false;
+  IMUQUAL_RETURN_IF_ERROR(CheckIdentity(db, &empty));
+  if (empty) return Status::NotFound(db.path() + " is an empty database (no imuqual archive yet)");
+  auto version = db.QueryInt("PRAGMA user_version");
+  if (!version.ok()) return version.status();
+  if (*version != SchemaVersion()) {
+    return Status::InvalidArgument(db.path() + " has schema version " + std::to_string(*version) +
+                                   "; open it once with imuqual-store to migrate it");
+  }
+  return Status::Ok();
+}
+
+Status Migrate(Db& db) {
+  bool empty = false;
+  IMUQUAL_RETURN_IF_ERROR(CheckIdentity(db, &empty));
+  auto version = db.QueryInt("PRAGMA user_version");
+  if (!version.ok()) return version.status();
+  for (int v = static_cast<int>(*version); v < SchemaVersion(); ++v) {
+    IMUQUAL_RETURN_IF_ERROR(db.Exec("BEGIN IMMEDIATE"));
+    Status st = db.Exec(Migrations()[v]);
+    if (st.ok()) st = db.Exec("PRAGMA user_version = " + std::to_string(v + 1));
+    if (st.ok() && v == 0) st = db.Exec("PRAGMA application_id = " + std::to_string(kApplicationId));
+    if (!st.ok()) {
+      (void)db.Exec("ROLLBACK");
+      return st.WithContext("migrating " + db.path() + " to schema " + std::to_string(v + 1));
+    }
+    IMUQUAL_RETURN_IF_ERROR(db.Exec("COMMIT"));
+  }
+  return Status::Ok();
+}
+
+}  // namespace imuqual::store

@@ -1,0 +1,91 @@
+// A thin RAII layer over the SQLite C API that reports failures as Status
+// values naming the statement and SQLite's message. Bound parameters only:
+// no SQL is ever built from data. A Db is used by one thread at a time.
+#ifndef IMUQUAL_STORE_SQLITE_H_
+#define IMUQUAL_STORE_SQLITE_H_
+
+#include <sqlite3.h>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/status.h"
+
+namespace imuqual::store {
+
+class Stmt;
+
+class Db {
+ public:
+  enum class Mode { kReadWrite, kReadOnly };
+  // Opens (kReadWrite: creating) the file. The file is not read until the
+  // first statement; Archive::Open checks that it really is a database.
+  static Result<std::unique_ptr<Db>> Open(const std::string& path, Mode mode);
+  ~Db();
+  Db(const Db&) = delete;
+  Db& operator=(const Db&) = delete;
+
+  // Runs one or more statements without parameters (DDL, pragmas).
+  Status Exec(const std::string& sql);
+  // Compiles one statement.
+  Result<Stmt> Prepare(const std::string& sql);
+  // Single integer result of a query such as "PRAGMA user_version".
+  Result<int64_t> QueryInt(const std::string& sql);
+
+  sqlite3* handle() { return db_; }
+  const std::string& path() const { return path_; }
+  // The last error as "<sqlite message> (<extended code name>)".
+  std::string ErrorMessage() const;
+
+ private:
+  Db(sqlite3* db, std::string path) : db_(db), path_(std::move(path)) {}
+  sqlite3* db_;
+  std::string path_;
+};
+
+// A prepared statement. Bind*() indices are 1-based, as in SQLite.
+class Stmt {
+ public:
+  Stmt(Stmt&& other) noexcept;
+  Stmt& operator=(Stmt&& other) noexcept;
+  ~Stmt();
+
+  Stmt& Bind(int i, int64_t v);
+  Stmt& Bind(int i, int v) { return Bind(i, static_cast<int64_t>(v)); }
+  Stmt& Bind(int i, double v);              // NaN binds NULL
+  Stmt& Bind(int i, std::string_view v);    // text
+  Stmt& Bind(int i, const char* v) { return Bind(i, std::string_view(v)); }
+  Stmt& Bind(int i, const std::string& v) { return Bind(i, std::string_view(v)); }
+  Stmt& BindBlob(int i, std::span<const uint8_t> v);
+  Stmt& BindNull(int i);
+  Stmt& Bind(int i, std::optional<double> v) { return v ? Bind(i, *v) : BindNull(i); }
+
+  // Steps once: true while a row is available, false when done.
+  Result<bool> Step();
+  // Steps to completion (for writes), then resets for reuse.
+  Status Run();
+  void Reset();
+
+  int64_t Int(int col) const;
+  double Real(int col) const;               // NULL reads as NaN
+  std::string Text(int col) const;
+  std::vector<uint8_t> Blob(int col) const;
+  bool IsNull(int col) const;
+
+ private:
+  friend class Db;
+  Stmt(sqlite3_stmt* stmt, Db* db, std::string sql) : stmt_(stmt), db_(db), sql_(std::move(sql)) {}
+  sqlite3_stmt* stmt_ = nullptr;
+  Db* db_ = nullptr;
+  std::string sql_;
+  Status bind_error_;
+};
+
+}  // namespace imuqual::store
+
+#endif  // IMUQUAL_STORE_SQLITE_H_
