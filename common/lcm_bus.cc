@@ -5,7 +5,6 @@
 #include <cerrno>
 #include <cstring>
 
-#include "common/clock.h"
 #include "common/log.h"
 
 namespace imuqual {
@@ -36,23 +35,20 @@ Result<std::unique_ptr<LcmBus>> LcmBus::Open(const std::string& url) {
 Status LcmBus::HandleFor(int timeout_ms) {
   int fd = lcm_->getFileno();
   if (fd < 0) return Status::Unavailable("LCM bus has no receive socket: " + url_);
-  const double deadline = MonotonicSeconds() + timeout_ms / 1000.0;
-  int wait_ms = timeout_ms;
-  bool dispatched = false;
-  for (;;) {
+  // Wait up to timeout_ms for the first message, then dispatch whatever is
+  // already queued (bounded, so a flood cannot starve the caller's loop).
+  constexpr int kMaxDispatchPerCall = 2000;
+  for (int dispatched = 0; dispatched < kMaxDispatchPerCall; ++dispatched) {
     pollfd pfd{fd, POLLIN, 0};
-    int rc = ::poll(&pfd, 1, dispatched ? 0 : wait_ms);
+    const int rc = ::poll(&pfd, 1, dispatched == 0 ? timeout_ms : 0);
     if (rc < 0) {
       if (errno == EINTR) return Status::Ok();
       return Status::IoError(std::string("poll on LCM bus: ") + std::strerror(errno));
     }
     if (rc == 0) return Status::Ok();
     if (lcm_->handle() != 0) return Status::IoError("LCM handle() failed on " + url_);
-    dispatched = true;
-    // Keep draining what is already queued, but never past the deadline.
-    if (MonotonicSeconds() >= deadline) return Status::Ok();
-    wait_ms = 0;
   }
+  return Status::Ok();
 }
 
 Status LcmBus::PublishBytes(const std::string& channel, const std::vector<uint8_t>& bytes) {

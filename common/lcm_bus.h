@@ -56,8 +56,13 @@ class LcmBus {
   template <typename T>
   Status Publish(const std::string& channel, const T& msg);
 
-  // Dispatches arriving messages for up to `timeout_ms` (returns earlier
-  // after dispatching at least one message and draining what is queued).
+  // Publishes an already encoded message (e.g. a retained batch resent).
+  Status PublishEncoded(const std::string& channel, const std::vector<uint8_t>& bytes) {
+    return PublishBytes(channel, bytes);
+  }
+
+  // Waits up to `timeout_ms` for a message, then dispatches what is queued
+  // (at most a few thousand messages per call).
   Status HandleFor(int timeout_ms);
 
   const std::string& url() const { return url_; }
@@ -95,13 +100,13 @@ template <typename T>
 Status DecodeExactly(const void* data, int size, T* out) {
   try {
     int used = out->decode(data, 0, size);
-    if (used < 0) return Status::Corruption("does not decode as " + T::getTypeName());
+    if (used < 0) return Status::Corruption("does not decode as " + std::string(T::getTypeName()));
     if (used != size) {
-      return Status::Corruption("decodes as " + T::getTypeName() + " but leaves " +
+      return Status::Corruption("decodes as " + std::string(T::getTypeName()) + " but leaves " +
                                 std::to_string(size - used) + " trailing bytes");
     }
   } catch (const std::exception& e) {
-    return Status::Corruption("length fields of " + T::getTypeName() + " do not fit (" +
+    return Status::Corruption("length fields of " + std::string(T::getTypeName()) + " do not fit (" +
                               e.what() + ")");
   }
   return Status::Ok();
@@ -117,7 +122,7 @@ void LcmBus::Subscribe(const std::string& channel_regex, int queue_capacity,
     T msg;
     Status st = DecodeExactly(rbuf->data, static_cast<int>(rbuf->data_size), &msg);
     if (!st.ok()) {
-      NoteDecodeError(channel, T::getTypeName(), st.message().c_str());
+      NoteDecodeError(channel, std::string(T::getTypeName()), st.message().c_str());
       return;
     }
     try {
@@ -133,19 +138,26 @@ void LcmBus::Subscribe(const std::string& channel_regex, int queue_capacity,
   subscriptions_.push_back(std::move(sub));
 }
 
+// Encodes `msg` into `bytes`; fails on inconsistent length fields.
+template <typename T>
+Status EncodeMessage(const T& msg, std::vector<uint8_t>* bytes) {
+  try {
+    int size = msg.getEncodedSize();
+    if (size < 0) return Status::InvalidArgument("cannot size " + std::string(T::getTypeName()));
+    bytes->resize(static_cast<size_t>(size));
+    if (msg.encode(bytes->data(), 0, size) != size) {
+      return Status::InvalidArgument("cannot encode " + std::string(T::getTypeName()) + " (inconsistent lengths)");
+    }
+  } catch (const std::exception& e) {
+    return Status::InvalidArgument("cannot encode " + std::string(T::getTypeName()) + ": " + e.what());
+  }
+  return Status::Ok();
+}
+
 template <typename T>
 Status LcmBus::Publish(const std::string& channel, const T& msg) {
   std::vector<uint8_t> bytes;
-  try {
-    int size = msg.getEncodedSize();
-    if (size < 0) return Status::InvalidArgument("cannot size " + T::getTypeName());
-    bytes.resize(static_cast<size_t>(size));
-    if (msg.encode(bytes.data(), 0, size) != size) {
-      return Status::InvalidArgument("cannot encode " + T::getTypeName() + " (inconsistent lengths)");
-    }
-  } catch (const std::exception& e) {
-    return Status::InvalidArgument("cannot encode " + T::getTypeName() + ": " + e.what());
-  }
+  IMUQUAL_RETURN_IF_ERROR(EncodeMessage(msg, &bytes));
   return PublishBytes(channel, bytes);
 }
 

@@ -5,6 +5,16 @@
 #include <cmath>
 #include <vector>
 
+// The summation kernels are compiled for AVX2 and for the baseline ISA; the
+// dynamic loader picks one per machine (function multi-versioning). FMA is
+// deliberately not enabled, so both versions round every operation the same
+// way and give bit-identical sums (the compiler never reorders lanes).
+#if defined(__x86_64__) && defined(__GNUC__) && defined(__ELF__) && !defined(__clang__)
+#define IMUQUAL_VECTOR_KERNEL __attribute__((target_clones("avx2", "default")))
+#else
+#define IMUQUAL_VECTOR_KERNEL
+#endif
+
 namespace imuqual::allan {
 namespace {
 
@@ -33,59 +43,104 @@ double SumLanes(const double (&acc)[kLanes]) {
   return a + b;
 }
 
-// sum_{i=begin}^{end-1} d_i^2, d_i = (x_{i+2m} - x_{i+m}) - (x_{i+m} - x_i),
+// sum_{i=begin}^{end-1} d_i^2 over one piece (at most kChunk terms), with
+//   d_i = (x_{i+2m} - x_{i+m}) - (x_{i+m} - x_i),
 // the second difference x_{i+2m} - 2x_{i+m} + x_i written as a difference of
 // first differences (each first difference of nearby phases is nearly exact).
-double SumSquaredSecondDifferences(const double* x, int64_t m, int64_t begin, int64_t end) {
-  const double* x0 = x;
-  const double* x1 = x + m;
-  const double* x2 = x + 2 * m;
-  double total = 0.0;
-  for (int64_t chunk = begin; chunk < end; chunk += kChunk) {
-    const int64_t chunk_end = std::min(end, chunk + kChunk);
-    double acc[kLanes] = {};
-    int64_t i = chunk;
-    for (; i + kLanes <= chunk_end; i += kLanes) {
-      for (int k = 0; k < kLanes; ++k) {
-        const double d = (x2[i + k] - x1[i + k]) - (x1[i + k] - x0[i + k]);
-        acc[k] += d * d;
-      }
+IMUQUAL_VECTOR_KERNEL
+double SecondDifferencePiece(const double* x, int64_t m, int64_t begin, int64_t end) {
+  const double* x0 = x + begin;
+  const double* x1 = x0 + m;
+  const double* x2 = x1 + m;
+  const int64_t count = end - begin;
+  double acc[kLanes] = {};
+  int64_t i = 0;
+  for (; i + kLanes <= count; i += kLanes) {
+    for (int k = 0; k < kLanes; ++k) {
+      const double d = (x2[i + k] - x1[i + k]) - (x1[i + k] - x0[i + k]);
+      acc[k] += d * d;
     }
-    for (; i < chunk_end; ++i) {
-      const double d = (x2[i] - x1[i]) - (x1[i] - x0[i]);
-      acc[0] += d * d;
-    }
-    total += SumLanes(acc);
   }
-  return total;
+  for (; i < count; ++i) {
+    const double d = (x2[i] - x1[i]) - (x1[i] - x0[i]);
+    acc[0] += d * d;
+  }
+  return SumLanes(acc);
 }
 
-// sum_{i=begin}^{end-1} t_i^2, t_i = (x_{i+3m} - x_i) - 3 (x_{i+2m} - x_{i+m}),
-// the third difference x_{i+3m} - 3x_{i+2m} + 3x_{i+m} - x_i.
-double SumSquaredThirdDifferences(const double* x, int64_t m, int64_t begin, int64_t end) {
-  const double* x0 = x;
-  const double* x1 = x + m;
-  const double* x2 = x + 2 * m;
-  const double* x3 = x + 3 * m;
-  double total = 0.0;
-  for (int64_t chunk = begin; chunk < end; chunk += kChunk) {
-    const int64_t chunk_end = std::min(end, chunk + kChunk);
-    double acc[kLanes] = {};
-    int64_t i = chunk;
-    for (; i + kLanes <= chunk_end; i += kLanes) {
-      for (int k = 0; k < kLanes; ++k) {
-        const double t = (x3[i + k] - x0[i + k]) - 3.0 * (x2[i + k] - x1[i + k]);
-        acc[k] += t * t;
-      }
+// The same for t_i = (x_{i+3m} - x_i) - 3 (x_{i+2m} - x_{i+m}), the third
+// difference x_{i+3m} - 3x_{i+2m} + 3x_{i+m} - x_i.
+IMUQUAL_VECTOR_KERNEL
+double ThirdDifferencePiece(const double* x, int64_t m, int64_t begin, int64_t end) {
+  const double* x0 = x + begin;
+  const double* x1 = x0 + m;
+  const double* x2 = x1 + m;
+  const double* x3 = x2 + m;
+  const int64_t count = end - begin;
+  double acc[kLanes] = {};
+  int64_t i = 0;
+  for (; i + kLanes <= count; i += kLanes) {
+    for (int k = 0; k < kLanes; ++k) {
+      const double t = (x3[i + k] - x0[i + k]) - 3.0 * (x2[i + k] - x1[i + k]);
+      acc[k] += t * t;
     }
-    for (; i < chunk_end; ++i) {
-      const double t = (x3[i] - x0[i]) - 3.0 * (x2[i] - x1[i]);
-      acc[0] += t * t;
-    }
-    total += SumLanes(acc);
   }
-  return total;
+  for (; i < count; ++i) {
+    const double t = (x3[i] - x0[i]) - 3.0 * (x2[i] - x1[i]);
+    acc[0] += t * t;
+  }
+  return SumLanes(acc);
 }
+
+// Calls piece(b, e) for the pieces of [begin, end) cut at multiples of kChunk,
+// in increasing order. Cutting at absolute positions (not relative to begin)
+// makes every sum independent of how the range was reached, so a sweep over
+// many m at once and a sweep over one m give bit-identical results.
+template <typename Piece>
+void ForEachPiece(int64_t begin, int64_t end, Piece&& piece) {
+  while (begin < end) {
+    const int64_t piece_end = std::min(end, (begin / kChunk + 1) * kChunk);
+    piece(begin, piece_end);
+    begin = piece_end;
+  }
+}
+
+// The valid term starts for one m, visited in increasing order. Term i in
+// [0, last_start] is valid when no invalid rate sample lies in its window
+// y_i..y_{i+window-1}; between consecutive invalid samples g' < g the valid
+// starts are [g' + 1, g - window].
+class ValidRuns {
+ public:
+  ValidRuns(std::span<const int64_t> gaps, int64_t last_start, int64_t window)
+      : gaps_(gaps), last_start_(last_start), window_(window) {}
+
+  // Calls visit(b, e) for each non-empty intersection of a valid run with
+  // [lo, hi). Successive calls must cover increasing, non-overlapping ranges.
+  template <typename Visit>
+  void VisitRange(int64_t lo, int64_t hi, Visit&& visit) {
+    while (run_ <= gaps_.size()) {
+      const int64_t begin = run_ == 0 ? 0 : gaps_[run_ - 1] + 1;
+      const int64_t end =
+          run_ < gaps_.size() ? std::min(gaps_[run_] - window_ + 1, last_start_ + 1) : last_start_ + 1;
+      if (end <= lo) {
+        ++run_;
+        continue;
+      }
+      if (begin >= hi) return;
+      const int64_t visit_begin = std::max(begin, lo);
+      const int64_t visit_end = std::min(end, hi);
+      if (visit_end > visit_begin) visit(visit_begin, visit_end);
+      if (end > hi) return;
+      ++run_;
+    }
+  }
+
+ private:
+  std::span<const int64_t> gaps_;
+  int64_t last_start_;
+  int64_t window_;
+  size_t run_ = 0;
+};
 
 // Strided versions: only i = first, first + stride, ... < end, where first is
 // the smallest multiple of stride >= begin. *count receives the number of terms.
@@ -131,6 +186,7 @@ double SumSquaredThirdDifferencesStrided(const double* x, int64_t m, int64_t str
 
 // MVAR inner sum computed directly:
 //   s_j = sum_{i=j}^{j+m-1} (x_{i+2m} - 2x_{i+m} + x_i).
+IMUQUAL_VECTOR_KERNEL
 double MvarInnerSum(const double* x, int64_t m, int64_t j) {
   const double* x0 = x + j;
   const double* x1 = x0 + m;
@@ -198,21 +254,6 @@ double SumSquaredMvarSums(const double* x, int64_t m, int64_t begin, int64_t end
   return total;
 }
 
-// Calls run(begin, end) for each maximal range [begin, end) of term starts i in
-// [0, last_start] whose window of rate samples y_i..y_{i+window-1} holds no
-// invalid sample. `gaps` are the ascending indices of the invalid samples.
-template <typename Run>
-void ForEachValidRun(std::span<const int64_t> gaps, int64_t last_start, int64_t window, Run&& run) {
-  int64_t begin = 0;
-  for (int64_t g : gaps) {
-    if (begin > last_start) return;
-    const int64_t end = std::min(g - window + 1, last_start + 1);
-    if (end > begin) run(begin, end);
-    begin = std::max(begin, g + 1);
-  }
-  if (begin <= last_start) run(begin, last_start + 1);
-}
-
 struct TermSum {
   double sum = 0.0;  // sum of squared terms
   int64_t n = 0;     // number of valid terms
@@ -236,40 +277,58 @@ RecordView MakeView(const PhaseRecord& phase) {
   return view;
 }
 
-// Second-difference terms (x_{i+2m} - 2x_{i+m} + x_i)^2, i = 0, s, 2s, ...
-TermSum SecondDifferenceTerms(const RecordView& view, int64_t m, int64_t stride) {
-  TermSum terms;
-  const int64_t last_start = view.n_phase - 1 - 2 * m;
-  if (m < 1 || stride < 1 || last_start < 0) return terms;
-  ForEachValidRun(view.gaps, last_start, 2 * m, [&](int64_t begin, int64_t end) {
-    if (stride == 1) {
-      terms.sum += SumSquaredSecondDifferences(view.x, m, begin, end);
-      terms.n += end - begin;
-    } else {
-      int64_t count = 0;
-      terms.sum += SumSquaredSecondDifferencesStrided(view.x, m, stride, begin, end, &count);
-      terms.n += count;
+// Fully overlapped difference terms of the given order (2: OAVAR, 3: OHVAR)
+// for every m of m_list (each >= 1), in one sweep: the term starts are cut into
+// tiles of kChunk and each tile is finished for every m before the next, so
+// the tile's phases are reused from cache instead of being read from memory
+// once per m. The result for one m does not depend on which other m are swept
+// with it (see ForEachPiece).
+std::vector<TermSum> OverlappingTerms(const RecordView& view, int order,
+                                      std::span<const int64_t> m_list) {
+  std::vector<TermSum> terms(m_list.size());
+  std::vector<ValidRuns> runs;
+  runs.reserve(m_list.size());
+  int64_t sweep_end = 0;
+  for (int64_t m : m_list) {
+    const int64_t last_start = view.n_phase - 1 - order * m;
+    runs.emplace_back(view.gaps, last_start, order * m);
+    sweep_end = std::max(sweep_end, last_start + 1);
+  }
+  for (int64_t tile = 0; tile < sweep_end; tile += kChunk) {
+    for (size_t q = 0; q < m_list.size(); ++q) {
+      const int64_t m = m_list[q];
+      TermSum& t = terms[q];
+      runs[q].VisitRange(tile, tile + kChunk, [&](int64_t begin, int64_t end) {
+        t.sum += order == 2 ? SecondDifferencePiece(view.x, m, begin, end)
+                            : ThirdDifferencePiece(view.x, m, begin, end);
+        t.n += end - begin;
+      });
     }
+  }
+  return terms;
+}
+
+// Difference terms of the given order at starts i = 0, s, 2s, ... (s >= 2).
+TermSum StridedTerms(const RecordView& view, int order, int64_t m, int64_t stride) {
+  TermSum terms;
+  const int64_t last_start = view.n_phase - 1 - order * m;
+  if (last_start < 0) return terms;
+  ValidRuns runs(view.gaps, last_start, order * m);
+  runs.VisitRange(0, last_start + 1, [&](int64_t begin, int64_t end) {
+    int64_t count = 0;
+    terms.sum += order == 2
+                     ? SumSquaredSecondDifferencesStrided(view.x, m, stride, begin, end, &count)
+                     : SumSquaredThirdDifferencesStrided(view.x, m, stride, begin, end, &count);
+    terms.n += count;
   });
   return terms;
 }
 
-// Third-difference terms (x_{i+3m} - 3x_{i+2m} + 3x_{i+m} - x_i)^2.
-TermSum ThirdDifferenceTerms(const RecordView& view, int64_t m, int64_t stride) {
-  TermSum terms;
-  const int64_t last_start = view.n_phase - 1 - 3 * m;
-  if (m < 1 || stride < 1 || last_start < 0) return terms;
-  ForEachValidRun(view.gaps, last_start, 3 * m, [&](int64_t begin, int64_t end) {
-    if (stride == 1) {
-      terms.sum += SumSquaredThirdDifferences(view.x, m, begin, end);
-      terms.n += end - begin;
-    } else {
-      int64_t count = 0;
-      terms.sum += SumSquaredThirdDifferencesStrided(view.x, m, stride, begin, end, &count);
-      terms.n += count;
-    }
-  });
-  return terms;
+// Difference terms of the given order with stride s at one m.
+TermSum DifferenceTerms(const RecordView& view, int order, int64_t m, int64_t stride) {
+  if (m < 1 || stride < 1 || view.n_phase - 1 - order * m < 0) return {};
+  if (stride == 1) return OverlappingTerms(view, order, std::span<const int64_t>(&m, 1))[0];
+  return StridedTerms(view, order, m, stride);
 }
 
 // MVAR terms s_j^2, j = 0..N-3m; term j uses x_j..x_{j+3m-1}.
@@ -277,7 +336,8 @@ TermSum ModifiedTerms(const RecordView& view, int64_t m) {
   TermSum terms;
   const int64_t last_start = view.n_phase - 3 * m;
   if (m < 1 || last_start < 0) return terms;
-  ForEachValidRun(view.gaps, last_start, 3 * m - 1, [&](int64_t begin, int64_t end) {
+  ValidRuns runs(view.gaps, last_start, 3 * m - 1);
+  runs.VisitRange(0, last_start + 1, [&](int64_t begin, int64_t end) {
     terms.sum += SumSquaredMvarSums(view.x, m, begin, end);
     terms.n += end - begin;
   });
@@ -310,7 +370,10 @@ TermSum TotalTerms(const RecordView& view, int64_t m) {
   const int64_t inner_last = n - 1 - m;
   if (inner_first <= inner_last) {
     terms.sum += edge_terms(1, inner_first - 1);
-    terms.sum += SumSquaredSecondDifferences(x, m, inner_first - m, inner_last - m + 1);
+    // Interior term i is the plain second difference starting at i - m.
+    ForEachPiece(0, inner_last - inner_first + 1, [&](int64_t begin, int64_t end) {
+      terms.sum += SecondDifferencePiece(x, m, begin, end);
+    });
     terms.sum += edge_terms(inner_last + 1, n - 2);
   } else {
     terms.sum += edge_terms(1, n - 2);
@@ -319,50 +382,47 @@ TermSum TotalTerms(const RecordView& view, int64_t m) {
   return terms;
 }
 
-CurvePoint PointAt(const RecordView& view, double tau0_s, Deviation dev, int64_t m) {
+TermSum TermsAt(const RecordView& view, Deviation dev, int64_t m) {
+  switch (dev) {
+    case Deviation::kAdev:
+      return DifferenceTerms(view, 2, m, m);
+    case Deviation::kOadev:
+      return DifferenceTerms(view, 2, m, 1);
+    case Deviation::kMdev:
+    case Deviation::kTdev:
+      return ModifiedTerms(view, m);
+    case Deviation::kHdev:
+      return DifferenceTerms(view, 3, m, m);
+    case Deviation::kOhdev:
+      return DifferenceTerms(view, 3, m, 1);
+    case Deviation::kTotdev:
+      return TotalTerms(view, m);
+  }
+  return {};
+}
+
+// dev from the sum of squared terms:
+//   AVAR, OAVAR, TOTVAR  sqrt(sum / (2n)) / tau
+//   HVAR, OHVAR          sqrt(sum / (6n)) / tau
+//   MVAR                 sqrt(sum / (2n)) / (m tau)
+//   TVAR                 tau / sqrt(3) MDEV = sqrt(sum / (2n)) / (m sqrt(3))
+CurvePoint MakePoint(Deviation dev, int64_t m, double tau0_s, const TermSum& terms) {
   CurvePoint point;
   point.m = m;
   point.tau_s = static_cast<double>(m) * tau0_s;
-  const double tau = point.tau_s;
-  TermSum terms;
-  // Divisor k of sum/(k n) in var = sum / (k n tau^2) (MVAR: m^2 tau^2).
-  double k = 2.0;
-  switch (dev) {
-    case Deviation::kAdev:
-      terms = SecondDifferenceTerms(view, m, m);
-      break;
-    case Deviation::kOadev:
-      terms = SecondDifferenceTerms(view, m, 1);
-      break;
-    case Deviation::kMdev:
-    case Deviation::kTdev:
-      terms = ModifiedTerms(view, m);
-      break;
-    case Deviation::kHdev:
-      terms = ThirdDifferenceTerms(view, m, m);
-      k = 6.0;
-      break;
-    case Deviation::kOhdev:
-      terms = ThirdDifferenceTerms(view, m, 1);
-      k = 6.0;
-      break;
-    case Deviation::kTotdev:
-      terms = TotalTerms(view, m);
-      break;
-  }
   point.n = terms.n;
   if (terms.n < 1) return point;
-  // dev = sqrt(sum / (k n)) / tau, MDEV with an extra 1/m, TDEV = tau/sqrt(3) MDEV.
-  const double rms = std::sqrt(terms.sum / (k * static_cast<double>(terms.n)));
+  const bool hadamard = dev == Deviation::kHdev || dev == Deviation::kOhdev;
+  const double rms = std::sqrt(terms.sum / ((hadamard ? 6.0 : 2.0) * static_cast<double>(terms.n)));
   switch (dev) {
     case Deviation::kMdev:
-      point.dev = rms / (static_cast<double>(m) * tau);
+      point.dev = rms / (static_cast<double>(m) * point.tau_s);
       break;
     case Deviation::kTdev:
       point.dev = rms / (static_cast<double>(m) * std::sqrt(3.0));
       break;
     default:
-      point.dev = rms / tau;
+      point.dev = rms / point.tau_s;
       break;
   }
   return point;
@@ -377,29 +437,38 @@ Curve ComputeDeviation(const PhaseRecord& phase, Deviation dev, std::span<const 
   curve.n_phase = phase.size();
   curve.invalid_rate_samples = phase.invalid_count();
   const RecordView view = MakeView(phase);
+
+  std::vector<TermSum> terms(m_list.size());
+  if (dev == Deviation::kOadev || dev == Deviation::kOhdev) {
+    // All m share one sweep (see OverlappingTerms).
+    const int order = dev == Deviation::kOadev ? 2 : 3;
+    std::vector<int64_t> swept_m;
+    std::vector<size_t> swept_index;
+    for (size_t q = 0; q < m_list.size(); ++q) {
+      if (m_list[q] < 1 || view.n_phase - 1 - order * m_list[q] < 0) continue;
+      swept_m.push_back(m_list[q]);
+      swept_index.push_back(q);
+    }
+    const std::vector<TermSum> swept = OverlappingTerms(view, order, swept_m);
+    for (size_t k = 0; k < swept.size(); ++k) terms[swept_index[k]] = swept[k];
+  } else {
+    for (size_t q = 0; q < m_list.size(); ++q) terms[q] = TermsAt(view, dev, m_list[q]);
+  }
+
   curve.points.reserve(m_list.size());
-  for (int64_t m : m_list) {
-    CurvePoint point = PointAt(view, phase.tau0_s, dev, m);
-    if (point.n > 1) curve.points.push_back(point);
+  for (size_t q = 0; q < m_list.size(); ++q) {
+    if (terms[q].n > 1) curve.points.push_back(MakePoint(dev, m_list[q], phase.tau0_s, terms[q]));
   }
   return curve;
 }
 
 CurvePoint ComputeDeviationAt(const PhaseRecord& phase, Deviation dev, int64_t m) {
-  return PointAt(MakeView(phase), phase.tau0_s, dev, m);
+  return MakePoint(dev, m, phase.tau0_s, TermsAt(MakeView(phase), dev, m));
 }
 
 CurvePoint OverlappingAllanStrided(const PhaseRecord& phase, int64_t m, int64_t stride) {
-  const RecordView view = MakeView(phase);
-  CurvePoint point;
-  point.m = m;
-  point.tau_s = static_cast<double>(m) * phase.tau0_s;
-  const TermSum terms = SecondDifferenceTerms(view, m, stride);
-  point.n = terms.n;
-  if (terms.n >= 1) {
-    point.dev = std::sqrt(terms.sum / (2.0 * static_cast<double>(terms.n))) / point.tau_s;
-  }
-  return point;
+  return MakePoint(Deviation::kOadev, m, phase.tau0_s,
+                   DifferenceTerms(MakeView(phase), 2, m, stride));
 }
 
 }  // namespace imuqual::allan

@@ -83,27 +83,25 @@ std::optional<SubsetSolution> SolveNnls(const Eigen::MatrixXd& weighted_a,
     if (k > rows || zero_column) continue;
     Eigen::MatrixXd a(rows, k);
     for (int i = 0; i < k; ++i) a.col(i) = weighted_a.col(cols[i]) / scale(cols[i]);
-    {
-      Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
-      if (qr.rank() < k) continue;
-      const Eigen::VectorXd x = qr.solve(weighted_b);
-      if ((x.array() < 0).any()) continue;
-      const double ssr = (a * x - weighted_b).squaredNorm();
-      if (best.has_value() && !(ssr < best->ssr)) continue;
-      SubsetSolution s;
-      s.mask = mask;
-      s.ssr = ssr;
-      // Cov(x) = (a'a)^-1 for unit-variance weighted rows; c = x / scale.
-      const Eigen::MatrixXd cov_x = (a.transpose() * a).inverse();
-      s.covariance.resize(k, k);
-      for (int i = 0; i < k; ++i) {
-        s.coef[cols[i]] = x(i) / scale(cols[i]);
-        for (int j = 0; j < k; ++j) {
-          s.covariance(i, j) = cov_x(i, j) / (scale(cols[i]) * scale(cols[j]));
-        }
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+    if (qr.rank() < k) continue;
+    const Eigen::VectorXd x = qr.solve(weighted_b);
+    if ((x.array() < 0).any()) continue;
+    const double ssr = (a * x - weighted_b).squaredNorm();
+    if (best.has_value() && !(ssr < best->ssr)) continue;
+    SubsetSolution s;
+    s.mask = mask;
+    s.ssr = ssr;
+    // Cov(x) = (a'a)^-1 for unit-variance weighted rows; c = x / scale.
+    const Eigen::MatrixXd cov_x = (a.transpose() * a).inverse();
+    s.covariance.resize(k, k);
+    for (int i = 0; i < k; ++i) {
+      s.coef[cols[i]] = x(i) / scale(cols[i]);
+      for (int j = 0; j < k; ++j) {
+        s.covariance(i, j) = cov_x(i, j) / (scale(cols[i]) * scale(cols[j]));
       }
-      best = std::move(s);
     }
+    best = std::move(s);
   }
   return best;
 }
@@ -219,8 +217,8 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options) {
   const bool overlapped = curve.deviation == Deviation::kOadev;
   const int64_t n_phase = curve.n_phase;
   const int64_t m_max = options.stop == StopRule::kNone
-                           ? std::numeric_limits<int64_t>::max()
-                           : StopRuleMaxAveragingFactor(options.stop, curve.deviation, n_phase);
+                            ? std::numeric_limits<int64_t>::max()
+                            : StopRuleMaxAveragingFactor(options.stop, curve.deviation, n_phase);
 
   // 1. Usable points, ascending m, optionally thinned to about one per octave.
   std::vector<CurvePoint> usable;
@@ -380,7 +378,8 @@ SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
     out.tangent_bound = bound;
     if (out.points_on_slope > 0) {
       const double c = intercept_sum / out.points_on_slope;
-      out.value = std::exp(c + slope * std::log(tau_read));
+      // No non-negative model lies above a tangent line, so cap the read-off.
+      out.value = std::min(std::exp(c + slope * std::log(tau_read)), bound);
     }
   }
   if (out.points_on_slope == 0) {

@@ -24,8 +24,19 @@ bool IsPowerOfTwo(int64_t v) { return v > 0 && (v & (v - 1)) == 0; }
 // p = 0..count-1, c = c_first + ci. `phase` points at the block's first point
 // and has at least 2 (c_first + c_count - 1) valid points before it. Each
 // (c, lane) sum adds its points in increasing p, exactly as the gap path does.
+// AVX2, where the compiler and CPU have it, doubles the vector width. Each
+// lane's sum sees the same operations in the same order either way (no FMA
+// contraction in ISO C++ mode), so the results are bit-identical.
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__) && \
+    !defined(IMUQUAL_ALLAN_NO_KERNEL_CLONES)
+#define IMUQUAL_ALLAN_KERNEL_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define IMUQUAL_ALLAN_KERNEL_CLONES
+#endif
+
 template <int kLanes>
-void AccumulateGapFree(const double* phase, int count, int c_first, int c_count, double* sum) {
+IMUQUAL_ALLAN_KERNEL_CLONES void AccumulateGapFree(const double* phase, int count, int c_first,
+                                                   int c_count, double* sum) {
   for (int ci = 0; ci < c_count; ++ci) {
     const int c = c_first + ci;
     const double* x0 = phase;
@@ -211,10 +222,13 @@ void StreamingAllan::PushInvalidRun(int64_t count) {
     const int take = static_cast<int>(std::min<int64_t>(level0.block - level0.fill, count));
     double* x = level0.phase.data() + history_ + level0.fill;
     int64_t* g = level0.invalid_before.data() + history_ + level0.fill;
+    const double phase = phase_;
+    const int64_t g_start = invalid_before_;
     for (int t = 0; t < take; ++t) {
-      x[t] = phase_;
-      g[t] = ++invalid_before_;
+      x[t] = phase;
+      g[t] = g_start + t + 1;
     }
+    invalid_before_ = g_start + take;
     count -= take;
     level0.fill += take;
     if (level0.fill == level0.block) ProcessBlock(0, level0.block, /*complete=*/true);
@@ -228,13 +242,35 @@ void StreamingAllan::PushPoint(size_t j, double phase, int64_t invalid_before) {
   if (++level.fill == level.block) ProcessBlock(j, level.block, /*complete=*/true);
 }
 
+void StreamingAllan::PushEvenPoints(size_t j, const double* phase, const int64_t* invalid_before,
+                                    int count) {
+  Level& level = levels_[j];
+  int p = 0;
+  while (p < count) {
+    const int take = std::min(level.block - level.fill, (count - p + 1) / 2);
+    double* x = level.phase.data() + history_ + level.fill;
+    int64_t* g = level.invalid_before.data() + history_ + level.fill;
+    for (int t = 0; t < take; ++t) {
+      x[t] = phase[p + 2 * t];
+      g[t] = invalid_before[p + 2 * t];
+    }
+    p += 2 * take;
+    level.fill += take;
+    if (level.fill == level.block) ProcessBlock(j, level.block, /*complete=*/true);
+  }
+}
+
 void StreamingAllan::ProcessBlock(size_t j, int count, bool complete) {
   Level& level = levels_[j];
   const double* x = level.phase.data() + history_;
   const int64_t* g = level.invalid_before.data() + history_;
   // G is non-decreasing, so equal ends mean no invalid sample under any term.
   const bool gap_free = count == level.block && g[-history_] == g[count - 1];
-  if (gap_free) {
+  // Every sample under the block invalid (a long gap): no term is valid.
+  const bool all_gap = g[count - 1] - g[-1] == (int64_t{count} << j);
+  if (all_gap) {
+    // Nothing to accumulate.
+  } else if (gap_free) {
     AccumulateGapFree<kLanes>(x, count, level.c_first, level.c_count, level.sum.data());
     for (int64_t& t : level.terms) t += count;
   } else {
@@ -255,9 +291,7 @@ void StreamingAllan::ProcessBlock(size_t j, int count, bool complete) {
     }
   }
   if (!complete) return;
-  if (j + 1 < levels_.size()) {
-    for (int p = 0; p < count; p += 2) PushPoint(j + 1, x[p], g[p]);
-  }
+  if (j + 1 < levels_.size()) PushEvenPoints(j + 1, x, g, count);
   // Slide: the last `history_` points become the history of the next block.
   std::memmove(level.phase.data(), level.phase.data() + count, history_ * sizeof(double));
   std::memmove(level.invalid_before.data(), level.invalid_before.data() + count,
@@ -274,9 +308,8 @@ void StreamingAllan::Flush() {
     ProcessBlock(j, fill, /*complete=*/false);
     // The even points of the partial block belong to level j + 1 too.
     if (j + 1 < levels_.size()) {
-      const double* x = level.phase.data() + history_;
-      const int64_t* g = level.invalid_before.data() + history_;
-      for (int p = 0; p < fill; p += 2) PushPoint(j + 1, x[p], g[p]);
+      PushEvenPoints(j + 1, level.phase.data() + history_, level.invalid_before.data() + history_,
+                     fill);
     }
     level.fill = 0;
   }
@@ -295,8 +328,8 @@ Curve StreamingAllan::Oadev(StreamGrid grid, StopRule stop, CiMethod ci, double 
   // The simple band is 1 sigma whatever the level asked for.
   curve.confidence = ci == CiMethod::kSimple ? kOneSigmaConfidence : confidence;
 
-  const int64_t m_stop = std::min(
-      options_.max_m, StopRuleMaxAveragingFactor(stop, Deviation::kOadev, curve.n_phase));
+  const int64_t m_stop =
+      std::min(options_.max_m, StopRuleMaxAveragingFactor(stop, Deviation::kOadev, curve.n_phase));
 
   // Every tracked point within the stop rule, in increasing m.
   struct Tracked {

@@ -135,11 +135,11 @@ class StreamingAllan {
   // the current block of `block` points; the block starts at a level index
   // that is a multiple of `block`.
   struct Level {
-    int c_first = 0;  // first tracked c (1 at level 0, C beyond)
-    int c_count = 0;  // tracked c values: c_first .. c_first + c_count - 1
-    int block = 0;    // points per block (multiple of kLanes)
-    int fill = 0;     // points in the current block
-    std::vector<double> phase;           // u^(j), history + block
+    int c_first = 0;                      // first tracked c (1 at level 0, C beyond)
+    int c_count = 0;                      // tracked c values: c_first .. c_first + c_count - 1
+    int block = 0;                        // points per block (multiple of kLanes)
+    int fill = 0;                         // points in the current block
+    std::vector<double> phase;            // u^(j), history + block
     std::vector<int64_t> invalid_before;  // G at each point, history + block
     std::vector<double> sum;              // [c - c_first][lane] sums of d^2
     std::vector<int64_t> terms;           // [c - c_first] valid terms
@@ -158,6 +158,8 @@ class StreamingAllan {
   void ResolveReference();
   // Appends one point to level `j`, processing the block when it fills.
   void PushPoint(size_t j, double phase, int64_t invalid_before);
+  // Appends points 0, 2, 4, .. < count of phase/invalid_before to level j.
+  void PushEvenPoints(size_t j, const double* phase, const int64_t* invalid_before, int count);
   // Accumulates the terms of the first `count` points of level j's block, then
   // (if `complete`) hands the even points to level j + 1 and slides history.
   void ProcessBlock(size_t j, int count, bool complete);

@@ -54,7 +54,8 @@ std::vector<double> FlickerLike(size_t count, double tau0_s, double level, uint6
   std::normal_distribution<double> gauss(0.0, 1.0);
   const double rho = std::sqrt(10.0);
   std::vector<double> phi, drive, state;
-  for (double f = 1.0 / (2 * std::numbers::pi * 4 * tau0_s); f > 1e-3 / (count * tau0_s); f /= rho) {
+  for (double f = 1.0 / (2 * std::numbers::pi * 4 * tau0_s); f > 1e-3 / (count * tau0_s);
+       f /= rho) {
     const double p = std::exp(-2 * std::numbers::pi * f * tau0_s);
     phi.push_back(p);
     drive.push_back(level * std::sqrt(1 - p * p));
@@ -264,11 +265,10 @@ TEST(StreamingAllanTest, EqualsDirectStridedSumWithSameReference) {
       ASSERT_GT(curve.points.size(), 10u);
       EXPECT_EQ(curve.invalid_rate_samples, engine.invalid_samples());
       for (const CurvePoint& p : curve.points) {
-        const CurvePoint want =
-            DirectStrided(rate, invalid, yref, p.m, EngineStride(p.m, density));
+        const CurvePoint want = DirectStrided(rate, invalid, yref, p.m, EngineStride(p.m, density));
         EXPECT_EQ(p.n, want.n) << "C " << density << " m " << p.m;
-        EXPECT_NEAR(p.dev, want.dev, kSameTermsRelTol * want.dev) << "C " << density << " m "
-                                                                   << p.m;
+        EXPECT_NEAR(p.dev, want.dev, kSameTermsRelTol * want.dev)
+            << "C " << density << " m " << p.m;
       }
     }
   }

@@ -65,8 +65,8 @@ INSTANTIATE_TEST_SUITE_P(
         Conversion{"vrw_m_per_s_per_root_hour", MetersPerSecSqPerRootHzToMetersPerSecPerRootHour,
                    MetersPerSecPerRootHourToMetersPerSecSqPerRootHz, 9.80665e-4, 0.0588},
         // B in ug = B / 9.80665e-6.
-        Conversion{"accel_bias_micro_g", MetersPerSecSqToMicroG, MicroGToMetersPerSecSq,
-                   9.80665e-5, 10.0},
+        Conversion{"accel_bias_micro_g", MetersPerSecSqToMicroG, MicroGToMetersPerSecSq, 9.80665e-5,
+                   10.0},
         Conversion{"noise_density_micro_g", MetersPerSecSqPerRootHzToMicroGPerRootHz,
                    MicroGPerRootHzToMetersPerSecSqPerRootHz, 9.80665e-4, 100.0},
         // One-sided ASD = sqrt(2) N.
@@ -93,8 +93,7 @@ TEST(UnitsTest, DatasheetUnitsForGyroAndAccelerometer) {
       {NoiseTerm::kBiasInstability, SensorKind::kGyro, 1.3889e-3, 5.0, "deg/h"},
       {NoiseTerm::kRateRandomWalk, SensorKind::kGyro, 4e-5, 8.640, "deg/h/sqrt(h)"},
       {NoiseTerm::kRateRamp, SensorKind::kGyro, 1e-7, 1.296, "deg/h^2"},
-      {NoiseTerm::kAngleRandomWalk, SensorKind::kAccelerometer, 9.80665e-4, 0.0588,
-       "m/s/sqrt(h)"},
+      {NoiseTerm::kAngleRandomWalk, SensorKind::kAccelerometer, 9.80665e-4, 0.0588, "m/s/sqrt(h)"},
       {NoiseTerm::kBiasInstability, SensorKind::kAccelerometer, 9.80665e-5, 10.0, "ug"},
       {NoiseTerm::kRateRandomWalk, SensorKind::kAccelerometer, 1e-4, 1e-4, "m/s^2/sqrt(s)"},
   };

@@ -1,0 +1,513 @@
+#include "acquire/acquire_service.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "acquire/random.h"
+#include "common/channels.h"
+#include "common/clock.h"
+#include "common/lcm_bus.h"
+#include "common/log.h"
+#include "common/process_status.h"
+#include "common/shutdown.h"
+#include "common/text_util.h"
+#include "common/version.h"
+#include "imuqual/ack_t.hpp"
+#include "imuqual/rate_batch_t.hpp"
+#include "imuqual/resend_t.hpp"
+#include "imuqual/run_t.hpp"
+
+namespace imuqual::acquire {
+namespace {
+
+// LCM 1.3 sends a message as one datagram when channel + 1 + payload is
+// under 1400 bytes; bigger ones are fragmented and lost whole if any
+// fragment is lost.
+constexpr int kDatagramPayloadBytes = 1399;
+constexpr int kMaxBatchSamples = 200;
+constexpr int kMaxResendRange = 4096;
+constexpr int kBatchesPerRunPerRound = 8;
+
+std::string CompactUtc(int64_t utime) {
+  std::string iso = FormatUtimeIso(utime);  // 2026-11-21T11:05:00Z
+  std::string out;
+  for (char c : iso) {
+    if (c != '-' && c != ':') out += c;
+  }
+  return out;  // 20261121T110500Z
+}
+
+int8_t KindCode(pb::AxisKind kind) {
+  return kind == pb::ACCEL ? imuqual::rate_batch_t::KIND_ACCEL : imuqual::rate_batch_t::KIND_GYRO;
+}
+
+struct Retained {
+  int64_t seq;
+  double sent_s;
+  std::vector<uint8_t> bytes;
+};
+
+struct RunState {
+  UnitSpec unit;
+  std::string run_id;
+  std::string channel;
+  int batch_samples = 0;
+  int64_t next_seq = 0;
+  int64_t samples_published = 0;
+  int64_t first_counter = -1;
+  double pace_origin_s = 0;
+  bool source_done = false;
+  int8_t state = imuqual::run_t::STATE_RUNNING;
+  std::map<std::string, int64_t> acked;  // role -> next_seq acknowledged
+  double last_ack_progress_s = 0;
+  std::deque<Retained> retained;
+  imuqual::run_t announcement;
+};
+
+}  // namespace
+
+Status AcquireOptions::Validate() const {
+  if (lcm_url.empty()) return Status::InvalidArgument("lcm_url: required");
+  IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("lot", lot));
+  IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("station", station));
+  if (!run_prefix.empty()) IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("run_prefix", run_prefix));
+  for (const std::string& role : await) {
+    if (role != "store" && role != "analyze") {
+      return Status::InvalidArgument("await: unknown consumer role '" + role +
+                                     "' (store, analyze)");
+    }
+  }
+  if (window_batches < 1 || window_batches > 100000) {
+    return Status::InvalidArgument("window_batches: must be 1..100000");
+  }
+  if (batch_samples < 0 || batch_samples > 32767) {
+    return Status::InvalidArgument("batch_samples: must be 0 (auto) or 1..32767");
+  }
+  if (!(heartbeat_s > 0)) return Status::InvalidArgument("heartbeat_s: must be > 0");
+  if (!(retention_s >= 0)) return Status::InvalidArgument("retention_s: must be >= 0");
+  if (!(pace >= 0) || !std::isfinite(pace)) return Status::InvalidArgument("pace: must be >= 0");
+  if (!(consumer_timeout_s > 0)) return Status::InvalidArgument("consumer_timeout_s: must be > 0");
+  if (!(linger_s >= 0)) return Status::InvalidArgument("linger_s: must be >= 0");
+  if (!(inject_drop >= 0 && inject_drop < 1)) {
+    return Status::InvalidArgument("inject_drop: must be in [0, 1)");
+  }
+  return Status::Ok();
+}
+
+struct AcquireService::Impl {
+  AcquireOptions options;
+  std::vector<RunState> runs;
+  std::unique_ptr<LcmBus> bus;
+  sim::Random drop_rng{1};
+  std::string plan_bytes;
+  std::string plan_sha256;
+  std::deque<imuqual::resend_t> resend_queue;
+  // Counters.
+  int64_t published = 0, resent = 0, resend_misses = 0, injected_drops = 0, acks = 0,
+          resend_requests = 0;
+
+  Status Publish(RunState& run, bool fresh_batch_dropped, const std::vector<uint8_t>& bytes);
+  Status Announce(RunState& run);
+  void OnAck(const imuqual::ack_t& ack);
+  Status ServeResends();
+  void Prune(double now_s);
+  bool GateOpen(const RunState& run) const;
+  bool AllAcknowledged() const;
+  Status PublishOneBatch(RunState& run, double now_s, bool* published_one);
+  Status Abort(const std::string& why);
+  Counters StatusCounters() const;
+};
+
+AcquireService::AcquireService(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+AcquireService::~AcquireService() = default;
+
+std::vector<std::string> AcquireService::run_ids() const {
+  std::vector<std::string> ids;
+  for (const RunState& r : impl_->runs) ids.push_back(r.run_id);
+  return ids;
+}
+
+Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions options,
+                                                               std::vector<UnitSpec> units) {
+  IMUQUAL_RETURN_IF_ERROR(options.Validate());
+  if (units.empty()) return Status::InvalidArgument("no units to acquire");
+  auto impl = std::make_unique<Impl>();
+  const int64_t now = NowUtime();
+  if (options.run_prefix.empty()) options.run_prefix = CompactUtc(now);
+  impl->plan_bytes = options.plan.SerializeAsString();
+  impl->plan_sha256 = Sha256Hex(impl->plan_bytes);
+  impl->drop_rng = sim::Random(options.inject_seed);
+
+  std::set<std::string> serials;
+  for (UnitSpec& unit : units) {
+    IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("unit serial", unit.serial));
+    if (!serials.insert(unit.serial).second) {
+      return Status::InvalidArgument("unit serial '" + unit.serial + "' given twice");
+    }
+    if (!unit.source) return Status::InvalidArgument("unit " + unit.serial + ": no source");
+    const SourceInfo& info = unit.source->info();
+    if (info.axes.empty() || info.axes.size() > 64) {
+      return Status::InvalidArgument("unit " + unit.serial + ": source has " +
+                                     std::to_string(info.axes.size()) + " axes (1..64)");
+    }
+    if (options.plan.axes_size() > 0) {
+      bool match = options.plan.axes_size() == static_cast<int>(info.axes.size());
+      for (size_t i = 0; match && i < info.axes.size(); ++i) {
+        match = options.plan.axes(i).name() == info.axes[i].name() &&
+                options.plan.axes(i).kind() == info.axes[i].kind();
+      }
+      if (!match) {
+        auto names = [](const auto& axes) {
+          std::string s;
+          for (const pb::Axis& a : axes) {
+            s += (s.empty() ? "" : ",") + a.name() + (a.kind() == pb::ACCEL ? "(accel)" : "(gyro)");
+          }
+          return s;
+        };
+        return Status::InvalidArgument("unit " + unit.serial + ": source axes " +
+                                       names(info.axes) + " do not match the plan's axes " +
+                                       names(options.plan.axes()));
+      }
+    }
+    if (options.plan.nominal_rate_hz() > 0 &&
+        std::abs(info.nominal_rate_hz / options.plan.nominal_rate_hz() - 1) > 0.01) {
+      LogWarning("unit " + unit.serial + ": source rate " + std::to_string(info.nominal_rate_hz) +
+                 " Hz differs from the plan's " + std::to_string(options.plan.nominal_rate_hz()) +
+                 " Hz");
+    }
+
+    RunState run;
+    run.run_id = options.run_prefix + "-" + unit.serial;
+    run.channel = channels::Raw(unit.serial);
+    imuqual::run_t& a = run.announcement;
+    a.run_id = run.run_id;
+    a.unit_serial = unit.serial;
+    a.lot = options.lot;
+    a.station = options.station;
+    a.slot = unit.slot;
+    a.operator_name = options.operator_name;
+    a.source = info.description;
+    a.software_version = kSoftwareVersion;
+    a.start_utime = now;
+    a.nominal_rate_hz = info.nominal_rate_hz;
+    a.num_axes = static_cast<int8_t>(info.axes.size());
+    for (const pb::Axis& axis : info.axes) {
+      a.axis_names.push_back(axis.name());
+      a.axis_kinds.push_back(KindCode(axis.kind()));
+    }
+    a.plan_size = static_cast<int32_t>(impl->plan_bytes.size());
+    a.plan.assign(impl->plan_bytes.begin(), impl->plan_bytes.end());
+    a.plan_sha256 = impl->plan_sha256;
+    a.truth_size = static_cast<int32_t>(info.truth.size());
+    a.truth.assign(info.truth.begin(), info.truth.end());
+    a.state = imuqual::run_t::STATE_RUNNING;
+    a.last_seq = -1;
+    a.samples_published = 0;
+
+    // Batch size: the most samples that keep the message in one datagram.
+    if (options.batch_samples > 0) {
+      run.batch_samples = options.batch_samples;
+    } else {
+      imuqual::rate_batch_t probe;
+      probe.run_id = run.run_id;
+      probe.unit_serial = unit.serial;
+      probe.num_axes = a.num_axes;
+      probe.axis_names = a.axis_names;
+      probe.axis_kinds = a.axis_kinds;
+      probe.num_samples = 0;
+      probe.samples.assign(info.axes.size(), {});
+      probe.num_flagged = 0;
+      probe.has_temperature = 1;
+      const int header = probe.getEncodedSize();
+      const int budget = kDatagramPayloadBytes - static_cast<int>(run.channel.size()) - 1 - header;
+      run.batch_samples =
+          std::clamp(budget / (4 * static_cast<int>(info.axes.size())), 1, kMaxBatchSamples);
+    }
+    run.unit = std::move(unit);
+    impl->runs.push_back(std::move(run));
+  }
+  impl->options = std::move(options);
+  return std::unique_ptr<AcquireService>(new AcquireService(std::move(impl)));
+}
+
+Status AcquireService::Impl::Announce(RunState& run) {
+  run.announcement.host_utime = NowUtime();
+  run.announcement.state = run.state;
+  run.announcement.last_seq = run.next_seq - 1;
+  run.announcement.samples_published = run.samples_published;
+  return bus->Publish(channels::kRun, run.announcement);
+}
+
+void AcquireService::Impl::OnAck(const imuqual::ack_t& ack) {
+  if (std::find(options.await.begin(), options.await.end(), ack.process) == options.await.end()) {
+    return;
+  }
+  for (RunState& run : runs) {
+    if (run.run_id != ack.run_id) continue;
+    ++acks;
+    auto it = run.acked.find(ack.process);
+    if (it == run.acked.end() || ack.next_seq > it->second) {
+      run.acked[ack.process] = ack.next_seq;
+      run.last_ack_progress_s = MonotonicSeconds();
+    }
+    return;
+  }
+}
+
+bool AcquireService::Impl::GateOpen(const RunState& run) const {
+  if (run.unit.source->info().paced_by_device) return true;
+  for (const std::string& role : options.await) {
+    auto it = run.acked.find(role);
+    if (it == run.acked.end()) return false;  // consumer not there yet
+    if (run.next_seq >= it->second + options.window_batches) return false;
+  }
+  return true;
+}
+
+bool AcquireService::Impl::AllAcknowledged() const {
+  for (const RunState& run : runs) {
+    for (const std::string& role : options.await) {
+      auto it = run.acked.find(role);
+      if (it == run.acked.end() || it->second < run.next_seq) return false;
+    }
+  }
+  return true;
+}
+
+Status AcquireService::Impl::Publish(RunState& run, bool drop, const std::vector<uint8_t>& bytes) {
+  if (drop) {
+    ++injected_drops;
+    return Status::Ok();
+  }
+  ++published;
+  return bus->PublishEncoded(run.channel, bytes);
+}
+
+Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* published_one) {
+  *published_one = false;
+  if (run.source_done || !GateOpen(run)) return Status::Ok();
+  const SourceInfo& info = run.unit.source->info();
+  if (options.pace > 0 && run.first_counter >= 0) {
+    const double due = run.pace_origin_s + static_cast<double>(run.samples_published) /
+                                               (info.nominal_rate_hz * options.pace);
+    if (now_s < due) return Status::Ok();
+  }
+  SampleBlock block;
+  auto n = run.unit.source->Read(run.batch_samples, &block);
+  if (!n.ok()) return n.status().WithContext("unit " + run.unit.serial);
+  if (*n == 0) {
+    run.source_done = true;
+    run.state = imuqual::run_t::STATE_COMPLETE;
+    LogInfo("run " + run.run_id + " complete: " + std::to_string(run.next_seq) + " batches, " +
+            std::to_string(run.samples_published) + " samples");
+    return Announce(run);
+  }
+  if (run.first_counter < 0) {
+    run.first_counter = block.first_sample;
+    run.pace_origin_s = now_s;
+  }
+  imuqual::rate_batch_t msg;
+  msg.host_utime = NowUtime();
+  msg.run_id = run.run_id;
+  msg.unit_serial = run.unit.serial;
+  msg.seq = run.next_seq;
+  msg.first_sample = block.first_sample;
+  msg.nominal_rate_hz = info.nominal_rate_hz;
+  msg.num_axes = run.announcement.num_axes;
+  msg.axis_names = run.announcement.axis_names;
+  msg.axis_kinds = run.announcement.axis_kinds;
+  msg.num_samples = static_cast<int16_t>(*n);
+  msg.samples = std::move(block.samples);
+  msg.num_flagged = static_cast<int16_t>(block.flags.size());
+  for (const SampleFlagEntry& f : block.flags) {
+    msg.flagged_sample.push_back(static_cast<int16_t>(f.sample));
+    msg.flagged_axis.push_back(static_cast<int8_t>(f.axis));
+    msg.flagged_bits.push_back(static_cast<int8_t>(f.bits));
+  }
+  msg.has_temperature = block.temperature_c.has_value();
+  msg.temperature_c = block.temperature_c.value_or(0.0f);
+
+  std::vector<uint8_t> bytes;
+  IMUQUAL_RETURN_IF_ERROR(EncodeMessage(msg, &bytes));
+  const bool drop = options.inject_drop > 0 && drop_rng.Uniform() < options.inject_drop;
+  IMUQUAL_RETURN_IF_ERROR(Publish(run, drop, bytes));
+  run.retained.push_back({run.next_seq, now_s, std::move(bytes)});
+  ++run.next_seq;
+  run.samples_published += *n;
+  *published_one = true;
+  return Status::Ok();
+}
+
+Status AcquireService::Impl::ServeResends() {
+  while (!resend_queue.empty()) {
+    imuqual::resend_t req = std::move(resend_queue.front());
+    resend_queue.pop_front();
+    for (RunState& run : runs) {
+      if (run.run_id != req.run_id) continue;
+      const int64_t first = std::max<int64_t>(req.first_seq, 0);
+      const int64_t last = std::min<int64_t>(req.last_seq, first + kMaxResendRange - 1);
+      for (int64_t seq = first; seq <= last && seq < run.next_seq; ++seq) {
+        auto it = std::lower_bound(run.retained.begin(), run.retained.end(), seq,
+                                   [](const Retained& r, int64_t s) { return r.seq < s; });
+        if (it == run.retained.end() || it->seq != seq) {
+          ++resend_misses;
+          continue;
+        }
+        ++resent;
+        IMUQUAL_RETURN_IF_ERROR(bus->PublishEncoded(run.channel, it->bytes));
+      }
+    }
+  }
+  return Status::Ok();
+}
+
+// Drops retained batches that every awaited consumer acknowledged and that
+// are older than the retention period (without consumers: age only).
+void AcquireService::Impl::Prune(double now_s) {
+  for (RunState& run : runs) {
+    int64_t acked_all = std::numeric_limits<int64_t>::max();
+    for (const std::string& role : options.await) {
+      auto it = run.acked.find(role);
+      acked_all = std::min(acked_all, it == run.acked.end() ? int64_t{0} : it->second);
+    }
+    while (!run.retained.empty()) {
+      const Retained& r = run.retained.front();
+      const bool old = now_s - r.sent_s > options.retention_s;
+      const bool acknowledged = r.seq < acked_all;
+      // Keep at least the window's worth while unacknowledged, whatever the age.
+      if (!(old && (acknowledged || options.await.empty()))) break;
+      run.retained.pop_front();
+    }
+  }
+}
+
+Status AcquireService::Impl::Abort(const std::string& why) {
+  for (RunState& run : runs) {
+    if (run.state == imuqual::run_t::STATE_RUNNING) {
+      run.state = imuqual::run_t::STATE_ABORTED;
+      (void)Announce(run);
+      LogWarning("run " + run.run_id + " aborted after " + std::to_string(run.next_seq) +
+                 " batches: " + why);
+    }
+  }
+  return Status::Ok();
+}
+
+Counters AcquireService::Impl::StatusCounters() const {
+  int64_t retained = 0, active = 0;
+  for (const RunState& r : runs) {
+    retained += static_cast<int64_t>(r.retained.size());
+    active += r.state == imuqual::run_t::STATE_RUNNING;
+  }
+  return {{"runs_active", active},       {"batches_published", published},
+          {"batches_resent", resent},    {"resend_requests", resend_requests},
+          {"resend_misses", resend_misses}, {"injected_drops", injected_drops},
+          {"acks_received", acks},       {"batches_retained", retained},
+          {"decode_errors", static_cast<int64_t>(bus->decode_errors())}};
+}
+
+Status AcquireService::Run() {
+  Impl& s = *impl_;
+  auto bus = LcmBus::Open(s.options.lcm_url);
+  if (!bus.ok()) return bus.status();
+  s.bus = std::move(*bus);
+  // Acks and resend requests: small messages, many in flight at full speed.
+  s.bus->Subscribe<imuqual::ack_t>(
+      channels::kAck, 10000,
+      [&s](const std::string&, imuqual::ack_t&& ack, int64_t) { s.OnAck(ack); });
+  s.bus->Subscribe<imuqual::resend_t>(
+      channels::kResend, 1000, [&s](const std::string&, imuqual::resend_t&& req, int64_t) {
+        ++s.resend_requests;
+        if (s.resend_queue.size() < 10000) s.resend_queue.push_back(std::move(req));
+      });
+
+  double now = MonotonicSeconds();
+  for (RunState& run : s.runs) {
+    run.last_ack_progress_s = now;
+    IMUQUAL_RETURN_IF_ERROR(s.Announce(run));
+    LogInfo("run " + run.run_id + " started: unit " + run.unit.serial + ", " +
+            run.unit.source->info().description + ", " + std::to_string(run.batch_samples) +
+            " samples per batch");
+  }
+  double next_heartbeat = now + s.options.heartbeat_s;
+  double next_status = now;
+  double all_done_since = -1;
+
+  for (;;) {
+    now = MonotonicSeconds();
+    if (ShutdownRequested()) {
+      s.Abort("shutdown requested");
+      return Status::Ok();
+    }
+    bool progress = false;
+    for (int round = 0; round < kBatchesPerRunPerRound; ++round) {
+      bool any = false;
+      for (RunState& run : s.runs) {
+        bool one = false;
+        Status st = s.PublishOneBatch(run, now, &one);
+        if (!st.ok()) {
+          s.Abort(st.message());
+          return st;
+        }
+        any |= one;
+      }
+      progress |= any;
+      if (!any) break;
+    }
+    IMUQUAL_RETURN_IF_ERROR(s.ServeResends());
+    s.Prune(now);
+
+    if (now >= next_heartbeat) {
+      for (RunState& run : s.runs) IMUQUAL_RETURN_IF_ERROR(s.Announce(run));
+      next_heartbeat = now + s.options.heartbeat_s;
+    }
+    if (now >= next_status) {
+      (void)PublishStatus(*s.bus, "acquire", true, "", s.StatusCounters());
+      next_status = now + 1.0;
+    }
+
+    const bool all_done = std::all_of(s.runs.begin(), s.runs.end(),
+                                      [](const RunState& r) { return r.source_done; });
+    if (all_done) {
+      if (all_done_since < 0) all_done_since = now;
+      if (s.AllAcknowledged()) {
+        for (RunState& run : s.runs) IMUQUAL_RETURN_IF_ERROR(s.Announce(run));
+        (void)PublishStatus(*s.bus, "acquire", true, "all runs acknowledged", s.StatusCounters());
+        return Status::Ok();
+      }
+      if (now - all_done_since > s.options.linger_s) {
+        LogWarning("consumers did not acknowledge every batch within " +
+                   std::to_string(s.options.linger_s) + " s; leaving the rest to them");
+        return Status::Ok();
+      }
+    }
+    // A stalled gate: an awaited consumer stopped acknowledging.
+    if (!all_done) {
+      for (const RunState& run : s.runs) {
+        if (run.source_done || s.GateOpen(run)) continue;
+        if (now - run.last_ack_progress_s > s.options.consumer_timeout_s) {
+          std::string missing;
+          for (const std::string& role : s.options.await) {
+            auto it = run.acked.find(role);
+            if (it == run.acked.end() || run.next_seq >= it->second + s.options.window_batches) {
+              missing += (missing.empty() ? "" : ", ") + ("imuqual-" + role);
+            }
+          }
+          const std::string why = "no acknowledgement from " + missing + " for run " +
+                                  run.run_id + " in " +
+                                  std::to_string(static_cast<int>(s.options.consumer_timeout_s)) +
+                                  " s (is it running on " + s.options.lcm_url + "?)";
+          s.Abort(why);
+          return Status::Unavailable(why);
+        }
+      }
+    }
+    IMUQUAL_RETURN_IF_ERROR(s.bus->HandleFor(progress ? 0 : 2));
+  }
+}
+
+}  // namespace imuqual::acquire

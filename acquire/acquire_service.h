@@ -1,0 +1,79 @@
+// The acquire process's work: one run per unit, batches of consecutive
+// samples published on IMUQUAL1_RAW.<serial>, the run announced and
+// re-announced (heartbeat) on IMUQUAL1_RUN, resend requests answered from a
+// retention window.
+//
+// Flow control: a time-warped source (simulator, file replay) is read only
+// as fast as the awaited consumers (store, analyze) acknowledge, keeping at
+// most `window_batches` unacknowledged batches in flight per run, so a
+// station never overruns its own bus. Device-paced sources (serial) are
+// never held back; the window then only bounds the retention.
+//
+// Threading: Run() is single-threaded; handlers only record acks and queue
+// resend requests for the loop.
+#ifndef IMUQUAL_ACQUIRE_ACQUIRE_SERVICE_H_
+#define IMUQUAL_ACQUIRE_ACQUIRE_SERVICE_H_
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "acquire/source.h"
+#include "common/status.h"
+#include "imuqual/plan.pb.h"
+
+namespace imuqual::acquire {
+
+struct AcquireOptions {
+  std::string lcm_url;                // station bus
+  std::string lot;                    // production lot of every unit here
+  std::string station = "station";    // station id
+  std::string operator_name;
+  std::string run_prefix;             // run id = <run_prefix>-<serial>; "" = the UTC start time
+  pb::TestPlan plan;                  // carried with every run; its axes (if any) must match
+  std::vector<std::string> await;     // consumer roles whose acks gate time-warped sources
+  int window_batches = 64;            // unacknowledged batches in flight per run
+  int batch_samples = 0;              // samples per batch; 0 = the most that fit one datagram
+  double heartbeat_s = 1.0;           // run_t period
+  double retention_s = 120.0;         // batches kept for resends at least this long
+  double pace = 0.0;                  // 0: as fast as acknowledged; 1: real time; k: k x real time
+  double consumer_timeout_s = 30.0;   // no ack progress this long while waiting: fail
+  double linger_s = 60.0;             // after the last batch, wait this long for final acks
+  double inject_drop = 0.0;           // fault injection: drop this fraction of first publications
+  uint64_t inject_seed = 1;
+  // Checks every field; the error names it.
+  Status Validate() const;
+};
+
+struct UnitSpec {
+  std::string serial;
+  std::string slot;
+  std::unique_ptr<SampleSource> source;
+};
+
+class AcquireService {
+ public:
+  // Validates options and units (serials, plan axes against source axes).
+  static Result<std::unique_ptr<AcquireService>> Create(AcquireOptions options,
+                                                        std::vector<UnitSpec> units);
+  ~AcquireService();
+
+  // Publishes until every source has ended and every awaited consumer has
+  // acknowledged every batch (or linger_s passed), or shutdown is requested
+  // (runs are then announced aborted). Fails if the bus cannot be opened, a
+  // source fails, or awaited consumers stop acknowledging.
+  Status Run();
+
+  // Run ids, in unit order (valid after Create).
+  std::vector<std::string> run_ids() const;
+
+ private:
+  struct Impl;
+  explicit AcquireService(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace imuqual::acquire
+
+#endif  // IMUQUAL_ACQUIRE_ACQUIRE_SERVICE_H_

@@ -1,0 +1,80 @@
+// imuqual-acquire: publishes the samples of units under test on a station
+// bus. Flags -> options -> AcquireService -> exit code.
+#include <CLI/CLI.hpp>
+
+#include "acquire/acquire_service.h"
+#include "acquire/units.h"
+#include "analyze/judge/plan_file.h"
+#include "common/log.h"
+#include "common/shutdown.h"
+#include "common/text_util.h"
+
+int main(int argc, char** argv) {
+  using namespace imuqual;
+  acquire::AcquireOptions opt;
+  acquire::SimLotSpec sim;
+  std::string plan_spec, await;
+  CLI::App app{"imuqual-acquire: publish IMU samples of units under test on a station LCM bus"};
+  app.add_option("--lcm-url", opt.lcm_url, "station bus, e.g. udpm://239.255.76.67:7701?ttl=0")
+      ->required();
+  app.add_option("--lot", opt.lot, "production lot of the units")->required();
+  app.add_option("--station", opt.station, "station id")->capture_default_str();
+  app.add_option("--operator", opt.operator_name, "operator name");
+  app.add_option("--run-prefix", opt.run_prefix, "run id prefix (default: the UTC start time)");
+  app.add_option("--sim", sim.count, "number of simulated units")->required();
+  app.add_option("--profile", sim.profile, "simulated lot profile: vg700, tactical, fog")
+      ->capture_default_str();
+  app.add_option("--duration", sim.duration_s, "simulated seconds of data per unit")->required();
+  app.add_option("--rate", sim.rate_hz, "sample rate in Hz (default: the profile's)");
+  app.add_option("--seed", sim.seed, "lot seed (default: from the lot name)");
+  app.add_option("--plan", plan_spec, "test plan: a .textproto file or builtin:NAME");
+  app.add_option("--await", await, "consumers whose acks gate the data, e.g. store,analyze");
+  app.add_option("--window", opt.window_batches, "unacknowledged batches in flight per run")
+      ->capture_default_str();
+  app.add_option("--batch-samples", opt.batch_samples, "samples per batch (0: fit one datagram)")
+      ->capture_default_str();
+  app.add_option("--pace", opt.pace, "0: as fast as acknowledged, 1: real time, k: k x")
+      ->capture_default_str();
+  app.add_option("--retention", opt.retention_s, "seconds of batches kept for resends")
+      ->capture_default_str();
+  app.add_option("--linger", opt.linger_s, "seconds to wait for final acks")->capture_default_str();
+  app.add_option("--consumer-timeout", opt.consumer_timeout_s,
+                 "seconds without acks before giving up")
+      ->capture_default_str();
+  app.add_option("--inject-drop", opt.inject_drop, "fault injection: drop this fraction of batches")
+      ->capture_default_str();
+  app.add_option("--inject-seed", opt.inject_seed, "seed of the injected drops")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  SetLogProgramName("imuqual-acquire");
+  InstallShutdownHandlers();
+  if (!plan_spec.empty()) {
+    auto plan = judge::LoadPlan(plan_spec);
+    if (!plan.ok()) {
+      LogError(plan.status().message());
+      return 2;
+    }
+    opt.plan = *plan;
+  } else if (sim.profile == "vg700") {
+    opt.plan = *judge::LoadPlan("builtin:vg700ca");
+  }
+  if (!await.empty()) opt.await = Split(await, ',');
+  sim.lot = opt.lot;
+  auto units = acquire::MakeSimUnits(sim);
+  if (!units.ok()) {
+    LogError(units.status().message());
+    return 2;
+  }
+  auto service = acquire::AcquireService::Create(std::move(opt), std::move(*units));
+  if (!service.ok()) {
+    LogError(service.status().message());
+    return 2;
+  }
+  Status st = (*service)->Run();
+  if (!st.ok()) {
+    LogError(st.message());
+    return 1;
+  }
+  return ShutdownRequested() ? 130 : 0;
+}

@@ -1,0 +1,51 @@
+// Where a unit's samples come from: a simulator, a file replay or a serial
+// device. A source yields consecutive samples with the device's own sample
+// counter; acquire batches and publishes them.
+#ifndef IMUQUAL_ACQUIRE_SOURCE_H_
+#define IMUQUAL_ACQUIRE_SOURCE_H_
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+#include "imuqual/plan.pb.h"
+
+namespace imuqual::acquire {
+
+struct SourceInfo {
+  std::vector<pb::Axis> axes;   // output order
+  double nominal_rate_hz = 0;   // the device's nominal output data rate
+  std::string description;      // e.g. "sim:profile=vg700,unit=3"
+  std::string truth;            // serialized pb::SimTruth for simulated units, else ""
+  bool paced_by_device = false; // true: samples arrive in real time (serial); false: as fast as read
+};
+
+struct SampleFlagEntry {
+  int sample = 0;  // index in the block
+  int axis = 0;
+  int bits = 0;    // rate_batch_t FLAG_* bits
+};
+
+struct SampleBlock {
+  int64_t first_sample = 0;                  // device counter of samples[*][0]
+  std::vector<std::vector<float>> samples;   // [axis][i]; gyro deg/s, accel m/s^2
+  std::vector<SampleFlagEntry> flags;
+  std::optional<float> temperature_c;
+  int size() const { return samples.empty() ? 0 : static_cast<int>(samples[0].size()); }
+};
+
+class SampleSource {
+ public:
+  virtual ~SampleSource() = default;
+  virtual const SourceInfo& info() const = 0;
+  // Reads up to `max_samples` next consecutive samples into *block (cleared
+  // first; samples sized to the axes). Returns how many: 0 means the source
+  // has ended. A device counter that jumps between blocks is a gap.
+  virtual Result<int> Read(int max_samples, SampleBlock* block) = 0;
+};
+
+}  // namespace imuqual::acquire
+
+#endif  // IMUQUAL_ACQUIRE_SOURCE_H_

@@ -1,0 +1,31 @@
+// Measurements of a run from its Allan curves, in the units datasheets use
+// (see measurements.h): the curve minimum (seed convention) and min/0.664
+// (IEEE 952), the tau of the minimum, ARW/VRW on the -1/2 line at 1 s, RRW on
+// the +1/2 line at 3 s (flagged "upper bound only" where the curve never
+// shows that slope), the mean output, and run-level data quality. Pure.
+#ifndef IMUQUAL_ANALYZE_JUDGE_MEASURE_H_
+#define IMUQUAL_ANALYZE_JUDGE_MEASURE_H_
+
+#include <string>
+#include <vector>
+
+#include "analyze/allan/curve.h"
+#include "imuqual/plan.pb.h"
+#include "imuqual/record.pb.h"
+
+namespace imuqual::judge {
+
+// `curve`: OADEV of the axis in deg/s (gyro) or m/s^2 (accel), preferably
+// on a dense grid (more points near the minimum and on the slopes).
+// `mean_rate`: mean output over the analysed record, same unit.
+std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind kind,
+                                         const allan::Curve& curve, double mean_rate);
+
+// Run-level: analysed duration, fraction of samples that never arrived
+// (per axis), fraction of invalid samples (over all axes).
+std::vector<pb::Measurement> MeasureRun(double duration_s, int64_t samples, int64_t gap_samples,
+                                        int64_t invalid_samples, int num_axes);
+
+}  // namespace imuqual::judge
+
+#endif  // IMUQUAL_ANALYZE_JUDGE_MEASURE_H_

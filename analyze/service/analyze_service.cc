@@ -1,0 +1,470 @@
+#include "analyze/service/analyze_service.h"
+
+#include <atomic>
+#include <cmath>
+#include <map>
+#include <optional>
+#include <set>
+#include <thread>
+#include <variant>
+
+#include "analyze/judge/plan.h"
+#include "analyze/service/run_analyzer.h"
+#include "common/bounded_queue.h"
+#include "common/channels.h"
+#include "common/clock.h"
+#include "common/lcm_bus.h"
+#include "common/log.h"
+#include "common/process_status.h"
+#include "common/seq_tracker.h"
+#include "common/shutdown.h"
+#include "imuqual/ack_t.hpp"
+#include "imuqual/allan_curve_t.hpp"
+#include "imuqual/rate_batch_t.hpp"
+#include "imuqual/resend_t.hpp"
+#include "imuqual/run_t.hpp"
+#include "imuqual/unit_result_t.hpp"
+
+namespace imuqual::analyze {
+namespace {
+
+using Work = std::variant<imuqual::run_t, imuqual::rate_batch_t>;
+
+constexpr double kAckPeriodS = 0.02;        // ack progress at most this often per run
+constexpr int64_t kAckEvery = 16;           // ... or after this many batches
+constexpr double kReackPeriodS = 0.5;       // re-send the last ack (acks can be lost)
+constexpr double kDoneReackPeriodS = 1.0;   // finished runs keep saying so
+constexpr double kDoneReackForS = 60.0;
+constexpr size_t kMaxHeldBeforeRunInfo = 4096;
+
+int8_t OutcomeCode(pb::Outcome o) {
+  switch (o) {
+    case pb::PASS: return imuqual::measurement_t::OUTCOME_PASS;
+    case pb::MARGINAL: return imuqual::measurement_t::OUTCOME_MARGINAL;
+    case pb::FAIL: return imuqual::measurement_t::OUTCOME_FAIL;
+    default: return imuqual::measurement_t::OUTCOME_UNSET;
+  }
+}
+
+struct RunEntry {
+  std::optional<imuqual::run_t> info;
+  std::optional<RunAnalyzer> analyzer;
+  std::string error;  // why the run cannot be analysed, if it cannot
+  SeqTracker tracker;
+  std::map<int64_t, imuqual::rate_batch_t> held;  // received, not yet processed
+  int64_t processed_since_interim = 0;
+  int64_t last_ack_seq = -1;
+  double last_ack_s = 0;
+  double last_interim_s = 0;
+  bool finished = false;
+  double finished_s = 0;
+  int64_t rejected = 0;
+
+  explicit RunEntry(const SeqTracker::Options& o) : tracker(0, o) {}
+};
+
+}  // namespace
+
+bool InShard(const std::string& serial, int shard_index, int shard_count) {
+  uint64_t h = 0xcbf29ce484222325ULL;
+  for (unsigned char c : serial) {
+    h ^= c;
+    h *= 0x100000001b3ULL;
+  }
+  return static_cast<int>(h % static_cast<uint64_t>(shard_count)) == shard_index;
+}
+
+Status AnalyzeOptions::Validate() const {
+  if (lcm_url.empty()) return Status::InvalidArgument("lcm_url: required");
+  if (shard_count < 1 || shard_index < 0 || shard_index >= shard_count) {
+    return Status::InvalidArgument("shard: must be K/N with 0 <= K < N");
+  }
+  if (density < 1 || density > 64 || (density & (density - 1)) != 0) {
+    return Status::InvalidArgument("density: must be a power of two in 1..64");
+  }
+  if (!(interim_period_s > 0)) return Status::InvalidArgument("interim_period_s: must be > 0");
+  if (queue_capacity < 16) return Status::InvalidArgument("queue_capacity: must be >= 16");
+  if (!(hole_give_up_s > 0)) return Status::InvalidArgument("hole_give_up_s: must be > 0");
+  return Status::Ok();
+}
+
+struct AnalyzeService::Impl {
+  AnalyzeOptions options;
+  std::unique_ptr<LcmBus> bus;
+  BoundedQueue<Work> queue;
+  std::map<std::string, RunEntry> runs;
+  std::set<std::string> finished_ids;
+  std::string instance = InstanceName();
+  SeqTracker::Options tracker_options;
+  // Counters (worker thread, except where atomic).
+  std::atomic<int64_t> batches_received{0}, out_of_shard{0};
+  int64_t batches_processed = 0, duplicates = 0, absurd = 0, rejected = 0, resend_requests = 0,
+          batches_given_up = 0, runs_finished = 0, late_after_finish = 0;
+
+  explicit Impl(const AnalyzeOptions& o) : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
+    tracker_options.give_up_after_s = o.hole_give_up_s;
+    tracker_options.max_ahead = 8192;
+  }
+
+  void Handle(Work&& work, double now);
+  void OnRun(imuqual::run_t&& run, double now);
+  void OnBatch(imuqual::rate_batch_t&& batch, double now);
+  void Tick(double now);
+  void TickRun(const std::string& run_id, RunEntry& e, double now);
+  void StartAnalyzer(RunEntry& e);
+  void ProcessHeld(RunEntry& e);
+  void Finish(const std::string& run_id, RunEntry& e, double now);
+  void PublishOutcome(const RunEntry& e, const RunOutcome& out, bool final);
+  void Ack(const std::string& run_id, RunEntry& e, double now, bool force);
+  Counters StatusCounters();
+};
+
+AnalyzeService::AnalyzeService(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+AnalyzeService::~AnalyzeService() = default;
+
+Result<std::unique_ptr<AnalyzeService>> AnalyzeService::Create(const AnalyzeOptions& options) {
+  IMUQUAL_RETURN_IF_ERROR(options.Validate());
+  return std::unique_ptr<AnalyzeService>(new AnalyzeService(std::make_unique<Impl>(options)));
+}
+
+void AnalyzeService::Impl::Handle(Work&& work, double now) {
+  if (auto* run = std::get_if<imuqual::run_t>(&work)) {
+    OnRun(std::move(*run), now);
+  } else {
+    OnBatch(std::move(std::get<imuqual::rate_batch_t>(work)), now);
+  }
+}
+
+void AnalyzeService::Impl::OnRun(imuqual::run_t&& run, double now) {
+  if (finished_ids.count(run.run_id)) return;
+  auto [it, inserted] = runs.try_emplace(run.run_id, tracker_options);
+  RunEntry& e = it->second;
+  (void)inserted;
+  // A finished state never goes back to running (heartbeats may cross).
+  if (e.info && e.info->state != imuqual::run_t::STATE_RUNNING &&
+      run.state == imuqual::run_t::STATE_RUNNING) {
+    return;
+  }
+  const bool first = !e.info.has_value();
+  e.info = std::move(run);
+  e.tracker.SetAnnouncedLast(e.info->last_seq);
+  if (e.info->state != imuqual::run_t::STATE_RUNNING) e.tracker.SetFinal();
+  if (first) {
+    StartAnalyzer(e);
+    Ack(e.info->run_id, e, now, true);  // "present": opens acquire's window
+  }
+}
+
+void AnalyzeService::Impl::StartAnalyzer(RunEntry& e) {
+  const imuqual::run_t& r = *e.info;
+  RunDescription d;
+  d.run_id = r.run_id;
+  d.serial = r.unit_serial;
+  d.nominal_rate_hz = r.nominal_rate_hz;
+  for (int i = 0; i < r.num_axes; ++i) {
+    d.axes.push_back({r.axis_names[i], r.axis_kinds[i] == imuqual::rate_batch_t::KIND_ACCEL
+                                           ? pb::ACCEL
+                                           : pb::GYRO});
+  }
+  if (!d.plan.ParseFromArray(r.plan.data(), static_cast<int>(r.plan.size()))) {
+    e.error = "the run's plan does not decode";
+  } else if (Status st = judge::ValidatePlan(d.plan); !st.ok()) {
+    e.error = "the run's plan is invalid: " + st.message();
+  }
+  auto analyzer = RunAnalyzer::Create(std::move(d), AnalyzerOptions{options.density});
+  if (!analyzer.ok()) {
+    e.error = analyzer.status().message();
+  } else {
+    e.analyzer.emplace(std::move(*analyzer));
+  }
+  if (!e.error.empty()) LogError("run " + r.run_id + ": " + e.error);
+  LogInfo("analysing run " + r.run_id + " (unit " + r.unit_serial + ", " +
+          std::to_string(r.num_axes) + " axes at " + std::to_string(r.nominal_rate_hz) + " Hz)");
+}
+
+void AnalyzeService::Impl::OnBatch(imuqual::rate_batch_t&& batch, double now) {
+  if (finished_ids.count(batch.run_id)) {
+    ++late_after_finish;
+    return;
+  }
+  auto [it, inserted] = runs.try_emplace(batch.run_id, tracker_options);
+  RunEntry& e = it->second;
+  (void)now;
+  (void)inserted;
+  if (!e.info && e.held.size() >= kMaxHeldBeforeRunInfo) {
+    ++rejected;  // it will be resent once the run is known
+    return;
+  }
+  const int64_t seq = batch.seq;
+  switch (e.tracker.Offer(seq)) {
+    case SeqTracker::Arrival::kDuplicate: ++duplicates; return;
+    case SeqTracker::Arrival::kAbsurd: ++absurd; return;
+    case SeqTracker::Arrival::kNew: break;
+  }
+  e.held.emplace(seq, std::move(batch));
+}
+
+// Processes held batches that are now in order (everything below the
+// tracker's frontier has arrived or was given up).
+void AnalyzeService::Impl::ProcessHeld(RunEntry& e) {
+  if (!e.analyzer) return;
+  while (!e.held.empty() && e.held.begin()->first < e.tracker.next_seq()) {
+    const imuqual::rate_batch_t& b = e.held.begin()->second;
+    BatchView view;
+    view.seq = b.seq;
+    view.first_sample = b.first_sample;
+    view.nominal_rate_hz = b.nominal_rate_hz;
+    for (const std::vector<float>& axis : b.samples) view.samples.emplace_back(axis);
+    for (int i = 0; i < b.num_flagged; ++i) {
+      view.flags.push_back({b.flagged_sample[i], b.flagged_axis[i], b.flagged_bits[i]});
+    }
+    Status st = e.analyzer->AddBatch(view);
+    if (!st.ok()) {
+      ++rejected;
+      if (e.rejected++ < 5) LogWarning("run " + b.run_id + " seq " + std::to_string(b.seq) +
+                                       " rejected: " + st.message());
+    } else {
+      ++batches_processed;
+      ++e.processed_since_interim;
+    }
+    e.held.erase(e.held.begin());
+  }
+}
+
+void AnalyzeService::Impl::Ack(const std::string& run_id, RunEntry& e, double now, bool force) {
+  const int64_t seq = e.held.empty() ? e.tracker.next_seq()
+                                     : std::min(e.held.begin()->first, e.tracker.next_seq());
+  const bool progressed = seq != e.last_ack_seq;
+  const double since = now - e.last_ack_s;
+  const double period = e.finished ? kDoneReackPeriodS : kReackPeriodS;
+  if (!force && !(progressed && (since >= kAckPeriodS || seq - e.last_ack_seq >= kAckEvery)) &&
+      since < period) {
+    return;
+  }
+  imuqual::ack_t ack;
+  ack.host_utime = NowUtime();
+  ack.process = "analyze";
+  ack.instance = instance;
+  ack.run_id = run_id;
+  ack.next_seq = seq;
+  ack.run_done = e.finished;
+  if (bus->Publish(channels::kAck, ack).ok()) {
+    e.last_ack_seq = seq;
+    e.last_ack_s = now;
+  }
+}
+
+void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& out, bool final) {
+  const imuqual::run_t& r = *e.info;
+  const int64_t now = NowUtime();
+  for (const auto& [axis, curve] : out.curves) {
+    imuqual::allan_curve_t msg;
+    msg.host_utime = now;
+    msg.run_id = r.run_id;
+    msg.unit_serial = r.unit_serial;
+    msg.axis = axis;
+    msg.axis_kind = imuqual::rate_batch_t::KIND_GYRO;
+    for (int i = 0; i < r.num_axes; ++i) {
+      if (r.axis_names[i] == axis) msg.axis_kind = r.axis_kinds[i];
+    }
+    msg.estimator = std::string(allan::DeviationName(curve.deviation));
+    msg.ci_method = std::string(allan::CiMethodName(curve.ci));
+    msg.is_final = final;
+    msg.samples = out.samples;
+    msg.valid_samples = out.samples - out.gap_samples;
+    msg.tau0_s = curve.tau0_s;
+    msg.num_points = static_cast<int32_t>(curve.points.size());
+    for (const allan::CurvePoint& p : curve.points) {
+      msg.m.push_back(p.m);
+      msg.tau_s.push_back(p.tau_s);
+      msg.dev.push_back(p.dev);
+      msg.lo.push_back(p.lo);
+      msg.hi.push_back(p.hi);
+      msg.edf.push_back(p.edf);
+      msg.n_terms.push_back(p.n);
+    }
+    Status st = bus->Publish(channels::Curve(r.unit_serial), msg);
+    if (!st.ok()) LogWarning(st.message());
+  }
+  imuqual::unit_result_t res;
+  res.host_utime = now;
+  res.run_id = r.run_id;
+  res.unit_serial = r.unit_serial;
+  res.is_final = final;
+  res.verdict = OutcomeCode(out.judgement.verdict);
+  res.reasons = out.judgement.reasons;
+  res.num_reasons = static_cast<int16_t>(std::min<size_t>(res.reasons.size(), 32000));
+  res.reasons.resize(res.num_reasons);
+  res.samples = out.samples;
+  res.warmup_samples = out.warmup_samples;
+  res.gap_samples = out.gap_samples;
+  res.invalid_samples = out.invalid_samples;
+  for (const pb::Measurement& m : out.measurements) {
+    imuqual::measurement_t mm;
+    mm.axis = m.axis();
+    mm.name = m.name();
+    mm.value = m.value();
+    mm.unit = m.unit();
+    mm.low = m.has_low() ? m.low() : allan::kNaN;
+    mm.high = m.has_high() ? m.high() : allan::kNaN;
+    mm.marginal_low = m.has_marginal_low() ? m.marginal_low() : allan::kNaN;
+    mm.marginal_high = m.has_marginal_high() ? m.marginal_high() : allan::kNaN;
+    mm.outcome = OutcomeCode(m.outcome());
+    mm.note = m.note();
+    res.measurements.push_back(std::move(mm));
+  }
+  res.num_measurements = static_cast<int32_t>(res.measurements.size());
+  Status st = bus->Publish(channels::Result(r.unit_serial), res);
+  if (!st.ok()) LogWarning(st.message());
+}
+
+void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double now) {
+  const bool aborted = e.info->state == imuqual::run_t::STATE_ABORTED;
+  if (e.analyzer) {
+    e.analyzer->Finish(e.info->samples_published);
+    RunOutcome out = e.analyzer->Outcome(true, aborted);
+    if (!e.error.empty()) {
+      out.judgement.verdict = pb::FAIL;
+      out.judgement.reasons.insert(out.judgement.reasons.begin(), e.error);
+    }
+    PublishOutcome(e, out, true);
+    LogInfo("run " + run_id + " done: " + judge::OutcomeName(out.judgement.verdict) + ", " +
+            std::to_string(out.samples) + " samples per axis, " +
+            std::to_string(out.gap_samples) + " gap samples");
+  } else {
+    RunOutcome out;
+    out.judgement.verdict = pb::FAIL;
+    out.judgement.reasons = {"cannot analyse the run: " + e.error};
+    PublishOutcome(e, out, true);
+  }
+  e.finished = true;
+  e.finished_s = now;
+  ++runs_finished;
+  e.analyzer.reset();  // release the engines; the entry stays to re-ack
+  Ack(run_id, e, now, true);
+}
+
+void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, double now) {
+  if (e.finished) {
+    Ack(run_id, e, now, false);
+    return;
+  }
+  if (!e.info) return;  // batches before the run's first heartbeat wait
+  for (const SeqRange& r : e.tracker.DueRequests(now)) {
+    imuqual::resend_t req;
+    req.host_utime = NowUtime();
+    req.requester = instance;
+    req.run_id = run_id;
+    req.first_seq = r.first;
+    req.last_seq = r.last;
+    if (bus->Publish(channels::kResend, req).ok()) ++resend_requests;
+  }
+  for (const SeqRange& r : e.tracker.TakeGivenUp(now)) {
+    batches_given_up += r.last - r.first + 1;
+    LogWarning("run " + run_id + ": batches " + std::to_string(r.first) + ".." +
+               std::to_string(r.last) + " were not resent; analysing them as a gap");
+  }
+  ProcessHeld(e);
+  if (e.tracker.complete() && e.held.empty()) {
+    Finish(run_id, e, now);
+    return;
+  }
+  Ack(run_id, e, now, false);
+  if (e.analyzer && e.processed_since_interim > 0 && now - e.last_interim_s >= options.interim_period_s) {
+    PublishOutcome(e, e.analyzer->Outcome(false, false), false);
+    e.processed_since_interim = 0;
+    e.last_interim_s = now;
+  }
+}
+
+void AnalyzeService::Impl::Tick(double now) {
+  for (auto it = runs.begin(); it != runs.end();) {
+    TickRun(it->first, it->second, now);
+    if (it->second.finished && now - it->second.finished_s > kDoneReackForS) {
+      finished_ids.insert(it->first);
+      it = runs.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+Counters AnalyzeService::Impl::StatusCounters() {
+  int64_t held = 0, active = 0;
+  for (const auto& [id, e] : runs) {
+    held += static_cast<int64_t>(e.held.size());
+    active += !e.finished;
+  }
+  return {{"runs_active", active},
+          {"runs_finished", runs_finished},
+          {"batches_received", batches_received.load()},
+          {"batches_processed", batches_processed},
+          {"batches_held", held},
+          {"duplicates", duplicates},
+          {"absurd_seq", absurd},
+          {"rejected", rejected},
+          {"resend_requests", resend_requests},
+          {"batches_given_up", batches_given_up},
+          {"late_after_finish", late_after_finish},
+          {"queue_depth", static_cast<int64_t>(queue.size())},
+          {"queue_high_water", static_cast<int64_t>(queue.high_water())},
+          {"queue_dropped", static_cast<int64_t>(queue.dropped())},
+          {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
+          {"out_of_shard", out_of_shard.load()}};
+}
+
+Status AnalyzeService::Run() {
+  Impl& s = *impl_;
+  auto bus = LcmBus::Open(s.options.lcm_url);
+  if (!bus.ok()) return bus.status();
+  s.bus = std::move(*bus);
+  const AnalyzeOptions& o = s.options;
+  s.bus->Subscribe<imuqual::run_t>(
+      channels::kRun, 1000, [&s, &o](const std::string&, imuqual::run_t&& run, int64_t) {
+        if (!InShard(run.unit_serial, o.shard_index, o.shard_count)) return;
+        s.queue.TryPush(std::move(run));
+      });
+  s.bus->Subscribe<imuqual::rate_batch_t>(
+      channels::kRawAll, o.queue_capacity,
+      [&s, &o](const std::string&, imuqual::rate_batch_t&& batch, int64_t) {
+        if (!InShard(batch.unit_serial, o.shard_index, o.shard_count)) {
+          ++s.out_of_shard;
+          return;
+        }
+        ++s.batches_received;
+        s.queue.TryPush(std::move(batch));
+      });
+
+  std::atomic<bool> stop{false};
+  std::thread worker([&s, &stop] {
+    double next_status = 0;
+    for (;;) {
+      std::vector<Work> items = s.queue.PopAll(std::chrono::milliseconds(5), 1024);
+      double now = MonotonicSeconds();
+      for (Work& w : items) s.Handle(std::move(w), now);
+      if (items.empty() && stop.load() && s.queue.size() == 0) break;
+      s.Tick(now);
+      if (now >= next_status) {
+        (void)PublishStatus(*s.bus, "analyze", true, "", s.StatusCounters());
+        next_status = now + 1.0;
+      }
+    }
+    (void)PublishStatus(*s.bus, "analyze", true, "stopped", s.StatusCounters());
+  });
+  LogInfo("analyzing on " + o.lcm_url + " (shard " + std::to_string(o.shard_index) + "/" +
+          std::to_string(o.shard_count) + ")");
+  Status result;
+  while (!ShutdownRequested()) {
+    Status st = s.bus->HandleFor(100);
+    if (!st.ok()) {
+      result = st;
+      break;
+    }
+  }
+  stop = true;
+  s.queue.Close();
+  worker.join();
+  return result;
+}
+
+}  // namespace imuqual::analyze

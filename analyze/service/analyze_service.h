@@ -1,0 +1,50 @@
+// The analyze process: learns runs from run_t heartbeats, takes each run's
+// batches (its shard of the units), puts them in seq order (holding the
+// out-of-order ones, requesting resends of holes, giving a hole up as a gap
+// after a deadline), feeds a RunAnalyzer per run, acknowledges progress for
+// flow control, publishes interim curves and provisional verdicts while the
+// run goes on and the final curves and unit_result_t when it ends.
+//
+// Threading: the bus thread's handlers only decode, filter by shard and
+// enqueue into a bounded queue (drops counted); one worker thread does the
+// analysis and publishes. Shutdown drains the queue, then joins.
+#ifndef IMUQUAL_ANALYZE_SERVICE_ANALYZE_SERVICE_H_
+#define IMUQUAL_ANALYZE_SERVICE_ANALYZE_SERVICE_H_
+
+#include <memory>
+#include <string>
+
+#include "common/status.h"
+
+namespace imuqual::analyze {
+
+struct AnalyzeOptions {
+  std::string lcm_url;
+  int shard_index = 0;              // this process takes units whose serial hashes to
+  int shard_count = 1;              //   shard_index modulo shard_count
+  int density = 8;                  // streaming engine: averaging factors per octave
+  double interim_period_s = 2.0;    // wall seconds between interim publications per run
+  int queue_capacity = 50000;       // batches waiting for the worker
+  double hole_give_up_s = 30.0;     // a missing batch not resent by then is a gap
+  Status Validate() const;
+};
+
+class AnalyzeService {
+ public:
+  static Result<std::unique_ptr<AnalyzeService>> Create(const AnalyzeOptions& options);
+  ~AnalyzeService();
+  // Runs until shutdown is requested. Fails if the bus cannot be opened.
+  Status Run();
+
+ private:
+  struct Impl;
+  explicit AnalyzeService(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// Whether `serial` belongs to shard k of n (FNV-1a of the serial, mod n).
+bool InShard(const std::string& serial, int shard_index, int shard_count);
+
+}  // namespace imuqual::analyze
+
+#endif  // IMUQUAL_ANALYZE_SERVICE_ANALYZE_SERVICE_H_

@@ -1,0 +1,47 @@
+// imuqual-analyze: Allan analysis of every run on a station bus (or one
+// shard of the units). Flags -> options -> AnalyzeService -> exit code.
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+
+#include "analyze/service/analyze_service.h"
+#include "common/log.h"
+#include "common/shutdown.h"
+
+int main(int argc, char** argv) {
+  using namespace imuqual;
+  analyze::AnalyzeOptions opt;
+  std::string shard = "0/1";
+  CLI::App app{"imuqual-analyze: Allan curves, noise terms and verdicts for every run on a bus"};
+  app.add_option("--lcm-url", opt.lcm_url, "station bus, e.g. udpm://239.255.76.67:7701?ttl=0")
+      ->required();
+  app.add_option("--shard", shard, "K/N: analyse only the units of shard K of N")
+      ->capture_default_str();
+  app.add_option("--density", opt.density, "streaming averaging factors per octave (power of 2)")
+      ->capture_default_str();
+  app.add_option("--interim-period", opt.interim_period_s, "seconds between interim results")
+      ->capture_default_str();
+  app.add_option("--queue", opt.queue_capacity, "batches waiting for the worker")
+      ->capture_default_str();
+  app.add_option("--give-up", opt.hole_give_up_s, "seconds before a lost batch becomes a gap")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  SetLogProgramName("imuqual-analyze");
+  InstallShutdownHandlers();
+  if (std::sscanf(shard.c_str(), "%d/%d", &opt.shard_index, &opt.shard_count) != 2) {
+    LogError("--shard must be K/N, e.g. 0/3, got '" + shard + "'");
+    return 2;
+  }
+  auto service = analyze::AnalyzeService::Create(opt);
+  if (!service.ok()) {
+    LogError(service.status().message());
+    return 2;
+  }
+  Status st = (*service)->Run();
+  if (!st.ok()) {
+    LogError(st.message());
+    return 1;
+  }
+  return 0;
+}

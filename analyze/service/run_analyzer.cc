@@ -1,0 +1,167 @@
+#include "analyze/service/run_analyzer.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "analyze/judge/measure.h"
+#include "analyze/judge/plan.h"
+
+namespace imuqual::analyze {
+namespace {
+
+// rate_batch_t FLAG_SATURATED | FLAG_INVALID: the sample is not a measurement.
+constexpr int kUnusableFlags = 1 | 2;
+// A counter jump beyond 100 days of samples is a corrupt counter, not a gap.
+constexpr double kAbsurdGapSeconds = 100 * 86400.0;
+
+}  // namespace
+
+RunAnalyzer::RunAnalyzer(RunDescription description, AnalyzerOptions options)
+    : desc_(std::move(description)), options_(options) {}
+
+Result<RunAnalyzer> RunAnalyzer::Create(RunDescription description, AnalyzerOptions options) {
+  if (description.axes.empty()) return Status::InvalidArgument("run has no axes");
+  if (!(description.nominal_rate_hz > 0) || !std::isfinite(description.nominal_rate_hz)) {
+    return Status::InvalidArgument("run rate must be positive");
+  }
+  RunAnalyzer a(std::move(description), options);
+  a.tau0_s_ = 1.0 / a.desc_.nominal_rate_hz;
+  a.warmup_target_ = std::llround(a.desc_.plan.warmup_s() * a.desc_.nominal_rate_hz);
+  allan::StreamingOptions so;
+  so.tau0_s = a.tau0_s_;
+  so.density = options.density;
+  IMUQUAL_RETURN_IF_ERROR(so.Validate());
+  for (size_t i = 0; i < a.desc_.axes.size(); ++i) a.engines_.emplace_back(so);
+  a.sum_.assign(a.desc_.axes.size(), 0.0);
+  a.count_.assign(a.desc_.axes.size(), 0);
+  return a;
+}
+
+// Places `count` missing samples on the timeline: warm-up first, then gaps.
+void RunAnalyzer::Push(int64_t count_missing) {
+  const int64_t warm = std::min(count_missing, warmup_target_ - warmup_seen_);
+  warmup_seen_ += std::max<int64_t>(warm, 0);
+  const int64_t rest = count_missing - std::max<int64_t>(warm, 0);
+  if (rest <= 0) return;
+  for (allan::StreamingAllan& e : engines_) e.AppendMissing(rest);
+  gap_samples_ += rest;
+}
+
+Status RunAnalyzer::AddBatch(const BatchView& batch) {
+  const size_t axes = desc_.axes.size();
+  if (batch.samples.size() != axes) {
+    return Status::InvalidArgument("batch has " + std::to_string(batch.samples.size()) +
+                                   " axes, the run " + std::to_string(axes));
+  }
+  const size_t n = batch.samples[0].size();
+  for (const auto& s : batch.samples) {
+    if (s.size() != n) return Status::InvalidArgument("batch axes differ in length");
+  }
+  if (!(std::abs(batch.nominal_rate_hz / desc_.nominal_rate_hz - 1.0) < 1e-9)) {
+    return Status::InvalidArgument("batch claims " + std::to_string(batch.nominal_rate_hz) +
+                                   " Hz, the run is at " + std::to_string(desc_.nominal_rate_hz) +
+                                   " Hz");
+  }
+  for (const BatchView::Flag& f : batch.flags) {
+    if (f.sample < 0 || static_cast<size_t>(f.sample) >= n || f.axis < 0 ||
+        static_cast<size_t>(f.axis) >= axes) {
+      return Status::InvalidArgument("batch flag points outside the batch");
+    }
+  }
+  if (next_counter_ >= 0 && batch.first_sample < next_counter_) {
+    return Status::InvalidArgument("device counter went backwards (expected " +
+                                   std::to_string(next_counter_) + ", batch starts at " +
+                                   std::to_string(batch.first_sample) + ")");
+  }
+  if (next_counter_ >= 0 &&
+      static_cast<double>(batch.first_sample - next_counter_) * tau0_s_ > kAbsurdGapSeconds) {
+    return Status::InvalidArgument("device counter jumped by " +
+                                   std::to_string(batch.first_sample - next_counter_) +
+                                   " samples");
+  }
+  if (first_counter_ < 0) {
+    first_counter_ = batch.first_sample;
+    next_counter_ = batch.first_sample;
+  }
+  Push(batch.first_sample - next_counter_);
+
+  // Warm-up samples of this batch are skipped.
+  const int64_t skip = std::clamp<int64_t>(warmup_target_ - warmup_seen_, 0, static_cast<int64_t>(n));
+  warmup_seen_ += skip;
+  const size_t keep = n - static_cast<size_t>(skip);
+  if (keep > 0) {
+    for (size_t a = 0; a < axes; ++a) {
+      invalid_scratch_.assign(n, 0);
+      for (const BatchView::Flag& f : batch.flags) {
+        if (static_cast<size_t>(f.axis) == a && (f.bits & kUnusableFlags)) {
+          invalid_scratch_[f.sample] = 1;
+        }
+      }
+      const std::span<const float> values = batch.samples[a].subspan(skip);
+      const std::span<const uint8_t> invalid = std::span<const uint8_t>(invalid_scratch_).subspan(skip);
+      engines_[a].Append(values, invalid);
+      for (size_t i = 0; i < keep; ++i) {
+        if (invalid[i] || !std::isfinite(values[i])) {
+          ++invalid_samples_;
+        } else {
+          sum_[a] += values[i];
+          ++count_[a];
+        }
+      }
+    }
+  }
+  next_counter_ = batch.first_sample + static_cast<int64_t>(n);
+  ++batches_;
+  return Status::Ok();
+}
+
+void RunAnalyzer::Finish(int64_t samples_announced) {
+  const int64_t covered = first_counter_ < 0 ? 0 : next_counter_ - first_counter_;
+  if (samples_announced > covered) Push(samples_announced - covered);
+}
+
+RunOutcome RunAnalyzer::Outcome(bool final, bool aborted) const {
+  RunOutcome out;
+  const pb::TestPlan& plan = desc_.plan;
+  const allan::StopRule stop =
+      allan::ParseStopRule(judge::PlanStopRule(plan)).value_or(allan::StopRule::kBins9);
+  const allan::StreamGrid grid =
+      plan.grid().kind() == pb::TauGrid::OCTAVE ? allan::StreamGrid::kOctave : allan::StreamGrid::kDense;
+  for (size_t a = 0; a < desc_.axes.size(); ++a) {
+    const allan::StreamingAllan& e = engines_[a];
+    out.curves.emplace_back(desc_.axes[a].name, e.Oadev(grid, stop, allan::CiMethod::kSimple));
+    const allan::Curve dense = e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
+    const double mean = count_[a] > 0 ? sum_[a] / static_cast<double>(count_[a]) : allan::kNaN;
+    for (pb::Measurement& m : judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, mean)) {
+      out.measurements.push_back(std::move(m));
+    }
+  }
+  out.samples = engines_.front().samples();
+  out.gap_samples = gap_samples_;
+  out.invalid_samples = invalid_samples_;
+  out.warmup_samples = warmup_seen_;
+  for (pb::Measurement& m :
+       judge::MeasureRun(static_cast<double>(out.samples) * tau0_s_, out.samples, out.gap_samples,
+                         out.invalid_samples, static_cast<int>(desc_.axes.size()))) {
+    out.measurements.push_back(std::move(m));
+  }
+  if (final) {
+    out.judgement = judge::Judge(plan, desc_.axes, &out.measurements);
+  } else {
+    // Provisional: judge what is measured so far, not the run's length.
+    pb::TestPlan provisional = plan;
+    provisional.set_min_duration_s(0);
+    auto* limits = provisional.mutable_limits();
+    limits->erase(std::remove_if(limits->begin(), limits->end(),
+                                 [](const pb::Limit& l) { return l.measurement() == "duration"; }),
+                  limits->end());
+    out.judgement = judge::Judge(provisional, desc_.axes, &out.measurements);
+  }
+  if (aborted) {
+    out.judgement.verdict = pb::FAIL;
+    out.judgement.reasons.insert(out.judgement.reasons.begin(), "run aborted before completion");
+  }
+  return out;
+}
+
+}  // namespace imuqual::analyze

@@ -1,0 +1,110 @@
+// The analysis of one run: batches in seq order in, Allan curves, measurements
+// and a verdict out. No LCM, no SQLite, no clock: the analyze process feeds it
+// live batches, re-analysis feeds it archived chunks, and both get the same
+// bits (the streaming engine is independent of batch boundaries).
+//
+// Timeline: the device sample counter. A batch whose counter starts past the
+// expected one is preceded by a gap of that many missing samples; one that
+// starts before it (counter went backwards or a batch overlaps) is rejected.
+// The plan's warm-up is discarded by counter. NaN samples and samples flagged
+// invalid or saturated are gaps, never zeros. Not thread-safe.
+#ifndef IMUQUAL_ANALYZE_SERVICE_RUN_ANALYZER_H_
+#define IMUQUAL_ANALYZE_SERVICE_RUN_ANALYZER_H_
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "analyze/allan/curve.h"
+#include "analyze/allan/streaming.h"
+#include "analyze/judge/judge.h"
+#include "common/status.h"
+#include "imuqual/plan.pb.h"
+#include "imuqual/record.pb.h"
+
+namespace imuqual::analyze {
+
+struct RunDescription {
+  std::string run_id;
+  std::string serial;
+  std::vector<judge::AxisDesc> axes;
+  double nominal_rate_hz = 0;
+  pb::TestPlan plan;
+};
+
+// One batch as received: samples[a] has num_samples values of axis a.
+struct BatchView {
+  int64_t seq = 0;
+  int64_t first_sample = 0;  // device counter of the first sample
+  double nominal_rate_hz = 0;
+  std::vector<std::span<const float>> samples;
+  struct Flag {
+    int sample;
+    int axis;
+    int bits;
+  };
+  std::vector<Flag> flags;
+};
+
+struct AnalyzerOptions {
+  int density = 8;  // streaming engine: averaging factors per octave (C)
+};
+
+struct RunOutcome {
+  std::vector<std::pair<std::string, allan::Curve>> curves;  // per axis, the plan's grid
+  std::vector<pb::Measurement> measurements;                   // judged
+  judge::Judgement judgement;
+  int64_t samples = 0;          // per axis, after warm-up, including gaps
+  int64_t gap_samples = 0;      // per axis
+  int64_t invalid_samples = 0;  // over all axes
+  int64_t warmup_samples = 0;
+};
+
+class RunAnalyzer {
+ public:
+  // The description must have at least one axis and a positive rate.
+  static Result<RunAnalyzer> Create(RunDescription description, AnalyzerOptions options = {});
+
+  // Adds the next batch in seq order (missing seqs are simply skipped: the
+  // device counter tells how many samples they held). A batch that does not
+  // fit the run (axes, rate, counter going backwards) is rejected with an
+  // error naming why, and changes nothing.
+  Status AddBatch(const BatchView& batch);
+
+  // Ends the record: of the `samples_announced` samples the source produced,
+  // those the batches never covered (lost first or last batches) count as
+  // gap samples at the end of the record.
+  void Finish(int64_t samples_announced);
+
+  // Curves, measurements and verdict as of now. `final` judges the run
+  // (durations, missing measurements); `aborted` adds a FAIL reason.
+  RunOutcome Outcome(bool final, bool aborted) const;
+
+  const RunDescription& description() const { return desc_; }
+  int64_t next_counter() const { return next_counter_; }
+  int64_t batches_accepted() const { return batches_; }
+
+ private:
+  RunAnalyzer(RunDescription description, AnalyzerOptions options);
+  void Push(int64_t count_missing);
+
+  RunDescription desc_;
+  AnalyzerOptions options_;
+  double tau0_s_ = 0;
+  int64_t warmup_target_ = 0;  // samples to discard
+  int64_t first_counter_ = -1;
+  int64_t next_counter_ = -1;
+  int64_t warmup_seen_ = 0;
+  int64_t gap_samples_ = 0;
+  int64_t invalid_samples_ = 0;
+  int64_t batches_ = 0;
+  std::vector<allan::StreamingAllan> engines_;
+  std::vector<double> sum_;         // per axis, valid samples after warm-up
+  std::vector<int64_t> count_;
+  std::vector<uint8_t> invalid_scratch_;
+};
+
+}  // namespace imuqual::analyze
+
+#endif  // IMUQUAL_ANALYZE_SERVICE_RUN_ANALYZER_H_

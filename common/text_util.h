@@ -1,0 +1,29 @@
+// Small text helpers shared by the processes and the CLI.
+#ifndef IMUQUAL_COMMON_TEXT_UTIL_H_
+#define IMUQUAL_COMMON_TEXT_UTIL_H_
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/status.h"
+
+namespace imuqual {
+
+// Whole file as a string; the error names the file and the OS reason.
+Result<std::string> ReadFileToString(const std::string& path);
+// Writes atomically (temp file + rename); the error names the file.
+Status WriteStringToFile(const std::string& path, std::string_view data);
+
+// Lower-case hex SHA-256 of `data`.
+std::string Sha256Hex(std::string_view data);
+
+// A serial number or other identifier that is safe in LCM channel names and
+// file names: 1-48 of [A-Za-z0-9._-]. The error names `what`.
+Status ValidateIdentifier(std::string_view what, std::string_view value);
+
+std::vector<std::string> Split(std::string_view text, char sep);
+
+}  // namespace imuqual
+
+#endif  // IMUQUAL_COMMON_TEXT_UTIL_H_
