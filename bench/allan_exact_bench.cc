@@ -5,7 +5,6 @@
 
 #include <cmath>
 #include <cstdint>
-#include <iostream>  // bench_summary.h uses std::cerr without including it
 #include <map>
 #include <random>
 #include <string>
@@ -125,7 +124,8 @@ int main(int argc, char** argv) {
   const auto figure = [&](const std::string& name, const std::string& run) {
     imuqual::bench::PrintFigure(name, reporter.BestRealSeconds(run), "s");
   };
-  const std::string suffix = "/iterations:1/repeats:" + std::to_string(imuqual::allan::kRepetitions);
+  const std::string suffix =
+      "/iterations:1/repeats:" + std::to_string(imuqual::allan::kRepetitions);
   figure("exact_oadev_octave_1e7_s", "BM_ExactOadevOctave/10000000" + suffix);
   figure("exact_oadev_octave_1e6_s", "BM_ExactOadevOctave/1000000" + suffix);
   figure("exact_oadev_octave_1e7_gaps_s", "BM_ExactOadevOctaveGaps/10000000" + suffix);

@@ -66,9 +66,8 @@ double RegularizedGammaQ(double a, double x) {
 double ApproximateNormalQuantile(double p) {
   const double tail = std::min(p, 1.0 - p);
   const double t = std::sqrt(-2.0 * std::log(tail));
-  const double z =
-      t - (2.515517 + 0.802853 * t + 0.010328 * t * t) /
-              (1.0 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t * t * t);
+  const double z = t - (2.515517 + 0.802853 * t + 0.010328 * t * t) /
+                           (1.0 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t * t * t);
   return p < 0.5 ? -z : z;
 }
 
@@ -181,7 +180,8 @@ std::optional<double> GreenhallInverseEdf(int alpha, int d, double m, double n, 
   const double r = M / s;
 
   if (f == 1.0) {  // Case 1: modified variances (and m = 1), all alpha.
-    if (J <= kJmax) return BasicSum(J, M, s, 1.0, alpha, d) / (M * std::pow(Sz(0, 1.0, alpha, d), 2));
+    if (J <= kJmax)
+      return BasicSum(J, M, s, 1.0, alpha, d) / (M * std::pow(Sz(0, 1.0, alpha, d), 2));
     if (r >= d + 1) return TableInverseEdf(kTable1, alpha, d, r);
     const double m_prime = kJmax / r;
     return BasicSum(kJmax, kJmax, m_prime, 1.0, alpha, d) /
@@ -283,8 +283,8 @@ std::optional<double> GreenhallEdf(int alpha, int d, int64_t m, int64_t n_phase,
                                    double S) {
   if (d < 1 || d > 3 || alpha < -4 || alpha > 2 || alpha + 2 * d <= 1) return std::nullopt;
   if (m < 1 || !(F > 0.0) || !(S > 0.0)) return std::nullopt;
-  const std::optional<double> inverse = GreenhallInverseEdf(
-      alpha, d, static_cast<double>(m), static_cast<double>(n_phase), F, S);
+  const std::optional<double> inverse =
+      GreenhallInverseEdf(alpha, d, static_cast<double>(m), static_cast<double>(n_phase), F, S);
   if (!inverse || !(*inverse > 0.0) || !std::isfinite(*inverse)) return std::nullopt;
   return 1.0 / *inverse;
 }
@@ -416,8 +416,8 @@ void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confiden
         const int64_t n_phase =
             has_gaps ? EquivalentPhaseLength(curve->deviation, point.m, point.n, phase.size())
                      : phase.size();
-        const std::optional<double> edf = DeviationEdf(curve->deviation, noise->alpha, point.m,
-                                                       n_phase);
+        const std::optional<double> edf =
+            DeviationEdf(curve->deviation, noise->alpha, point.m, n_phase);
         if (!edf) break;
         const auto [lo, hi] = Chi2Interval(point.dev, *edf, confidence);
         if (std::isnan(lo) || std::isnan(hi)) break;

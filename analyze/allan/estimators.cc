@@ -30,8 +30,10 @@ constexpr int kLanes = 8;
 // the drift of the recurrence (the exact sum costs m terms, <= 1/8 of the
 // block).
 constexpr int64_t kMvarMinBlock = 4096;
-// Independent recurrence chains run side by side to hide the add latency.
+// Independent recurrence chains run side by side (one SIMD lane each), their
+// steps computed kMvarTile at a time.
 constexpr int kMvarChains = 4;
+constexpr int64_t kMvarTile = 256;
 
 double SumLanes(const double (&acc)[kLanes]) {
   double a = 0.0;
@@ -120,8 +122,8 @@ class ValidRuns {
   void VisitRange(int64_t lo, int64_t hi, Visit&& visit) {
     while (run_ <= gaps_.size()) {
       const int64_t begin = run_ == 0 ? 0 : gaps_[run_ - 1] + 1;
-      const int64_t end =
-          run_ < gaps_.size() ? std::min(gaps_[run_] - window_ + 1, last_start_ + 1) : last_start_ + 1;
+      const int64_t end = run_ < gaps_.size() ? std::min(gaps_[run_] - window_ + 1, last_start_ + 1)
+                                              : last_start_ + 1;
       if (end <= lo) {
         ++run_;
         continue;
@@ -148,8 +150,8 @@ int64_t FirstMultipleAtLeast(int64_t begin, int64_t stride) {
   return (begin + stride - 1) / stride * stride;
 }
 
-double SumSquaredSecondDifferencesStrided(const double* x, int64_t m, int64_t stride,
-                                          int64_t begin, int64_t end, int64_t* count) {
+double SumSquaredSecondDifferencesStrided(const double* x, int64_t m, int64_t stride, int64_t begin,
+                                          int64_t end, int64_t* count) {
   double total = 0.0;
   int64_t terms = 0;
   int64_t i = FirstMultipleAtLeast(begin, stride);
@@ -212,44 +214,81 @@ inline double MvarStep(const double* x, int64_t m, int64_t j) {
   return (x[j + 3 * m] - x[j]) - 3.0 * (x[j + 2 * m] - x[j + m]);
 }
 
-// sum_{j=begin}^{end-1} s_j^2. Each block of terms starts from an exact s_j
-// and follows the recurrence; kMvarChains blocks are processed side by side.
+// sum_{j=begin}^{begin+count-1} s_j^2 along one recurrence chain from an
+// exact s_begin. Precondition: x_{j+3m-1} exists for every summed j.
+double MvarChain(const double* x, int64_t m, int64_t begin, int64_t count) {
+  double s = MvarInnerSum(x, m, begin);
+  double total = 0.0;
+  for (int64_t chunk = 0; chunk < count; chunk += kChunk) {
+    const int64_t chunk_end = std::min(count, chunk + kChunk);
+    double acc = 0.0;
+    for (int64_t k = chunk; k < chunk_end; ++k) {
+      acc += s * s;
+      if (k + 1 < count) s += MvarStep(x, m, begin + k);
+    }
+    total += acc;
+  }
+  return total;
+}
+
+// steps[k][c] = s_{j+1} - s_j at j = start[c] + k for k < count, except the
+// step after a chain's last term (k = last_k), which is not needed and may lie
+// past the record: it is stored as 0.
+IMUQUAL_VECTOR_KERNEL
+void MvarChainSteps(const double* x, int64_t m, const int64_t (&start)[kMvarChains], int64_t count,
+                    int64_t last_k, double (*steps)[kMvarChains]) {
+  const int64_t computed = std::min(count, last_k);
+  for (int c = 0; c < kMvarChains; ++c) {
+    const double* x0 = x + start[c];
+    const double* x1 = x0 + m;
+    const double* x2 = x1 + m;
+    const double* x3 = x2 + m;
+    for (int64_t k = 0; k < computed; ++k) steps[k][c] = (x3[k] - x0[k]) - 3.0 * (x2[k] - x1[k]);
+    for (int64_t k = computed; k < count; ++k) steps[k][c] = 0.0;
+  }
+}
+
+// sum_{j=begin}^{end-1} s_j^2. The run is cut into groups of up to
+// kMvarChains blocks; each block follows the recurrence from an exact s_j
+// (bounding its drift), and the kMvarChains blocks of a group advance side by
+// side (one SIMD lane each), with their steps computed a tile at a time.
 // Precondition: x_{j+3m-1} exists for every j < end.
 double SumSquaredMvarSums(const double* x, int64_t m, int64_t begin, int64_t end) {
   const int64_t block = std::max(kMvarMinBlock, 8 * m);
   double total = 0.0;
-  int64_t j0 = begin;
-  while (end - j0 >= kMvarChains * block) {
+  double steps[kMvarTile][kMvarChains];
+  for (int64_t j0 = begin; j0 < end;) {
+    const int64_t group = std::min(end - j0, kMvarChains * block);
+    const int64_t length = group / kMvarChains;  // terms per chain
+    if (length < kMvarTile) {
+      total += MvarChain(x, m, j0, group);
+      j0 += group;
+      continue;
+    }
+    int64_t start[kMvarChains];
     double s[kMvarChains];
-    for (int c = 0; c < kMvarChains; ++c) s[c] = MvarInnerSum(x, m, j0 + c * block);
-    for (int64_t chunk = 0; chunk < block; chunk += kChunk) {
-      const int64_t chunk_end = std::min(block, chunk + kChunk);
+    for (int c = 0; c < kMvarChains; ++c) {
+      start[c] = j0 + c * length;
+      s[c] = MvarInnerSum(x, m, start[c]);
+    }
+    for (int64_t k0 = 0; k0 < length; k0 += kMvarTile) {
+      const int64_t tile = std::min(kMvarTile, length - k0);
+      int64_t tile_start[kMvarChains];
+      for (int c = 0; c < kMvarChains; ++c) tile_start[c] = start[c] + k0;
+      MvarChainSteps(x, m, tile_start, tile, length - 1 - k0, steps);
       double acc[kMvarChains] = {};
-      for (int64_t k = chunk; k < chunk_end; ++k) {
+      for (int64_t k = 0; k < tile; ++k) {
         for (int c = 0; c < kMvarChains; ++c) {
           acc[c] += s[c] * s[c];
-          // The step after a block's last term is not needed (and would read
-          // past the record for the last block).
-          if (k + 1 < block) s[c] += MvarStep(x, m, j0 + c * block + k);
+          s[c] += steps[k][c];
         }
       }
-      for (int c = 0; c < kMvarChains; ++c) total += acc[c];
+      total += (acc[0] + acc[1]) + (acc[2] + acc[3]);
     }
-    j0 += kMvarChains * block;
-  }
-  while (j0 < end) {
-    const int64_t length = std::min(block, end - j0);
-    double s = MvarInnerSum(x, m, j0);
-    for (int64_t chunk = 0; chunk < length; chunk += kChunk) {
-      const int64_t chunk_end = std::min(length, chunk + kChunk);
-      double acc = 0.0;
-      for (int64_t k = chunk; k < chunk_end; ++k) {
-        acc += s * s;
-        if (k + 1 < length) s += MvarStep(x, m, j0 + k);
-      }
-      total += acc;
-    }
-    j0 += length;
+    // The group's last (group mod kMvarChains) terms.
+    const int64_t rest = group - kMvarChains * length;
+    if (rest > 0) total += MvarChain(x, m, j0 + kMvarChains * length, rest);
+    j0 += group;
   }
   return total;
 }

@@ -173,11 +173,12 @@ TEST(ReferenceResults, EveryResultFileIsReproducedExactly) {
       std::vector<std::string> grids = {"octave", "decade"};
       if (dev == Deviation::kOadev && dataset.all_taus) grids.push_back("all");
       for (const std::string& grid_name : grids) {
-        const std::string file = dataset.name + "_" + std::string(DeviationName(dev)) + "_" +
-                                 grid_name + ".csv";
+        const std::string file =
+            dataset.name + "_" + std::string(DeviationName(dev)) + "_" + grid_name + ".csv";
         SCOPED_TRACE(file);
         expected_files.insert(file);
-        const testing::CsvTable table = ReadCsv(ReferencePath("results/" + dataset.name + "/" + file));
+        const testing::CsvTable table =
+            ReadCsv(ReferencePath("results/" + dataset.name + "/" + file));
         ASSERT_TRUE(table.ok);
         const int tau_col = table.Column("tau");
         const int n_col = table.Column("n");
@@ -429,7 +430,8 @@ TEST(Estimators, GapsGiveExactlyThePooledPerSegmentSums) {
   std::vector<PhaseRecord> segments;
   int64_t begin = 0;
   for (int64_t end : {int64_t{1023}, int64_t{2047}, int64_t{3072}}) {
-    segments.push_back(PhaseFromRate(std::span<const double>(full).subspan(begin, end - begin), 1.0));
+    segments.push_back(
+        PhaseFromRate(std::span<const double>(full).subspan(begin, end - begin), 1.0));
     begin = end + 1;
   }
   for (Deviation dev : {Deviation::kAdev, Deviation::kOadev, Deviation::kMdev, Deviation::kHdev,
@@ -459,8 +461,8 @@ TEST(Estimators, NanInTheMiddleDoesNotPoisonLaterTaus) {
   const PhaseRecord phase = PhaseFromRate(rate, 1.0);
   for (double x : phase.x) ASSERT_TRUE(std::isfinite(x));
   for (Deviation dev : kAllDeviations) {
-    const Curve curve = ComputeDeviation(
-        phase, dev, AveragingFactors({}, 1.0, phase.size(), dev, StopRule::kNone));
+    const Curve curve =
+        ComputeDeviation(phase, dev, AveragingFactors({}, 1.0, phase.size(), dev, StopRule::kNone));
     ASSERT_FALSE(curve.points.empty());
     EXPECT_EQ(curve.invalid_rate_samples, 1);
     for (const CurvePoint& point : curve.points) {
@@ -523,7 +525,8 @@ TEST(Estimators, PhaseGapInvalidatesOnlyTermsWhoseWindowHoldsIt) {
 TEST(Estimators, EmptyAndTinyRecords) {
   const PhaseRecord empty = PhaseFromRate(std::span<const double>(), 1.0);
   EXPECT_EQ(empty.size(), 0);
-  EXPECT_TRUE(ComputeDeviation(empty, Deviation::kOadev, std::vector<int64_t>{1, 2}).points.empty());
+  EXPECT_TRUE(
+      ComputeDeviation(empty, Deviation::kOadev, std::vector<int64_t>{1, 2}).points.empty());
   const PhaseRecord two = PhaseFromRate(std::vector<double>{1.0}, 1.0);
   for (Deviation dev : kAllDeviations) {
     EXPECT_TRUE(ComputeDeviation(two, dev, std::vector<int64_t>{0, 1, 2}).points.empty());
@@ -532,17 +535,43 @@ TEST(Estimators, EmptyAndTinyRecords) {
 }
 
 TEST(Estimators, MdevRecurrenceStaysExactOverLongRuns) {
-  // Long runs exercise the side-by-side recurrence chains and the exact
-  // restarts; a large offset in the phase would expose drift.
-  const std::vector<double> rate = NoisyRate(100000, 61, 5.0);
-  const PhaseRecord phase = PhaseFromRate(rate, 1.0);
+  // Long runs exercise the side-by-side recurrence chains, their exact
+  // restarts and the leftover terms; a phase offset of 1000 (1000 times the
+  // typical second difference) makes every recurrence step round at that
+  // scale, so drift would show.
+  const std::vector<double> rate = NoisyRate(100003, 61);
+  std::vector<double> x = PhaseFromRate(rate, 1.0).x;
+  for (double& v : x) v += 1000.0;
+  const PhaseRecord phase = PhaseFromPhase(x, 1.0);
   const std::vector<bool> valid(rate.size(), true);
-  for (int64_t m : {1, 7, 600, 1000, 3000}) {
+  for (int64_t m : {1, 7, 600, 1000, 2500}) {
     SCOPED_TRACE("m=" + std::to_string(m));
     const BruteForcePoint expected = BruteForce(phase.x, valid, Deviation::kMdev, m, 1.0);
     const CurvePoint point = ComputeDeviationAt(phase, Deviation::kMdev, m);
     EXPECT_EQ(point.n, expected.n);
     EXPECT_LE(RelativeError(point.dev, expected.dev), kSameSumRelTol);
+  }
+}
+
+TEST(Estimators, CurveEqualsPointByPointEvaluationBitForBit) {
+  // ComputeDeviation sweeps all m of OADEV/OHDEV together; the result for an
+  // m must not depend on which other m were swept with it.
+  std::vector<double> rate = NoisyRate(50000, 81);
+  rate[7777] = std::nan("");
+  for (bool with_gap : {false, true}) {
+    const PhaseRecord phase =
+        with_gap ? PhaseFromRate(rate, 0.1) : PhaseFromRate(NoisyRate(50000, 81), 0.1);
+    for (Deviation dev : kAllDeviations) {
+      const std::vector<int64_t> m_list = {1000, 1, 3, 2048, 5, 4096, 1};  // any order
+      const Curve curve = ComputeDeviation(phase, dev, m_list);
+      ASSERT_EQ(curve.points.size(), m_list.size()) << DeviationName(dev);
+      for (size_t k = 0; k < m_list.size(); ++k) {
+        const CurvePoint single = ComputeDeviationAt(phase, dev, m_list[k]);
+        EXPECT_EQ(curve.points[k].m, m_list[k]);
+        EXPECT_EQ(curve.points[k].n, single.n);
+        EXPECT_EQ(curve.points[k].dev, single.dev) << DeviationName(dev) << " m=" << m_list[k];
+      }
+    }
   }
 }
 
@@ -579,8 +608,8 @@ TEST(OverlappingAllanStrided, IntermediateStrideMatchesBruteForce) {
       int64_t n = 0;
       for (int64_t i = 0; i + 2 * m < phase.size(); i += stride) {
         if (!WindowValid(valid, i, 2 * m)) continue;
-        const long double d = static_cast<long double>(phase.x[i + 2 * m]) - 2.0L * phase.x[i + m] +
-                              phase.x[i];
+        const long double d =
+            static_cast<long double>(phase.x[i + 2 * m]) - 2.0L * phase.x[i + m] + phase.x[i];
         sum += d * d;
         ++n;
       }

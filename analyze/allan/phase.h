@@ -26,7 +26,7 @@
 namespace imuqual::allan {
 
 struct PhaseRecord {
-  double tau0_s = 1.0;   // sample interval, s
+  double tau0_s = 1.0;    // sample interval, s
   std::vector<double> x;  // phase x_0..x_{N-1}, rate unit * s
   // Validity prefix count: empty when every rate sample is valid; otherwise
   // size N, invalid_prefix[k] = number of invalid rate samples among

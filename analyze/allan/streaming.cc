@@ -24,9 +24,10 @@ bool IsPowerOfTwo(int64_t v) { return v > 0 && (v & (v - 1)) == 0; }
 // p = 0..count-1, c = c_first + ci. `phase` points at the block's first point
 // and has at least 2 (c_first + c_count - 1) valid points before it. Each
 // (c, lane) sum adds its points in increasing p, exactly as the gap path does.
-// AVX2, where the compiler and CPU have it, doubles the vector width. Each
-// lane's sum sees the same operations in the same order either way (no FMA
-// contraction in ISO C++ mode), so the results are bit-identical.
+//
+// An AVX2 clone (picked at load time where the CPU has it) doubles the vector
+// width. Each lane's sum sees the same operations in the same order in either
+// clone, and neither uses FMA, so the results are bit-identical.
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__) && \
     !defined(IMUQUAL_ALLAN_NO_KERNEL_CLONES)
 #define IMUQUAL_ALLAN_KERNEL_CLONES __attribute__((target_clones("avx2", "default")))

@@ -37,7 +37,10 @@ int FloorLog(int64_t n, int64_t base) {
   return k;
 }
 
-std::vector<int64_t> RawGrid(const TauGridSpec& grid, double tau0_s, int64_t n_phase) {
+// The grid before clipping; `m_max` only bounds the "all" list (which would
+// otherwise hold N entries).
+std::vector<int64_t> RawGrid(const TauGridSpec& grid, double tau0_s, int64_t n_phase,
+                             int64_t m_max) {
   std::vector<int64_t> m_list;
   switch (grid.kind) {
     case TauGridSpec::Kind::kOctave: {
@@ -54,8 +57,9 @@ std::vector<int64_t> RawGrid(const TauGridSpec& grid, double tau0_s, int64_t n_p
       break;
     }
     case TauGridSpec::Kind::kAll: {
-      m_list.reserve(static_cast<size_t>(n_phase));
-      for (int64_t m = 1; m <= n_phase; ++m) m_list.push_back(m);
+      const int64_t last = std::min(n_phase, m_max);
+      m_list.reserve(static_cast<size_t>(std::max<int64_t>(last, 0)));
+      for (int64_t m = 1; m <= last; ++m) m_list.push_back(m);
       break;
     }
     case TauGridSpec::Kind::kLogDense: {
@@ -190,9 +194,9 @@ int64_t StopRuleMaxAveragingFactor(StopRule stop, Deviation dev, int64_t n_phase
 std::vector<int64_t> AveragingFactors(const TauGridSpec& grid, double tau0_s, int64_t n_phase,
                                       Deviation dev, StopRule stop) {
   if (n_phase < 2 || !(tau0_s > 0)) return {};
-  std::vector<int64_t> m_list = RawGrid(grid, tau0_s, n_phase);
   const int64_t m_max =
       std::min(MaxAveragingFactor(dev, n_phase), StopRuleMaxAveragingFactor(stop, dev, n_phase));
+  std::vector<int64_t> m_list = RawGrid(grid, tau0_s, n_phase, m_max);
   std::erase_if(m_list, [&](int64_t m) { return m < 1 || m >= n_phase || m > m_max; });
   std::sort(m_list.begin(), m_list.end());
   m_list.erase(std::unique(m_list.begin(), m_list.end()), m_list.end());

@@ -10,6 +10,7 @@
 
 #include "analyze/judge/plan.h"
 #include "analyze/service/run_analyzer.h"
+#include "common/ack.h"
 #include "common/bounded_queue.h"
 #include "common/channels.h"
 #include "common/clock.h"
@@ -18,7 +19,6 @@
 #include "common/process_status.h"
 #include "common/seq_tracker.h"
 #include "common/shutdown.h"
-#include "imuqual/ack_t.hpp"
 #include "imuqual/allan_curve_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
@@ -30,11 +30,7 @@ namespace {
 
 using Work = std::variant<imuqual::run_t, imuqual::rate_batch_t>;
 
-constexpr double kAckPeriodS = 0.02;        // ack progress at most this often per run
-constexpr int64_t kAckEvery = 16;           // ... or after this many batches
-constexpr double kReackPeriodS = 0.5;       // re-send the last ack (acks can be lost)
-constexpr double kDoneReackPeriodS = 1.0;   // finished runs keep saying so
-constexpr double kDoneReackForS = 60.0;
+constexpr double kDoneReackForS = 60.0;     // finished runs keep saying so this long
 constexpr size_t kMaxHeldBeforeRunInfo = 4096;
 
 int8_t OutcomeCode(pb::Outcome o) {
@@ -53,8 +49,7 @@ struct RunEntry {
   SeqTracker tracker;
   std::map<int64_t, imuqual::rate_batch_t> held;  // received, not yet processed
   int64_t processed_since_interim = 0;
-  int64_t last_ack_seq = -1;
-  double last_ack_s = 0;
+  AckPacer ack;
   double last_interim_s = 0;
   bool finished = false;
   double finished_s = 0;
@@ -232,25 +227,13 @@ void AnalyzeService::Impl::ProcessHeld(RunEntry& e) {
 }
 
 void AnalyzeService::Impl::Ack(const std::string& run_id, RunEntry& e, double now, bool force) {
+  // Handled = processed: held batches (out of order, or waiting for the
+  // run's description) are not acknowledged yet.
   const int64_t seq = e.held.empty() ? e.tracker.next_seq()
                                      : std::min(e.held.begin()->first, e.tracker.next_seq());
-  const bool progressed = seq != e.last_ack_seq;
-  const double since = now - e.last_ack_s;
-  const double period = e.finished ? kDoneReackPeriodS : kReackPeriodS;
-  if (!force && !(progressed && (since >= kAckPeriodS || seq - e.last_ack_seq >= kAckEvery)) &&
-      since < period) {
-    return;
-  }
-  imuqual::ack_t ack;
-  ack.host_utime = NowUtime();
-  ack.process = "analyze";
-  ack.instance = instance;
-  ack.run_id = run_id;
-  ack.next_seq = seq;
-  ack.run_done = e.finished;
-  if (bus->Publish(channels::kAck, ack).ok()) {
-    e.last_ack_seq = seq;
-    e.last_ack_s = now;
+  if (!e.ack.Due(seq, e.finished, now, force)) return;
+  if (PublishAck(*bus, "analyze", instance, run_id, seq, e.finished).ok()) {
+    e.ack.Sent(seq, e.finished, now);
   }
 }
 

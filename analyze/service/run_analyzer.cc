@@ -11,8 +11,9 @@ namespace {
 
 // rate_batch_t FLAG_SATURATED | FLAG_INVALID: the sample is not a measurement.
 constexpr int kUnusableFlags = 1 | 2;
-// A counter jump beyond 100 days of samples is a corrupt counter, not a gap.
-constexpr double kAbsurdGapSeconds = 100 * 86400.0;
+// A counter jump beyond a day of samples is a corrupt counter, not a gap
+// (a real unit that stops for a day ends its run).
+constexpr double kAbsurdGapSeconds = 86400.0;
 
 }  // namespace
 

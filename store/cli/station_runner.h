@@ -1,0 +1,46 @@
+// `imuqual run`: a whole station on one host. Starts imuqual-store and
+// imuqual-analyze, waits until both report on the bus, starts
+// imuqual-acquire, follows the runs to the end (every run archived with its
+// final result), stops the processes cleanly and reports. Its own LCM URL
+// (a unique port, ttl=0) keeps it off every other station. Nothing is paced
+// on the wall clock: a 2-hour simulated soak runs as fast as the processes
+// acknowledge each other.
+#ifndef IMUQUAL_STORE_CLI_STATION_RUNNER_H_
+#define IMUQUAL_STORE_CLI_STATION_RUNNER_H_
+
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+
+namespace imuqual::cli {
+
+struct StationRunOptions {
+  int sim_units = 0;               // simulated units
+  std::string profile = "vg700";   // simulated lot profile
+  double duration_s = 0;           // simulated seconds per unit
+  double rate_hz = 0;              // 0: the profile's rate
+  std::string lot;
+  std::string db_path;
+  std::string plan_spec;           // file or builtin:NAME; "" = the profile's default
+  std::string lcm_url;             // "" = a fresh port on 239.255.76.67, ttl=0
+  std::string station = "station-1";
+  std::string operator_name;
+  double inject_drop = 0;          // fault injection in acquire
+  double stall_timeout_s = 120;    // no progress this long: give up
+  bool show_progress = true;       // progress line on stderr
+  Status Validate() const;
+};
+
+struct StationRunResult {
+  std::string run_prefix;          // every run id of this station run starts with it
+  std::vector<std::string> run_ids;
+  std::string log_path;            // the processes' output
+  bool interrupted = false;        // Ctrl-C: runs were aborted
+};
+
+Result<StationRunResult> RunStation(const StationRunOptions& options);
+
+}  // namespace imuqual::cli
+
+#endif  // IMUQUAL_STORE_CLI_STATION_RUNNER_H_

@@ -1,0 +1,43 @@
+#include "store/cli/table_writer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace imuqual::cli {
+namespace {
+
+TableWriter Sample() {
+  TableWriter t({"name", "value", "count"});
+  t.AddRow({Cell::Text("a,b"), Cell::Real(0.1), Cell::Int(3)});
+  t.AddRow({Cell::Text("say \"hi\""), Cell::Real(std::nan("")), Cell::Int(-1)});
+  return t;
+}
+
+TEST(TableWriterTest, CsvQuotesAndKeepsFullPrecision) {
+  EXPECT_EQ(Sample().Render(Format::kCsv),
+            "name,value,count\n\"a,b\",0.10000000000000001,3\n\"say \"\"hi\"\"\",,-1\n");
+}
+
+TEST(TableWriterTest, JsonHasNullForNaN) {
+  EXPECT_EQ(Sample().Render(Format::kJson),
+            "[\n {\"name\": \"a,b\", \"value\": 0.10000000000000001, \"count\": 3},\n"
+            " {\"name\": \"say \\\"hi\\\"\", \"value\": null, \"count\": -1}\n]\n");
+  EXPECT_EQ(TableWriter({"x"}).Render(Format::kJson), "[]\n");
+}
+
+TEST(TableWriterTest, TableAlignsNumbersRight) {
+  EXPECT_EQ(Sample().Render(Format::kTable),
+            "name      value  count\n"
+            "--------  -----  -----\n"
+            "a,b         0.1      3\n"
+            "say \"hi\"      -     -1\n");
+}
+
+TEST(TableWriterTest, ParseFormat) {
+  EXPECT_TRUE(ParseFormat("csv").ok());
+  EXPECT_FALSE(ParseFormat("xml").ok());
+}
+
+}  // namespace
+}  // namespace imuqual::cli

@@ -1,0 +1,35 @@
+// imuqual-store: archives a station bus into SQLite. Flags -> options ->
+// StoreService -> exit code.
+#include <CLI/CLI.hpp>
+
+#include "common/log.h"
+#include "common/shutdown.h"
+#include "store/store_service.h"
+
+int main(int argc, char** argv) {
+  using namespace imuqual;
+  store::StoreOptions opt;
+  CLI::App app{"imuqual-store: archive raw samples, curves and results of a station in SQLite"};
+  app.add_option("--lcm-url", opt.lcm_url, "station bus, e.g. udpm://239.255.76.67:7701?ttl=0")
+      ->required();
+  app.add_option("--db", opt.db_path, "archive file (created if missing)")->required();
+  app.add_option("--queue", opt.queue_capacity, "messages waiting for the writer")
+      ->capture_default_str();
+  app.add_option("--give-up", opt.hole_give_up_s, "seconds before a lost batch becomes a gap")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  SetLogProgramName("imuqual-store");
+  InstallShutdownHandlers();
+  auto service = store::StoreService::Create(opt);
+  if (!service.ok()) {
+    LogError(service.status().message());
+    return 2;
+  }
+  Status st = (*service)->Run();
+  if (!st.ok()) {
+    LogError(st.message());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,53 @@
+// Read-only queries over an archive for the imuqual CLI and reports. All
+// parameters are bound, never spliced into SQL.
+#ifndef IMUQUAL_STORE_QUERY_H_
+#define IMUQUAL_STORE_QUERY_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+#include "store/archive.h"
+
+namespace imuqual::store {
+
+// One run and axis with its headline figures (view axis_results).
+struct AxisRow {
+  std::string lot, unit, run_id, state, axis, kind;
+  int64_t start_utime = 0;
+  double random_walk = allan::kNaN;  // ARW deg/sqrt(h) (gyro) or VRW m/s/sqrt(h) (accel)
+  double bias_instability = allan::kNaN;       // curve minimum, deg/h or ug
+  double bias_instability_ieee = allan::kNaN;  // minimum / 0.664
+  double tau_min_s = allan::kNaN;
+  double rate_random_walk = allan::kNaN;       // deg/h/sqrt(h) or ug/sqrt(h)
+  int64_t samples = 0, gap_samples = 0, invalid_samples = 0;
+  std::string axis_verdict;  // "" if not judged
+  std::string run_verdict;
+};
+
+struct AxisRowFilter {
+  std::string lot;          // "" = any
+  std::string run_prefix;   // "" = any; else run ids starting with it
+  bool latest_per_unit = true;  // only each unit's most recent run
+};
+
+Result<std::vector<AxisRow>> QueryAxisRows(Archive& archive, const AxisRowFilter& filter);
+
+// One lot (view lot_overview).
+struct LotRow {
+  std::string lot;
+  int64_t runs = 0, units = 0, pass = 0, marginal = 0, fail = 0, unjudged = 0;
+  double yield = allan::kNaN;  // (pass + marginal) / judged
+  int64_t first_start_utime = 0, last_start_utime = 0;
+};
+
+Result<std::vector<LotRow>> QueryLots(Archive& archive);
+
+// Run reasons (FAIL/MARGINAL explanations) by run id, for the runs given.
+Result<std::vector<std::pair<std::string, std::string>>> QueryReasons(
+    Archive& archive, const std::vector<std::string>& run_ids);
+
+}  // namespace imuqual::store
+
+#endif  // IMUQUAL_STORE_QUERY_H_

@@ -1,0 +1,158 @@
+#include "store/records.h"
+
+#include <cmath>
+
+#include "store/chunk_codec.h"
+
+namespace imuqual::store {
+
+const char* StateName(int8_t run_state) {
+  switch (run_state) {
+    case imuqual::run_t::STATE_COMPLETE: return "complete";
+    case imuqual::run_t::STATE_ABORTED: return "aborted";
+    default: return "running";
+  }
+}
+
+RunInfo RunInfoFromMessage(const imuqual::run_t& r) {
+  RunInfo info;
+  info.run_id = r.run_id;
+  info.serial = r.unit_serial;
+  info.lot = r.lot;
+  info.station = r.station;
+  info.slot = r.slot;
+  info.operator_name = r.operator_name;
+  info.source = r.source;
+  info.software_version = r.software_version;
+  info.start_utime = r.start_utime;
+  info.nominal_rate_hz = r.nominal_rate_hz;
+  for (int i = 0; i < r.num_axes; ++i) {
+    info.axes.push_back({r.axis_names[i], r.axis_kinds[i] == imuqual::rate_batch_t::KIND_ACCEL
+                                              ? pb::ACCEL
+                                              : pb::GYRO});
+  }
+  info.plan.assign(r.plan.begin(), r.plan.end());
+  info.plan_sha256 = r.plan_sha256;
+  info.truth.assign(r.truth.begin(), r.truth.end());
+  info.state = StateName(r.state);
+  info.last_seq = r.last_seq;
+  info.samples_announced = r.samples_published;
+  if (r.state != imuqual::run_t::STATE_RUNNING) info.end_utime = r.host_utime;
+  return info;
+}
+
+ChunkRecord ChunkFromBatch(const imuqual::rate_batch_t& b) {
+  ChunkData d;
+  d.num_axes = b.num_axes;
+  d.num_samples = b.num_samples;
+  d.samples.reserve(static_cast<size_t>(b.num_axes) * b.num_samples);
+  for (const std::vector<float>& axis : b.samples) d.samples.insert(d.samples.end(), axis.begin(), axis.end());
+  for (int i = 0; i < b.num_flagged; ++i) {
+    d.flags.push_back({static_cast<uint16_t>(b.flagged_sample[i]),
+                       static_cast<uint8_t>(b.flagged_axis[i]),
+                       static_cast<uint8_t>(b.flagged_bits[i])});
+  }
+  ChunkRecord c;
+  c.seq = b.seq;
+  c.first_sample = b.first_sample;
+  c.num_samples = b.num_samples;
+  c.host_utime = b.host_utime;
+  if (b.has_temperature) c.temperature_c = b.temperature_c;
+  c.codec = kCodecRawFloat32;
+  c.data = EncodeChunk(d, c.codec);
+  return c;
+}
+
+CurveRecord CurveFromMessage(const imuqual::allan_curve_t& msg) {
+  CurveRecord rec;
+  rec.axis = msg.axis;
+  rec.curve.deviation = allan::ParseDeviation(msg.estimator).value_or(allan::Deviation::kOadev);
+  rec.curve.ci = allan::ParseCiMethod(msg.ci_method).value_or(allan::CiMethod::kNone);
+  rec.curve.tau0_s = msg.tau0_s;
+  rec.samples = msg.samples;
+  rec.valid_samples = msg.valid_samples;
+  rec.computed_utime = msg.host_utime;
+  for (int i = 0; i < msg.num_points; ++i) {
+    allan::CurvePoint p;
+    p.m = msg.m[i];
+    p.tau_s = msg.tau_s[i];
+    p.dev = msg.dev[i];
+    p.lo = msg.lo[i];
+    p.hi = msg.hi[i];
+    p.edf = msg.edf[i];
+    p.n = msg.n_terms[i];
+    rec.curve.points.push_back(p);
+  }
+  return rec;
+}
+
+namespace {
+pb::Outcome OutcomeFromCode(int8_t code) {
+  switch (code) {
+    case imuqual::measurement_t::OUTCOME_PASS: return pb::PASS;
+    case imuqual::measurement_t::OUTCOME_MARGINAL: return pb::MARGINAL;
+    case imuqual::measurement_t::OUTCOME_FAIL: return pb::FAIL;
+    default: return pb::OUTCOME_UNSET;
+  }
+}
+}  // namespace
+
+ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg) {
+  ResultRecord r;
+  switch (OutcomeFromCode(msg.verdict)) {
+    case pb::PASS: r.verdict = "PASS"; break;
+    case pb::MARGINAL: r.verdict = "MARGINAL"; break;
+    case pb::FAIL: r.verdict = "FAIL"; break;
+    default: break;
+  }
+  r.reasons = msg.reasons;
+  r.samples = msg.samples;
+  r.gap_samples = msg.gap_samples;
+  r.invalid_samples = msg.invalid_samples;
+  r.result_utime = msg.host_utime;
+  for (const imuqual::measurement_t& m : msg.measurements) {
+    pb::Measurement pm;
+    pm.set_axis(m.axis);
+    pm.set_name(m.name);
+    pm.set_value(m.value);
+    pm.set_unit(m.unit);
+    if (!std::isnan(m.low)) pm.set_low(m.low);
+    if (!std::isnan(m.high)) pm.set_high(m.high);
+    if (!std::isnan(m.marginal_low)) pm.set_marginal_low(m.marginal_low);
+    if (!std::isnan(m.marginal_high)) pm.set_marginal_high(m.marginal_high);
+    pm.set_outcome(OutcomeFromCode(m.outcome));
+    pm.set_note(m.note);
+    r.measurements.push_back(std::move(pm));
+  }
+  return r;
+}
+
+pb::RunRecord BuildRunRecord(const RunInfo& run, const ResultRecord& result, int64_t gap_ranges) {
+  pb::RunRecord rec;
+  rec.set_run_id(run.run_id);
+  rec.set_unit_serial(run.serial);
+  rec.set_lot(run.lot);
+  rec.set_station(run.station);
+  rec.set_slot(run.slot);
+  rec.set_operator_name(run.operator_name);
+  rec.set_software_version(run.software_version);
+  rec.set_source(run.source);
+  rec.set_start_utime(run.start_utime);
+  rec.set_end_utime(run.end_utime.value_or(0));
+  rec.set_state(run.state);
+  rec.mutable_plan()->ParseFromString(run.plan);
+  rec.set_plan_sha256(run.plan_sha256);
+  for (const pb::Measurement& m : result.measurements) *rec.add_measurements() = m;
+  rec.set_verdict(result.verdict == "PASS"       ? pb::PASS
+                  : result.verdict == "MARGINAL" ? pb::MARGINAL
+                  : result.verdict == "FAIL"     ? pb::FAIL
+                                                 : pb::OUTCOME_UNSET);
+  for (const std::string& reason : result.reasons) rec.add_reasons(reason);
+  rec.mutable_gaps()->set_samples(result.samples);
+  rec.mutable_gaps()->set_gap_samples(result.gap_samples);
+  rec.mutable_gaps()->set_invalid_samples(result.invalid_samples);
+  rec.mutable_gaps()->set_gap_ranges(gap_ranges);
+  return rec;
+}
+
+}  // namespace imuqual::store

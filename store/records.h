@@ -1,0 +1,26 @@
+// Conversions between bus messages and archive records, and the protobuf
+// run record (what an MES receives) built from them.
+#ifndef IMUQUAL_STORE_RECORDS_H_
+#define IMUQUAL_STORE_RECORDS_H_
+
+#include "imuqual/allan_curve_t.hpp"
+#include "imuqual/rate_batch_t.hpp"
+#include "imuqual/record.pb.h"
+#include "imuqual/run_t.hpp"
+#include "imuqual/unit_result_t.hpp"
+#include "store/archive.h"
+
+namespace imuqual::store {
+
+RunInfo RunInfoFromMessage(const imuqual::run_t& run);
+ChunkRecord ChunkFromBatch(const imuqual::rate_batch_t& batch);
+CurveRecord CurveFromMessage(const imuqual::allan_curve_t& msg);
+ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg);
+// The run record: run identity, plan, measurements, verdict, gap statistics.
+pb::RunRecord BuildRunRecord(const RunInfo& run, const ResultRecord& result, int64_t gap_ranges);
+
+const char* StateName(int8_t run_state);  // run_t.STATE_* -> "running" / "complete" / "aborted"
+
+}  // namespace imuqual::store
+
+#endif  // IMUQUAL_STORE_RECORDS_H_

@@ -1,0 +1,45 @@
+// The store process: archives everything a station produces into SQLite.
+// Handlers only decode and enqueue (bounded queue, drops counted); one
+// writer thread applies what is queued in batched transactions (WAL,
+// synchronous=NORMAL), then acknowledges what is committed, so a batch is
+// acknowledged only once it is durable. Missing batches are requested again
+// (resend_t) and, when they never come, recorded as gaps. A store started
+// late or restarted mid-run learns runs from their heartbeats, resumes from
+// what the archive already holds and asks for the rest.
+#ifndef IMUQUAL_STORE_STORE_SERVICE_H_
+#define IMUQUAL_STORE_STORE_SERVICE_H_
+
+#include <memory>
+#include <string>
+
+#include "common/status.h"
+
+namespace imuqual::store {
+
+struct StoreOptions {
+  std::string lcm_url;
+  std::string db_path;
+  int queue_capacity = 100000;    // messages waiting for the writer
+  int max_transaction = 4000;     // messages per transaction at most
+  double hole_give_up_s = 30.0;   // a batch not resent by then is a gap
+  Status Validate() const;
+};
+
+class StoreService {
+ public:
+  // Opens (creating or migrating) the archive: a bad file fails here, before
+  // anything is received.
+  static Result<std::unique_ptr<StoreService>> Create(const StoreOptions& options);
+  ~StoreService();
+  // Runs until shutdown is requested; then drains the queue and commits.
+  Status Run();
+
+ private:
+  struct Impl;
+  explicit StoreService(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace imuqual::store
+
+#endif  // IMUQUAL_STORE_STORE_SERVICE_H_
