@@ -1,0 +1,52 @@
+#include "store/reanalysis.h"
+
+#include "analyze/judge/plan.h"
+#include "store/chunk_codec.h"
+
+namespace imuqual::store {
+
+Result<analyze::RunDescription> DescribeRun(const RunInfo& run) {
+  analyze::RunDescription d;
+  d.run_id = run.run_id;
+  d.serial = run.serial;
+  d.nominal_rate_hz = run.nominal_rate_hz;
+  for (const AxisInfo& a : run.axes) d.axes.push_back({a.name, a.kind});
+  if (!d.plan.ParseFromString(run.plan)) {
+    return Status::Corruption("run " + run.run_id + ": the archived plan does not decode");
+  }
+  IMUQUAL_RETURN_IF_ERROR(judge::ValidatePlan(d.plan).WithContext("run " + run.run_id + " plan"));
+  return d;
+}
+
+Result<analyze::RunOutcome> ReanalyzeRun(Archive& archive, const std::string& run_id,
+                                         const analyze::AnalyzerOptions& options) {
+  auto run = archive.LoadRun(run_id);
+  if (!run.ok()) return run.status();
+  auto key = archive.FindRunKey(run_id);
+  if (!key.ok()) return key.status();
+  auto desc = DescribeRun(*run);
+  if (!desc.ok()) return desc.status();
+  auto analyzer = analyze::RunAnalyzer::Create(std::move(*desc), options);
+  if (!analyzer.ok()) return analyzer.status();
+  Status st = archive.ForEachChunk(**key, [&](const ChunkRecord& c) -> Status {
+    auto chunk = DecodeChunk(c.data, c.codec);
+    if (!chunk.ok()) return chunk.status().WithContext("run " + run_id + " seq " + std::to_string(c.seq));
+    analyze::BatchView view;
+    view.seq = c.seq;
+    view.first_sample = c.first_sample;
+    view.nominal_rate_hz = run->nominal_rate_hz;
+    for (int a = 0; a < chunk->num_axes; ++a) {
+      view.samples.emplace_back(chunk->samples.data() + static_cast<size_t>(a) * chunk->num_samples,
+                                static_cast<size_t>(chunk->num_samples));
+    }
+    for (const SampleFlag& f : chunk->flags) view.flags.push_back({f.sample, f.axis, f.bits});
+    // A batch the live analysis rejected is rejected here too, for the same reason.
+    (void)analyzer->AddBatch(view);
+    return Status::Ok();
+  });
+  if (!st.ok()) return st;
+  analyzer->Finish(run->samples_announced);
+  return analyzer->Outcome(true, run->state == "aborted");
+}
+
+}  // namespace imuqual::store
