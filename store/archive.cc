@@ -40,8 +40,8 @@ Result<std::unique_ptr<Archive>> Archive::Open(const std::string& path, Mode mod
   if (mode == Mode::kWrite) {
     // Say plainly when the directory is not writable: SQLite's own error
     // ("unable to open database file") does not.
-    std::string dir = path.substr(0, path.find_last_of('/') + 1);
-    if (dir.empty()) dir = ".";
+    const size_t slash = path.find_last_of('/');
+    const std::string dir = slash == std::string::npos ? std::string(".") : path.substr(0, slash + 1);
     if (::access(dir.c_str(), W_OK) != 0) {
       return Status::IoError("cannot write the archive " + path + ": directory " + dir + ": " +
                              std::strerror(errno));

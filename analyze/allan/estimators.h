@@ -22,9 +22,11 @@
 // pool of the per-segment sums. TOTVAR needs a continuous record: with gaps it
 // is computed on the longest gap-free span (its n is then that span's N - 2).
 //
-// Cost: one O(N) pass per m (O(N/m) for the non-overlapped AVAR/HVAR), three
-// or four loads per term, no allocation per m. All functions are pure and
-// thread-safe; the record is only read.
+// Cost: O(N) per m (O(N/m) for the non-overlapped AVAR/HVAR), three or four
+// loads per term, no allocation per m. ComputeDeviation evaluates all m of
+// OAVAR/OHVAR in one tiled sweep so the record is read from memory about once
+// rather than once per m; the result for an m is bit-identical to evaluating
+// it alone. All functions are pure and thread-safe; the record is only read.
 #ifndef IMUQUAL_ANALYZE_ALLAN_ESTIMATORS_H_
 #define IMUQUAL_ANALYZE_ALLAN_ESTIMATORS_H_
 

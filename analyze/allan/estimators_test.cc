@@ -214,6 +214,19 @@ TEST(ReferenceResults, EveryResultFileIsReproducedExactly) {
   EXPECT_EQ(files_compared, 8 * 15);
 }
 
+TEST(ReferenceResults, EveryResultFolderIsADataset) {
+  std::set<std::string> names;
+  for (const Dataset& dataset : ReadDatasets()) names.insert(dataset.name);
+  int folders = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(ReferencePath("results"))) {
+    if (!entry.is_directory()) continue;
+    EXPECT_TRUE(names.count(entry.path().filename().string()))
+        << "results folder without a dataset: " << entry.path().filename();
+    ++folders;
+  }
+  EXPECT_EQ(folders, static_cast<int>(names.size()));
+}
+
 TEST(ReferenceResults, RowCountsMatchTheManifest) {
   // results/row_counts.txt: "<dataset> <dev> <grid> <rows>".
   std::ifstream in(ReferencePath("results/row_counts.txt"));
