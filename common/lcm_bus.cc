@@ -51,6 +51,18 @@ Status LcmBus::HandleFor(int timeout_ms) {
   return Status::Ok();
 }
 
+void LcmBus::DispatchRaw(const lcm_recv_buf_t* rbuf, const char* channel, void* user) {
+  static_cast<RawSubscription*>(user)->fn(rbuf, channel);
+}
+
+void LcmBus::SubscribeRaw(const std::string& channel_regex, int queue_capacity,
+                          std::unique_ptr<RawSubscription> sub) {
+  lcm_subscription_t* s =
+      lcm_subscribe(lcm_->getUnderlyingLCM(), channel_regex.c_str(), &DispatchRaw, sub.get());
+  if (s != nullptr) lcm_subscription_set_queue_capacity(s, queue_capacity);
+  subscriptions_.push_back(std::move(sub));
+}
+
 Status LcmBus::PublishBytes(const std::string& channel, const std::vector<uint8_t>& bytes) {
   if (lcm_->publish(channel, bytes.data(), static_cast<unsigned>(bytes.size())) != 0) {
     ++publish_errors_;

@@ -72,10 +72,15 @@ class LcmBus {
   uint64_t publish_errors() const { return publish_errors_; }
 
  private:
+  // One subscription: the C callback below hands LCM's buffer to `fn`.
   struct RawSubscription {
-    std::function<void(const lcm::ReceiveBuffer*, const std::string&)> fn;
-    void OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) { fn(rbuf, channel); }
+    std::function<void(const lcm_recv_buf_t*, const char* channel)> fn;
   };
+  // LCM's C callback: user data is the RawSubscription.
+  static void DispatchRaw(const lcm_recv_buf_t* rbuf, const char* channel, void* user);
+  // Subscribes through LCM's C API (no pointer-to-member dispatch).
+  void SubscribeRaw(const std::string& channel_regex, int queue_capacity,
+                    std::unique_ptr<RawSubscription> sub);
 
   explicit LcmBus(std::string url);
   void NoteDecodeError(const std::string& channel, const std::string& type_name, const char* why);
@@ -116,8 +121,7 @@ template <typename T>
 void LcmBus::Subscribe(const std::string& channel_regex, int queue_capacity,
                        std::function<void(const std::string&, T&&, int64_t)> handler) {
   auto sub = std::make_unique<RawSubscription>();
-  sub->fn = [this, handler = std::move(handler)](const lcm::ReceiveBuffer* rbuf,
-                                                 const std::string& channel) {
+  sub->fn = [this, handler = std::move(handler)](const lcm_recv_buf_t* rbuf, const char* channel) {
     ++received_;
     T msg;
     Status st = DecodeExactly(rbuf->data, static_cast<int>(rbuf->data_size), &msg);
@@ -133,9 +137,7 @@ void LcmBus::Subscribe(const std::string& channel_regex, int queue_capacity,
       NoteHandlerError(channel, "unknown exception");
     }
   };
-  lcm::Subscription* s = lcm_->subscribe(channel_regex, &RawSubscription::OnMessage, sub.get());
-  if (s != nullptr) s->setQueueCapacity(queue_capacity);
-  subscriptions_.push_back(std::move(sub));
+  SubscribeRaw(channel_regex, queue_capacity, std::move(sub));
 }
 
 // Encodes `msg` into `bytes`; fails on inconsistent length fields.
