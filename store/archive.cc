@@ -228,7 +228,8 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
   IMUQUAL_RETURN_IF_ERROR(del->Bind(1, run_key).Run());
   auto ins = db_->Prepare(
       "INSERT OR REPLACE INTO measurements(run_key, axis, name, value, unit, low, high, "
-      "marginal_low, marginal_high, outcome, note) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+      "marginal_low, marginal_high, outcome, note, uncertainty) "
+      "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (!ins.ok()) return ins.status();
   for (const pb::Measurement& m : r.measurements) {
     auto opt = [](bool has, double v) { return has ? std::optional<double>(v) : std::nullopt; };
@@ -244,6 +245,7 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
       default: s.BindNull(10);
     }
     s.Bind(11, m.note());
+    s.Bind(12, opt(m.has_uncertainty(), m.uncertainty()));
     IMUQUAL_RETURN_IF_ERROR(s.Run());
   }
   std::string reasons;

@@ -115,6 +115,7 @@ ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg) {
     pm.set_axis(m.axis);
     pm.set_name(m.name);
     pm.set_value(m.value);
+    if (!std::isnan(m.uncertainty)) pm.set_uncertainty(m.uncertainty);
     pm.set_unit(m.unit);
     if (!std::isnan(m.low)) pm.set_low(m.low);
     if (!std::isnan(m.high)) pm.set_high(m.high);

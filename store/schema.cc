@@ -112,6 +112,7 @@ CREATE TABLE measurements (
   axis           TEXT NOT NULL,
   name           TEXT NOT NULL,
   value          REAL,
+  uncertainty    REAL,
   unit           TEXT NOT NULL,
   low            REAL,
   high           REAL,

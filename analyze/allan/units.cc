@@ -43,6 +43,12 @@ DatasheetValue ToDatasheetUnits(NoiseTerm term, SensorKind kind, double base_val
       return {MetersPerSecSqPerRootHzToMetersPerSecPerRootHour(base_value), "m/s/sqrt(h)"};
     case NoiseTerm::kBiasInstability:
       return {MetersPerSecSqToMicroG(base_value), "ug"};
+    case NoiseTerm::kRateRandomWalk:
+      // m/s^2/sqrt(s) -> ug/sqrt(h): 1/sqrt(s) = 60/sqrt(h).
+      return {MetersPerSecSqToMicroG(base_value) * 60.0, "ug/sqrt(h)"};
+    case NoiseTerm::kRateRamp:
+      // m/s^3 -> ug/h.
+      return {MetersPerSecSqToMicroG(base_value) * kSecondsPerHour, "ug/h"};
     default:
       return {base_value, BaseUnit(term, kind)};
   }

@@ -94,8 +94,7 @@ std::string_view BaseUnit(NoiseTerm term, SensorKind kind);
 
 // Converts a term from its base unit to the datasheet unit:
 //   gyro:  Q deg, N deg/sqrt(h), B deg/h, K deg/h/sqrt(h), R deg/h^2;
-//   accel: Q m/s, N m/s/sqrt(h), B ug, K m/s^2/sqrt(s), R m/s^3
-// (accelerometer K and R have no common datasheet unit and stay in base units).
+//   accel: Q m/s, N m/s/sqrt(h), B ug, K ug/sqrt(h), R ug/h.
 DatasheetValue ToDatasheetUnits(NoiseTerm term, SensorKind kind, double base_value);
 
 }  // namespace imuqual::allan

@@ -95,7 +95,8 @@ TEST(UnitsTest, DatasheetUnitsForGyroAndAccelerometer) {
       {NoiseTerm::kRateRamp, SensorKind::kGyro, 1e-7, 1.296, "deg/h^2"},
       {NoiseTerm::kAngleRandomWalk, SensorKind::kAccelerometer, 9.80665e-4, 0.0588, "m/s/sqrt(h)"},
       {NoiseTerm::kBiasInstability, SensorKind::kAccelerometer, 9.80665e-5, 10.0, "ug"},
-      {NoiseTerm::kRateRandomWalk, SensorKind::kAccelerometer, 1e-4, 1e-4, "m/s^2/sqrt(s)"},
+      {NoiseTerm::kRateRandomWalk, SensorKind::kAccelerometer, 9.80665e-6, 60.0, "ug/sqrt(h)"},
+      {NoiseTerm::kRateRamp, SensorKind::kAccelerometer, 9.80665e-6, 3600.0, "ug/h"},
   };
   for (const Row& row : rows) {
     const DatasheetValue v = ToDatasheetUnits(row.term, row.kind, row.base);

@@ -10,6 +10,8 @@
 namespace imuqual::judge {
 namespace {
 
+using allan::NoiseTerm;
+
 pb::Measurement Make(const std::string& axis, std::string_view name, double value,
                      pb::AxisKind kind, const std::string& note = "") {
   pb::Measurement m;
@@ -21,50 +23,70 @@ pb::Measurement Make(const std::string& axis, std::string_view name, double valu
   return m;
 }
 
+allan::SensorKind Sensor(pb::AxisKind kind) {
+  return kind == pb::ACCEL ? allan::SensorKind::kAccelerometer : allan::SensorKind::kGyro;
+}
+
+// A base-unit value in the measurement's datasheet unit.
+double Datasheet(NoiseTerm term, pb::AxisKind kind, double base) {
+  return allan::ToDatasheetUnits(term, Sensor(kind), base).value;
+}
+
 }  // namespace
 
 std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind kind,
                                          const allan::Curve& curve, double mean_rate) {
-  using namespace allan;
   const bool gyro = kind != pb::ACCEL;
-  // Rate-unit (deg/s or m/s^2) value -> datasheet unit (deg/h or ug).
-  auto bias_unit = [&](double v) {
-    return gyro ? DegPerSecToDegPerHour(v) : MetersPerSecSqToMicroG(v);
-  };
   std::vector<pb::Measurement> out;
 
-  const std::optional<CurveMinimum> min = FindCurveMinimum(curve);
-  std::string min_note;
-  if (min && !curve.points.empty() && min->m == curve.points.back().m) {
+  // The curve minimum and IEEE 952's B = minimum / 0.664.
+  const std::optional<allan::CurveMinimum> min = allan::FindCurveMinimum(curve);
+  std::string min_note = min ? "" : "no curve";
+  if (min && min->m == curve.points.back().m) {
     min_note = "minimum at the longest tau: the curve has not turned up yet (upper bound)";
   }
-  out.push_back(Make(axis, kBiasInstability, min ? bias_unit(min->dev) : kNaN, kind,
-                     min ? min_note : "no curve"));
+  const double nan = allan::kNaN;
+  out.push_back(Make(axis, kBiasInstability,
+                     min ? Datasheet(NoiseTerm::kBiasInstability, kind, min->dev) : nan, kind,
+                     min_note));
   out.push_back(Make(axis, kBiasInstabilityIeee,
-                     min ? bias_unit(min->bias_instability_ieee) : kNaN, kind,
-                     min ? min_note : "no curve"));
-  out.push_back(Make(axis, kTauAtMinimum, min ? min->tau_s : kNaN, kind, min ? min_note : ""));
+                     min ? Datasheet(NoiseTerm::kBiasInstability, kind, min->bias_instability_ieee)
+                         : nan,
+                     kind, min_note));
+  out.push_back(Make(axis, kTauAtMinimum, min ? min->tau_s : nan, kind, min_note));
 
-  const SlopeReadoff n = ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk);
-  const std::string n_note = n.upper_bound_only ? "upper bound only: no point on the -1/2 slope"
-                                                : "";
-  // N [deg/sqrt(s)] -> deg/sqrt(h); N [m/s^2/sqrt(Hz) = m/s/sqrt(s)] -> m/s/sqrt(h).
-  if (gyro) {
-    out.push_back(Make(axis, kAngleRandomWalk, DegPerRootSecToDegPerRootHour(n.value), kind, n_note));
-  } else {
-    out.push_back(Make(axis, kVelocityRandomWalk,
-                       MetersPerSecSqPerRootHzToMetersPerSecPerRootHour(n.value), kind, n_note));
+  // Slope-line read-offs: N at tau = 1 s on -1/2, K at tau = 3 s on +1/2.
+  const allan::SlopeReadoff n = allan::ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk);
+  out.push_back(Make(axis, gyro ? kAngleRandomWalk : kVelocityRandomWalk,
+                     Datasheet(NoiseTerm::kAngleRandomWalk, kind, n.value), kind,
+                     n.upper_bound_only ? "upper bound only: no point on the -1/2 slope" : ""));
+  const allan::SlopeReadoff k = allan::ReadSlopeLine(curve, NoiseTerm::kRateRandomWalk);
+  out.push_back(Make(axis, kRateRandomWalk, Datasheet(NoiseTerm::kRateRandomWalk, kind, k.value),
+                     kind, k.upper_bound_only ? "upper bound only: no point on the +1/2 slope" : ""));
+  out.push_back(Make(axis, kBiasOffset, Datasheet(NoiseTerm::kBiasInstability, kind, mean_rate),
+                     kind));
+
+  // The weighted NNLS fit of all five terms, with uncertainties.
+  const std::pair<NoiseTerm, std::string_view> fitted[] = {
+      {NoiseTerm::kQuantization, kFitQuantization},
+      {NoiseTerm::kAngleRandomWalk, gyro ? kFitAngleRandomWalk : kFitVelocityRandomWalk},
+      {NoiseTerm::kBiasInstability, kFitBiasInstability},
+      {NoiseTerm::kRateRandomWalk, kFitRateRandomWalk},
+      {NoiseTerm::kRateRamp, kFitRateRamp}};
+  allan::FitOptions options;
+  options.stop = allan::StopRule::kNone;  // the curve is already cut by the plan's rule
+  const Result<allan::NoiseFit> fit = allan::FitNoiseModel(curve, options);
+  for (const auto& [term, name] : fitted) {
+    if (!fit.ok()) {
+      out.push_back(Make(axis, name, nan, kind, "no fit: " + fit.status().message()));
+      continue;
+    }
+    const allan::TermEstimate& t = fit->term(term);
+    pb::Measurement m = Make(axis, name, Datasheet(term, kind, t.value), kind,
+                             t.active ? "" : "not in the fitted model (0 fits best)");
+    if (t.active && std::isfinite(t.sigma)) m.set_uncertainty(Datasheet(term, kind, t.sigma));
+    out.push_back(std::move(m));
   }
-
-  const SlopeReadoff k = ReadSlopeLine(curve, NoiseTerm::kRateRandomWalk);
-  const std::string k_note = k.upper_bound_only ? "upper bound only: no point on the +1/2 slope"
-                                                : "";
-  // K [deg/s/sqrt(s)] -> deg/h/sqrt(h); K [m/s^2/sqrt(s)] -> ug/sqrt(h) (x 60 / 1 ug).
-  const double k_value = gyro ? DegPerSecPerRootSecToDegPerHourPerRootHour(k.value)
-                              : MetersPerSecSqToMicroG(k.value) * 60.0;
-  out.push_back(Make(axis, kRateRandomWalk, k_value, kind, k_note));
-
-  out.push_back(Make(axis, kBiasOffset, bias_unit(mean_rate), kind));
   return out;
 }
 

@@ -27,6 +27,14 @@ inline constexpr std::string_view kAngleRandomWalk = "angle_random_walk";
 inline constexpr std::string_view kVelocityRandomWalk = "velocity_random_walk";
 inline constexpr std::string_view kRateRandomWalk = "rate_random_walk";
 inline constexpr std::string_view kBiasOffset = "bias_offset";
+// IEEE 952 model terms from the weighted non-negative least-squares fit,
+// with 1-sigma uncertainties.
+inline constexpr std::string_view kFitQuantization = "fit_quantization";
+inline constexpr std::string_view kFitAngleRandomWalk = "fit_angle_random_walk";
+inline constexpr std::string_view kFitVelocityRandomWalk = "fit_velocity_random_walk";
+inline constexpr std::string_view kFitBiasInstability = "fit_bias_instability";
+inline constexpr std::string_view kFitRateRandomWalk = "fit_rate_random_walk";
+inline constexpr std::string_view kFitRateRamp = "fit_rate_ramp";
 inline constexpr std::string_view kGapFraction = "gap_fraction";
 inline constexpr std::string_view kInvalidFraction = "invalid_fraction";
 inline constexpr std::string_view kDuration = "duration";

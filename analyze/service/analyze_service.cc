@@ -287,6 +287,7 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
     mm.axis = m.axis();
     mm.name = m.name();
     mm.value = m.value();
+    mm.uncertainty = m.has_uncertainty() ? m.uncertainty() : allan::kNaN;
     mm.unit = m.unit();
     mm.low = m.has_low() ? m.low() : allan::kNaN;
     mm.high = m.has_high() ? m.high() : allan::kNaN;
