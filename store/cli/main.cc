@@ -4,6 +4,7 @@
 
 #include "common/log.h"
 #include "common/shutdown.h"
+#include "store/cli/analyze_command.h"
 #include "store/cli/commands.h"
 
 int main(int argc, char** argv) {
@@ -44,7 +45,27 @@ int main(int argc, char** argv) {
   lot_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
   lot_cmd->add_flag("--all-runs", all_runs, "every run, not only each unit's latest");
 
+  cli::AnalyzeFileOptions an;
+  CLI::App* analyze_cmd = app.add_subcommand("analyze", "offline Allan analysis of a recorded series");
+  analyze_cmd->add_option("file", an.path, "one value per line, or CSV with a header")->required();
+  analyze_cmd->add_option("--column", an.column, "CSV column to analyse");
+  analyze_cmd->add_option("--rate", an.rate_hz, "sample rate in Hz")->capture_default_str();
+  analyze_cmd->add_option("--type", an.type, "rate or phase")->capture_default_str();
+  analyze_cmd->add_option("--dev", an.devs, "estimators: adev,oadev,mdev,tdev,hdev,ohdev,totdev")
+      ->capture_default_str();
+  analyze_cmd->add_option("--grid", an.grid, "octave, decade, all, logN (N per decade), or taus 1,2,5")
+      ->capture_default_str();
+  analyze_cmd->add_option("--stop", an.stop, "bins9, stable32 or none")->capture_default_str();
+  analyze_cmd->add_option("--ci", an.ci, "none, simple (1/sqrt(2(K-1))) or chi2 (Greenhall edf)")
+      ->capture_default_str();
+  analyze_cmd->add_option("--confidence", an.confidence, "chi2 interval level")->capture_default_str();
+  analyze_cmd->add_flag("--fit", an.fit, "IEEE 952 fit (Q, N, B, K, R) and slope-line read-offs");
+  analyze_cmd->add_option("--kind", an.kind, "gyro or accel: datasheet units for the fit");
+  analyze_cmd->add_option("--format", an.format, "table, csv or json")->capture_default_str();
+  analyze_cmd->add_option("--plot", an.plot_path, "write an SVG plot of the curves");
+
   CLI11_PARSE(app, argc, argv);
+  if (analyze_cmd->parsed()) return cli::AnalyzeFileCommand(an);
 
   auto fmt = cli::ParseFormat(format);
   if (!fmt.ok()) {

@@ -1,0 +1,32 @@
+// `imuqual analyze FILE`: offline Allan analysis of a recorded series (one
+// value per line, or CSV with a header and a chosen column), with every
+// estimator, grid, stop rule and confidence interval of the analysis core,
+// the IEEE 952 fit, and an SVG plot.
+#ifndef IMUQUAL_STORE_CLI_ANALYZE_COMMAND_H_
+#define IMUQUAL_STORE_CLI_ANALYZE_COMMAND_H_
+
+#include <string>
+
+namespace imuqual::cli {
+
+struct AnalyzeFileOptions {
+  std::string path;
+  std::string column;                  // CSV column (required if several)
+  double rate_hz = 1.0;                // sample rate
+  std::string type = "rate";           // "rate" (deg/s, m/s^2, fractional frequency) or "phase"
+  std::string devs = "oadev";          // comma list of adev, oadev, mdev, tdev, hdev, ohdev, totdev
+  std::string grid = "octave";         // octave, decade, all, logN, or explicit taus "1,2,5"
+  std::string stop = "bins9";          // bins9, stable32, none
+  std::string ci = "none";             // none, simple, chi2
+  double confidence = 0.682689492137086;
+  bool fit = false;                    // IEEE 952 fit and slope-line read-offs
+  std::string kind;                    // gyro, accel or "" (units of the fit report)
+  std::string format = "table";        // table, csv, json
+  std::string plot_path;               // SVG output, "" for none
+};
+
+int AnalyzeFileCommand(const AnalyzeFileOptions& options);
+
+}  // namespace imuqual::cli
+
+#endif  // IMUQUAL_STORE_CLI_ANALYZE_COMMAND_H_

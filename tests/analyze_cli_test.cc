@@ -1,0 +1,151 @@
+// `imuqual analyze` against the reference results: every dataset, estimator
+// and grid of tests/reference/results through the command line, with
+// --stop none (the reference keeps every tau with n > 1). tau and n exact,
+// dev within 1e-9 relative (the reference's own float64 vs long double
+// difference is <= 3.6e-12); chi-square intervals within 1e-6 where the
+// reference has one, and none where it has none.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include "analyze/allan/reference_testing.h"
+#include "common/text_util.h"
+#include "tests/test_util.h"
+
+namespace imuqual {
+namespace {
+
+using allan::testing::CsvTable;
+using allan::testing::ReadCsv;
+using allan::testing::ReadDatasets;
+using allan::testing::ReferencePath;
+using testing::Bin;
+using testing::RunCommand;
+
+constexpr double kDevRelTol = 1e-9;
+constexpr double kCiRelTol = 1e-6;
+
+// Our CSV output: named columns, text kept, empty cells NaN.
+struct Output {
+  std::vector<std::string> columns;
+  std::vector<std::vector<std::string>> rows;
+  double Num(size_t row, const std::string& col) const {
+    for (size_t c = 0; c < columns.size(); ++c) {
+      if (columns[c] == col) {
+        const std::string& cell = rows[row][c];
+        return cell.empty() ? std::nan("") : std::stod(cell);
+      }
+    }
+    ADD_FAILURE() << "no column " << col;
+    return std::nan("");
+  }
+};
+
+Output Parse(const std::string& csv) {
+  Output out;
+  std::istringstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  out.columns = allan::testing::SplitCsvLine(line);
+  while (std::getline(in, line) && !line.empty()) {
+    std::vector<std::string> cells = allan::testing::SplitCsvLine(line);
+    cells.resize(out.columns.size());
+    out.rows.push_back(cells);
+  }
+  return out;
+}
+
+std::string Analyze(const allan::testing::Dataset& d, const std::string& args) {
+  std::ostringstream cmd;
+  cmd << Bin("imuqual") << " analyze " << ReferencePath(d.file) << " --rate " << d.rate_hz
+      << " --type " << (d.data_type == "phase" ? "phase" : "rate") << " --stop none --format csv "
+      << args;
+  const auto r = RunCommand(cmd.str());
+  EXPECT_EQ(r.exit_code, 0) << cmd.str();
+  return r.output;
+}
+
+double Rel(double a, double b) { return std::abs(a - b) / std::max(std::abs(b), 1e-300); }
+
+TEST(AnalyzeCliTest, ReproducesEveryReferenceResultFile) {
+  int files = 0;
+  for (const auto& d : ReadDatasets()) {
+    for (const char* dev : {"adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "totdev"}) {
+      for (const char* grid : {"octave", "decade", "all"}) {
+        const std::string ref_path = ReferencePath("results/" + d.name + "/" + d.name + "_" + dev +
+                                                   "_" + grid + ".csv");
+        const CsvTable ref = ReadCsv(ref_path);
+        if (!ref.ok) continue;  // "all" exists for oadev only
+        ++files;
+        const Output out = Parse(Analyze(d, std::string("--dev ") + dev + " --grid " + grid));
+        ASSERT_EQ(out.rows.size(), ref.rows.size()) << ref_path;
+        for (size_t i = 0; i < ref.rows.size(); ++i) {
+          EXPECT_EQ(out.Num(i, "tau"), ref.rows[i][ref.Column("tau")]) << ref_path << " row " << i;
+          EXPECT_EQ(out.Num(i, "n"), ref.rows[i][ref.Column("n")]) << ref_path << " row " << i;
+          EXPECT_LT(Rel(out.Num(i, "dev"), ref.rows[i][ref.Column("dev")]), kDevRelTol)
+              << ref_path << " row " << i;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(files, 8 * (7 * 2 + 1));
+}
+
+TEST(AnalyzeCliTest, ReproducesTheChiSquareIntervals) {
+  int compared = 0, absent = 0;
+  for (const auto& d : ReadDatasets()) {
+    const CsvTable ref =
+        ReadCsv(ReferencePath("results/" + d.name + "/" + d.name + "_oadev_octave_ci_noiseid.csv"));
+    ASSERT_TRUE(ref.ok) << d.name;
+    const Output out = Parse(Analyze(d, "--dev oadev --grid octave --ci chi2"));
+    ASSERT_EQ(out.rows.size(), ref.rows.size()) << d.name;
+    for (size_t i = 0; i < ref.rows.size(); ++i) {
+      for (const char* col : {"lo", "hi", "edf"}) {
+        const double want = ref.rows[i][ref.Column(col)];
+        const double got = out.Num(i, col);
+        if (std::isnan(want)) {
+          EXPECT_TRUE(std::isnan(got)) << d.name << " row " << i << " " << col;
+          ++absent;
+        } else {
+          EXPECT_LT(Rel(got, want), kCiRelTol) << d.name << " row " << i << " " << col;
+          ++compared;
+        }
+      }
+    }
+  }
+  EXPECT_GT(compared, 100);
+  EXPECT_GT(absent, 0);  // taus with fewer than 30 decimated points have no interval
+}
+
+TEST(AnalyzeCliTest, BadInputGetsAOneLineError) {
+  const std::string data = ReferencePath("data/white_1e4.txt");
+  for (const std::string& args :
+       {std::string("--dev nope"), std::string("--grid weird"), std::string("--stop bins8"),
+        std::string("--ci exact"), std::string("--rate -1"), std::string("--type freq")}) {
+    const auto r = RunCommand(Bin("imuqual") + " analyze " + data + " " + args + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << args << ": " << r.output;
+  }
+  const auto missing = RunCommand(Bin("imuqual") + " analyze /nonexistent/file 2>&1");
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.output.find("/nonexistent/file"), std::string::npos);
+}
+
+TEST(AnalyzeCliTest, FitAndPlot) {
+  testing::TempDir dir("analyze_cli_test");
+  const std::string svg = dir.path("curve.svg");
+  const auto r = RunCommand(Bin("imuqual") + " analyze " + ReferencePath("data/rw_1e4.txt") +
+                            " --dev oadev,mdev --ci chi2 --fit --format json --plot " + svg);
+  ASSERT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.output.find("\"fit\": ["), std::string::npos);
+  EXPECT_NE(r.output.find("\"rate_random_walk\""), std::string::npos);
+  auto text = ReadFileToString(svg);
+  ASSERT_TRUE(text.ok());
+  EXPECT_EQ(text->rfind("<svg", 0), 0u);
+  EXPECT_NE(text->find("IEEE 952 fit"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace imuqual
