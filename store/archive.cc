@@ -203,8 +203,8 @@ Status Archive::PutCurve(int64_t run_key, const CurveRecord& rec) {
                               .Bind(8, rec.computed_utime)
                               .Run());
   auto pt = db_->Prepare(
-      "INSERT INTO curve_points(run_key, axis, estimator, m, tau_s, dev, lo, hi, edf, n_terms) "
-      "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+      "INSERT INTO curve_points(run_key, axis, estimator, m, tau_s, dev, lo, hi, edf, n_terms, "
+      "stride) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (!pt.ok()) return pt.status();
   for (const allan::CurvePoint& p : rec.curve.points) {
     IMUQUAL_RETURN_IF_ERROR(pt->Bind(1, run_key)
@@ -217,6 +217,7 @@ Status Archive::PutCurve(int64_t run_key, const CurveRecord& rec) {
                                 .Bind(8, p.hi)
                                 .Bind(9, p.edf)
                                 .Bind(10, p.n)
+                                .Bind(11, p.stride)
                                 .Run());
   }
   return Status::Ok();
@@ -408,7 +409,7 @@ Result<std::vector<GapRecord>> Archive::LoadGaps(int64_t run_key) {
 Result<std::vector<CurveRecord>> Archive::LoadCurves(int64_t run_key) {
   auto s = db_->Prepare(
       "SELECT c.axis, c.estimator, c.ci_method, c.tau0_s, c.samples, c.valid_samples, "
-      "c.computed_utime, p.m, p.tau_s, p.dev, p.lo, p.hi, p.edf, p.n_terms "
+      "c.computed_utime, p.m, p.tau_s, p.dev, p.lo, p.hi, p.edf, p.n_terms, p.stride "
       "FROM curves c JOIN curve_points p USING (run_key, axis, estimator) "
       "WHERE c.run_key = ? ORDER BY c.axis, c.estimator, p.m");
   if (!s.ok()) return s.status();
@@ -439,6 +440,7 @@ Result<std::vector<CurveRecord>> Archive::LoadCurves(int64_t run_key) {
     p.hi = s->Real(11);
     p.edf = s->Real(12);
     p.n = s->Int(13);
+    p.stride = s->Int(14);
     curves.back().curve.points.push_back(p);
   }
   return curves;

@@ -81,6 +81,7 @@ CurveRecord CurveFromMessage(const imuqual::allan_curve_t& msg) {
     p.hi = msg.hi[i];
     p.edf = msg.edf[i];
     p.n = msg.n_terms[i];
+    p.stride = msg.stride[i];
     rec.curve.points.push_back(p);
   }
   return rec;

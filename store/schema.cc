@@ -103,6 +103,7 @@ CREATE TABLE curve_points (
   hi         REAL,
   edf        REAL,
   n_terms    INTEGER NOT NULL,
+  stride     INTEGER NOT NULL,
   PRIMARY KEY (run_key, axis, estimator, m),
   FOREIGN KEY (run_key, axis, estimator) REFERENCES curves(run_key, axis, estimator)
 );

@@ -146,6 +146,7 @@ TEST_F(StationTest, ArchivedResultEqualsReanalysisOfArchivedSamples) {
         EXPECT_EQ(live.points[p].lo, again.points[p].lo);
         EXPECT_EQ(live.points[p].hi, again.points[p].hi);
         EXPECT_EQ(live.points[p].n, again.points[p].n);
+        EXPECT_EQ(live.points[p].stride, again.points[p].stride);
       }
     }
     // The archived measurements are the re-analysed ones.

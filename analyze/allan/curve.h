@@ -59,6 +59,8 @@ struct CurvePoint {
   double tau_s = 0;       // averaging time, s
   double dev = kNaN;      // deviation, in the input's rate unit (TDEV: rate unit * s)
   int64_t n = 0;          // terms in the estimator's outer sum (valid terms only)
+  int64_t stride = 0;     // terms are taken every `stride` samples: 1 fully overlapped,
+                          // m non-overlapped, m/c in the streaming cascade; 0 unknown
   double lo = kNaN;       // lower confidence bound on dev (NaN: none)
   double hi = kNaN;       // upper confidence bound on dev (NaN: none)
   double edf = kNaN;      // degrees of freedom behind lo/hi (NaN: none)

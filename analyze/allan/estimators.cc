@@ -440,14 +440,22 @@ TermSum TermsAt(const RecordView& view, Deviation dev, int64_t m) {
   return {};
 }
 
+// Samples between consecutive terms: m for the non-overlapped estimators,
+// 1 for the overlapped ones (TOTDEV included: every point of the extension).
+int64_t Stride(Deviation dev, int64_t m) {
+  return dev == Deviation::kAdev || dev == Deviation::kHdev ? m : 1;
+}
+
 // dev from the sum of squared terms:
 //   AVAR, OAVAR, TOTVAR  sqrt(sum / (2n)) / tau
 //   HVAR, OHVAR          sqrt(sum / (6n)) / tau
 //   MVAR                 sqrt(sum / (2n)) / (m tau)
 //   TVAR                 tau / sqrt(3) MDEV = sqrt(sum / (2n)) / (m sqrt(3))
-CurvePoint MakePoint(Deviation dev, int64_t m, double tau0_s, const TermSum& terms) {
+CurvePoint MakePoint(Deviation dev, int64_t m, double tau0_s, const TermSum& terms,
+                     int64_t stride) {
   CurvePoint point;
   point.m = m;
+  point.stride = stride;
   point.tau_s = static_cast<double>(m) * tau0_s;
   point.n = terms.n;
   if (terms.n < 1) return point;
@@ -496,18 +504,20 @@ Curve ComputeDeviation(const PhaseRecord& phase, Deviation dev, std::span<const 
 
   curve.points.reserve(m_list.size());
   for (size_t q = 0; q < m_list.size(); ++q) {
-    if (terms[q].n > 1) curve.points.push_back(MakePoint(dev, m_list[q], phase.tau0_s, terms[q]));
+    if (terms[q].n > 1) {
+      curve.points.push_back(MakePoint(dev, m_list[q], phase.tau0_s, terms[q], Stride(dev, m_list[q])));
+    }
   }
   return curve;
 }
 
 CurvePoint ComputeDeviationAt(const PhaseRecord& phase, Deviation dev, int64_t m) {
-  return MakePoint(dev, m, phase.tau0_s, TermsAt(MakeView(phase), dev, m));
+  return MakePoint(dev, m, phase.tau0_s, TermsAt(MakeView(phase), dev, m), Stride(dev, m));
 }
 
 CurvePoint OverlappingAllanStrided(const PhaseRecord& phase, int64_t m, int64_t stride) {
   return MakePoint(Deviation::kOadev, m, phase.tau0_s,
-                   DifferenceTerms(MakeView(phase), 2, m, stride));
+                   DifferenceTerms(MakeView(phase), 2, m, stride), stride);
 }
 
 }  // namespace imuqual::allan

@@ -21,6 +21,7 @@ struct Row {
   double tau_s = 0;
   double avar = 0;
   int64_t n_eff = 0;          // phase points spanned by the valid terms
+  int64_t stride = 1;         // samples between consecutive terms
   double point_edf = kNaN;    // the curve's own edf, if any
   double local_slope = kNaN;  // d ln AVAR / d ln tau
 };
@@ -48,10 +49,11 @@ int AlphaFromAvarSlope(double mu) {
 
 // Greenhall edf for an AVAR-family point (d = 2, F = m), or the non-overlapped
 // cluster count K - 1 when Greenhall is undefined.
-double PointEdf(int alpha, const Row& row, bool overlapped) {
+// The stride factor is S = m / stride (m: full overlap, 1: none).
+double PointEdf(int alpha, const Row& row) {
   const double md = static_cast<double>(row.m);
-  const std::optional<double> nu =
-      GreenhallEdf(alpha, /*d=*/2, row.m, row.n_eff, /*F=*/md, /*S=*/overlapped ? md : 1.0);
+  const std::optional<double> nu = GreenhallEdf(alpha, /*d=*/2, row.m, row.n_eff, /*F=*/md,
+                                                /*S=*/md / static_cast<double>(row.stride));
   if (nu.has_value() && std::isfinite(*nu) && *nu > 0) return *nu;
   return std::max<double>(1.0, static_cast<double>((row.n_eff - 1) / row.m - 1));
 }
@@ -238,8 +240,10 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options) {
     row.m = p.m;
     row.tau_s = p.tau_s;
     row.avar = p.dev * p.dev;
-    const int64_t stride = overlapped ? 1 : p.m;
-    row.n_eff = std::min(n_phase, (p.n - 1) * stride + 2 * p.m + 1);
+    // The estimator's real stride (the streaming cascade takes every
+    // (m/c)-th term); without it, the deviation's own convention.
+    row.stride = p.stride > 0 ? p.stride : (overlapped ? 1 : p.m);
+    row.n_eff = std::min(n_phase, (p.n - 1) * row.stride + 2 * p.m + 1);
     row.point_edf = p.edf;
     rows.push_back(row);
   }
@@ -273,12 +277,12 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options) {
         fp.alpha = AlphaFromAvarSlope(row.local_slope);
         fp.edf = std::isfinite(row.point_edf) && row.point_edf > 0
                      ? row.point_edf
-                     : PointEdf(fp.alpha, row, overlapped);
+                     : PointEdf(fp.alpha, row);
       } else {
         const double model = ModelAvar(solution->coef, row.tau_s);
         if (model > 0) ref = model;
         fp.alpha = NoiseTermAlpha(DominantTerm(solution->coef, row.tau_s));
-        fp.edf = PointEdf(fp.alpha, row, overlapped);
+        fp.edf = PointEdf(fp.alpha, row);
       }
       const double w = std::sqrt(fp.edf / 2.0) / ref;
       for (int t = 0; t < kTerms; ++t) a(j, t) = w * NoiseTermAvarBasis(kNoiseTerms[t], row.tau_s);

@@ -110,7 +110,8 @@ struct FitOptions {
 //     model_j and nu_j = Greenhall (d = 2, F = m, S = m for OADEV, 1 for ADEV)
 //     with the alpha of the term that dominates the model at tau_j. N for
 //     Greenhall is the span of the valid terms, min(n_phase, (n-1) s + 2m + 1)
-//     with stride s = 1 (OADEV) or m (ADEV);
+//     and S = m/s, with s the point's stride (CurvePoint::stride; when unknown
+//     1 for OADEV, m for ADEV), so streaming curves get their real edf;
 //  3. columns of W A scaled to unit norm, solved by column-pivoting QR;
 //  4. exact NNLS: all 31 non-empty subsets, those with a negative coefficient
 //     discarded, the smallest weighted SSR kept;
@@ -119,8 +120,6 @@ struct FitOptions {
 // understates the error: in simulations the scatter of the estimates was 1.0
 // to 1.8 times the reported sigma, depending on the term (octave thinning
 // keeps it at that).
-// Curves from the streaming engine (stride m/c) have a few % less edf than
-// full overlap in the ARW/BI/RRW regions; the refreshed nu ignore that.
 // Errors: unsupported deviation, fewer than 2 usable points, bad options.
 Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options = {});
 

@@ -355,8 +355,9 @@ Curve StreamingAllan::Oadev(StreamGrid grid, StopRule stop, CiMethod ci, double 
       t.point.tau_s = md * options_.tau0_s;
       t.point.dev = std::sqrt(sum / (2.0 * md * md * static_cast<double>(n)));
       t.point.n = n;
+      t.point.stride = int64_t{1} << j;
       t.c = c;
-      t.stride = int64_t{1} << j;
+      t.stride = t.point.stride;
       tracked.push_back(t);
     }
   }

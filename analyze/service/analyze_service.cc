@@ -265,6 +265,7 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
       msg.hi.push_back(p.hi);
       msg.edf.push_back(p.edf);
       msg.n_terms.push_back(p.n);
+      msg.stride.push_back(p.stride);
     }
     Status st = bus->Publish(channels::Curve(r.unit_serial), msg);
     if (!st.ok()) LogWarning(st.message());
