@@ -120,6 +120,12 @@ struct AcquireService::Impl {
   Status PublishOneBatch(RunState& run, double now_s, bool* published_one);
   Status Abort(const std::string& why);
   Counters StatusCounters() const;
+  void LogSummary(const std::string& how) const {
+    LogInfo(how + ": " + std::to_string(published) + " batches published, " +
+            std::to_string(resent) + " resent, " + std::to_string(injected_drops) +
+            " dropped on purpose (--inject-drop), " + std::to_string(resend_misses) +
+            " resend misses");
+  }
 };
 
 AcquireService::AcquireService(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -239,6 +245,8 @@ Status AcquireService::Impl::Announce(RunState& run) {
   run.announcement.state = run.state;
   run.announcement.last_seq = run.next_seq - 1;
   run.announcement.samples_published = run.samples_published;
+  run.announcement.announcer = "acquire";
+  run.announcement.retained_first_seq = run.retained.empty() ? run.next_seq : run.retained.front().seq;
   return bus->Publish(channels::kRun, run.announcement);
 }
 
@@ -441,6 +449,7 @@ Status AcquireService::Run() {
     now = MonotonicSeconds();
     if (ShutdownRequested()) {
       s.Abort("shutdown requested");
+      s.LogSummary("stopped");
       return Status::Ok();
     }
     bool progress = false;
@@ -476,6 +485,7 @@ Status AcquireService::Run() {
       if (all_done_since < 0) all_done_since = now;
       if (s.AllAcknowledged()) {
         for (RunState& run : s.runs) IMUQUAL_RETURN_IF_ERROR(s.Announce(run));
+        s.LogSummary("all runs acknowledged");
         (void)PublishStatus(*s.bus, "acquire", true, "all runs acknowledged", s.StatusCounters());
         return Status::Ok();
       }

@@ -41,8 +41,10 @@ std::vector<SeqRange> SeqTracker::Holes() const {
   return holes;
 }
 
-// Keeps one state per current hole, keyed by its first seq; a hole that
-// shrank from the front (part of it arrived) keeps its age.
+// Keeps one state per current hole, keyed by its first seq. A hole with the
+// same first seq is the same hole, unchanged; one that starts later than the
+// hole it came from has shrunk (resent batches arrived): progress, so it is
+// asked for again at once and its give-up clock restarts.
 void SeqTracker::Refresh(double now_s) {
   std::map<int64_t, HoleState> next;
   for (const SeqRange& h : Holes()) {
@@ -50,7 +52,11 @@ void SeqTracker::Refresh(double now_s) {
     HoleState state{now_s, now_s + options_.first_request_delay_s, options_.first_request_delay_s};
     if (it != holes_.begin()) {
       --it;
-      state = it->second;  // the hole this one grew out of (same or earlier first seq)
+      if (it->first == h.first) {
+        state = it->second;
+      } else if (it->second.requested) {
+        state = HoleState{now_s, now_s, options_.first_request_delay_s};
+      }
     }
     next[h.first] = state;
   }
@@ -63,7 +69,8 @@ std::vector<SeqRange> SeqTracker::DueRequests(double now_s) {
   for (const SeqRange& h : Holes()) {
     HoleState& st = holes_[h.first];
     if (now_s >= st.next_request_s) {
-      due.push_back(h);
+      due.push_back({h.first, std::min(h.last, h.first + options_.max_request - 1)});
+      st.requested = true;
       st.backoff_s = std::min(st.backoff_s * 2, options_.max_backoff_s);
       st.next_request_s = now_s + st.backoff_s;
     }
@@ -87,6 +94,14 @@ std::vector<SeqRange> SeqTracker::TakeGivenUp(double now_s) {
     Advance();
   }
   return given_up;
+}
+
+std::vector<SeqRange> SeqTracker::GiveUpAll() {
+  std::vector<SeqRange> holes = Holes();
+  holes_.clear();
+  ahead_.clear();
+  next_seq_ = std::max(next_seq_, announced_last_ + 1);
+  return holes;
 }
 
 }  // namespace imuqual

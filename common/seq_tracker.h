@@ -26,10 +26,11 @@ struct SeqRange {
 class SeqTracker {
  public:
   struct Options {
-    double first_request_delay_s = 0.3;  // a hole younger than this may still fill by itself
+    double first_request_delay_s = 0.05;  // a hole younger than this may still fill by itself
     double max_backoff_s = 4.0;          // request interval doubles up to this
-    double give_up_after_s = 30.0;       // then the hole becomes a gap
+    double give_up_after_s = 30.0;       // no progress on a hole this long: it becomes a gap
     int64_t max_ahead = 1 << 16;         // seqs accepted beyond next_seq(); further is absurd
+    int64_t max_request = 256;           // seqs asked for per request (a resend is a burst)
   };
 
   explicit SeqTracker(int64_t next_seq = 0) : SeqTracker(next_seq, Options{}) {}
@@ -45,11 +46,17 @@ class SeqTracker {
   // The run will not grow beyond its announced last seq.
   void SetFinal() { final_ = true; }
 
-  // Holes to (re)request now.
+  // Ranges to (re)request now: the front of each due hole, at most
+  // max_request seqs. A hole that shrinks (part of it arrived) is making
+  // progress: its back-off and its give-up clock start again.
   std::vector<SeqRange> DueRequests(double now_s);
-  // Holes whose deadline passed: the frontier moves over them; the caller
-  // records them as gaps. Returned in ascending order.
+  // Holes without progress for give_up_after_s: the frontier moves over them;
+  // the caller records them as gaps. Returned in ascending order.
   std::vector<SeqRange> TakeGivenUp(double now_s);
+
+  // Every hole up to the announced last seq becomes a gap now (the source is
+  // gone: nothing more can be resent). Returned in ascending order.
+  std::vector<SeqRange> GiveUpAll();
 
   int64_t next_seq() const { return next_seq_; }
   int64_t announced_last() const { return announced_last_; }
@@ -60,9 +67,10 @@ class SeqTracker {
 
  private:
   struct HoleState {
-    double first_seen_s;
+    double first_seen_s;    // or the last progress
     double next_request_s;
     double backoff_s;
+    bool requested = false;
   };
   void Advance();
   std::vector<SeqRange> Holes() const;

@@ -38,16 +38,18 @@ TEST(SeqTrackerTest, RequestsHolesAfterADelayWithBackoff) {
   // WHEN asked right away THEN nothing is due (the hole may fill by itself).
   EXPECT_TRUE(t.DueRequests(10.0).empty());
   // THEN after the first delay both holes are requested once.
-  auto due = t.DueRequests(10.31);
+  auto due = t.DueRequests(10.06);
   ASSERT_EQ(due.size(), 2u);
   EXPECT_EQ(due[0], (SeqRange{2, 3}));
   EXPECT_EQ(due[1], (SeqRange{5, 6}));
-  EXPECT_TRUE(t.DueRequests(10.5).empty());
-  // Back-off doubled to 0.6 s.
-  EXPECT_EQ(t.DueRequests(10.92).size(), 2u);
-  // Part of a hole arriving keeps the rest scheduled, not restarted.
+  EXPECT_TRUE(t.DueRequests(10.1).empty());
+  // Back-off doubled to 0.1 s.
+  EXPECT_EQ(t.DueRequests(10.17).size(), 2u);
+  // Part of a hole arriving is progress: the rest is asked for at once.
   t.Offer(2);
-  EXPECT_TRUE(t.DueRequests(11.0).empty());
+  auto next = t.DueRequests(11.0);
+  ASSERT_EQ(next.size(), 1u);
+  EXPECT_EQ(next[0], (SeqRange{3, 3}));
   t.Offer(3);
   t.Offer(5);
   t.Offer(6);
@@ -71,6 +73,29 @@ TEST(SeqTrackerTest, GivesUpInOrderAndCompletes) {
   EXPECT_EQ(lost[1], (SeqRange{4, 5}));
   EXPECT_EQ(t.next_seq(), 6);
   EXPECT_TRUE(t.complete());
+}
+
+TEST(SeqTrackerTest, LongHolesAreRequestedInBoundedSlicesAndProgressResetsTheClock) {
+  // GIVEN a consumer that restarted: the run is at seq 10000, nothing held.
+  SeqTracker::Options opt;
+  opt.max_request = 100;
+  opt.give_up_after_s = 5;
+  SeqTracker t(0, opt);
+  t.SetAnnouncedLast(9999);
+  // WHEN it catches up slice by slice, each slice taking 2 s to arrive
+  double now = 0;
+  t.DueRequests(now);
+  now = opt.first_request_delay_s;
+  for (int64_t first = 0; first < 10000; first += 100) {
+    auto due = t.DueRequests(now);
+    ASSERT_EQ(due.size(), 1u) << first;
+    EXPECT_EQ(due[0], (SeqRange{first, first + 99}));
+    now += 2.0;  // 100 slices x 2 s = 200 s, far beyond give_up_after_s
+    for (int64_t s = first; s <= first + 99; ++s) t.Offer(s);
+    // THEN progress keeps the hole alive: nothing is given up.
+    EXPECT_TRUE(t.TakeGivenUp(now).empty()) << first;
+  }
+  EXPECT_EQ(t.next_seq(), 10000);
 }
 
 }  // namespace

@@ -97,15 +97,20 @@ void Subprocess::Signal(int sig) {
   if (pid_ > 0 && !Poll()) ::kill(pid_, sig);
 }
 
+std::optional<int> Subprocess::Wait(double timeout_s) {
+  const double deadline = MonotonicSeconds() + timeout_s;
+  for (;;) {
+    if (Poll()) return exit_code_;
+    if (MonotonicSeconds() >= deadline) return std::nullopt;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
 int Subprocess::Stop(double timeout_s) {
   if (pid_ <= 0) return -1;
   if (Poll()) return *exit_code_;
   ::kill(pid_, SIGTERM);
-  const double deadline = MonotonicSeconds() + timeout_s;
-  while (MonotonicSeconds() < deadline) {
-    if (Poll()) return *exit_code_;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  if (Wait(timeout_s)) return *exit_code_;
   ::kill(pid_, SIGKILL);
   int status = 0;
   ::waitpid(pid_, &status, 0);

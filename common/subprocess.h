@@ -27,6 +27,9 @@ class Subprocess {
   const std::string& name() const { return name_; }
   // Non-blocking: the exit status once the child has ended (reaped).
   std::optional<int> Poll();
+  // Waits up to timeout_s for the child to end by itself; its exit code, or
+  // nullopt if it is still running.
+  std::optional<int> Wait(double timeout_s);
   // SIGTERM, then waits up to timeout_s; SIGKILL if still running. Returns
   // the exit code (128 + signal for a signal).
   int Stop(double timeout_s);

@@ -270,12 +270,76 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
       .Run();
 }
 
-Result<int> Archive::MarkStaleRunsIncomplete(int64_t before_utime) {
-  auto up = db_->Prepare(
-      "UPDATE runs SET state = 'incomplete' WHERE state = 'running' AND start_utime < ?");
+Status Archive::MarkFinalized(int64_t run_key, int64_t utime) {
+  auto up = db_->Prepare("UPDATE runs SET finalized_utime = ? WHERE run_key = ?");
   if (!up.ok()) return up.status();
-  IMUQUAL_RETURN_IF_ERROR(up->Bind(1, before_utime).Run());
-  return sqlite3_changes(db_->handle());
+  return up->Bind(1, utime).Bind(2, run_key).Run();
+}
+
+Result<std::vector<std::string>> Archive::UnfinishedRunIds() {
+  auto s = db_->Prepare("SELECT run_id FROM runs WHERE finalized_utime IS NULL ORDER BY run_key");
+  if (!s.ok()) return s.status();
+  std::vector<std::string> ids;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return ids;
+    ids.push_back(s->Text(0));
+  }
+}
+
+Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
+  auto r = db_->Prepare(
+      "SELECT COALESCE(verdict, ''), COALESCE(reasons, ''), samples, gap_samples, "
+      "invalid_samples, result_utime, record FROM runs WHERE run_key = ? AND result_utime IS NOT NULL");
+  if (!r.ok()) return r.status();
+  r->Bind(1, run_key);
+  auto row = r->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) return std::optional<ResultRecord>();
+  ResultRecord res;
+  res.verdict = r->Text(0);
+  const std::string reasons = r->Text(1);
+  for (size_t start = 0; start < reasons.size();) {
+    const size_t end = reasons.find('\n', start);
+    res.reasons.push_back(reasons.substr(start, end - start));
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  res.samples = r->Int(2);
+  res.gap_samples = r->Int(3);
+  res.invalid_samples = r->Int(4);
+  res.result_utime = r->Int(5);
+  const std::vector<uint8_t> record = r->Blob(6);
+  res.record.assign(record.begin(), record.end());
+  auto m = db_->Prepare(
+      "SELECT axis, name, value, unit, low, high, marginal_low, marginal_high, outcome, note, "
+      "uncertainty FROM measurements WHERE run_key = ? ORDER BY rowid");
+  if (!m.ok()) return m.status();
+  m->Bind(1, run_key);
+  for (;;) {
+    auto mrow = m->Step();
+    if (!mrow.ok()) return mrow.status();
+    if (!*mrow) break;
+    pb::Measurement pm;
+    pm.set_axis(m->Text(0));
+    pm.set_name(m->Text(1));
+    pm.set_value(m->Real(2));
+    pm.set_unit(m->Text(3));
+    if (!m->IsNull(4)) pm.set_low(m->Real(4));
+    if (!m->IsNull(5)) pm.set_high(m->Real(5));
+    if (!m->IsNull(6)) pm.set_marginal_low(m->Real(6));
+    if (!m->IsNull(7)) pm.set_marginal_high(m->Real(7));
+    const std::string outcome = m->Text(8);
+    pm.set_outcome(outcome == "PASS" ? pb::PASS
+                   : outcome == "MARGINAL" ? pb::MARGINAL
+                   : outcome == "FAIL" ? pb::FAIL
+                                       : pb::OUTCOME_UNSET);
+    pm.set_note(m->Text(9));
+    if (!m->IsNull(10)) pm.set_uncertainty(m->Real(10));
+    res.measurements.push_back(std::move(pm));
+  }
+  return std::optional<ResultRecord>(std::move(res));
 }
 
 Result<std::optional<int64_t>> Archive::FindRunKey(const std::string& run_id) {
@@ -360,13 +424,13 @@ Result<std::vector<int64_t>> Archive::ArchivedSeqsFrom(int64_t run_key, int64_t 
   return seqs;
 }
 
-Status Archive::ForEachChunk(int64_t run_key,
-                             const std::function<Status(const ChunkRecord&)>& fn) {
+Status Archive::ForEachChunk(int64_t run_key, const std::function<Status(const ChunkRecord&)>& fn,
+                             int64_t first_seq, int64_t last_seq) {
   auto s = db_->Prepare(
       "SELECT seq, first_sample, num_samples, host_utime, temperature_c, codec, data "
-      "FROM raw_chunks WHERE run_key = ? ORDER BY seq");
+      "FROM raw_chunks WHERE run_key = ? AND seq BETWEEN ? AND ? ORDER BY seq");
   if (!s.ok()) return s.status();
-  s->Bind(1, run_key);
+  s->Bind(1, run_key).Bind(2, first_seq).Bind(3, last_seq);
   ChunkRecord c;
   for (;;) {
     auto row = s->Step();

@@ -7,6 +7,7 @@
 #define IMUQUAL_STORE_ARCHIVE_H_
 
 #include <cstdint>
+#include <climits>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -113,9 +114,9 @@ class Archive {
   Status RecomputeGaps(int64_t run_key, int64_t last_seq, int64_t now_utime);
   Status PutCurve(int64_t run_key, const CurveRecord& curve);
   Status PutResult(int64_t run_key, const ResultRecord& result);
-  // Marks runs still 'running' whose last announcement is older than
-  // `before_utime` as 'incomplete'. Returns how many.
-  Result<int> MarkStaleRunsIncomplete(int64_t before_utime);
+  // The run is archived for good: every batch is in or recorded as a gap,
+  // and its final result is stored.
+  Status MarkFinalized(int64_t run_key, int64_t utime);
 
   // --- reads ---
   Result<std::optional<int64_t>> FindRunKey(const std::string& run_id);
@@ -124,8 +125,13 @@ class Archive {
   Result<int64_t> NextMissingSeq(int64_t run_key);
   // Seqs archived at or above `from_seq`, ascending.
   Result<std::vector<int64_t>> ArchivedSeqsFrom(int64_t run_key, int64_t from_seq);
-  // Every chunk in seq order.
-  Status ForEachChunk(int64_t run_key, const std::function<Status(const ChunkRecord&)>& fn);
+  // Every chunk with first_seq <= seq <= last_seq, in seq order.
+  Status ForEachChunk(int64_t run_key, const std::function<Status(const ChunkRecord&)>& fn,
+                      int64_t first_seq = 0, int64_t last_seq = INT64_MAX);
+  // Runs not yet finalized (a store that stopped mid-run resumes them).
+  Result<std::vector<std::string>> UnfinishedRunIds();
+  // The stored final result, if any.
+  Result<std::optional<ResultRecord>> LoadResult(int64_t run_key);
   Result<std::vector<GapRecord>> LoadGaps(int64_t run_key);
   Result<std::vector<CurveRecord>> LoadCurves(int64_t run_key);
 

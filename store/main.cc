@@ -17,6 +17,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--give-up", opt.hole_give_up_s, "seconds before a lost batch becomes a gap")
       ->capture_default_str();
+  app.add_option("--stale-after", opt.stale_after_s,
+                 "seconds of acquire silence before a run is taken over (incomplete if running)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   SetLogProgramName("imuqual-store");

@@ -46,7 +46,7 @@ Result<analyze::RunOutcome> ReanalyzeRun(Archive& archive, const std::string& ru
   });
   if (!st.ok()) return st;
   analyzer->Finish(run->samples_announced);
-  return analyzer->Outcome(true, run->state == "aborted");
+  return analyzer->Outcome(true, analyze::FailureForRunState(run->state));
 }
 
 }  // namespace imuqual::store

@@ -10,8 +10,84 @@ const char* StateName(int8_t run_state) {
   switch (run_state) {
     case imuqual::run_t::STATE_COMPLETE: return "complete";
     case imuqual::run_t::STATE_ABORTED: return "aborted";
+    case imuqual::run_t::STATE_INCOMPLETE: return "incomplete";
     default: return "running";
   }
+}
+
+int8_t StateCode(const std::string& state) {
+  if (state == "complete") return imuqual::run_t::STATE_COMPLETE;
+  if (state == "aborted") return imuqual::run_t::STATE_ABORTED;
+  if (state == "incomplete") return imuqual::run_t::STATE_INCOMPLETE;
+  return imuqual::run_t::STATE_RUNNING;
+}
+
+imuqual::run_t MessageFromRunInfo(const RunInfo& info) {
+  imuqual::run_t r;
+  r.host_utime = 0;
+  r.run_id = info.run_id;
+  r.unit_serial = info.serial;
+  r.lot = info.lot;
+  r.station = info.station;
+  r.slot = info.slot;
+  r.operator_name = info.operator_name;
+  r.source = info.source;
+  r.software_version = info.software_version;
+  r.start_utime = info.start_utime;
+  r.nominal_rate_hz = info.nominal_rate_hz;
+  r.num_axes = static_cast<int8_t>(info.axes.size());
+  for (const AxisInfo& a : info.axes) {
+    r.axis_names.push_back(a.name);
+    r.axis_kinds.push_back(a.kind == pb::ACCEL ? imuqual::rate_batch_t::KIND_ACCEL
+                                               : imuqual::rate_batch_t::KIND_GYRO);
+  }
+  r.plan_size = static_cast<int32_t>(info.plan.size());
+  r.plan.assign(info.plan.begin(), info.plan.end());
+  r.plan_sha256 = info.plan_sha256;
+  r.truth_size = static_cast<int32_t>(info.truth.size());
+  r.truth.assign(info.truth.begin(), info.truth.end());
+  r.state = StateCode(info.state);
+  r.last_seq = info.last_seq;
+  r.samples_published = info.samples_announced;
+  r.announcer = "store";
+  r.retained_first_seq = 0;
+  return r;
+}
+
+Result<imuqual::rate_batch_t> BatchFromChunk(const RunInfo& info, const ChunkRecord& c) {
+  auto data = DecodeChunk(c.data, c.codec);
+  if (!data.ok()) return data.status();
+  if (data->num_axes != static_cast<int>(info.axes.size())) {
+    return Status::Corruption("chunk " + std::to_string(c.seq) + " of " + info.run_id +
+                              " has " + std::to_string(data->num_axes) + " axes");
+  }
+  imuqual::rate_batch_t b;
+  b.host_utime = c.host_utime;
+  b.run_id = info.run_id;
+  b.unit_serial = info.serial;
+  b.seq = c.seq;
+  b.first_sample = c.first_sample;
+  b.nominal_rate_hz = info.nominal_rate_hz;
+  b.num_axes = static_cast<int8_t>(info.axes.size());
+  for (const AxisInfo& a : info.axes) {
+    b.axis_names.push_back(a.name);
+    b.axis_kinds.push_back(a.kind == pb::ACCEL ? imuqual::rate_batch_t::KIND_ACCEL
+                                               : imuqual::rate_batch_t::KIND_GYRO);
+  }
+  b.num_samples = static_cast<int16_t>(data->num_samples);
+  for (int a = 0; a < data->num_axes; ++a) {
+    const float* begin = data->samples.data() + static_cast<size_t>(a) * data->num_samples;
+    b.samples.emplace_back(begin, begin + data->num_samples);
+  }
+  b.num_flagged = static_cast<int16_t>(data->flags.size());
+  for (const SampleFlag& f : data->flags) {
+    b.flagged_sample.push_back(static_cast<int16_t>(f.sample));
+    b.flagged_axis.push_back(static_cast<int8_t>(f.axis));
+    b.flagged_bits.push_back(static_cast<int8_t>(f.bits));
+  }
+  b.has_temperature = c.temperature_c.has_value();
+  b.temperature_c = static_cast<float>(c.temperature_c.value_or(0.0));
+  return b;
 }
 
 RunInfo RunInfoFromMessage(const imuqual::run_t& r) {

@@ -19,7 +19,14 @@ ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg);
 // The run record: run identity, plan, measurements, verdict, gap statistics.
 pb::RunRecord BuildRunRecord(const RunInfo& run, const ResultRecord& result, int64_t gap_ranges);
 
-const char* StateName(int8_t run_state);  // run_t.STATE_* -> "running" / "complete" / "aborted"
+// run_t.STATE_* <-> "running" / "complete" / "aborted" / "incomplete".
+const char* StateName(int8_t run_state);
+int8_t StateCode(const std::string& state);
+
+// A run as the store re-announces it (announcer "store").
+imuqual::run_t MessageFromRunInfo(const RunInfo& info);
+// An archived chunk as the batch it was (for resends from the archive).
+Result<imuqual::rate_batch_t> BatchFromChunk(const RunInfo& info, const ChunkRecord& chunk);
 
 }  // namespace imuqual::store
 

@@ -44,7 +44,8 @@ CREATE TABLE runs (
   verdict           TEXT CHECK (verdict IN ('PASS', 'MARGINAL', 'FAIL')),
   reasons           TEXT,
   record            BLOB,
-  result_utime      INTEGER
+  result_utime      INTEGER,
+  finalized_utime   INTEGER
 );
 CREATE INDEX runs_by_lot ON runs(lot, start_utime);
 CREATE INDEX runs_by_serial ON runs(serial, start_utime);

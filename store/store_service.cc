@@ -15,6 +15,7 @@
 #include "common/process_status.h"
 #include "common/seq_tracker.h"
 #include "common/shutdown.h"
+#include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
 #include "store/records.h"
 
@@ -22,10 +23,11 @@ namespace imuqual::store {
 namespace {
 
 using Item = std::variant<imuqual::run_t, imuqual::rate_batch_t, imuqual::allan_curve_t,
-                          imuqual::unit_result_t>;
+                          imuqual::unit_result_t, imuqual::resend_t>;
 
 constexpr size_t kMaxWaitingPerRun = 4096;  // batches held until the run is announced
 constexpr double kDoneAckForS = 60.0;
+constexpr int64_t kMaxServedPerRequest = 512;  // archived batches resent per request
 
 struct StoreRun {
   int64_t key = -1;
@@ -38,6 +40,11 @@ struct StoreRun {
   bool done = false;
   double done_s = 0;
   AckPacer ack;
+  // acquire's side: when it last announced the run and what it still retains.
+  double acquire_seen_s = 0;
+  int64_t acquire_retained_first = 0;
+  bool acquire_gone = false;
+  double next_announce_s = 0;
   explicit StoreRun(const SeqTracker::Options& o) : tracker(0, o) {}
 };
 
@@ -55,6 +62,8 @@ Status StoreOptions::Validate() const {
   if (queue_capacity < 16) return Status::InvalidArgument("queue_capacity: must be >= 16");
   if (max_transaction < 1) return Status::InvalidArgument("max_transaction: must be >= 1");
   if (!(hole_give_up_s > 0)) return Status::InvalidArgument("hole_give_up_s: must be > 0");
+  if (!(stale_after_s > 0)) return Status::InvalidArgument("stale_after_s: must be > 0");
+  if (!(heartbeat_s > 0)) return Status::InvalidArgument("heartbeat_s: must be > 0");
   return Status::Ok();
 }
 
@@ -70,7 +79,7 @@ struct StoreService::Impl {
   std::atomic<int64_t> received{0};
   int64_t chunks_inserted = 0, duplicates = 0, absurd = 0, rejected = 0, waiting_dropped = 0,
           commits = 0, commit_failures = 0, apply_errors = 0, resend_requests = 0,
-          batches_given_up = 0, runs_done = 0;
+          batches_given_up = 0, runs_done = 0, batches_served = 0, runs_taken_over = 0;
 
   explicit Impl(const StoreOptions& o) : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
     tracker_options.give_up_after_s = o.hole_give_up_s;
@@ -81,6 +90,9 @@ struct StoreService::Impl {
   Status ApplyRun(const imuqual::run_t& msg, Staged* staged);
   Status ApplyBatch(StoreRun& r, const imuqual::rate_batch_t& b, Staged* staged);
   Status StoreResult(StoreRun& r, Staged* staged);
+  Status Resume(const std::string& run_id, double now);
+  Status ServeResend(const imuqual::resend_t& req);
+  void TakeOver(const std::string& run_id, StoreRun& r, double now);
   void Transaction(std::vector<Item>& items);
   void Tick(double now);
   Status Finalize(StoreRun& r);
@@ -96,12 +108,103 @@ Result<std::unique_ptr<StoreService>> StoreService::Create(const StoreOptions& o
   auto archive = Archive::Open(options.db_path, Archive::Mode::kWrite);
   if (!archive.ok()) return archive.status();
   impl->archive = std::move(*archive);
+  auto unfinished = impl->archive->UnfinishedRunIds();
+  if (!unfinished.ok()) return unfinished.status();
+  for (const std::string& id : *unfinished) {
+    IMUQUAL_RETURN_IF_ERROR(impl->Resume(id, MonotonicSeconds()));
+  }
   return std::unique_ptr<StoreService>(new StoreService(std::move(impl)));
 }
 
+// A run the archive holds but has not finalized (this store stopped before
+// its end): its tracker starts from what is archived; acquire has
+// stale_after_s to show up before the store takes the run over.
+Status StoreService::Impl::Resume(const std::string& run_id, double now) {
+  auto info = archive->LoadRun(run_id);
+  if (!info.ok()) return info.status();
+  auto key = archive->FindRunKey(run_id);
+  if (!key.ok()) return key.status();
+  StoreRun& r = Run(run_id);
+  r.key = **key;
+  r.info = *info;
+  auto next = archive->NextMissingSeq(r.key);
+  if (!next.ok()) return next.status();
+  auto held = archive->ArchivedSeqsFrom(r.key, *next);
+  if (!held.ok()) return held.status();
+  r.tracker = SeqTracker(*next, tracker_options);
+  for (int64_t seq : *held) r.tracker.Offer(seq);
+  r.tracker.SetAnnouncedLast(r.info.last_seq);
+  if (r.info.state != "running") r.tracker.SetFinal();
+  auto result = archive->LoadResult(r.key);
+  if (!result.ok()) return result.status();
+  if (result->has_value()) {
+    r.result = std::move(**result);
+    r.result_stored = true;
+  }
+  r.acquire_seen_s = now;
+  LogInfo("run " + run_id + ": resuming an unfinished run, " + std::to_string(*next) +
+          " batches archived in order");
+  return Status::Ok();
+}
+
+// acquire went silent: nothing more will come from it. A running run is
+// incomplete; its holes become gaps; the store announces the run and serves
+// its batches from the archive until its analysis is stored.
+void StoreService::Impl::TakeOver(const std::string& run_id, StoreRun& r, double now) {
+  r.acquire_gone = true;
+  ++runs_taken_over;
+  if (r.info.state == "running") {
+    r.info.state = "incomplete";
+    r.info.end_utime = NowUtime();
+    Status st = archive->Begin();
+    if (st.ok()) st = archive->UpsertRun(r.info).status();
+    if (st.ok()) st = archive->Commit();
+    if (!st.ok()) {
+      (void)archive->Rollback();
+      LogError("run " + run_id + ": cannot mark it incomplete: " + st.message());
+    }
+    LogWarning("run " + run_id + ": acquire silent for " +
+               std::to_string(static_cast<int>(options.stale_after_s)) +
+               " s; the run is incomplete after " + std::to_string(r.info.last_seq + 1) + " batches");
+  }
+  r.tracker.SetFinal();
+  for (const SeqRange& h : r.tracker.GiveUpAll()) {
+    batches_given_up += h.last - h.first + 1;
+    LogWarning("run " + run_id + ": batches " + std::to_string(h.first) + ".." +
+               std::to_string(h.last) + " can no longer be resent; recorded as a gap");
+  }
+  r.next_announce_s = now;
+}
+
+// Resends from the archive what acquire cannot: batches it no longer
+// retains, or all of them once it is gone.
+Status StoreService::Impl::ServeResend(const imuqual::resend_t& req) {
+  if (req.requester == instance) return Status::Ok();
+  auto it = runs.find(req.run_id);
+  if (it == runs.end() || it->second.key < 0) return Status::Ok();
+  StoreRun& r = it->second;
+  const int64_t first = std::max<int64_t>(req.first_seq, 0);
+  int64_t last = std::min(req.last_seq, first + kMaxServedPerRequest - 1);
+  if (!r.acquire_gone) last = std::min(last, r.acquire_retained_first - 1);
+  if (last < first) return Status::Ok();
+  return archive->ForEachChunk(
+      r.key,
+      [&](const ChunkRecord& c) -> Status {
+        auto batch = BatchFromChunk(r.info, c);
+        if (!batch.ok()) return batch.status();
+        ++batches_served;
+        return bus->Publish(channels::Raw(r.info.serial), *batch);
+      },
+      first, last);
+}
+
 Status StoreService::Impl::ApplyRun(const imuqual::run_t& msg, Staged* staged) {
+  if (msg.announcer == "store") return Status::Ok();  // a store's own re-announcement
   StoreRun& r = Run(msg.run_id);
   const bool first = r.key < 0;
+  r.acquire_seen_s = MonotonicSeconds();
+  r.acquire_retained_first = msg.retained_first_seq;
+  r.acquire_gone = false;
   r.info = RunInfoFromMessage(msg);
   auto key = archive->UpsertRun(r.info);
   if (!key.ok()) return key.status();
@@ -196,9 +299,14 @@ Status StoreService::Impl::Apply(Item& item, Staged* staged) {
 // acks) moves only after COMMIT, so an acknowledged batch is durable.
 void StoreService::Impl::Transaction(std::vector<Item>& items) {
   Staged staged;
+  std::vector<imuqual::resend_t> resends;  // served after the commit, outside the transaction
   Status st = archive->Begin();
   for (Item& item : items) {
     if (!st.ok()) break;
+    if (auto* req = std::get_if<imuqual::resend_t>(&item)) {
+      resends.push_back(std::move(*req));
+      continue;
+    }
     Status ap = Apply(item, &staged);
     if (!ap.ok()) {
       ++apply_errors;
@@ -229,6 +337,10 @@ void StoreService::Impl::Transaction(std::vector<Item>& items) {
     if (Run(run_id).tracker.Offer(seq) == SeqTracker::Arrival::kNew) ++chunks_inserted;
   }
   for (const std::string& run_id : staged.results) Run(run_id).result_stored = true;
+  for (const imuqual::resend_t& req : resends) {
+    Status served = ServeResend(req);
+    if (!served.ok()) LogWarning("cannot resend from the archive: " + served.message());
+  }
 }
 
 Status StoreService::Impl::Finalize(StoreRun& r) {
@@ -239,6 +351,7 @@ Status StoreService::Impl::Finalize(StoreRun& r) {
     r.done = true;  // gap ranges go into the record
     st = StoreResult(r, &staged);
   }
+  if (st.ok()) st = archive->MarkFinalized(r.key, NowUtime());
   if (st.ok()) st = archive->Commit();
   if (!st.ok()) {
     r.done = false;
@@ -252,6 +365,16 @@ void StoreService::Impl::Tick(double now) {
   for (auto it = runs.begin(); it != runs.end();) {
     const std::string& id = it->first;
     StoreRun& r = it->second;
+    if (r.key >= 0 && !r.done && !r.acquire_gone &&
+        now - r.acquire_seen_s > options.stale_after_s) {
+      TakeOver(id, r, now);
+    }
+    if (r.key >= 0 && !r.done && r.acquire_gone && now >= r.next_announce_s) {
+      imuqual::run_t msg = MessageFromRunInfo(r.info);
+      msg.host_utime = NowUtime();
+      (void)bus->Publish(channels::kRun, msg);
+      r.next_announce_s = now + options.heartbeat_s;
+    }
     if (r.key >= 0 && !r.done) {
       for (const SeqRange& h : r.tracker.DueRequests(now)) {
         imuqual::resend_t req;
@@ -308,6 +431,8 @@ Counters StoreService::Impl::StatusCounters() const {
           {"apply_errors", apply_errors},
           {"resend_requests", resend_requests},
           {"batches_given_up", batches_given_up},
+          {"batches_served", batches_served},
+          {"runs_taken_over", runs_taken_over},
           {"queue_depth", static_cast<int64_t>(queue.size())},
           {"queue_high_water", static_cast<int64_t>(queue.high_water())},
           {"queue_dropped", static_cast<int64_t>(queue.dropped())},
@@ -330,6 +455,10 @@ Status StoreService::Run() {
   s.bus->Subscribe<imuqual::rate_batch_t>(
       channels::kRawAll, s.options.queue_capacity,
       [enqueue](const std::string&, imuqual::rate_batch_t&& m, int64_t) { enqueue(std::move(m)); });
+  s.bus->Subscribe<imuqual::resend_t>(channels::kResend, 1000,
+                                      [enqueue](const std::string&, imuqual::resend_t&& m, int64_t) {
+                                        enqueue(std::move(m));
+                                      });
   s.bus->Subscribe<imuqual::allan_curve_t>(
       channels::kCurveAll, 10000, [enqueue](const std::string&, imuqual::allan_curve_t&& m, int64_t) {
         if (m.is_final) enqueue(std::move(m));

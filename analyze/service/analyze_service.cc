@@ -53,6 +53,7 @@ struct RunEntry {
   double last_interim_s = 0;
   bool finished = false;
   double finished_s = 0;
+  double last_heard_s = 0;  // last run_t, from acquire or store
   int64_t rejected = 0;
 
   explicit RunEntry(const SeqTracker::Options& o) : tracker(0, o) {}
@@ -80,6 +81,7 @@ Status AnalyzeOptions::Validate() const {
   if (!(interim_period_s > 0)) return Status::InvalidArgument("interim_period_s: must be > 0");
   if (queue_capacity < 16) return Status::InvalidArgument("queue_capacity: must be >= 16");
   if (!(hole_give_up_s > 0)) return Status::InvalidArgument("hole_give_up_s: must be > 0");
+  if (!(stale_after_s > 0)) return Status::InvalidArgument("stale_after_s: must be > 0");
   return Status::Ok();
 }
 
@@ -141,6 +143,7 @@ void AnalyzeService::Impl::OnRun(imuqual::run_t&& run, double now) {
     return;
   }
   const bool first = !e.info.has_value();
+  e.last_heard_s = now;
   e.info = std::move(run);
   e.tracker.SetAnnouncedLast(e.info->last_seq);
   if (e.info->state != imuqual::run_t::STATE_RUNNING) e.tracker.SetFinal();
@@ -304,10 +307,12 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
 }
 
 void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double now) {
-  const bool aborted = e.info->state == imuqual::run_t::STATE_ABORTED;
+  std::string failure;
+  if (e.info->state == imuqual::run_t::STATE_ABORTED) failure = FailureForRunState("aborted");
+  if (e.info->state == imuqual::run_t::STATE_INCOMPLETE) failure = FailureForRunState("incomplete");
   if (e.analyzer) {
     e.analyzer->Finish(e.info->samples_published);
-    RunOutcome out = e.analyzer->Outcome(true, aborted);
+    RunOutcome out = e.analyzer->Outcome(true, failure);
     if (!e.error.empty()) {
       out.judgement.verdict = pb::FAIL;
       out.judgement.reasons.insert(out.judgement.reasons.begin(), e.error);
@@ -335,6 +340,13 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
     return;
   }
   if (!e.info) return;  // batches before the run's first heartbeat wait
+  if (e.info->state == imuqual::run_t::STATE_RUNNING && now - e.last_heard_s > options.stale_after_s) {
+    // Nobody announces the run any more (acquire and store both silent).
+    LogWarning("run " + run_id + ": not announced for " +
+               std::to_string(static_cast<int>(options.stale_after_s)) + " s; ending it as incomplete");
+    e.info->state = imuqual::run_t::STATE_INCOMPLETE;
+    e.tracker.SetFinal();
+  }
   for (const SeqRange& r : e.tracker.DueRequests(now)) {
     imuqual::resend_t req;
     req.host_utime = NowUtime();
@@ -356,7 +368,7 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
   }
   Ack(run_id, e, now, false);
   if (e.analyzer && e.processed_since_interim > 0 && now - e.last_interim_s >= options.interim_period_s) {
-    PublishOutcome(e, e.analyzer->Outcome(false, false), false);
+    PublishOutcome(e, e.analyzer->Outcome(false), false);
     e.processed_since_interim = 0;
     e.last_interim_s = now;
   }

@@ -26,6 +26,7 @@ struct AnalyzeOptions {
   double interim_period_s = 2.0;    // wall seconds between interim publications per run
   int queue_capacity = 50000;       // batches waiting for the worker
   double hole_give_up_s = 30.0;     // a missing batch not resent by then is a gap
+  double stale_after_s = 15.0;      // a running run not announced this long is incomplete
   Status Validate() const;
 };
 

@@ -121,7 +121,13 @@ void RunAnalyzer::Finish(int64_t samples_announced) {
   if (samples_announced > covered) Push(samples_announced - covered);
 }
 
-RunOutcome RunAnalyzer::Outcome(bool final, bool aborted) const {
+std::string FailureForRunState(const std::string& state) {
+  if (state == "aborted") return "run aborted before completion";
+  if (state == "incomplete") return "run incomplete: its source went silent before ending it";
+  return "";
+}
+
+RunOutcome RunAnalyzer::Outcome(bool final, const std::string& failure) const {
   RunOutcome out;
   const pb::TestPlan& plan = desc_.plan;
   const allan::StopRule stop =
@@ -158,9 +164,9 @@ RunOutcome RunAnalyzer::Outcome(bool final, bool aborted) const {
                   limits->end());
     out.judgement = judge::Judge(provisional, desc_.axes, &out.measurements);
   }
-  if (aborted) {
+  if (!failure.empty()) {
     out.judgement.verdict = pb::FAIL;
-    out.judgement.reasons.insert(out.judgement.reasons.begin(), "run aborted before completion");
+    out.judgement.reasons.insert(out.judgement.reasons.begin(), failure);
   }
   return out;
 }

@@ -78,8 +78,9 @@ class RunAnalyzer {
   void Finish(int64_t samples_announced);
 
   // Curves, measurements and verdict as of now. `final` judges the run
-  // (durations, missing measurements); `aborted` adds a FAIL reason.
-  RunOutcome Outcome(bool final, bool aborted) const;
+  // (durations, missing measurements); a non-empty `failure` (the run did
+  // not end normally) makes it FAIL with that reason first.
+  RunOutcome Outcome(bool final, const std::string& failure = "") const;
 
   const RunDescription& description() const { return desc_; }
   int64_t next_counter() const { return next_counter_; }
@@ -104,6 +105,10 @@ class RunAnalyzer {
   std::vector<int64_t> count_;
   std::vector<uint8_t> invalid_scratch_;
 };
+
+// The FAIL reason of a run that ended in `state` ("running", "complete",
+// "aborted", "incomplete"); "" when it ended normally.
+std::string FailureForRunState(const std::string& state);
 
 }  // namespace imuqual::analyze
 

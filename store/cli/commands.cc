@@ -110,6 +110,10 @@ int RunCommand(const StationRunOptions& options) {
               run->interrupted ? " (interrupted: runs aborted)" : "");
   std::printf("lot %s archived in %s (runs %s-*; process log %s)\n", options.lot.c_str(),
               options.db_path.c_str(), run->run_prefix.c_str(), run->log_path.c_str());
+  if (!run->failure.empty()) {
+    LogError(run->failure);
+    return kExitError;
+  }
   return run->interrupted ? 130 : 0;
 }
 

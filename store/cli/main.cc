@@ -31,6 +31,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   run_cmd->add_option("--stall-timeout", run.stall_timeout_s, "seconds without progress before giving up")
       ->capture_default_str();
+  run_cmd->add_option("--pace", run.pace, "0: as fast as the station goes, 1: real time, k: k x real time")
+      ->capture_default_str();
   run_cmd->add_flag("--quiet", quiet, "no progress line");
 
   std::string db, format = "table", lot;

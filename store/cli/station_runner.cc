@@ -30,6 +30,7 @@ namespace {
 constexpr double kStartTimeoutS = 20;   // store/analyze must report by then
 constexpr double kStopTimeoutS = 15;    // SIGTERM -> SIGKILL
 constexpr double kAbortDrainS = 30;     // after Ctrl-C: time for aborted runs to be archived
+constexpr double kAcquireEndS = 5;      // all archived: time for acquire's final acks
 
 std::string CompactUtc(int64_t utime) {
   std::string out;
@@ -94,6 +95,7 @@ Status StationRunOptions::Validate() const {
   if (!(inject_drop >= 0 && inject_drop < 1)) {
     return Status::InvalidArgument("--inject-drop must be in [0, 1)");
   }
+  if (!(pace >= 0) || !std::isfinite(pace)) return Status::InvalidArgument("--pace must be >= 0");
   return Status::Ok();
 }
 
@@ -156,7 +158,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     IMUQUAL_RETURN_IF_ERROR(WriteStringToFile(result.log_path, text));
   }
   const std::string dir = ExecutableDir();
-  auto store = Subprocess::Start({dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path},
+  auto store = Subprocess::Start({dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path,
+                                  "--stale-after", std::to_string(o.stale_after_s)},
                                  result.log_path);
   if (!store.ok()) return store.status();
   auto analyze = Subprocess::Start({dir + "/imuqual-analyze", "--lcm-url", url}, result.log_path);
@@ -194,13 +197,14 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   if (o.inject_drop > 0) {
     acquire_args.insert(acquire_args.end(), {"--inject-drop", std::to_string(o.inject_drop)});
   }
+  if (o.pace > 0) acquire_args.insert(acquire_args.end(), {"--pace", std::to_string(o.pace)});
   auto acquire = Subprocess::Start(acquire_args, result.log_path);
   if (!acquire.ok()) return acquire.status();
 
   const bool tty = o.show_progress && ::isatty(STDERR_FILENO);
   const double t0 = MonotonicSeconds();
   double last_change = t0, last_line = t0;
-  double aborting_since = -1;
+  double drain_deadline = -1;  // set when the runs are ending abnormally
   int64_t last_total = -1;
   int last_done = -1;
   Status outcome;
@@ -229,17 +233,24 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
       last_line = now;
     }
     if (done >= o.sim_units) break;
-    if (ShutdownRequested() && aborting_since < 0) {
-      aborting_since = now;
+    if (ShutdownRequested() && drain_deadline < 0) {
+      drain_deadline = now + kAbortDrainS;
       result.interrupted = true;
       if (tty) std::fprintf(stderr, "\n");
       LogWarning("interrupted: aborting the runs and archiving what was measured");
       acquire->Signal(SIGTERM);
     }
-    if (aborting_since >= 0 && now - aborting_since > kAbortDrainS) break;
-    if (auto code = acquire->Poll(); code && *code != 0 && aborting_since < 0) {
-      outcome = failure("imuqual-acquire failed (exit " + std::to_string(*code) + ")");
-      break;
+    if (drain_deadline >= 0 && now > drain_deadline) break;
+    if (auto code = acquire->Poll(); code && *code != 0 && drain_deadline < 0) {
+      // The source died: the store ends its runs as incomplete once it has
+      // been silent for stale_after_s; wait for that, then report.
+      drain_deadline = now + o.stale_after_s + kAbortDrainS;
+      result.failure = "imuqual-acquire failed (exit " + std::to_string(*code) +
+                       "); its runs are archived as incomplete. Last lines of " +
+                       result.log_path + ":\n" + LogTail(result.log_path, 6);
+      if (tty) std::fprintf(stderr, "\n");
+      LogWarning("imuqual-acquire ended with code " + std::to_string(*code) +
+                 "; waiting for its runs to be archived as incomplete");
     }
     if (store->Poll()) {
       outcome = failure("imuqual-store exited (code " + std::to_string(*store->Poll()) + ")");
@@ -256,8 +267,10 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     }
   }
   if (tty) std::fprintf(stderr, "\n");
-  // Stop in order: the source first, then analysis, then the archive (which
+  // Stop in order: the source first (it normally ends by itself once its
+  // last acknowledgements arrive), then analysis, then the archive (which
   // drains and commits what it holds).
+  if (outcome.ok() && !result.interrupted && result.failure.empty()) acquire->Wait(kAcquireEndS);
   acquire->Stop(kStopTimeoutS);
   analyze->Stop(kStopTimeoutS);
   const int store_code = store->Stop(kStopTimeoutS);

@@ -27,6 +27,8 @@ struct StationRunOptions {
   std::string station = "station-1";
   std::string operator_name;
   double inject_drop = 0;          // fault injection in acquire
+  double pace = 0;                 // 0: as fast as acknowledged; 1: real time; k: k x real time
+  double stale_after_s = 10;       // store: acquire silent this long ends its runs as incomplete
   double stall_timeout_s = 120;    // no progress this long: give up
   bool show_progress = true;       // progress line on stderr
   Status Validate() const;
@@ -37,6 +39,7 @@ struct StationRunResult {
   std::vector<std::string> run_ids;
   std::string log_path;            // the processes' output
   bool interrupted = false;        // Ctrl-C: runs were aborted
+  std::string failure;             // the source failed; runs were archived as they ended
 };
 
 Result<StationRunResult> RunStation(const StationRunOptions& options);

@@ -1,0 +1,287 @@
+// Nothing lost: the station under faults, over real LCM multicast (private
+// network namespace when ctest can make one). Each test kills or starves a
+// process of a running soak and checks the archive afterwards: every batch
+// there, or recorded as a gap with the verdict saying so; results equal to
+// an undisturbed run's; nothing left hanging.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <dirent.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include "common/clock.h"
+#include "common/text_util.h"
+#include "store/archive.h"
+#include "store/reanalysis.h"
+#include "tests/station_harness.h"
+
+namespace imuqual {
+namespace {
+
+using testing::Bin;
+using testing::RunCommand;
+using testing::StationHarness;
+
+constexpr double kRunTimeoutS = 120;  // bound on any wait for a run to end
+
+// Acquire arguments for `units` simulated vg700 units of `lot`.
+std::vector<std::string> AcquireArgs(const std::string& lot, int units, double duration_s,
+                                     double pace, const std::string& prefix) {
+  std::vector<std::string> args = {"--lot", lot, "--sim", std::to_string(units), "--duration",
+                                   std::to_string(duration_s), "--await", "store,analyze",
+                                   "--run-prefix", prefix, "--seed", "7", "--plan",
+                                   "builtin:vg700ca"};
+  if (pace > 0) args.insert(args.end(), {"--pace", std::to_string(pace)});
+  return args;
+}
+
+// Waits (bounded) until the archive holds at least `chunks` raw chunks.
+bool WaitArchived(StationHarness& h, int64_t chunks, double timeout_s) {
+  return h.WaitCounter("store", "chunks_inserted", chunks, timeout_s) >= chunks;
+}
+
+struct RunCheck {
+  int64_t chunks = 0;
+  int64_t last_seq = -1;
+  int64_t gap_ranges = 0;
+  std::string state, verdict, reasons;
+};
+
+std::map<std::string, RunCheck> CheckArchive(const std::string& db) {
+  std::map<std::string, RunCheck> out;
+  auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
+  EXPECT_TRUE(a.ok()) << a.status().ToString();
+  if (!a.ok()) return out;
+  auto integrity = (*a)->db().Prepare("PRAGMA integrity_check");
+  EXPECT_TRUE(*integrity->Step());
+  EXPECT_EQ(integrity->Text(0), "ok");
+  auto s = (*a)->db().Prepare(
+      "SELECT r.run_id, x.chunks, r.last_seq, x.gap_ranges, r.state, COALESCE(r.verdict, ''), "
+      "COALESCE(r.reasons, '') FROM runs r JOIN run_archive x USING (run_id)");
+  while (*s->Step()) {
+    RunCheck c{s->Int(1), s->Int(2), s->Int(3), s->Text(4), s->Text(5), s->Text(6)};
+    out[s->Text(0)] = c;
+  }
+  return out;
+}
+
+// The archived curves of a run equal the analysis of its archived samples.
+void ExpectResultEqualsReanalysis(const std::string& db, const std::string& run_id) {
+  auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok());
+  auto outcome = store::ReanalyzeRun(**a, run_id);
+  ASSERT_TRUE(outcome.ok()) << outcome.status().ToString();
+  auto curves = (*a)->LoadCurves(**(*a)->FindRunKey(run_id));
+  ASSERT_TRUE(curves.ok());
+  ASSERT_EQ(curves->size(), outcome->curves.size()) << run_id;
+  for (size_t i = 0; i < curves->size(); ++i) {
+    const auto& live = (*curves)[i].curve.points;
+    const auto& again = outcome->curves[i].second.points;
+    ASSERT_EQ(live.size(), again.size());
+    for (size_t p = 0; p < live.size(); ++p) EXPECT_EQ(live[p].dev, again[p].dev) << run_id;
+  }
+}
+
+TEST(FaultTest, InjectedDropsAreRepairedToZeroGaps) {
+  // The acceptance line, through the CLI.
+  testing::TempDir dir("fault_drop");
+  const std::string db = dir.path("drop.db");
+  const auto run = RunCommand(Bin("imuqual") + " run --sim 4 --duration 600 --rate 200 --lot DROP --db " +
+                              db + " --inject-drop 0.05 --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  auto log = ReadFileToString(db + ".log");
+  ASSERT_TRUE(log.ok());
+  // The drops really happened: acquire reports how many it withheld.
+  const size_t at = log->find(" dropped on purpose");
+  ASSERT_NE(at, std::string::npos) << *log;
+  const size_t start = log->rfind(' ', at - 1) + 1;
+  EXPECT_GT(std::stoll(log->substr(start, at - start)), 100) << *log;
+
+  const auto csv = RunCommand(Bin("imuqual") + " lot DROP --db " + db + " --format csv");
+  ASSERT_EQ(csv.exit_code, 0);
+  std::istringstream in(csv.output);
+  std::string line;
+  std::getline(in, line);
+  const auto cols = Split(line, ',');
+  const size_t gap_col = std::find(cols.begin(), cols.end(), "gap_samples") - cols.begin();
+  int rows = 0;
+  while (std::getline(in, line)) {
+    EXPECT_EQ(Split(line, ',')[gap_col], "0") << line;
+    ++rows;
+  }
+  EXPECT_EQ(rows, 4 * 3);
+  for (const auto& [id, c] : CheckArchive(db)) {
+    EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
+    EXPECT_EQ(c.gap_ranges, 0) << id;
+  }
+}
+
+TEST(FaultTest, StoreKilledMidRunRestartsWithoutLosingABatch) {
+  StationHarness h("fault_store");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FSTORE", 2, 1200, 200, "P1"));
+  // GIVEN a soak under way with data committed
+  ASSERT_TRUE(WaitArchived(h, 100, 30)) << h.Logs();
+  // WHEN the archiver is killed outright
+  ::kill(store.pid(), SIGKILL);
+  store.Stop(5);
+  // THEN the file opens and holds what was committed
+  int64_t committed = 0;
+  for (const auto& [id, c] : CheckArchive(h.db())) committed += c.chunks;
+  EXPECT_GT(committed, 0);
+  // AND a restarted store catches up: every batch, no gap.
+  Subprocess store2 = h.StartStore();
+  ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
+  int64_t total = 0;
+  for (const auto& [id, c] : CheckArchive(h.db())) {
+    EXPECT_EQ(c.state, "complete") << id;
+    EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
+    EXPECT_EQ(c.gap_ranges, 0) << id;
+    EXPECT_NE(c.verdict, "") << id;
+    total += c.chunks;
+  }
+  EXPECT_GE(total, committed);
+  EXPECT_EQ(acquire.Wait(30), 0);
+}
+
+TEST(FaultTest, AnalyzeKilledMidRunGivesTheUninterruptedResult) {
+  StationHarness h("fault_analyze");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  // An undisturbed run of the same units (same seed) ...
+  Subprocess clean = h.Start("imuqual-acquire", AcquireArgs("FAN", 2, 900, 0, "CLEAN"));
+  ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
+  EXPECT_EQ(clean.Wait(30), 0);
+  // ... and one whose analysis is killed half way and restarted.
+  Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FAN", 2, 900, 150, "KILLED"));
+  ASSERT_TRUE(WaitArchived(h, h.Counter("store", "chunks_inserted") + 300, 30)) << h.Logs();
+  ::kill(analyze.pid(), SIGKILL);
+  analyze.Stop(5);
+  Subprocess analyze2 = h.StartAnalyze();
+  ASSERT_TRUE(h.WaitRunsDone(4, kRunTimeoutS)) << h.Logs();
+  EXPECT_EQ(acquire.Wait(30), 0);
+
+  auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok());
+  for (const std::string unit : {"FAN-U01", "FAN-U02"}) {
+    auto clean_curves = (*a)->LoadCurves(**(*a)->FindRunKey("CLEAN-" + unit));
+    auto killed_curves = (*a)->LoadCurves(**(*a)->FindRunKey("KILLED-" + unit));
+    ASSERT_TRUE(clean_curves.ok() && killed_curves.ok());
+    ASSERT_EQ(clean_curves->size(), 3u);
+    ASSERT_EQ(killed_curves->size(), 3u);
+    for (size_t i = 0; i < 3; ++i) {
+      const auto& x = (*clean_curves)[i].curve.points;
+      const auto& y = (*killed_curves)[i].curve.points;
+      ASSERT_EQ(x.size(), y.size()) << unit;
+      for (size_t p = 0; p < x.size(); ++p) {
+        EXPECT_EQ(x[p].dev, y[p].dev) << unit << " m=" << x[p].m;  // bit for bit
+        EXPECT_EQ(x[p].n, y[p].n);
+      }
+    }
+  }
+  for (const auto& [id, c] : CheckArchive(h.db())) EXPECT_EQ(c.gap_ranges, 0) << id;
+}
+
+TEST(FaultTest, AnalyzeRestartedAfterAcquireLeftCatchesUpFromTheArchive) {
+  StationHarness h("fault_archive");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  // acquire waits for the store only (as with a device-paced source, the
+  // soak goes on while the analysis is down) and leaves once it is archived.
+  std::vector<std::string> args = AcquireArgs("FARCH", 1, 900, 150, "P3");
+  *std::find(args.begin(), args.end(), "store,analyze") = "store";
+  args.insert(args.end(), {"--linger", "1"});
+  Subprocess acquire = h.Start("imuqual-acquire", args);
+  ASSERT_TRUE(WaitArchived(h, 200, 30)) << h.Logs();
+  ::kill(analyze.pid(), SIGKILL);
+  analyze.Stop(5);
+  // acquire finishes (store acknowledged everything) and leaves.
+  EXPECT_EQ(acquire.Wait(60), 0);
+  // A new analyze learns the run from the store's re-announcement and gets
+  // every batch from the archive.
+  Subprocess analyze2 = h.StartAnalyze();
+  ASSERT_TRUE(h.WaitRunsDone(1, kRunTimeoutS)) << h.Logs();
+  // Status reports come once a second.
+  EXPECT_GT(h.WaitCounter("store", "batches_served", 1, 5), 0) << h.Logs();
+  for (const auto& [id, c] : CheckArchive(h.db())) {
+    EXPECT_EQ(c.state, "complete") << id;
+    EXPECT_EQ(c.gap_ranges, 0) << id;
+    EXPECT_NE(c.verdict, "") << id;
+    ExpectResultEqualsReanalysis(h.db(), id);
+  }
+}
+
+TEST(FaultTest, AcquireKilledEndsTheRunIncompleteAndNothingHangs) {
+  StationHarness h("fault_acquire");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FACQ", 2, 3600, 100, "P4"));
+  ASSERT_TRUE(WaitArchived(h, 100, 30)) << h.Logs();
+  ::kill(acquire.pid(), SIGKILL);
+  acquire.Stop(5);
+  // The store notices the silence, ends the runs as incomplete, the analysis
+  // judges what was measured.
+  ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
+  for (const auto& [id, c] : CheckArchive(h.db())) {
+    EXPECT_EQ(c.state, "incomplete") << id;
+    EXPECT_EQ(c.verdict, "FAIL") << id;
+    EXPECT_NE(c.reasons.find("run incomplete"), std::string::npos) << c.reasons;
+    EXPECT_GT(c.chunks, 0) << id;
+  }
+  // Both keep running and stop cleanly when asked.
+  EXPECT_FALSE(store.Poll().has_value());
+  EXPECT_FALSE(analyze.Poll().has_value());
+  EXPECT_EQ(analyze.Stop(15), 0);
+  EXPECT_EQ(store.Stop(15), 0);
+}
+
+// Processes whose command line mentions `needle`.
+std::vector<pid_t> ProcessesMentioning(const std::string& needle) {
+  std::vector<pid_t> pids;
+  DIR* proc = ::opendir("/proc");
+  if (proc == nullptr) return pids;
+  while (dirent* e = ::readdir(proc)) {
+    const pid_t pid = static_cast<pid_t>(std::atoi(e->d_name));
+    if (pid <= 0 || pid == ::getpid()) continue;
+    std::ifstream in("/proc/" + std::string(e->d_name) + "/cmdline");
+    std::string cmdline((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (cmdline.find(needle) != std::string::npos) pids.push_back(pid);
+  }
+  ::closedir(proc);
+  return pids;
+}
+
+TEST(FaultTest, KillingImuqualRunLeavesNoOrphans) {
+  testing::TempDir dir("fault_orphans");
+  const std::string db = dir.path("orphans.db");
+  // A bus URL of its own: every station process names it on its command line.
+  BusAddress bus;
+  bus.port = 20000 + ::getpid() % 40000;
+  const std::string url = bus.ToUrl();
+  auto run = Subprocess::Start({Bin("imuqual"), "run", "--sim", "2", "--duration", "3600", "--pace",
+                                "20", "--lot", "ORPHAN", "--db", db, "--lcm-url", url, "--quiet"},
+                               dir.path("run.log"));
+  ASSERT_TRUE(run.ok());
+  // GIVEN imuqual run with its store, analyze and acquire running
+  const double start_deadline = MonotonicSeconds() + 30;
+  while (ProcessesMentioning(url).size() < 4 && MonotonicSeconds() < start_deadline) {
+    ::usleep(20000);
+  }
+  ASSERT_EQ(ProcessesMentioning(url).size(), 4u);
+  // WHEN imuqual run is killed outright
+  ::kill(run->pid(), SIGKILL);
+  run->Stop(5);
+  // THEN every child goes too (bounded wait).
+  const double deadline = MonotonicSeconds() + 20;
+  while (!ProcessesMentioning(url).empty() && MonotonicSeconds() < deadline) ::usleep(50000);
+  EXPECT_TRUE(ProcessesMentioning(url).empty());
+  // The archive opens and is consistent.
+  CheckArchive(db);
+}
+
+}  // namespace
+}  // namespace imuqual

@@ -1,0 +1,114 @@
+#include "tests/station_harness.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <random>
+
+#include "common/channels.h"
+#include "common/clock.h"
+#include "common/text_util.h"
+#include "imuqual/ack_t.hpp"
+#include "imuqual/run_t.hpp"
+#include "imuqual/status_t.hpp"
+
+namespace imuqual::testing {
+
+StationHarness::StationHarness(const std::string& tag) : dir_(tag) {
+  std::random_device rd;
+  BusAddress address;
+  address.port = 20000 + static_cast<int>((rd() ^ static_cast<unsigned>(::getpid())) % 40000);
+  url_ = address.ToUrl();
+  db_ = dir_.path("station.db");
+  auto bus = LcmBus::Open(url_);
+  EXPECT_TRUE(bus.ok()) << bus.status().ToString();
+  bus_ = std::move(*bus);
+  bus_->Subscribe<imuqual::status_t>(channels::kStatus, 1000,
+                                     [this](const std::string&, imuqual::status_t&& s, int64_t) {
+                                       instance_[s.process] = s.instance;
+                                       auto& c = counters_[s.process];
+                                       for (int i = 0; i < s.num_counters; ++i) {
+                                         c[s.counter_names[i]] = s.counter_values[i];
+                                       }
+                                     });
+  bus_->Subscribe<imuqual::ack_t>(channels::kAck, 50000,
+                                  [this](const std::string&, imuqual::ack_t&& a, int64_t) {
+                                    if (a.process == "store" && a.run_done) runs_done_.insert(a.run_id);
+                                  });
+  bus_->Subscribe<imuqual::run_t>(channels::kRun, 1000,
+                                  [this](const std::string&, imuqual::run_t&& r, int64_t) {
+                                    runs_seen_.insert(r.run_id);
+                                  });
+}
+
+Subprocess StationHarness::Start(const std::string& program, const std::vector<std::string>& args) {
+  std::vector<std::string> argv = {Bin(program), "--lcm-url", url_};
+  argv.insert(argv.end(), args.begin(), args.end());
+  auto p = Subprocess::Start(argv, log());
+  EXPECT_TRUE(p.ok()) << p.status().ToString();
+  return std::move(*p);
+}
+
+Subprocess StationHarness::StartStore(const std::vector<std::string>& extra) {
+  std::vector<std::string> args = {"--db", db_, "--give-up", "5", "--stale-after", "2"};
+  args.insert(args.end(), extra.begin(), extra.end());
+  Subprocess p = Start("imuqual-store", args);
+  EXPECT_TRUE(WaitReported("store", p.pid(), 20)) << Logs();
+  return p;
+}
+
+Subprocess StationHarness::StartAnalyze(const std::vector<std::string>& extra) {
+  std::vector<std::string> args = {"--give-up", "5", "--stale-after", "4"};
+  args.insert(args.end(), extra.begin(), extra.end());
+  Subprocess p = Start("imuqual-analyze", args);
+  EXPECT_TRUE(WaitReported("analyze", p.pid(), 20)) << Logs();
+  return p;
+}
+
+void StationHarness::Pump(int ms) {
+  const double end = MonotonicSeconds() + ms / 1000.0;
+  while (MonotonicSeconds() < end) {
+    (void)bus_->HandleFor(std::max(1, static_cast<int>((end - MonotonicSeconds()) * 1000)));
+  }
+}
+
+bool StationHarness::WaitRunsDone(size_t n, double timeout_s) {
+  const double end = MonotonicSeconds() + timeout_s;
+  while (runs_done_.size() < n && MonotonicSeconds() < end) (void)bus_->HandleFor(50);
+  return runs_done_.size() >= n;
+}
+
+bool StationHarness::WaitReported(const std::string& process, pid_t pid, double timeout_s) {
+  const std::string suffix = ":" + std::to_string(pid);
+  const double end = MonotonicSeconds() + timeout_s;
+  for (;;) {
+    auto it = instance_.find(process);
+    if (it != instance_.end() && it->second.size() > suffix.size() &&
+        it->second.compare(it->second.size() - suffix.size(), suffix.size(), suffix) == 0) {
+      return true;
+    }
+    if (MonotonicSeconds() > end) return false;
+    (void)bus_->HandleFor(50);
+  }
+}
+
+int64_t StationHarness::Counter(const std::string& process, const std::string& name) const {
+  auto p = counters_.find(process);
+  if (p == counters_.end()) return -1;
+  auto c = p->second.find(name);
+  return c == p->second.end() ? -1 : c->second;
+}
+
+int64_t StationHarness::WaitCounter(const std::string& process, const std::string& name,
+                                    int64_t at_least, double timeout_s) {
+  const double end = MonotonicSeconds() + timeout_s;
+  while (Counter(process, name) < at_least && MonotonicSeconds() < end) (void)bus_->HandleFor(50);
+  return Counter(process, name);
+}
+
+std::string StationHarness::Logs() const {
+  auto text = ReadFileToString(log());
+  return text.ok() ? *text : "(no process log)";
+}
+
+}  // namespace imuqual::testing

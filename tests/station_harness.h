@@ -1,0 +1,65 @@
+// A station assembled by hand for fault tests: each process started (and
+// killed) on its own, and a listener on the bus that follows status reports
+// and run completions. Bounded waits only, never sleeps that hope.
+#ifndef IMUQUAL_TESTS_STATION_HARNESS_H_
+#define IMUQUAL_TESTS_STATION_HARNESS_H_
+
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "common/lcm_bus.h"
+#include "common/subprocess.h"
+#include "tests/test_util.h"
+
+namespace imuqual::testing {
+
+class StationHarness {
+ public:
+  // A temp dir (archive, logs) and a bus of its own (fresh port, ttl=0).
+  explicit StationHarness(const std::string& tag);
+
+  const std::string& url() const { return url_; }
+  const std::string& db() const { return db_; }
+  std::string log() const { return dir_.path("processes.log"); }
+  std::string path(const std::string& name) const { return dir_.path(name); }
+
+  Subprocess Start(const std::string& program, const std::vector<std::string>& args);
+  // Starts imuqual-store / imuqual-analyze with short recovery timers and
+  // waits until each reports on the bus.
+  Subprocess StartStore(const std::vector<std::string>& extra = {});
+  Subprocess StartAnalyze(const std::vector<std::string>& extra = {});
+
+  // Dispatches bus messages for up to `ms`.
+  void Pump(int ms);
+  // Waits (bounded) until `n` runs are archived with their final result
+  // (store run_done acks). True if they were.
+  bool WaitRunsDone(size_t n, double timeout_s);
+  // Waits until `process` has reported (status_t) from pid `pid`.
+  bool WaitReported(const std::string& process, pid_t pid, double timeout_s);
+  // Last status counter of a process ("store", "analyze", "acquire"); -1 if none.
+  int64_t Counter(const std::string& process, const std::string& name) const;
+  // Waits (bounded) until that counter reaches `at_least`; its last value.
+  int64_t WaitCounter(const std::string& process, const std::string& name, int64_t at_least,
+                      double timeout_s);
+  const std::set<std::string>& runs_done() const { return runs_done_; }
+  const std::set<std::string>& runs_seen() const { return runs_seen_; }
+  // The processes' combined output, for failure messages.
+  std::string Logs() const;
+
+ private:
+  TempDir dir_;
+  std::string url_;
+  std::string db_;
+  std::unique_ptr<LcmBus> bus_;
+  std::set<std::string> runs_done_;
+  std::set<std::string> runs_seen_;
+  std::map<std::string, std::string> instance_;  // process -> last instance
+  std::map<std::string, std::map<std::string, int64_t>> counters_;
+};
+
+}  // namespace imuqual::testing
+
+#endif  // IMUQUAL_TESTS_STATION_HARNESS_H_
