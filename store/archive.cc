@@ -169,7 +169,8 @@ holes AS (
   SELECT COALESCE(prev_seq + 1, 0) AS first_seq, seq - 1 AS last_seq,
          prev_end AS first_sample,
          CASE WHEN prev_end IS NULL THEN NULL ELSE first_sample - prev_end END AS num_samples,
-         CASE WHEN seq - COALESCE(prev_seq, -1) > 1 THEN 'seq' ELSE 'counter' END AS reason
+         CASE WHEN seq - COALESCE(prev_seq, -1) > 1 THEN 'seq'
+              WHEN first_sample < prev_end THEN 'counter_backwards' ELSE 'counter' END AS reason
   FROM c
   WHERE seq - COALESCE(prev_seq, -1) > 1
      OR (prev_end IS NOT NULL AND first_sample <> prev_end)

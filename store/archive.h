@@ -64,7 +64,10 @@ struct GapRecord {
   int64_t last_seq = 0;
   std::optional<int64_t> first_sample;
   std::optional<int64_t> num_samples;
-  std::string reason;  // "seq": batches never archived; "counter": device counter jumped
+  // "seq": batches never archived; "counter": the device counter jumped
+  // forward (num_samples missing); "counter_backwards": it went back
+  // (num_samples negative: the overlap).
+  std::string reason;
   int64_t detected_utime = 0;
 };
 

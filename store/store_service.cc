@@ -76,6 +76,7 @@ struct StoreService::Impl {
   SeqTracker::Options tracker_options;
   std::string instance = InstanceName();
   std::string health_message;
+  ThrottledLog write_errors;
   std::atomic<int64_t> received{0};
   int64_t chunks_inserted = 0, duplicates = 0, absurd = 0, rejected = 0, waiting_dropped = 0,
           commits = 0, commit_failures = 0, apply_errors = 0, resend_requests = 0,
@@ -310,7 +311,7 @@ void StoreService::Impl::Transaction(std::vector<Item>& items) {
     Status ap = Apply(item, &staged);
     if (!ap.ok()) {
       ++apply_errors;
-      LogError(ap.message());
+      write_errors.Error(ap.message());
       // Disk or file trouble fails the whole transaction; anything else
       // loses only the message at fault.
       if (ap.code() == Status::Code::kIoError || ap.code() == Status::Code::kCorruption) st = ap;
@@ -321,7 +322,8 @@ void StoreService::Impl::Transaction(std::vector<Item>& items) {
     (void)archive->Rollback();
     ++commit_failures;
     health_message = st.message();
-    LogError("archive write failed, nothing of this transaction is acknowledged: " + st.message());
+    write_errors.Error("archive write failed, nothing of this transaction is acknowledged: " +
+                       st.message());
     // Keys of runs created in the failed transaction are gone again.
     for (auto& [id, r] : runs) {
       if (r.key >= 0) {

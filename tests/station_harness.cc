@@ -33,7 +33,10 @@ StationHarness::StationHarness(const std::string& tag) : dir_(tag) {
                                      });
   bus_->Subscribe<imuqual::ack_t>(channels::kAck, 50000,
                                   [this](const std::string&, imuqual::ack_t&& a, int64_t) {
-                                    if (a.process == "store" && a.run_done) runs_done_.insert(a.run_id);
+                                    if (a.process != "store") return;
+                                    if (a.run_done) runs_done_.insert(a.run_id);
+                                    int64_t& acked = store_acked_[a.run_id];
+                                    acked = std::max(acked, a.next_seq);
                                   });
   bus_->Subscribe<imuqual::run_t>(channels::kRun, 1000,
                                   [this](const std::string&, imuqual::run_t&& r, int64_t) {

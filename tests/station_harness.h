@@ -48,6 +48,13 @@ class StationHarness {
   const std::set<std::string>& runs_seen() const { return runs_seen_; }
   // The processes' combined output, for failure messages.
   std::string Logs() const;
+  // The harness's own connection to the bus (to play a process).
+  LcmBus& bus() { return *bus_; }
+  // Highest next_seq the store acknowledged for a run (-1 if none).
+  int64_t StoreAcked(const std::string& run_id) const {
+    auto it = store_acked_.find(run_id);
+    return it == store_acked_.end() ? -1 : it->second;
+  }
 
  private:
   TempDir dir_;
@@ -56,6 +63,7 @@ class StationHarness {
   std::unique_ptr<LcmBus> bus_;
   std::set<std::string> runs_done_;
   std::set<std::string> runs_seen_;
+  std::map<std::string, int64_t> store_acked_;
   std::map<std::string, std::string> instance_;  // process -> last instance
   std::map<std::string, std::map<std::string, int64_t>> counters_;
 };

@@ -39,7 +39,10 @@ class TempDir {
     std::filesystem::remove_all(path_);
     std::filesystem::create_directories(path_);
   }
-  ~TempDir() { std::filesystem::remove_all(path_); }
+  ~TempDir() {
+    std::error_code ignored;  // never throw from a destructor
+    std::filesystem::remove_all(path_, ignored);
+  }
   std::string path(const std::string& name) const { return (path_ / name).string(); }
 
  private:

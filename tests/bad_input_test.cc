@@ -1,0 +1,307 @@
+// Bad input never crashes a process or costs accepted data: garbage,
+// foreign and lying messages on every channel, a run full of invalid
+// samples and out-of-order, duplicate, absurd or inconsistent batches, files
+// that are not archives, an unwritable directory and a full disk. Each gets
+// a clear error or a counted rejection.
+#include <gtest/gtest.h>
+#include <sys/mount.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "common/channels.h"
+#include "common/clock.h"
+#include "common/text_util.h"
+#include "imuqual/rate_batch_t.hpp"
+#include "imuqual/run_t.hpp"
+#include "imuqual/status_t.hpp"
+#include "store/archive.h"
+#include "store/chunk_codec.h"
+#include "tests/station_harness.h"
+
+namespace imuqual {
+namespace {
+
+using testing::Bin;
+using testing::RunCommand;
+using testing::StationHarness;
+
+constexpr double kRateHz = 100;
+constexpr int kSamples = 50;  // per batch
+
+// Plays acquire: announces a 3-axis gyro run and publishes batches.
+class FakeAcquire {
+ public:
+  FakeAcquire(StationHarness& h, std::string run_id, std::string serial)
+      : h_(h), serial_(std::move(serial)) {
+    run_.host_utime = NowUtime();
+    run_.run_id = std::move(run_id);
+    run_.unit_serial = serial_;
+    run_.lot = "BAD";
+    run_.station = "test";
+    run_.source = "fake";
+    run_.start_utime = NowUtime();
+    run_.nominal_rate_hz = kRateHz;
+    run_.num_axes = 3;
+    run_.axis_names = {"x", "y", "z"};
+    run_.axis_kinds = {1, 1, 1};
+    pb::TestPlan plan;
+    plan.set_nominal_rate_hz(kRateHz);
+    const std::string bytes = plan.SerializeAsString();
+    run_.plan_size = static_cast<int32_t>(bytes.size());
+    run_.plan.assign(bytes.begin(), bytes.end());
+    run_.plan_sha256 = Sha256Hex(bytes);
+    run_.truth_size = 0;
+    run_.state = imuqual::run_t::STATE_RUNNING;
+    run_.last_seq = -1;
+    run_.samples_published = 0;
+    run_.announcer = "acquire";
+    run_.retained_first_seq = 0;
+  }
+
+  void Announce(int8_t state, int64_t last_seq, int64_t samples) {
+    run_.host_utime = NowUtime();
+    run_.state = state;
+    run_.last_seq = last_seq;
+    run_.samples_published = samples;
+    ASSERT_TRUE(h_.bus().Publish(channels::kRun, run_).ok());
+  }
+
+  imuqual::rate_batch_t Batch(int64_t seq, int64_t first_sample) const {
+    imuqual::rate_batch_t b;
+    b.host_utime = NowUtime();
+    b.run_id = run_.run_id;
+    b.unit_serial = serial_;
+    b.seq = seq;
+    b.first_sample = first_sample;
+    b.nominal_rate_hz = kRateHz;
+    b.num_axes = 3;
+    b.axis_names = run_.axis_names;
+    b.axis_kinds = run_.axis_kinds;
+    b.num_samples = kSamples;
+    for (int a = 0; a < 3; ++a) {
+      std::vector<float> v;
+      for (int i = 0; i < kSamples; ++i) {
+        v.push_back(0.01f * static_cast<float>(std::sin(0.37 * (first_sample + i) + a)));
+      }
+      b.samples.push_back(v);
+    }
+    b.num_flagged = 0;
+    b.has_temperature = 0;
+    b.temperature_c = 0;
+    return b;
+  }
+
+  void Send(const imuqual::rate_batch_t& b) {
+    ASSERT_TRUE(h_.bus().Publish(channels::Raw(serial_), b).ok());
+  }
+
+ private:
+  StationHarness& h_;
+  std::string serial_;
+  imuqual::run_t run_;
+};
+
+// Bytes of a valid rate_batch_t with its num_samples field overwritten.
+std::vector<uint8_t> LyingBatch(const imuqual::rate_batch_t& b, int16_t claimed_samples) {
+  std::vector<uint8_t> bytes;
+  EXPECT_TRUE(EncodeMessage(b, &bytes).ok());
+  // LCM layout: fingerprint 8, host_utime 8, two strings (4-byte length,
+  // bytes, NUL), seq 8, first_sample 8, rate 8, num_axes 1, names, kinds,
+  // then num_samples as a big-endian int16.
+  size_t off = 8 + 8 + (4 + b.run_id.size() + 1) + (4 + b.unit_serial.size() + 1) + 8 + 8 + 8 + 1;
+  for (const std::string& n : b.axis_names) off += 4 + n.size() + 1;
+  off += b.axis_names.size();
+  bytes[off] = static_cast<uint8_t>(static_cast<uint16_t>(claimed_samples) >> 8);
+  bytes[off + 1] = static_cast<uint8_t>(claimed_samples & 0xff);
+  return bytes;
+}
+
+TEST(BadInputTest, GarbageForeignAndLyingMessagesAreCountedAndTheRunSurvivesIt) {
+  StationHarness h("bad_messages");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  FakeAcquire acq(h, "BADRUN-1", "BAD-U01");
+  acq.Announce(imuqual::run_t::STATE_RUNNING, -1, 0);
+
+  // Undecodable bytes on every channel the station uses.
+  const std::vector<std::string> channels_used = {
+      channels::kRun,           channels::kAck,           channels::kResend,
+      channels::kStatus,        channels::Raw("BAD-U01"), channels::Curve("BAD-U01"),
+      channels::Result("BAD-U01")};
+  for (const std::string& ch : channels_used) {
+    for (size_t n : {size_t{0}, size_t{3}, size_t{64}, size_t{1000}}) {
+      std::vector<uint8_t> junk(n);
+      for (size_t i = 0; i < n; ++i) junk[i] = static_cast<uint8_t>(i * 37 + 11);
+      ASSERT_TRUE(h.bus().PublishEncoded(ch, junk).ok());
+    }
+  }
+  // A wrong type (fingerprint) on the raw and run channels.
+  imuqual::status_t foreign;
+  foreign.host_utime = 1;
+  foreign.process = "x";
+  foreign.instance = "y";
+  foreign.healthy = 1;
+  foreign.num_counters = 0;
+  ASSERT_TRUE(h.bus().Publish(channels::Raw("BAD-U01"), foreign).ok());
+  ASSERT_TRUE(h.bus().Publish(channels::kRun, foreign).ok());
+  // Length fields that lie: more samples than the bytes hold, and negative.
+  for (int16_t lie : {int16_t{30000}, int16_t{-5}, int16_t{kSamples + 1}}) {
+    ASSERT_TRUE(h.bus().PublishEncoded(channels::Raw("BAD-U01"), LyingBatch(acq.Batch(0, 0), lie)).ok());
+  }
+
+  // The run itself: 40 batches with everything wrong that can be wrong.
+  int64_t counter = 0, invalid = 0;
+  std::vector<imuqual::rate_batch_t> batches;
+  for (int64_t seq = 0; seq < 40; ++seq, counter += kSamples) {
+    imuqual::rate_batch_t b = acq.Batch(seq, counter);
+    if (seq == 3) {  // NaN and infinities
+      b.samples[0][1] = std::numeric_limits<float>::quiet_NaN();
+      b.samples[1][2] = std::numeric_limits<float>::infinity();
+      b.samples[2][3] = -std::numeric_limits<float>::infinity();
+      invalid += 3;
+    }
+    if (seq == 4) {  // saturated and invalid flags
+      b.num_flagged = 2;
+      b.flagged_sample = {5, 6};
+      b.flagged_axis = {0, 2};
+      b.flagged_bits = {imuqual::rate_batch_t::FLAG_SATURATED, imuqual::rate_batch_t::FLAG_INVALID};
+      invalid += 2;
+    }
+    batches.push_back(b);
+  }
+  // seq 20 claims another rate; seq 30's counter goes backwards.
+  batches[20].nominal_rate_hz = 200;
+  batches[30].first_sample = batches[29].first_sample;
+  for (int64_t seq = 0; seq < 40; ++seq) {
+    if (seq == 10) continue;  // sent late: out of order
+    acq.Send(batches[seq]);
+    if (seq == 12) acq.Send(batches[10]);
+    if (seq == 15) acq.Send(batches[15]);  // duplicate
+  }
+  imuqual::rate_batch_t absurd = acq.Batch(int64_t{1} << 40, 0);
+  acq.Send(absurd);
+  acq.Announce(imuqual::run_t::STATE_COMPLETE, 39, counter);
+  // Nobody resends the rejected seq 20: it becomes a gap after give-up.
+  for (int i = 0; i < 3; ++i) {
+    h.Pump(300);
+    acq.Announce(imuqual::run_t::STATE_COMPLETE, 39, counter);
+  }
+  ASSERT_TRUE(h.WaitRunsDone(1, 60)) << h.Logs();
+
+  // Counted, not crashed.
+  EXPECT_GT(h.WaitCounter("store", "decode_errors", 20, 5), 20);
+  EXPECT_GT(h.WaitCounter("analyze", "decode_errors", 10, 5), 10);
+  EXPECT_GE(h.WaitCounter("store", "duplicates", 1, 5), 1);
+  EXPECT_GE(h.WaitCounter("store", "absurd_seq", 1, 5), 1);
+  EXPECT_GE(h.WaitCounter("store", "rejected", 1, 5), 1);
+  EXPECT_GE(h.WaitCounter("analyze", "duplicates", 1, 5), 1);
+  EXPECT_GE(h.WaitCounter("analyze", "absurd_seq", 1, 5), 1);
+  EXPECT_GE(h.WaitCounter("analyze", "rejected", 2, 5), 2);  // the rate and the backwards counter
+  EXPECT_FALSE(store.Poll().has_value()) << h.Logs();
+  EXPECT_FALSE(analyze.Poll().has_value()) << h.Logs();
+
+  auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok());
+  const int64_t key = **(*a)->FindRunKey("BADRUN-1");
+  std::vector<int64_t> seqs;
+  ASSERT_TRUE((*a)->ForEachChunk(key, [&](const store::ChunkRecord& c) {
+                  seqs.push_back(c.seq);
+                  if (c.seq == 3) {  // archived exactly as sent, NaN included
+                    auto d = store::DecodeChunk(c.data, c.codec);
+                    EXPECT_TRUE(std::isnan(d->at(0, 1)));
+                    EXPECT_TRUE(std::isinf(d->at(1, 2)));
+                  }
+                  if (c.seq == 4) {
+                    auto d = store::DecodeChunk(c.data, c.codec);
+                    EXPECT_EQ(d->flags.size(), 2u);
+                  }
+                  return Status::Ok();
+                }).ok());
+  EXPECT_EQ(seqs.size(), 39u);  // all but the wrong-rate batch
+  EXPECT_EQ(std::count(seqs.begin(), seqs.end(), 20), 0);
+  // The archive records what is wrong with it: seq 20 never archived, the
+  // counter going back at 30, and the samples batch 30 should have held.
+  auto gaps = (*a)->LoadGaps(key);
+  ASSERT_EQ(gaps->size(), 3u);
+  EXPECT_EQ((*gaps)[0].first_seq, 20);
+  EXPECT_EQ((*gaps)[0].reason, "seq");
+  EXPECT_EQ((*gaps)[1].reason, "counter_backwards");
+  EXPECT_EQ((*gaps)[1].num_samples.value(), -kSamples);
+  EXPECT_EQ((*gaps)[2].reason, "counter");
+  EXPECT_EQ((*gaps)[2].num_samples.value(), kSamples);
+  auto s = (*a)->db().Prepare("SELECT invalid_samples, gap_samples, verdict FROM runs WHERE run_key = ?");
+  s->Bind(1, key);
+  ASSERT_TRUE(*s->Step());
+  EXPECT_EQ(s->Int(0), invalid);
+  // The wrong-rate batch and the backwards one are missing from the analysis.
+  EXPECT_GE(s->Int(1), kSamples);
+
+  EXPECT_EQ(analyze.Stop(15), 0);
+  EXPECT_EQ(store.Stop(15), 0);
+}
+
+TEST(BadInputTest, FilesThatAreNotArchivesGetAOneLineErrorAndAreNotTouched) {
+  testing::TempDir dir("bad_files");
+  const std::string text = dir.path("notes.txt");
+  { std::ofstream(text) << "these are notes, not an archive; please leave them alone\n"; }
+  for (const std::string& cmd :
+       {Bin("imuqual-store") + " --lcm-url 'udpm://239.255.76.67:7999?ttl=0' --db " + text,
+        Bin("imuqual") + " lots --db " + text, Bin("imuqual") + " lot X --db " + text,
+        Bin("imuqual") + " lots --db " + dir.path("missing.db"),
+        Bin("imuqual-store") + " --lcm-url 'udpm://239.255.76.67:7999?ttl=0' --db " +
+            dir.path("no/such/dir/a.db")}) {
+    const auto r = RunCommand(cmd + " 2>&1");
+    EXPECT_NE(r.exit_code, 0) << cmd;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << cmd << ":\n" << r.output;
+  }
+  auto after = ReadFileToString(text);
+  EXPECT_EQ(*after, "these are notes, not an archive; please leave them alone\n");
+}
+
+TEST(BadInputTest, AFullDiskStopsAcknowledgementsButLosesNothingAccepted) {
+  if (std::getenv("IMUQUAL_NETNS") == nullptr) {
+    GTEST_SKIP() << "needs the private mount namespace of tests/netns_run";
+  }
+  StationHarness h("bad_disk");
+  const std::string small = h.path("small");
+  std::filesystem::create_directories(small);
+  ASSERT_EQ(::mount("tmpfs", small.c_str(), "tmpfs", 0, "size=400k"), 0) << std::strerror(errno);
+  struct Unmount {
+    std::string dir;
+    ~Unmount() { ::umount2(dir.c_str(), MNT_DETACH); }
+  } unmount{small};
+  const std::string db = small + "/full.db";
+  Subprocess store = h.Start("imuqual-store", {"--db", db, "--give-up", "5", "--stale-after", "60"});
+  ASSERT_TRUE(h.WaitReported("store", store.pid(), 20));
+  FakeAcquire acq(h, "FULL-1", "FULL-U01");
+  acq.Announce(imuqual::run_t::STATE_RUNNING, -1, 0);
+  // Far more than 400 KB of samples (3 axes x 50 x 4 bytes x 2000 = 1.2 MB).
+  for (int64_t seq = 0; seq < 2000; ++seq) {
+    acq.Send(acq.Batch(seq, seq * kSamples));
+    if (seq % 50 == 0) h.Pump(5);
+  }
+  // The store reports the failure and keeps running.
+  EXPECT_GE(h.WaitCounter("store", "commit_failures", 1, 30), 1) << h.Logs();
+  h.Pump(1500);
+  EXPECT_FALSE(store.Poll().has_value()) << h.Logs();
+  EXPECT_NE(h.Logs().find("disk is full"), std::string::npos) << h.Logs();
+  // Everything acknowledged is in the file, which is intact.
+  EXPECT_EQ(store.Stop(15), 0);
+  auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  auto check = (*a)->db().Prepare("PRAGMA integrity_check");
+  ASSERT_TRUE(*check->Step());
+  EXPECT_EQ(check->Text(0), "ok");
+  auto next = (*a)->NextMissingSeq(**(*a)->FindRunKey("FULL-1"));
+  ASSERT_TRUE(next.ok());
+  EXPECT_GT(*next, 0);
+  EXPECT_LE(h.StoreAcked("FULL-1"), *next);  // never acknowledged what is not there
+  EXPECT_LT(*next, 2000);                    // the disk really filled up
+}
+
+}  // namespace
+}  // namespace imuqual
