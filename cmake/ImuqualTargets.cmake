@@ -42,6 +42,17 @@ function(imuqual_test name)
   set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
 endfunction()
 
+# imuqual_fuzzer(NAME SOURCES ... DEPS ...): a libFuzzer binary in build/fuzz/
+# (only with -DIMUQUAL_FUZZ=ON).
+function(imuqual_fuzzer name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/fuzz)
+  target_compile_options(${name} PRIVATE ${IMUQUAL_WARNINGS})
+  target_link_options(${name} PRIVATE -fsanitize=fuzzer)
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS})
+endfunction()
+
 # imuqual_benchmark(NAME SOURCES ... DEPS ...): Google Benchmark binary in build/bench/.
 function(imuqual_benchmark name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})

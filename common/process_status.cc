@@ -22,7 +22,7 @@ Status PublishStatus(LcmBus& bus, const std::string& process, bool healthy,
   msg.instance = InstanceName();
   msg.healthy = healthy ? 1 : 0;
   msg.message = message;
-  msg.num_counters = static_cast<int32_t>(counters.size());
+  msg.num_counters = static_cast<int16_t>(counters.size());
   for (const auto& [name, value] : counters) {
     msg.counter_names.push_back(name);
     msg.counter_values.push_back(value);

@@ -301,7 +301,7 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
     mm.note = m.note();
     res.measurements.push_back(std::move(mm));
   }
-  res.num_measurements = static_cast<int32_t>(res.measurements.size());
+  res.num_measurements = static_cast<int16_t>(res.measurements.size());
   Status st = bus->Publish(channels::Result(r.unit_serial), res);
   if (!st.ok()) LogWarning(st.message());
 }
