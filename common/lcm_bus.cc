@@ -23,8 +23,15 @@ Result<std::unique_ptr<LcmBus>> LcmBus::Open(const std::string& url) {
     return Status::InvalidArgument("LCM URL must start with udpm://, file:// or memq://: '" + url +
                                    "'");
   }
-  std::unique_ptr<LcmBus> bus(new LcmBus(url));
-  bus->lcm_ = std::make_unique<lcm::LCM>(url);
+  // The kernel receive buffer is sized on purpose: LCM's default leaves it at
+  // the system default (~200 KB), which a burst of resends overflows.
+  std::string effective = url;
+  if (url.rfind("udpm://", 0) == 0 && url.find("recv_buf_size=") == std::string::npos) {
+    effective += (url.find('?') == std::string::npos ? "?" : "&");
+    effective += "recv_buf_size=" + std::to_string(BusAddress{}.recv_buf_bytes);
+  }
+  std::unique_ptr<LcmBus> bus(new LcmBus(effective));
+  bus->lcm_ = std::make_unique<lcm::LCM>(effective);
   if (!bus->lcm_->good()) {
     return Status::Unavailable("cannot open LCM bus '" + url +
                                "' (is multicast routed on this interface?)");

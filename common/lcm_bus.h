@@ -37,8 +37,9 @@ struct BusAddress {
 
 class LcmBus {
  public:
-  // Connects to `url` (e.g. "udpm://239.255.76.67:7701?ttl=0"). Fails with a
-  // clear error if LCM cannot open it.
+  // Connects to `url` (e.g. "udpm://239.255.76.67:7701?ttl=0"); a udpm URL
+  // without recv_buf_size gets BusAddress's default. Fails with a clear error
+  // if LCM cannot open it.
   static Result<std::unique_ptr<LcmBus>> Open(const std::string& url);
   ~LcmBus();
   LcmBus(const LcmBus&) = delete;
