@@ -58,7 +58,8 @@ struct RunState {
   int batch_samples = 0;
   int64_t next_seq = 0;
   int64_t samples_published = 0;
-  int64_t first_counter = -1;
+  int64_t first_counter = -1;  // device counter of the first sample published
+  int64_t end_counter = -1;    // device counter after the last sample published
   double pace_origin_s = 0;
   bool source_done = false;
   int8_t state = imuqual::run_t::STATE_RUNNING;
@@ -245,6 +246,8 @@ Status AcquireService::Impl::Announce(RunState& run) {
   run.announcement.state = run.state;
   run.announcement.last_seq = run.next_seq - 1;
   run.announcement.samples_published = run.samples_published;
+  run.announcement.first_sample = run.first_counter;
+  run.announcement.end_sample = run.end_counter;
   run.announcement.announcer = "acquire";
   run.announcement.retained_first_seq = run.retained.empty() ? run.next_seq : run.retained.front().seq;
   return bus->Publish(channels::kRun, run.announcement);
@@ -346,6 +349,7 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
   run.retained.push_back({run.next_seq, now_s, std::move(bytes)});
   ++run.next_seq;
   run.samples_published += *n;
+  run.end_counter = msg.first_sample + *n;
   *published_one = true;
   return Status::Ok();
 }

@@ -38,7 +38,8 @@ struct AcquireOptions {
   double heartbeat_s = 1.0;           // run_t period
   double retention_s = 120.0;         // batches kept for resends at least this long
   double pace = 0.0;                  // 0: as fast as acknowledged; 1: real time; k: k x real time
-  double consumer_timeout_s = 30.0;   // no ack progress this long while waiting: fail
+  double consumer_timeout_s = 120.0;  // no ack progress this long while waiting: fail (well
+                                      // beyond the consumers' 30 s give-up on a lost batch)
   double linger_s = 60.0;             // after the last batch, wait this long for final acks
   double inject_drop = 0.0;           // fault injection: drop this fraction of first publications
   uint64_t inject_seed = 1;

@@ -96,6 +96,11 @@ std::vector<SeqRange> SeqTracker::TakeGivenUp(double now_s) {
   return given_up;
 }
 
+void SeqTracker::Skip(const SeqRange& range) {
+  for (int64_t s = std::max(range.first, next_seq_); s <= range.last; ++s) ahead_.insert(s);
+  Advance();
+}
+
 std::vector<SeqRange> SeqTracker::GiveUpAll() {
   std::vector<SeqRange> holes = Holes();
   holes_.clear();

@@ -43,8 +43,9 @@ class SeqTracker {
 
   // The run's highest seq as announced (grows while the run runs).
   void SetAnnouncedLast(int64_t last_seq);
-  // The run will not grow beyond its announced last seq.
-  void SetFinal() { final_ = true; }
+  // The run will not grow beyond its announced last seq (false: it may, after
+  // all: a run believed ended was heard running again).
+  void SetFinal(bool final = true) { final_ = final; }
 
   // Ranges to (re)request now: the front of each due hole, at most
   // max_request seqs. A hole that shrinks (part of it arrived) is making
@@ -57,6 +58,11 @@ class SeqTracker {
   // Every hole up to the announced last seq becomes a gap now (the source is
   // gone: nothing more can be resent). Returned in ascending order.
   std::vector<SeqRange> GiveUpAll();
+  // Treats a range as handled without it arriving (a gap recorded earlier,
+  // e.g. by a store before it restarted).
+  void Skip(const SeqRange& range);
+  // Whether `seq` has arrived (or been skipped).
+  bool Has(int64_t seq) const { return seq < next_seq_ || ahead_.count(seq) > 0; }
 
   int64_t next_seq() const { return next_seq_; }
   int64_t announced_last() const { return announced_last_; }

@@ -90,13 +90,15 @@ Result<int64_t> Archive::UpsertRun(const RunInfo& run) {
   auto up = Cached(kUpsertRun, R"sql(
 INSERT INTO runs(run_id, serial, lot, station, slot, operator, source, software_version,
                  start_utime, end_utime, state, nominal_rate_hz, last_seq, samples_announced,
-                 plan, plan_sha256, truth)
-VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)
+                 plan, plan_sha256, truth, first_sample, end_sample)
+VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19)
 ON CONFLICT(run_id) DO UPDATE SET
   state = CASE WHEN runs.state IN ('complete', 'aborted') THEN runs.state ELSE excluded.state END,
   end_utime = COALESCE(runs.end_utime, excluded.end_utime),
   last_seq = MAX(runs.last_seq, excluded.last_seq),
-  samples_announced = MAX(runs.samples_announced, excluded.samples_announced)
+  samples_announced = MAX(runs.samples_announced, excluded.samples_announced),
+  first_sample = CASE WHEN runs.first_sample < 0 THEN excluded.first_sample ELSE runs.first_sample END,
+  end_sample = MAX(runs.end_sample, excluded.end_sample)
 RETURNING run_key)sql");
   if (!up.ok()) return up.status();
   Stmt& s = **up;
@@ -113,6 +115,7 @@ RETURNING run_key)sql");
   s.BindBlob(15, {reinterpret_cast<const uint8_t*>(run.plan.data()), run.plan.size()});
   s.Bind(16, run.plan_sha256);
   s.BindBlob(17, {reinterpret_cast<const uint8_t*>(run.truth.data()), run.truth.size()});
+  s.Bind(18, run.first_sample).Bind(19, run.end_sample);
   auto row = s.Step();
   if (!row.ok()) return row.status();
   if (!*row) {
@@ -175,7 +178,9 @@ holes AS (
   WHERE seq - COALESCE(prev_seq, -1) > 1
      OR (prev_end IS NOT NULL AND first_sample <> prev_end)
   UNION ALL
-  SELECT COALESCE(MAX(seq) + 1, 0), ?2, MAX(first_sample + num_samples), NULL, 'seq'
+  SELECT COALESCE(MAX(seq) + 1, 0), ?2, MAX(first_sample + num_samples),
+         (SELECT NULLIF(end_sample, -1) FROM runs WHERE run_key = ?1) - MAX(first_sample + num_samples),
+         'seq'
   FROM raw_chunks WHERE run_key = ?1
   HAVING COALESCE(MAX(seq), -1) < ?2
 )
@@ -183,6 +188,25 @@ INSERT INTO gaps(run_key, first_seq, last_seq, first_sample, num_samples, reason
 SELECT ?1, first_seq, last_seq, first_sample, num_samples, reason, ?3 FROM holes)sql");
   if (!ins.ok()) return ins.status();
   return ins->Bind(1, run_key).Bind(2, last_seq).Bind(3, now_utime).Run();
+}
+
+Status Archive::InsertGap(int64_t run_key, const GapRecord& g) {
+  auto ins = db_->Prepare(
+      "INSERT OR REPLACE INTO gaps(run_key, first_seq, last_seq, first_sample, num_samples, reason, "
+      "detected_utime) VALUES(?, ?, ?, ?, ?, ?, ?)");
+  if (!ins.ok()) return ins.status();
+  ins->Bind(1, run_key).Bind(2, g.first_seq).Bind(3, g.last_seq);
+  if (g.first_sample) {
+    ins->Bind(4, *g.first_sample);
+  } else {
+    ins->BindNull(4);
+  }
+  if (g.num_samples) {
+    ins->Bind(5, *g.num_samples);
+  } else {
+    ins->BindNull(5);
+  }
+  return ins->Bind(6, g.reason).Bind(7, g.detected_utime).Run();
 }
 
 Status Archive::PutCurve(int64_t run_key, const CurveRecord& rec) {
@@ -356,11 +380,20 @@ Result<std::optional<int64_t>> Archive::FindRunKey(const std::string& run_id) {
   return key;
 }
 
+Result<bool> Archive::IsFinalized(const std::string& run_id) {
+  auto s = db_->Prepare("SELECT finalized_utime IS NOT NULL FROM runs WHERE run_id = ?");
+  if (!s.ok()) return s.status();
+  s->Bind(1, run_id);
+  auto row = s->Step();
+  if (!row.ok()) return row.status();
+  return *row && s->Int(0) != 0;
+}
+
 Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
   auto s = db_->Prepare(
       "SELECT run_key, serial, lot, station, slot, operator, source, software_version, "
       "start_utime, end_utime, state, nominal_rate_hz, last_seq, samples_announced, plan, "
-      "plan_sha256, truth FROM runs WHERE run_id = ?");
+      "plan_sha256, truth, first_sample, end_sample FROM runs WHERE run_id = ?");
   if (!s.ok()) return s.status();
   s->Bind(1, run_id);
   auto row = s->Step();
@@ -387,6 +420,8 @@ Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
   r.plan_sha256 = s->Text(15);
   const std::vector<uint8_t> truth = s->Blob(16);
   r.truth.assign(truth.begin(), truth.end());
+  r.first_sample = s->Int(17);
+  r.end_sample = s->Int(18);
   auto ax = db_->Prepare("SELECT axis, kind FROM run_axes WHERE run_key = ? ORDER BY axis_index");
   if (!ax.ok()) return ax.status();
   ax->Bind(1, key);

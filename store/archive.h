@@ -46,6 +46,8 @@ struct RunInfo {
   std::string state = "running";  // running / complete / aborted / incomplete
   int64_t last_seq = -1;
   int64_t samples_announced = 0;
+  int64_t first_sample = -1;  // device counter range announced by acquire
+  int64_t end_sample = -1;
   std::optional<int64_t> end_utime;
 };
 
@@ -115,6 +117,9 @@ class Archive {
   // Replaces the run's gap rows with the holes in seq 0..last_seq and the
   // jumps in the device counter between consecutive archived chunks.
   Status RecomputeGaps(int64_t run_key, int64_t last_seq, int64_t now_utime);
+  // Records a hole as soon as it is given up (RecomputeGaps redoes them all
+  // at the end), so a restarted store does not wait for it again.
+  Status InsertGap(int64_t run_key, const GapRecord& gap);
   Status PutCurve(int64_t run_key, const CurveRecord& curve);
   Status PutResult(int64_t run_key, const ResultRecord& result);
   // The run is archived for good: every batch is in or recorded as a gap,
@@ -123,6 +128,8 @@ class Archive {
 
   // --- reads ---
   Result<std::optional<int64_t>> FindRunKey(const std::string& run_id);
+  // Whether the run exists and has been finalized.
+  Result<bool> IsFinalized(const std::string& run_id);
   Result<RunInfo> LoadRun(const std::string& run_id);
   // The smallest seq not archived for the run (0 if none).
   Result<int64_t> NextMissingSeq(int64_t run_key);

@@ -45,7 +45,7 @@ Result<analyze::RunOutcome> ReanalyzeRun(Archive& archive, const std::string& ru
     return Status::Ok();
   });
   if (!st.ok()) return st;
-  analyzer->Finish(run->samples_announced);
+  analyzer->Finish(run->first_sample, run->end_sample);
   return analyzer->Outcome(true, analyze::FailureForRunState(run->state));
 }
 

@@ -49,6 +49,8 @@ imuqual::run_t MessageFromRunInfo(const RunInfo& info) {
   r.state = StateCode(info.state);
   r.last_seq = info.last_seq;
   r.samples_published = info.samples_announced;
+  r.first_sample = info.first_sample;
+  r.end_sample = info.end_sample;
   r.announcer = "store";
   r.retained_first_seq = 0;
   return r;
@@ -113,6 +115,8 @@ RunInfo RunInfoFromMessage(const imuqual::run_t& r) {
   info.state = StateName(r.state);
   info.last_seq = r.last_seq;
   info.samples_announced = r.samples_published;
+  info.first_sample = r.first_sample;
+  info.end_sample = r.end_sample;
   if (r.state != imuqual::run_t::STATE_RUNNING) info.end_utime = r.host_utime;
   return info;
 }

@@ -35,6 +35,8 @@ CREATE TABLE runs (
   nominal_rate_hz   REAL NOT NULL,
   last_seq          INTEGER NOT NULL DEFAULT -1,
   samples_announced INTEGER NOT NULL DEFAULT 0,
+  first_sample      INTEGER NOT NULL DEFAULT -1,
+  end_sample        INTEGER NOT NULL DEFAULT -1,
   plan              BLOB,
   plan_sha256       TEXT,
   truth             BLOB,
@@ -178,7 +180,7 @@ SELECT r.run_id, r.lot, r.serial AS unit, r.state, r.last_seq,
        (SELECT COUNT(*) FROM raw_chunks c WHERE c.run_key = r.run_key) AS chunks,
        (SELECT COALESCE(SUM(num_samples), 0) FROM raw_chunks c WHERE c.run_key = r.run_key) AS samples_archived,
        (SELECT COUNT(*) FROM gaps g WHERE g.run_key = r.run_key) AS gap_ranges,
-       (SELECT COALESCE(SUM(num_samples), 0) FROM gaps g WHERE g.run_key = r.run_key) AS gap_samples
+       (SELECT COALESCE(SUM(MAX(num_samples, 0)), 0) FROM gaps g WHERE g.run_key = r.run_key) AS gap_samples
 FROM runs r;
 )sql",
   };

@@ -3,11 +3,13 @@
 #include <atomic>
 #include <map>
 #include <optional>
+#include <set>
 #include <thread>
 #include <variant>
 
 #include "common/ack.h"
 #include "common/bounded_queue.h"
+#include "common/last_heard.h"
 #include "common/channels.h"
 #include "common/clock.h"
 #include "common/lcm_bus.h"
@@ -25,23 +27,27 @@ namespace {
 using Item = std::variant<imuqual::run_t, imuqual::rate_batch_t, imuqual::allan_curve_t,
                           imuqual::unit_result_t, imuqual::resend_t>;
 
-constexpr size_t kMaxWaitingPerRun = 4096;  // batches held until the run is announced
-constexpr double kDoneAckForS = 60.0;
+constexpr size_t kMaxWaitingPerRun = 4096;     // batches held until the run is announced
+constexpr double kDoneAckForS = 60.0;          // a finished run keeps saying so this long
 constexpr int64_t kMaxServedPerRequest = 512;  // archived batches resent per request
+constexpr int64_t kMaxAhead = int64_t{1} << 20;  // seqs accepted beyond the frontier
+constexpr double kRetryPeriodS = 1.0;          // a failed result/curve write is retried
 
 struct StoreRun {
-  int64_t key = -1;
+  int64_t key = -1;  // -1: not in the archive yet
   RunInfo info;
   SeqTracker tracker;
-  std::vector<imuqual::rate_batch_t> waiting;
-  std::vector<CurveRecord> curves_waiting;
+  std::vector<imuqual::rate_batch_t> waiting;  // batches before the run is known
+  // Written in every transaction until one commits (a failed transaction
+  // loses nothing: these stay until they are durable).
+  std::vector<CurveRecord> curves_pending;
   std::optional<ResultRecord> result;  // the final result, once received
   bool result_stored = false;
+  double next_retry_s = 0;
   bool done = false;
   double done_s = 0;
   AckPacer ack;
-  // acquire's side: when it last announced the run and what it still retains.
-  double acquire_seen_s = 0;
+  // acquire's side: what it still retains, and whether it is gone.
   int64_t acquire_retained_first = 0;
   bool acquire_gone = false;
   double next_announce_s = 0;
@@ -51,7 +57,8 @@ struct StoreRun {
 // What a transaction changed, applied to the in-memory state after COMMIT.
 struct Staged {
   std::vector<std::pair<std::string, int64_t>> chunks;  // (run, seq) now durable
-  std::vector<std::string> results;                       // runs whose result is durable
+  std::set<std::string> curves;                          // runs whose pending curves are durable
+  std::set<std::string> results;                         // runs whose result is durable
 };
 
 }  // namespace
@@ -73,28 +80,38 @@ struct StoreService::Impl {
   std::unique_ptr<LcmBus> bus;
   BoundedQueue<Item> queue;
   std::map<std::string, StoreRun> runs;
+  std::set<std::string> finalized;  // runs archived for good; their late messages are ignored
+  LastHeard acquire_heard;          // acquire's run_t arrivals, noted by the handler
   SeqTracker::Options tracker_options;
   std::string instance = InstanceName();
   std::string health_message;
   ThrottledLog write_errors;
+  ThrottledLog rejections;
   std::atomic<int64_t> received{0};
   int64_t chunks_inserted = 0, duplicates = 0, absurd = 0, rejected = 0, waiting_dropped = 0,
           commits = 0, commit_failures = 0, apply_errors = 0, resend_requests = 0,
-          batches_given_up = 0, runs_done = 0, batches_served = 0, runs_taken_over = 0;
+          batches_given_up = 0, runs_done = 0, batches_served = 0, runs_taken_over = 0,
+          late_messages = 0;
 
   explicit Impl(const StoreOptions& o) : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
     tracker_options.give_up_after_s = o.hole_give_up_s;
+    tracker_options.max_ahead = kMaxAhead;
   }
 
-  StoreRun& Run(const std::string& run_id) { return runs.try_emplace(run_id, tracker_options).first->second; }
+  // The run's state, or nullptr for a run already finalized (its late
+  // messages are ignored). Creates the state of a run seen for the first time.
+  StoreRun* Find(const std::string& run_id);
+  Status Resume(const std::string& run_id, double now);
   Status Apply(Item& item, Staged* staged);
   Status ApplyRun(const imuqual::run_t& msg, Staged* staged);
   Status ApplyBatch(StoreRun& r, const imuqual::rate_batch_t& b, Staged* staged);
-  Status StoreResult(StoreRun& r, Staged* staged);
-  Status Resume(const std::string& run_id, double now);
+  Status WritePending(StoreRun& r, Staged* staged);
+  void Transaction(std::vector<Item>& items);
+  void Committed(const Staged& staged);
+  void RolledBack();
   Status ServeResend(const imuqual::resend_t& req);
   void TakeOver(const std::string& run_id, StoreRun& r, double now);
-  void Transaction(std::vector<Item>& items);
+  void RecordGivenUp(StoreRun& r, const std::vector<SeqRange>& holes);
   void Tick(double now);
   Status Finalize(StoreRun& r);
   Counters StatusCounters() const;
@@ -117,23 +134,41 @@ Result<std::unique_ptr<StoreService>> StoreService::Create(const StoreOptions& o
   return std::unique_ptr<StoreService>(new StoreService(std::move(impl)));
 }
 
+StoreRun* StoreService::Impl::Find(const std::string& run_id) {
+  auto it = runs.find(run_id);
+  if (it != runs.end()) return &it->second;
+  if (finalized.count(run_id)) return nullptr;
+  auto done = archive->IsFinalized(run_id);
+  if (done.ok() && *done) {
+    finalized.insert(run_id);
+    return nullptr;
+  }
+  return &runs.try_emplace(run_id, tracker_options).first->second;
+}
+
 // A run the archive holds but has not finalized (this store stopped before
-// its end): its tracker starts from what is archived; acquire has
-// stale_after_s to show up before the store takes the run over.
+// its end): the tracker starts from what is archived and from the holes
+// already given up; acquire has stale_after_s to show up before the store
+// takes the run over.
 Status StoreService::Impl::Resume(const std::string& run_id, double now) {
   auto info = archive->LoadRun(run_id);
   if (!info.ok()) return info.status();
   auto key = archive->FindRunKey(run_id);
   if (!key.ok()) return key.status();
-  StoreRun& r = Run(run_id);
+  StoreRun& r = runs.try_emplace(run_id, tracker_options).first->second;
   r.key = **key;
   r.info = *info;
   auto next = archive->NextMissingSeq(r.key);
   if (!next.ok()) return next.status();
   auto held = archive->ArchivedSeqsFrom(r.key, *next);
   if (!held.ok()) return held.status();
+  auto gaps = archive->LoadGaps(r.key);
+  if (!gaps.ok()) return gaps.status();
   r.tracker = SeqTracker(*next, tracker_options);
   for (int64_t seq : *held) r.tracker.Offer(seq);
+  for (const GapRecord& g : *gaps) {
+    if (g.reason == "seq") r.tracker.Skip({g.first_seq, g.last_seq});
+  }
   r.tracker.SetAnnouncedLast(r.info.last_seq);
   if (r.info.state != "running") r.tracker.SetFinal();
   auto result = archive->LoadResult(r.key);
@@ -142,7 +177,8 @@ Status StoreService::Impl::Resume(const std::string& run_id, double now) {
     r.result = std::move(**result);
     r.result_stored = true;
   }
-  r.acquire_seen_s = now;
+  (void)now;
+  acquire_heard.Note(run_id);  // acquire gets stale_after_s from now to show up
   LogInfo("run " + run_id + ": resuming an unfinished run, " + std::to_string(*next) +
           " batches archived in order");
   return Status::Ok();
@@ -162,19 +198,33 @@ void StoreService::Impl::TakeOver(const std::string& run_id, StoreRun& r, double
     if (st.ok()) st = archive->Commit();
     if (!st.ok()) {
       (void)archive->Rollback();
-      LogError("run " + run_id + ": cannot mark it incomplete: " + st.message());
+      write_errors.Error("run " + run_id + ": cannot mark it incomplete: " + st.message());
     }
     LogWarning("run " + run_id + ": acquire silent for " +
                std::to_string(static_cast<int>(options.stale_after_s)) +
                " s; the run is incomplete after " + std::to_string(r.info.last_seq + 1) + " batches");
   }
   r.tracker.SetFinal();
-  for (const SeqRange& h : r.tracker.GiveUpAll()) {
-    batches_given_up += h.last - h.first + 1;
-    LogWarning("run " + run_id + ": batches " + std::to_string(h.first) + ".." +
-               std::to_string(h.last) + " can no longer be resent; recorded as a gap");
-  }
+  RecordGivenUp(r, r.tracker.GiveUpAll());
   r.next_announce_s = now;
+}
+
+// Given-up holes go into the archive at once (a restarted store then does not
+// wait for them again); failures only cost that wait.
+void StoreService::Impl::RecordGivenUp(StoreRun& r, const std::vector<SeqRange>& holes) {
+  if (holes.empty()) return;
+  Status st = archive->Begin();
+  for (const SeqRange& h : holes) {
+    batches_given_up += h.last - h.first + 1;
+    LogWarning("run " + r.info.run_id + ": batches " + std::to_string(h.first) + ".." +
+               std::to_string(h.last) + " never arrived; recorded as a gap");
+    if (st.ok()) st = archive->InsertGap(r.key, {h.first, h.last, {}, {}, "seq", NowUtime()});
+  }
+  if (st.ok()) st = archive->Commit();
+  if (!st.ok()) {
+    (void)archive->Rollback();
+    write_errors.Error("run " + r.info.run_id + ": cannot record gaps: " + st.message());
+  }
 }
 
 // Resends from the archive what acquire cannot: batches it no longer
@@ -192,7 +242,11 @@ Status StoreService::Impl::ServeResend(const imuqual::resend_t& req) {
       r.key,
       [&](const ChunkRecord& c) -> Status {
         auto batch = BatchFromChunk(r.info, c);
-        if (!batch.ok()) return batch.status();
+        if (!batch.ok()) {
+          rejections.Error("cannot resend " + r.info.run_id + " seq " + std::to_string(c.seq) +
+                           " from the archive: " + batch.status().message());
+          return Status::Ok();  // serve the rest
+        }
         ++batches_served;
         return bus->Publish(channels::Raw(r.info.serial), *batch);
       },
@@ -201,9 +255,13 @@ Status StoreService::Impl::ServeResend(const imuqual::resend_t& req) {
 
 Status StoreService::Impl::ApplyRun(const imuqual::run_t& msg, Staged* staged) {
   if (msg.announcer == "store") return Status::Ok();  // a store's own re-announcement
-  StoreRun& r = Run(msg.run_id);
+  StoreRun* found = Find(msg.run_id);
+  if (found == nullptr) {
+    ++late_messages;
+    return Status::Ok();
+  }
+  StoreRun& r = *found;
   const bool first = r.key < 0;
-  r.acquire_seen_s = MonotonicSeconds();
   r.acquire_retained_first = msg.retained_first_seq;
   r.acquire_gone = false;
   r.info = RunInfoFromMessage(msg);
@@ -222,12 +280,11 @@ Status StoreService::Impl::ApplyRun(const imuqual::run_t& msg, Staged* staged) {
       LogInfo("run " + msg.run_id + ": resuming, " + std::to_string(*next) +
               " batches already archived");
     }
+    // If this transaction fails these are resent (the tracker did not move).
     std::vector<imuqual::rate_batch_t> waiting = std::move(r.waiting);
     r.waiting.clear();
     for (const imuqual::rate_batch_t& b : waiting) IMUQUAL_RETURN_IF_ERROR(ApplyBatch(r, b, staged));
-    for (const CurveRecord& c : r.curves_waiting) IMUQUAL_RETURN_IF_ERROR(archive->PutCurve(r.key, c));
-    r.curves_waiting.clear();
-    if (r.result && !r.result_stored) IMUQUAL_RETURN_IF_ERROR(StoreResult(r, staged));
+    IMUQUAL_RETURN_IF_ERROR(WritePending(r, staged));
   }
   r.tracker.SetAnnouncedLast(msg.last_seq);
   if (msg.state != imuqual::run_t::STATE_RUNNING) r.tracker.SetFinal();
@@ -243,71 +300,109 @@ Status StoreService::Impl::ApplyBatch(StoreRun& r, const imuqual::rate_batch_t& 
     }
     return Status::Ok();
   }
-  if (b.seq < 0 || b.seq > r.tracker.next_seq() + (int64_t{1} << 20)) {
+  if (b.seq < 0 || b.seq > r.tracker.next_seq() + kMaxAhead) {
     ++absurd;
     return Status::Ok();
   }
-  if (b.num_axes != static_cast<int>(r.info.axes.size()) || b.num_samples < 1 ||
-      b.nominal_rate_hz != r.info.nominal_rate_hz) {
+  if (r.tracker.Has(b.seq)) {  // already archived (a resend, or one the store served itself)
+    ++duplicates;
+    return Status::Ok();
+  }
+  std::string wrong;
+  if (b.num_axes != static_cast<int>(r.info.axes.size())) wrong = "axes";
+  if (b.num_samples < 1) wrong = "sample count";
+  if (b.nominal_rate_hz != r.info.nominal_rate_hz) wrong = "rate";
+  for (int i = 0; i < b.num_flagged && wrong.empty(); ++i) {
+    if (b.flagged_sample[i] < 0 || b.flagged_sample[i] >= b.num_samples || b.flagged_axis[i] < 0 ||
+        b.flagged_axis[i] >= b.num_axes) {
+      wrong = "flags";
+    }
+  }
+  if (!wrong.empty()) {
     ++rejected;
-    LogWarning("run " + b.run_id + " seq " + std::to_string(b.seq) +
-               ": batch does not match the run's axes or rate; rejected");
+    rejections.Error("run " + b.run_id + " seq " + std::to_string(b.seq) +
+                     ": batch does not match the run (" + wrong + "); rejected");
     return Status::Ok();
   }
   bool inserted = false;
   IMUQUAL_RETURN_IF_ERROR(archive->InsertChunk(r.key, ChunkFromBatch(b), &inserted));
-  if (inserted) {
-    staged->chunks.emplace_back(b.run_id, b.seq);
-  } else {
-    ++duplicates;
-  }
+  if (!inserted) ++duplicates;
+  staged->chunks.emplace_back(b.run_id, b.seq);  // durable either way once committed
   return Status::Ok();
 }
 
-Status StoreService::Impl::StoreResult(StoreRun& r, Staged* staged) {
-  int64_t gap_ranges = 0;
-  if (r.done) {
-    auto gaps = archive->LoadGaps(r.key);
-    if (!gaps.ok()) return gaps.status();
-    gap_ranges = static_cast<int64_t>(gaps->size());
+// Writes the run's pending curves and result (if any) into the current
+// transaction.
+Status StoreService::Impl::WritePending(StoreRun& r, Staged* staged) {
+  for (const CurveRecord& c : r.curves_pending) IMUQUAL_RETURN_IF_ERROR(archive->PutCurve(r.key, c));
+  if (!r.curves_pending.empty()) staged->curves.insert(r.info.run_id);
+  if (r.result && !r.result_stored) {
+    int64_t gap_ranges = 0;
+    if (r.done) {
+      auto gaps = archive->LoadGaps(r.key);
+      if (!gaps.ok()) return gaps.status();
+      gap_ranges = static_cast<int64_t>(gaps->size());
+    }
+    r.result->record = BuildRunRecord(r.info, *r.result, gap_ranges).SerializeAsString();
+    IMUQUAL_RETURN_IF_ERROR(archive->PutResult(r.key, *r.result));
+    staged->results.insert(r.info.run_id);
   }
-  r.result->record = BuildRunRecord(r.info, *r.result, gap_ranges).SerializeAsString();
-  IMUQUAL_RETURN_IF_ERROR(archive->PutResult(r.key, *r.result));
-  staged->results.push_back(r.info.run_id);
   return Status::Ok();
 }
 
 Status StoreService::Impl::Apply(Item& item, Staged* staged) {
   if (auto* run = std::get_if<imuqual::run_t>(&item)) return ApplyRun(*run, staged);
-  if (auto* b = std::get_if<imuqual::rate_batch_t>(&item)) return ApplyBatch(Run(b->run_id), *b, staged);
-  if (auto* c = std::get_if<imuqual::allan_curve_t>(&item)) {
-    StoreRun& r = Run(c->run_id);
-    CurveRecord rec = CurveFromMessage(*c);
-    if (r.key < 0) {
-      r.curves_waiting.push_back(std::move(rec));
-      return Status::Ok();
-    }
-    return archive->PutCurve(r.key, rec);
+  const std::string& run_id = std::visit([](const auto& m) -> const std::string& { return m.run_id; }, item);
+  StoreRun* r = Find(run_id);
+  if (r == nullptr) {
+    ++late_messages;
+    return Status::Ok();
   }
-  auto& res = std::get<imuqual::unit_result_t>(item);
-  StoreRun& r = Run(res.run_id);
-  r.result = ResultFromMessage(res);
-  r.result_stored = false;
-  return r.key < 0 ? Status::Ok() : StoreResult(r, staged);
+  if (auto* b = std::get_if<imuqual::rate_batch_t>(&item)) return ApplyBatch(*r, *b, staged);
+  if (auto* c = std::get_if<imuqual::allan_curve_t>(&item)) {
+    r->curves_pending.push_back(CurveFromMessage(*c));
+  } else if (auto* res = std::get_if<imuqual::unit_result_t>(&item)) {
+    r->result = ResultFromMessage(*res);
+    r->result_stored = false;
+  }
+  return r->key < 0 ? Status::Ok() : WritePending(*r, staged);
+}
+
+void StoreService::Impl::Committed(const Staged& staged) {
+  ++commits;
+  health_message.clear();
+  for (const auto& [run_id, seq] : staged.chunks) {
+    auto it = runs.find(run_id);
+    if (it != runs.end() && it->second.tracker.Offer(seq) == SeqTracker::Arrival::kNew) ++chunks_inserted;
+  }
+  for (const std::string& run_id : staged.curves) runs.at(run_id).curves_pending.clear();
+  for (const std::string& run_id : staged.results) runs.at(run_id).result_stored = true;
+}
+
+void StoreService::Impl::RolledBack() {
+  ++commit_failures;
+  // Keys of runs created in the failed transaction are gone again.
+  for (auto& [id, r] : runs) {
+    if (r.key >= 0) {
+      auto key = archive->FindRunKey(id);
+      if (!key.ok() || !key->has_value()) r.key = -1;
+    }
+  }
 }
 
 // One transaction for everything popped; the in-memory state (trackers,
-// acks) moves only after COMMIT, so an acknowledged batch is durable.
+// acks, pending results) moves only after COMMIT, so an acknowledged batch
+// is durable and a failed write is retried, never lost.
 void StoreService::Impl::Transaction(std::vector<Item>& items) {
   Staged staged;
   std::vector<imuqual::resend_t> resends;  // served after the commit, outside the transaction
   Status st = archive->Begin();
   for (Item& item : items) {
-    if (!st.ok()) break;
     if (auto* req = std::get_if<imuqual::resend_t>(&item)) {
       resends.push_back(std::move(*req));
       continue;
     }
+    if (!st.ok()) continue;  // keep collecting resends; the data comes again
     Status ap = Apply(item, &staged);
     if (!ap.ok()) {
       ++apply_errors;
@@ -318,48 +413,38 @@ void StoreService::Impl::Transaction(std::vector<Item>& items) {
     }
   }
   if (st.ok()) st = archive->Commit();
-  if (!st.ok()) {
+  if (st.ok()) {
+    Committed(staged);
+  } else {
     (void)archive->Rollback();
-    ++commit_failures;
+    RolledBack();
     health_message = st.message();
     write_errors.Error("archive write failed, nothing of this transaction is acknowledged: " +
                        st.message());
-    // Keys of runs created in the failed transaction are gone again.
-    for (auto& [id, r] : runs) {
-      if (r.key >= 0) {
-        auto key = archive->FindRunKey(id);
-        if (!key.ok() || !key->has_value()) r.key = -1;
-      }
-    }
-    return;
   }
-  ++commits;
-  health_message.clear();
-  for (const auto& [run_id, seq] : staged.chunks) {
-    if (Run(run_id).tracker.Offer(seq) == SeqTracker::Arrival::kNew) ++chunks_inserted;
-  }
-  for (const std::string& run_id : staged.results) Run(run_id).result_stored = true;
   for (const imuqual::resend_t& req : resends) {
     Status served = ServeResend(req);
-    if (!served.ok()) LogWarning("cannot resend from the archive: " + served.message());
+    if (!served.ok()) rejections.Error("cannot resend from the archive: " + served.message());
   }
 }
 
 Status StoreService::Impl::Finalize(StoreRun& r) {
   IMUQUAL_RETURN_IF_ERROR(archive->Begin());
   Staged staged;
+  r.done = true;  // gap ranges go into the record
+  r.result_stored = false;
   Status st = archive->RecomputeGaps(r.key, r.info.last_seq, NowUtime());
-  if (st.ok()) {
-    r.done = true;  // gap ranges go into the record
-    st = StoreResult(r, &staged);
-  }
+  if (st.ok()) st = WritePending(r, &staged);
   if (st.ok()) st = archive->MarkFinalized(r.key, NowUtime());
   if (st.ok()) st = archive->Commit();
   if (!st.ok()) {
     r.done = false;
     (void)archive->Rollback();
+    RolledBack();
     return st;
   }
+  Committed(staged);
+  finalized.insert(r.info.run_id);
   return Status::Ok();
 }
 
@@ -368,7 +453,7 @@ void StoreService::Impl::Tick(double now) {
     const std::string& id = it->first;
     StoreRun& r = it->second;
     if (r.key >= 0 && !r.done && !r.acquire_gone &&
-        now - r.acquire_seen_s > options.stale_after_s) {
+        acquire_heard.SecondsSince(id, now) > options.stale_after_s) {
       TakeOver(id, r, now);
     }
     if (r.key >= 0 && !r.done && r.acquire_gone && now >= r.next_announce_s) {
@@ -376,6 +461,22 @@ void StoreService::Impl::Tick(double now) {
       msg.host_utime = NowUtime();
       (void)bus->Publish(channels::kRun, msg);
       r.next_announce_s = now + options.heartbeat_s;
+    }
+    // A result or curves whose transaction failed (full disk, ...) are
+    // written again, at most once a retry period.
+    if (r.key >= 0 && !r.done && ((r.result && !r.result_stored) || !r.curves_pending.empty()) &&
+        now >= r.next_retry_s) {
+      r.next_retry_s = now + kRetryPeriodS;
+      Staged staged;
+      Status st = archive->Begin();
+      if (st.ok()) st = WritePending(r, &staged);
+      if (st.ok()) st = archive->Commit();
+      if (st.ok()) {
+        Committed(staged);
+      } else {
+        (void)archive->Rollback();
+        write_errors.Error("run " + id + ": cannot store the result: " + st.message());
+      }
     }
     if (r.key >= 0 && !r.done) {
       for (const SeqRange& h : r.tracker.DueRequests(now)) {
@@ -387,15 +488,11 @@ void StoreService::Impl::Tick(double now) {
         req.last_seq = h.last;
         if (bus->Publish(channels::kResend, req).ok()) ++resend_requests;
       }
-      for (const SeqRange& h : r.tracker.TakeGivenUp(now)) {
-        batches_given_up += h.last - h.first + 1;
-        LogWarning("run " + id + ": batches " + std::to_string(h.first) + ".." +
-                   std::to_string(h.last) + " never arrived; recorded as a gap");
-      }
+      RecordGivenUp(r, r.tracker.TakeGivenUp(now));
       if (r.tracker.complete() && r.result_stored) {
         Status st = Finalize(r);
         if (!st.ok()) {
-          LogError("run " + id + ": " + st.message());
+          write_errors.Error("run " + id + ": " + st.message());
         } else {
           r.done_s = now;
           ++runs_done;
@@ -410,7 +507,8 @@ void StoreService::Impl::Tick(double now) {
       }
     }
     if (r.done && now - r.done_s > kDoneAckForS) {
-      it = runs.erase(it);
+      acquire_heard.Forget(id);
+      it = runs.erase(it);  // `finalized` keeps late messages away
     } else {
       ++it;
     }
@@ -428,6 +526,7 @@ Counters StoreService::Impl::StatusCounters() const {
           {"absurd_seq", absurd},
           {"rejected", rejected},
           {"waiting_dropped", waiting_dropped},
+          {"late_messages", late_messages},
           {"commits", commits},
           {"commit_failures", commit_failures},
           {"apply_errors", apply_errors},
@@ -451,7 +550,8 @@ Status StoreService::Run() {
     s.queue.TryPush(Item(std::forward<decltype(msg)>(msg)));
   };
   s.bus->Subscribe<imuqual::run_t>(channels::kRun, 1000,
-                                   [enqueue](const std::string&, imuqual::run_t&& m, int64_t) {
+                                   [enqueue, &s](const std::string&, imuqual::run_t&& m, int64_t) {
+                                     if (m.announcer != "store") s.acquire_heard.Note(m.run_id);
                                      enqueue(std::move(m));
                                    });
   s.bus->Subscribe<imuqual::rate_batch_t>(

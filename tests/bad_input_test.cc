@@ -58,6 +58,8 @@ class FakeAcquire {
     run_.state = imuqual::run_t::STATE_RUNNING;
     run_.last_seq = -1;
     run_.samples_published = 0;
+    run_.first_sample = -1;
+    run_.end_sample = -1;
     run_.announcer = "acquire";
     run_.retained_first_seq = 0;
   }
@@ -67,6 +69,8 @@ class FakeAcquire {
     run_.state = state;
     run_.last_seq = last_seq;
     run_.samples_published = samples;
+    run_.first_sample = samples > 0 ? 0 : -1;
+    run_.end_sample = samples > 0 ? samples : -1;
     ASSERT_TRUE(h_.bus().Publish(channels::kRun, run_).ok());
   }
 

@@ -12,6 +12,7 @@
 #include "analyze/service/run_analyzer.h"
 #include "common/ack.h"
 #include "common/bounded_queue.h"
+#include "common/last_heard.h"
 #include "common/channels.h"
 #include "common/clock.h"
 #include "common/lcm_bus.h"
@@ -53,7 +54,8 @@ struct RunEntry {
   double last_interim_s = 0;
   bool finished = false;
   double finished_s = 0;
-  double last_heard_s = 0;  // last run_t, from acquire or store
+  int64_t acked_after_finish = 0;  // late batches of a finished run are acknowledged too
+  bool inferred_incomplete = false;  // ended here for silence, not announced so
   int64_t rejected = 0;
 
   explicit RunEntry(const SeqTracker::Options& o) : tracker(0, o) {}
@@ -91,6 +93,7 @@ struct AnalyzeService::Impl {
   BoundedQueue<Work> queue;
   std::map<std::string, RunEntry> runs;
   std::set<std::string> finished_ids;
+  LastHeard heard;  // run_t arrivals, noted by the handler
   std::string instance = InstanceName();
   SeqTracker::Options tracker_options;
   // Counters (worker thread, except where atomic).
@@ -137,13 +140,16 @@ void AnalyzeService::Impl::OnRun(imuqual::run_t&& run, double now) {
   auto [it, inserted] = runs.try_emplace(run.run_id, tracker_options);
   RunEntry& e = it->second;
   (void)inserted;
-  // A finished state never goes back to running (heartbeats may cross).
   if (e.info && e.info->state != imuqual::run_t::STATE_RUNNING &&
       run.state == imuqual::run_t::STATE_RUNNING) {
-    return;
+    // An announced end never goes back to running (heartbeats may cross);
+    // an end inferred here from silence does, if the run is not finished.
+    if (!e.inferred_incomplete || e.finished) return;
+    LogWarning("run " + run.run_id + " is announced again; it was not incomplete after all");
+    e.inferred_incomplete = false;
+    e.tracker.SetFinal(false);
   }
   const bool first = !e.info.has_value();
-  e.last_heard_s = now;
   e.info = std::move(run);
   e.tracker.SetAnnouncedLast(e.info->last_seq);
   if (e.info->state != imuqual::run_t::STATE_RUNNING) e.tracker.SetFinal();
@@ -189,6 +195,13 @@ void AnalyzeService::Impl::OnBatch(imuqual::rate_batch_t&& batch, double now) {
   RunEntry& e = it->second;
   (void)now;
   (void)inserted;
+  if (e.finished) {
+    // Late (a resend for someone else, or a run believed ended): acknowledged
+    // so that acquire's window never waits on a run that is done here.
+    ++late_after_finish;
+    e.acked_after_finish = std::max(e.acked_after_finish, batch.seq + 1);
+    return;
+  }
   if (!e.info && e.held.size() >= kMaxHeldBeforeRunInfo) {
     ++rejected;  // it will be resent once the run is known
     return;
@@ -205,7 +218,17 @@ void AnalyzeService::Impl::OnBatch(imuqual::rate_batch_t&& batch, double now) {
 // Processes held batches that are now in order (everything below the
 // tracker's frontier has arrived or was given up).
 void AnalyzeService::Impl::ProcessHeld(RunEntry& e) {
-  if (!e.analyzer) return;
+  if (!e.analyzer) {
+    // A run that cannot be analysed (its description is unusable): its
+    // batches are counted and let go, so its acks move and it can finish
+    // with a FAIL saying why.
+    if (!e.info) return;
+    while (!e.held.empty() && e.held.begin()->first < e.tracker.next_seq()) {
+      ++rejected;
+      e.held.erase(e.held.begin());
+    }
+    return;
+  }
   while (!e.held.empty() && e.held.begin()->first < e.tracker.next_seq()) {
     const imuqual::rate_batch_t& b = e.held.begin()->second;
     BatchView view;
@@ -232,8 +255,9 @@ void AnalyzeService::Impl::ProcessHeld(RunEntry& e) {
 void AnalyzeService::Impl::Ack(const std::string& run_id, RunEntry& e, double now, bool force) {
   // Handled = processed: held batches (out of order, or waiting for the
   // run's description) are not acknowledged yet.
-  const int64_t seq = e.held.empty() ? e.tracker.next_seq()
-                                     : std::min(e.held.begin()->first, e.tracker.next_seq());
+  int64_t seq = e.held.empty() ? e.tracker.next_seq()
+                               : std::min(e.held.begin()->first, e.tracker.next_seq());
+  if (e.finished) seq = std::max(seq, e.acked_after_finish);
   if (!e.ack.Due(seq, e.finished, now, force)) return;
   if (PublishAck(*bus, "analyze", instance, run_id, seq, e.finished).ok()) {
     e.ack.Sent(seq, e.finished, now);
@@ -311,7 +335,7 @@ void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double
   if (e.info->state == imuqual::run_t::STATE_ABORTED) failure = FailureForRunState("aborted");
   if (e.info->state == imuqual::run_t::STATE_INCOMPLETE) failure = FailureForRunState("incomplete");
   if (e.analyzer) {
-    e.analyzer->Finish(e.info->samples_published);
+    e.analyzer->Finish(e.info->first_sample, e.info->end_sample);
     RunOutcome out = e.analyzer->Outcome(true, failure);
     if (!e.error.empty()) {
       out.judgement.verdict = pb::FAIL;
@@ -340,11 +364,13 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
     return;
   }
   if (!e.info) return;  // batches before the run's first heartbeat wait
-  if (e.info->state == imuqual::run_t::STATE_RUNNING && now - e.last_heard_s > options.stale_after_s) {
+  if (e.info->state == imuqual::run_t::STATE_RUNNING &&
+      heard.SecondsSince(run_id, now) > options.stale_after_s) {
     // Nobody announces the run any more (acquire and store both silent).
     LogWarning("run " + run_id + ": not announced for " +
                std::to_string(static_cast<int>(options.stale_after_s)) + " s; ending it as incomplete");
     e.info->state = imuqual::run_t::STATE_INCOMPLETE;
+    e.inferred_incomplete = true;
     e.tracker.SetFinal();
   }
   for (const SeqRange& r : e.tracker.DueRequests(now)) {
@@ -379,6 +405,7 @@ void AnalyzeService::Impl::Tick(double now) {
     TickRun(it->first, it->second, now);
     if (it->second.finished && now - it->second.finished_s > kDoneReackForS) {
       finished_ids.insert(it->first);
+      heard.Forget(it->first);
       it = runs.erase(it);
     } else {
       ++it;
@@ -419,6 +446,7 @@ Status AnalyzeService::Run() {
   s.bus->Subscribe<imuqual::run_t>(
       channels::kRun, 1000, [&s, &o](const std::string&, imuqual::run_t&& run, int64_t) {
         if (!InShard(run.unit_serial, o.shard_index, o.shard_count)) return;
+        s.heard.Note(run.run_id);
         s.queue.TryPush(std::move(run));
       });
   s.bus->Subscribe<imuqual::rate_batch_t>(

@@ -116,9 +116,14 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
   return Status::Ok();
 }
 
-void RunAnalyzer::Finish(int64_t samples_announced) {
-  const int64_t covered = first_counter_ < 0 ? 0 : next_counter_ - first_counter_;
-  if (samples_announced > covered) Push(samples_announced - covered);
+void RunAnalyzer::Finish(int64_t first_sample, int64_t end_sample) {
+  if (first_counter_ < 0) {
+    // Nothing arrived: the whole announced range is missing.
+    if (first_sample >= 0 && end_sample > first_sample) Push(end_sample - first_sample);
+    return;
+  }
+  if (first_sample >= 0 && first_sample < first_counter_) Push(first_counter_ - first_sample);
+  if (end_sample > next_counter_) Push(end_sample - next_counter_);
 }
 
 std::string FailureForRunState(const std::string& state) {

@@ -72,10 +72,12 @@ class RunAnalyzer {
   // error naming why, and changes nothing.
   Status AddBatch(const BatchView& batch);
 
-  // Ends the record: of the `samples_announced` samples the source produced,
-  // those the batches never covered (lost first or last batches) count as
-  // gap samples at the end of the record.
-  void Finish(int64_t samples_announced);
+  // Ends the record. The source announced the device counter range
+  // [first_sample, end_sample) it published; what the processed batches did
+  // not reach at either end (lost first or last batches) counts as gap
+  // samples (placed at the end of the record: no term spans them either
+  // way). A negative bound means unknown.
+  void Finish(int64_t first_sample, int64_t end_sample);
 
   // Curves, measurements and verdict as of now. `final` judges the run
   // (durations, missing measurements); a non-empty `failure` (the run did

@@ -1,0 +1,130 @@
+#include "analyze/service/run_analyzer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace imuqual::analyze {
+namespace {
+
+constexpr double kRate = 100;
+
+RunDescription Desc(double warmup_s = 0) {
+  RunDescription d;
+  d.run_id = std::string("R");
+  d.serial = std::string("U");
+  d.nominal_rate_hz = kRate;
+  d.axes = {{"x", pb::GYRO}, {"ax", pb::ACCEL}};
+  d.plan.set_nominal_rate_hz(kRate);
+  d.plan.set_warmup_s(warmup_s);
+  return d;
+}
+
+// A batch of n samples per axis starting at device counter `first`.
+struct Batch {
+  std::vector<float> x, a;
+  BatchView view;
+  Batch(int64_t seq, int64_t first, int n, double rate = kRate) {
+    for (int i = 0; i < n; ++i) {
+      x.push_back(0.01f * static_cast<float>(std::sin(0.1 * (first + i))));
+      a.push_back(9.8f + 0.001f * static_cast<float>(std::cos(0.3 * (first + i))));
+    }
+    view.seq = seq;
+    view.first_sample = first;
+    view.nominal_rate_hz = rate;
+    view.samples = {x, a};
+  }
+};
+
+TEST(RunAnalyzerTest, CountsGapsFromTheDeviceCounter) {
+  // GIVEN 10 batches of 100 samples announced as counters [1000, 2050):
+  // the device skips 50 samples after batch 2, and the last batch is lost.
+  auto a = RunAnalyzer::Create(Desc());
+  ASSERT_TRUE(a.ok());
+  int64_t counter = 1000;
+  for (int seq = 0; seq < 9; ++seq) {
+    if (seq == 3) counter += 50;
+    Batch b(seq, counter, 100);
+    ASSERT_TRUE(a->AddBatch(b.view).ok());
+    counter += 100;
+  }
+  a->Finish(1000, counter + 100);
+  const RunOutcome out = a->Outcome(true);
+  // THEN 150 samples are missing: 50 skipped, 100 in the lost batch.
+  EXPECT_EQ(out.gap_samples, 150);
+  EXPECT_EQ(out.samples, 1050);
+}
+
+TEST(RunAnalyzerTest, LeadingLossIsAGapToo) {
+  auto a = RunAnalyzer::Create(Desc());
+  ASSERT_TRUE(a.ok());
+  Batch b(2, 200, 100);  // seqs 0 and 1 (counters 0..199) never arrived
+  ASSERT_TRUE(a->AddBatch(b.view).ok());
+  a->Finish(0, 300);
+  EXPECT_EQ(a->Outcome(true).gap_samples, 200);
+}
+
+TEST(RunAnalyzerTest, WarmUpIsDiscardedByCounterAndIsNotAGap) {
+  auto a = RunAnalyzer::Create(Desc(/*warmup_s=*/1.5));  // 150 samples
+  ASSERT_TRUE(a.ok());
+  Batch b0(0, 0, 100), b2(2, 200, 100);  // seq 1 (inside the warm-up... partly) lost
+  ASSERT_TRUE(a->AddBatch(b0.view).ok());
+  ASSERT_TRUE(a->AddBatch(b2.view).ok());
+  a->Finish(0, 300);
+  const RunOutcome out = a->Outcome(true);
+  EXPECT_EQ(out.warmup_samples, 150);
+  EXPECT_EQ(out.gap_samples, 50);  // counters 150..199: after the warm-up
+  EXPECT_EQ(out.samples, 150);
+}
+
+TEST(RunAnalyzerTest, InvalidSamplesAreCountedNotZeroed) {
+  auto a = RunAnalyzer::Create(Desc());
+  ASSERT_TRUE(a.ok());
+  Batch b(0, 0, 100);
+  b.x[3] = std::nanf("");
+  b.a[4] = INFINITY;
+  b.view.samples = {b.x, b.a};
+  b.view.flags = {{7, 0, 1}, {8, 1, 2}, {9, 1, 4}};  // saturated, invalid, an unknown bit
+  ASSERT_TRUE(a->AddBatch(b.view).ok());
+  EXPECT_EQ(a->Outcome(false).invalid_samples, 4);
+}
+
+TEST(RunAnalyzerTest, RejectsBatchesThatDoNotFitAndChangesNothing) {
+  auto a = RunAnalyzer::Create(Desc());
+  ASSERT_TRUE(a.ok());
+  Batch ok(0, 0, 100);
+  ASSERT_TRUE(a->AddBatch(ok.view).ok());
+  const RunOutcome before = a->Outcome(false);
+
+  Batch backwards(1, 50, 100);
+  Status st = a->AddBatch(backwards.view);
+  EXPECT_NE(st.message().find("counter went backwards"), std::string::npos) << st.message();
+  Batch rate(1, 100, 100, 200.0);
+  EXPECT_NE(a->AddBatch(rate.view).message().find("claims 200"), std::string::npos);
+  Batch one_axis(1, 100, 100);
+  one_axis.view.samples.pop_back();
+  EXPECT_FALSE(a->AddBatch(one_axis.view).ok());
+  Batch flag(1, 100, 100);
+  flag.view.flags = {{100, 0, 1}};
+  EXPECT_FALSE(a->AddBatch(flag.view).ok());
+  Batch absurd(1, int64_t{1} << 40, 100);
+  EXPECT_NE(a->AddBatch(absurd.view).message().find("jumped"), std::string::npos);
+
+  const RunOutcome after = a->Outcome(false);
+  EXPECT_EQ(after.samples, before.samples);
+  EXPECT_EQ(after.curves[0].second.points.size(), before.curves[0].second.points.size());
+  EXPECT_EQ(a->batches_accepted(), 1);
+}
+
+TEST(RunAnalyzerTest, AbnormalEndsFailWithTheirReason) {
+  auto a = RunAnalyzer::Create(Desc());
+  ASSERT_TRUE(a.ok());
+  const RunOutcome out = a->Outcome(true, FailureForRunState("incomplete"));
+  EXPECT_EQ(out.judgement.verdict, pb::FAIL);
+  ASSERT_FALSE(out.judgement.reasons.empty());
+  EXPECT_NE(out.judgement.reasons[0].find("incomplete"), std::string::npos);
+  EXPECT_EQ(FailureForRunState("complete"), "");
+}
+
+}  // namespace
+}  // namespace imuqual::analyze
