@@ -27,9 +27,9 @@ struct AxisRow {
 };
 
 struct AxisRowFilter {
-  std::string lot;          // "" = any
-  std::string run_prefix;   // "" = any; else run ids starting with it
-  bool latest_per_unit = true;  // only each unit's most recent run
+  std::string lot;              // required
+  std::string run_prefix;       // "" = any; else run ids starting with it
+  bool latest_per_unit = true;  // only each unit's most recent run in the lot
 };
 
 Result<std::vector<AxisRow>> QueryAxisRows(Archive& archive, const AxisRowFilter& filter);

@@ -49,7 +49,7 @@ CREATE TABLE runs (
   result_utime      INTEGER,
   finalized_utime   INTEGER
 );
-CREATE INDEX runs_by_lot ON runs(lot, start_utime);
+CREATE INDEX runs_by_lot ON runs(lot, serial, start_utime);
 CREATE INDEX runs_by_serial ON runs(serial, start_utime);
 
 CREATE TABLE run_axes (
@@ -130,7 +130,7 @@ CREATE INDEX measurements_by_name ON measurements(name, axis);
 
 -- One row per run and axis with the headline figures.
 CREATE VIEW axis_results AS
-SELECT r.lot, r.serial AS unit, r.run_id, r.start_utime, r.state, ra.axis, ra.kind,
+SELECT r.lot, r.serial AS unit, r.run_id, r.start_utime, r.state, ra.axis_index, ra.axis, ra.kind,
        MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.value END) AS random_walk,
        MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.unit END) AS random_walk_unit,
        MAX(CASE WHEN m.name = 'bias_instability' THEN m.value END) AS bias_instability,
@@ -146,7 +146,7 @@ SELECT r.lot, r.serial AS unit, r.run_id, r.start_utime, r.state, ra.axis, ra.ki
 FROM runs r
 JOIN run_axes ra ON ra.run_key = r.run_key
 LEFT JOIN measurements m ON m.run_key = r.run_key AND m.axis = ra.axis
-GROUP BY r.run_key, ra.axis_index;
+GROUP BY r.lot, r.run_key, ra.axis_index;  -- lot first: WHERE lot = ? reaches the index
 
 -- Every judged value with its run's lot and unit, for generic lot queries.
 CREATE VIEW lot_measurements AS
@@ -157,14 +157,20 @@ FROM measurements m
 JOIN runs r ON r.run_key = m.run_key
 LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis;
 
--- Per lot: runs, finished runs, verdict counts and yield.
+-- Each unit's latest run in each lot (a retested unit counts once, as retested).
+CREATE VIEW latest_runs AS
+SELECT r.* FROM runs r
+WHERE r.start_utime = (SELECT MAX(x.start_utime) FROM runs x
+                       WHERE x.lot = r.lot AND x.serial = r.serial);
+
+-- Per lot: runs, units and their verdicts (latest run per unit) and yield.
 CREATE VIEW lot_overview AS
-SELECT lot, COUNT(*) AS runs, COUNT(DISTINCT serial) AS units,
-       SUM(verdict = 'PASS') AS pass, SUM(verdict = 'MARGINAL') AS marginal,
-       SUM(verdict = 'FAIL') AS fail, SUM(verdict IS NULL) AS unjudged,
-       1.0 * SUM(verdict IN ('PASS', 'MARGINAL')) / NULLIF(SUM(verdict IS NOT NULL), 0) AS yield,
-       MIN(start_utime) AS first_start_utime, MAX(start_utime) AS last_start_utime
-FROM runs GROUP BY lot;
+SELECT l.lot, (SELECT COUNT(*) FROM runs x WHERE x.lot = l.lot) AS runs, COUNT(*) AS units,
+       SUM(l.verdict = 'PASS') AS pass, SUM(l.verdict = 'MARGINAL') AS marginal,
+       SUM(l.verdict = 'FAIL') AS fail, SUM(l.verdict IS NULL) AS unjudged,
+       1.0 * SUM(l.verdict IN ('PASS', 'MARGINAL')) / NULLIF(SUM(l.verdict IS NOT NULL), 0) AS yield,
+       MIN(l.start_utime) AS first_start_utime, MAX(l.start_utime) AS last_start_utime
+FROM latest_runs l GROUP BY l.lot;
 
 -- Per lot, measurement and axis kind: count, mean, sd, min, max, pass rate.
 CREATE VIEW lot_statistics AS

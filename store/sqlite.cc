@@ -7,7 +7,9 @@ namespace {
 
 // The statement's first line, shortened, for error messages.
 std::string Brief(const std::string& sql) {
-  std::string s = sql.substr(0, sql.find('\n'));
+  const size_t start = sql.find_first_not_of(" \n\t");
+  if (start == std::string::npos) return "";
+  std::string s = sql.substr(start, sql.find('\n', start) - start);
   if (s.size() > 60) s = s.substr(0, 57) + "...";
   return s;
 }

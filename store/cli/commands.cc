@@ -78,6 +78,7 @@ int RunCommand(const StationRunOptions& options) {
     return kExitError;
   }
   store::AxisRowFilter filter;
+  filter.lot = options.lot;
   filter.run_prefix = run->run_prefix + "-";
   filter.latest_per_unit = false;
   auto rows = store::QueryAxisRows(**archive, filter);

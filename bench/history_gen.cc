@@ -1,0 +1,164 @@
+// imuqual-history-gen: fills an archive with years of production history
+// (lots x units of results, no raw samples) for query benchmarks and for
+// trying the lot tools on a realistic archive. Each unit is a simulated
+// unit of a lot profile; its Allan curve is the IEEE 952 model of its truth
+// on the octave grid of a 2 h soak, each point scattered by its own
+// 1/sqrt(2(K-1)) error; measurements and verdicts come from the same code as
+// live runs. Lots drift slowly so that comparisons have something to find.
+#include <CLI/CLI.hpp>
+
+#include <cmath>
+#include <cstdio>
+
+#include "acquire/lot_profile.h"
+#include "acquire/random.h"
+#include "analyze/allan/noise_model.h"
+#include "analyze/judge/judge.h"
+#include "analyze/judge/measure.h"
+#include "analyze/judge/plan_file.h"
+#include "common/clock.h"
+#include "common/log.h"
+#include "store/archive.h"
+
+namespace {
+
+using namespace imuqual;
+
+constexpr double kSoakS = 7200;
+constexpr double kDay = 86400e6;     // us
+constexpr double kUnitGap = 180e6;   // us between units of a lot
+
+double ModelAvar(const pb::AxisTruth& t, double tau) {
+  return 3 * t.quantization() * t.quantization() / (tau * tau) +
+         t.random_walk() * t.random_walk() / tau +
+         allan::kBiasInstabilityFactor * allan::kBiasInstabilityFactor * t.bias_instability() *
+             t.bias_instability() +
+         t.rate_random_walk() * t.rate_random_walk() * tau / 3 +
+         t.rate_ramp() * t.rate_ramp() * tau * tau / 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string db, profile_name = "tactical", plan_spec = "builtin:tactical", prefix = "HIST";
+  int lots = 100, units = 100;
+  uint64_t seed = 1;
+  CLI::App app{"imuqual-history-gen: fill an archive with simulated production history"};
+  app.add_option("--db", db, "archive file (created if missing)")->required();
+  app.add_option("--lots", lots, "number of lots")->capture_default_str();
+  app.add_option("--units", units, "units per lot")->capture_default_str();
+  app.add_option("--profile", profile_name, "lot profile")->capture_default_str();
+  app.add_option("--plan", plan_spec, "test plan")->capture_default_str();
+  app.add_option("--prefix", prefix, "lot name prefix")->capture_default_str();
+  app.add_option("--seed", seed, "seed")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  SetLogProgramName("imuqual-history-gen");
+
+  auto profile = sim::LotProfileByName(profile_name);
+  auto plan = judge::LoadPlan(plan_spec);
+  auto archive = store::Archive::Open(db, store::Archive::Mode::kWrite);
+  for (const Status& st : {profile.status(), plan.status(), archive.status()}) {
+    if (!st.ok()) {
+      LogError(st.message());
+      return 1;
+    }
+  }
+  const double rate = profile->nominal_rate_hz;
+  const std::string plan_bytes = plan->SerializeAsString();
+  std::vector<judge::AxisDesc> axes;
+  std::vector<store::AxisInfo> axis_info;
+  for (const sim::AxisProfile& a : profile->axes) {
+    axes.push_back({a.name, a.kind});
+    axis_info.push_back({a.name, a.kind});
+  }
+  const int64_t base_utime = NowUtime() - static_cast<int64_t>(lots * 3 * kDay);
+  sim::Random scatter(seed);
+  for (int l = 0; l < lots; ++l) {
+    char lot[64];
+    std::snprintf(lot, sizeof lot, "%s-L%03d", prefix.c_str(), l + 1);
+    // A slow process drift: each lot's noise 0.3 % worse than the last.
+    sim::LotProfile drifted = *profile;
+    for (sim::AxisProfile& a : drifted.axes) {
+      a.typical.set_bias_instability(a.typical.bias_instability() * (1 + 0.003 * l));
+      a.typical.set_random_walk(a.typical.random_walk() * (1 + 0.003 * l));
+    }
+    if (!(*archive)->Begin().ok()) return 1;
+    for (int u = 0; u < units; ++u) {
+      const pb::SimTruth truth = sim::MakeUnitTruth(drifted, sim::SeedFromName(lot) ^ seed, u, rate);
+      store::RunInfo run;
+      char serial[64], run_id[96];
+      std::snprintf(serial, sizeof serial, "%s-U%03d", lot, u + 1);
+      std::snprintf(run_id, sizeof run_id, "%s-R1", serial);
+      run.run_id = run_id;
+      run.serial = serial;
+      run.lot = lot;
+      run.station = "station-" + std::to_string(1 + u % 4);
+      run.slot = std::to_string(1 + u % 16);
+      run.source = "history-gen:" + truth.profile();
+      run.software_version = "history-gen";
+      run.start_utime = base_utime + static_cast<int64_t>(l * 3 * kDay + u * kUnitGap);
+      run.end_utime = run.start_utime + static_cast<int64_t>(kSoakS * 1e6);
+      run.nominal_rate_hz = rate;
+      run.axes = axis_info;
+      run.plan = plan_bytes;
+      run.truth = truth.SerializeAsString();
+      run.state = "complete";
+      const int64_t samples = static_cast<int64_t>(kSoakS * rate);
+      run.samples_announced = samples;
+      run.first_sample = 0;
+      run.end_sample = samples;
+      auto key = (*archive)->UpsertRun(run);
+      if (!key.ok()) {
+        LogError(key.status().message());
+        return 1;
+      }
+      std::vector<pb::Measurement> ms;
+      for (size_t a = 0; a < axes.size(); ++a) {
+        store::CurveRecord rec;
+        rec.axis = axes[a].name;
+        rec.curve.deviation = allan::Deviation::kOadev;
+        rec.curve.ci = allan::CiMethod::kSimple;
+        rec.curve.tau0_s = 1 / rate;
+        rec.curve.n_phase = samples + 1;
+        for (int64_t m = 1; m <= samples / 9; m *= 2) {
+          const int64_t clusters = samples / m;
+          const double err = 1 / std::sqrt(2.0 * (clusters - 1));
+          allan::CurvePoint p;
+          p.m = m;
+          p.tau_s = m / rate;
+          p.dev = std::sqrt(ModelAvar(truth.axes(a), p.tau_s)) * (1 + err * scatter.Gaussian());
+          p.lo = p.dev * (1 - err);
+          p.hi = p.dev * (1 + err);
+          p.edf = static_cast<double>(clusters - 1);
+          p.n = samples + 1 - 2 * m;
+          p.stride = 1;
+          rec.curve.points.push_back(p);
+        }
+        rec.samples = samples;
+        rec.valid_samples = samples;
+        rec.computed_utime = run.end_utime.value();
+        for (pb::Measurement& m : judge::MeasureAxis(axes[a].name, axes[a].kind, rec.curve,
+                                                     truth.axes(a).bias())) {
+          ms.push_back(std::move(m));
+        }
+        if (!(*archive)->PutCurve(*key, rec).ok()) return 1;
+      }
+      for (pb::Measurement& m : judge::MeasureRun(kSoakS, samples, 0, 0, static_cast<int>(axes.size()))) {
+        ms.push_back(std::move(m));
+      }
+      const judge::Judgement j = judge::Judge(*plan, axes, &ms);
+      store::ResultRecord res;
+      res.verdict = j.verdict == pb::PASS ? "PASS" : j.verdict == pb::MARGINAL ? "MARGINAL"
+                                                      : j.verdict == pb::FAIL   ? "FAIL" : "";
+      res.reasons = j.reasons;
+      res.samples = samples;
+      res.measurements = std::move(ms);
+      res.result_utime = run.end_utime.value();
+      if (!(*archive)->PutResult(*key, res).ok()) return 1;
+      if (!(*archive)->MarkFinalized(*key, res.result_utime).ok()) return 1;
+    }
+    if (!(*archive)->Commit().ok()) return 1;
+  }
+  std::printf("%d lots x %d units x %zu axes written to %s\n", lots, units, axes.size(), db.c_str());
+  return 0;
+}
