@@ -31,6 +31,8 @@ constexpr int kDatagramPayloadBytes = 1399;
 constexpr int kMaxBatchSamples = 200;
 constexpr int kMaxResendRange = 4096;
 constexpr int kBatchesPerRunPerRound = 8;
+constexpr int kFinalAnnouncements = 3;    // an end is said more than once (datagrams get lost)
+constexpr double kResendQuietS = 2.0;     // without consumers to wait for: linger until requests stop
 
 std::string CompactUtc(int64_t utime) {
   std::string iso = FormatUtimeIso(utime);  // 2026-11-21T11:05:00Z
@@ -109,10 +111,13 @@ struct AcquireService::Impl {
   std::deque<imuqual::resend_t> resend_queue;
   // Counters.
   int64_t published = 0, resent = 0, resend_misses = 0, injected_drops = 0, acks = 0,
-          resend_requests = 0;
+          resend_requests = 0, publish_errors = 0, evicted_unacknowledged = 0;
+  double last_resend_request_s = 0;
+  ThrottledLog publish_log;
 
-  Status Publish(RunState& run, bool fresh_batch_dropped, const std::vector<uint8_t>& bytes);
-  Status Announce(RunState& run);
+  void Publish(RunState& run, bool fresh_batch_dropped, const std::vector<uint8_t>& bytes);
+  // Publishes the run's announcement `times` times; failures are counted.
+  void Announce(RunState& run, int times = 1);
   void OnAck(const imuqual::ack_t& ack);
   Status ServeResends();
   void Prune(double now_s);
@@ -241,7 +246,7 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
   return std::unique_ptr<AcquireService>(new AcquireService(std::move(impl)));
 }
 
-Status AcquireService::Impl::Announce(RunState& run) {
+void AcquireService::Impl::Announce(RunState& run, int times) {
   run.announcement.host_utime = NowUtime();
   run.announcement.state = run.state;
   run.announcement.last_seq = run.next_seq - 1;
@@ -250,7 +255,13 @@ Status AcquireService::Impl::Announce(RunState& run) {
   run.announcement.end_sample = run.end_counter;
   run.announcement.announcer = "acquire";
   run.announcement.retained_first_seq = run.retained.empty() ? run.next_seq : run.retained.front().seq;
-  return bus->Publish(channels::kRun, run.announcement);
+  for (int i = 0; i < times; ++i) {
+    Status st = bus->Publish(channels::kRun, run.announcement);
+    if (!st.ok()) {
+      ++publish_errors;
+      publish_log.Error(st.message());
+    }
+  }
 }
 
 void AcquireService::Impl::OnAck(const imuqual::ack_t& ack) {
@@ -289,13 +300,19 @@ bool AcquireService::Impl::AllAcknowledged() const {
   return true;
 }
 
-Status AcquireService::Impl::Publish(RunState& run, bool drop, const std::vector<uint8_t>& bytes) {
+// A failed send is counted, not fatal: the batch stays retained and is
+// resent when a consumer asks for it.
+void AcquireService::Impl::Publish(RunState& run, bool drop, const std::vector<uint8_t>& bytes) {
   if (drop) {
     ++injected_drops;
-    return Status::Ok();
+    return;
   }
   ++published;
-  return bus->PublishEncoded(run.channel, bytes);
+  Status st = bus->PublishEncoded(run.channel, bytes);
+  if (!st.ok()) {
+    ++publish_errors;
+    publish_log.Error(st.message());
+  }
 }
 
 Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* published_one) {
@@ -315,7 +332,8 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
     run.state = imuqual::run_t::STATE_COMPLETE;
     LogInfo("run " + run.run_id + " complete: " + std::to_string(run.next_seq) + " batches, " +
             std::to_string(run.samples_published) + " samples");
-    return Announce(run);
+    Announce(run, kFinalAnnouncements);
+    return Status::Ok();
   }
   if (run.first_counter < 0) {
     run.first_counter = block.first_sample;
@@ -345,7 +363,7 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
   std::vector<uint8_t> bytes;
   IMUQUAL_RETURN_IF_ERROR(EncodeMessage(msg, &bytes));
   const bool drop = options.inject_drop > 0 && drop_rng.Uniform() < options.inject_drop;
-  IMUQUAL_RETURN_IF_ERROR(Publish(run, drop, bytes));
+  Publish(run, drop, bytes);
   run.retained.push_back({run.next_seq, now_s, std::move(bytes)});
   ++run.next_seq;
   run.samples_published += *n;
@@ -370,28 +388,34 @@ Status AcquireService::Impl::ServeResends() {
           continue;
         }
         ++resent;
-        IMUQUAL_RETURN_IF_ERROR(bus->PublishEncoded(run.channel, it->bytes));
+        Status st = bus->PublishEncoded(run.channel, it->bytes);
+        if (!st.ok()) {
+          ++publish_errors;
+          publish_log.Error(st.message());
+        }
       }
     }
   }
   return Status::Ok();
 }
 
-// Drops retained batches that every awaited consumer acknowledged and that
-// are older than the retention period (without consumers: age only).
+// Retention is bounded in batches, whatever the pace: the window plus
+// retention_s of data. Older batches are dropped (counted if a consumer had
+// not acknowledged them: the store still serves those from its archive).
 void AcquireService::Impl::Prune(double now_s) {
+  (void)now_s;
   for (RunState& run : runs) {
+    const double batches_per_s =
+        run.unit.source->info().nominal_rate_hz / std::max(run.batch_samples, 1);
+    const size_t cap = static_cast<size_t>(options.window_batches) +
+                       static_cast<size_t>(std::ceil(options.retention_s * batches_per_s));
     int64_t acked_all = std::numeric_limits<int64_t>::max();
     for (const std::string& role : options.await) {
       auto it = run.acked.find(role);
       acked_all = std::min(acked_all, it == run.acked.end() ? int64_t{0} : it->second);
     }
-    while (!run.retained.empty()) {
-      const Retained& r = run.retained.front();
-      const bool old = now_s - r.sent_s > options.retention_s;
-      const bool acknowledged = r.seq < acked_all;
-      // Keep at least the window's worth while unacknowledged, whatever the age.
-      if (!(old && (acknowledged || options.await.empty()))) break;
+    while (run.retained.size() > cap) {
+      if (run.retained.front().seq >= acked_all) ++evicted_unacknowledged;
       run.retained.pop_front();
     }
   }
@@ -401,7 +425,7 @@ Status AcquireService::Impl::Abort(const std::string& why) {
   for (RunState& run : runs) {
     if (run.state == imuqual::run_t::STATE_RUNNING) {
       run.state = imuqual::run_t::STATE_ABORTED;
-      (void)Announce(run);
+      Announce(run, kFinalAnnouncements);
       LogWarning("run " + run.run_id + " aborted after " + std::to_string(run.next_seq) +
                  " batches: " + why);
     }
@@ -419,6 +443,8 @@ Counters AcquireService::Impl::StatusCounters() const {
           {"batches_resent", resent},    {"resend_requests", resend_requests},
           {"resend_misses", resend_misses}, {"injected_drops", injected_drops},
           {"acks_received", acks},       {"batches_retained", retained},
+          {"publish_errors", publish_errors},
+          {"evicted_unacknowledged", evicted_unacknowledged},
           {"decode_errors", static_cast<int64_t>(bus->decode_errors())}};
 }
 
@@ -434,13 +460,14 @@ Status AcquireService::Run() {
   s.bus->Subscribe<imuqual::resend_t>(
       channels::kResend, 1000, [&s](const std::string&, imuqual::resend_t&& req, int64_t) {
         ++s.resend_requests;
+        s.last_resend_request_s = MonotonicSeconds();
         if (s.resend_queue.size() < 10000) s.resend_queue.push_back(std::move(req));
       });
 
   double now = MonotonicSeconds();
   for (RunState& run : s.runs) {
     run.last_ack_progress_s = now;
-    IMUQUAL_RETURN_IF_ERROR(s.Announce(run));
+    s.Announce(run);
     LogInfo("run " + run.run_id + " started: unit " + run.unit.serial + ", " +
             run.unit.source->info().description + ", " + std::to_string(run.batch_samples) +
             " samples per batch");
@@ -475,7 +502,7 @@ Status AcquireService::Run() {
     s.Prune(now);
 
     if (now >= next_heartbeat) {
-      for (RunState& run : s.runs) IMUQUAL_RETURN_IF_ERROR(s.Announce(run));
+      for (RunState& run : s.runs) s.Announce(run);
       next_heartbeat = now + s.options.heartbeat_s;
     }
     if (now >= next_status) {
@@ -487,8 +514,12 @@ Status AcquireService::Run() {
                                       [](const RunState& r) { return r.source_done; });
     if (all_done) {
       if (all_done_since < 0) all_done_since = now;
-      if (s.AllAcknowledged()) {
-        for (RunState& run : s.runs) IMUQUAL_RETURN_IF_ERROR(s.Announce(run));
+      // Without consumers to wait for, stay while anyone still asks for
+      // resends (then they have what they need), within linger_s.
+      const bool quiet = s.options.await.empty() && now - all_done_since > kResendQuietS &&
+                         now - s.last_resend_request_s > kResendQuietS;
+      if ((!s.options.await.empty() && s.AllAcknowledged()) || quiet) {
+        for (RunState& run : s.runs) s.Announce(run, kFinalAnnouncements);
         s.LogSummary("all runs acknowledged");
         (void)PublishStatus(*s.bus, "acquire", true, "all runs acknowledged", s.StatusCounters());
         return Status::Ok();

@@ -7,7 +7,9 @@
 // as fast as the awaited consumers (store, analyze) acknowledge, keeping at
 // most `window_batches` unacknowledged batches in flight per run, so a
 // station never overruns its own bus. Device-paced sources (serial) are
-// never held back; the window then only bounds the retention.
+// never held back. Retention is bounded either way: the window plus
+// retention_s of data per run; older batches are served by the store from
+// its archive (run_t.retained_first_seq says where acquire's memory starts).
 //
 // Threading: Run() is single-threaded; handlers only record acks and queue
 // resend requests for the loop.
@@ -36,7 +38,7 @@ struct AcquireOptions {
   int window_batches = 64;            // unacknowledged batches in flight per run
   int batch_samples = 0;              // samples per batch; 0 = the most that fit one datagram
   double heartbeat_s = 1.0;           // run_t period
-  double retention_s = 120.0;         // batches kept for resends at least this long
+  double retention_s = 120.0;         // seconds of data kept for resends (plus the window)
   double pace = 0.0;                  // 0: as fast as acknowledged; 1: real time; k: k x real time
   double consumer_timeout_s = 120.0;  // no ack progress this long while waiting: fail (well
                                       // beyond the consumers' 30 s give-up on a lost batch)
