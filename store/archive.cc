@@ -169,7 +169,9 @@ WITH c AS (
   FROM raw_chunks WHERE run_key = ?1 WINDOW w AS (ORDER BY seq)
 ),
 holes AS (
-  SELECT COALESCE(prev_seq + 1, 0) AS first_seq, seq - 1 AS last_seq,
+  -- A seq hole spans the missing batches; a counter jump is at one batch.
+  SELECT CASE WHEN seq - COALESCE(prev_seq, -1) > 1 THEN COALESCE(prev_seq + 1, 0) ELSE seq END AS first_seq,
+         CASE WHEN seq - COALESCE(prev_seq, -1) > 1 THEN seq - 1 ELSE seq END AS last_seq,
          prev_end AS first_sample,
          CASE WHEN prev_end IS NULL THEN NULL ELSE first_sample - prev_end END AS num_samples,
          CASE WHEN seq - COALESCE(prev_seq, -1) > 1 THEN 'seq'

@@ -281,7 +281,7 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
     msg.ci_method = std::string(allan::CiMethodName(curve.ci));
     msg.is_final = final;
     msg.samples = out.samples;
-    msg.valid_samples = out.samples - out.gap_samples;
+    msg.valid_samples = out.samples - curve.invalid_rate_samples;  // neither missing nor invalid
     msg.tau0_s = curve.tau0_s;
     msg.num_points = static_cast<int32_t>(curve.points.size());
     for (const allan::CurvePoint& p : curve.points) {

@@ -62,6 +62,17 @@ std::string LogTail(const std::string& path, int lines) {
   return t.substr(pos == 0 ? 0 : pos + 1);
 }
 
+// The station's processes. However RunStation ends, they are stopped in
+// order (source, analysis, archive), each given time to drain.
+struct Children {
+  std::optional<Subprocess> acquire, analyze, store;
+  ~Children() {
+    for (std::optional<Subprocess>* p : {&acquire, &analyze, &store}) {
+      if (p->has_value()) (*p)->Stop(kStopTimeoutS);
+    }
+  }
+};
+
 struct RunProgress {
   int64_t samples_published = 0;
   int8_t state = 0;
@@ -158,12 +169,19 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     IMUQUAL_RETURN_IF_ERROR(WriteStringToFile(result.log_path, text));
   }
   const std::string dir = ExecutableDir();
-  auto store = Subprocess::Start({dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path,
-                                  "--stale-after", std::to_string(o.stale_after_s)},
-                                 result.log_path);
-  if (!store.ok()) return store.status();
-  auto analyze = Subprocess::Start({dir + "/imuqual-analyze", "--lcm-url", url}, result.log_path);
-  if (!analyze.ok()) return analyze.status();
+  Children children;
+  {
+    auto store = Subprocess::Start({dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path,
+                                    "--stale-after", std::to_string(o.stale_after_s)},
+                                   result.log_path);
+    if (!store.ok()) return store.status();
+    children.store = std::move(*store);
+    auto analyze = Subprocess::Start({dir + "/imuqual-analyze", "--lcm-url", url}, result.log_path);
+    if (!analyze.ok()) return analyze.status();
+    children.analyze = std::move(*analyze);
+  }
+  std::optional<Subprocess>& store = children.store;
+  std::optional<Subprocess>& analyze = children.analyze;
 
   auto failure = [&](const std::string& what) {
     return Status::Unavailable(what + "; last lines of " + result.log_path + ":\n" +
@@ -198,8 +216,12 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     acquire_args.insert(acquire_args.end(), {"--inject-drop", std::to_string(o.inject_drop)});
   }
   if (o.pace > 0) acquire_args.insert(acquire_args.end(), {"--pace", std::to_string(o.pace)});
-  auto acquire = Subprocess::Start(acquire_args, result.log_path);
-  if (!acquire.ok()) return acquire.status();
+  {
+    auto started = Subprocess::Start(acquire_args, result.log_path);
+    if (!started.ok()) return started.status();
+    children.acquire = std::move(*started);
+  }
+  std::optional<Subprocess>& acquire = children.acquire;
 
   const bool tty = o.show_progress && ::isatty(STDERR_FILENO);
   const double t0 = MonotonicSeconds();
