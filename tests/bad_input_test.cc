@@ -266,6 +266,27 @@ TEST(BadInputTest, FilesThatAreNotArchivesGetAOneLineErrorAndAreNotTouched) {
   EXPECT_EQ(*after, "these are notes, not an archive; please leave them alone\n");
 }
 
+TEST(BadInputTest, AReadOnlyDirectoryIsAClearError) {
+  if (std::getenv("IMUQUAL_NETNS") == nullptr) {
+    GTEST_SKIP() << "needs the private mount namespace of tests/netns_run";
+  }
+  testing::TempDir dir("bad_readonly");
+  const std::string ro = dir.path("ro");
+  std::filesystem::create_directories(ro);
+  // Read-only even for root: a read-only mount.
+  ASSERT_EQ(::mount("tmpfs", ro.c_str(), "tmpfs", MS_RDONLY, "size=64k"), 0) << std::strerror(errno);
+  struct Unmount {
+    std::string dir;
+    ~Unmount() { ::umount2(dir.c_str(), MNT_DETACH); }
+  } unmount{ro};
+  const auto r = RunCommand(Bin("imuqual-store") + " --lcm-url 'udpm://239.255.76.67:7998?ttl=0' --db " +
+                            ro + "/a.db 2>&1");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_NE(r.output.find("cannot write the archive " + ro + "/a.db"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("Read-only file system"), std::string::npos) << r.output;
+}
+
 TEST(BadInputTest, AFullDiskStopsAcknowledgementsButLosesNothingAccepted) {
   if (std::getenv("IMUQUAL_NETNS") == nullptr) {
     GTEST_SKIP() << "needs the private mount namespace of tests/netns_run";
