@@ -33,6 +33,7 @@ constexpr int kMaxResendRange = 4096;
 constexpr int kBatchesPerRunPerRound = 8;
 constexpr int kFinalAnnouncements = 3;    // an end is said more than once (datagrams get lost)
 constexpr double kResendQuietS = 2.0;     // without consumers to wait for: linger until requests stop
+constexpr double kResendDedupS = 0.05;    // a batch resent this recently already answers a request
 
 std::string CompactUtc(int64_t utime) {
   std::string iso = FormatUtimeIso(utime);  // 2026-11-21T11:05:00Z
@@ -51,6 +52,7 @@ struct Retained {
   int64_t seq;
   double sent_s;
   std::vector<uint8_t> bytes;
+  double resent_s = -1e300;  // last resend: consumers often ask for the same hole together
 };
 
 struct RunState {
@@ -387,6 +389,9 @@ Status AcquireService::Impl::ServeResends() {
           ++resend_misses;
           continue;
         }
+        const double now = MonotonicSeconds();
+        if (now - it->resent_s < kResendDedupS) continue;
+        it->resent_s = now;
         ++resent;
         Status st = bus->PublishEncoded(run.channel, it->bytes);
         if (!st.ok()) {
