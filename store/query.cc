@@ -2,48 +2,160 @@
 
 namespace imuqual::store {
 
-Result<std::vector<AxisRow>> QueryAxisRows(Archive& archive, const AxisRowFilter& filter) {
-  if (filter.lot.empty()) return Status::InvalidArgument("a lot is required");
-  // a.lot = ?1 reaches the runs index through the view (its GROUP BY starts
-  // with the lot); the other conditions filter that lot's rows.
-  auto s = archive.db().Prepare(R"sql(
+namespace {
+
+constexpr char kAxisColumns[] = R"sql(
 SELECT a.lot, a.unit, a.run_id, a.start_utime, a.state, a.axis, a.kind, a.random_walk,
        a.bias_instability, a.bias_instability_ieee, a.tau_min_s, a.rate_random_walk,
        COALESCE(a.samples, 0), COALESCE(a.gap_samples, 0), COALESCE(a.invalid_samples, 0),
        COALESCE(a.axis_verdict, ''), COALESCE(a.run_verdict, '')
-FROM axis_results a
+FROM axis_results a)sql";
+
+Result<std::vector<AxisRow>> ReadAxisRows(Stmt& s) {
+  std::vector<AxisRow> rows;
+  for (;;) {
+    auto row = s.Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return rows;
+    AxisRow r;
+    r.lot = s.Text(0);
+    r.unit = s.Text(1);
+    r.run_id = s.Text(2);
+    r.start_utime = s.Int(3);
+    r.state = s.Text(4);
+    r.axis = s.Text(5);
+    r.kind = s.Text(6);
+    r.random_walk = s.Real(7);
+    r.bias_instability = s.Real(8);
+    r.bias_instability_ieee = s.Real(9);
+    r.tau_min_s = s.Real(10);
+    r.rate_random_walk = s.Real(11);
+    r.samples = s.Int(12);
+    r.gap_samples = s.Int(13);
+    r.invalid_samples = s.Int(14);
+    r.axis_verdict = s.Text(15);
+    r.run_verdict = s.Text(16);
+    rows.push_back(std::move(r));
+  }
+}
+
+pb::Outcome OutcomeFromText(const std::string& text) {
+  if (text == "PASS") return pb::PASS;
+  if (text == "MARGINAL") return pb::MARGINAL;
+  if (text == "FAIL") return pb::FAIL;
+  return pb::OUTCOME_UNSET;
+}
+
+}  // namespace
+
+Result<std::vector<AxisRow>> QueryAxisRows(Archive& archive, const AxisRowFilter& filter) {
+  if (filter.lot.empty()) return Status::InvalidArgument("a lot is required");
+  // a.lot = ?1 reaches the runs index through the view (its GROUP BY starts
+  // with the lot); the other conditions filter that lot's rows.
+  auto s = archive.db().Prepare(std::string(kAxisColumns) + R"sql(
 WHERE a.lot = ?1
   AND substr(a.run_id, 1, length(?2)) = ?2
   AND (?3 = 0 OR a.run_id IN (SELECT run_id FROM latest_runs WHERE lot = ?1))
 ORDER BY a.unit, a.start_utime, a.run_id, a.axis_index)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, filter.lot).Bind(2, filter.run_prefix).Bind(3, filter.latest_per_unit ? 1 : 0);
+  return ReadAxisRows(*s);
+}
+
+Result<std::vector<AxisRow>> QueryUnitHistory(Archive& archive, const std::string& serial) {
+  auto runs = archive.db().Prepare(
+      "SELECT run_key FROM runs WHERE serial = ? ORDER BY start_utime, run_id");
+  if (!runs.ok()) return runs.status();
+  runs->Bind(1, serial);
+  std::vector<int64_t> keys;
+  for (;;) {
+    auto row = runs->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    keys.push_back(runs->Int(0));
+  }
+  // One run at a time: an equality on the view's grouping column reaches the
+  // primary key, where IN (subquery) would aggregate the whole archive.
+  auto s = archive.db().Prepare(std::string(kAxisColumns) +
+                                " WHERE a.run_key = ?1 ORDER BY a.axis_index");
+  if (!s.ok()) return s.status();
   std::vector<AxisRow> rows;
+  for (int64_t key : keys) {
+    s->Bind(1, key);
+    auto part = ReadAxisRows(*s);
+    s->Reset();
+    if (!part.ok()) return part.status();
+    rows.insert(rows.end(), part->begin(), part->end());
+  }
+  return rows;
+}
+
+Result<std::vector<MeasurementRow>> QueryLotMeasurements(Archive& archive, const std::string& lot) {
+  auto s = archive.db().Prepare(R"sql(
+SELECT l.serial, l.run_id, m.axis, COALESCE(ra.kind, ''), m.name, m.value, m.uncertainty, m.unit,
+       m.low, m.high, m.marginal_low, m.marginal_high, COALESCE(m.outcome, ''), m.note
+FROM latest_runs l
+JOIN measurements m ON m.run_key = l.run_key
+LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis
+WHERE l.lot = ?1
+ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name)sql");
+  if (!s.ok()) return s.status();
+  s->Bind(1, lot);
+  std::vector<MeasurementRow> rows;
+  auto opt = [&](int col) { return s->IsNull(col) ? std::nullopt : std::optional<double>(s->Real(col)); };
   for (;;) {
     auto row = s->Step();
     if (!row.ok()) return row.status();
-    if (!*row) break;
-    AxisRow r;
-    r.lot = s->Text(0);
-    r.unit = s->Text(1);
-    r.run_id = s->Text(2);
-    r.start_utime = s->Int(3);
-    r.state = s->Text(4);
-    r.axis = s->Text(5);
-    r.kind = s->Text(6);
-    r.random_walk = s->Real(7);
-    r.bias_instability = s->Real(8);
-    r.bias_instability_ieee = s->Real(9);
-    r.tau_min_s = s->Real(10);
-    r.rate_random_walk = s->Real(11);
-    r.samples = s->Int(12);
-    r.gap_samples = s->Int(13);
-    r.invalid_samples = s->Int(14);
-    r.axis_verdict = s->Text(15);
-    r.run_verdict = s->Text(16);
+    if (!*row) return rows;
+    MeasurementRow r;
+    r.unit = s->Text(0);
+    r.run_id = s->Text(1);
+    r.axis = s->Text(2);
+    r.kind = s->Text(3);
+    r.name = s->Text(4);
+    r.value = s->Real(5);
+    r.uncertainty = s->Real(6);
+    r.value_unit = s->Text(7);
+    r.low = opt(8);
+    r.high = opt(9);
+    r.marginal_low = opt(10);
+    r.marginal_high = opt(11);
+    r.outcome = OutcomeFromText(s->Text(12));
+    r.note = s->Text(13);
     rows.push_back(std::move(r));
   }
-  return rows;
+}
+
+Result<std::vector<RunRow>> QueryRuns(Archive& archive, const RunFilter& f) {
+  auto s = archive.db().Prepare(R"sql(
+SELECT run_id, serial, lot, station, slot, state, COALESCE(verdict, ''), COALESCE(reasons, ''),
+       start_utime
+FROM runs
+WHERE (?1 = '' OR lot = ?1) AND (?2 = '' OR station = ?2) AND (?3 = '' OR serial = ?3)
+  AND start_utime >= ?4
+  AND (?5 = '' OR (?5 = 'none' AND verdict IS NULL) OR verdict = ?5)
+ORDER BY start_utime DESC, run_id
+LIMIT ?6)sql");
+  if (!s.ok()) return s.status();
+  s->Bind(1, f.lot).Bind(2, f.station).Bind(3, f.unit).Bind(4, f.since_utime).Bind(5, f.verdict);
+  s->Bind(6, f.limit);
+  std::vector<RunRow> rows;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return rows;
+    RunRow r;
+    r.run_id = s->Text(0);
+    r.unit = s->Text(1);
+    r.lot = s->Text(2);
+    r.station = s->Text(3);
+    r.slot = s->Text(4);
+    r.state = s->Text(5);
+    r.verdict = s->Text(6);
+    r.reasons = s->Text(7);
+    r.start_utime = s->Int(8);
+    rows.push_back(std::move(r));
+  }
 }
 
 Result<std::vector<LotRow>> QueryLots(Archive& archive) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "common/status.h"
+#include "imuqual/record.pb.h"
 #include "store/archive.h"
 
 namespace imuqual::store {
@@ -43,6 +44,33 @@ struct LotRow {
 };
 
 Result<std::vector<LotRow>> QueryLots(Archive& archive);
+
+// The runs of one unit (serial) across lots, oldest first, per axis.
+Result<std::vector<AxisRow>> QueryUnitHistory(Archive& archive, const std::string& serial);
+
+// One judged value of a lot's latest runs (long form, for statistics).
+struct MeasurementRow {
+  std::string unit, run_id, axis, kind, name, value_unit, note;
+  double value = allan::kNaN;
+  double uncertainty = allan::kNaN;
+  std::optional<double> low, high, marginal_low, marginal_high;
+  pb::Outcome outcome = pb::OUTCOME_UNSET;
+};
+// Every measurement of each unit's latest run in `lot`.
+Result<std::vector<MeasurementRow>> QueryLotMeasurements(Archive& archive, const std::string& lot);
+
+// A run's identity and outcome (table runs).
+struct RunRow {
+  std::string run_id, unit, lot, station, slot, state, verdict, reasons;
+  int64_t start_utime = 0;
+};
+struct RunFilter {
+  std::string lot, station, unit;  // "" = any
+  int64_t since_utime = 0;         // runs started at or after
+  std::string verdict;             // "PASS", "MARGINAL", "FAIL", "none" (not judged) or "" = any
+  int64_t limit = 1000;
+};
+Result<std::vector<RunRow>> QueryRuns(Archive& archive, const RunFilter& filter);
 
 // Run reasons (FAIL/MARGINAL explanations) by run id, for the runs given.
 Result<std::vector<std::pair<std::string, std::string>>> QueryReasons(

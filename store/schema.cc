@@ -130,7 +130,7 @@ CREATE INDEX measurements_by_name ON measurements(name, axis);
 
 -- One row per run and axis with the headline figures.
 CREATE VIEW axis_results AS
-SELECT r.lot, r.serial AS unit, r.run_id, r.start_utime, r.state, ra.axis_index, ra.axis, ra.kind,
+SELECT r.lot, r.serial AS unit, r.run_id, r.run_key, r.start_utime, r.state, ra.axis_index, ra.axis, ra.kind,
        MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.value END) AS random_walk,
        MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.unit END) AS random_walk_unit,
        MAX(CASE WHEN m.name = 'bias_instability' THEN m.value END) AS bias_instability,
