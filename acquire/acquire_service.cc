@@ -176,11 +176,11 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
       }
       if (!match) {
         auto names = [](const auto& axes) {
-          std::string s;
+          std::vector<std::string> parts;
           for (const pb::Axis& a : axes) {
-            s += (s.empty() ? "" : ",") + a.name() + (a.kind() == pb::ACCEL ? "(accel)" : "(gyro)");
+            parts.push_back(a.name() + (a.kind() == pb::ACCEL ? "(accel)" : "(gyro)"));
           }
-          return s;
+          return Join(parts, ",");
         };
         return Status::InvalidArgument("unit " + unit.serial + ": source axes " +
                                        names(info.axes) + " do not match the plan's axes " +
@@ -540,13 +540,14 @@ Status AcquireService::Run() {
       for (const RunState& run : s.runs) {
         if (run.source_done || s.GateOpen(run)) continue;
         if (now - run.last_ack_progress_s > s.options.consumer_timeout_s) {
-          std::string missing;
+          std::vector<std::string> silent;
           for (const std::string& role : s.options.await) {
             auto it = run.acked.find(role);
             if (it == run.acked.end() || run.next_seq >= it->second + s.options.window_batches) {
-              missing += (missing.empty() ? "" : ", ") + ("imuqual-" + role);
+              silent.push_back("imuqual-" + role);
             }
           }
+          const std::string missing = Join(silent, ", ");
           const std::string why = "no acknowledgement from " + missing + " for run " +
                                   run.run_id + " in " +
                                   std::to_string(static_cast<int>(s.options.consumer_timeout_s)) +

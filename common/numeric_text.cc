@@ -1,5 +1,7 @@
 #include "common/numeric_text.h"
 
+#include "common/strings.h"
+
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -110,9 +112,8 @@ Result<NumericTable> ParseNumericText(std::string_view text, std::string_view so
             if (names[c] == w) found = static_cast<int>(c);
           }
           if (found < 0) {
-            std::string have;
-            for (const std::string& n : names) have += (have.empty() ? "" : ", ") + n;
-            return Status::InvalidArgument(where() + "no column '" + w + "' (columns: " + have + ")");
+            return Status::InvalidArgument(where() + "no column '" + w + "' (columns: " +
+                                           Join(names, ", ") + ")");
           }
           pick.push_back(found);
         }
@@ -151,11 +152,10 @@ Result<std::vector<double>> ParseSeries(std::string_view text, std::string_view 
   auto table = ParseNumericText(text, source_name, wanted);
   if (!table.ok()) return table.status();
   if (table->columns.size() != 1) {
-    std::string have;
-    for (const std::string& n : table->names) have += (have.empty() ? "" : ", ") + n;
     return Status::InvalidArgument(std::string(source_name) + ": " +
                                    std::to_string(table->columns.size()) +
-                                   " columns; choose one with --column (" + have + ")");
+                                   " columns; choose one with --column (" +
+                                   Join(table->names, ", ") + ")");
   }
   return std::move(table->columns[0]);
 }

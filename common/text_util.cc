@@ -56,16 +56,4 @@ Status ValidateIdentifier(std::string_view what, std::string_view value) {
   return Status::Ok();
 }
 
-std::vector<std::string> Split(std::string_view text, char sep) {
-  std::vector<std::string> parts;
-  size_t start = 0;
-  for (;;) {
-    const size_t pos = text.find(sep, start);
-    parts.emplace_back(text.substr(start, pos - start));
-    if (pos == std::string_view::npos) break;
-    start = pos + 1;
-  }
-  return parts;
-}
-
 }  // namespace imuqual

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "common/status.h"
+#include "common/strings.h"
 
 namespace imuqual {
 
@@ -22,7 +23,7 @@ std::string Sha256Hex(std::string_view data);
 // file names: 1-48 of [A-Za-z0-9._-]. The error names `what`.
 Status ValidateIdentifier(std::string_view what, std::string_view value);
 
-std::vector<std::string> Split(std::string_view text, char sep);
+
 
 }  // namespace imuqual
 

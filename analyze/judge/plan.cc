@@ -14,6 +14,7 @@
 
 #include "analyze/judge/builtin_plans.h"
 #include "analyze/judge/measurements.h"
+#include "common/strings.h"
 
 namespace imuqual::judge {
 namespace {
@@ -71,12 +72,10 @@ Status ValidateLimits(const pb::TestPlan& plan, const Locator& where) {
     };
     const MeasurementDef* def = FindMeasurement(lim.measurement());
     if (def == nullptr) {
-      std::string known;
-      for (const MeasurementDef& d : MeasurementCatalog()) {
-        known += (known.empty() ? "" : ", ") + std::string(d.name);
-      }
+      std::vector<std::string> known;
+      for (const MeasurementDef& d : MeasurementCatalog()) known.emplace_back(d.name);
       return fail(".measurement", "unknown measurement '" + lim.measurement() + "' (known: " +
-                                      known + ")");
+                                      Join(known, ", ") + ")");
     }
     for (const std::string& axis : lim.axes()) {
       if (!axis_kinds.count(axis)) return fail(".axes", "no axis named '" + axis + "' in the plan");
@@ -237,9 +236,8 @@ Result<pb::TestPlan> BuiltinPlan(std::string_view name) {
   for (const BuiltinPlanFile& f : BuiltinPlanFiles()) {
     if (f.name == name) return ParsePlanText(f.text, "builtin:" + std::string(name));
   }
-  std::string known;
-  for (const std::string& n : BuiltinPlanNames()) known += (known.empty() ? "" : ", ") + n;
-  return Status::NotFound("no built-in plan '" + std::string(name) + "' (built in: " + known + ")");
+  return Status::NotFound("no built-in plan '" + std::string(name) + "' (built in: " +
+                          Join(BuiltinPlanNames(), ", ") + ")");
 }
 
 std::string_view PlanStopRule(const pb::TestPlan& plan) {

@@ -6,6 +6,8 @@
 #include "common/shutdown.h"
 #include "store/cli/analyze_command.h"
 #include "store/cli/commands.h"
+#include "store/cli/export_command.h"
+#include "store/cli/lot_commands.h"
 
 int main(int argc, char** argv) {
   using namespace imuqual;
@@ -36,7 +38,7 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--quiet", quiet, "no progress line");
 
   std::string db, format = "table", lot;
-  bool all_runs = false;
+  bool all_runs = false, stats = false;
   CLI::App* lots_cmd = app.add_subcommand("lots", "list the lots in an archive");
   lots_cmd->add_option("--db", db, "archive file")->required();
   lots_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
@@ -46,6 +48,45 @@ int main(int argc, char** argv) {
   lot_cmd->add_option("--db", db, "archive file")->required();
   lot_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
   lot_cmd->add_flag("--all-runs", all_runs, "every run, not only each unit's latest");
+  lot_cmd->add_flag("--stats", stats,
+                    "per axis and measurement: n, mean, sd, min, max, yield, Cpk/Cpu/Cpl");
+
+  std::string lot_b;
+  double alpha = 0.05;
+  CLI::App* compare_cmd = app.add_subcommand("compare", "two lots side by side, with significance");
+  compare_cmd->add_option("lot_a", lot, "first lot")->required();
+  compare_cmd->add_option("lot_b", lot_b, "second lot")->required();
+  compare_cmd->add_option("--db", db, "archive file")->required();
+  compare_cmd->add_option("--alpha", alpha, "family-wise significance level (Holm)")
+      ->capture_default_str();
+  compare_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
+
+  std::string serial;
+  CLI::App* unit_cmd = app.add_subcommand("unit", "the history of one unit across runs and lots");
+  unit_cmd->add_option("serial", serial, "unit serial number")->required();
+  unit_cmd->add_option("--db", db, "archive file")->required();
+  unit_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
+
+  store::RunFilter run_filter;
+  std::string since;
+  CLI::App* runs_cmd = app.add_subcommand("runs", "list runs, newest first");
+  runs_cmd->add_option("--db", db, "archive file")->required();
+  runs_cmd->add_option("--lot", run_filter.lot, "only this lot");
+  runs_cmd->add_option("--station", run_filter.station, "only this station");
+  runs_cmd->add_option("--unit", run_filter.unit, "only this unit serial");
+  runs_cmd->add_option("--since", since, "started at or after (2026-11-21 or 2026-11-21T08:00:00Z)");
+  runs_cmd->add_option("--verdict", run_filter.verdict, "PASS, MARGINAL, FAIL or none");
+  runs_cmd->add_option("--limit", run_filter.limit, "at most this many")->capture_default_str();
+  runs_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
+
+  cli::ExportOptions ex;
+  CLI::App* export_cmd = app.add_subcommand("export", "run records, measurements, curves or Kalibr YAML");
+  export_cmd->add_option("--db", ex.db_path, "archive file")->required();
+  export_cmd->add_option("--lot", ex.lot, "every run of this lot");
+  export_cmd->add_option("--run", ex.run_id, "this run");
+  export_cmd->add_option("--as", ex.as, "json (run records), measurements (CSV), curves (CSV), kalibr (YAML)")
+      ->capture_default_str();
+  export_cmd->add_option("-o,--output", ex.output, "file (default: standard output)");
 
   cli::AnalyzeFileOptions an;
   CLI::App* analyze_cmd = app.add_subcommand("analyze", "offline Allan analysis of a recorded series");
@@ -80,6 +121,12 @@ int main(int argc, char** argv) {
     return cli::RunCommand(run);
   }
   if (lots_cmd->parsed()) return cli::LotsCommand(db, *fmt);
-  if (lot_cmd->parsed()) return cli::LotCommand(db, lot, *fmt, all_runs);
+  if (lot_cmd->parsed()) {
+    return stats ? cli::LotStatsCommand(db, lot, *fmt) : cli::LotCommand(db, lot, *fmt, all_runs);
+  }
+  if (compare_cmd->parsed()) return cli::CompareCommand(db, lot, lot_b, alpha, *fmt);
+  if (unit_cmd->parsed()) return cli::UnitCommand(db, serial, *fmt);
+  if (runs_cmd->parsed()) return cli::RunsCommand(db, run_filter, since, *fmt);
+  if (export_cmd->parsed()) return cli::ExportCommand(ex);
   return 2;
 }

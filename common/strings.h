@@ -1,0 +1,36 @@
+// String splitting and joining, header-only so that the pure libraries can
+// use them without the rest of common/.
+#ifndef IMUQUAL_COMMON_STRINGS_H_
+#define IMUQUAL_COMMON_STRINGS_H_
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace imuqual {
+
+// "a,b,,c" -> {"a", "b", "", "c"}.
+inline std::vector<std::string> Split(std::string_view text, char sep) {
+  std::vector<std::string> parts;
+  size_t start = 0;
+  for (;;) {
+    const size_t pos = text.find(sep, start);
+    parts.emplace_back(text.substr(start, pos - start));
+    if (pos == std::string_view::npos) return parts;
+    start = pos + 1;
+  }
+}
+
+// {"a", "b", "c"} with ", " -> "a, b, c".
+inline std::string Join(const std::vector<std::string>& parts, std::string_view sep) {
+  std::string out;
+  for (size_t i = 0; i < parts.size(); ++i) {
+    if (i > 0) out += sep;
+    out += parts[i];
+  }
+  return out;
+}
+
+}  // namespace imuqual
+
+#endif  // IMUQUAL_COMMON_STRINGS_H_

@@ -1,0 +1,228 @@
+#include "store/cli/export_command.h"
+
+#include <google/protobuf/util/json_util.h>
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+#include "analyze/allan/units.h"
+#include "common/log.h"
+#include "common/text_util.h"
+#include "store/archive.h"
+#include "store/cli/table_writer.h"
+#include "store/query.h"
+
+namespace imuqual::cli {
+namespace {
+
+constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+
+struct RunRef {
+  std::string run_id;
+  int64_t key = 0;
+  store::RunInfo info;
+};
+
+Result<std::vector<RunRef>> ResolveRuns(store::Archive& archive, const ExportOptions& o) {
+  std::vector<std::string> ids;
+  if (!o.run_id.empty()) {
+    ids.push_back(o.run_id);
+  } else {
+    store::RunFilter f;
+    f.lot = o.lot;
+    f.limit = std::numeric_limits<int64_t>::max();
+    auto runs = store::QueryRuns(archive, f);
+    if (!runs.ok()) return runs.status();
+    if (runs->empty()) return Status::NotFound("no lot '" + o.lot + "' in " + o.db_path);
+    for (auto it = runs->rbegin(); it != runs->rend(); ++it) ids.push_back(it->run_id);  // oldest first
+  }
+  std::vector<RunRef> out;
+  for (const std::string& id : ids) {
+    auto info = archive.LoadRun(id);
+    if (!info.ok()) return info.status();
+    auto key = archive.FindRunKey(id);
+    if (!key.ok()) return key.status();
+    out.push_back({id, **key, std::move(*info)});
+  }
+  return out;
+}
+
+Result<std::string> ExportJson(store::Archive& archive, const std::vector<RunRef>& runs) {
+  pb::RunRecords records;
+  for (const RunRef& r : runs) {
+    auto result = archive.LoadResult(r.key);
+    if (!result.ok()) return result.status();
+    if (!result->has_value() || (*result)->record.empty()) {
+      LogWarning("run " + r.run_id + " has no final result yet; not exported");
+      continue;
+    }
+    if (!records.add_records()->ParseFromString((*result)->record)) {
+      return Status::Corruption("run " + r.run_id + ": the archived record does not decode");
+    }
+  }
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.add_whitespace = true;
+  options.always_print_primitive_fields = true;
+  options.preserve_proto_field_names = true;
+  auto st = google::protobuf::util::MessageToJsonString(records, &json, options);
+  if (!st.ok()) return Status::InvalidArgument("cannot write JSON: " + std::string(st.message()));
+  return json;
+}
+
+Result<std::string> ExportMeasurements(store::Archive& archive, const std::vector<RunRef>& runs) {
+  TableWriter t({"lot", "unit", "run_id", "axis", "name", "value", "uncertainty", "unit_of_value",
+                 "low", "high", "marginal_low", "marginal_high", "outcome", "note"});
+  for (const RunRef& r : runs) {
+    auto result = archive.LoadResult(r.key);
+    if (!result.ok()) return result.status();
+    if (!result->has_value()) continue;
+    for (const pb::Measurement& m : (*result)->measurements) {
+      auto opt = [](bool has, double v) { return Cell::Real(has ? v : allan::kNaN); };
+      const char* outcome = m.outcome() == pb::PASS       ? "PASS"
+                            : m.outcome() == pb::MARGINAL ? "MARGINAL"
+                            : m.outcome() == pb::FAIL     ? "FAIL"
+                                                          : "";
+      t.AddRow({Cell::Text(r.info.lot), Cell::Text(r.info.serial), Cell::Text(r.run_id),
+                Cell::Text(m.axis()), Cell::Text(m.name()), Cell::Real(m.value()),
+                opt(m.has_uncertainty(), m.uncertainty()), Cell::Text(m.unit()),
+                opt(m.has_low(), m.low()), opt(m.has_high(), m.high()),
+                opt(m.has_marginal_low(), m.marginal_low()),
+                opt(m.has_marginal_high(), m.marginal_high()), Cell::Text(outcome),
+                Cell::Text(m.note())});
+    }
+  }
+  return t.Render(Format::kCsv);
+}
+
+Result<std::string> ExportCurves(store::Archive& archive, const std::vector<RunRef>& runs) {
+  TableWriter t({"lot", "unit", "run_id", "axis", "estimator", "ci_method", "m", "tau_s", "dev",
+                 "lo", "hi", "edf", "n_terms", "stride"});
+  for (const RunRef& r : runs) {
+    auto curves = archive.LoadCurves(r.key);
+    if (!curves.ok()) return curves.status();
+    for (const store::CurveRecord& c : *curves) {
+      for (const allan::CurvePoint& p : c.curve.points) {
+        t.AddRow({Cell::Text(r.info.lot), Cell::Text(r.info.serial), Cell::Text(r.run_id),
+                  Cell::Text(c.axis), Cell::Text(std::string(allan::DeviationName(c.curve.deviation))),
+                  Cell::Text(std::string(allan::CiMethodName(c.curve.ci))), Cell::Int(p.m),
+                  Cell::Real(p.tau_s), Cell::Real(p.dev), Cell::Real(p.lo), Cell::Real(p.hi),
+                  Cell::Real(p.edf), Cell::Int(p.n), Cell::Int(p.stride)});
+      }
+    }
+  }
+  return t.Render(Format::kCsv);
+}
+
+std::string Num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+// Kalibr's noise density is the continuous-time white-noise density (IEEE
+// 952's N) and its random walk the bias random walk (IEEE 952's K), in rad
+// (gyro) and m (accel) units; like allan_variance_ros, the sensor's value is
+// the mean over its axes (each axis is listed in a comment).
+Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunRef>& runs) {
+  std::string out;
+  for (const RunRef& r : runs) {
+    auto result = archive.LoadResult(r.key);
+    if (!result.ok()) return result.status();
+    if (!result->has_value()) {
+      LogWarning("run " + r.run_id + " has no final result yet; not exported");
+      continue;
+    }
+    struct Sums {
+      double n = 0, k = 0;
+      int n_count = 0, k_count = 0;
+      std::string comments;
+    } gyro, accel;
+    for (const pb::Measurement& m : (*result)->measurements) {
+      const bool gyro_n = m.name() == "fit_angle_random_walk";
+      const bool accel_n = m.name() == "fit_velocity_random_walk";
+      const bool rrw = m.name() == "fit_rate_random_walk";
+      if (!(gyro_n || accel_n || rrw) || !std::isfinite(m.value())) continue;
+      bool is_accel = accel_n;
+      if (rrw) {
+        for (const store::AxisInfo& a : r.info.axes) {
+          if (a.name == m.axis()) is_accel = a.kind == pb::ACCEL;
+        }
+      }
+      Sums& s = is_accel ? accel : gyro;
+      double si;  // SI/rad base value
+      if (gyro_n) {
+        si = allan::DegPerRootHourToDegPerRootSec(m.value()) * kRadPerDeg;  // rad/s/sqrt(Hz)
+      } else if (accel_n) {
+        si = allan::MetersPerSecPerRootHourToMetersPerSecSqPerRootHz(m.value());  // m/s^2/sqrt(Hz)
+      } else if (!is_accel) {
+        si = allan::DegPerHourPerRootHourToDegPerSecPerRootSec(m.value()) * kRadPerDeg;  // rad/s^2/sqrt(Hz)
+      } else {
+        si = allan::MicroGToMetersPerSecSq(m.value()) / 60.0;  // ug/sqrt(h) -> m/s^3/sqrt(Hz)
+      }
+      if (rrw) {
+        s.k += si;
+        ++s.k_count;
+      } else {
+        s.n += si;
+        ++s.n_count;
+      }
+      s.comments += "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) + "\n";
+    }
+    out += "---\n# " + r.info.serial + ", run " + r.run_id + " (lot " + r.info.lot +
+           "): IEEE 952 fit, mean over the axes\n";
+    if (accel.n_count + accel.k_count > 0) {
+      out += "#Accelerometer\n" + accel.comments;
+      if (accel.n_count) out += "accelerometer_noise_density: " + Num(accel.n / accel.n_count) + "\n";
+      if (accel.k_count) out += "accelerometer_random_walk: " + Num(accel.k / accel.k_count) + "\n";
+    }
+    if (gyro.n_count + gyro.k_count > 0) {
+      out += "#Gyroscope\n" + gyro.comments;
+      if (gyro.n_count) out += "gyroscope_noise_density: " + Num(gyro.n / gyro.n_count) + "\n";
+      if (gyro.k_count) out += "gyroscope_random_walk: " + Num(gyro.k / gyro.k_count) + "\n";
+    }
+    out += "rostopic: '/imu0'\nupdate_rate: " + Num(r.info.nominal_rate_hz) + "\n";
+  }
+  return out;
+}
+
+}  // namespace
+
+int ExportCommand(const ExportOptions& o) {
+  if (o.lot.empty() == o.run_id.empty()) {
+    LogError("export needs exactly one of --lot or --run");
+    return 2;
+  }
+  auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
+  if (!archive.ok()) {
+    LogError(archive.status().message());
+    return 1;
+  }
+  auto runs = ResolveRuns(**archive, o);
+  if (!runs.ok()) {
+    LogError(runs.status().message());
+    return runs.status().code() == Status::Code::kNotFound ? 2 : 1;
+  }
+  Result<std::string> text = Status::InvalidArgument("--as must be json, measurements, curves or kalibr");
+  if (o.as == "json") text = ExportJson(**archive, *runs);
+  if (o.as == "measurements") text = ExportMeasurements(**archive, *runs);
+  if (o.as == "curves") text = ExportCurves(**archive, *runs);
+  if (o.as == "kalibr") text = ExportKalibr(**archive, *runs);
+  if (!text.ok()) {
+    LogError(text.status().message());
+    return text.status().code() == Status::Code::kInvalidArgument ? 2 : 1;
+  }
+  if (o.output.empty() || o.output == "-") {
+    std::fwrite(text->data(), 1, text->size(), stdout);
+    return 0;
+  }
+  Status st = WriteStringToFile(o.output, *text);
+  if (!st.ok()) {
+    LogError(st.message());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace imuqual::cli

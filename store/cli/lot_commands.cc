@@ -1,0 +1,190 @@
+#include "store/cli/lot_commands.h"
+
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+
+#include "common/clock.h"
+#include "common/log.h"
+#include "store/cli/lot_statistics.h"
+
+namespace imuqual::cli {
+namespace {
+
+constexpr int kExitError = 1;
+constexpr int kExitUsage = 2;
+
+Result<std::unique_ptr<store::Archive>> OpenArchive(const std::string& db_path) {
+  return store::Archive::Open(db_path, store::Archive::Mode::kRead);
+}
+
+Result<std::vector<MeasurementStats>> LotStatistics(store::Archive& archive, const std::string& lot) {
+  auto rows = store::QueryLotMeasurements(archive, lot);
+  if (!rows.ok()) return rows.status();
+  if (rows->empty()) return Status::NotFound("no lot '" + lot + "' (imuqual lots lists them)");
+  return ComputeLotStatistics(*rows);
+}
+
+Cell Opt(const std::optional<double>& v) { return Cell::Real(v ? *v : allan::kNaN); }
+
+}  // namespace
+
+Result<int64_t> ParseUtcTime(const std::string& text) {
+  std::tm tm{};
+  const char* end = strptime(text.c_str(), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  if (end == nullptr || *end != '\0') {
+    tm = {};
+    end = strptime(text.c_str(), "%Y-%m-%d", &tm);
+    if (end == nullptr || *end != '\0') {
+      return Status::InvalidArgument("'" + text + "' is not a date (2026-11-21) or UTC time "
+                                     "(2026-11-21T08:00:00Z)");
+    }
+  }
+  return static_cast<int64_t>(timegm(&tm)) * 1000000;
+}
+
+int LotStatsCommand(const std::string& db_path, const std::string& lot, Format format) {
+  auto archive = OpenArchive(db_path);
+  if (!archive.ok()) {
+    LogError(archive.status().message());
+    return kExitError;
+  }
+  auto stats = LotStatistics(**archive, lot);
+  if (!stats.ok()) {
+    LogError(stats.status().message() + " in " + db_path);
+    return stats.status().code() == Status::Code::kNotFound ? kExitUsage : kExitError;
+  }
+  TableWriter t({"axis", "measurement", "unit", "n", "mean", "sd", "min", "max", "judged", "yield",
+                 "capability", "capability_kind", "low", "high"});
+  for (const MeasurementStats& s : *stats) {
+    const judge::Summary& m = s.summary;
+    t.AddRow({Cell::Text(s.axis.empty() ? "(run)" : s.axis), Cell::Text(s.name), Cell::Text(s.unit),
+              Cell::Int(m.n), Cell::Real(m.mean), Cell::Real(m.sd), Cell::Real(m.min),
+              Cell::Real(m.max), Cell::Int(m.judged), Cell::Real(m.yield), Cell::Real(m.capability),
+              Cell::Text(m.capability_kind), Opt(s.low), Opt(s.high)});
+  }
+  if (format == Format::kTable) {
+    std::printf("lot %s: statistics over each unit's latest run\n", lot.c_str());
+  }
+  std::printf("%s", t.Render(format).c_str());
+  return 0;
+}
+
+int CompareCommand(const std::string& db_path, const std::string& lot_a, const std::string& lot_b,
+                   double alpha, Format format) {
+  if (!(alpha > 0 && alpha < 1)) {
+    LogError("--alpha must be in (0, 1)");
+    return kExitUsage;
+  }
+  auto archive = OpenArchive(db_path);
+  if (!archive.ok()) {
+    LogError(archive.status().message());
+    return kExitError;
+  }
+  auto a = LotStatistics(**archive, lot_a);
+  auto b = a.ok() ? LotStatistics(**archive, lot_b) : a;
+  if (!a.ok() || !b.ok()) {
+    const Status& st = a.ok() ? b.status() : a.status();
+    LogError(st.message() + " in " + db_path);
+    return st.code() == Status::Code::kNotFound ? kExitUsage : kExitError;
+  }
+  const std::vector<Comparison> rows = CompareLots(*a, *b, alpha);
+  TableWriter t({"axis", "measurement", "unit", "n_a", "mean_a", "sd_a", "yield_a", "n_b", "mean_b",
+                 "sd_b", "yield_b", "mean_change", "p_mean", "p_sd", "p_yield", "significant"});
+  for (const Comparison& c : rows) {
+    std::string sig;
+    for (auto [flag, what] : {std::pair{c.mean_significant, "mean"}, {c.spread_significant, "sd"},
+                              {c.yield_significant, "yield"}}) {
+      if (!flag) continue;
+      if (!sig.empty()) sig += ',';
+      sig += what;
+    }
+    const judge::Summary& x = c.a.summary;
+    const judge::Summary& y = c.b.summary;
+    t.AddRow({Cell::Text(c.a.axis.empty() ? "(run)" : c.a.axis), Cell::Text(c.a.name),
+              Cell::Text(c.a.unit), Cell::Int(x.n), Cell::Real(x.mean), Cell::Real(x.sd),
+              Cell::Real(x.yield), Cell::Int(y.n), Cell::Real(y.mean), Cell::Real(y.sd),
+              Cell::Real(y.yield), Cell::Real(c.mean_change), Cell::Real(c.mean.p_value),
+              Cell::Real(c.spread.p_value), Cell::Real(c.yield.p_value),
+              Cell::Text(sig.empty() ? "-" : sig)});
+  }
+  if (format == Format::kTable) {
+    std::printf("%s (a) vs %s (b): each unit's latest run; Welch t (mean), F (sd), Fisher exact "
+                "(yield); significant at %g family-wise (Holm, %zu tests)\n",
+                lot_a.c_str(), lot_b.c_str(), alpha, 3 * rows.size());
+  }
+  std::printf("%s", t.Render(format).c_str());
+  return 0;
+}
+
+int UnitCommand(const std::string& db_path, const std::string& serial, Format format) {
+  auto archive = OpenArchive(db_path);
+  if (!archive.ok()) {
+    LogError(archive.status().message());
+    return kExitError;
+  }
+  auto rows = store::QueryUnitHistory(**archive, serial);
+  if (!rows.ok()) {
+    LogError(rows.status().message());
+    return kExitError;
+  }
+  if (rows->empty()) {
+    LogError("no unit '" + serial + "' in " + db_path);
+    return kExitUsage;
+  }
+  TableWriter t({"run_id", "lot", "start", "state", "axis", "kind", "random_walk",
+                 "bias_instability", "bias_instability_ieee", "tau_min_s", "rate_random_walk",
+                 "gap_samples", "axis_verdict", "run_verdict"});
+  for (const store::AxisRow& r : *rows) {
+    t.AddRow({Cell::Text(r.run_id), Cell::Text(r.lot), Cell::Text(FormatUtimeIso(r.start_utime)),
+              Cell::Text(r.state), Cell::Text(r.axis), Cell::Text(r.kind), Cell::Real(r.random_walk),
+              Cell::Real(r.bias_instability), Cell::Real(r.bias_instability_ieee),
+              Cell::Real(r.tau_min_s), Cell::Real(r.rate_random_walk), Cell::Int(r.gap_samples),
+              Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
+              Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)});
+  }
+  std::printf("%s", t.Render(format).c_str());
+  return 0;
+}
+
+int RunsCommand(const std::string& db_path, store::RunFilter filter, const std::string& since,
+                Format format) {
+  if (!since.empty()) {
+    auto t = ParseUtcTime(since);
+    if (!t.ok()) {
+      LogError("--since: " + t.status().message());
+      return kExitUsage;
+    }
+    filter.since_utime = *t;
+  }
+  if (!filter.verdict.empty() && filter.verdict != "PASS" && filter.verdict != "MARGINAL" &&
+      filter.verdict != "FAIL" && filter.verdict != "none") {
+    LogError("--verdict must be PASS, MARGINAL, FAIL or none");
+    return kExitUsage;
+  }
+  if (filter.limit < 1) {
+    LogError("--limit must be >= 1");
+    return kExitUsage;
+  }
+  auto archive = OpenArchive(db_path);
+  if (!archive.ok()) {
+    LogError(archive.status().message());
+    return kExitError;
+  }
+  auto rows = store::QueryRuns(**archive, filter);
+  if (!rows.ok()) {
+    LogError(rows.status().message());
+    return kExitError;
+  }
+  TableWriter t({"run_id", "unit", "lot", "station", "slot", "start", "state", "verdict", "reason"});
+  for (const store::RunRow& r : *rows) {
+    t.AddRow({Cell::Text(r.run_id), Cell::Text(r.unit), Cell::Text(r.lot), Cell::Text(r.station),
+              Cell::Text(r.slot), Cell::Text(FormatUtimeIso(r.start_utime)), Cell::Text(r.state),
+              Cell::Text(r.verdict.empty() ? "-" : r.verdict),
+              Cell::Text(r.reasons.substr(0, r.reasons.find('\n')))});
+  }
+  std::printf("%s", t.Render(format).c_str());
+  return 0;
+}
+
+}  // namespace imuqual::cli
