@@ -19,6 +19,7 @@
 #include "common/clock.h"
 #include "common/log.h"
 #include "store/archive.h"
+#include "store/run_record.h"
 
 namespace {
 
@@ -42,6 +43,7 @@ double ModelAvar(const pb::AxisTruth& t, double tau) {
 int main(int argc, char** argv) {
   std::string db, profile_name = "tactical", plan_spec = "builtin:tactical", prefix = "HIST";
   int lots = 100, units = 100;
+  double drift = 0.003;
   uint64_t seed = 1;
   CLI::App app{"imuqual-history-gen: fill an archive with simulated production history"};
   app.add_option("--db", db, "archive file (created if missing)")->required();
@@ -51,6 +53,8 @@ int main(int argc, char** argv) {
   app.add_option("--plan", plan_spec, "test plan")->capture_default_str();
   app.add_option("--prefix", prefix, "lot name prefix")->capture_default_str();
   app.add_option("--seed", seed, "seed")->capture_default_str();
+  app.add_option("--drift", drift, "per lot, relative worsening of ARW and bias instability")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   SetLogProgramName("imuqual-history-gen");
 
@@ -76,11 +80,11 @@ int main(int argc, char** argv) {
   for (int l = 0; l < lots; ++l) {
     char lot[64];
     std::snprintf(lot, sizeof lot, "%s-L%03d", prefix.c_str(), l + 1);
-    // A slow process drift: each lot's noise 0.3 % worse than the last.
+    // A slow process drift: each lot's noise `drift` worse than the first's.
     sim::LotProfile drifted = *profile;
     for (sim::AxisProfile& a : drifted.axes) {
-      a.typical.set_bias_instability(a.typical.bias_instability() * (1 + 0.003 * l));
-      a.typical.set_random_walk(a.typical.random_walk() * (1 + 0.003 * l));
+      a.typical.set_bias_instability(a.typical.bias_instability() * (1 + drift * l));
+      a.typical.set_random_walk(a.typical.random_walk() * (1 + drift * l));
     }
     if (!(*archive)->Begin().ok()) return 1;
     for (int u = 0; u < units; ++u) {
@@ -154,6 +158,7 @@ int main(int argc, char** argv) {
       res.samples = samples;
       res.measurements = std::move(ms);
       res.result_utime = run.end_utime.value();
+      res.record = store::BuildRunRecord(run, res, 0).SerializeAsString();
       if (!(*archive)->PutResult(*key, res).ok()) return 1;
       if (!(*archive)->MarkFinalized(*key, res.result_utime).ok()) return 1;
     }

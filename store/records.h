@@ -9,6 +9,7 @@
 #include "imuqual/run_t.hpp"
 #include "imuqual/unit_result_t.hpp"
 #include "store/archive.h"
+#include "store/run_record.h"
 
 namespace imuqual::store {
 
@@ -16,8 +17,6 @@ RunInfo RunInfoFromMessage(const imuqual::run_t& run);
 ChunkRecord ChunkFromBatch(const imuqual::rate_batch_t& batch);
 CurveRecord CurveFromMessage(const imuqual::allan_curve_t& msg);
 ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg);
-// The run record: run identity, plan, measurements, verdict, gap statistics.
-pb::RunRecord BuildRunRecord(const RunInfo& run, const ResultRecord& result, int64_t gap_ranges);
 
 // run_t.STATE_* <-> "running" / "complete" / "aborted" / "incomplete".
 const char* StateName(int8_t run_state);
