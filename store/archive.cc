@@ -341,7 +341,7 @@ Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
   res.record.assign(record.begin(), record.end());
   auto m = db_->Prepare(
       "SELECT axis, name, value, unit, low, high, marginal_low, marginal_high, outcome, note, "
-      "uncertainty FROM measurements WHERE run_key = ? ORDER BY rowid");
+      "uncertainty FROM measurements WHERE run_key = ? ORDER BY axis, name");
   if (!m.ok()) return m.status();
   m->Bind(1, run_key);
   for (;;) {

@@ -59,7 +59,7 @@ CREATE TABLE run_axes (
   kind        TEXT NOT NULL CHECK (kind IN ('gyro', 'accel')),
   unit        TEXT NOT NULL,
   PRIMARY KEY (run_key, axis_index)
-);
+) WITHOUT ROWID;
 
 CREATE TABLE raw_chunks (
   run_key       INTEGER NOT NULL REFERENCES runs(run_key),
@@ -109,7 +109,7 @@ CREATE TABLE curve_points (
   stride     INTEGER NOT NULL,
   PRIMARY KEY (run_key, axis, estimator, m),
   FOREIGN KEY (run_key, axis, estimator) REFERENCES curves(run_key, axis, estimator)
-);
+) WITHOUT ROWID;
 
 CREATE TABLE measurements (
   run_key        INTEGER NOT NULL REFERENCES runs(run_key),
@@ -125,7 +125,7 @@ CREATE TABLE measurements (
   outcome        TEXT CHECK (outcome IN ('PASS', 'MARGINAL', 'FAIL')),
   note           TEXT NOT NULL DEFAULT '',
   PRIMARY KEY (run_key, axis, name)
-);
+) WITHOUT ROWID;
 CREATE INDEX measurements_by_name ON measurements(name, axis);
 
 -- One row per run and axis with the headline figures.
