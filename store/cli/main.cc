@@ -75,7 +75,7 @@ int main(int argc, char** argv) {
   runs_cmd->add_option("--station", run_filter.station, "only this station");
   runs_cmd->add_option("--unit", run_filter.unit, "only this unit serial");
   runs_cmd->add_option("--since", since, "started at or after (2026-11-21 or 2026-11-21T08:00:00Z)");
-  runs_cmd->add_option("--verdict", run_filter.verdict, "PASS, MARGINAL, FAIL or none");
+  runs_cmd->add_option("--verdict,--outcome", run_filter.verdict, "PASS, MARGINAL, FAIL or none");
   runs_cmd->add_option("--limit", run_filter.limit, "at most this many")->capture_default_str();
   runs_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
 
