@@ -21,10 +21,14 @@ int main(int argc, char** argv) {
   app.add_option("--station", opt.station, "station id")->capture_default_str();
   app.add_option("--operator", opt.operator_name, "operator name");
   app.add_option("--run-prefix", opt.run_prefix, "run id prefix (default: the UTC start time)");
-  app.add_option("--sim", sim.count, "number of simulated units")->required();
+  std::vector<std::string> unit_args;
+  app.add_option("--sim", sim.count, "number of simulated units");
+  app.add_option("--unit", unit_args,
+                 "SERIAL=SOURCE, repeatable: sim:PROFILE[,index=N,...] or "
+                 "csv:FILE,rate=HZ[,axes=NAME:gyro/...][,counter=COL][,scale=F]");
   app.add_option("--profile", sim.profile, "simulated lot profile: vg700, tactical, fog")
       ->capture_default_str();
-  app.add_option("--duration", sim.duration_s, "simulated seconds of data per unit")->required();
+  app.add_option("--duration", sim.duration_s, "simulated seconds of data per unit");
   app.add_option("--rate", sim.rate_hz, "sample rate in Hz (default: the profile's)");
   app.add_option("--seed", sim.seed, "lot seed (default: from the lot name)");
   app.add_option("--plan", plan_spec, "test plan: a .textproto file or builtin:NAME");
@@ -61,12 +65,32 @@ int main(int argc, char** argv) {
   }
   if (!await.empty()) opt.await = Split(await, ',');
   sim.lot = opt.lot;
-  auto units = acquire::MakeSimUnits(sim);
-  if (!units.ok()) {
-    LogError(units.status().message());
+  if (sim.count == 0 && unit_args.empty()) {
+    LogError("no units: give --sim N and/or --unit SERIAL=SOURCE");
     return 2;
   }
-  auto service = acquire::AcquireService::Create(std::move(opt), std::move(*units));
+  std::vector<acquire::UnitSpec> units;
+  if (sim.count > 0) {
+    auto simulated = acquire::MakeSimUnits(sim);
+    if (!simulated.ok()) {
+      LogError(simulated.status().message());
+      return 2;
+    }
+    units = std::move(*simulated);
+  }
+  acquire::SourceDefaults defaults;
+  defaults.plan = opt.plan;
+  defaults.lot = opt.lot;
+  defaults.duration_s = sim.duration_s;
+  defaults.rate_hz = sim.rate_hz;
+  defaults.seed = sim.seed;
+  auto named = acquire::MakeNamedUnits(unit_args, defaults, static_cast<int>(units.size()) + 1);
+  if (!named.ok()) {
+    LogError(named.status().message());
+    return 2;
+  }
+  for (acquire::UnitSpec& u : *named) units.push_back(std::move(u));
+  auto service = acquire::AcquireService::Create(std::move(opt), std::move(units));
   if (!service.ok()) {
     LogError(service.status().message());
     return 2;

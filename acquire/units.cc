@@ -29,4 +29,24 @@ Result<std::vector<UnitSpec>> MakeSimUnits(const SimLotSpec& spec) {
   return units;
 }
 
+Result<std::vector<UnitSpec>> MakeNamedUnits(const std::vector<std::string>& unit_args,
+                                             const SourceDefaults& defaults, int first_slot) {
+  std::vector<UnitSpec> units;
+  for (size_t i = 0; i < unit_args.size(); ++i) {
+    const std::string& arg = unit_args[i];
+    const size_t eq = arg.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      return Status::InvalidArgument("--unit '" + arg + "' must be SERIAL=SOURCE");
+    }
+    auto spec = ParseSourceSpec(arg.substr(eq + 1));
+    if (!spec.ok()) return spec.status().WithContext("--unit " + arg.substr(0, eq));
+    SourceDefaults d = defaults;
+    d.index = static_cast<int>(i);
+    auto source = MakeSource(*spec, d);
+    if (!source.ok()) return source.status().WithContext("--unit " + arg.substr(0, eq));
+    units.push_back({arg.substr(0, eq), std::to_string(first_slot + i), std::move(*source)});
+  }
+  return units;
+}
+
 }  // namespace imuqual::acquire

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "acquire/acquire_service.h"
+#include "acquire/source_spec.h"
 
 namespace imuqual::acquire {
 
@@ -23,6 +24,11 @@ Result<std::vector<UnitSpec>> MakeSimUnits(const SimLotSpec& spec);
 
 // The serial of simulated unit `index` (0-based) of `lot`.
 std::string SimSerial(const std::string& lot, int index);
+
+// Units named SERIAL=SOURCE (see source_spec.h), in order; slots continue
+// after `first_slot`. Errors name the argument.
+Result<std::vector<UnitSpec>> MakeNamedUnits(const std::vector<std::string>& unit_args,
+                                             const SourceDefaults& defaults, int first_slot);
 
 }  // namespace imuqual::acquire
 

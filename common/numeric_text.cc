@@ -2,6 +2,7 @@
 
 #include "common/strings.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -73,75 +74,105 @@ bool SplitCsv(std::string_view line, std::vector<std::string>* fields) {
 
 }  // namespace
 
+NumericRowReader::NumericRowReader(LineSource next_line, std::string source_name,
+                                   std::vector<std::string> wanted)
+    : next_line_(std::move(next_line)), source_(std::move(source_name)), wanted_(std::move(wanted)) {}
+
+Status NumericRowReader::Start() {
+  for (;;) {
+    std::optional<std::string> raw = next_line_();
+    if (!raw) return Status::InvalidArgument(source_ + ": no samples");
+    ++line_no_;
+    const std::string_view line = Trim(*raw);
+    if (line.empty() || line[0] == '#' || line[0] == '%') continue;
+    const std::string where = source_ + ":" + std::to_string(line_no_) + ": ";
+    if (!SplitCsv(line, &fields_)) return Status::InvalidArgument(where + "unterminated quote");
+    double probe;
+    const bool header = fields_.size() > 1 || !ParseNumber(fields_[0], &probe);
+    const std::vector<std::string> all = header ? fields_ : std::vector<std::string>{"value"};
+    if (wanted_.empty()) {
+      for (size_t c = 0; c < all.size(); ++c) pick_.push_back(static_cast<int>(c));
+    } else {
+      for (const std::string& w : wanted_) {
+        const auto it = std::find(all.begin(), all.end(), w);
+        if (it == all.end()) {
+          return Status::InvalidArgument(where + "no column '" + w + "' (columns: " +
+                                         Join(all, ", ") + ")");
+        }
+        pick_.push_back(static_cast<int>(it - all.begin()));
+      }
+    }
+    for (int c : pick_) names_.push_back(all[c]);
+    if (!header) {  // a bare number: this line is the first row
+      pending_ = std::string(line);
+      pending_line_ = line_no_;
+    }
+    return Status::Ok();
+  }
+}
+
+Result<bool> NumericRowReader::ParseRow(std::string_view line, std::vector<double>* values) {
+  const std::string where = source_ + ":" + std::to_string(line_no_) + ": ";
+  if (!SplitCsv(line, &fields_)) return Status::InvalidArgument(where + "unterminated quote");
+  values->resize(pick_.size());
+  for (size_t k = 0; k < pick_.size(); ++k) {
+    if (static_cast<size_t>(pick_[k]) >= fields_.size()) {
+      return Status::InvalidArgument(where + std::to_string(fields_.size()) + " fields, column '" +
+                                     names_[k] + "' is field " + std::to_string(pick_[k] + 1));
+    }
+    if (!ParseNumber(fields_[pick_[k]], &(*values)[k])) {
+      return Status::InvalidArgument(where + "'" + fields_[pick_[k]].substr(0, 40) +
+                                     "' is not a number (column '" + names_[k] + "')");
+    }
+  }
+  return true;
+}
+
+Result<bool> NumericRowReader::Next(std::vector<double>* values) {
+  if (pending_) {
+    const std::string line = std::move(*pending_);
+    pending_.reset();
+    const size_t now = line_no_;
+    line_no_ = pending_line_;
+    Result<bool> r = ParseRow(line, values);
+    line_no_ = now;
+    return r;
+  }
+  for (;;) {
+    std::optional<std::string> raw = next_line_();
+    if (!raw) return false;
+    ++line_no_;
+    const std::string_view line = Trim(*raw);
+    if (line.empty() || line[0] == '#' || line[0] == '%') continue;
+    return ParseRow(line, values);
+  }
+}
+
 Result<NumericTable> ParseNumericText(std::string_view text, std::string_view source_name,
                                       const std::vector<std::string>& wanted) {
-  const std::string src(source_name);
+  size_t pos = 0;
+  NumericRowReader reader(
+      [&]() -> std::optional<std::string> {
+        if (pos > text.size()) return std::nullopt;
+        size_t end = text.find('\n', pos);
+        if (end == std::string_view::npos) end = text.size();
+        std::string line(text.substr(pos, end - pos));
+        pos = end + 1;
+        return line;
+      },
+      std::string(source_name), wanted);
+  IMUQUAL_RETURN_IF_ERROR(reader.Start());
   NumericTable table;
-  std::vector<int> pick;  // source column of each output column
-  bool header_done = false;
-  std::vector<std::string> fields;
-  size_t line_no = 0, start = 0;
-  while (start <= text.size()) {
-    size_t end = text.find('\n', start);
-    if (end == std::string_view::npos) end = text.size();
-    const std::string_view line = Trim(text.substr(start, end - start));
-    start = end + 1;
-    ++line_no;
-    if (line.empty() || line[0] == '#' || line[0] == '%') {
-      if (end == text.size()) break;
-      continue;
-    }
-    auto where = [&]() { return src + ":" + std::to_string(line_no) + ": "; };
-    if (!SplitCsv(line, &fields)) return Status::InvalidArgument(where() + "unterminated quote");
-    if (!header_done) {
-      header_done = true;
-      double probe;
-      const bool header = fields.size() > 1 || !ParseNumber(fields[0], &probe);
-      std::vector<std::string> names;
-      if (header) {
-        names = fields;
-      } else {
-        names = {"value"};
-      }
-      if (wanted.empty()) {
-        for (size_t c = 0; c < names.size(); ++c) pick.push_back(static_cast<int>(c));
-      } else {
-        for (const std::string& w : wanted) {
-          int found = -1;
-          for (size_t c = 0; c < names.size(); ++c) {
-            if (names[c] == w) found = static_cast<int>(c);
-          }
-          if (found < 0) {
-            return Status::InvalidArgument(where() + "no column '" + w + "' (columns: " +
-                                           Join(names, ", ") + ")");
-          }
-          pick.push_back(found);
-        }
-      }
-      for (int c : pick) table.names.push_back(names[c]);
-      table.columns.resize(pick.size());
-      if (header) {
-        if (end == text.size()) break;
-        continue;
-      }
-      // A bare number: this line is data.
-    }
-    for (size_t k = 0; k < pick.size(); ++k) {
-      if (static_cast<size_t>(pick[k]) >= fields.size()) {
-        return Status::InvalidArgument(where() + std::to_string(fields.size()) +
-                                       " fields, column '" + table.names[k] + "' is field " +
-                                       std::to_string(pick[k] + 1));
-      }
-      double v;
-      if (!ParseNumber(fields[pick[k]], &v)) {
-        return Status::InvalidArgument(where() + "'" + fields[pick[k]].substr(0, 40) +
-                                       "' is not a number (column '" + table.names[k] + "')");
-      }
-      table.columns[k].push_back(v);
-    }
-    if (end == text.size()) break;
+  table.names = reader.names();
+  table.columns.resize(table.names.size());
+  std::vector<double> row;
+  for (;;) {
+    Result<bool> more = reader.Next(&row);
+    if (!more.ok()) return more.status();
+    if (!*more) break;
+    for (size_t c = 0; c < row.size(); ++c) table.columns[c].push_back(row[c]);
   }
-  if (table.rows() == 0) return Status::InvalidArgument(src + ": no samples");
+  if (table.rows() == 0) return Status::InvalidArgument(std::string(source_name) + ": no samples");
   return table;
 }
 

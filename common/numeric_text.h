@@ -8,6 +8,8 @@
 #ifndef IMUQUAL_COMMON_NUMERIC_TEXT_H_
 #define IMUQUAL_COMMON_NUMERIC_TEXT_H_
 
+#include <functional>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -31,6 +33,39 @@ Result<NumericTable> ParseNumericText(std::string_view text, std::string_view so
 // One column: the only one, or the named one (required if there are several).
 Result<std::vector<double>> ParseSeries(std::string_view text, std::string_view source_name,
                                         const std::string& column = "");
+
+// The same format read row by row, for inputs too long to hold (a replayed
+// recording): `next_line` returns the next line without its newline, or
+// nullopt at the end. Not thread-safe.
+class NumericRowReader {
+ public:
+  using LineSource = std::function<std::optional<std::string>()>;
+  NumericRowReader(LineSource next_line, std::string source_name,
+                   std::vector<std::string> wanted = {});
+
+  // Reads up to the first data row (header detection and column choice).
+  // Must be called first; fails as ParseNumericText does.
+  Status Start();
+  // Selected column names, in `wanted` order (all columns when none wanted).
+  const std::vector<std::string>& names() const { return names_; }
+  // The next data row into *values (one per selected column): true, or
+  // false at the end. A malformed row is an error naming its line.
+  Result<bool> Next(std::vector<double>* values);
+  // Line number of the row last returned (1-based, counting every line).
+  size_t line() const { return line_no_; }
+
+ private:
+  Result<bool> ParseRow(std::string_view line, std::vector<double>* values);
+  LineSource next_line_;
+  std::string source_;
+  std::vector<std::string> wanted_;
+  std::vector<std::string> names_;
+  std::vector<int> pick_;
+  std::optional<std::string> pending_;  // a first data line seen while looking for a header
+  size_t line_no_ = 0;
+  size_t pending_line_ = 0;
+  std::vector<std::string> fields_;
+};
 
 }  // namespace imuqual
 

@@ -1,0 +1,84 @@
+#include "acquire/csv_source.h"
+
+#include <cmath>
+
+namespace imuqual::acquire {
+
+CsvSource::CsvSource(CsvSourceOptions options, std::unique_ptr<std::ifstream> file)
+    : options_(std::move(options)), file_(std::move(file)) {}
+
+Result<std::unique_ptr<CsvSource>> CsvSource::Open(const CsvSourceOptions& options) {
+  if (!(options.rate_hz > 0) || !std::isfinite(options.rate_hz)) {
+    return Status::InvalidArgument("csv source " + options.path + ": rate must be > 0 Hz");
+  }
+  if (options.axes.empty()) return Status::InvalidArgument("csv source " + options.path + ": no axes");
+  if (!std::isfinite(options.scale) || options.scale == 0) {
+    return Status::InvalidArgument("csv source " + options.path + ": scale must be finite and non-zero");
+  }
+  auto file = std::make_unique<std::ifstream>(options.path);
+  if (!*file) return Status::IoError("cannot read " + options.path);
+  std::unique_ptr<CsvSource> s(new CsvSource(options, std::move(file)));
+  std::vector<std::string> wanted;
+  for (const pb::Axis& a : options.axes) wanted.push_back(a.name());
+  if (!options.counter_column.empty()) wanted.push_back(options.counter_column);
+  std::ifstream* in = s->file_.get();
+  s->reader_ = std::make_unique<NumericRowReader>(
+      [in]() -> std::optional<std::string> {
+        std::string line;
+        if (!std::getline(*in, line)) return std::nullopt;
+        return line;
+      },
+      options.path, wanted);
+  IMUQUAL_RETURN_IF_ERROR(s->reader_->Start());
+  s->info_.axes = options.axes;
+  s->info_.nominal_rate_hz = options.rate_hz;
+  s->info_.description = "csv:" + options.path;
+  return s;
+}
+
+Result<int> CsvSource::Read(int max_samples, SampleBlock* block) {
+  const size_t axes = options_.axes.size();
+  block->samples.assign(axes, {});
+  block->flags.clear();
+  block->temperature_c.reset();
+  int n = 0;
+  while (n < max_samples && !done_) {
+    if (!have_row_) {
+      Result<bool> more = reader_->Next(&row_);
+      if (!more.ok()) return more.status();
+      if (!*more) {
+        done_ = true;
+        break;
+      }
+      if (options_.counter_column.empty()) {
+        row_counter_ = next_index_++;
+      } else {
+        const double c = row_[axes];
+        if (!std::isfinite(c) || c != std::floor(c) || c < 0 || c > 9e15) {
+          return Status::InvalidArgument(options_.path + ":" + std::to_string(reader_->line()) +
+                                         ": counter '" + options_.counter_column +
+                                         "' must be a non-negative integer");
+        }
+        row_counter_ = static_cast<int64_t>(c);
+        if (row_counter_ <= last_counter_) {
+          return Status::InvalidArgument(options_.path + ":" + std::to_string(reader_->line()) +
+                                         ": counter goes backwards (" + std::to_string(row_counter_) +
+                                         " after " + std::to_string(last_counter_) + ")");
+        }
+      }
+      have_row_ = true;
+    }
+    // A block holds consecutive samples: a counter jump starts the next one.
+    if (n > 0 && row_counter_ != block->first_sample + n) break;
+    if (n == 0) block->first_sample = row_counter_;
+    for (size_t a = 0; a < axes; ++a) {
+      block->samples[a].push_back(static_cast<float>(row_[a] * options_.scale));
+    }
+    last_counter_ = row_counter_;
+    have_row_ = false;
+    ++n;
+  }
+  return n;
+}
+
+}  // namespace imuqual::acquire

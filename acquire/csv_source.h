@@ -1,0 +1,51 @@
+// Replay of a recorded CSV (a header naming the columns): the chosen columns
+// are the axes, optionally a column holds the device sample counter (rows
+// then carry their own timeline and a jump is a gap); otherwise row k is
+// sample k. Values are in the axes' units (deg/s, m/s^2) after `scale`.
+// Streams the file: any length. Not thread-safe.
+#ifndef IMUQUAL_ACQUIRE_CSV_SOURCE_H_
+#define IMUQUAL_ACQUIRE_CSV_SOURCE_H_
+
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "acquire/source.h"
+#include "common/numeric_text.h"
+
+namespace imuqual::acquire {
+
+struct CsvSourceOptions {
+  std::string path;
+  double rate_hz = 0;             // nominal sample rate, > 0
+  std::vector<pb::Axis> axes;     // columns by name, with their kinds; at least one
+  std::string counter_column;     // "" = the row index is the counter
+  double scale = 1.0;             // applied to every axis value
+};
+
+class CsvSource : public SampleSource {
+ public:
+  // Opens the file and reads its header; errors name the file, the line and
+  // the column.
+  static Result<std::unique_ptr<CsvSource>> Open(const CsvSourceOptions& options);
+  const SourceInfo& info() const override { return info_; }
+  Result<int> Read(int max_samples, SampleBlock* block) override;
+
+ private:
+  CsvSource(CsvSourceOptions options, std::unique_ptr<std::ifstream> file);
+  CsvSourceOptions options_;
+  std::unique_ptr<std::ifstream> file_;
+  std::unique_ptr<NumericRowReader> reader_;
+  SourceInfo info_;
+  std::vector<double> row_;
+  bool have_row_ = false;       // row_ read but not yet delivered (a counter jump ended a block)
+  int64_t row_counter_ = 0;
+  int64_t next_index_ = 0;      // counter of the next row without a counter column
+  int64_t last_counter_ = -1;
+  bool done_ = false;
+};
+
+}  // namespace imuqual::acquire
+
+#endif  // IMUQUAL_ACQUIRE_CSV_SOURCE_H_

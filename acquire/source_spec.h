@@ -1,0 +1,43 @@
+// Sources named on a command line: KIND:LOCATION[,KEY=VALUE]... with lists in
+// values separated by '/'.
+//   sim:PROFILE[,index=N][,duration=S][,rate=HZ][,seed=N]
+//       a simulated unit (lot profile vg700, tactical or fog)
+//   csv:PATH,rate=HZ[,axes=NAME:gyro/NAME:accel...][,counter=COLUMN][,scale=F]
+//       a recording; axes default to the plan's axes (by column name), else
+//       every column except the counter, as gyros
+#ifndef IMUQUAL_ACQUIRE_SOURCE_SPEC_H_
+#define IMUQUAL_ACQUIRE_SOURCE_SPEC_H_
+
+#include <map>
+#include <memory>
+#include <string>
+
+#include "acquire/source.h"
+#include "imuqual/plan.pb.h"
+
+namespace imuqual::acquire {
+
+struct SourceSpec {
+  std::string kind;      // "sim", "csv", ...
+  std::string location;  // profile, path, device
+  std::map<std::string, std::string> options;
+};
+
+// Parses the text; the error names the spec and the bad part.
+Result<SourceSpec> ParseSourceSpec(const std::string& text);
+
+// What a spec may take from the acquire process's other flags.
+struct SourceDefaults {
+  pb::TestPlan plan;          // its axes name CSV columns
+  std::string lot;            // seeds simulated units
+  double duration_s = 0;      // simulated duration
+  double rate_hz = 0;         // simulated rate (0: the profile's)
+  uint64_t seed = 0;
+  int index = 0;              // simulated unit index in the lot
+};
+
+Result<std::unique_ptr<SampleSource>> MakeSource(const SourceSpec& spec, const SourceDefaults& defaults);
+
+}  // namespace imuqual::acquire
+
+#endif  // IMUQUAL_ACQUIRE_SOURCE_SPEC_H_
