@@ -108,8 +108,6 @@ struct AcquireService::Impl {
   std::vector<RunState> runs;
   std::unique_ptr<LcmBus> bus;
   sim::Random drop_rng{1};
-  std::string plan_bytes;
-  std::string plan_sha256;
   std::deque<imuqual::resend_t> resend_queue;
   // Counters.
   int64_t published = 0, resent = 0, resend_misses = 0, injected_drops = 0, acks = 0,
@@ -152,8 +150,6 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
   auto impl = std::make_unique<Impl>();
   const int64_t now = NowUtime();
   if (options.run_prefix.empty()) options.run_prefix = CompactUtc(now);
-  impl->plan_bytes = options.plan.SerializeAsString();
-  impl->plan_sha256 = Sha256Hex(impl->plan_bytes);
   impl->drop_rng = sim::Random(options.inject_seed);
 
   std::set<std::string> serials;
@@ -213,9 +209,17 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
       a.axis_names.push_back(axis.name());
       a.axis_kinds.push_back(KindCode(axis.kind()));
     }
-    a.plan_size = static_cast<int32_t>(impl->plan_bytes.size());
-    a.plan.assign(impl->plan_bytes.begin(), impl->plan_bytes.end());
-    a.plan_sha256 = impl->plan_sha256;
+    // The run's plan: the one given, completed from the source where it is
+    // silent (a run without a plan is measured, not judged).
+    pb::TestPlan plan = options.plan;
+    if (!(plan.nominal_rate_hz() > 0)) plan.set_nominal_rate_hz(info.nominal_rate_hz);
+    if (plan.axes_size() == 0) {
+      for (const pb::Axis& axis : info.axes) *plan.add_axes() = axis;
+    }
+    const std::string plan_bytes = plan.SerializeAsString();
+    a.plan_size = static_cast<int32_t>(plan_bytes.size());
+    a.plan.assign(plan_bytes.begin(), plan_bytes.end());
+    a.plan_sha256 = Sha256Hex(plan_bytes);
     a.truth_size = static_cast<int32_t>(info.truth.size());
     a.truth.assign(info.truth.begin(), info.truth.end());
     a.state = imuqual::run_t::STATE_RUNNING;

@@ -60,8 +60,8 @@ int main(int argc, char** argv) {
       return 2;
     }
     opt.plan = *plan;
-  } else if (sim.profile == "vg700") {
-    opt.plan = *judge::LoadPlan("builtin:vg700ca");
+  } else if (sim.profile == "vg700" && sim.count > 0 && unit_args.empty()) {
+    opt.plan = *judge::LoadPlan("builtin:vg700ca");  // the simulated lot's own plan
   }
   if (!await.empty()) opt.await = Split(await, ',');
   sim.lot = opt.lot;

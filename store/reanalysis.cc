@@ -1,6 +1,8 @@
 #include "store/reanalysis.h"
 
 #include "analyze/judge/plan.h"
+#include <cmath>
+
 #include "store/chunk_codec.h"
 
 namespace imuqual::store {
@@ -47,6 +49,48 @@ Result<analyze::RunOutcome> ReanalyzeRun(Archive& archive, const std::string& ru
   if (!st.ok()) return st;
   analyzer->Finish(run->first_sample, run->end_sample);
   return analyzer->Outcome(true, analyze::FailureForRunState(run->state));
+}
+
+Result<RunSamples> LoadRunSamples(Archive& archive, const std::string& run_id) {
+  RunSamples out;
+  auto run = archive.LoadRun(run_id);
+  if (!run.ok()) return run.status();
+  out.info = std::move(*run);
+  auto key = archive.FindRunKey(run_id);
+  if (!key.ok()) return key.status();
+  const size_t axes = out.info.axes.size();
+  out.samples.assign(axes, {});
+  out.invalid.assign(axes, {});
+  int64_t next = -1;
+  Status st = archive.ForEachChunk(**key, [&](const ChunkRecord& c) -> Status {
+    auto chunk = DecodeChunk(c.data, c.codec);
+    if (!chunk.ok()) return chunk.status().WithContext("run " + run_id + " seq " + std::to_string(c.seq));
+    if (static_cast<size_t>(chunk->num_axes) != axes || (next >= 0 && c.first_sample < next)) {
+      ++out.skipped_chunks;
+      return Status::Ok();
+    }
+    if (next < 0) {
+      out.first_counter = c.first_sample;
+      next = c.first_sample;
+    }
+    const int64_t missing = c.first_sample - next;
+    for (size_t a = 0; a < axes; ++a) {
+      out.samples[a].insert(out.samples[a].end(), static_cast<size_t>(missing), std::nanf(""));
+      out.invalid[a].insert(out.invalid[a].end(), static_cast<size_t>(missing), 1);
+      const size_t at = out.samples[a].size();
+      for (int i = 0; i < chunk->num_samples; ++i) out.samples[a].push_back(chunk->at(static_cast<int>(a), i));
+      out.invalid[a].resize(at + chunk->num_samples, 0);
+    }
+    for (const SampleFlag& f : chunk->flags) {
+      if (f.bits & (1 | 2)) {  // saturated or invalid
+        out.invalid[f.axis][out.samples[f.axis].size() - chunk->num_samples + f.sample] = 1;
+      }
+    }
+    next = c.first_sample + chunk->num_samples;
+    return Status::Ok();
+  });
+  if (!st.ok()) return st;
+  return out;
 }
 
 }  // namespace imuqual::store

@@ -13,6 +13,7 @@
 #include "common/log.h"
 #include "common/numeric_text.h"
 #include "common/text_util.h"
+#include "store/cli/curve_request.h"
 #include "store/cli/svg_plot.h"
 #include "store/cli/table_writer.h"
 
@@ -24,33 +25,16 @@ using allan::Deviation;
 using allan::NoiseTerm;
 
 struct Parsed {
-  std::vector<Deviation> devs;
-  allan::TauGridSpec grid;
-  allan::StopRule stop;
-  allan::CiMethod ci;
+  CurveRequest curves;
   Format format;
   std::optional<allan::SensorKind> kind;
 };
 
 Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   Parsed p;
-  for (const std::string& name : Split(o.devs, ',')) {
-    auto d = allan::ParseDeviation(name);
-    if (!d) {
-      return Status::InvalidArgument("--dev: unknown estimator '" + name +
-                                     "' (adev, oadev, mdev, tdev, hdev, ohdev, totdev)");
-    }
-    p.devs.push_back(*d);
-  }
-  auto grid = allan::ParseTauGrid(o.grid);
-  if (!grid.ok()) return grid.status().WithContext("--grid");
-  p.grid = *grid;
-  auto stop = allan::ParseStopRule(o.stop);
-  if (!stop) return Status::InvalidArgument("--stop must be bins9, stable32 or none");
-  p.stop = *stop;
-  auto ci = allan::ParseCiMethod(o.ci);
-  if (!ci) return Status::InvalidArgument("--ci must be none, simple or chi2");
-  p.ci = *ci;
+  auto request = ParseCurveRequest(o.devs, o.grid, o.stop, o.ci, o.confidence);
+  if (!request.ok()) return request.status();
+  p.curves = *request;
   auto format = ParseFormat(o.format);
   if (!format.ok()) return format.status();
   p.format = *format;
@@ -67,38 +51,13 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   if (o.type != "rate" && o.type != "phase") {
     return Status::InvalidArgument("--type must be rate or phase");
   }
-  if (!(o.confidence > 0 && o.confidence < 1)) {
-    return Status::InvalidArgument("--confidence must be in (0, 1)");
-  }
   return p;
 }
 
-TableWriter CurveTable(const std::vector<Curve>& curves, bool with_ci, bool with_dev_type) {
-  std::vector<std::string> cols;
-  if (with_dev_type) cols.push_back("dev_type");
-  for (const char* c : {"m", "tau", "n", "dev"}) cols.push_back(c);
-  if (with_ci) {
-    for (const char* c : {"lo", "hi", "edf", "alpha"}) cols.push_back(c);
-  }
-  TableWriter t(cols, 6);
-  for (const Curve& c : curves) {
-    for (const allan::CurvePoint& p : c.points) {
-      std::vector<Cell> row;
-      if (with_dev_type) row.push_back(Cell::Text(std::string(allan::DeviationName(c.deviation))));
-      row.push_back(Cell::Int(p.m));
-      row.push_back(Cell::Real(p.tau_s));
-      row.push_back(Cell::Int(p.n));
-      row.push_back(Cell::Real(p.dev));
-      if (with_ci) {
-        row.push_back(Cell::Real(p.lo));
-        row.push_back(Cell::Real(p.hi));
-        row.push_back(Cell::Real(p.edf));
-        row.push_back(p.alpha ? Cell::Int(*p.alpha) : Cell::Text(""));
-      }
-      t.AddRow(std::move(row));
-    }
-  }
-  return t;
+std::vector<LabeledCurve> Unlabeled(const std::vector<Curve>& curves) {
+  std::vector<LabeledCurve> out;
+  for (const Curve& c : curves) out.emplace_back("", c);
+  return out;
 }
 
 // Datasheet units when the sensor kind is known, else the input's base units.
@@ -201,13 +160,7 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   const double tau0 = 1.0 / o.rate_hz;
   const allan::PhaseRecord phase = o.type == "rate" ? allan::PhaseFromRate(*values, tau0)
                                                     : allan::PhaseFromPhase(*values, tau0);
-  std::vector<Curve> curves;
-  for (Deviation dev : p.devs) {
-    const std::vector<int64_t> m = allan::AveragingFactors(p.grid, tau0, phase.size(), dev, p.stop);
-    Curve curve = allan::ComputeDeviation(phase, dev, m);
-    if (p.ci != allan::CiMethod::kNone) allan::AttachConfidence(phase, p.ci, o.confidence, &curve);
-    curves.push_back(std::move(curve));
-  }
+  const std::vector<Curve> curves = ComputeCurves(phase, p.curves);
 
   // The fit works on an Allan variance curve: the OADEV (or ADEV) asked for,
   // else an octave OADEV computed for it.
@@ -223,7 +176,7 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     }
     if (!found) {
       const std::vector<int64_t> m = allan::AveragingFactors(allan::TauGridSpec{}, tau0, phase.size(),
-                                                             Deviation::kOadev, p.stop);
+                                                             Deviation::kOadev, p.curves.stop);
       fit_curve = allan::ComputeDeviation(phase, Deviation::kOadev, m);
     }
     allan::FitOptions fo;
@@ -236,14 +189,14 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     fit = *f;
   }
 
-  const bool with_ci = p.ci != allan::CiMethod::kNone;
+  const bool with_ci = p.curves.ci != allan::CiMethod::kNone;
   if (p.format == Format::kTable) {
     std::printf("%s: %zu %s samples at %g Hz, %lld invalid\n", o.path.c_str(), values->size(),
                 o.type.c_str(), o.rate_hz, static_cast<long long>(phase.invalid_count()));
     for (const Curve& c : curves) {
       std::printf("\n%s (grid %s, stop %s, ci %s)\n", std::string(allan::DeviationName(c.deviation)).c_str(),
                   o.grid.c_str(), o.stop.c_str(), o.ci.c_str());
-      std::printf("%s", CurveTable({c}, with_ci, false).Render(Format::kTable).c_str());
+      std::printf("%s", CurveTable({{"", c}}, with_ci, false, false).Render(Format::kTable).c_str());
     }
     if (fit) {
       std::printf("\nIEEE 952 noise model (weighted NNLS, %d points, %d re-weighted passes)\n",
@@ -251,12 +204,12 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
       std::printf("%s", FitTable(*fit, fit_curve, p.kind).Render(Format::kTable).c_str());
     }
   } else if (p.format == Format::kCsv) {
-    std::printf("%s", CurveTable(curves, with_ci, true).Render(Format::kCsv).c_str());
+    std::printf("%s", CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kCsv).c_str());
     if (fit) std::printf("\n%s", FitTable(*fit, fit_curve, p.kind).Render(Format::kCsv).c_str());
   } else {
     std::string json = "{\"file\": \"" + o.path + "\", \"samples\": " + std::to_string(values->size()) +
                        ", \"rate_hz\": " + std::to_string(o.rate_hz) + ",\n\"curves\": " +
-                       CurveTable(curves, with_ci, true).Render(Format::kJson);
+                       CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kJson);
     if (fit) json += ",\n\"fit\": " + FitTable(*fit, fit_curve, p.kind).Render(Format::kJson);
     std::printf("%s}\n", json.c_str());
   }

@@ -106,8 +106,10 @@ int RunCommand(const StationRunOptions& options) {
       }
     }
   }
-  std::printf("\n%zu units: %d PASS, %d MARGINAL, %d FAIL%s\n", unit_of.size(), verdicts["PASS"],
+  std::printf("\n%zu units: %d PASS, %d MARGINAL, %d FAIL%s%s\n", unit_of.size(), verdicts["PASS"],
               verdicts["MARGINAL"], verdicts["FAIL"],
+              verdicts["-"] > 0 ? (", " + std::to_string(verdicts["-"]) + " not judged (no limits)").c_str()
+                                : "",
               run->interrupted ? " (interrupted: runs aborted)" : "");
   std::printf("lot %s archived in %s (runs %s-*; process log %s)\n", options.lot.c_str(),
               options.db_path.c_str(), run->run_prefix.c_str(), run->log_path.c_str());

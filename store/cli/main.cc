@@ -8,6 +8,9 @@
 #include "store/cli/commands.h"
 #include "store/cli/export_command.h"
 #include "store/cli/lot_commands.h"
+#include "store/cli/plot_command.h"
+#include "store/cli/reanalyze_command.h"
+#include "store/cli/report.h"
 
 int main(int argc, char** argv) {
   using namespace imuqual;
@@ -18,8 +21,11 @@ int main(int argc, char** argv) {
   cli::StationRunOptions run;
   bool quiet = false;
   CLI::App* run_cmd = app.add_subcommand("run", "run a simulated multi-unit soak end to end");
-  run_cmd->add_option("--sim", run.sim_units, "number of simulated units")->required();
-  run_cmd->add_option("--duration", run.duration_s, "simulated seconds of data per unit")->required();
+  run_cmd->add_option("--sim", run.sim_units, "number of simulated units");
+  run_cmd->add_option("--unit", run.units,
+                      "SERIAL=SOURCE, repeatable: csv:FILE,rate=HZ[,axes=NAME:gyro/...][,counter=COL]"
+                      " or sim:PROFILE[,index=N,duration=S]");
+  run_cmd->add_option("--duration", run.duration_s, "simulated seconds of data per unit");
   run_cmd->add_option("--rate", run.rate_hz, "sample rate in Hz (default: the profile's)");
   run_cmd->add_option("--lot", run.lot, "production lot name")->required();
   run_cmd->add_option("--db", run.db_path, "archive file (created if missing)")->required();
@@ -107,7 +113,40 @@ int main(int argc, char** argv) {
   analyze_cmd->add_option("--format", an.format, "table, csv or json")->capture_default_str();
   analyze_cmd->add_option("--plot", an.plot_path, "write an SVG plot of the curves");
 
+  cli::ReanalyzeOptions re;
+  CLI::App* reanalyze_cmd = app.add_subcommand("reanalyze", "analyse an archived run again");
+  reanalyze_cmd->add_option("run", re.run_id, "run id")->required();
+  reanalyze_cmd->add_option("--db", re.db_path, "archive file")->required();
+  reanalyze_cmd->add_flag("--exact", re.exact,
+                          "exact batch estimators over every archived sample (any grid, stop, CI)");
+  reanalyze_cmd->add_flag("--check", re.check, "live mode: verify it equals the archived result");
+  reanalyze_cmd->add_option("--dev", re.devs, "--exact: estimators")->capture_default_str();
+  reanalyze_cmd->add_option("--grid", re.grid, "--exact: tau grid")->capture_default_str();
+  reanalyze_cmd->add_option("--stop", re.stop, "--exact: bins9, stable32 or none")->capture_default_str();
+  reanalyze_cmd->add_option("--ci", re.ci, "--exact: none, simple or chi2")->capture_default_str();
+  reanalyze_cmd->add_option("--format", re.format, "table, csv or json")->capture_default_str();
+
+  cli::PlotOptions plot;
+  CLI::App* plot_cmd = app.add_subcommand(
+      "plot", "SVG Allan deviation plots: one run (axes of a kind overlaid) or a lot (units overlaid per axis)");
+  plot_cmd->add_option("--db", plot.db_path, "archive file")->required();
+  plot_cmd->add_option("--run", plot.run_id, "plot this run: its axes overlaid, one plot per axis kind");
+  plot_cmd->add_option("--lot", plot.lot, "overlay every unit of this lot, one plot per axis");
+  plot_cmd->add_option("--axis", plot.axis, "only this axis");
+  plot_cmd->add_option("-o,--output", plot.output,
+                       "SVG file; several plots go to FILE-<kind or axis>.svg beside it")
+      ->required();
+
+  cli::ReportOptions report;
+  CLI::App* report_cmd = app.add_subcommand("report", "self-contained HTML report of a lot");
+  report_cmd->add_option("--db", report.db_path, "archive file")->required();
+  report_cmd->add_option("--lot", report.lot, "lot name")->required();
+  report_cmd->add_option("-o,--output", report.output, "HTML file to write")->required();
+
   CLI11_PARSE(app, argc, argv);
+  if (plot_cmd->parsed()) return cli::PlotCommand(plot);
+  if (report_cmd->parsed()) return cli::ReportCommand(report);
+  if (reanalyze_cmd->parsed()) return cli::ReanalyzeCommand(re);
   if (analyze_cmd->parsed()) return cli::AnalyzeFileCommand(an);
 
   auto fmt = cli::ParseFormat(format);

@@ -95,8 +95,11 @@ std::string Si(double v) {
 }  // namespace
 
 Status StationRunOptions::Validate() const {
-  if (sim_units < 1 || sim_units > 1000) return Status::InvalidArgument("--sim must be 1..1000");
-  if (!(duration_s > 0) || !std::isfinite(duration_s)) {
+  if (sim_units < 0 || sim_units > 1000) return Status::InvalidArgument("--sim must be 0..1000");
+  if (sim_units == 0 && units.empty()) {
+    return Status::InvalidArgument("no units: give --sim N and/or --unit SERIAL=SOURCE");
+  }
+  if (sim_units > 0 && (!(duration_s > 0) || !std::isfinite(duration_s))) {
     return Status::InvalidArgument("--duration must be > 0 s");
   }
   if (rate_hz < 0 || !std::isfinite(rate_hz)) return Status::InvalidArgument("--rate must be > 0 Hz");
@@ -115,7 +118,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   auto profile = sim::LotProfileByName(o.profile);
   if (!profile.ok()) return profile.status();
   std::string plan_spec = o.plan_spec;
-  if (plan_spec.empty() && o.profile == "vg700") plan_spec = "builtin:vg700ca";
+  if (plan_spec.empty() && o.profile == "vg700" && o.units.empty()) plan_spec = "builtin:vg700ca";
   if (!plan_spec.empty()) {
     auto plan = judge::LoadPlan(plan_spec);  // fail here, not in a child
     if (!plan.ok()) return plan.status();
@@ -126,7 +129,9 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     if (!archive.ok()) return archive.status();
   }
   const double rate = o.rate_hz > 0 ? o.rate_hz : profile->nominal_rate_hz;
-  const double total_samples = o.sim_units * std::round(o.duration_s * rate);
+  // Progress in samples is known for simulated units only; otherwise in runs.
+  const int expected_runs = o.sim_units + static_cast<int>(o.units.size());
+  const double total_samples = o.units.empty() ? o.sim_units * std::round(o.duration_s * rate) : 0;
 
   StationRunResult result;
   result.run_prefix = CompactUtc(NowUtime());
@@ -204,11 +209,13 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   }
 
   std::vector<std::string> acquire_args = {
-      dir + "/imuqual-acquire", "--lcm-url",  url,          "--lot",
-      o.lot,                    "--station",  o.station,    "--sim",
-      std::to_string(o.sim_units), "--profile", o.profile,  "--duration",
-      std::to_string(o.duration_s), "--run-prefix", result.run_prefix, "--await",
-      "store,analyze"};
+      dir + "/imuqual-acquire", "--lcm-url", url, "--lot", o.lot, "--station", o.station,
+      "--profile", o.profile, "--run-prefix", result.run_prefix, "--await", "store,analyze"};
+  if (o.sim_units > 0) {
+    acquire_args.insert(acquire_args.end(), {"--sim", std::to_string(o.sim_units), "--duration",
+                                             std::to_string(o.duration_s)});
+  }
+  for (const std::string& unit : o.units) acquire_args.insert(acquire_args.end(), {"--unit", unit});
   if (o.rate_hz > 0) acquire_args.insert(acquire_args.end(), {"--rate", std::to_string(o.rate_hz)});
   if (!plan_spec.empty()) acquire_args.insert(acquire_args.end(), {"--plan", plan_spec});
   if (!o.operator_name.empty()) acquire_args.insert(acquire_args.end(), {"--operator", o.operator_name});
@@ -245,16 +252,18 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
       last_change = now;
     }
     if (o.show_progress && (tty ? now - last_line > 0.2 : now - last_line > 10)) {
-      const double frac = std::min(1.0, published / std::max(total_samples, 1.0));
+      const double frac = total_samples > 0 ? std::min(1.0, published / total_samples)
+                                            : static_cast<double>(done) / expected_runs;
       const int bar = static_cast<int>(frac * 30);
       std::fprintf(stderr, "%s[%s%s] %3.0f%%  %s/%s samples  runs archived %d/%d  %.0f s%s",
                    tty ? "\r" : "", std::string(bar, '=').c_str(),
                    std::string(30 - bar, ' ').c_str(), 100 * frac, Si(published).c_str(),
-                   Si(total_samples).c_str(), done, o.sim_units, now - t0, tty ? "" : "\n");
+                   total_samples > 0 ? Si(total_samples).c_str() : "?", done, expected_runs,
+                   now - t0, tty ? "" : "\n");
       std::fflush(stderr);
       last_line = now;
     }
-    if (done >= o.sim_units) break;
+    if (done >= expected_runs) break;
     if (ShutdownRequested() && drain_deadline < 0) {
       drain_deadline = now + kAbortDrainS;
       result.interrupted = true;
@@ -263,6 +272,11 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
       acquire->Signal(SIGTERM);
     }
     if (drain_deadline >= 0 && now > drain_deadline) break;
+    if (auto code = acquire->Poll(); code && *code != 0 && runs.empty()) {
+      // It failed before announcing anything (a bad source or plan): nothing to wait for.
+      outcome = failure("imuqual-acquire failed (exit " + std::to_string(*code) + ")");
+      break;
+    }
     if (auto code = acquire->Poll(); code && *code != 0 && drain_deadline < 0) {
       // The source died: the store ends its runs as incomplete once it has
       // been silent for stale_after_s; wait for that, then report.

@@ -17,6 +17,7 @@ namespace imuqual::cli {
 
 struct StationRunOptions {
   int sim_units = 0;               // simulated units
+  std::vector<std::string> units;  // more units as SERIAL=SOURCE (csv:FILE,..., sim:PROFILE,...)
   std::string profile = "vg700";   // simulated lot profile
   double duration_s = 0;           // simulated seconds per unit
   double rate_hz = 0;              // 0: the profile's rate

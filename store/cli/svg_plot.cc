@@ -4,6 +4,10 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace imuqual::cli {
 namespace {
@@ -12,11 +16,20 @@ std::string Esc(const std::string& s) {
   std::string out;
   for (char c : s) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -32,6 +45,19 @@ std::string Tick(double decade) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", std::pow(10.0, decade));
   return buf;
+}
+
+struct Segment {
+  double ax = 0, ay = 0, bx = 0, by = 0;  // px
+};
+
+// Distance in px from (x, y) to a segment (a point when both ends coincide).
+double Distance(double x, double y, const Segment& s) {
+  const double vx = s.bx - s.ax, vy = s.by - s.ay;
+  const double len2 = vx * vx + vy * vy;
+  double t = len2 > 0 ? ((x - s.ax) * vx + (y - s.ay) * vy) / len2 : 0;
+  t = std::clamp(t, 0.0, 1.0);
+  return std::hypot(x - (s.ax + t * vx), y - (s.ay + t * vy));
 }
 
 bool Drawable(double x, double y) { return x > 0 && y > 0 && std::isfinite(x) && std::isfinite(y); }
@@ -69,7 +95,7 @@ std::string LogLogPlot::ToSvg() const {
     y1 = 1;
   }
   for (const PlotLine& l : lines) {
-    if (l.y > 0 && std::isfinite(l.y)) {
+    if (l.slope == 0 && l.y > 0 && std::isfinite(l.y)) {
       y0 = std::min(y0, std::log10(l.y));
       y1 = std::max(y1, std::log10(l.y));
     }
@@ -79,7 +105,7 @@ std::string LogLogPlot::ToSvg() const {
   y0 = std::floor(y0);
   y1 = std::max(std::ceil(y1), y0 + 1);
 
-  const double left = 80, right = 190, top = 40, bottom = 55;
+  const double left = 80, right = legend_width, top = 40, bottom = 55;
   const double pw = width - left - right, ph = height - top - bottom;
   auto px = [&](double x) { return left + (std::log10(x) - x0) / (x1 - x0) * pw; };
   auto py = [&](double y) { return top + (y1 - std::log10(y)) / (y1 - y0) * ph; };
@@ -87,7 +113,10 @@ std::string LogLogPlot::ToSvg() const {
   std::string svg;
   svg += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + std::to_string(width) +
          "\" height=\"" + std::to_string(height) + "\" viewBox=\"0 0 " + std::to_string(width) +
-         " " + std::to_string(height) + "\" font-family=\"sans-serif\" font-size=\"12\">\n";
+         " " + std::to_string(height) + "\" font-family=\"sans-serif\" font-size=\"12\"";
+  svg += " role=\"img\" aria-label=\"";
+  svg += Esc(title);
+  svg += "\">\n";
   svg += "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
   svg += "<text x=\"" + F(left + pw / 2) + "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" +
          Esc(title) + "</text>\n";
@@ -131,13 +160,29 @@ std::string LogLogPlot::ToSvg() const {
              "\" fill-opacity=\"0.18\" stroke=\"none\"/>\n";
     }
   }
-  for (const PlotLine& l : lines) {
-    if (!(l.y > 0) || !std::isfinite(l.y)) continue;
-    svg += "<line x1=\"" + F(left) + "\" y1=\"" + F(py(l.y)) + "\" x2=\"" + F(left + pw) +
-           "\" y2=\"" + F(py(l.y)) + "\" stroke=\"" + l.color +
+  // Reference lines, clipped to the plot; their labels come last (on top).
+  std::vector<Segment> line_segments(lines.size());
+  std::vector<bool> line_drawn(lines.size(), false);
+  for (size_t li = 0; li < lines.size(); ++li) {
+    const PlotLine& l = lines[li];
+    if (!(l.y > 0) || !std::isfinite(l.y) || !std::isfinite(l.slope)) continue;
+    // In decades: ly(lx) = log10(y) + slope lx, clipped to [x0, x1] x [y0, y1].
+    double a = x0, b = x1;
+    const double c = std::log10(l.y);
+    if (l.slope != 0) {
+      double ea = (y0 - c) / l.slope, eb = (y1 - c) / l.slope;
+      if (ea > eb) std::swap(ea, eb);
+      a = std::max(a, ea);
+      b = std::min(b, eb);
+      if (!(b > a)) continue;  // entirely outside the plot
+    }
+    const double ya = std::pow(10.0, c + l.slope * a), yb = std::pow(10.0, c + l.slope * b);
+    const double xa = std::pow(10.0, a), xb = std::pow(10.0, b);
+    line_segments[li] = {px(xa), py(ya), px(xb), py(yb)};
+    line_drawn[li] = true;
+    svg += "<line x1=\"" + F(px(xa)) + "\" y1=\"" + F(py(ya)) + "\" x2=\"" + F(px(xb)) +
+           "\" y2=\"" + F(py(yb)) + "\" stroke=\"" + l.color +
            "\" stroke-dasharray=\"6,4\" stroke-width=\"1.5\"/>\n";
-    svg += "<text x=\"" + F(left + pw - 4) + "\" y=\"" + F(py(l.y) - 4) + "\" text-anchor=\"end\" fill=\"" +
-           l.color + "\">" + Esc(l.label) + "</text>\n";
   }
   for (const PlotSeries& s : series) {
     std::string pts;
@@ -145,31 +190,180 @@ std::string LogLogPlot::ToSvg() const {
       if (Drawable(s.x[i], s.y[i])) pts += F(px(s.x[i])) + "," + F(py(s.y[i])) + " ";
     }
     if (pts.empty()) continue;
+    std::string opacity;
+    if (s.opacity < 1) {
+      opacity = " opacity=\"";
+      opacity += F(std::max(s.opacity, 0.0));
+      opacity += "\"";
+    }
     svg += "<polyline points=\"" + pts + "\" fill=\"none\" stroke=\"" + s.color +
-           "\" stroke-width=\"1.8\"" + (s.dashed ? " stroke-dasharray=\"5,3\"" : "") + "/>\n";
+           "\" stroke-width=\"" + F(s.stroke_width) + "\"" +
+           (s.dashed ? " stroke-dasharray=\"5,3\"" : "") + opacity + "/>\n";
     if (s.markers) {
       for (size_t i = 0; i < s.x.size(); ++i) {
         if (!Drawable(s.x[i], s.y[i])) continue;
-        svg += "<circle cx=\"" + F(px(s.x[i])) + "\" cy=\"" + F(py(s.y[i])) + "\" r=\"2.6\" fill=\"" +
-               s.color + "\"/>\n";
+        svg += "<circle cx=\"" + F(px(s.x[i])) + "\" cy=\"" + F(py(s.y[i])) +
+               "\" r=\"2.6\" fill=\"" + s.color + "\"" + opacity + "/>\n";
       }
     }
   }
   for (const PlotMarker& m : markers) {
     if (!Drawable(m.x, m.y)) continue;
-    svg += "<circle cx=\"" + F(px(m.x)) + "\" cy=\"" + F(py(m.y)) + "\" r=\"5\" fill=\"none\" stroke=\"" +
-           m.color + "\" stroke-width=\"2\"/>\n";
+    svg += "<circle cx=\"" + F(px(m.x)) + "\" cy=\"" + F(py(m.y)) +
+           "\" r=\"5\" fill=\"none\" stroke=\"" + m.color + "\" stroke-width=\"2\"/>\n";
+    if (marker_labels_in_legend || m.label.empty()) continue;
     svg += "<text x=\"" + F(px(m.x) + 8) + "\" y=\"" + F(py(m.y) + 16) + "\" fill=\"" + m.color +
            "\">" + Esc(m.label) + "</text>\n";
   }
-  // Legend.
+  // Line labels along their lines, each where it least overlaps the curves,
+  // the markers, the other lines and the labels placed before it: the first
+  // candidate with kLabelClearPx of free space, else the clearest one.
+  {
+    constexpr double kCharWidthPx = 6.2;   // 12 px sans-serif, generous
+    constexpr double kHalfHeightPx = 4.5;  // half the cap height
+    constexpr double kLabelClearPx = 3;
+    constexpr int kSamples = 8;
+    std::vector<Segment> obstacles;
+    for (const PlotSeries& s : series) {
+      bool have = false;
+      double lx = 0, ly = 0;
+      for (size_t i = 0; i < s.x.size(); ++i) {
+        if (!Drawable(s.x[i], s.y[i])) continue;
+        const double x = px(s.x[i]), y = py(s.y[i]);
+        if (have) obstacles.push_back({lx, ly, x, y});
+        lx = x;
+        ly = y;
+        have = true;
+      }
+    }
+    for (const PlotMarker& m : markers) {
+      if (Drawable(m.x, m.y)) obstacles.push_back({px(m.x), py(m.y), px(m.x), py(m.y)});
+    }
+    std::vector<Segment> placed;  // centre lines of the labels already placed
+    struct Candidate {
+      double x, y;    // the anchor on the baseline
+      double tx, ty;  // the text's direction (unit vector)
+      bool anchor_end;
+    };
+    for (size_t li = 0; li < lines.size(); ++li) {
+      if (!line_drawn[li] || lines[li].label.empty()) continue;
+      const Segment& g = line_segments[li];
+      const double len = std::hypot(g.bx - g.ax, g.by - g.ay);
+      if (!(len > 0)) continue;
+      const double dx = (g.bx - g.ax) / len, dy = (g.by - g.ay) / len;  // along the line
+      const double w = kCharWidthPx * static_cast<double>(lines[li].label.size());
+      // Along the line, ending at points from its right end backwards, the
+      // baseline above then below it; then level text beside those points
+      // (for a line too short or too steep to carry its label).
+      std::vector<Candidate> candidates;
+      for (const bool level : {false, true}) {
+        const double tx = level ? 1 : dx, ty = level ? 0 : dy;
+        const double nx = ty, ny = -tx;  // the text's "up"
+        for (int step = 0; step <= 10; ++step) {
+          const double px0 = g.ax + (1.0 - 0.1 * step) * len * dx;
+          const double py0 = g.ay + (1.0 - 0.1 * step) * len * dy;
+          for (const double offset : {4.0, -14.0}) {  // baseline above / below the line
+            candidates.push_back(
+                {px0 - 4 * tx + offset * nx, py0 - 4 * ty + offset * ny, tx, ty, true});
+            if (level) {
+              candidates.push_back(
+                  {px0 + 4 * tx + offset * nx, py0 + 4 * ty + offset * ny, tx, ty, false});
+            }
+          }
+        }
+      }
+      auto score_of = [&](const Candidate& c) {
+        const double nx = c.ty, ny = -c.tx;
+        const double sign = c.anchor_end ? -1 : 1;
+        double score = std::numeric_limits<double>::infinity();
+        for (int k = 0; k <= kSamples; ++k) {
+          const double cx = c.x + sign * c.tx * w * k / kSamples + nx * kHalfHeightPx;
+          const double cy = c.y + sign * c.ty * w * k / kSamples + ny * kHalfHeightPx;
+          if (cx < left || cx > left + pw || cy - kHalfHeightPx < top ||
+              cy + kHalfHeightPx > top + ph) {
+            return -std::numeric_limits<double>::infinity();
+          }
+          for (const Segment& o : obstacles) score = std::min(score, Distance(cx, cy, o));
+          for (const Segment& o : placed) score = std::min(score, Distance(cx, cy, o));
+          for (size_t other = 0; other < lines.size(); ++other) {
+            if (other != li && line_drawn[other]) {
+              score = std::min(score, Distance(cx, cy, line_segments[other]));
+            }
+          }
+        }
+        return score - kHalfHeightPx;
+      };
+      const Candidate* best = nullptr;
+      double best_score = -std::numeric_limits<double>::infinity();
+      for (const Candidate& c : candidates) {
+        const double score = score_of(c);
+        if (best == nullptr || score > best_score) {
+          best = &c;
+          best_score = score;
+        }
+        if (score >= kLabelClearPx) break;
+      }
+      Candidate c = *best;
+      if (!std::isfinite(best_score)) {  // nowhere inside: level, clamped into the plot
+        c = {std::clamp(g.bx - 4, left + w, left + pw - 4),
+             std::clamp(g.by - 4, top + 12, top + ph - 4), 1, 0, true};
+      }
+      const double nx = c.ty, ny = -c.tx, sign = c.anchor_end ? -1 : 1;
+      const double cx = c.x + nx * kHalfHeightPx, cy = c.y + ny * kHalfHeightPx;
+      placed.push_back({cx, cy, cx + sign * c.tx * w, cy + sign * c.ty * w});
+      svg += "<text x=\"" + F(c.x) + "\" y=\"" + F(c.y) + "\" text-anchor=\"" +
+             (c.anchor_end ? "end" : "start") + "\" fill=\"" + lines[li].color + "\"";
+      const double angle_deg = std::atan2(c.ty, c.tx) * 180 / std::numbers::pi;
+      if (std::abs(angle_deg) > 0.05) {
+        svg += " transform=\"rotate(" + F(angle_deg) + " " + F(c.x) + " " + F(c.y) + ")\"";
+      }
+      svg += ">" + Esc(lines[li].label) + "</text>\n";
+    }
+  }
+  // Legend: series, then (optionally) markers, then notes; what does not fit
+  // above the bottom margin is counted instead of drawn.
+  const double legend_x = left + pw + 12, legend_end = height - bottom;
   double ly = top + 10;
+  size_t not_shown = 0;
+  auto room = [&](double need) { return ly + need <= legend_end; };
   for (const PlotSeries& s : series) {
-    svg += "<line x1=\"" + F(left + pw + 12) + "\" y1=\"" + F(ly) + "\" x2=\"" + F(left + pw + 36) +
+    if (!s.in_legend) continue;
+    if (!room(18 + 18)) {
+      ++not_shown;
+      continue;
+    }
+    svg += "<line x1=\"" + F(legend_x) + "\" y1=\"" + F(ly) + "\" x2=\"" + F(legend_x + 24) +
            "\" y2=\"" + F(ly) + "\" stroke=\"" + s.color + "\" stroke-width=\"2\"" +
            (s.dashed ? " stroke-dasharray=\"5,3\"" : "") + "/>\n";
-    svg += "<text x=\"" + F(left + pw + 42) + "\" y=\"" + F(ly + 4) + "\">" + Esc(s.label) + "</text>\n";
+    svg += "<text x=\"" + F(legend_x + 30) + "\" y=\"" + F(ly + 4) + "\">" + Esc(s.label) +
+           "</text>\n";
     ly += 18;
+  }
+  if (marker_labels_in_legend) {
+    for (const PlotMarker& m : markers) {
+      if (!Drawable(m.x, m.y) || m.label.empty()) continue;
+      if (!room(18 + 18)) {
+        ++not_shown;
+        continue;
+      }
+      svg += "<circle cx=\"" + F(legend_x + 12) + "\" cy=\"" + F(ly) +
+             "\" r=\"5\" fill=\"none\" stroke=\"" + m.color + "\" stroke-width=\"2\"/>\n";
+      svg += "<text x=\"" + F(legend_x + 30) + "\" y=\"" + F(ly + 4) + "\">" + Esc(m.label) +
+             "</text>\n";
+      ly += 18;
+    }
+  }
+  if (not_shown > 0) {
+    svg += "<text x=\"" + F(legend_x) + "\" y=\"" + F(ly + 4) + "\" fill=\"#555555\">(" +
+           std::to_string(not_shown) + " more not listed)</text>\n";
+    ly += 18;
+  }
+  ly += 6;
+  for (const std::string& note : notes) {
+    if (!room(14)) break;
+    svg += "<text x=\"" + F(legend_x) + "\" y=\"" + F(ly + 4) +
+           "\" font-size=\"10.5\" fill=\"#555555\">" + Esc(note) + "</text>\n";
+    ly += 14;
   }
   svg += "</svg>\n";
   return svg;

@@ -1,6 +1,7 @@
 // Log-log plots as self-contained SVG (no scripts, no external fonts or
-// files): Allan deviation curves with confidence bands, model lines, limit
-// lines and marked points. Pure: returns the SVG text.
+// files, no element ids, so several plots can be inlined in one HTML page):
+// Allan deviation curves with confidence bands, model lines, limit lines and
+// marked points. Pure: returns the SVG text; every text is XML-escaped.
 #ifndef IMUQUAL_STORE_CLI_SVG_PLOT_H_
 #define IMUQUAL_STORE_CLI_SVG_PLOT_H_
 
@@ -16,12 +17,22 @@ struct PlotSeries {
   std::string color = "#1f77b4";
   bool markers = true;
   bool dashed = false;
+  bool in_legend = true;      // false: drawn, but not listed in the legend
+  double stroke_width = 1.8;  // px
+  double opacity = 1.0;       // of the line and markers, in (0, 1]
 };
 
-struct PlotLine {  // a horizontal reference line, e.g. a limit
+// A reference line, e.g. a limit: y(x) = y * x^slope on the log-log axes
+// (`y` is the value at x = 1). slope 0 is a horizontal line, and the y range
+// grows to show it; a sloped line (e.g. -1/2 for a random-walk limit) is
+// clipped to the plot and never changes the range. The label runs along the
+// line (or level beside it), where it least overlaps the curves, markers,
+// other lines and labels.
+struct PlotLine {
   std::string label;
   double y = 0;
   std::string color = "#d62728";
+  double slope = 0;
 };
 
 struct PlotMarker {  // a single labelled point, e.g. the curve minimum
@@ -37,8 +48,14 @@ struct LogLogPlot {
   std::vector<PlotSeries> series;
   std::vector<PlotLine> lines;
   std::vector<PlotMarker> markers;
+  // false: each marker's label is written next to it; true: listed in the
+  // legend under the series (readable when several markers lie close). An
+  // empty label is written nowhere.
+  bool marker_labels_in_legend = false;
+  std::vector<std::string> notes;  // small lines of text under the legend
   int width = 760;
   int height = 520;
+  int legend_width = 190;  // px right of the plot area for the legend
   std::string ToSvg() const;
 };
 

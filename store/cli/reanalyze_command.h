@@ -1,0 +1,32 @@
+// `imuqual reanalyze RUN`: the analysis of an archived run again.
+//  - by default, the live analysis (streaming engine, the run's plan) over the
+//    archived samples: the archived result bit for bit (--check says so);
+//  - with --exact, the exact batch estimators on any grid, stop rule and
+//    confidence interval, over every archived sample (no warm-up skipped;
+//    missing and flagged samples are gaps): what `imuqual analyze` gives for
+//    the same samples.
+#ifndef IMUQUAL_STORE_CLI_REANALYZE_COMMAND_H_
+#define IMUQUAL_STORE_CLI_REANALYZE_COMMAND_H_
+
+#include <string>
+
+namespace imuqual::cli {
+
+struct ReanalyzeOptions {
+  std::string db_path;
+  std::string run_id;
+  bool exact = false;
+  bool check = false;              // live mode: compare with the archived curves
+  std::string devs = "oadev";      // --exact: estimators, grid, stop rule, CI
+  std::string grid = "octave";
+  std::string stop = "bins9";
+  std::string ci = "none";
+  double confidence = 0.682689492137086;
+  std::string format = "table";
+};
+
+int ReanalyzeCommand(const ReanalyzeOptions& options);
+
+}  // namespace imuqual::cli
+
+#endif  // IMUQUAL_STORE_CLI_REANALYZE_COMMAND_H_

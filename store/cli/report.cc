@@ -1,0 +1,780 @@
+#include "store/cli/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <optional>
+#include <set>
+#include <string_view>
+#include <tuple>
+#include <vector>
+
+#include "analyze/judge/measurements.h"
+#include "common/clock.h"
+#include "common/log.h"
+#include "common/text_util.h"
+#include "common/version.h"
+#include "store/cli/lot_statistics.h"
+#include "store/cli/plot_command.h"
+#include "store/query.h"
+
+namespace imuqual::cli {
+namespace {
+
+constexpr int kExitError = 1;
+constexpr int kExitUsage = 2;
+
+// Appends every part to *out (no temporaries of "literal" + std::string).
+template <typename... Parts>
+void Add(std::string* out, const Parts&... parts) {
+  (out->append(parts), ...);
+}
+
+std::string Esc(std::string_view s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+// ` name="value"`, the value escaped.
+std::string Attr(std::string_view name, std::string_view value) {
+  std::string out = " ";
+  Add(&out, name, "=\"", Esc(value), "\"");
+  return out;
+}
+
+// Full precision for programs: %.17g round-trips a double; "" for none.
+std::string Exact(double v) {
+  if (!std::isfinite(v)) return "";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+// Four significant digits for people, as HTML: 1.234&times;10<sup>-5</sup>,
+// a real minus sign, an en dash for none.
+std::string Human(double v) {
+  if (!std::isfinite(v)) return "&ndash;";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.4g", std::abs(v));
+  std::string digits = buf;
+  std::string out = v < 0 ? "&minus;" : "";
+  const size_t e = digits.find('e');
+  if (e == std::string::npos) {
+    out += digits;
+    return out;
+  }
+  const int exponent = std::stoi(digits.substr(e + 1));
+  Add(&out, digits.substr(0, e), "&times;10<sup>", exponent < 0 ? "&minus;" : "",
+      std::to_string(std::abs(exponent)), "</sup>");
+  return out;
+}
+
+std::string Percent(double fraction) {
+  if (!std::isfinite(fraction)) return "&ndash;";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f&nbsp;%%", 100 * fraction);
+  return buf;
+}
+
+// Datasheet typography of a stored unit: deg/sqrt(h) -> °/√h, ug -> µg,
+// ^2 -> ², the dimensionless "1" -> "" (escaped HTML).
+std::string PrettyUnit(std::string_view unit) {
+  if (unit == "1") return "";
+  std::string u(unit);
+  auto replace = [&u](std::string_view from, std::string_view to) {
+    for (size_t pos = u.find(from); pos != std::string::npos; pos = u.find(from, pos + to.size())) {
+      u.replace(pos, from.size(), to);
+    }
+  };
+  replace("sqrt(h)", "\u221Ah");
+  replace("deg", "\u00B0");
+  replace("ug", "\u00B5g");
+  replace("^2", "\u00B2");
+  return Esc(u);
+}
+
+std::string IsoTime(int64_t utime) {
+  std::string t = FormatUtimeIso(utime);  // 2026-11-21T11:05:00Z
+  if (t.size() == 20 && t[10] == 'T' && t[19] == 'Z') {
+    t[10] = ' ';
+    t.resize(19);
+    t += " UTC";
+  }
+  return t;
+}
+
+int Severity(std::string_view verdict) {
+  if (verdict == "FAIL") return 3;
+  if (verdict == "MARGINAL") return 2;
+  if (verdict == "PASS") return 1;
+  return 0;
+}
+
+std::string OutcomeName(pb::Outcome o) {
+  switch (o) {
+    case pb::PASS:
+      return "PASS";
+    case pb::MARGINAL:
+      return "MARGINAL";
+    case pb::FAIL:
+      return "FAIL";
+    default:
+      return "";
+  }
+}
+
+// A verdict as a coloured badge ("not judged" for none).
+std::string Badge(std::string_view verdict) {
+  static const char* kClass[] = {"v-none", "v-PASS", "v-MARGINAL", "v-FAIL"};
+  std::string out = "<span class=\"badge ";
+  Add(&out, kClass[Severity(verdict)], "\">", verdict.empty() ? "not judged" : Esc(verdict),
+      "</span>");
+  return out;
+}
+
+// A verdict cell; sorts by severity.
+std::string VerdictCell(std::string_view verdict, std::string_view field) {
+  std::string out = "<td class=\"verdict\"";
+  Add(&out, Attr("data-field", field), Attr("data-sort", std::to_string(Severity(verdict))), ">",
+      Badge(verdict), "</td>");
+  return out;
+}
+
+// Measurement names people read, in catalogue order.
+struct Label {
+  std::string_view name, text;
+};
+constexpr Label kLabels[] = {
+    {judge::kBiasInstability, "Bias instability (curve minimum)"},
+    {judge::kBiasInstabilityIeee, "Bias instability B (IEEE 952, min/0.664)"},
+    {judge::kTauAtMinimum, "\u03C4 at the curve minimum"},
+    {judge::kAngleRandomWalk, "Angle random walk N (\u03C4 = 1 s)"},
+    {judge::kVelocityRandomWalk, "Velocity random walk N (\u03C4 = 1 s)"},
+    {judge::kRateRandomWalk, "Rate random walk K (\u03C4 = 3 s)"},
+    {judge::kBiasOffset, "Bias offset (mean output)"},
+    {judge::kFitQuantization, "Fit: quantization Q"},
+    {judge::kFitAngleRandomWalk, "Fit: angle random walk N"},
+    {judge::kFitVelocityRandomWalk, "Fit: velocity random walk N"},
+    {judge::kFitBiasInstability, "Fit: bias instability B"},
+    {judge::kFitRateRandomWalk, "Fit: rate random walk K"},
+    {judge::kFitRateRamp, "Fit: rate ramp R"},
+    {judge::kGapFraction, "Gap fraction"},
+    {judge::kInvalidFraction, "Invalid fraction"},
+    {judge::kDuration, "Analysed duration"},
+};
+
+size_t LabelIndex(std::string_view name) {
+  for (size_t i = 0; i < std::size(kLabels); ++i) {
+    if (kLabels[i].name == name) return i;
+  }
+  return std::size(kLabels);
+}
+
+std::string MeasurementTitle(std::string_view name) {
+  const size_t i = LabelIndex(name);
+  return i < std::size(kLabels) ? Esc(kLabels[i].text) : Esc(name);
+}
+
+// "≤ 20", "2 – 120", "≥ 0.1", plus the marginal band's edges; "" for none.
+std::string LimitText(const std::optional<double>& low, const std::optional<double>& high,
+                      const std::optional<double>& marginal_low,
+                      const std::optional<double>& marginal_high) {
+  std::string out;
+  if (low && high) {
+    Add(&out, Human(*low), "&ndash;", Human(*high));
+  } else if (high) {
+    Add(&out, "&le;&nbsp;", Human(*high));
+  } else if (low) {
+    Add(&out, "&ge;&nbsp;", Human(*low));
+  }
+  if (marginal_low || marginal_high) {
+    out += out.empty() ? "marginal " : " (marginal ";
+    if (marginal_low) Add(&out, "&lt;&nbsp;", Human(*marginal_low));
+    if (marginal_low && marginal_high) out += ", ";
+    if (marginal_high) Add(&out, "&gt;&nbsp;", Human(*marginal_high));
+    if (low || high) out += ")";
+  }
+  return out;
+}
+
+// A numeric cell: rounded text, exact data-v, optional data-m and outcome.
+std::string NumCell(double v, std::string_view key_attr, std::string_view key,
+                    std::string_view outcome = "") {
+  std::string out = "<td class=\"num";
+  if (!outcome.empty() && outcome != "PASS") Add(&out, " o-", outcome);
+  out += "\"";
+  Add(&out, Attr(key_attr, key), Attr("data-v", Exact(v)));
+  if (!outcome.empty()) out += Attr("data-outcome", outcome);
+  Add(&out, ">", Human(v), "</td>");
+  return out;
+}
+
+std::string IntCell(int64_t v, std::string_view key_attr, std::string_view key) {
+  std::string out = "<td class=\"num\"";
+  Add(&out, Attr(key_attr, key), Attr("data-v", std::to_string(v)), ">", std::to_string(v),
+      "</td>");
+  return out;
+}
+
+using MeasurementKey = std::tuple<std::string, std::string, std::string>;  // run, axis, name
+
+struct ReportData {
+  store::LotRow lot;
+  std::vector<store::AxisRow> rows;  // latest run per unit, per axis
+  std::vector<store::MeasurementRow> measurements;
+  std::map<MeasurementKey, const store::MeasurementRow*> by_key;
+  std::vector<MeasurementStats> stats;
+  std::vector<RunPlotData> runs;  // one per unit, in the rows' order
+};
+
+// ---- sections -------------------------------------------------------------
+
+void Header(const ReportData& d, const std::string& archive_label, std::string* out) {
+  const store::LotRow& l = d.lot;
+  std::vector<std::string> plans, stations, versions;
+  std::string description;
+  auto add_unique = [](std::vector<std::string>* v, const std::string& s) {
+    if (!s.empty() && std::find(v->begin(), v->end(), s) == v->end()) v->push_back(s);
+  };
+  for (const RunPlotData& r : d.runs) {
+    add_unique(&plans, r.plan.name());
+    add_unique(&stations, r.info.station);
+    add_unique(&versions, r.info.software_version);
+    if (description.empty()) description = r.plan.description();
+  }
+  auto joined = [](const std::vector<std::string>& v) {
+    return v.empty() ? std::string("&ndash;") : Esc(Join(v, ", "));
+  };
+  const char* banner = l.fail > 0 ? "v-FAIL" : l.marginal > 0 ? "v-MARGINAL" : "v-PASS";
+  Add(out, "<header class=\"top\">\n<p class=\"eyebrow\">IMU end-of-line qualification &middot; ",
+      "Allan variance (IEEE Std 952)</p>\n<h1>Lot <span data-field=\"lot\"", Attr("data-v", l.lot),
+      ">", Esc(l.lot), "</span></h1>\n");
+  Add(out, "<p class=\"banner ", banner, "\">Yield <strong data-field=\"yield\"",
+      Attr("data-v", Exact(l.yield)), ">", Percent(l.yield),
+      "</strong>: ", std::to_string(l.pass + l.marginal), " of ",
+      std::to_string(l.pass + l.marginal + l.fail), " judged units pass</p>\n</header>\n");
+
+  Add(out, "<section id=\"summary\" aria-label=\"Lot summary\">\n<dl class=\"facts\">\n");
+  auto fact = [out](std::string_view title, std::string_view field, const std::string& v,
+                    const std::string& html, const char* cls = "") {
+    Add(out, "<div class=\"fact ", cls, "\"><dt>", title, "</dt><dd", Attr("data-field", field),
+        Attr("data-v", v), ">", html, "</dd></div>\n");
+  };
+  std::string plan_html = joined(plans);
+  if (!description.empty()) Add(&plan_html, "<small>", Esc(description), "</small>");
+  fact("Test plan", "plan", Join(plans, ", "), plan_html, "wide");
+  fact("Units", "units", std::to_string(l.units), std::to_string(l.units));
+  fact("Runs (with retests)", "runs", std::to_string(l.runs), std::to_string(l.runs));
+  fact("PASS", "pass", std::to_string(l.pass), std::to_string(l.pass), "c-PASS");
+  fact("MARGINAL", "marginal", std::to_string(l.marginal), std::to_string(l.marginal),
+       "c-MARGINAL");
+  fact("FAIL", "fail", std::to_string(l.fail), std::to_string(l.fail), "c-FAIL");
+  if (l.unjudged > 0) {
+    fact("Not judged", "unjudged", std::to_string(l.unjudged), std::to_string(l.unjudged));
+  }
+  fact("First start", "first_start", std::to_string(l.first_start_utime),
+       Esc(IsoTime(l.first_start_utime)));
+  fact("Last start", "last_start", std::to_string(l.last_start_utime),
+       Esc(IsoTime(l.last_start_utime)));
+  fact("Station", "stations", Join(stations, ", "), joined(stations));
+  fact("Software", "software", Join(versions, ", "), joined(versions));
+  *out += "</dl>\n";
+
+  // The lot at a glance: one bar, a segment per verdict.
+  const double units = static_cast<double>(std::max<int64_t>(l.units, 1));
+  *out += "<div class=\"bar\" role=\"img\" aria-label=\"verdicts of the units\">";
+  const std::pair<const char*, int64_t> parts[] = {
+      {"PASS", l.pass}, {"MARGINAL", l.marginal}, {"FAIL", l.fail}, {"none", l.unjudged}};
+  for (const auto& [name, count] : parts) {
+    if (count <= 0) continue;
+    char width[32];
+    std::snprintf(width, sizeof width, "%.3f%%", 100.0 * static_cast<double>(count) / units);
+    Add(out, "<span class=\"seg v-", name, "\" style=\"width:", width, "\" title=\"",
+        std::to_string(count), " ", name, "\">", std::to_string(count), "</span>");
+  }
+  Add(out, "</div>\n<p class=\"note\">Each unit's latest run in the lot. Archive ",
+      Esc(archive_label), ".</p>\n</section>\n");
+}
+
+void Attention(const ReportData& d, const std::map<std::string, std::string>& plot_anchor,
+               std::string* out) {
+  std::vector<const RunPlotData*> flagged;
+  for (const RunPlotData& r : d.runs) {
+    if (Severity(r.verdict) >= 2) flagged.push_back(&r);
+  }
+  std::stable_sort(flagged.begin(), flagged.end(), [](const auto* a, const auto* b) {
+    return Severity(a->verdict) > Severity(b->verdict);
+  });
+  *out += "<section id=\"attention\">\n<h2>Units that fail or are marginal</h2>\n";
+  if (flagged.empty()) {
+    *out += "<p class=\"ok\">Every judged unit passes without a marginal value.</p>\n</section>\n";
+    return;
+  }
+  *out += "<ul class=\"reasons\">\n";
+  for (const RunPlotData* r : flagged) {
+    Add(out, "<li", Attr("data-unit", r->info.serial), Attr("data-run", r->info.run_id),
+        Attr("data-verdict", r->verdict), "><div class=\"who\">", Badge(r->verdict), " <strong>",
+        Esc(r->info.serial), "</strong> <span class=\"run\">run ", Esc(r->info.run_id), "</span>");
+    auto it = plot_anchor.find(r->info.run_id);
+    if (it != plot_anchor.end()) Add(out, " <a href=\"#", it->second, "\">plot</a>");
+    *out += "</div>\n<ul>";
+    for (const std::string& reason : r->reasons) Add(out, "<li>", Esc(reason), "</li>");
+    if (r->reasons.empty()) *out += "<li>(no reason recorded)</li>";
+    *out += "</ul></li>\n";
+  }
+  *out += "</ul>\n</section>\n";
+}
+
+// The per unit and axis table of one axis kind.
+void UnitTable(const ReportData& d, const std::string& kind, std::string* out) {
+  const bool accel = kind == "accel";
+  const pb::AxisKind pkind = accel ? pb::ACCEL : pb::GYRO;
+  struct Column {
+    std::string_view measurement;  // catalogued name (units, limits, outcome)
+    std::string_view key;          // data-m
+    const char* title;
+    double store::AxisRow::*field;
+  };
+  const Column columns[] = {
+      {accel ? judge::kVelocityRandomWalk : judge::kAngleRandomWalk, "random_walk",
+       accel ? "VRW" : "ARW", &store::AxisRow::random_walk},
+      {judge::kBiasInstability, "bias_instability", "Bias instability",
+       &store::AxisRow::bias_instability},
+      {judge::kBiasInstabilityIeee, "bias_instability_ieee", "B (IEEE)",
+       &store::AxisRow::bias_instability_ieee},
+      {judge::kTauAtMinimum, "tau_min_s", "\u03C4 at min.", &store::AxisRow::tau_min_s},
+      {judge::kRateRandomWalk, "rate_random_walk", "RRW", &store::AxisRow::rate_random_walk},
+  };
+  Add(out, "<div class=\"scroll\"><table class=\"sortable results\"", Attr("data-kind", kind),
+      ">\n<caption>", accel ? "Accelerometer" : "Gyro", " axes</caption>\n<thead><tr>",
+      "<th scope=\"col\">Unit</th><th scope=\"col\">Axis</th>");
+  for (const Column& c : columns) {
+    const judge::MeasurementDef* def = judge::FindMeasurement(c.measurement);
+    const std::string unit = def ? PrettyUnit(judge::UnitFor(*def, pkind)) : "";
+    // The limit under the header when every row has the same one.
+    std::set<std::tuple<std::optional<double>, std::optional<double>, std::optional<double>,
+                        std::optional<double>>>
+        limits;
+    for (const store::MeasurementRow& m : d.measurements) {
+      if (m.kind == kind && m.name == c.measurement) {
+        limits.emplace(m.low, m.high, m.marginal_low, m.marginal_high);
+      }
+    }
+    std::string limit;
+    if (limits.size() == 1) {
+      const auto& [lo, hi, mlo, mhi] = *limits.begin();
+      limit = LimitText(lo, hi, mlo, mhi);
+    } else if (limits.size() > 1) {
+      limit = "limits vary";
+    }
+    Add(out, "<th scope=\"col\" class=\"num\">", c.title);
+    if (!unit.empty()) Add(out, " <span class=\"u\">[", unit, "]</span>");
+    if (!limit.empty()) Add(out, "<span class=\"lim\">", limit, "</span>");
+    *out += "</th>";
+  }
+  *out +=
+      "<th scope=\"col\" class=\"num\">Gap samples</th><th scope=\"col\">Axis verdict</th>"
+      "<th scope=\"col\">Unit verdict</th></tr></thead>\n<tbody>\n";
+  std::string previous_run;
+  for (const store::AxisRow& r : d.rows) {
+    if (r.kind != kind) continue;
+    *out += r.run_id != previous_run ? "<tr class=\"unit-start\"" : "<tr";
+    previous_run = r.run_id;
+    Add(out, Attr("data-run", r.run_id), Attr("data-unit", r.unit), Attr("data-axis", r.axis),
+        "><td class=\"unit\" title=\"run ", Esc(r.run_id), "\">", Esc(r.unit), "</td><td>",
+        Esc(r.axis), "</td>");
+    for (const Column& c : columns) {
+      auto it = d.by_key.find({r.run_id, r.axis, std::string(c.measurement)});
+      const std::string outcome = it != d.by_key.end() ? OutcomeName(it->second->outcome) : "";
+      *out += NumCell(r.*c.field, "data-m", c.key, outcome);
+    }
+    *out += IntCell(r.gap_samples, "data-m", "gap_samples");
+    *out += VerdictCell(r.axis_verdict, "axis_verdict");
+    *out += VerdictCell(r.run_verdict, "run_verdict");
+    *out += "</tr>\n";
+  }
+  *out += "</tbody></table></div>\n";
+}
+
+void Results(const ReportData& d, std::string* out) {
+  *out += "<section id=\"results\">\n<h2>Results per unit and axis</h2>\n";
+  std::vector<std::string> kinds;
+  for (const store::AxisRow& r : d.rows) {
+    if (std::find(kinds.begin(), kinds.end(), r.kind) == kinds.end()) kinds.push_back(r.kind);
+  }
+  for (const std::string& kind : kinds) UnitTable(d, kind, out);
+  *out +=
+      "<p class=\"note\">A value is coloured when its own limit judged it MARGINAL or FAIL. "
+      "Axis verdict: the worst outcome of the axis's measurements; unit verdict: the run's, "
+      "which also includes run-level measurements (duration, gaps). Click a column header to "
+      "sort.</p>\n</section>\n";
+}
+
+// `judged`: the rows have limits, and the table shows them with the yield
+// and capability (columns that would be empty for the other rows).
+void StatisticsTable(const std::vector<const MeasurementStats*>& rows, const char* caption,
+                     bool judged, std::string* out) {
+  if (rows.empty()) return;
+  Add(out, "<div class=\"scroll\"><table class=\"sortable stats\">\n<caption>", caption,
+      "</caption>\n<thead><tr><th scope=\"col\">Measurement</th><th scope=\"col\">Axis</th>"
+      "<th scope=\"col\">Unit</th><th scope=\"col\" class=\"num\">n</th>"
+      "<th scope=\"col\" class=\"num\">Mean</th><th scope=\"col\" class=\"num\">SD</th>"
+      "<th scope=\"col\" class=\"num\">Min</th><th scope=\"col\" class=\"num\">Max</th>");
+  if (judged) {
+    *out +=
+        "<th scope=\"col\" class=\"num\">Low limit</th><th scope=\"col\" class=\"num\">High "
+        "limit</th><th scope=\"col\" class=\"num\">Yield</th><th scope=\"col\" "
+        "class=\"num\">Capability</th>";
+  }
+  *out += "</tr></thead>\n<tbody>\n";
+  for (const MeasurementStats* s : rows) {
+    const judge::Summary& m = s->summary;
+    Add(out, "<tr", Attr("data-axis", s->axis), Attr("data-name", s->name),
+        Attr("data-unit", s->unit), "><td", Attr("data-sort", std::to_string(LabelIndex(s->name))),
+        ">", MeasurementTitle(s->name), " <code>", Esc(s->name), "</code></td><td>",
+        s->axis.empty() ? std::string("run") : Esc(s->axis), "</td><td>", PrettyUnit(s->unit),
+        "</td>");
+    *out += IntCell(m.n, "data-stat", "n");
+    *out += NumCell(m.mean, "data-stat", "mean");
+    *out += NumCell(m.sd, "data-stat", "sd");
+    *out += NumCell(m.min, "data-stat", "min");
+    *out += NumCell(m.max, "data-stat", "max");
+    if (!judged) {
+      *out += "</tr>\n";
+      continue;
+    }
+    *out += NumCell(s->low ? *s->low : allan::kNaN, "data-stat", "low");
+    *out += NumCell(s->high ? *s->high : allan::kNaN, "data-stat", "high");
+    // Yield: the percentage and passed/judged.
+    const char* yield_class = !std::isfinite(m.yield) ? "" : m.yield < 1 ? " o-FAIL" : "";
+    Add(out, "<td class=\"num", yield_class, "\" data-stat=\"yield\"",
+        Attr("data-v", Exact(m.yield)), Attr("data-passed", std::to_string(m.passed)),
+        Attr("data-judged", std::to_string(m.judged)), ">", Percent(m.yield));
+    if (m.judged > 0) {
+      Add(out, " <small>(", std::to_string(m.passed), "/", std::to_string(m.judged), ")</small>");
+    }
+    *out += "</td>";
+    // Capability against the customary 1.33 (4 sigma) and 1.0 (3 sigma).
+    const char* cap_class = !std::isfinite(m.capability) ? ""
+                            : m.capability < 1.0         ? " cap-bad"
+                            : m.capability < 1.33        ? " cap-warn"
+                                                         : " cap-ok";
+    Add(out, "<td class=\"num", cap_class, "\" data-stat=\"capability\"",
+        Attr("data-v", Exact(m.capability)), Attr("data-kind", m.capability_kind), ">");
+    if (std::isfinite(m.capability)) Add(out, "<small>", m.capability_kind, "</small> ");
+    Add(out, Human(m.capability), "</td></tr>\n");
+  }
+  *out += "</tbody></table></div>\n";
+}
+
+void Statistics(const ReportData& d, std::string* out) {
+  // Catalogue order, then the axes in order of appearance (stable).
+  std::vector<const MeasurementStats*> sorted;
+  for (const MeasurementStats& s : d.stats) sorted.push_back(&s);
+  std::stable_sort(sorted.begin(), sorted.end(), [](const auto* a, const auto* b) {
+    return LabelIndex(a->name) < LabelIndex(b->name);
+  });
+  std::vector<const MeasurementStats*> judged, other;
+  for (const MeasurementStats* s : sorted) (s->low || s->high ? judged : other).push_back(s);
+  *out += "<section id=\"statistics\">\n<h2>Lot statistics</h2>\n";
+  StatisticsTable(judged, "Measurements with limits", true, out);
+  StatisticsTable(other, "Other measurements (no limits)", false, out);
+  *out +=
+      "<p class=\"note\">SD: sample standard deviation (n&nbsp;&minus;&nbsp;1). Yield: PASS or "
+      "MARGINAL among the judged values. Capability: Cpk&nbsp;=&nbsp;min(USL&nbsp;&minus;&nbsp;"
+      "mean, mean&nbsp;&minus;&nbsp;LSL)&nbsp;/&nbsp;3&nbsp;SD with both limits, Cpu or Cpl with "
+      "one; green from 1.33, amber from 1.0, red below.</p>\n</section>\n";
+}
+
+// A plot; `attributes` (already escaped) on the figure, `caption_html`
+// (already escaped) under it, if any.
+void Figure(const AllanPlot& plot, const std::string& attributes, const std::string& caption_html,
+            std::string* out) {
+  Add(out, "<figure", attributes, ">\n", plot.svg);
+  if (!caption_html.empty()) Add(out, "<figcaption>", caption_html, "</figcaption>\n");
+  *out += "</figure>\n";
+}
+
+constexpr char kStyle[] = R"css(
+:root { --ink: #1f2328; --muted: #59636e; --line: #d1d9e0; --zebra: #f6f8fa;
+  --pass: #1a7f37; --pass-bg: #dafbe1; --marg: #8a5a00; --marg-bg: #fff1c2;
+  --fail: #c11f2b; --fail-bg: #ffe3e0; }
+* { box-sizing: border-box; }
+body { margin: 0; color: var(--ink); background: #fff;
+  font: 14px/1.45 system-ui, -apple-system, "Segoe UI", Roboto, "Helvetica Neue", Arial, sans-serif; }
+main { max-width: 1720px; margin: 0 auto; padding: 0 24px 48px; }
+header.top { padding: 28px 0 8px; border-bottom: 1px solid var(--line); margin-bottom: 16px; }
+.eyebrow { margin: 0; color: var(--muted); text-transform: uppercase; letter-spacing: .06em; font-size: 12px; }
+h1 { margin: 4px 0 10px; font-size: 30px; }
+h2 { margin: 36px 0 12px; font-size: 20px; border-bottom: 1px solid var(--line); padding-bottom: 4px; }
+.banner { display: inline-block; margin: 0 0 8px; padding: 6px 14px; border-radius: 6px; font-size: 16px; }
+.banner.v-PASS { background: var(--pass-bg); color: var(--pass); }
+.banner.v-MARGINAL { background: var(--marg-bg); color: var(--marg); }
+.banner.v-FAIL { background: var(--fail-bg); color: var(--fail); }
+nav { margin: 12px 0; color: var(--muted); }
+nav a { margin-right: 14px; }
+a { color: #0969da; }
+.facts { display: grid; grid-template-columns: repeat(auto-fill, minmax(150px, 1fr)); gap: 10px; margin: 0; }
+.fact { border: 1px solid var(--line); border-radius: 6px; padding: 8px 12px; }
+.fact.wide { grid-column: span 2; }
+.fact dt { color: var(--muted); font-size: 12px; }
+.fact dd { margin: 2px 0 0; font-size: 17px; font-weight: 600; font-variant-numeric: tabular-nums; }
+.fact dd small { display: block; font-size: 12px; font-weight: 400; color: var(--muted); }
+.fact.c-PASS dd { color: var(--pass); } .fact.c-MARGINAL dd { color: var(--marg); }
+.fact.c-FAIL dd { color: var(--fail); }
+.bar { display: flex; height: 22px; margin: 14px 0 4px; border-radius: 4px; overflow: hidden;
+  border: 1px solid var(--line); font-size: 12px; font-weight: 600; }
+.seg { display: flex; align-items: center; justify-content: center; min-width: 1.6em; }
+.seg.v-PASS { background: var(--pass-bg); color: var(--pass); }
+.seg.v-MARGINAL { background: var(--marg-bg); color: var(--marg); }
+.seg.v-FAIL { background: var(--fail-bg); color: var(--fail); }
+.seg.v-none { background: var(--zebra); color: var(--muted); }
+.note { color: var(--muted); font-size: 12.5px; max-width: 110ch; }
+.ok { color: var(--pass); font-weight: 600; }
+.badge { display: inline-block; min-width: 5.6em; text-align: center; padding: 1px 8px; border-radius: 10px;
+  font-size: 12px; font-weight: 700; letter-spacing: .02em; }
+.badge.v-PASS { background: var(--pass-bg); color: var(--pass); }
+.badge.v-MARGINAL { background: var(--marg-bg); color: var(--marg); }
+.badge.v-FAIL { background: var(--fail-bg); color: var(--fail); }
+.badge.v-none { background: var(--zebra); color: var(--muted); font-weight: 400; }
+ul.reasons { list-style: none; padding: 0; margin: 0; display: grid;
+  grid-template-columns: repeat(auto-fill, minmax(380px, 1fr)); gap: 10px; }
+ul.reasons > li { border: 1px solid var(--line); border-radius: 6px; padding: 8px 12px; }
+ul.reasons > li[data-verdict="FAIL"] { border-left: 4px solid var(--fail); }
+ul.reasons > li[data-verdict="MARGINAL"] { border-left: 4px solid #d4a72c; }
+ul.reasons ul { margin: 6px 0 0; padding-left: 18px; }
+.run { color: var(--muted); font-size: 12px; font-family: ui-monospace, SFMono-Regular, Menlo, monospace; }
+.scroll { overflow-x: auto; margin-bottom: 18px; }
+table { border-collapse: collapse; font-variant-numeric: tabular-nums; }
+caption { text-align: left; font-weight: 600; padding: 4px 0 6px; }
+th, td { padding: 4px 10px; border-bottom: 1px solid var(--line); white-space: nowrap; }
+thead th { position: sticky; top: 0; background: #eef1f4; text-align: left; vertical-align: bottom;
+  font-weight: 600; cursor: pointer; user-select: none; }
+thead th:focus { outline: 2px solid #0969da; outline-offset: -2px; }
+thead th[aria-sort="ascending"]::after { content: " \25B2"; font-size: 10px; }
+thead th[aria-sort="descending"]::after { content: " \25BC"; font-size: 10px; }
+th .u { font-weight: 400; color: var(--muted); }
+th .lim { display: block; font-weight: 400; font-size: 11.5px; color: var(--muted); }
+.num { text-align: right; }
+tbody tr:nth-child(even) { background: var(--zebra); }
+tbody tr:hover { background: #eaf2fb; }
+table.results:not([data-sorted]) tr.unit-start:not(:first-child) td { border-top: 2px solid #b6c2cf; }
+td.o-MARGINAL { background: var(--marg-bg); color: var(--marg); font-weight: 600; }
+td.o-FAIL { background: var(--fail-bg); color: var(--fail); font-weight: 700; }
+td.cap-ok { color: var(--pass); } td.cap-warn { color: var(--marg); font-weight: 600; }
+td.cap-bad { color: var(--fail); font-weight: 700; }
+td small { color: var(--muted); font-weight: 400; }
+td.num.o-FAIL small { color: inherit; }
+td code { color: var(--muted); font-size: 11px; }
+td.unit { font-weight: 600; }
+.plots { display: flex; flex-wrap: wrap; gap: 16px; }
+figure { margin: 0; border: 1px solid var(--line); border-radius: 6px; padding: 8px;
+  flex: 0 1 820px; min-width: 0; }
+figure svg { width: 100%; height: auto; display: block; }
+figcaption { color: var(--muted); font-size: 12.5px; padding: 4px 4px 0; }
+footer { margin-top: 40px; border-top: 1px solid var(--line); padding-top: 10px; color: var(--muted); font-size: 12.5px; }
+@media print {
+  main { max-width: none; padding: 0; }
+  thead th { position: static; }
+  figure, tr, ul.reasons > li { break-inside: avoid; }
+  nav { display: none; }
+}
+)css";
+
+// Sortable tables: a click (or Enter) on a header sorts by that column,
+// again to reverse. Cells sort by data-sort, else data-v (number; empty
+// last), else their text.
+constexpr char kScript[] = R"js(
+(function () {
+  'use strict';
+  function key(row, col) {
+    var cell = row.cells[col];
+    var s = cell.getAttribute('data-sort');
+    if (s === null) s = cell.getAttribute('data-v');
+    if (s !== null) return s === '' ? null : Number(s);
+    return cell.textContent.trim();
+  }
+  function sortBy(table, col, th) {
+    var ascending = th.getAttribute('aria-sort') !== 'ascending';
+    Array.prototype.forEach.call(th.parentNode.cells, function (c) {
+      c.setAttribute('aria-sort', 'none');
+    });
+    th.setAttribute('aria-sort', ascending ? 'ascending' : 'descending');
+    table.setAttribute('data-sorted', '');
+    var body = table.tBodies[0];
+    var rows = Array.prototype.slice.call(body.rows);
+    rows.sort(function (a, b) {
+      var x = key(a, col), y = key(b, col);
+      if (x === null || y === null) return x === y ? 0 : (x === null ? 1 : -1);
+      var c = (typeof x === 'number' && typeof y === 'number')
+          ? x - y : String(x).localeCompare(String(y), undefined, {numeric: true});
+      return ascending ? c : -c;
+    });
+    rows.forEach(function (r) { body.appendChild(r); });
+  }
+  document.querySelectorAll('table.sortable').forEach(function (table) {
+    var head = table.tHead.rows[0];
+    Array.prototype.forEach.call(head.cells, function (th, col) {
+      th.setAttribute('tabindex', '0');
+      th.setAttribute('aria-sort', 'none');
+      th.addEventListener('click', function () { sortBy(table, col, th); });
+      th.addEventListener('keydown', function (e) {
+        if (e.key === 'Enter' || e.key === ' ') { e.preventDefault(); sortBy(table, col, th); }
+      });
+    });
+  });
+})();
+)js";
+
+}  // namespace
+
+Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
+                                       const std::string& archive_label) {
+  ReportData d;
+  auto lots = store::QueryLots(archive);
+  if (!lots.ok()) return lots.status();
+  auto lot_row = std::find_if(lots->begin(), lots->end(),
+                              [&](const store::LotRow& l) { return l.lot == lot; });
+  if (lot_row == lots->end()) {
+    return Status::NotFound("no lot '" + lot + "' in " + archive.path() +
+                            " (imuqual lots lists them)");
+  }
+  d.lot = *lot_row;
+  store::AxisRowFilter filter;
+  filter.lot = lot;
+  auto rows = store::QueryAxisRows(archive, filter);
+  if (!rows.ok()) return rows.status();
+  d.rows = std::move(*rows);
+  auto measurements = store::QueryLotMeasurements(archive, lot);
+  if (!measurements.ok()) return measurements.status();
+  d.measurements = std::move(*measurements);
+  for (const store::MeasurementRow& m : d.measurements) d.by_key[{m.run_id, m.axis, m.name}] = &m;
+  d.stats = ComputeLotStatistics(d.measurements);
+  for (const store::AxisRow& r : d.rows) {
+    if (!d.runs.empty() && d.runs.back().info.run_id == r.run_id) continue;
+    auto run = LoadRunPlotData(archive, r.run_id);
+    if (!run.ok()) return run.status();
+    d.runs.push_back(std::move(*run));
+  }
+
+  // Plots first: the attention list links to the unit plots.
+  const std::vector<AllanPlot> lot_plots = LotAllanPlots(lot, d.runs, "");
+  std::vector<const RunPlotData*> flagged;
+  for (const RunPlotData& r : d.runs) {
+    if (Severity(r.verdict) >= 2) flagged.push_back(&r);
+  }
+  std::stable_sort(flagged.begin(), flagged.end(), [](const auto* a, const auto* b) {
+    return Severity(a->verdict) > Severity(b->verdict);
+  });
+  std::string unit_figures;
+  std::map<std::string, std::string> plot_anchor;  // run id -> figure id
+  int figure_index = 0;
+  for (const RunPlotData* r : flagged) {
+    const std::vector<AllanPlot> plots = RunAllanPlots(*r, "");
+    for (size_t i = 0; i < plots.size(); ++i) {
+      const std::string id = "unit-plot-" + std::to_string(++figure_index);
+      if (i == 0) plot_anchor[r->info.run_id] = id;
+      std::string caption;
+      Add(&caption, Badge(r->verdict), " <strong>", Esc(r->info.serial), "</strong>");
+      for (size_t k = 0; k < r->reasons.size(); ++k) {
+        Add(&caption, k == 0 ? ": " : "; ", Esc(r->reasons[k]));
+      }
+      Figure(plots[i], Attr("id", id) + Attr("data-run", r->info.run_id), caption, &unit_figures);
+    }
+  }
+
+  std::string html;
+  html.reserve(1 << 20);
+  Add(&html, "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n",
+      "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n",
+      "<meta name=\"generator\"", Attr("content", kSoftwareVersion), ">\n", "<title>Lot ", Esc(lot),
+      ": IMU qualification report</title>\n", "<link rel=\"icon\" href=\"data:,\">\n<style>",
+      kStyle, "</style>\n</head>\n<body>\n<main>\n");
+  Header(d, archive_label, &html);
+  html +=
+      "<nav aria-label=\"Contents\"><a href=\"#attention\">Failing and marginal units</a>"
+      "<a href=\"#results\">Results per unit</a><a href=\"#statistics\">Lot statistics</a>"
+      "<a href=\"#lot-plots\">Lot Allan plots</a>";
+  if (!unit_figures.empty()) html += "<a href=\"#unit-plots\">Unit Allan plots</a>";
+  html += "</nav>\n";
+  Attention(d, plot_anchor, &html);
+  Results(d, &html);
+  Statistics(d, &html);
+  html += "<section id=\"lot-plots\">\n<h2>Allan deviation: the lot, per axis</h2>\n";
+  if (lot_plots.empty()) {
+    html += "<p class=\"note\">No Allan curve stored for this lot.</p>\n";
+  } else {
+    html += "<div class=\"plots\">\n";
+    for (const AllanPlot& p : lot_plots) Figure(p, "", "", &html);
+    html += "</div>\n";
+  }
+  html +=
+      "<p class=\"note\">Every unit's overlapping Allan deviation on one axis; units whose axis is "
+      "judged FAIL (red) or MARGINAL (amber) are drawn bold with their confidence band and ringed "
+      "at their curve minimum. Dashed lines: the plan's limits (red) and marginal band edges "
+      "(amber); bias instability against the curve minimum, random walks as the "
+      "&minus;&frac12; and +&frac12; slope lines they are read from.</p>\n</section>\n";
+  if (!unit_figures.empty()) {
+    Add(&html,
+        "<section id=\"unit-plots\">\n<h2>Allan deviation: failing and marginal units</h2>\n",
+        "<div class=\"plots\">\n", unit_figures, "</div>\n",
+        "<p class=\"note\">Each axis with its confidence band, the fitted IEEE 952 model "
+        "(dashed) and its curve minimum (ringed).</p>\n</section>\n");
+  }
+  Add(&html,
+      "<footer>Bias instability is the minimum of the overlapping Allan deviation curve "
+      "(the datasheet convention); IEEE 952's B is that minimum / 0.664. ARW/VRW are read "
+      "at &tau; = 1&nbsp;s on the &minus;&frac12; slope line, RRW at &tau; = 3&nbsp;s on "
+      "the +&frac12; line. Generated by ",
+      Esc(kSoftwareVersion), " on ", Esc(IsoTime(NowUtime())), ".</footer>\n</main>\n<script>",
+      kScript, "</script>\n</body>\n</html>\n");
+  return html;
+}
+
+int ReportCommand(const ReportOptions& options) {
+  if (options.lot.empty() || options.output.empty() || options.db_path.empty()) {
+    LogError("report: --db FILE, --lot LOT and -o FILE.html are required");
+    return kExitUsage;
+  }
+  auto archive = store::Archive::Open(options.db_path, store::Archive::Mode::kRead);
+  if (!archive.ok()) {
+    LogError(archive.status().message());
+    return kExitError;
+  }
+  auto html = BuildLotReportHtml(**archive, options.lot, options.db_path);
+  if (!html.ok()) {
+    LogError(html.status().message());
+    return kExitError;
+  }
+  const Status st = WriteStringToFile(options.output, *html);
+  if (!st.ok()) {
+    LogError(st.message());
+    return kExitError;
+  }
+  return 0;
+}
+
+}  // namespace imuqual::cli
