@@ -114,6 +114,14 @@ struct AcquireService::Impl {
           resend_requests = 0, publish_errors = 0, evicted_unacknowledged = 0;
   double last_resend_request_s = 0;
   ThrottledLog publish_log;
+  std::vector<std::string> failures;  // runs whose source failed, with why
+
+  // Ok, or the failure of the runs whose source failed.
+  Status FinalStatus() const {
+    if (failures.empty()) return Status::Ok();
+    return Status::Unavailable(std::to_string(failures.size()) + " of " +
+                               std::to_string(runs.size()) + " runs aborted; first: " + failures[0]);
+  }
 
   void Publish(RunState& run, bool fresh_batch_dropped, const std::vector<uint8_t>& bytes);
   // Publishes the run's announcement `times` times; failures are counted.
@@ -325,14 +333,26 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
   *published_one = false;
   if (run.source_done || !GateOpen(run)) return Status::Ok();
   const SourceInfo& info = run.unit.source->info();
-  if (options.pace > 0 && run.first_counter >= 0) {
+  if (options.pace > 0 && run.first_counter >= 0 && !info.paced_by_device) {
     const double due = run.pace_origin_s + static_cast<double>(run.samples_published) /
                                                (info.nominal_rate_hz * options.pace);
     if (now_s < due) return Status::Ok();
   }
   SampleBlock block;
   auto n = run.unit.source->Read(run.batch_samples, &block);
-  if (!n.ok()) return n.status().WithContext("unit " + run.unit.serial);
+  if (!n.ok()) {
+    // One unit's source failing (a device gone for good, a corrupt file)
+    // ends that run only; what it published stays published.
+    run.source_done = true;
+    run.state = imuqual::run_t::STATE_ABORTED;
+    const std::string why = "unit " + run.unit.serial + ": " + n.status().message();
+    failures.push_back(why);
+    LogError("run " + run.run_id + " aborted after " + std::to_string(run.next_seq) +
+             " batches: " + why);
+    Announce(run, kFinalAnnouncements);
+    return Status::Ok();
+  }
+  if (*n == kNoSamplesYet) return Status::Ok();
   if (*n == 0) {
     run.source_done = true;
     run.state = imuqual::run_t::STATE_COMPLETE;
@@ -365,6 +385,7 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
   }
   msg.has_temperature = block.temperature_c.has_value();
   msg.temperature_c = block.temperature_c.value_or(0.0f);
+  msg.sample_utime = block.first_sample_utime;
 
   std::vector<uint8_t> bytes;
   IMUQUAL_RETURN_IF_ERROR(EncodeMessage(msg, &bytes));
@@ -444,17 +465,26 @@ Status AcquireService::Impl::Abort(const std::string& why) {
 
 Counters AcquireService::Impl::StatusCounters() const {
   int64_t retained = 0, active = 0;
+  std::map<std::string, int64_t> sources;
   for (const RunState& r : runs) {
     retained += static_cast<int64_t>(r.retained.size());
     active += r.state == imuqual::run_t::STATE_RUNNING;
+    r.unit.source->AddCounters(&sources);
   }
-  return {{"runs_active", active},       {"batches_published", published},
-          {"batches_resent", resent},    {"resend_requests", resend_requests},
-          {"resend_misses", resend_misses}, {"injected_drops", injected_drops},
-          {"acks_received", acks},       {"batches_retained", retained},
-          {"publish_errors", publish_errors},
-          {"evicted_unacknowledged", evicted_unacknowledged},
-          {"decode_errors", static_cast<int64_t>(bus->decode_errors())}};
+  Counters out = {{"runs_active", active},
+                  {"runs_failed", static_cast<int64_t>(failures.size())},
+                  {"batches_published", published},
+                  {"batches_resent", resent},
+                  {"resend_requests", resend_requests},
+                  {"resend_misses", resend_misses},
+                  {"injected_drops", injected_drops},
+                  {"acks_received", acks},
+                  {"batches_retained", retained},
+                  {"publish_errors", publish_errors},
+                  {"evicted_unacknowledged", evicted_unacknowledged},
+                  {"decode_errors", static_cast<int64_t>(bus->decode_errors())}};
+  for (const auto& [name, value] : sources) out.emplace_back(name, value);
+  return out;
 }
 
 Status AcquireService::Run() {
@@ -531,12 +561,12 @@ Status AcquireService::Run() {
         for (RunState& run : s.runs) s.Announce(run, kFinalAnnouncements);
         s.LogSummary("all runs acknowledged");
         (void)PublishStatus(*s.bus, "acquire", true, "all runs acknowledged", s.StatusCounters());
-        return Status::Ok();
+        return s.FinalStatus();
       }
       if (now - all_done_since > s.options.linger_s) {
         LogWarning("consumers did not acknowledge every batch within " +
                    std::to_string(s.options.linger_s) + " s; leaving the rest to them");
-        return Status::Ok();
+        return s.FinalStatus();
       }
     }
     // A stalled gate: an awaited consumer stopped acknowledging.

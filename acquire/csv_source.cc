@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "common/clock.h"
+
 namespace imuqual::acquire {
 
 CsvSource::CsvSource(CsvSourceOptions options, std::unique_ptr<std::ifstream> file)
@@ -21,6 +23,11 @@ Result<std::unique_ptr<CsvSource>> CsvSource::Open(const CsvSourceOptions& optio
   std::vector<std::string> wanted;
   for (const pb::Axis& a : options.axes) wanted.push_back(a.name());
   if (!options.counter_column.empty()) wanted.push_back(options.counter_column);
+  if (!options.time_column.empty()) {
+    s->time_index_ = static_cast<int>(wanted.size());
+    wanted.push_back(options.time_column);
+  }
+  s->start_utime_ = NowUtime();
   std::ifstream* in = s->file_.get();
   s->reader_ = std::make_unique<NumericRowReader>(
       [in]() -> std::optional<std::string> {
@@ -70,7 +77,17 @@ Result<int> CsvSource::Read(int max_samples, SampleBlock* block) {
     }
     // A block holds consecutive samples: a counter jump starts the next one.
     if (n > 0 && row_counter_ != block->first_sample + n) break;
-    if (n == 0) block->first_sample = row_counter_;
+    if (n == 0) {
+      block->first_sample = row_counter_;
+      if (time_index_ >= 0) {
+        const double t = row_[time_index_];
+        if (!std::isfinite(t) || std::abs(t) > 1e10) {
+          return Status::InvalidArgument(options_.path + ":" + std::to_string(reader_->line()) +
+                                         ": time '" + options_.time_column + "' must be a number of seconds");
+        }
+        block->first_sample_utime = start_utime_ + std::llround(t * 1e6);
+      }
+    }
     for (size_t a = 0; a < axes; ++a) {
       block->samples[a].push_back(static_cast<float>(row_[a] * options_.scale));
     }

@@ -1,7 +1,8 @@
 // Replay of a recorded CSV (a header naming the columns): the chosen columns
 // are the axes, optionally a column holds the device sample counter (rows
 // then carry their own timeline and a jump is a gap); otherwise row k is
-// sample k. Values are in the axes' units (deg/s, m/s^2) after `scale`.
+// sample k. Optionally a column holds each row's recording time in seconds
+// (any origin): the blocks then carry arrival times. Values are in the axes' units (deg/s, m/s^2) after `scale`.
 // Streams the file: any length. Not thread-safe.
 #ifndef IMUQUAL_ACQUIRE_CSV_SOURCE_H_
 #define IMUQUAL_ACQUIRE_CSV_SOURCE_H_
@@ -21,6 +22,8 @@ struct CsvSourceOptions {
   double rate_hz = 0;             // nominal sample rate, > 0
   std::vector<pb::Axis> axes;     // columns by name, with their kinds; at least one
   std::string counter_column;     // "" = the row index is the counter
+  std::string time_column;        // seconds: when the row was recorded ("" = none); gives
+                                  // the device's measured rate and jitter
   double scale = 1.0;             // applied to every axis value
 };
 
@@ -44,6 +47,8 @@ class CsvSource : public SampleSource {
   int64_t next_index_ = 0;      // counter of the next row without a counter column
   int64_t last_counter_ = -1;
   bool done_ = false;
+  int time_index_ = -1;         // index of the time column in row_, -1: none
+  int64_t start_utime_ = 0;     // row times are placed after this
 };
 
 }  // namespace imuqual::acquire

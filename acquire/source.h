@@ -5,6 +5,7 @@
 #define IMUQUAL_ACQUIRE_SOURCE_H_
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,11 +31,15 @@ struct SampleFlagEntry {
 
 struct SampleBlock {
   int64_t first_sample = 0;                  // device counter of samples[*][0]
+  int64_t first_sample_utime = 0;            // host arrival time of samples[*][0], us (0: none)
   std::vector<std::vector<float>> samples;   // [axis][i]; gyro deg/s, accel m/s^2
   std::vector<SampleFlagEntry> flags;
   std::optional<float> temperature_c;
   int size() const { return samples.empty() ? 0 : static_cast<int>(samples[0].size()); }
 };
+
+// Read()'s answer when a real-time source has no block ready yet.
+inline constexpr int kNoSamplesYet = -1;
 
 class SampleSource {
  public:
@@ -42,8 +47,13 @@ class SampleSource {
   virtual const SourceInfo& info() const = 0;
   // Reads up to `max_samples` next consecutive samples into *block (cleared
   // first; samples sized to the axes). Returns how many: 0 means the source
-  // has ended. A device counter that jumps between blocks is a gap.
+  // has ended, kNoSamplesYet (only sources paced by their device) that the
+  // next block is not complete yet. A device counter that jumps between
+  // blocks is a gap. Never blocks for long: the caller serves other units.
   virtual Result<int> Read(int max_samples, SampleBlock* block) = 0;
+  // Adds this source's health counters (frames, checksum errors,
+  // reconnects...) to `counters` (summed over the process's units).
+  virtual void AddCounters(std::map<std::string, int64_t>* counters) const { (void)counters; }
 };
 
 }  // namespace imuqual::acquire

@@ -7,7 +7,10 @@
 
 #include "acquire/csv_source.h"
 #include "acquire/lot_profile.h"
+#include "acquire/serial_source.h"
 #include "acquire/sim_source.h"
+#include "acquire/text_protocol.h"
+#include "acquire/xsens_protocol.h"
 #include "common/strings.h"
 
 namespace imuqual::acquire {
@@ -37,25 +40,60 @@ Status CheckKeys(const SourceSpec& spec, const std::set<std::string>& known) {
   return Status::Ok();
 }
 
+std::string Where(const SourceSpec& spec) { return "source " + spec.kind + ":" + spec.location; }
+
+// axes=NAME[:gyro|:accel]/... (kinds default to gyro).
+Result<std::vector<pb::Axis>> ParseAxes(const SourceSpec& spec, const std::string& text) {
+  std::vector<pb::Axis> axes;
+  for (const std::string& item : Split(text, '/')) {
+    const std::vector<std::string> parts = Split(item, ':');
+    if (parts[0].empty() || parts.size() > 2 ||
+        (parts.size() == 2 && parts[1] != "gyro" && parts[1] != "accel")) {
+      return Status::InvalidArgument(Where(spec) + ": axes item '" + item +
+                                     "' must be NAME, NAME:gyro or NAME:accel");
+    }
+    pb::Axis a;
+    a.set_name(parts[0]);
+    a.set_kind(parts.size() > 1 && parts[1] == "accel" ? pb::ACCEL : pb::GYRO);
+    axes.push_back(a);
+  }
+  return axes;
+}
+
+std::string Option(const SourceSpec& spec, const std::string& key, const std::string& fallback = "") {
+  auto it = spec.options.find(key);
+  return it == spec.options.end() ? fallback : it->second;
+}
+
+Result<int> Integer(const SourceSpec& spec, const std::string& key, int fallback) {
+  auto v = Number(spec, key, fallback);
+  if (!v.ok()) return v.status();
+  if (*v != std::floor(*v) || std::abs(*v) > 1e9) {
+    return Status::InvalidArgument(Where(spec) + ": " + key + " must be an integer");
+  }
+  return static_cast<int>(*v);
+}
+
 Result<std::unique_ptr<SampleSource>> MakeSim(const SourceSpec& spec, const SourceDefaults& d) {
-  IMUQUAL_RETURN_IF_ERROR(CheckKeys(spec, {"index", "duration", "rate", "seed"}));
+  IMUQUAL_RETURN_IF_ERROR(CheckKeys(spec, {"index", "duration", "rate", "seed", "actual_rate"}));
   auto profile = sim::LotProfileByName(spec.location.empty() ? "vg700" : spec.location);
   if (!profile.ok()) return profile.status();
   auto index = Number(spec, "index", d.index);
   auto duration = Number(spec, "duration", d.duration_s);
   auto rate = Number(spec, "rate", d.rate_hz);
   auto seed = Number(spec, "seed", static_cast<double>(d.seed));
-  for (const auto* r : {&index, &duration, &rate, &seed}) {
+  auto actual = Number(spec, "actual_rate", 0);
+  for (const auto* r : {&index, &duration, &rate, &seed, &actual}) {
     if (!r->ok()) return r->status();
   }
   const uint64_t lot_seed = *seed != 0 ? static_cast<uint64_t>(*seed) : sim::SeedFromName(d.lot);
-  auto source = SimSource::Create(*profile, lot_seed, static_cast<int>(*index), *rate, *duration);
+  auto source = SimSource::Create(*profile, lot_seed, static_cast<int>(*index), *rate, *duration, *actual);
   if (!source.ok()) return source.status();
   return std::unique_ptr<SampleSource>(std::move(*source));
 }
 
 Result<std::unique_ptr<SampleSource>> MakeCsv(const SourceSpec& spec, const SourceDefaults& d) {
-  IMUQUAL_RETURN_IF_ERROR(CheckKeys(spec, {"rate", "axes", "counter", "scale"}));
+  IMUQUAL_RETURN_IF_ERROR(CheckKeys(spec, {"rate", "axes", "counter", "scale", "time"}));
   CsvSourceOptions o;
   o.path = spec.location;
   auto rate = Number(spec, "rate", d.plan.nominal_rate_hz());
@@ -65,18 +103,11 @@ Result<std::unique_ptr<SampleSource>> MakeCsv(const SourceSpec& spec, const Sour
   o.rate_hz = *rate;
   o.scale = *scale;
   if (auto it = spec.options.find("counter"); it != spec.options.end()) o.counter_column = it->second;
+  if (auto it = spec.options.find("time"); it != spec.options.end()) o.time_column = it->second;
   if (auto it = spec.options.find("axes"); it != spec.options.end()) {
-    for (const std::string& item : Split(it->second, '/')) {
-      const std::vector<std::string> parts = Split(item, ':');
-      pb::Axis a;
-      a.set_name(parts[0]);
-      a.set_kind(parts.size() > 1 && parts[1] == "accel" ? pb::ACCEL : pb::GYRO);
-      if (parts[0].empty() || parts.size() > 2 || (parts.size() == 2 && parts[1] != "gyro" && parts[1] != "accel")) {
-        return Status::InvalidArgument("source csv:" + o.path + ": axes item '" + item +
-                                       "' must be NAME, NAME:gyro or NAME:accel");
-      }
-      o.axes.push_back(a);
-    }
+    auto axes = ParseAxes(spec, it->second);
+    if (!axes.ok()) return axes.status();
+    o.axes = std::move(*axes);
   } else {
     for (const pb::Axis& a : d.plan.axes()) o.axes.push_back(a);
   }
@@ -85,6 +116,157 @@ Result<std::unique_ptr<SampleSource>> MakeCsv(const SourceSpec& spec, const Sour
                                    ": name its axes (axes=gx:gyro/...) or use a plan with axes");
   }
   auto source = CsvSource::Open(o);
+  if (!source.ok()) return source.status();
+  return std::unique_ptr<SampleSource>(std::move(*source));
+}
+
+// The text protocol's decoder and the axes it yields.
+Result<std::unique_ptr<FrameDecoder>> MakeTextDecoder(const SourceSpec& spec, const SourceDefaults& d,
+                                                      std::vector<pb::Axis>* axes) {
+  TextProtocolOptions t;
+  const std::string columns = Option(spec, "columns");
+  if (columns.empty()) {
+    return Status::InvalidArgument(Where(spec) + ": protocol=text needs columns=NAME/NAME/... "
+                                   "(the fields of a line, _ for one to ignore)");
+  }
+  t.columns = Split(columns, '/');
+  t.counter_column = Option(spec, "counter");
+  t.temperature_column = Option(spec, "temperature");
+  const std::string delimiter = Option(spec, "delimiter", "comma");
+  static const std::map<std::string, char> kDelimiters = {
+      {"comma", ','}, {"semicolon", ';'}, {"tab", '\t'}, {"space", ' '}};
+  auto dl = kDelimiters.find(delimiter);
+  if (dl == kDelimiters.end()) {
+    return Status::InvalidArgument(Where(spec) + ": delimiter '" + delimiter +
+                                   "' must be comma, semicolon, tab or space");
+  }
+  t.delimiter = dl->second;
+  const std::string checksum = Option(spec, "checksum", "none");
+  if (checksum != "none" && checksum != "nmea") {
+    return Status::InvalidArgument(Where(spec) + ": checksum '" + checksum + "' must be none or nmea");
+  }
+  t.nmea_checksum = checksum == "nmea";
+  auto bits = Integer(spec, "counter_bits", 0);
+  if (!bits.ok()) return bits.status();
+  t.counter_bits = *bits;
+  if (axes->empty()) {
+    // Every named field but the counter and the temperature, as gyros.
+    for (const std::string& c : t.columns) {
+      if (c == "_" || c == t.counter_column || c == t.temperature_column) continue;
+      pb::Axis a;
+      a.set_name(c);
+      a.set_kind(pb::GYRO);
+      axes->push_back(a);
+    }
+  }
+  for (const pb::Axis& a : *axes) t.axes.push_back(a.name());
+  // scale=F (every axis) or scale=NAME:F/NAME:F (the others stay 1).
+  t.scales.assign(t.axes.size(), 1.0);
+  const std::string scale = Option(spec, "scale");
+  if (!scale.empty()) {
+    for (const std::string& item : Split(scale, '/')) {
+      const size_t colon = item.find(':');
+      const std::string value = colon == std::string::npos ? item : item.substr(colon + 1);
+      char* end = nullptr;
+      const double f = std::strtod(value.c_str(), &end);
+      if (value.empty() || *end != '\0' || !std::isfinite(f) || f == 0) {
+        return Status::InvalidArgument(Where(spec) + ": scale item '" + item +
+                                       "' must be F or AXIS:F with F finite and non-zero");
+      }
+      bool found = colon == std::string::npos;
+      for (size_t a = 0; a < t.axes.size(); ++a) {
+        if (colon == std::string::npos || t.axes[a] == item.substr(0, colon)) {
+          t.scales[a] = f;
+          found = true;
+        }
+      }
+      if (!found) {
+        return Status::InvalidArgument(Where(spec) + ": scale names '" + item.substr(0, colon) +
+                                       "', which is not an axis");
+      }
+    }
+  }
+  (void)d;
+  auto decoder = TextLineDecoder::Create(std::move(t));
+  if (!decoder.ok()) return decoder.status().WithContext(Where(spec));
+  return std::unique_ptr<FrameDecoder>(std::move(*decoder));
+}
+
+Result<std::unique_ptr<SampleSource>> MakeSerial(const SourceSpec& spec, const SourceDefaults& d) {
+  IMUQUAL_RETURN_IF_ERROR(CheckKeys(
+      spec, {"protocol", "rate", "baud", "parity", "data_bits", "stop_bits", "flow", "duration",
+             "axes", "columns", "counter", "counter_bits", "temperature", "scale", "delimiter",
+             "checksum", "reconnect_timeout"}));
+  SerialSourceOptions o;
+  o.port.device = spec.location;
+  o.protocol = Option(spec, "protocol");
+  if (o.protocol != "text" && o.protocol != "xsens") {
+    return Status::InvalidArgument(Where(spec) + ": protocol=" +
+                                   (o.protocol.empty() ? "?" : o.protocol) + " must be text or xsens");
+  }
+  auto baud = Integer(spec, "baud", 115200);
+  auto data_bits = Integer(spec, "data_bits", 8);
+  auto stop_bits = Integer(spec, "stop_bits", 1);
+  auto parity = ParseParity(Option(spec, "parity", "none"));
+  auto flow = ParseFlowControl(Option(spec, "flow", "none"));
+  auto rate = Number(spec, "rate", d.plan.nominal_rate_hz());
+  // Record the plan's warm-up and minimum duration unless told otherwise.
+  auto duration = Number(spec, "duration",
+                         d.duration_s > 0 ? d.duration_s : d.plan.min_duration_s() + d.plan.warmup_s());
+  auto reconnect = Number(spec, "reconnect_timeout", 30);
+  for (const auto* r : {&baud, &data_bits, &stop_bits}) {
+    if (!r->ok()) return r->status();
+  }
+  for (const auto* r : {&rate, &duration, &reconnect}) {
+    if (!r->ok()) return r->status();
+  }
+  if (!parity.ok()) return parity.status().WithContext(Where(spec));
+  if (!flow.ok()) return flow.status().WithContext(Where(spec));
+  o.port.baud = *baud;
+  o.port.data_bits = *data_bits;
+  o.port.stop_bits = *stop_bits;
+  o.port.parity = *parity;
+  o.port.flow = *flow;
+  o.rate_hz = *rate;
+  o.duration_s = *duration;
+  o.reconnect_timeout_s = *reconnect;
+  if (!(o.rate_hz > 0)) {
+    return Status::InvalidArgument(Where(spec) + ": give rate=HZ (or a plan with nominal_rate_hz)");
+  }
+  if (!(o.duration_s > 0)) {
+    return Status::InvalidArgument(Where(spec) + ": give duration=S (or --duration, or a plan "
+                                   "with min_duration_s)");
+  }
+  std::vector<pb::Axis> axes;
+  if (auto it = spec.options.find("axes"); it != spec.options.end()) {
+    auto parsed = ParseAxes(spec, it->second);
+    if (!parsed.ok()) return parsed.status();
+    axes = std::move(*parsed);
+  } else {
+    for (const pb::Axis& a : d.plan.axes()) axes.push_back(a);
+  }
+  std::unique_ptr<FrameDecoder> decoder;
+  if (o.protocol == "text") {
+    auto text = MakeTextDecoder(spec, d, &axes);
+    if (!text.ok()) return text.status();
+    decoder = std::move(*text);
+  } else {
+    for (const char* key : {"columns", "counter", "counter_bits", "temperature", "scale",
+                            "delimiter", "checksum"}) {
+      if (spec.options.count(key)) {
+        return Status::InvalidArgument(Where(spec) + ": '" + key + "' is for protocol=text");
+      }
+    }
+    if (axes.empty()) {
+      auto parsed = ParseAxes(spec, "gx:gyro/gy:gyro/gz:gyro");
+      axes = std::move(*parsed);
+    }
+    auto xsens = XsensDecoder::Create(axes);
+    if (!xsens.ok()) return xsens.status().WithContext(Where(spec));
+    decoder = std::move(*xsens);
+  }
+  o.axes = axes;
+  auto source = SerialSource::Open(std::move(o), std::move(decoder));
   if (!source.ok()) return source.status();
   return std::unique_ptr<SampleSource>(std::move(*source));
 }
@@ -117,7 +299,8 @@ Result<SourceSpec> ParseSourceSpec(const std::string& text) {
 Result<std::unique_ptr<SampleSource>> MakeSource(const SourceSpec& spec, const SourceDefaults& d) {
   if (spec.kind == "sim") return MakeSim(spec, d);
   if (spec.kind == "csv") return MakeCsv(spec, d);
-  return Status::InvalidArgument("source kind '" + spec.kind + "' is not one of sim, csv");
+  if (spec.kind == "serial") return MakeSerial(spec, d);
+  return Status::InvalidArgument("source kind '" + spec.kind + "' is not one of sim, csv, serial");
 }
 
 }  // namespace imuqual::acquire

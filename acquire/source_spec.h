@@ -1,8 +1,9 @@
 // Sources named on a command line: KIND:LOCATION[,KEY=VALUE]... with lists in
 // values separated by '/'.
-//   sim:PROFILE[,index=N][,duration=S][,rate=HZ][,seed=N]
-//       a simulated unit (lot profile vg700, tactical or fog)
-//   csv:PATH,rate=HZ[,axes=NAME:gyro/NAME:accel...][,counter=COLUMN][,scale=F]
+//   sim:PROFILE[,index=N][,duration=S][,rate=HZ][,actual_rate=HZ][,seed=N]
+//       a simulated unit (lot profile vg700, tactical or fog); actual_rate:
+//       the simulated device really samples at that rate (rate is nominal)
+//   csv:PATH,rate=HZ[,axes=NAME:gyro/NAME:accel...][,counter=COLUMN][,time=COLUMN][,scale=F]
 //       a recording; axes default to the plan's axes (by column name), else
 //       every column except the counter, as gyros
 #ifndef IMUQUAL_ACQUIRE_SOURCE_SPEC_H_

@@ -144,11 +144,11 @@ RETURNING run_key)sql");
 Status Archive::InsertChunk(int64_t run_key, const ChunkRecord& c, bool* inserted) {
   auto st = Cached(kInsertChunk,
                    "INSERT OR IGNORE INTO raw_chunks(run_key, seq, first_sample, num_samples, "
-                   "host_utime, temperature_c, codec, data) VALUES(?, ?, ?, ?, ?, ?, ?, ?)");
+                   "host_utime, temperature_c, codec, data, sample_utime) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (!st.ok()) return st.status();
   Stmt& s = **st;
   s.Bind(1, run_key).Bind(2, c.seq).Bind(3, c.first_sample).Bind(4, c.num_samples);
-  s.Bind(5, c.host_utime).Bind(6, c.temperature_c).Bind(7, c.codec).BindBlob(8, c.data);
+  s.Bind(5, c.host_utime).Bind(6, c.temperature_c).Bind(7, c.codec).BindBlob(8, c.data).Bind(9, c.sample_utime);
   IMUQUAL_RETURN_IF_ERROR(s.Run());
   if (inserted) *inserted = sqlite3_changes(db_->handle()) > 0;
   return Status::Ok();
@@ -465,7 +465,7 @@ Result<std::vector<int64_t>> Archive::ArchivedSeqsFrom(int64_t run_key, int64_t 
 Status Archive::ForEachChunk(int64_t run_key, const std::function<Status(const ChunkRecord&)>& fn,
                              int64_t first_seq, int64_t last_seq) {
   auto s = db_->Prepare(
-      "SELECT seq, first_sample, num_samples, host_utime, temperature_c, codec, data "
+      "SELECT seq, first_sample, num_samples, host_utime, temperature_c, codec, data, sample_utime "
       "FROM raw_chunks WHERE run_key = ? AND seq BETWEEN ? AND ? ORDER BY seq");
   if (!s.ok()) return s.status();
   s->Bind(1, run_key).Bind(2, first_seq).Bind(3, last_seq);
@@ -481,6 +481,7 @@ Status Archive::ForEachChunk(int64_t run_key, const std::function<Status(const C
     c.temperature_c = s->IsNull(4) ? std::nullopt : std::optional<double>(s->Real(4));
     c.codec = static_cast<int>(s->Int(5));
     c.data = s->Blob(6);
+    c.sample_utime = s->Int(7);
     IMUQUAL_RETURN_IF_ERROR(fn(c));
   }
 }

@@ -59,6 +59,7 @@ struct ChunkRecord {
   std::optional<double> temperature_c;
   int codec = 0;
   std::vector<uint8_t> data;
+  int64_t sample_utime = 0;  // arrival of the first sample (rate_batch_t.sample_utime)
 };
 
 struct GapRecord {

@@ -36,6 +36,7 @@ Result<analyze::RunOutcome> ReanalyzeRun(Archive& archive, const std::string& ru
     analyze::BatchView view;
     view.seq = c.seq;
     view.first_sample = c.first_sample;
+    view.sample_utime = c.sample_utime;
     view.nominal_rate_hz = run->nominal_rate_hz;
     for (int a = 0; a < chunk->num_axes; ++a) {
       view.samples.emplace_back(chunk->samples.data() + static_cast<size_t>(a) * chunk->num_samples,

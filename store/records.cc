@@ -65,6 +65,7 @@ Result<imuqual::rate_batch_t> BatchFromChunk(const RunInfo& info, const ChunkRec
   }
   imuqual::rate_batch_t b;
   b.host_utime = c.host_utime;
+  b.sample_utime = c.sample_utime;
   b.run_id = info.run_id;
   b.unit_serial = info.serial;
   b.seq = c.seq;
@@ -137,6 +138,7 @@ ChunkRecord ChunkFromBatch(const imuqual::rate_batch_t& b) {
   c.first_sample = b.first_sample;
   c.num_samples = b.num_samples;
   c.host_utime = b.host_utime;
+  c.sample_utime = b.sample_utime;
   if (b.has_temperature) c.temperature_c = b.temperature_c;
   c.codec = kCodecRawFloat32;
   c.data = EncodeChunk(d, c.codec);

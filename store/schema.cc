@@ -70,6 +70,7 @@ CREATE TABLE raw_chunks (
   temperature_c REAL,
   codec         INTEGER NOT NULL,
   data          BLOB NOT NULL,
+  sample_utime  INTEGER NOT NULL DEFAULT 0,
   PRIMARY KEY (run_key, seq)
 );
 

@@ -101,4 +101,20 @@ std::vector<pb::Measurement> MeasureRun(double duration_s, int64_t samples, int6
   return out;
 }
 
+std::vector<pb::Measurement> MeasureTiming(double nominal_rate_hz, double measured_rate_hz,
+                                           double rate_sigma_hz, double jitter_rms_s) {
+  std::vector<pb::Measurement> out;
+  pb::Measurement rate = Make("", kMeasuredRate, measured_rate_hz, pb::GYRO);
+  pb::Measurement error =
+      Make("", kRateError, (measured_rate_hz / nominal_rate_hz - 1.0) * 1e6, pb::GYRO);
+  if (std::isfinite(rate_sigma_hz)) {
+    rate.set_uncertainty(rate_sigma_hz);
+    error.set_uncertainty(rate_sigma_hz / nominal_rate_hz * 1e6);
+  }
+  out.push_back(std::move(rate));
+  out.push_back(std::move(error));
+  out.push_back(Make("", kTimingJitter, jitter_rms_s * 1e3, pb::GYRO));
+  return out;
+}
+
 }  // namespace imuqual::judge

@@ -26,6 +26,12 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
 std::vector<pb::Measurement> MeasureRun(double duration_s, int64_t samples, int64_t gap_samples,
                                         int64_t invalid_samples, int num_axes);
 
+// Run-level timing truth: the device's measured sample rate (with its
+// 1-sigma uncertainty), its error against the nominal rate in ppm, and the
+// arrival jitter (seconds in, reported in ms).
+std::vector<pb::Measurement> MeasureTiming(double nominal_rate_hz, double measured_rate_hz,
+                                           double rate_sigma_hz, double jitter_rms_s);
+
 }  // namespace imuqual::judge
 
 #endif  // IMUQUAL_ANALYZE_JUDGE_MEASURE_H_

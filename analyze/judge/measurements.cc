@@ -25,6 +25,11 @@ const std::vector<MeasurementDef>& MeasurementCatalog() {
       {kGapFraction, true, "1", "1", "fraction of samples that never arrived"},
       {kInvalidFraction, true, "1", "1", "fraction of samples flagged invalid, NaN or saturated"},
       {kDuration, true, "s", "s", "analysed duration after warm-up"},
+      {kMeasuredRate, true, "Hz", "Hz",
+       "device sample rate measured from its counter against the host clock"},
+      {kRateError, true, "ppm", "ppm", "measured rate relative to the nominal rate"},
+      {kTimingJitter, true, "ms", "ms",
+       "RMS scatter of sample arrival times about the fitted device clock"},
   };
   return kCatalog;
 }

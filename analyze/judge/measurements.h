@@ -38,6 +38,11 @@ inline constexpr std::string_view kFitRateRamp = "fit_rate_ramp";
 inline constexpr std::string_view kGapFraction = "gap_fraction";
 inline constexpr std::string_view kInvalidFraction = "invalid_fraction";
 inline constexpr std::string_view kDuration = "duration";
+// Timing truth: the device's clock against the host's (runs whose batches
+// carry arrival times).
+inline constexpr std::string_view kMeasuredRate = "measured_rate";
+inline constexpr std::string_view kRateError = "rate_error";
+inline constexpr std::string_view kTimingJitter = "timing_jitter";
 
 const std::vector<MeasurementDef>& MeasurementCatalog();
 // nullptr if `name` is not catalogued.

@@ -234,6 +234,7 @@ void AnalyzeService::Impl::ProcessHeld(RunEntry& e) {
     BatchView view;
     view.seq = b.seq;
     view.first_sample = b.first_sample;
+    view.sample_utime = b.sample_utime;
     view.nominal_rate_hz = b.nominal_rate_hz;
     for (const std::vector<float>& axis : b.samples) view.samples.emplace_back(axis);
     for (int i = 0; i < b.num_flagged; ++i) {

@@ -14,6 +14,8 @@ constexpr int kUnusableFlags = 1 | 2;
 // A counter jump beyond a day of samples is a corrupt counter, not a gap
 // (a real unit that stops for a day ends its run).
 constexpr double kAbsurdGapSeconds = 86400.0;
+// The device clock is measured once arrivals span this much device time.
+constexpr double kMinClockSpanS = 2.0;
 
 }  // namespace
 
@@ -35,6 +37,7 @@ Result<RunAnalyzer> RunAnalyzer::Create(RunDescription description, AnalyzerOpti
   for (size_t i = 0; i < a.desc_.axes.size(); ++i) a.engines_.emplace_back(so);
   a.sum_.assign(a.desc_.axes.size(), 0.0);
   a.count_.assign(a.desc_.axes.size(), 0);
+  a.clock_ = DeviceClockFit(a.desc_.nominal_rate_hz);
   return a;
 }
 
@@ -112,6 +115,7 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
     }
   }
   next_counter_ = batch.first_sample + static_cast<int64_t>(n);
+  if (batch.sample_utime > 0) clock_.Add(batch.first_sample, batch.sample_utime);
   ++batches_;
   return Status::Ok();
 }
@@ -156,6 +160,13 @@ RunOutcome RunAnalyzer::Outcome(bool final, const std::string& failure) const {
        judge::MeasureRun(static_cast<double>(out.samples) * tau0_s_, out.samples, out.gap_samples,
                          out.invalid_samples, static_cast<int>(desc_.axes.size()))) {
     out.measurements.push_back(std::move(m));
+  }
+  // Timing truth once the counter spans a few seconds of arrivals.
+  if (clock_.Usable(kMinClockSpanS * desc_.nominal_rate_hz)) {
+    for (pb::Measurement& m : judge::MeasureTiming(desc_.nominal_rate_hz, clock_.RateHz(),
+                                                   clock_.RateSigmaHz(), clock_.JitterRmsS())) {
+      out.measurements.push_back(std::move(m));
+    }
   }
   if (final) {
     out.judgement = judge::Judge(plan, desc_.axes, &out.measurements);

@@ -18,6 +18,7 @@
 
 #include "analyze/allan/curve.h"
 #include "analyze/allan/streaming.h"
+#include "analyze/service/device_clock.h"
 #include "analyze/judge/judge.h"
 #include "common/status.h"
 #include "imuqual/plan.pb.h"
@@ -37,6 +38,7 @@ struct RunDescription {
 struct BatchView {
   int64_t seq = 0;
   int64_t first_sample = 0;  // device counter of the first sample
+  int64_t sample_utime = 0;  // host arrival time of the first sample, us (0: none)
   double nominal_rate_hz = 0;
   std::vector<std::span<const float>> samples;
   struct Flag {
@@ -106,6 +108,7 @@ class RunAnalyzer {
   std::vector<double> sum_;         // per axis, valid samples after warm-up
   std::vector<int64_t> count_;
   std::vector<uint8_t> invalid_scratch_;
+  DeviceClockFit clock_{1.0};  // reset in Create with the nominal rate
 };
 
 // The FAIL reason of a run that ended in `state` ("running", "complete",

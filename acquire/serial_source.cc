@@ -1,0 +1,277 @@
+#include "acquire/serial_source.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/clock.h"
+#include "common/log.h"
+
+namespace imuqual::acquire {
+namespace {
+
+constexpr size_t kReadBytes = 1 << 16;
+constexpr int kPollMs = 100;
+constexpr double kReopenEveryS = 0.2;
+// How far a counter step may run ahead of the host clock before it is taken
+// for a device restart: the host sees frames late by its read and USB
+// latency (well under a second) and in bursts.
+constexpr double kCounterSlackS = 1.0;
+constexpr double kCounterSlackFraction = 0.02;
+
+}  // namespace
+
+SerialSource::SerialSource(SerialSourceOptions options, std::unique_ptr<FrameDecoder> decoder,
+                           SerialPort port)
+    : o_(std::move(options)), decoder_(std::move(decoder)), port_(std::move(port)) {}
+
+Result<std::unique_ptr<SerialSource>> SerialSource::Open(SerialSourceOptions options,
+                                                         std::unique_ptr<FrameDecoder> decoder) {
+  const std::string where = "serial " + options.port.device;
+  if (!(options.rate_hz > 0) || !std::isfinite(options.rate_hz)) {
+    return Status::InvalidArgument(where + ": rate must be > 0 Hz");
+  }
+  if (!(options.duration_s > 0) || !std::isfinite(options.duration_s)) {
+    return Status::InvalidArgument(where + ": duration must be > 0 s (how long to record)");
+  }
+  if (!(options.reconnect_timeout_s > 0)) {
+    return Status::InvalidArgument(where + ": reconnect timeout must be > 0 s");
+  }
+  if (options.axes.empty()) return Status::InvalidArgument(where + ": no axes");
+  if (!decoder) return Status::InvalidArgument(where + ": no protocol decoder");
+  auto port = SerialPort::Open(options.port);
+  if (!port.ok()) return port.status();
+  std::unique_ptr<SerialSource> s(new SerialSource(std::move(options), std::move(decoder), std::move(*port)));
+  s->info_.axes = s->o_.axes;
+  s->info_.nominal_rate_hz = s->o_.rate_hz;
+  s->info_.description = "serial:" + s->o_.port.device + ",protocol=" + s->o_.protocol +
+                         ",baud=" + std::to_string(s->o_.port.baud);
+  s->info_.paced_by_device = true;
+  s->total_samples_ = std::max<int64_t>(1, std::llround(s->o_.duration_s * s->o_.rate_hz));
+  s->queue_limit_ = std::max<int64_t>(1000, std::llround(s->o_.queue_limit_s * s->o_.rate_hz));
+  s->origin_mono_s_ = MonotonicSeconds();
+  s->origin_utime_ = NowUtime();
+  s->reader_ = std::thread([p = s.get()] { p->ReaderLoop(); });
+  return s;
+}
+
+SerialSource::~SerialSource() {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    stop_ = true;
+  }
+  stop_cv_.notify_all();
+  if (reader_.joinable()) reader_.join();
+}
+
+// Wall-clock microseconds on the monotonic clock's scale: arrival times keep
+// their spacing even if the wall clock is stepped during a run.
+int64_t SerialSource::HostUtime(double mono_s) const {
+  return origin_utime_ + std::llround((mono_s - origin_mono_s_) * 1e6);
+}
+
+void SerialSource::WaitStop(double seconds) {
+  std::unique_lock<std::mutex> lock(mu_);
+  stop_cv_.wait_for(lock, std::chrono::duration<double>(seconds), [this] { return stop_; });
+}
+
+void SerialSource::ReaderLoop() {
+  std::vector<uint8_t> buf(kReadBytes);
+  std::vector<DeviceFrame> frames;
+  const std::string who = "serial " + o_.port.device;
+  double trouble_since = MonotonicSeconds();  // last frame, or when the device went away
+  std::string trouble;                        // why no frames are coming ("" = fine)
+  for (;;) {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (stop_ || ended_) return;
+    }
+    const double now = MonotonicSeconds();
+    if (now - trouble_since > o_.reconnect_timeout_s) {
+      std::lock_guard<std::mutex> lock(mu_);
+      error_ = Status::Unavailable(
+          who + ": " + (trouble.empty() ? "no frames" : trouble) + " for " +
+          std::to_string(static_cast<int>(o_.reconnect_timeout_s)) + " s");
+      return;
+    }
+    if (!port_) {
+      auto port = SerialPort::Open(o_.port);
+      if (!port.ok()) {
+        trouble = port.status().message();
+        WaitStop(kReopenEveryS);
+        continue;
+      }
+      port_ = std::move(*port);
+      decoder_->Reset();
+      LogInfo(who + ": reconnected");
+      std::lock_guard<std::mutex> lock(mu_);
+      ++counters_.reconnects;
+      reconnected_ = true;
+      continue;
+    }
+    auto n = port_->Read(buf.data(), buf.size(), kPollMs);
+    if (!n.ok()) {
+      if (n.status().code() != Status::Code::kUnavailable) {
+        std::lock_guard<std::mutex> lock(mu_);
+        error_ = n.status();
+        return;
+      }
+      LogWarning(who + ": device went away (" + n.status().message() + "); reconnecting");
+      port_.reset();
+      trouble = "device gone (" + n.status().message() + ")";
+      continue;
+    }
+    if (*n == 0) continue;
+    const double mono = MonotonicSeconds();
+    frames.clear();
+    decoder_->Feed(buf.data(), *n, &frames);
+    std::lock_guard<std::mutex> lock(mu_);
+    for (const DeviceFrame& f : frames) Accept(f, mono, HostUtime(mono));
+    const DecoderCounters& d = decoder_->counters();
+    counters_.bad_checksum = d.bad_checksum;
+    counters_.malformed = d.malformed;
+    counters_.skipped_bytes = d.skipped_bytes;
+    counters_.other_messages = d.other_messages;
+    if (!frames.empty()) {
+      trouble_since = mono;
+      trouble = "no frames";
+    }
+  }
+}
+
+void SerialSource::Accept(const DeviceFrame& f, double mono_s, int64_t utime) {
+  if (ended_) return;
+  const int bits = decoder_->counter_bits();
+  int64_t counter = 0;
+  if (!have_last_) {
+    counter = f.counter ? static_cast<int64_t>(*f.counter & 0x3FFFFFFFFFFFFFFFULL) : 0;
+  } else {
+    const double expected = (mono_s - last_mono_s_) * o_.rate_hz;  // samples the host clock saw pass
+    int64_t advance = 1;
+    if (!f.counter) {
+      if (reconnected_) advance = std::max<int64_t>(1, std::llround(expected));
+    } else if (bits >= 64) {
+      advance = static_cast<int64_t>(*f.counter - last_raw_);
+    } else {
+      const uint64_t modulus = uint64_t{1} << bits;
+      const uint64_t step = (*f.counter - last_raw_) & (modulus - 1);
+      // As many whole wraps as the host clock says passed.
+      const double wraps = std::max(0.0, std::floor((expected - static_cast<double>(step)) /
+                                                        static_cast<double>(modulus) + 0.5));
+      advance = static_cast<int64_t>(step) + static_cast<int64_t>(wraps) * static_cast<int64_t>(modulus);
+    }
+    if (f.counter && advance == 0) {
+      ++counters_.duplicate_frames;
+      return;
+    }
+    const double slack = kCounterSlackS * o_.rate_hz + kCounterSlackFraction * expected;
+    if (f.counter && (advance < 0 || (advance > 1 && static_cast<double>(advance) - expected > slack))) {
+      // A step the host clock cannot explain: the device restarted (or its
+      // counter is corrupt). Continue the timeline from the host clock.
+      ++counters_.counter_rebases;
+      LogWarning("serial " + o_.port.device + ": device counter jumped from " +
+                 std::to_string(last_raw_) + " to " + std::to_string(*f.counter) +
+                 " (device restart?); continuing the timeline from the host clock");
+      advance = std::max<int64_t>(1, std::llround(expected));
+    }
+    counter = last_counter_ + advance;
+  }
+  if (f.counter) last_raw_ = *f.counter;
+  have_last_ = true;
+  reconnected_ = false;
+  last_counter_ = counter;
+  last_mono_s_ = mono_s;
+  if (first_counter_ < 0) first_counter_ = counter;
+  if (counter - first_counter_ >= total_samples_) {
+    ended_ = true;
+    return;
+  }
+  ++counters_.frames;
+  q_counter_.push_back(counter);
+  q_utime_.push_back(utime);
+  for (size_t a = 0; a < o_.axes.size(); ++a) {
+    q_values_.push_back(a < f.values.size() ? f.values[a] : std::nanf(""));
+    q_flags_.push_back(a < f.flags.size() ? f.flags[a] : 0);
+  }
+  q_temperature_.push_back(f.temperature_c.value_or(std::nanf("")));
+  // The publisher is stuck: keep the newest samples (the dropped ones become
+  // a gap downstream, counted here).
+  while (static_cast<int64_t>(q_counter_.size()) > queue_limit_) {
+    q_counter_.pop_front();
+    q_utime_.pop_front();
+    q_temperature_.pop_front();
+    for (size_t a = 0; a < o_.axes.size(); ++a) {
+      q_values_.pop_front();
+      q_flags_.pop_front();
+    }
+    ++counters_.overflow_dropped;
+  }
+}
+
+Result<int> SerialSource::Read(int max_samples, SampleBlock* block) {
+  const size_t axes = o_.axes.size();
+  std::lock_guard<std::mutex> lock(mu_);
+  block->samples.assign(axes, {});
+  block->flags.clear();
+  block->temperature_c.reset();
+  block->first_sample_utime = 0;
+  if (q_counter_.empty()) {
+    if (!error_.ok()) return error_;
+    if (ended_) return 0;
+    return kNoSamplesYet;
+  }
+  const int64_t first = q_counter_.front();
+  size_t n = 0;
+  while (n < q_counter_.size() && n < static_cast<size_t>(max_samples) &&
+         q_counter_[n] == first + static_cast<int64_t>(n)) {
+    ++n;
+  }
+  // Wait for a full block unless it is cut by a jump, the end, or age.
+  const bool cut = n < q_counter_.size();
+  if (n < static_cast<size_t>(max_samples) && !cut && !ended_ && error_.ok() &&
+      static_cast<double>(HostUtime(MonotonicSeconds()) - q_utime_.front()) * 1e-6 < o_.max_latency_s) {
+    return kNoSamplesYet;
+  }
+  block->first_sample = first;
+  block->first_sample_utime = q_utime_.front();
+  double temperature_sum = 0;
+  int temperatures = 0;
+  for (auto& s : block->samples) s.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t a = 0; a < axes; ++a) {
+      block->samples[a].push_back(q_values_[i * axes + a]);
+      const uint8_t bits = q_flags_[i * axes + a];
+      if (bits) block->flags.push_back({static_cast<int>(i), static_cast<int>(a), bits});
+    }
+    if (!std::isnan(q_temperature_[i])) {
+      temperature_sum += q_temperature_[i];
+      ++temperatures;
+    }
+  }
+  if (temperatures > 0) block->temperature_c = static_cast<float>(temperature_sum / temperatures);
+  q_counter_.erase(q_counter_.begin(), q_counter_.begin() + static_cast<std::ptrdiff_t>(n));
+  q_utime_.erase(q_utime_.begin(), q_utime_.begin() + static_cast<std::ptrdiff_t>(n));
+  q_temperature_.erase(q_temperature_.begin(), q_temperature_.begin() + static_cast<std::ptrdiff_t>(n));
+  q_values_.erase(q_values_.begin(), q_values_.begin() + static_cast<std::ptrdiff_t>(n * axes));
+  q_flags_.erase(q_flags_.begin(), q_flags_.begin() + static_cast<std::ptrdiff_t>(n * axes));
+  return static_cast<int>(n);
+}
+
+SerialCounters SerialSource::counters() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return counters_;
+}
+
+void SerialSource::AddCounters(std::map<std::string, int64_t>* out) const {
+  const SerialCounters c = counters();
+  (*out)["device_frames"] += c.frames;
+  (*out)["device_bad_checksum"] += c.bad_checksum;
+  (*out)["device_malformed"] += c.malformed;
+  (*out)["device_skipped_bytes"] += c.skipped_bytes;
+  (*out)["device_other_messages"] += c.other_messages;
+  (*out)["device_reconnects"] += c.reconnects;
+  (*out)["device_counter_rebases"] += c.counter_rebases;
+  (*out)["device_duplicate_frames"] += c.duplicate_frames;
+  (*out)["device_overflow_dropped"] += c.overflow_dropped;
+}
+
+}  // namespace imuqual::acquire
