@@ -23,12 +23,17 @@ int main(int argc, char** argv) {
   app.add_option("--run-prefix", opt.run_prefix, "run id prefix (default: the UTC start time)");
   std::vector<std::string> unit_args;
   app.add_option("--sim", sim.count, "number of simulated units");
+  std::vector<std::string> source_args;
   app.add_option("--unit", unit_args,
-                 "SERIAL=SOURCE, repeatable: sim:PROFILE[,index=N,...] or "
-                 "csv:FILE,rate=HZ[,axes=NAME:gyro/...][,counter=COL][,scale=F]");
+                 "a unit: SERIAL=SOURCE, or SERIAL with the next --source; repeatable");
+  app.add_option("--source", source_args,
+                 "the source of the --unit SERIAL before it: sim:PROFILE[,index=N,...], "
+                 "csv:FILE,rate=HZ[,axes=...][,counter=COL][,time=COL], "
+                 "serial:DEVICE,protocol=text|xsens[,baud=N,...] (see the README)");
   app.add_option("--profile", sim.profile, "simulated lot profile: vg700, tactical, fog")
       ->capture_default_str();
-  app.add_option("--duration", sim.duration_s, "simulated seconds of data per unit");
+  app.add_option("--duration", sim.duration_s,
+                 "seconds of data per unit (simulated units; serial units record this long)");
   app.add_option("--rate", sim.rate_hz, "sample rate in Hz (default: the profile's)");
   app.add_option("--seed", sim.seed, "lot seed (default: from the lot name)");
   app.add_option("--plan", plan_spec, "test plan: a .textproto file or builtin:NAME");
@@ -65,6 +70,22 @@ int main(int argc, char** argv) {
   }
   if (!await.empty()) opt.await = Split(await, ',');
   sim.lot = opt.lot;
+  // --unit SERIAL --source SPEC pairs, in order, become SERIAL=SPEC.
+  {
+    size_t next_source = 0;
+    for (std::string& u : unit_args) {
+      if (u.find('=') != std::string::npos) continue;
+      if (next_source == source_args.size()) {
+        LogError("--unit " + u + " has no --source (give --unit SERIAL --source SPEC or SERIAL=SPEC)");
+        return 2;
+      }
+      u += "=" + source_args[next_source++];
+    }
+    if (next_source != source_args.size()) {
+      LogError("--source " + source_args[next_source] + " follows no --unit SERIAL");
+      return 2;
+    }
+  }
   if (sim.count == 0 && unit_args.empty()) {
     LogError("no units: give --sim N and/or --unit SERIAL=SOURCE");
     return 2;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "common/clock.h"
 #include "common/log.h"
@@ -17,6 +18,10 @@ constexpr double kReopenEveryS = 0.2;
 // latency (well under a second) and in bursts.
 constexpr double kCounterSlackS = 1.0;
 constexpr double kCounterSlackFraction = 0.02;
+
+std::string WithoutPrefix(const std::string& s, const std::string& prefix) {
+  return s.compare(0, prefix.size(), prefix) == 0 ? s.substr(prefix.size()) : s;
+}
 
 }  // namespace
 
@@ -79,7 +84,7 @@ void SerialSource::ReaderLoop() {
   std::vector<DeviceFrame> frames;
   const std::string who = "serial " + o_.port.device;
   double trouble_since = MonotonicSeconds();  // last frame, or when the device went away
-  std::string trouble;                        // why no frames are coming ("" = fine)
+  std::string trouble = "no frames";          // why no frames are coming
   for (;;) {
     {
       std::lock_guard<std::mutex> lock(mu_);
@@ -87,16 +92,16 @@ void SerialSource::ReaderLoop() {
     }
     const double now = MonotonicSeconds();
     if (now - trouble_since > o_.reconnect_timeout_s) {
+      char seconds[32];
+      std::snprintf(seconds, sizeof seconds, "%g", o_.reconnect_timeout_s);
       std::lock_guard<std::mutex> lock(mu_);
-      error_ = Status::Unavailable(
-          who + ": " + (trouble.empty() ? "no frames" : trouble) + " for " +
-          std::to_string(static_cast<int>(o_.reconnect_timeout_s)) + " s");
+      error_ = Status::Unavailable(who + ": " + trouble + " for more than " + seconds + " s");
       return;
     }
     if (!port_) {
       auto port = SerialPort::Open(o_.port);
       if (!port.ok()) {
-        trouble = port.status().message();
+        trouble = "device gone (" + WithoutPrefix(port.status().message(), who + ": ") + ")";
         WaitStop(kReopenEveryS);
         continue;
       }
@@ -115,9 +120,9 @@ void SerialSource::ReaderLoop() {
         error_ = n.status();
         return;
       }
-      LogWarning(who + ": device went away (" + n.status().message() + "); reconnecting");
+      trouble = "device gone (" + WithoutPrefix(n.status().message(), who + ": ") + ")";
+      LogWarning(who + ": " + trouble + "; reconnecting");
       port_.reset();
-      trouble = "device gone (" + n.status().message() + ")";
       continue;
     }
     if (*n == 0) continue;

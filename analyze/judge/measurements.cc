@@ -29,7 +29,7 @@ const std::vector<MeasurementDef>& MeasurementCatalog() {
        "device sample rate measured from its counter against the host clock"},
       {kRateError, true, "ppm", "ppm", "measured rate relative to the nominal rate"},
       {kTimingJitter, true, "ms", "ms",
-       "RMS scatter of sample arrival times about the fitted device clock"},
+       "RMS lateness of sample arrivals over the least-late of each second (host latency)"},
   };
   return kCatalog;
 }

@@ -20,12 +20,14 @@ int main(int argc, char** argv) {
 
   cli::StationRunOptions run;
   bool quiet = false;
-  CLI::App* run_cmd = app.add_subcommand("run", "run a simulated multi-unit soak end to end");
+  CLI::App* run_cmd = app.add_subcommand("run", "run a station on this host: a multi-unit soak end to end");
   run_cmd->add_option("--sim", run.sim_units, "number of simulated units");
   run_cmd->add_option("--unit", run.units,
-                      "SERIAL=SOURCE, repeatable: csv:FILE,rate=HZ[,axes=NAME:gyro/...][,counter=COL]"
-                      " or sim:PROFILE[,index=N,duration=S]");
-  run_cmd->add_option("--duration", run.duration_s, "simulated seconds of data per unit");
+                      "SERIAL=SOURCE, repeatable: sim:PROFILE[,index=N,duration=S,actual_rate=HZ], "
+                      "csv:FILE,rate=HZ[,axes=NAME:gyro/...][,counter=COL][,time=COL], "
+                      "serial:DEVICE,protocol=text|xsens[,baud=N,...]");
+  run_cmd->add_option("--duration", run.duration_s,
+                      "seconds of data per unit (simulated units; serial units record this long)");
   run_cmd->add_option("--rate", run.rate_hz, "sample rate in Hz (default: the profile's)");
   run_cmd->add_option("--lot", run.lot, "production lot name")->required();
   run_cmd->add_option("--db", run.db_path, "archive file (created if missing)")->required();

@@ -211,10 +211,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   std::vector<std::string> acquire_args = {
       dir + "/imuqual-acquire", "--lcm-url", url, "--lot", o.lot, "--station", o.station,
       "--profile", o.profile, "--run-prefix", result.run_prefix, "--await", "store,analyze"};
-  if (o.sim_units > 0) {
-    acquire_args.insert(acquire_args.end(), {"--sim", std::to_string(o.sim_units), "--duration",
-                                             std::to_string(o.duration_s)});
-  }
+  if (o.sim_units > 0) acquire_args.insert(acquire_args.end(), {"--sim", std::to_string(o.sim_units)});
+  if (o.duration_s > 0) acquire_args.insert(acquire_args.end(), {"--duration", std::to_string(o.duration_s)});
   for (const std::string& unit : o.units) acquire_args.insert(acquire_args.end(), {"--unit", unit});
   if (o.rate_hz > 0) acquire_args.insert(acquire_args.end(), {"--rate", std::to_string(o.rate_hz)});
   if (!plan_spec.empty()) acquire_args.insert(acquire_args.end(), {"--plan", plan_spec});
