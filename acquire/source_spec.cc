@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <set>
 
+#include "acquire/archive_source.h"
 #include "acquire/csv_source.h"
 #include "acquire/lot_profile.h"
 #include "acquire/serial_source.h"
@@ -271,6 +272,13 @@ Result<std::unique_ptr<SampleSource>> MakeSerial(const SourceSpec& spec, const S
   return std::unique_ptr<SampleSource>(std::move(*source));
 }
 
+Result<std::unique_ptr<SampleSource>> MakeArchive(const SourceSpec& spec) {
+  IMUQUAL_RETURN_IF_ERROR(CheckKeys(spec, {"run"}));
+  auto source = ArchiveSource::Open(spec.location, Option(spec, "run"));
+  if (!source.ok()) return source.status();
+  return std::unique_ptr<SampleSource>(std::move(*source));
+}
+
 }  // namespace
 
 Result<SourceSpec> ParseSourceSpec(const std::string& text) {
@@ -300,7 +308,8 @@ Result<std::unique_ptr<SampleSource>> MakeSource(const SourceSpec& spec, const S
   if (spec.kind == "sim") return MakeSim(spec, d);
   if (spec.kind == "csv") return MakeCsv(spec, d);
   if (spec.kind == "serial") return MakeSerial(spec, d);
-  return Status::InvalidArgument("source kind '" + spec.kind + "' is not one of sim, csv, serial");
+  if (spec.kind == "archive") return MakeArchive(spec);
+  return Status::InvalidArgument("source kind '" + spec.kind + "' is not one of sim, csv, serial, archive");
 }
 
 }  // namespace imuqual::acquire

@@ -5,7 +5,15 @@
 //       the simulated device really samples at that rate (rate is nominal)
 //   csv:PATH,rate=HZ[,axes=NAME:gyro/NAME:accel...][,counter=COLUMN][,time=COLUMN][,scale=F]
 //       a recording; axes default to the plan's axes (by column name), else
-//       every column except the counter, as gyros
+//       every column except the counter, as gyros; time: seconds per row
+//   serial:DEVICE,protocol=text|xsens[,rate=HZ][,duration=S][,baud=N]
+//          [,parity=none|even|odd][,data_bits=8][,stop_bits=1]
+//          [,flow=none|rtscts|xonxoff][,axes=...][,reconnect_timeout=S]
+//       text only: columns=NAME/NAME/...(_ skips)[,counter=COL][,counter_bits=N]
+//          [,temperature=COL][,scale=F|AXIS:F/...][,delimiter=comma|semicolon|tab|space]
+//          [,checksum=none|nmea]
+//   archive:DB,run=RUN_ID
+//       a stored run replayed from its raw chunks
 #ifndef IMUQUAL_ACQUIRE_SOURCE_SPEC_H_
 #define IMUQUAL_ACQUIRE_SOURCE_SPEC_H_
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <random>
 
 #include "common/channels.h"
@@ -52,17 +53,31 @@ Subprocess StationHarness::Start(const std::string& program, const std::vector<s
   return std::move(*p);
 }
 
-Subprocess StationHarness::StartStore(const std::vector<std::string>& extra) {
-  std::vector<std::string> args = {"--db", db_, "--give-up", "5", "--stale-after", "2"};
+namespace {
+// The defaults (FLAG VALUE pairs) that `extra` does not set, then `extra`.
+std::vector<std::string> WithDefaults(const std::vector<std::string>& defaults,
+                                      const std::vector<std::string>& extra) {
+  std::vector<std::string> args;
+  for (size_t i = 0; i + 1 < defaults.size(); i += 2) {
+    if (std::find(extra.begin(), extra.end(), defaults[i]) == extra.end()) {
+      args.insert(args.end(), {defaults[i], defaults[i + 1]});
+    }
+  }
   args.insert(args.end(), extra.begin(), extra.end());
+  return args;
+}
+}  // namespace
+
+Subprocess StationHarness::StartStore(const std::vector<std::string>& extra) {
+  const std::vector<std::string> args =
+      WithDefaults({"--db", db_, "--give-up", "5", "--stale-after", "2"}, extra);
   Subprocess p = Start("imuqual-store", args);
   EXPECT_TRUE(WaitReported("store", p.pid(), 20)) << Logs();
   return p;
 }
 
 Subprocess StationHarness::StartAnalyze(const std::vector<std::string>& extra) {
-  std::vector<std::string> args = {"--give-up", "5", "--stale-after", "4"};
-  args.insert(args.end(), extra.begin(), extra.end());
+  const std::vector<std::string> args = WithDefaults({"--give-up", "5", "--stale-after", "4"}, extra);
   Subprocess p = Start("imuqual-analyze", args);
   EXPECT_TRUE(WaitReported("analyze", p.pid(), 20)) << Logs();
   return p;

@@ -27,8 +27,8 @@ class StationHarness {
   std::string path(const std::string& name) const { return dir_.path(name); }
 
   Subprocess Start(const std::string& program, const std::vector<std::string>& args);
-  // Starts imuqual-store / imuqual-analyze with short recovery timers and
-  // waits until each reports on the bus.
+  // Starts imuqual-store / imuqual-analyze with short recovery timers (which
+  // `extra` may set otherwise) and waits until each reports on the bus.
   Subprocess StartStore(const std::vector<std::string>& extra = {});
   Subprocess StartAnalyze(const std::vector<std::string>& extra = {});
 
