@@ -35,14 +35,19 @@ struct LotProfile {
 
 // Built-in profiles: "vg700" (the seed's VG700CA-like rate-grade vertical
 // gyro, 3 gyro axes, 100 Hz), "tactical" (MEMS IMU, 3 gyro + 3 accel,
-// 200 Hz), "fog" (navigation-grade fibre-optic gyro, 1 axis, 100 Hz).
+// 200 Hz), "fog" (navigation-grade fibre-optic gyro, 1 axis, 100 Hz),
+// "mems-lab" (consumer MEMS IMU on an open bench, 3 gyro + 3 accel, 100 Hz,
+// with quantization, rate ramp, a sinusoidal line and a temperature
+// coefficient: every effect of the simulator on some axis).
 Result<LotProfile> LotProfileByName(std::string_view name);
 std::vector<std::string> LotProfileNames();
 
 // Truth for unit `index` (0-based) of a lot: every noise term of the typical
-// unit scaled by exp(spread * g), g standard normal from (lot_seed, index);
-// planted failures get their bias instability and rate random walk
-// multiplied by the fail factors. `rate_hz` is the unit's true rate.
+// unit (Q, N, B, K and, where the profile has them, R, the sine amplitude and
+// the temperature coefficient) scaled by exp(spread * g), g standard normal
+// from (lot_seed, index); planted failures get their bias instability and
+// rate random walk multiplied by the fail factors. `rate_hz` is the unit's
+// true rate.
 pb::SimTruth MakeUnitTruth(const LotProfile& profile, uint64_t lot_seed, int index, double rate_hz);
 
 // A stable 64-bit seed from a lot name (FNV-1a), so a lot is reproducible.

@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
                  "the source of the --unit SERIAL before it: sim:PROFILE[,index=N,...], "
                  "csv:FILE,rate=HZ[,axes=...][,counter=COL][,time=COL], "
                  "serial:DEVICE,protocol=text|xsens[,baud=N,...] (see the README)");
-  app.add_option("--profile", sim.profile, "simulated lot profile: vg700, tactical, fog")
+  app.add_option("--profile", sim.profile, "simulated lot profile: vg700, tactical, fog, mems-lab")
       ->capture_default_str();
   app.add_option("--duration", sim.duration_s,
                  "seconds of data per unit (simulated units; serial units record this long)");

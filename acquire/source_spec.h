@@ -1,7 +1,7 @@
 // Sources named on a command line: KIND:LOCATION[,KEY=VALUE]... with lists in
 // values separated by '/'.
 //   sim:PROFILE[,index=N][,duration=S][,rate=HZ][,actual_rate=HZ][,seed=N]
-//       a simulated unit (lot profile vg700, tactical or fog); actual_rate:
+//       a simulated unit (lot profile vg700, tactical, fog or mems-lab); actual_rate:
 //       the simulated device really samples at that rate (rate is nominal)
 //   csv:PATH,rate=HZ[,axes=NAME:gyro/NAME:accel...][,counter=COLUMN][,time=COLUMN][,scale=F]
 //       a recording; axes default to the plan's axes (by column name), else

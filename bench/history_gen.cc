@@ -150,6 +150,10 @@ int main(int argc, char** argv) {
       for (pb::Measurement& m : judge::MeasureRun(kSoakS, samples, 0, 0, static_cast<int>(axes.size()))) {
         ms.push_back(std::move(m));
       }
+      // The simulated devices keep their nominal rate on a perfect clock.
+      for (pb::Measurement& m : judge::MeasureTiming(rate, truth.actual_rate_hz(), 0, 0)) {
+        ms.push_back(std::move(m));
+      }
       const judge::Judgement j = judge::Judge(*plan, axes, &ms);
       store::ResultRecord res;
       res.verdict = j.verdict == pb::PASS ? "PASS" : j.verdict == pb::MARGINAL ? "MARGINAL"

@@ -53,8 +53,10 @@ void DeviceClockFit::Close(const std::vector<Point>& window, State* s) {
     if (p.y - slope * p.x < best->y - slope * best->x) best = &p;
   }
   for (const Point& p : window) {
-    const double late = (p.y - slope * p.x) - (best->y - slope * best->x);
-    s->late_sq += late * late;
+    const double dx = p.x - best->x, dy = p.y - best->y;
+    s->dyy += dy * dy;
+    s->dxy += dx * dy;
+    s->dxx += dx * dx;
     ++s->late_n;
   }
   s->line.Add(best->x, best->y);
@@ -91,7 +93,10 @@ double DeviceClockFit::RateSigmaHz() const {
 
 double DeviceClockFit::JitterRmsS() const {
   const State s = Current();
-  return s.late_n > 0 ? std::sqrt(s.late_sq / static_cast<double>(s.late_n)) : kNaN;
+  if (s.late_n == 0) return kNaN;
+  const double k = s.line.Slope();
+  const double sum_sq = s.dyy - 2 * k * s.dxy + k * k * s.dxx;
+  return std::sqrt(std::max(sum_sq, 0.0) / static_cast<double>(s.late_n));
 }
 
 }  // namespace imuqual::analyze

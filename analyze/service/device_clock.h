@@ -54,8 +54,11 @@ class DeviceClockFit {
     double x, y;
   };
   struct State {
-    Line line;               // window minima; y is seconds minus x * tau0
-    double late_sq = 0;      // sum of squared lateness
+    Line line;  // window minima; y is seconds minus x * tau0
+    // Each arrival against its window's least-late one (dx, dy): the
+    // lateness along a slope s is dy - s dx, so its sum of squares is
+    // syy - 2 s sxy + s^2 sxx, evaluated with the final slope.
+    double dyy = 0, dxy = 0, dxx = 0;
     int64_t late_n = 0;
   };
   // Folds a window's points into *s.

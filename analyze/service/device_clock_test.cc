@@ -1,0 +1,64 @@
+// The device clock fit: an exact line, a fast crystal seen through a host
+// that delivers late and in bursts, and the conditions for a usable fit.
+#include "analyze/service/device_clock.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace imuqual::analyze {
+namespace {
+
+TEST(DeviceClockFitTest, ExactArrivalsGiveTheRateAndNoJitter) {
+  DeviceClockFit fit(200);
+  // 201.5 Hz real, batches of 50 samples, arrivals exactly on time.
+  for (int64_t c = 1000; c < 1000 + 200 * 60; c += 50) {
+    fit.Add(c, 1'700'000'000'000'000 + std::llround((c - 1000) / 201.5 * 1e6));
+  }
+  ASSERT_TRUE(fit.Usable(400));
+  EXPECT_NEAR(fit.RateHz(), 201.5, 201.5 * 1e-8);
+  EXPECT_LT(fit.JitterRmsS(), 1e-6);  // microsecond rounding only
+  EXPECT_LT(fit.RateSigmaHz(), 1e-4);
+}
+
+TEST(DeviceClockFitTest, LateAndBurstyArrivalsDoNotTiltTheClock) {
+  // A 2000 Hz part running 5000 ppm fast; the host sees each batch 0.2-3 ms
+  // late, and for 300 ms of every 10 s it is busy: those batches arrive
+  // together at the end of the busy spell.
+  const double actual = 2010;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> latency(0.2e-3, 3e-3);
+  DeviceClockFit fit(2000);
+  for (int64_t c = 0; c < 2000 * 120; c += 48) {
+    const double emitted = c / actual;
+    double arrival = emitted + latency(rng);
+    const double in_spell = std::fmod(emitted, 10.0);
+    if (in_spell > 4.0 && in_spell < 4.3) arrival = emitted - in_spell + 4.3 + latency(rng);
+    fit.Add(c, std::llround(arrival * 1e6));
+  }
+  ASSERT_TRUE(fit.Usable(2000 * 2));
+  const double ppm = (fit.RateHz() / 2000 - 1) * 1e6;
+  EXPECT_NEAR(ppm, 5000, 20) << fit.RateHz();
+  // The lateness scatter: the uniform latency's spread plus the bursts.
+  EXPECT_GT(fit.JitterRmsS(), 0.5e-3);
+  EXPECT_LT(fit.JitterRmsS(), 0.1);
+}
+
+TEST(DeviceClockFitTest, TooFewWindowsOrTooShortASpanIsNotUsable) {
+  DeviceClockFit fit(100);
+  fit.Add(0, 1'000'000);
+  fit.Add(100, 2'000'000);
+  EXPECT_FALSE(fit.Usable(10));  // two windows
+  fit.Add(200, 3'000'000);
+  EXPECT_TRUE(fit.Usable(150));
+  EXPECT_FALSE(fit.Usable(500));  // spans 200 samples only
+  EXPECT_NEAR(fit.RateHz(), 100, 1e-9);
+  // Time running backwards against the counter is no clock.
+  DeviceClockFit backwards(100);
+  for (int i = 0; i < 5; ++i) backwards.Add(i * 100, 10'000'000 - i * 1'000'000);
+  EXPECT_FALSE(backwards.Usable(1));
+}
+
+}  // namespace
+}  // namespace imuqual::analyze
