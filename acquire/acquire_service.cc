@@ -346,6 +346,7 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
     run.source_done = true;
     run.state = imuqual::run_t::STATE_ABORTED;
     const std::string why = "unit " + run.unit.serial + ": " + n.status().message();
+    run.announcement.end_reason = n.status().message();
     failures.push_back(why);
     LogError("run " + run.run_id + " aborted after " + std::to_string(run.next_seq) +
              " batches: " + why);
@@ -435,8 +436,11 @@ Status AcquireService::Impl::ServeResends() {
 void AcquireService::Impl::Prune(double now_s) {
   (void)now_s;
   for (RunState& run : runs) {
-    const double batches_per_s =
-        run.unit.source->info().nominal_rate_hz / std::max(run.batch_samples, 1);
+    // Device-paced sources publish part-filled batches: size by the average.
+    const double batch = run.next_seq > 0 ? std::min<double>(run.batch_samples, static_cast<double>(run.samples_published) /
+                                                                                    static_cast<double>(run.next_seq))
+                                          : run.batch_samples;
+    const double batches_per_s = run.unit.source->info().nominal_rate_hz / std::max(batch, 1.0);
     const size_t cap = static_cast<size_t>(options.window_batches) +
                        static_cast<size_t>(std::ceil(options.retention_s * batches_per_s));
     int64_t acked_all = std::numeric_limits<int64_t>::max();
@@ -455,6 +459,7 @@ Status AcquireService::Impl::Abort(const std::string& why) {
   for (RunState& run : runs) {
     if (run.state == imuqual::run_t::STATE_RUNNING) {
       run.state = imuqual::run_t::STATE_ABORTED;
+      run.announcement.end_reason = why;
       Announce(run, kFinalAnnouncements);
       LogWarning("run " + run.run_id + " aborted after " + std::to_string(run.next_seq) +
                  " batches: " + why);

@@ -85,6 +85,9 @@ Result<int> ArchiveSource::Read(int max_samples, SampleBlock* block) {
       continue;
     }
     if (n > 0 && counter != block->first_sample + n) break;  // a gap: the next block
+    // A chunk with its own arrival time starts a block, so the replayed run
+    // has every arrival time the original had.
+    if (n > 0 && p.offset == 0 && p.sample_utime > 0) break;
     if (n == 0) {
       block->first_sample = counter;
       block->first_sample_utime = p.offset == 0 ? p.sample_utime : 0;

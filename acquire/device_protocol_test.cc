@@ -204,9 +204,46 @@ TEST(XsensDecoderTest, FixedPointAndDoublePrecisionsAndExtendedLength) {
   frames = Decode(**d, hr.Bytes());
   ASSERT_EQ(frames.size(), 1u);
   EXPECT_EQ(frames[0].values[1], static_cast<float>(-0.125 * kDegPerRad));
+  Frame hr_last;
+  hr_last.U16(0x1020, 9).Raw(0x8021, gyro).Raw(0x8043, gyro_hr);
+  frames = Decode(**d, hr_last.Bytes());
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(frames[0].values[1], static_cast<float>(-0.125 * kDegPerRad));
   // The frame lacks acceleration: those axes are invalid, not zero.
   EXPECT_TRUE(std::isnan(frames[0].values[4]));
   EXPECT_EQ(frames[0].flags[4], imuqual::rate_batch_t::FLAG_INVALID);
+}
+
+TEST(XsensDecoderTest, NegativeFp1632) {
+  // -2.25 = integer part -3 (0xFFFD), fraction 0.75 (0xC0000000).
+  std::vector<uint8_t> acc;
+  constexpr uint8_t kMinusTwoAndAQuarter[6] = {0xC0, 0x00, 0x00, 0x00, 0xFF, 0xFD};
+  for (int i = 0; i < 3; ++i) {
+    for (uint8_t b : kMinusTwoAndAQuarter) acc.push_back(b);
+  }
+  Frame f;
+  f.U16(0x1020, 1).Raw(0x4022, acc);
+  auto d = XsensDecoder::Create(Axes({{"ax", pb::ACCEL}}));
+  const auto frames = Decode(**d, f.Bytes());
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(frames[0].values[0], -2.25f);
+}
+
+TEST(XsensDecoderTest, AxesTakeTheComponentTheirNameEndsIn) {
+  Frame f;
+  f.U16(0x1020, 1).Floats(0x8020, {1, 2, 3}).Floats(0x4020, {4, 5, 6});
+  // By name: z alone; z, x out of order; accelerometer y.
+  auto d = XsensDecoder::Create(Axes({{"gyro_z", pb::GYRO}, {"gx", pb::GYRO}, {"acc_y", pb::ACCEL}}));
+  ASSERT_TRUE(d.ok());
+  auto frames = Decode(**d, f.Bytes());
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(frames[0].values, (std::vector<float>{static_cast<float>(3 * kDegPerRad),
+                                                  static_cast<float>(1 * kDegPerRad), 5.0f}));
+  // Names that do not say: in order.
+  auto in_order = XsensDecoder::Create(Axes({{"roll", pb::GYRO}, {"pitch", pb::GYRO}}));
+  frames = Decode(**in_order, f.Bytes());
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(frames[0].values[1], static_cast<float>(2 * kDegPerRad));
 }
 
 TEST(XsensDecoderTest, StatusWordClippingFlagsSaturationPerAxis) {

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/file.h>
+#include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -93,6 +94,8 @@ Result<SerialPort> SerialPort::Open(const SerialPortOptions& o) {
   if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
     return Status::Unavailable("serial " + o.device + ": in use by another process");
   }
+  // And no later open() but root's (terminal programs ignore flock).
+  (void)::ioctl(fd, TIOCEXCL);
   termios tio{};
   if (::tcgetattr(fd, &tio) != 0) {
     return Status::IoError("serial " + o.device + ": tcgetattr: " + Errno(errno));
@@ -110,6 +113,8 @@ Result<SerialPort> SerialPort::Open(const SerialPortOptions& o) {
   }
   if (o.stop_bits == 2) tio.c_cflag |= CSTOPB;
   if (o.flow == FlowControl::kRtsCts) tio.c_cflag |= CRTSCTS;
+  // Keep DTR up across close and reopen: dropping it resets many fixtures.
+  tio.c_cflag &= ~static_cast<tcflag_t>(HUPCL);
   if (o.flow == FlowControl::kXonXoff) tio.c_iflag |= IXON | IXOFF;
   tio.c_cc[VMIN] = 0;
   tio.c_cc[VTIME] = 0;
@@ -120,10 +125,20 @@ Result<SerialPort> SerialPort::Open(const SerialPortOptions& o) {
     return Status::InvalidArgument("serial " + o.device + ": cannot set " + std::to_string(o.baud) +
                                    " baud: " + Errno(errno));
   }
+  // Drivers may ignore what they cannot do (a rate, 7 data bits, parity,
+  // RTS/CTS): read the settings back rather than trust them.
   termios check{};
-  if (::tcgetattr(fd, &check) == 0 && ::cfgetispeed(&check) != code) {
-    return Status::InvalidArgument("serial " + o.device + ": the driver refused " +
-                                   std::to_string(o.baud) + " baud");
+  if (::tcgetattr(fd, &check) == 0) {
+    if (::cfgetispeed(&check) != code) {
+      return Status::InvalidArgument("serial " + o.device + ": the driver refused " +
+                                     std::to_string(o.baud) + " baud");
+    }
+    const tcflag_t line_bits = CSIZE | PARENB | PARODD | CSTOPB | CRTSCTS;
+    if ((check.c_cflag & line_bits) != (tio.c_cflag & line_bits)) {
+      return Status::InvalidArgument("serial " + o.device +
+                                     ": the driver refused the data bits, parity, stop bits or "
+                                     "flow control asked for");
+    }
   }
   // Bytes queued before we opened belong to nobody's run.
   (void)::tcflush(fd, TCIFLUSH);
@@ -133,18 +148,24 @@ Result<SerialPort> SerialPort::Open(const SerialPortOptions& o) {
 SerialPort::SerialPort(SerialPort&& other) noexcept
     : fd_(std::exchange(other.fd_, -1)), device_(std::move(other.device_)) {}
 
+namespace {
+void Close(int fd) {
+  if (fd < 0) return;
+  (void)::ioctl(fd, TIOCNXCL);  // the exclusive mode must not outlive us
+  ::close(fd);
+}
+}  // namespace
+
 SerialPort& SerialPort::operator=(SerialPort&& other) noexcept {
   if (this != &other) {
-    if (fd_ >= 0) ::close(fd_);
+    Close(fd_);
     fd_ = std::exchange(other.fd_, -1);
     device_ = std::move(other.device_);
   }
   return *this;
 }
 
-SerialPort::~SerialPort() {
-  if (fd_ >= 0) ::close(fd_);
-}
+SerialPort::~SerialPort() { Close(fd_); }
 
 Result<size_t> SerialPort::Read(uint8_t* buffer, size_t capacity, int timeout_ms) {
   pollfd p{fd_, POLLIN, 0};

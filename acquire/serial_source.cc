@@ -13,11 +13,17 @@ namespace {
 constexpr size_t kReadBytes = 1 << 16;
 constexpr int kPollMs = 100;
 constexpr double kReopenEveryS = 0.2;
-// How far a counter step may run ahead of the host clock before it is taken
-// for a device restart: the host sees frames late by its read and USB
-// latency (well under a second) and in bursts.
-constexpr double kCounterSlackS = 1.0;
-constexpr double kCounterSlackFraction = 0.02;
+// How late a frame may reach us (USB and scheduler latency, a busy host:
+// beyond this the kernel's buffers overflow and data is lost rather than
+// late), and how much less right after a reconnect flushed the port.
+constexpr double kMaxLatenessS = 2.0;
+constexpr double kReconnectLatenessS = 0.3;
+// How far ahead of the least-late arrival a frame may seem (the anchor's own
+// uncertainty).
+constexpr double kAheadSlackS = 0.1;
+// The largest crystal error the timeline allows for, as a fraction.
+constexpr double kMaxRateError = 0.05;
+constexpr uint64_t kCounterMask = 0x3FFFFFFFFFFFFFFFULL;
 
 std::string WithoutPrefix(const std::string& s, const std::string& prefix) {
   return s.compare(0, prefix.size(), prefix) == 0 ? s.substr(prefix.size()) : s;
@@ -95,7 +101,13 @@ void SerialSource::ReaderLoop() {
       char seconds[32];
       std::snprintf(seconds, sizeof seconds, "%g", o_.reconnect_timeout_s);
       std::lock_guard<std::mutex> lock(mu_);
-      error_ = Status::Unavailable(who + ": " + trouble + " for more than " + seconds + " s");
+      std::string detail;
+      if (counters_.skipped_bytes > 0 || counters_.bad_checksum > 0 || counters_.malformed > 0) {
+        detail = " (" + std::to_string(counters_.skipped_bytes) + " bytes skipped, " +
+                 std::to_string(counters_.bad_checksum) + " bad checksums, " +
+                 std::to_string(counters_.malformed) + " malformed frames: wrong baud or protocol?)";
+      }
+      error_ = Status::Unavailable(who + ": " + trouble + " for more than " + seconds + " s" + detail);
       return;
     }
     if (!port_) {
@@ -107,6 +119,7 @@ void SerialSource::ReaderLoop() {
       }
       port_ = std::move(*port);
       decoder_->Reset();
+      trouble = "no frames since reconnecting";
       LogInfo(who + ": reconnected");
       std::lock_guard<std::mutex> lock(mu_);
       ++counters_.reconnects;
@@ -143,43 +156,75 @@ void SerialSource::ReaderLoop() {
   }
 }
 
+// Where a frame goes on the device timeline. The host clock predicts it:
+// anchor_ is the least-late arrival seen (mono - counter / rate), so a frame
+// arriving now with no delay would be sample (mono - anchor_) * rate, and a
+// real one is at most the allowed lateness behind that. The device's own
+// counter is placed at the candidate (its wraps) nearest the prediction; a
+// counter no candidate of which fits (a device restart, a corrupt counter)
+// is re-based on the prediction. Right after a reconnect the port was just
+// flushed, so frames must be prompt: a restarted device whose new counter
+// happens to look plausible after a long unplug is still caught.
 void SerialSource::Accept(const DeviceFrame& f, double mono_s, int64_t utime) {
   if (ended_) return;
+  const double rate = o_.rate_hz;
   const int bits = decoder_->counter_bits();
   int64_t counter = 0;
   if (!have_last_) {
-    counter = f.counter ? static_cast<int64_t>(*f.counter & 0x3FFFFFFFFFFFFFFFULL) : 0;
+    counter = f.counter ? static_cast<int64_t>(*f.counter & kCounterMask) : 0;
+    counter_offset_ = 0;
+    anchor_s_ = mono_s - static_cast<double>(counter) / rate;
   } else {
-    const double expected = (mono_s - last_mono_s_) * o_.rate_hz;  // samples the host clock saw pass
-    int64_t advance = 1;
-    if (!f.counter) {
-      if (reconnected_) advance = std::max<int64_t>(1, std::llround(expected));
-    } else if (bits >= 64) {
-      advance = static_cast<int64_t>(*f.counter - last_raw_);
-    } else {
-      const uint64_t modulus = uint64_t{1} << bits;
-      const uint64_t step = (*f.counter - last_raw_) & (modulus - 1);
-      // As many whole wraps as the host clock says passed.
-      const double wraps = std::max(0.0, std::floor((expected - static_cast<double>(step)) /
-                                                        static_cast<double>(modulus) + 0.5));
-      advance = static_cast<int64_t>(step) + static_cast<int64_t>(wraps) * static_cast<int64_t>(modulus);
-    }
-    if (f.counter && advance == 0) {
+    if (f.counter && *f.counter == last_raw_) {
       ++counters_.duplicate_frames;
       return;
     }
-    const double slack = kCounterSlackS * o_.rate_hz + kCounterSlackFraction * expected;
-    if (f.counter && (advance < 0 || (advance > 1 && static_cast<double>(advance) - expected > slack))) {
-      // A step the host clock cannot explain: the device restarted (or its
-      // counter is corrupt). Continue the timeline from the host clock.
-      ++counters_.counter_rebases;
-      LogWarning("serial " + o_.port.device + ": device counter jumped from " +
-                 std::to_string(last_raw_) + " to " + std::to_string(*f.counter) +
-                 " (device restart?); continuing the timeline from the host clock");
-      advance = std::max<int64_t>(1, std::llround(expected));
+    const double since_s = mono_s - last_mono_s_;
+    const double predicted = (mono_s - anchor_s_) * rate;
+    // The device's clock may drift from nominal by up to kMaxRateError over
+    // the time since the last frame; frames are late by up to the lateness.
+    const double drift = kMaxRateError * since_s * rate;
+    const double lateness = (reconnected_ ? kReconnectLatenessS : kMaxLatenessS) * rate;
+    const double lo = std::max(static_cast<double>(last_counter_ + 1), predicted - lateness - drift);
+    const double hi = predicted + kAheadSlackS * rate + drift + 1;
+    bool fits = false;
+    if (!f.counter) {
+      // No counter: the next sample, after any the decoder rejected.
+      counter = last_counter_ + 1 + f.rejected_before;
+      fits = static_cast<double>(counter) >= lo && static_cast<double>(counter) <= hi;
+    } else if (bits >= 64) {
+      counter = static_cast<int64_t>(*f.counter & kCounterMask) + counter_offset_;
+      fits = static_cast<double>(counter) >= lo && static_cast<double>(counter) <= hi;
+    } else {
+      // The candidates counter = raw + offset (mod 2^bits): the one nearest
+      // the prediction, but after the last sample.
+      const int64_t modulus = int64_t{1} << bits;
+      const int64_t base = ((static_cast<int64_t>(*f.counter) + counter_offset_) % modulus + modulus) % modulus;
+      int64_t k = static_cast<int64_t>(std::floor((predicted - static_cast<double>(base)) / static_cast<double>(modulus) + 0.5));
+      counter = base + k * modulus;
+      if (counter <= last_counter_) counter += ((last_counter_ - counter) / modulus + 1) * modulus;
+      fits = static_cast<double>(counter) >= lo && static_cast<double>(counter) <= hi;
     }
-    counter = last_counter_ + advance;
+    if (!fits) {
+      // Continue the timeline from the host clock: the frame's arrival is
+      // the best estimate of when it was sampled.
+      const int64_t placed = std::max<int64_t>(last_counter_ + 1, std::llround(predicted));
+      if (f.counter) {
+        ++counters_.counter_rebases;
+        rebase_log_.Warning("serial " + o_.port.device + ": device counter " + std::to_string(*f.counter) +
+                            " after " + std::to_string(last_raw_) +
+                            " does not fit the host clock (device restart?); re-based");
+        counter_offset_ = placed - static_cast<int64_t>(*f.counter & kCounterMask);
+      } else {
+        ++counters_.timeline_resyncs;
+      }
+      counter = placed;
+    }
+    // The anchor may rise by the drift allowance per second of device time
+    // (a slow crystal), and falls to any earlier arrival at once.
+    anchor_s_ += kMaxRateError * static_cast<double>(counter - last_counter_) / rate;
   }
+  anchor_s_ = std::min(anchor_s_, mono_s - static_cast<double>(counter) / rate);
   if (f.counter) last_raw_ = *f.counter;
   have_last_ = true;
   reconnected_ = false;
@@ -275,6 +320,7 @@ void SerialSource::AddCounters(std::map<std::string, int64_t>* out) const {
   (*out)["device_other_messages"] += c.other_messages;
   (*out)["device_reconnects"] += c.reconnects;
   (*out)["device_counter_rebases"] += c.counter_rebases;
+  (*out)["device_timeline_resyncs"] += c.timeline_resyncs;
   (*out)["device_duplicate_frames"] += c.duplicate_frames;
   (*out)["device_overflow_dropped"] += c.overflow_dropped;
 }

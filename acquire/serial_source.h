@@ -5,12 +5,13 @@
 // blocks.
 //
 // The timeline: the device's own counter where the protocol has one,
-// unwrapped at its width with the host clock deciding how many wraps passed
-// (so an unplug longer than a wrap still lands right); a counter that jumps
-// by more than the host clock allows (the device restarted) or repeats is
-// re-based on the host clock and counted. Without a counter, frame k is
-// sample k, and a reconnection skips the samples the host clock says were
-// missed. Missing samples are gaps downstream, never invented values.
+// unwrapped at its width to the wrap the host clock predicts (so an unplug
+// longer than a wrap still lands right); a counter the host clock cannot
+// explain (the device restarted) is re-based on the host clock and counted,
+// a repeated one dropped. Without a counter, a frame is the sample after the
+// last one and any lines the decoder rejected in between, or where the host
+// clock puts it after a reconnection or lost output. Missing samples are
+// gaps downstream, never invented values. See Accept() for the tolerances.
 //
 // Unplug: the port is closed, then reopened every 200 ms; after
 // reconnect_timeout_s without the device (or without a frame) the source
@@ -29,6 +30,7 @@
 #include "acquire/device_protocol.h"
 #include "acquire/serial_port.h"
 #include "acquire/source.h"
+#include "common/log.h"
 
 namespace imuqual::acquire {
 
@@ -50,7 +52,8 @@ struct SerialCounters {
   int64_t skipped_bytes = 0;
   int64_t other_messages = 0;
   int64_t reconnects = 0;
-  int64_t counter_rebases = 0;   // counter jumps the host clock could not explain
+  int64_t counter_rebases = 0;   // counters the host clock could not explain (device restart)
+  int64_t timeline_resyncs = 0;  // counter-less frames placed by the host clock (lost output)
   int64_t duplicate_frames = 0;  // same counter twice
   int64_t overflow_dropped = 0;  // samples dropped because the publisher fell behind
 };
@@ -93,7 +96,10 @@ class SerialSource : public SampleSource {
   bool reconnected_ = false;
   uint64_t last_raw_ = 0;
   int64_t last_counter_ = 0;
+  int64_t counter_offset_ = 0;  // timeline counter - device counter (mod its wrap)
+  double anchor_s_ = 0;         // least-late arrival: mono - counter / rate
   double last_mono_s_ = 0;
+  ThrottledLog rebase_log_;
   int64_t first_counter_ = -1;
   bool ended_ = false;            // duration reached: no more samples
   Status error_;                  // the reader gave up

@@ -258,6 +258,10 @@ Result<std::unique_ptr<SampleSource>> MakeSerial(const SourceSpec& spec, const S
         return Status::InvalidArgument(Where(spec) + ": '" + key + "' is for protocol=text");
       }
     }
+    if (o.port.flow == FlowControl::kXonXoff) {
+      return Status::InvalidArgument(Where(spec) + ": flow=xonxoff cannot carry a binary protocol "
+                                     "(the line would swallow its 0x11 and 0x13 bytes)");
+    }
     if (axes.empty()) {
       auto parsed = ParseAxes(spec, "gx:gyro/gy:gyro/gz:gyro");
       axes = std::move(*parsed);

@@ -113,6 +113,7 @@ int TextLineDecoder::counter_bits() const {
 }
 
 void TextLineDecoder::Reset() {
+  rejected_ = 0;
   line_.clear();
   synced_ = false;
   overlong_ = false;
@@ -127,6 +128,7 @@ void TextLineDecoder::Feed(const uint8_t* data, size_t size, std::vector<DeviceF
         synced_ = true;
       } else if (overlong_) {
         ++counters_.malformed;
+        ++rejected_;
       } else {
         std::string_view line(line_);
         if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
@@ -156,6 +158,7 @@ void TextLineDecoder::Line(std::string_view line, std::vector<DeviceFrame>* out)
     const size_t star = line.rfind('*');
     if (line.front() != '$' || star == std::string_view::npos || star + 3 != line.size()) {
       ++counters_.malformed;
+      ++rejected_;
       return;
     }
     const int hi = HexDigit(line[star + 1]), lo = HexDigit(line[star + 2]);
@@ -163,6 +166,7 @@ void TextLineDecoder::Line(std::string_view line, std::vector<DeviceFrame>* out)
     for (size_t k = 1; k < star; ++k) sum ^= static_cast<uint8_t>(line[k]);
     if (hi < 0 || lo < 0 || sum != hi * 16 + lo) {
       ++counters_.bad_checksum;
+      ++rejected_;
       return;
     }
     line = line.substr(1, star - 1);
@@ -189,6 +193,7 @@ void TextLineDecoder::Line(std::string_view line, std::vector<DeviceFrame>* out)
   }
   if (fields_.size() != o_.columns.size()) {
     ++counters_.malformed;
+    ++rejected_;
     return;
   }
   DeviceFrame f;
@@ -198,16 +203,19 @@ void TextLineDecoder::Line(std::string_view line, std::vector<DeviceFrame>* out)
     double v;
     if (!ParseDouble(fields_[axis_field_[a]], &v)) {
       ++counters_.malformed;
+      ++rejected_;
       return;
     }
     f.values[a] = static_cast<float>(v * o_.scales[a]);
-    if (std::isnan(v)) f.flags[a] |= imuqual::rate_batch_t::FLAG_INVALID;
+    // NaN on the line, or a value beyond float32 after scaling: no sample.
+    if (!std::isfinite(f.values[a])) f.flags[a] |= imuqual::rate_batch_t::FLAG_INVALID;
   }
   if (counter_field_ >= 0) {
     uint64_t c;
     if (!ParseCounter(fields_[counter_field_], &c) ||
         (o_.counter_bits > 0 && c >> o_.counter_bits != 0)) {
       ++counters_.malformed;
+      ++rejected_;
       return;
     }
     f.counter = c;
@@ -216,6 +224,8 @@ void TextLineDecoder::Line(std::string_view line, std::vector<DeviceFrame>* out)
     double t;
     if (ParseDouble(fields_[temperature_field_], &t) && std::isfinite(t)) f.temperature_c = static_cast<float>(t);
   }
+  f.rejected_before = rejected_;
+  rejected_ = 0;
   ++counters_.frames;
   out->push_back(std::move(f));
 }

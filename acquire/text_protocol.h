@@ -48,6 +48,7 @@ class TextLineDecoder : public FrameDecoder {
   std::string line_;
   bool synced_ = false;           // false: the bytes so far may start mid-line
   bool overlong_ = false;         // dropping the rest of a too-long line
+  int64_t rejected_ = 0;          // lines rejected since the last good one
   std::vector<std::string_view> fields_;
 };
 

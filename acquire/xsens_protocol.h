@@ -45,8 +45,10 @@ inline constexpr int kPrecisionFloat32 = 0, kPrecisionFp1220 = 1, kPrecisionFp16
 
 class XsensDecoder : public FrameDecoder {
  public:
-  // `axes` in output order: gyro axes take RateOfTurn x, y, z in turn,
-  // accelerometer axes Acceleration x, y, z (at most three of each).
+  // `axes` in output order, at most three of each kind: gyro axes read
+  // RateOfTurn, accelerometer axes Acceleration; the component is the one the
+  // name ends in (x, y or z) when every axis of the kind names a distinct
+  // one, else x, y, z in the axes' order.
   static Result<std::unique_ptr<XsensDecoder>> Create(const std::vector<pb::Axis>& axes);
 
   void Feed(const uint8_t* data, size_t size, std::vector<DeviceFrame>* out) override;
@@ -55,8 +57,8 @@ class XsensDecoder : public FrameDecoder {
 
  private:
   struct AxisSource {
-    bool gyro;
-    int component;  // 0..2
+    bool gyro = true;
+    int component = 0;  // 0..2
   };
   explicit XsensDecoder(std::vector<AxisSource> axes) : axes_(std::move(axes)) {}
   // Parses an MTData2 payload; false if its layout is malformed.

@@ -52,15 +52,18 @@ void LogInfo(const std::string& message) {
 void LogWarning(const std::string& message) { Write("warning", message); }
 void LogError(const std::string& message) { Write("error", message); }
 
-void ThrottledLog::Error(const std::string& message) {
+void ThrottledLog::Error(const std::string& message) { Emit("error", message); }
+void ThrottledLog::Warning(const std::string& message) { Emit("warning", message); }
+
+void ThrottledLog::Emit(const char* level, const std::string& message) {
   const double now = MonotonicSeconds();
   if (now - last_s_ < period_s_) {
     ++suppressed_;
     return;
   }
-  Write("error", suppressed_ > 0 ? message + " (and " + std::to_string(suppressed_) +
-                                       " more like it since the last report)"
-                                 : message);
+  Write(level, suppressed_ > 0 ? message + " (and " + std::to_string(suppressed_) +
+                                     " more like it since the last report)"
+                               : message);
   last_s_ = now;
   suppressed_ = 0;
 }

@@ -23,8 +23,10 @@ class ThrottledLog {
  public:
   explicit ThrottledLog(double period_s = 5.0) : period_s_(period_s) {}
   void Error(const std::string& message);
+  void Warning(const std::string& message);
 
  private:
+  void Emit(const char* level, const std::string& message);
   double period_s_;
   double last_s_ = -1e300;
   long suppressed_ = 0;

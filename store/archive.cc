@@ -90,10 +90,12 @@ Result<int64_t> Archive::UpsertRun(const RunInfo& run) {
   auto up = Cached(kUpsertRun, R"sql(
 INSERT INTO runs(run_id, serial, lot, station, slot, operator, source, software_version,
                  start_utime, end_utime, state, nominal_rate_hz, last_seq, samples_announced,
-                 plan, plan_sha256, truth, first_sample, end_sample)
-VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19)
+                 plan, plan_sha256, truth, first_sample, end_sample, end_reason)
+VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20)
 ON CONFLICT(run_id) DO UPDATE SET
   state = CASE WHEN runs.state IN ('complete', 'aborted') THEN runs.state ELSE excluded.state END,
+  end_reason = CASE WHEN runs.state IN ('complete', 'aborted') OR excluded.end_reason = ''
+                    THEN runs.end_reason ELSE excluded.end_reason END,
   end_utime = COALESCE(runs.end_utime, excluded.end_utime),
   last_seq = MAX(runs.last_seq, excluded.last_seq),
   samples_announced = MAX(runs.samples_announced, excluded.samples_announced),
@@ -115,7 +117,7 @@ RETURNING run_key)sql");
   s.BindBlob(15, {reinterpret_cast<const uint8_t*>(run.plan.data()), run.plan.size()});
   s.Bind(16, run.plan_sha256);
   s.BindBlob(17, {reinterpret_cast<const uint8_t*>(run.truth.data()), run.truth.size()});
-  s.Bind(18, run.first_sample).Bind(19, run.end_sample);
+  s.Bind(18, run.first_sample).Bind(19, run.end_sample).Bind(20, run.end_reason);
   auto row = s.Step();
   if (!row.ok()) return row.status();
   if (!*row) {
@@ -395,7 +397,7 @@ Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
   auto s = db_->Prepare(
       "SELECT run_key, serial, lot, station, slot, operator, source, software_version, "
       "start_utime, end_utime, state, nominal_rate_hz, last_seq, samples_announced, plan, "
-      "plan_sha256, truth, first_sample, end_sample FROM runs WHERE run_id = ?");
+      "plan_sha256, truth, first_sample, end_sample, end_reason FROM runs WHERE run_id = ?");
   if (!s.ok()) return s.status();
   s->Bind(1, run_id);
   auto row = s->Step();
@@ -424,6 +426,7 @@ Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
   r.truth.assign(truth.begin(), truth.end());
   r.first_sample = s->Int(17);
   r.end_sample = s->Int(18);
+  r.end_reason = s->Text(19);
   auto ax = db_->Prepare("SELECT axis, kind FROM run_axes WHERE run_key = ? ORDER BY axis_index");
   if (!ax.ok()) return ax.status();
   ax->Bind(1, key);

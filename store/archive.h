@@ -49,6 +49,7 @@ struct RunInfo {
   int64_t first_sample = -1;  // device counter range announced by acquire
   int64_t end_sample = -1;
   std::optional<int64_t> end_utime;
+  std::string end_reason;     // why an aborted or incomplete run ended early
 };
 
 struct ChunkRecord {

@@ -1,11 +1,22 @@
 // Raw chunk BLOBs: the samples of one rate batch as archived. Lossless: a
 // decoded chunk holds exactly the float32 values acquire published, so
 // re-analysis from the archive reproduces the live analysis bit for bit.
-//
-// Codec 1 (raw), little-endian:
-//   u8 version (1) | u8 num_axes | u16 num_samples | u16 num_flags
-//   | f32 samples[num_axes][num_samples]
-//   | num_flags x { u16 sample, u8 axis, u8 bits }
+// Every codec starts with the same header, little-endian:
+//   u8 version (= codec) | u8 num_axes | u16 num_samples | u16 num_flags
+// then:
+// Codec 1 (raw):
+//   f32 samples[num_axes][num_samples] | num_flags x { u16 sample, u8 axis, u8 bits }
+// Codec 2 (float, compressed): a zstd frame of the codec 1 body with each
+//   value's bits XORed with the previous value of its axis (the sign,
+//   exponent and leading mantissa bits of a noisy sensor rarely change) and
+//   the result split into 4 byte planes (all lowest bytes, then ..., then
+//   all highest bytes), flags after.
+// Codec 3 (quantized, compressed): for integer-quantized sensors, whose
+//   values are float32(k * scale) for integers k: a zstd frame of, per axis,
+//   f64 scale | u16 num_patches | num_patches x { u16 sample, u32 float bits }
+//   | zigzag varints of k[i] - k[i-1]; then the flags. A patch holds a value
+//   the scale does not reproduce bit for bit (a NaN, a spike): the encoder
+//   verifies every value and uses codec 3 only when few need patching.
 #ifndef IMUQUAL_STORE_CHUNK_CODEC_H_
 #define IMUQUAL_STORE_CHUNK_CODEC_H_
 
@@ -18,6 +29,8 @@
 namespace imuqual::store {
 
 inline constexpr int kCodecRawFloat32 = 1;
+inline constexpr int kCodecFloatZstd = 2;
+inline constexpr int kCodecQuantizedZstd = 3;
 
 struct SampleFlag {
   uint16_t sample = 0;  // index within the chunk
@@ -34,9 +47,19 @@ struct ChunkData {
   float at(int axis, int i) const { return samples[static_cast<size_t>(axis) * num_samples + i]; }
 };
 
-// Precondition: samples.size() == num_axes * num_samples, 1 <= num_axes <= 255,
-// num_samples <= 65535, flags index inside the chunk.
+struct EncodedChunk {
+  int codec = 0;
+  std::vector<uint8_t> data;
+};
+
+// Preconditions (both encoders): samples.size() == num_axes * num_samples,
+// 1 <= num_axes <= 255, num_samples <= 65535, flags index inside the chunk.
+// The chunk in `codec`; empty when that codec cannot hold it (codec 3 for
+// values that are not quantized, a zstd failure).
 std::vector<uint8_t> EncodeChunk(const ChunkData& chunk, int codec);
+// What the archive stores: codec 3 when every axis is quantized, else codec
+// 2, or codec 1 when compression does not pay. Always succeeds.
+EncodedChunk EncodeChunkCompact(const ChunkData& chunk);
 // Checks every length against the BLOB; a lying or truncated BLOB is a
 // Corruption error, never a crash.
 Result<ChunkData> DecodeChunk(std::span<const uint8_t> blob, int codec);

@@ -49,7 +49,7 @@ Result<analyze::RunOutcome> ReanalyzeRun(Archive& archive, const std::string& ru
   });
   if (!st.ok()) return st;
   analyzer->Finish(run->first_sample, run->end_sample);
-  return analyzer->Outcome(true, analyze::FailureForRunState(run->state));
+  return analyzer->Outcome(true, analyze::FailureForRunState(run->state, run->end_reason));
 }
 
 Result<RunSamples> LoadRunSamples(Archive& archive, const std::string& run_id) {

@@ -53,6 +53,7 @@ imuqual::run_t MessageFromRunInfo(const RunInfo& info) {
   r.end_sample = info.end_sample;
   r.announcer = "store";
   r.retained_first_seq = 0;
+  r.end_reason = info.end_reason;
   return r;
 }
 
@@ -118,6 +119,7 @@ RunInfo RunInfoFromMessage(const imuqual::run_t& r) {
   info.samples_announced = r.samples_published;
   info.first_sample = r.first_sample;
   info.end_sample = r.end_sample;
+  info.end_reason = r.end_reason;
   if (r.state != imuqual::run_t::STATE_RUNNING) info.end_utime = r.host_utime;
   return info;
 }
@@ -140,8 +142,9 @@ ChunkRecord ChunkFromBatch(const imuqual::rate_batch_t& b) {
   c.host_utime = b.host_utime;
   c.sample_utime = b.sample_utime;
   if (b.has_temperature) c.temperature_c = b.temperature_c;
-  c.codec = kCodecRawFloat32;
-  c.data = EncodeChunk(d, c.codec);
+  EncodedChunk encoded = EncodeChunkCompact(d);
+  c.codec = encoded.codec;
+  c.data = std::move(encoded.data);
   return c;
 }
 

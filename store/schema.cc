@@ -47,7 +47,8 @@ CREATE TABLE runs (
   reasons           TEXT,
   record            BLOB,
   result_utime      INTEGER,
-  finalized_utime   INTEGER
+  finalized_utime   INTEGER,
+  end_reason        TEXT NOT NULL DEFAULT ''
 );
 CREATE INDEX runs_by_lot ON runs(lot, serial, start_utime);
 CREATE INDEX runs_by_serial ON runs(serial, start_utime);

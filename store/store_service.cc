@@ -193,6 +193,8 @@ void StoreService::Impl::TakeOver(const std::string& run_id, StoreRun& r, double
   if (r.info.state == "running") {
     r.info.state = "incomplete";
     r.info.end_utime = NowUtime();
+    r.info.end_reason = "acquire silent for " + std::to_string(static_cast<int>(options.stale_after_s)) +
+                        " s after " + std::to_string(r.info.last_seq + 1) + " batches";
     Status st = archive->Begin();
     if (st.ok()) st = archive->UpsertRun(r.info).status();
     if (st.ok()) st = archive->Commit();

@@ -273,13 +273,29 @@ TEST(SerialStationTest, CorruptFramesUnplugAndAFastClockThroughTheStation) {
     ASSERT_FALSE((*result)->reasons.empty());
     EXPECT_NE((*result)->reasons[0].find("rate_error"), std::string::npos) << (*result)->reasons[0];
 
-    // Re-analysis from the archive gives the same timing, bit for bit.
+    // Re-analysis from the archive gives the same timing, bit for bit ...
     auto again = store::ReanalyzeRun(**a, "S-X");
     ASSERT_TRUE(again.ok());
     for (const pb::Measurement& mm : again->measurements) {
       if (mm.axis().empty() && m.count(mm.name())) {
         EXPECT_EQ(mm.value(), m.at(mm.name())) << mm.name();
       }
+    }
+    // ... and so does the run replayed from the archive through a station
+    // (its blocks keep every arrival time the live blocks had).
+    const std::string replay_db = h.path("replayed.db");
+    const auto replayed = testing::RunCommand(
+        testing::Bin("imuqual") + " run --unit X=archive:" + h.db() + ",run=S-X --lot AGAIN --db " +
+        replay_db + " --plan " + h.path("plan.textproto") + " --quiet");
+    ASSERT_EQ(replayed.exit_code, 0) << replayed.output;
+    auto b = store::Archive::Open(replay_db, store::Archive::Mode::kRead);
+    ASSERT_TRUE(b.ok());
+    auto replay_runs = (*b)->db().Prepare("SELECT run_id FROM runs");
+    ASSERT_TRUE(*replay_runs->Step());
+    const auto m_replayed = Measurements(**b, replay_runs->Text(0));
+    for (const char* name : {"measured_rate", "rate_error", "timing_jitter"}) {
+      ASSERT_TRUE(m_replayed.count(name)) << name;
+      EXPECT_EQ(m_replayed.at(name), m.at(name)) << name;
     }
   }
 

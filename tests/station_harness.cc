@@ -28,8 +28,10 @@ StationHarness::StationHarness(const std::string& tag) : dir_(tag) {
                                      [this](const std::string&, imuqual::status_t&& s, int64_t) {
                                        instance_[s.process] = s.instance;
                                        auto& c = counters_[s.process];
+                                       auto& mine = instance_counters_[s.instance];
                                        for (int i = 0; i < s.num_counters; ++i) {
                                          c[s.counter_names[i]] = s.counter_values[i];
+                                         mine[s.counter_names[i]] = s.counter_values[i];
                                        }
                                      });
   bus_->Subscribe<imuqual::ack_t>(channels::kAck, 50000,
@@ -81,6 +83,19 @@ Subprocess StationHarness::StartAnalyze(const std::vector<std::string>& extra) {
   Subprocess p = Start("imuqual-analyze", args);
   EXPECT_TRUE(WaitReported("analyze", p.pid(), 20)) << Logs();
   return p;
+}
+
+int64_t StationHarness::CounterOf(pid_t pid, const std::string& name) const {
+  const std::string suffix = ":" + std::to_string(pid);
+  for (const auto& [instance, counters] : instance_counters_) {
+    if (instance.size() < suffix.size() ||
+        instance.compare(instance.size() - suffix.size(), suffix.size(), suffix) != 0) {
+      continue;
+    }
+    auto it = counters.find(name);
+    return it == counters.end() ? -1 : it->second;
+  }
+  return -1;
 }
 
 void StationHarness::Pump(int ms) {

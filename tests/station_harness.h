@@ -41,6 +41,8 @@ class StationHarness {
   bool WaitReported(const std::string& process, pid_t pid, double timeout_s);
   // Last status counter of a process ("store", "analyze", "acquire"); -1 if none.
   int64_t Counter(const std::string& process, const std::string& name) const;
+  // The last value of a counter of the process with pid `pid` (-1 if none).
+  int64_t CounterOf(pid_t pid, const std::string& name) const;
   // Waits (bounded) until that counter reaches `at_least`; its last value.
   int64_t WaitCounter(const std::string& process, const std::string& name, int64_t at_least,
                       double timeout_s);
@@ -66,6 +68,7 @@ class StationHarness {
   std::map<std::string, int64_t> store_acked_;
   std::map<std::string, std::string> instance_;  // process -> last instance
   std::map<std::string, std::map<std::string, int64_t>> counters_;
+  std::map<std::string, std::map<std::string, int64_t>> instance_counters_;  // by host:pid
 };
 
 }  // namespace imuqual::testing

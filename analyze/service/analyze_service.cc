@@ -333,8 +333,12 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
 
 void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double now) {
   std::string failure;
-  if (e.info->state == imuqual::run_t::STATE_ABORTED) failure = FailureForRunState("aborted");
-  if (e.info->state == imuqual::run_t::STATE_INCOMPLETE) failure = FailureForRunState("incomplete");
+  if (e.info->state == imuqual::run_t::STATE_ABORTED) {
+    failure = FailureForRunState("aborted", e.info->end_reason);
+  }
+  if (e.info->state == imuqual::run_t::STATE_INCOMPLETE) {
+    failure = FailureForRunState("incomplete", e.info->end_reason);
+  }
   if (e.analyzer) {
     e.analyzer->Finish(e.info->first_sample, e.info->end_sample);
     RunOutcome out = e.analyzer->Outcome(true, failure);
@@ -371,6 +375,7 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
     LogWarning("run " + run_id + ": not announced for " +
                std::to_string(static_cast<int>(options.stale_after_s)) + " s; ending it as incomplete");
     e.info->state = imuqual::run_t::STATE_INCOMPLETE;
+    e.info->end_reason = "not announced for " + std::to_string(static_cast<int>(options.stale_after_s)) + " s";
     e.inferred_incomplete = true;
     e.tracker.SetFinal();
   }

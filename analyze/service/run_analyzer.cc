@@ -130,9 +130,10 @@ void RunAnalyzer::Finish(int64_t first_sample, int64_t end_sample) {
   if (end_sample > next_counter_) Push(end_sample - next_counter_);
 }
 
-std::string FailureForRunState(const std::string& state) {
-  if (state == "aborted") return "run aborted before completion";
-  if (state == "incomplete") return "run incomplete: its source went silent before ending it";
+std::string FailureForRunState(const std::string& state, const std::string& reason) {
+  const std::string why = reason.empty() ? "" : " (" + reason + ")";
+  if (state == "aborted") return "run aborted before completion" + why;
+  if (state == "incomplete") return "run incomplete: its source went silent before ending it" + why;
   return "";
 }
 

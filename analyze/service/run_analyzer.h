@@ -112,8 +112,9 @@ class RunAnalyzer {
 };
 
 // The FAIL reason of a run that ended in `state` ("running", "complete",
-// "aborted", "incomplete"); "" when it ended normally.
-std::string FailureForRunState(const std::string& state);
+// "aborted", "incomplete"), with the announced `reason` it ended early if
+// any; "" when it ended normally.
+std::string FailureForRunState(const std::string& state, const std::string& reason = "");
 
 }  // namespace imuqual::analyze
 

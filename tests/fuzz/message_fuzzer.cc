@@ -5,6 +5,7 @@
 // validation. Nothing may crash, hang or leak; lies must be rejected.
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 #include "analyze/judge/plan.h"
 #include "analyze/service/run_analyzer.h"
@@ -56,8 +57,14 @@ void CheckBatch(const imuqual::rate_batch_t& b) {
     c.flags.push_back({static_cast<uint16_t>(b.flagged_sample[i]), static_cast<uint8_t>(b.flagged_axis[i]),
                        static_cast<uint8_t>(b.flagged_bits[i])});
   }
-  auto back = store::DecodeChunk(store::EncodeChunk(c, store::kCodecRawFloat32), store::kCodecRawFloat32);
-  if (!back.ok() || back->samples.size() != c.samples.size()) __builtin_trap();
+  // What the store would archive decodes to the same bits.
+  const store::EncodedChunk e = store::EncodeChunkCompact(c);
+  auto back = store::DecodeChunk(e.data, e.codec);
+  if (!back.ok() || back->samples.size() != c.samples.size() ||
+      std::memcmp(back->samples.data(), c.samples.data(), c.samples.size() * sizeof(float)) != 0 ||
+      back->flags != c.flags) {
+    __builtin_trap();
+  }
 }
 
 template <typename T>
@@ -95,7 +102,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 4: Decode<imuqual::allan_curve_t>(body, n); break;
     case 5: Decode<imuqual::unit_result_t>(body, n); break;
     case 6: {
-      (void)store::DecodeChunk({body, n}, store::kCodecRawFloat32);
+      // Archived BLOBs of any codec, damaged: an error, never a crash.
+      for (int codec : {store::kCodecRawFloat32, store::kCodecFloatZstd, store::kCodecQuantizedZstd}) {
+        (void)store::DecodeChunk({body, n}, codec);
+      }
       Decode<imuqual::status_t>(body, n);
       break;
     }
