@@ -40,7 +40,11 @@ int main(int argc, char** argv) {
   app.add_option("--await", await, "consumers whose acks gate the data, e.g. store,analyze");
   app.add_option("--window", opt.window_batches, "unacknowledged batches in flight per run")
       ->capture_default_str();
-  app.add_option("--batch-samples", opt.batch_samples, "samples per batch (0: fit one datagram)")
+  app.add_option("--batch-bytes", opt.batch_bytes,
+                 "message budget per batch (0: 8 KB when the bus stays on this host, ttl=0; "
+                 "else one 1400-byte datagram)")
+      ->capture_default_str();
+  app.add_option("--batch-samples", opt.batch_samples, "samples per batch (0: fit --batch-bytes)")
       ->capture_default_str();
   app.add_option("--pace", opt.pace, "0: as fast as acknowledged, 1: real time, k: k x")
       ->capture_default_str();

@@ -325,14 +325,38 @@ bool GetVarint(const uint8_t*& p, const uint8_t* end, uint64_t* v) {
 uint64_t ZigZag(int64_t v) { return (static_cast<uint64_t>(v) << 1) ^ static_cast<uint64_t>(v >> 63); }
 int64_t UnZigZag(uint64_t v) { return static_cast<int64_t>(v >> 1) ^ -static_cast<int64_t>(v & 1); }
 
-bool QuantizedBody(const ChunkData& c, std::vector<uint8_t>* body) {
-  std::vector<Quantized> axes(c.num_axes);
+constexpr uint8_t kAxisFloat = 0;
+constexpr uint8_t kAxisQuantized = 1;
+
+// Codec 3's body: per axis a mode byte, then the quantized form or the
+// float form (XOR with the previous value, 4 byte planes); false if no axis
+// is quantized (codec 2 is then as good).
+bool MixedBody(const ChunkData& c, std::vector<double>* scales, std::vector<uint8_t>* body) {
+  if (scales && scales->size() != static_cast<size_t>(c.num_axes)) scales->assign(c.num_axes, 0.0);
+  bool any = false;
+  Quantized q;
   for (int a = 0; a < c.num_axes; ++a) {
     const std::span<const float> v(c.samples.data() + static_cast<size_t>(a) * c.num_samples,
                                    static_cast<size_t>(c.num_samples));
-    if (!QuantizeAxis(v, &axes[a])) return false;
-  }
-  for (const Quantized& q : axes) {
+    // The previous chunk's scale almost always fits the next one.
+    const double hint = scales ? (*scales)[a] : 0.0;
+    const bool quantized = (hint > 0 && TryScale(v, hint, &q) == 0) || QuantizeAxis(v, &q);
+    if (scales) (*scales)[a] = quantized ? q.scale : 0.0;
+    if (!quantized) {
+      body->push_back(kAxisFloat);
+      const size_t at = body->size();
+      body->resize(at + v.size() * 4);
+      uint32_t prev = 0;
+      for (size_t i = 0; i < v.size(); ++i) {
+        const uint32_t bits = Bits(v[i]);
+        const uint32_t x = bits ^ prev;
+        prev = bits;
+        for (int byte = 0; byte < 4; ++byte) (*body)[at + byte * v.size() + i] = static_cast<uint8_t>(x >> (8 * byte));
+      }
+      continue;
+    }
+    any = true;
+    body->push_back(kAxisQuantized);
     PutU64(*body, DoubleBits(q.scale));
     PutU16(*body, static_cast<uint16_t>(q.patches.size()));
     for (const auto& [i, bits] : q.patches) {
@@ -346,15 +370,32 @@ bool QuantizedBody(const ChunkData& c, std::vector<uint8_t>* body) {
     }
   }
   PutFlags(*body, c.flags);
-  return true;
+  return any;
 }
 
-Status FromQuantizedBody(const std::vector<uint8_t>& body, size_t num_flags, ChunkData* c) {
+Status FromMixedBody(const std::vector<uint8_t>& body, size_t num_flags, ChunkData* c) {
   const uint8_t* p = body.data();
   const uint8_t* end = body.data() + body.size();
-  const auto corrupt = [](const std::string& what) { return Status::Corruption("quantized chunk: " + what); };
-  c->samples.resize(static_cast<size_t>(c->num_axes) * c->num_samples);
+  const auto corrupt = [](const std::string& what) { return Status::Corruption("compressed chunk: " + what); };
+  const size_t n = static_cast<size_t>(c->num_samples);
+  c->samples.resize(static_cast<size_t>(c->num_axes) * n);
   for (int a = 0; a < c->num_axes; ++a) {
+    float* out = c->samples.data() + static_cast<size_t>(a) * n;
+    if (end - p < 1) return corrupt("truncated axis");
+    const uint8_t mode = *p++;
+    if (mode == kAxisFloat) {
+      if (static_cast<size_t>(end - p) < n * 4) return corrupt("truncated float axis");
+      uint32_t prev = 0;
+      for (size_t i = 0; i < n; ++i) {
+        uint32_t x = 0;
+        for (int byte = 0; byte < 4; ++byte) x |= static_cast<uint32_t>(p[byte * n + i]) << (8 * byte);
+        prev ^= x;
+        out[i] = FromBits(prev);
+      }
+      p += n * 4;
+      continue;
+    }
+    if (mode != kAxisQuantized) return corrupt("unknown axis mode " + std::to_string(mode));
     if (end - p < 10) return corrupt("truncated axis header");
     const double scale = DoubleFromBits(GetU64(p));
     const size_t patches = GetU16(p + 8);
@@ -362,9 +403,8 @@ Status FromQuantizedBody(const std::vector<uint8_t>& body, size_t num_flags, Chu
     if (static_cast<size_t>(end - p) < patches * 6) return corrupt("truncated patches");
     const uint8_t* patch = p;
     p += patches * 6;
-    float* out = c->samples.data() + static_cast<size_t>(a) * c->num_samples;
     int64_t k = 0;
-    for (int i = 0; i < c->num_samples; ++i) {
+    for (size_t i = 0; i < n; ++i) {
       uint64_t z;
       if (!GetVarint(p, end, &z)) return corrupt("truncated values");
       k += UnZigZag(z);
@@ -372,7 +412,7 @@ Status FromQuantizedBody(const std::vector<uint8_t>& body, size_t num_flags, Chu
     }
     for (size_t j = 0; j < patches; ++j, patch += 6) {
       const uint16_t i = GetU16(patch);
-      if (i >= c->num_samples) return corrupt("patch outside the chunk");
+      if (i >= n) return corrupt("patch outside the chunk");
       out[i] = FromBits(GetU32(patch + 2));
     }
   }
@@ -395,10 +435,11 @@ std::vector<uint8_t> RawChunk(const ChunkData& chunk) {
 
 // Codec 3 if the chunk is quantized (else false), codec 2 otherwise; false
 // if zstd failed.
-bool Compressed(const ChunkData& chunk, bool try_quantized, EncodedChunk* e) {
+bool Compressed(const ChunkData& chunk, bool try_quantized, std::vector<double>* scales,
+                EncodedChunk* e) {
   std::vector<uint8_t> body;
   e->data.clear();
-  if (try_quantized && QuantizedBody(chunk, &body)) {
+  if (try_quantized && MixedBody(chunk, scales, &body)) {
     e->codec = kCodecQuantizedZstd;
   } else {
     body = FloatBody(chunk);
@@ -414,16 +455,16 @@ std::vector<uint8_t> EncodeChunk(const ChunkData& chunk, int codec) {
   if (codec == kCodecRawFloat32) return RawChunk(chunk);
   EncodedChunk e;
   if ((codec == kCodecFloatZstd || codec == kCodecQuantizedZstd) &&
-      Compressed(chunk, codec == kCodecQuantizedZstd, &e) && e.codec == codec) {
+      Compressed(chunk, codec == kCodecQuantizedZstd, nullptr, &e) && e.codec == codec) {
     return std::move(e.data);
   }
   return {};
 }
 
-EncodedChunk EncodeChunkCompact(const ChunkData& chunk) {
+EncodedChunk EncodeChunkCompact(const ChunkData& chunk, std::vector<double>* scales) {
   EncodedChunk e;
   const size_t raw = kHeaderBytes + chunk.samples.size() * 4 + chunk.flags.size() * kFlagBytes;
-  if (Compressed(chunk, true, &e) && e.data.size() < raw) return e;
+  if (Compressed(chunk, true, scales, &e) && e.data.size() < raw) return e;
   return {kCodecRawFloat32, RawChunk(chunk)};
 }
 
@@ -450,13 +491,13 @@ Result<ChunkData> DecodeChunk(std::span<const uint8_t> blob, int codec) {
     return c;
   }
   if (codec == kCodecQuantizedZstd) {
-    // Axis headers, patches (at most one per value), varints (at most 10
-    // bytes per value), flags.
-    const size_t bound = static_cast<size_t>(c.num_axes) * (10 + static_cast<size_t>(c.num_samples) * 16) +
+    // Per axis: mode and header, patches (at most one per value), varints
+    // (at most 10 bytes per value); flags.
+    const size_t bound = static_cast<size_t>(c.num_axes) * (11 + static_cast<size_t>(c.num_samples) * 16) +
                          num_flags * kFlagBytes;
     auto body = Decompress(rest, bound);
     if (!body.ok()) return body.status();
-    IMUQUAL_RETURN_IF_ERROR(FromQuantizedBody(*body, num_flags, &c));
+    IMUQUAL_RETURN_IF_ERROR(FromMixedBody(*body, num_flags, &c));
     return c;
   }
   const size_t want = values * 4 + num_flags * kFlagBytes;

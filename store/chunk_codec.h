@@ -11,12 +11,15 @@
 //   exponent and leading mantissa bits of a noisy sensor rarely change) and
 //   the result split into 4 byte planes (all lowest bytes, then ..., then
 //   all highest bytes), flags after.
-// Codec 3 (quantized, compressed): for integer-quantized sensors, whose
-//   values are float32(k * scale) for integers k: a zstd frame of, per axis,
-//   f64 scale | u16 num_patches | num_patches x { u16 sample, u32 float bits }
-//   | zigzag varints of k[i] - k[i-1]; then the flags. A patch holds a value
-//   the scale does not reproduce bit for bit (a NaN, a spike): the encoder
-//   verifies every value and uses codec 3 only when few need patching.
+// Codec 3 (mixed, compressed): for integer-quantized sensors, whose values
+//   are float32(k * scale) for integers k: a zstd frame (with checksum) of,
+//   per axis, u8 mode then
+//     mode 1 (quantized): f64 scale | u16 num_patches
+//       | num_patches x { u16 sample, u32 float bits } | zigzag varints of k[i] - k[i-1]
+//     mode 0 (float): that axis's values as in codec 2 (XOR, 4 byte planes)
+//   then the flags. A patch holds a value the scale does not rebuild bit
+//   for bit (a NaN, a spike): the encoder verifies every value and takes
+//   mode 1 only when few need patching.
 #ifndef IMUQUAL_STORE_CHUNK_CODEC_H_
 #define IMUQUAL_STORE_CHUNK_CODEC_H_
 
@@ -55,11 +58,14 @@ struct EncodedChunk {
 // Preconditions (both encoders): samples.size() == num_axes * num_samples,
 // 1 <= num_axes <= 255, num_samples <= 65535, flags index inside the chunk.
 // The chunk in `codec`; empty when that codec cannot hold it (codec 3 for
-// values that are not quantized, a zstd failure).
+// a chunk with no quantized axis, a zstd failure).
 std::vector<uint8_t> EncodeChunk(const ChunkData& chunk, int codec);
-// What the archive stores: codec 3 when every axis is quantized, else codec
+// What the archive stores: codec 3 when some axis is quantized, else codec
 // 2, or codec 1 when compression does not pay. Always succeeds.
-EncodedChunk EncodeChunkCompact(const ChunkData& chunk);
+// `scales` (optional, one per axis, 0 = none) carries each axis's scale from
+// one chunk of a run to the next: tried first, it spares the search that
+// finds a quantized sensor's scale; updated with the scales used.
+EncodedChunk EncodeChunkCompact(const ChunkData& chunk, std::vector<double>* scales = nullptr);
 // Checks every length against the BLOB; a lying or truncated BLOB is a
 // Corruption error, never a crash.
 Result<ChunkData> DecodeChunk(std::span<const uint8_t> blob, int codec);

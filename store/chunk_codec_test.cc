@@ -64,7 +64,9 @@ TEST(ChunkCodecTest, FloatNoiseRoundTripsAndCompresses) {
   });
   d.flags = {{3, 1, 1}, {199, 5, 2}};
   const EncodedChunk e = RoundTrip(d);
-  EXPECT_EQ(e.codec, kCodecFloatZstd);
+  // Float planes; or fixed point where an axis stays in one binade (near
+  // 1 g every float32 is a multiple of 2^-20).
+  EXPECT_NE(e.codec, kCodecRawFloat32);
   EXPECT_LT(BytesPerValue(e, d), 3.7);  // 23 random mantissa bits cannot be squeezed much
 }
 

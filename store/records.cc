@@ -124,7 +124,7 @@ RunInfo RunInfoFromMessage(const imuqual::run_t& r) {
   return info;
 }
 
-ChunkRecord ChunkFromBatch(const imuqual::rate_batch_t& b) {
+ChunkRecord ChunkFromBatch(const imuqual::rate_batch_t& b, std::vector<double>* scales) {
   ChunkData d;
   d.num_axes = b.num_axes;
   d.num_samples = b.num_samples;
@@ -142,7 +142,7 @@ ChunkRecord ChunkFromBatch(const imuqual::rate_batch_t& b) {
   c.host_utime = b.host_utime;
   c.sample_utime = b.sample_utime;
   if (b.has_temperature) c.temperature_c = b.temperature_c;
-  EncodedChunk encoded = EncodeChunkCompact(d);
+  EncodedChunk encoded = EncodeChunkCompact(d, scales);
   c.codec = encoded.codec;
   c.data = std::move(encoded.data);
   return c;

@@ -14,7 +14,9 @@
 namespace imuqual::store {
 
 RunInfo RunInfoFromMessage(const imuqual::run_t& run);
-ChunkRecord ChunkFromBatch(const imuqual::rate_batch_t& batch);
+// `scales`: the run's per-axis quantization scales, carried from chunk to
+// chunk (see EncodeChunkCompact).
+ChunkRecord ChunkFromBatch(const imuqual::rate_batch_t& batch, std::vector<double>* scales = nullptr);
 CurveRecord CurveFromMessage(const imuqual::allan_curve_t& msg);
 ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg);
 

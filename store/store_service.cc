@@ -51,6 +51,7 @@ struct StoreRun {
   int64_t acquire_retained_first = 0;
   bool acquire_gone = false;
   double next_announce_s = 0;
+  std::vector<double> codec_scales;  // per axis, from one chunk to the next
   explicit StoreRun(const SeqTracker::Options& o) : tracker(0, o) {}
 };
 
@@ -327,7 +328,7 @@ Status StoreService::Impl::ApplyBatch(StoreRun& r, const imuqual::rate_batch_t& 
     return Status::Ok();
   }
   bool inserted = false;
-  IMUQUAL_RETURN_IF_ERROR(archive->InsertChunk(r.key, ChunkFromBatch(b), &inserted));
+  IMUQUAL_RETURN_IF_ERROR(archive->InsertChunk(r.key, ChunkFromBatch(b, &r.codec_scales), &inserted));
   if (!inserted) ++duplicates;
   staged->chunks.emplace_back(b.run_id, b.seq);  // durable either way once committed
   return Status::Ok();
