@@ -4,14 +4,18 @@
 #include <cmath>
 
 #include "common/clock.h"
+#include "imuqual/rate_batch_t.hpp"
 
 namespace imuqual::acquire {
 
 Result<std::unique_ptr<SimSource>> SimSource::Create(const sim::LotProfile& profile,
                                                      uint64_t lot_seed, int index, double rate_hz,
-                                                     double duration_s, double actual_rate_hz) {
+                                                     double duration_s, const SimOutput& output) {
   const double rate = rate_hz > 0 ? rate_hz : profile.nominal_rate_hz;
-  const double actual = actual_rate_hz > 0 ? actual_rate_hz : rate;
+  const double actual = output.actual_rate_hz > 0 ? output.actual_rate_hz : rate;
+  if (output.lsb < 0 || !std::isfinite(output.lsb) || output.adc_bits < 2 || output.adc_bits > 32) {
+    return Status::InvalidArgument("ADC: lsb must be >= 0 and bits 2..32");
+  }
   if (!std::isfinite(actual) || std::abs(actual / rate - 1.0) > 0.5) {
     return Status::InvalidArgument("actual rate must be within 50% of the nominal rate");
   }
@@ -23,6 +27,9 @@ Result<std::unique_ptr<SimSource>> SimSource::Create(const sim::LotProfile& prof
   if (total < 1) return Status::InvalidArgument("simulated duration is shorter than one sample");
   pb::SimTruth truth = sim::MakeUnitTruth(profile, lot_seed, index, rate);
   truth.set_actual_rate_hz(actual);
+  if (!output.quantize) {
+    for (pb::AxisTruth& a : *truth.mutable_axes()) a.set_quantization(0);
+  }
   auto simulator = sim::ImuSimulator::Create(truth);
   if (!simulator.ok()) return simulator.status();
   SourceInfo info;
@@ -37,7 +44,7 @@ Result<std::unique_ptr<SimSource>> SimSource::Create(const sim::LotProfile& prof
                      ",seed=" + std::to_string(truth.seed());
   info.truth = truth.SerializeAsString();
   return std::unique_ptr<SimSource>(
-      new SimSource(std::move(*simulator), std::move(info), total, NowUtime(), actual));
+      new SimSource(std::move(*simulator), std::move(info), total, NowUtime(), actual, output));
 }
 
 Result<int> SimSource::Read(int max_samples, SampleBlock* block) {
@@ -53,6 +60,22 @@ Result<int> SimSource::Read(int max_samples, SampleBlock* block) {
   if (n <= 0) return 0;
   for (auto& axis : block->samples) axis.reserve(n);
   sim_.Generate(n, block->samples);
+  if (output_.lsb > 0) {
+    // The ADC: whole LSBs, clipped (and flagged) at full scale. The archived
+    // truth leaves out the ADC's own rounding (white, lsb^2/12 per sample).
+    const double full = std::ldexp(1.0, output_.adc_bits - 1) - 1;
+    for (size_t a = 0; a < block->samples.size(); ++a) {
+      for (int i = 0; i < n; ++i) {
+        float& v = block->samples[a][static_cast<size_t>(i)];
+        double k = std::nearbyint(static_cast<double>(v) / output_.lsb);
+        if (std::abs(k) > full) {
+          k = std::copysign(full, k);
+          block->flags.push_back({i, static_cast<int>(a), imuqual::rate_batch_t::FLAG_SATURATED});
+        }
+        v = static_cast<float>(k * output_.lsb);
+      }
+    }
+  }
   return n;
 }
 

@@ -76,7 +76,8 @@ Result<int> Integer(const SourceSpec& spec, const std::string& key, int fallback
 }
 
 Result<std::unique_ptr<SampleSource>> MakeSim(const SourceSpec& spec, const SourceDefaults& d) {
-  IMUQUAL_RETURN_IF_ERROR(CheckKeys(spec, {"index", "duration", "rate", "seed", "actual_rate"}));
+  IMUQUAL_RETURN_IF_ERROR(
+      CheckKeys(spec, {"index", "duration", "rate", "seed", "actual_rate", "quantize", "lsb", "bits"}));
   auto profile = sim::LotProfileByName(spec.location.empty() ? "vg700" : spec.location);
   if (!profile.ok()) return profile.status();
   auto index = Number(spec, "index", d.index);
@@ -84,11 +85,22 @@ Result<std::unique_ptr<SampleSource>> MakeSim(const SourceSpec& spec, const Sour
   auto rate = Number(spec, "rate", d.rate_hz);
   auto seed = Number(spec, "seed", static_cast<double>(d.seed));
   auto actual = Number(spec, "actual_rate", 0);
-  for (const auto* r : {&index, &duration, &rate, &seed, &actual}) {
+  auto quantize = Number(spec, "quantize", 1);
+  auto lsb = Number(spec, "lsb", 0);
+  auto bits = Number(spec, "bits", 16);
+  for (const auto* r : {&index, &duration, &rate, &seed, &actual, &quantize, &lsb, &bits}) {
     if (!r->ok()) return r->status();
   }
+  if (*quantize != 0 && *quantize != 1) {
+    return Status::InvalidArgument(Where(spec) + ": quantize must be 0 or 1");
+  }
+  SimOutput output;
+  output.actual_rate_hz = *actual;
+  output.quantize = *quantize == 1;
+  output.lsb = *lsb;
+  output.adc_bits = static_cast<int>(*bits);
   const uint64_t lot_seed = *seed != 0 ? static_cast<uint64_t>(*seed) : sim::SeedFromName(d.lot);
-  auto source = SimSource::Create(*profile, lot_seed, static_cast<int>(*index), *rate, *duration, *actual);
+  auto source = SimSource::Create(*profile, lot_seed, static_cast<int>(*index), *rate, *duration, output);
   if (!source.ok()) return source.status();
   return std::unique_ptr<SampleSource>(std::move(*source));
 }

@@ -1,8 +1,11 @@
 // Sources named on a command line: KIND:LOCATION[,KEY=VALUE]... with lists in
 // values separated by '/'.
 //   sim:PROFILE[,index=N][,duration=S][,rate=HZ][,actual_rate=HZ][,seed=N]
+//          [,quantize=0|1][,lsb=X[,bits=16]]
 //       a simulated unit (lot profile vg700, tactical, fog or mems-lab); actual_rate:
-//       the simulated device really samples at that rate (rate is nominal)
+//       the simulated device really samples at that rate (rate is nominal);
+//       quantize=0: no quantization term (float output); lsb: an ADC of that
+//       LSB and width (saturating, flagged)
 //   csv:PATH,rate=HZ[,axes=NAME:gyro/NAME:accel...][,counter=COLUMN][,time=COLUMN][,scale=F]
 //       a recording; axes default to the plan's axes (by column name), else
 //       every column except the counter, as gyros; time: seconds per row

@@ -3,12 +3,15 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "common/clock.h"
@@ -66,7 +69,7 @@ Result<Subprocess> Subprocess::Start(const std::vector<std::string>& argv,
 }
 
 Subprocess::Subprocess(Subprocess&& other) noexcept
-    : pid_(other.pid_), name_(std::move(other.name_)), exit_code_(other.exit_code_) {
+    : pid_(other.pid_), name_(std::move(other.name_)), exit_code_(other.exit_code_), cpu_s_(other.cpu_s_) {
   other.pid_ = -1;
 }
 
@@ -76,6 +79,7 @@ Subprocess& Subprocess::operator=(Subprocess&& other) noexcept {
     pid_ = other.pid_;
     name_ = std::move(other.name_);
     exit_code_ = other.exit_code_;
+    cpu_s_ = other.cpu_s_;
     other.pid_ = -1;
   }
   return *this;
@@ -85,12 +89,36 @@ Subprocess::~Subprocess() {
   if (pid_ > 0 && !exit_code_) Stop(0);
 }
 
+void Subprocess::Reaped(int status, const struct rusage& usage) {
+  exit_code_ = ExitCode(status);
+  cpu_s_ = static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+           static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec) * 1e-6;
+}
+
 std::optional<int> Subprocess::Poll() {
   if (exit_code_ || pid_ <= 0) return exit_code_;
   int status = 0;
-  const pid_t r = ::waitpid(pid_, &status, WNOHANG);
-  if (r == pid_) exit_code_ = ExitCode(status);
+  struct rusage usage {};
+  const pid_t r = ::wait4(pid_, &status, WNOHANG, &usage);
+  if (r == pid_) Reaped(status, usage);
   return exit_code_;
+}
+
+double Subprocess::CpuSeconds() const {
+  if (exit_code_ || pid_ <= 0) return cpu_s_;
+  // utime and stime, fields 14 and 15 of /proc/PID/stat, in clock ticks.
+  std::ifstream stat("/proc/" + std::to_string(pid_) + "/stat");
+  std::string line;
+  if (!std::getline(stat, line)) return 0;
+  const size_t close = line.rfind(')');  // the command name may hold spaces
+  if (close == std::string::npos) return 0;
+  std::istringstream rest(line.substr(close + 2));
+  std::string field;
+  double ticks = 0;
+  for (int i = 3; i <= 15 && rest >> field; ++i) {
+    if (i >= 14) ticks += std::stod(field);
+  }
+  return ticks / static_cast<double>(::sysconf(_SC_CLK_TCK));
 }
 
 void Subprocess::Signal(int sig) {
@@ -113,8 +141,9 @@ int Subprocess::Stop(double timeout_s) {
   if (Wait(timeout_s)) return *exit_code_;
   ::kill(pid_, SIGKILL);
   int status = 0;
-  ::waitpid(pid_, &status, 0);
-  exit_code_ = ExitCode(status);
+  struct rusage usage {};
+  ::wait4(pid_, &status, 0, &usage);
+  Reaped(status, usage);
   return *exit_code_;
 }
 

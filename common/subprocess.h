@@ -5,6 +5,7 @@
 #ifndef IMUQUAL_COMMON_SUBPROCESS_H_
 #define IMUQUAL_COMMON_SUBPROCESS_H_
 
+#include <sys/resource.h>
 #include <sys/types.h>
 
 #include <optional>
@@ -34,12 +35,17 @@ class Subprocess {
   // the exit code (128 + signal for a signal).
   int Stop(double timeout_s);
   void Signal(int sig);
+  // CPU seconds (user + system) the child used: final once it has ended,
+  // else so far (from /proc).
+  double CpuSeconds() const;
 
  private:
   Subprocess() = default;
+  void Reaped(int status, const struct rusage& usage);
   pid_t pid_ = -1;
   std::string name_;
   std::optional<int> exit_code_;
+  double cpu_s_ = 0;
 };
 
 // Directory holding the running executable (/proc/self/exe), to find the
