@@ -23,13 +23,15 @@ int main(int argc, char** argv) {
   app.add_option("--run-prefix", opt.run_prefix, "run id prefix (default: the UTC start time)");
   std::vector<std::string> unit_args;
   app.add_option("--sim", sim.count, "number of simulated units");
-  std::vector<std::string> source_args;
+  std::vector<std::string> source_args, slot_args;
   app.add_option("--unit", unit_args,
                  "a unit: SERIAL=SOURCE, or SERIAL with the next --source; repeatable");
   app.add_option("--source", source_args,
                  "the source of the --unit SERIAL before it: sim:PROFILE[,index=N,...], "
                  "csv:FILE,rate=HZ[,axes=...][,counter=COL][,time=COL], "
                  "serial:DEVICE,protocol=text|xsens[,baud=N,...] (see the README)");
+  app.add_option("--slot", slot_args,
+                 "fixture position of each --unit, in order (default: 1, 2, ... after the simulated units)");
   app.add_option("--profile", sim.profile, "simulated lot profile: vg700, tactical, fog, mems-lab")
       ->capture_default_str();
   app.add_option("--duration", sim.duration_s,
@@ -114,7 +116,15 @@ int main(int argc, char** argv) {
     LogError(named.status().message());
     return 2;
   }
-  for (acquire::UnitSpec& u : *named) units.push_back(std::move(u));
+  if (!slot_args.empty() && slot_args.size() != named->size()) {
+    LogError("--slot given " + std::to_string(slot_args.size()) + " times for " +
+             std::to_string(named->size()) + " --unit");
+    return 2;
+  }
+  for (size_t i = 0; i < named->size(); ++i) {
+    if (!slot_args.empty()) (*named)[i].slot = slot_args[i];
+    units.push_back(std::move((*named)[i]));
+  }
   auto service = acquire::AcquireService::Create(std::move(opt), std::move(units));
   if (!service.ok()) {
     LogError(service.status().message());

@@ -1,8 +1,5 @@
 #include "analyze/judge/plan.h"
 
-#include <google/protobuf/io/tokenizer.h>
-#include <google/protobuf/text_format.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -15,30 +12,10 @@
 #include "analyze/judge/builtin_plans.h"
 #include "analyze/judge/measurements.h"
 #include "common/strings.h"
+#include "proto/text_proto.h"
 
 namespace imuqual::judge {
 namespace {
-
-using google::protobuf::FieldDescriptor;
-using google::protobuf::TextFormat;
-
-// Collects the first parse error with its 1-based line.
-class FirstErrorCollector : public google::protobuf::io::ErrorCollector {
- public:
-  void AddError(int line, google::protobuf::io::ColumnNumber column,
-                const std::string& message) override {
-    if (!has_error_) {
-      has_error_ = true;
-      first_ = std::to_string(line + 1) + ":" + std::to_string(column + 1) + ": " + message;
-    }
-  }
-  bool has_error() const { return has_error_; }
-  const std::string& first() const { return first_; }
-
- private:
-  bool has_error_ = false;
-  std::string first_;
-};
 
 // Maps a top-level field (and index) to its line in the source text, if the
 // plan came from text.
@@ -192,30 +169,11 @@ Status ValidatePlan(const pb::TestPlan& plan) { return Validate(plan, nullptr); 
 
 Result<pb::TestPlan> ParsePlanText(std::string_view text, std::string_view source_name) {
   pb::TestPlan plan;
-  TextFormat::Parser parser;
-  FirstErrorCollector errors;
-  TextFormat::ParseInfoTree tree;
-  parser.RecordErrorsTo(&errors);
-  parser.WriteLocationsTo(&tree);
+  pb::TextProto parsed;
   const std::string src(source_name);
-  if (!parser.ParseFromString(std::string(text), &plan)) {
-    return Status::InvalidArgument(src + ":" +
-                                   (errors.has_error() ? errors.first() : "cannot parse plan"));
-  }
+  IMUQUAL_RETURN_IF_ERROR(parsed.Parse(text, src, &plan));
   Locator where = [&](const char* field, int index, const char* sub) {
-    const FieldDescriptor* fd = pb::TestPlan::descriptor()->FindFieldByName(field);
-    if (fd == nullptr) return -1;
-    const int idx = fd->is_repeated() ? index : -1;
-    int line = tree.GetLocation(fd, idx).line;
-    if (sub != nullptr && fd->message_type() != nullptr) {
-      const FieldDescriptor* sd = fd->message_type()->FindFieldByName(sub);
-      const TextFormat::ParseInfoTree* nested = tree.GetTreeForNested(fd, idx);
-      if (sd != nullptr && nested != nullptr) {
-        const int sub_line = nested->GetLocation(sd, sd->is_repeated() ? 0 : -1).line;
-        if (sub_line >= 0) line = sub_line;
-      }
-    }
-    return line < 0 ? -1 : line + 1;
+    return parsed.LineOf(pb::TestPlan::descriptor(), field, index, sub);
   };
   Status st = Validate(plan, where);
   if (!st.ok()) {

@@ -5,6 +5,8 @@
 
 #include "common/clock.h"
 #include "common/log.h"
+#include "common/text_util.h"
+#include "store/cli/report.h"
 #include "store/query.h"
 
 namespace imuqual::cli {
@@ -113,6 +115,24 @@ int RunCommand(const StationRunOptions& options) {
               run->interrupted ? " (interrupted: runs aborted)" : "");
   std::printf("lot %s archived in %s (runs %s-*; process log %s)\n", options.lot.c_str(),
               options.db_path.c_str(), run->run_prefix.c_str(), run->log_path.c_str());
+  if (run->restarts > 0) {
+    std::printf("store/analyze restarted %d time(s) during the soak; see the process log\n", run->restarts);
+  }
+  if (!run->run_ids.empty()) {
+    std::string report = options.report_path;
+    if (report.empty()) {
+      const std::string& db = options.db_path;
+      const bool dot_db = db.size() > 3 && db.compare(db.size() - 3, 3, ".db") == 0;
+      report = (dot_db ? db.substr(0, db.size() - 3) : db) + "-" + options.lot + ".html";
+    }
+    auto html = BuildLotReportHtml(**archive, options.lot, options.db_path);
+    const Status st = html.ok() ? WriteStringToFile(report, *html) : html.status();
+    if (st.ok()) {
+      std::printf("report: %s\n", report.c_str());
+    } else {
+      LogError("report not written: " + st.message());
+    }
+  }
   if (!run->failure.empty()) {
     LogError(run->failure);
     return kExitError;

@@ -10,6 +10,7 @@
 #include "store/cli/lot_commands.h"
 #include "store/cli/plot_command.h"
 #include "store/cli/reanalyze_command.h"
+#include "store/cli/station_config.h"
 #include "store/cli/report.h"
 
 int main(int argc, char** argv) {
@@ -20,7 +21,12 @@ int main(int argc, char** argv) {
 
   cli::StationRunOptions run;
   bool quiet = false;
+  std::string station_file;
   CLI::App* run_cmd = app.add_subcommand("run", "run a station on this host: a multi-unit soak end to end");
+  run_cmd->add_option("--station", station_file,
+                      "station configuration (protobuf text: station id, bus, slots with unit serials "
+                      "and sources, plan, lot, operator, duration, archive); replaces --sim/--unit/--lot/--db/"
+                      "--plan/--duration/--rate/--operator/--lcm-url");
   run_cmd->add_option("--sim", run.sim_units, "number of simulated units");
   run_cmd->add_option("--unit", run.units,
                       "SERIAL=SOURCE, repeatable: sim:PROFILE[,index=N,duration=S,actual_rate=HZ], "
@@ -29,13 +35,13 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--duration", run.duration_s,
                       "seconds of data per unit (simulated units; serial units record this long)");
   run_cmd->add_option("--rate", run.rate_hz, "sample rate in Hz (default: the profile's)");
-  run_cmd->add_option("--lot", run.lot, "production lot name")->required();
-  run_cmd->add_option("--db", run.db_path, "archive file (created if missing)")->required();
+  run_cmd->add_option("--lot", run.lot, "production lot name");
+  run_cmd->add_option("--db", run.db_path, "archive file (created if missing)");
   run_cmd->add_option("--plan", run.plan_spec, "test plan: .textproto file or builtin:NAME");
   run_cmd->add_option("--profile", run.profile, "simulated lot profile: vg700, tactical, fog, mems-lab")
       ->capture_default_str();
   run_cmd->add_option("--lcm-url", run.lcm_url, "station bus (default: a private port, ttl=0)");
-  run_cmd->add_option("--station", run.station, "station id")->capture_default_str();
+  run_cmd->add_option("--station-id", run.station, "station id")->capture_default_str();
   run_cmd->add_option("--operator", run.operator_name, "operator name");
   run_cmd->add_option("--inject-drop", run.inject_drop, "fault injection: drop this fraction of batches")
       ->capture_default_str();
@@ -43,7 +49,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   run_cmd->add_option("--pace", run.pace, "0: as fast as the station goes, 1: real time, k: k x real time")
       ->capture_default_str();
-  run_cmd->add_flag("--quiet", quiet, "no progress line");
+  run_cmd->add_option("--analyze-shards", run.analyze_shards, "analyze processes splitting the units")
+      ->capture_default_str();
+  run_cmd->add_option("--report", run.report_path, "HTML report written at the end (default: beside the archive)");
+  run_cmd->add_flag("--quiet", quiet, "no live console or progress line");
 
   std::string db, format = "table", lot;
   bool all_runs = false, stats = false;
@@ -157,6 +166,31 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (run_cmd->parsed()) {
+    if (!station_file.empty()) {
+      for (const char* flag : {"--sim", "--unit", "--lot", "--db", "--plan", "--duration", "--rate",
+                               "--operator", "--lcm-url", "--station-id", "--profile"}) {
+        if (run_cmd->count(flag) > 0) {
+          LogError(std::string("--station ") + station_file + " holds the station's setup: do not also give " + flag);
+          return 2;
+        }
+      }
+      auto config = cli::LoadStationConfig(station_file);
+      if (!config.ok()) {
+        LogError(config.status().message());
+        return 2;
+      }
+      cli::StationRunOptions from_file = cli::StationRunFromConfig(*config);
+      // What the command line may still set: pacing, fault injection, patience, shards, report.
+      if (run_cmd->count("--pace") > 0) from_file.pace = run.pace;
+      if (run_cmd->count("--analyze-shards") > 0) from_file.analyze_shards = run.analyze_shards;
+      if (run_cmd->count("--report") > 0) from_file.report_path = run.report_path;
+      from_file.inject_drop = run.inject_drop;
+      from_file.stall_timeout_s = run.stall_timeout_s;
+      run = std::move(from_file);
+    } else if (run.lot.empty() || run.db_path.empty()) {
+      LogError("run: give --station FILE, or --lot and --db (with --sim N and/or --unit SERIAL=SOURCE)");
+      return 2;
+    }
     InstallShutdownHandlers();
     run.show_progress = !quiet;
     return cli::RunCommand(run);

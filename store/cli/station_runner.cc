@@ -1,7 +1,9 @@
 #include "store/cli/station_runner.h"
 
-#include <csignal>
+#include <sys/ioctl.h>
 #include <unistd.h>
+
+#include <csignal>
 
 #include <algorithm>
 #include <cmath>
@@ -9,8 +11,10 @@
 #include <map>
 #include <optional>
 #include <random>
+#include <set>
 
 #include "acquire/lot_profile.h"
+#include "acquire/units.h"
 #include "analyze/judge/plan_file.h"
 #include "common/channels.h"
 #include "common/clock.h"
@@ -22,7 +26,9 @@
 #include "imuqual/ack_t.hpp"
 #include "imuqual/run_t.hpp"
 #include "imuqual/status_t.hpp"
+#include "imuqual/unit_result_t.hpp"
 #include "store/archive.h"
+#include "store/cli/station_console.h"
 
 namespace imuqual::cli {
 namespace {
@@ -31,6 +37,10 @@ constexpr double kStartTimeoutS = 20;   // store/analyze must report by then
 constexpr double kStopTimeoutS = 15;    // SIGTERM -> SIGKILL
 constexpr double kAbortDrainS = 30;     // after Ctrl-C: time for aborted runs to be archived
 constexpr double kAcquireEndS = 5;      // all archived: time for acquire's final acks
+constexpr double kRestartDelayS = 1;    // a dead store/analyze is restarted after this
+constexpr double kCrashWindowS = 60;    // restarts counted over this window
+constexpr double kRedrawS = 0.25;       // live console refresh
+constexpr double kLogLineS = 10;        // progress line when not on a terminal
 
 std::string CompactUtc(int64_t utime) {
   std::string out;
@@ -62,35 +72,65 @@ std::string LogTail(const std::string& path, int lines) {
   return t.substr(pos == 0 ? 0 : pos + 1);
 }
 
+// A store or analyze process under supervision: restarted when it dies.
+struct Supervised {
+  std::string name;               // "imuqual-store", "imuqual-analyze 1/3"
+  std::string kind;               // "store", "analyze" (status_t.process)
+  std::vector<std::string> argv;
+  std::optional<Subprocess> proc;
+  double restart_at = -1;         // > 0: dead, restart due then
+  int restarts = 0;
+  std::vector<double> crashes;    // when it died, within kCrashWindowS
+};
+
 // The station's processes. However RunStation ends, they are stopped in
 // order (source, analysis, archive), each given time to drain.
 struct Children {
-  std::optional<Subprocess> acquire, analyze, store;
+  std::optional<Subprocess> acquire;
+  std::vector<Supervised> analyze;
+  std::optional<Supervised> store;
   ~Children() {
-    for (std::optional<Subprocess>* p : {&acquire, &analyze, &store}) {
-      if (p->has_value()) (*p)->Stop(kStopTimeoutS);
+    if (acquire) acquire->Stop(kStopTimeoutS);
+    for (Supervised& a : analyze) {
+      if (a.proc) a.proc->Stop(kStopTimeoutS);
     }
+    if (store && store->proc) store->proc->Stop(kStopTimeoutS);
   }
 };
 
-struct RunProgress {
-  int64_t samples_published = 0;
-  int8_t state = 0;
-  bool store_done = false;
-  bool analyze_done = false;
-};
-
-std::string Si(double v) {
-  char buf[32];
-  if (v >= 1e6) {
-    std::snprintf(buf, sizeof buf, "%.1fM", v / 1e6);
-  } else if (v >= 1e3) {
-    std::snprintf(buf, sizeof buf, "%.1fk", v / 1e3);
-  } else {
-    std::snprintf(buf, sizeof buf, "%.0f", v);
+// The live console on a terminal: drawn over the screen from the top,
+// cursor hidden; restored however the run ends.
+class LiveScreen {
+ public:
+  explicit LiveScreen(bool on) : on_(on) {
+    if (on_) std::fputs("\x1b[?25l\x1b[H\x1b[2J", stderr);
   }
-  return buf;
-}
+  ~LiveScreen() { Close(); }
+  void Draw(const ConsoleModel& model) {
+    if (!on_) return;
+    struct winsize ws {};
+    int width = 100, height = 40;
+    if (::ioctl(STDERR_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0 && ws.ws_row > 0) {
+      width = ws.ws_col;
+      height = ws.ws_row;
+    }
+    std::string frame = "\x1b[H";
+    for (const std::string& line : RenderConsole(model, width, height - 1)) frame += line + "\x1b[K\n";
+    frame += "\x1b[J";
+    std::fputs(frame.c_str(), stderr);
+    std::fflush(stderr);
+  }
+  // Clears the console for the final report.
+  void Close() {
+    if (!on_) return;
+    std::fputs("\x1b[H\x1b[J\x1b[?25h", stderr);
+    std::fflush(stderr);
+    on_ = false;
+  }
+
+ private:
+  bool on_;
+};
 
 }  // namespace
 
@@ -110,6 +150,10 @@ Status StationRunOptions::Validate() const {
     return Status::InvalidArgument("--inject-drop must be in [0, 1)");
   }
   if (!(pace >= 0) || !std::isfinite(pace)) return Status::InvalidArgument("--pace must be >= 0");
+  if (analyze_shards < 1 || analyze_shards > 64) return Status::InvalidArgument("--analyze-shards must be 1..64");
+  if (!slots.empty() && slots.size() != units.size()) {
+    return Status::InvalidArgument("slots: one per --unit");
+  }
   return Status::Ok();
 }
 
@@ -119,19 +163,17 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   if (!profile.ok()) return profile.status();
   std::string plan_spec = o.plan_spec;
   if (plan_spec.empty() && o.profile == "vg700" && o.units.empty()) plan_spec = "builtin:vg700ca";
+  std::string plan_name = "(none)";
   if (!plan_spec.empty()) {
     auto plan = judge::LoadPlan(plan_spec);  // fail here, not in a child
     if (!plan.ok()) return plan.status();
+    plan_name = plan->name().empty() ? plan_spec : plan->name();
   }
   {
     // A bad archive file fails before any process starts.
     auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kWrite);
     if (!archive.ok()) return archive.status();
   }
-  const double rate = o.rate_hz > 0 ? o.rate_hz : profile->nominal_rate_hz;
-  // Progress in samples is known for simulated units only; otherwise in runs.
-  const int expected_runs = o.sim_units + static_cast<int>(o.units.size());
-  const double total_samples = o.units.empty() ? o.sim_units * std::round(o.duration_s * rate) : 0;
 
   StationRunResult result;
   result.run_prefix = CompactUtc(NowUtime());
@@ -146,26 +188,98 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   if (!bus_or.ok()) return bus_or.status();
   LcmBus& bus = **bus_or;
 
-  std::map<std::string, RunProgress> runs;
-  std::map<std::string, std::string> reported;  // process -> instance
-  auto ours = [&](const std::string& run_id) { return run_id.rfind(result.run_prefix + "-", 0) == 0; };
-  bus.Subscribe<imuqual::status_t>(
-      channels::kStatus, 1000,
-      [&](const std::string&, imuqual::status_t&& s, int64_t) { reported[s.process] = s.instance; });
-  bus.Subscribe<imuqual::run_t>(channels::kRun, 1000,
-                                [&](const std::string&, imuqual::run_t&& r, int64_t) {
-                                  if (!ours(r.run_id)) return;
-                                  RunProgress& p = runs[r.run_id];
-                                  p.samples_published = std::max(p.samples_published, r.samples_published);
-                                  p.state = std::max(p.state, r.state);
-                                });
+  // What the operator sees, one entry per unit in slot order.
+  ConsoleModel model;
+  model.station = o.station;
+  model.lot = o.lot;
+  model.plan = plan_name;
+  model.operator_name = o.operator_name;
+  model.bus = url;
+  model.archive = o.db_path;
+  model.planned_s = o.duration_s;
+  auto add_unit = [&](std::string slot, std::string serial) {
+    ConsoleUnit u;
+    u.slot = std::move(slot);
+    u.serial = std::move(serial);
+    model.units.push_back(std::move(u));
+  };
+  for (int i = 0; i < o.sim_units; ++i) add_unit(std::to_string(i + 1), acquire::SimSerial(o.lot, i));
+  for (size_t i = 0; i < o.units.size(); ++i) {
+    const std::string slot = i < o.slots.size() && !o.slots[i].empty()
+                                 ? o.slots[i]
+                                 : std::to_string(o.sim_units + static_cast<int>(i) + 1);
+    add_unit(slot, o.units[i].substr(0, o.units[i].find('=')));
+  }
+  std::map<std::string, size_t> unit_index;  // serial -> model.units
+  for (size_t i = 0; i < model.units.size(); ++i) unit_index[model.units[i].serial] = i;
+  auto unit_of_run = [&](const std::string& run_id, const std::string& serial) -> ConsoleUnit* {
+    if (run_id.rfind(result.run_prefix + "-", 0) != 0) return nullptr;  // another station run
+    auto it = unit_index.find(serial);
+    if (it == unit_index.end()) return nullptr;
+    ConsoleUnit& u = model.units[it->second];
+    if (u.run_id.empty()) u.run_id = run_id;
+    return u.run_id == run_id ? &u : nullptr;
+  };
+  std::map<std::string, std::set<std::string>> heard;  // process -> instances (host:pid)
+  std::map<std::string, std::string> problems;         // process -> last unhealthy message
+
+  bus.Subscribe<imuqual::status_t>(channels::kStatus, 1000,
+                                   [&](const std::string&, imuqual::status_t&& s, int64_t) {
+                                     heard[s.process].insert(s.instance);
+                                     if (s.healthy) {
+                                       problems.erase(s.process);
+                                     } else {
+                                       problems[s.process] = s.message;
+                                     }
+                                   });
+  bus.Subscribe<imuqual::run_t>(
+      channels::kRun, 1000, [&](const std::string&, imuqual::run_t&& r, int64_t) {
+        ConsoleUnit* u = unit_of_run(r.run_id, r.unit_serial);
+        if (u == nullptr) return;
+        if (!r.slot.empty()) u->slot = r.slot;
+        u->state = std::max(u->state, r.state);
+        u->samples = std::max(u->samples, r.samples_published);
+        if (r.nominal_rate_hz > 0) u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
+        if (!r.end_reason.empty()) u->end_reason = r.end_reason;
+        if (u->axes.empty()) {
+          for (const std::string& name : r.axis_names) {
+            ConsoleAxis x;
+            x.name = name;
+            u->axes.push_back(std::move(x));
+          }
+        }
+      });
   bus.Subscribe<imuqual::ack_t>(channels::kAck, 20000,
                                 [&](const std::string&, imuqual::ack_t&& a, int64_t) {
-                                  if (!ours(a.run_id) || !a.run_done) return;
-                                  RunProgress& p = runs[a.run_id];
-                                  if (a.process == "store") p.store_done = true;
-                                  if (a.process == "analyze") p.analyze_done = true;
+                                  if (!a.run_done || a.process != "store") return;
+                                  for (ConsoleUnit& u : model.units) {
+                                    if (u.run_id == a.run_id) u.archived = true;
+                                  }
                                 });
+  bus.Subscribe<imuqual::unit_result_t>(
+      channels::kResultAll, 1000, [&](const std::string&, imuqual::unit_result_t&& r, int64_t) {
+        ConsoleUnit* u = unit_of_run(r.run_id, r.unit_serial);
+        if (u == nullptr || (u->final_result && !r.is_final)) return;
+        u->final_result = r.is_final;
+        u->gap_samples = r.gap_samples;
+        // Final: the analysis's verdict. Provisional: judged on what is
+        // measured so far; what cannot be measured yet (a curve still
+        // shorter than its minimum, the run's duration) does not count.
+        u->verdict = r.is_final ? r.verdict : 0;
+        for (ConsoleAxis& x : u->axes) x.outcome = 0;
+        for (const imuqual::measurement_t& m : r.measurements) {
+          const bool counts = r.is_final || (std::isfinite(m.value) && m.name != "duration");
+          if (counts && !r.is_final) u->verdict = std::max(u->verdict, m.outcome);
+          for (ConsoleAxis& x : u->axes) {
+            if (x.name != m.axis) continue;
+            if (counts) x.outcome = std::max(x.outcome, m.outcome);
+            if (m.name == "bias_instability") {
+              x.bias_instability = m.value;
+              x.unit = m.unit;
+            }
+          }
+        }
+      });
 
   {
     auto header = ReadFileToString(result.log_path);
@@ -175,34 +289,59 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   }
   const std::string dir = ExecutableDir();
   Children children;
-  {
-    auto store = Subprocess::Start({dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path,
-                                    "--stale-after", std::to_string(o.stale_after_s)},
-                                   result.log_path);
-    if (!store.ok()) return store.status();
-    children.store = std::move(*store);
-    auto analyze = Subprocess::Start({dir + "/imuqual-analyze", "--lcm-url", url}, result.log_path);
-    if (!analyze.ok()) return analyze.status();
-    children.analyze = std::move(*analyze);
+  auto supervised_process = [](std::string name, std::string kind, std::vector<std::string> argv) {
+    Supervised p;
+    p.name = std::move(name);
+    p.kind = std::move(kind);
+    p.argv = std::move(argv);
+    return p;
+  };
+  children.store = supervised_process("imuqual-store", "store",
+                                      {dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path,
+                                       "--stale-after", std::to_string(o.stale_after_s)});
+  for (int k = 0; k < o.analyze_shards; ++k) {
+    Supervised a =
+        supervised_process("imuqual-analyze", "analyze", {dir + "/imuqual-analyze", "--lcm-url", url});
+    if (o.analyze_shards > 1) {
+      const std::string shard = std::to_string(k) + "/" + std::to_string(o.analyze_shards);
+      a.name += " " + shard;
+      a.argv.insert(a.argv.end(), {"--shard", shard});
+    }
+    children.analyze.push_back(std::move(a));
   }
-  std::optional<Subprocess>& store = children.store;
-  std::optional<Subprocess>& analyze = children.analyze;
+  std::vector<Supervised*> supervised = {&*children.store};
+  for (Supervised& a : children.analyze) supervised.push_back(&a);
+  for (Supervised* p : supervised) {
+    auto started = Subprocess::Start(p->argv, result.log_path);
+    if (!started.ok()) return started.status();
+    p->proc = std::move(*started);
+  }
 
   auto failure = [&](const std::string& what) {
     return Status::Unavailable(what + "; last lines of " + result.log_path + ":\n" +
                                LogTail(result.log_path, 8));
   };
-  auto is_instance = [&](const std::string& process, pid_t pid) {
-    auto it = reported.find(process);
-    return it != reported.end() &&
-           it->second.size() > std::to_string(pid).size() &&
-           it->second.substr(it->second.rfind(':') + 1) == std::to_string(pid);
+  auto reported = [&](const Supervised& p) {
+    auto it = heard.find(p.kind);
+    if (it == heard.end() || !p.proc) return false;
+    const std::string suffix = ":" + std::to_string(p.proc->pid());
+    for (const std::string& instance : it->second) {
+      if (instance.size() > suffix.size() &&
+          instance.compare(instance.size() - suffix.size(), suffix.size(), suffix) == 0) {
+        return true;
+      }
+    }
+    return false;
   };
   // Wait until store and analyze are up and listening.
   const double start_deadline = MonotonicSeconds() + kStartTimeoutS;
-  while (!(is_instance("store", store->pid()) && is_instance("analyze", analyze->pid()))) {
-    if (store->Poll()) return failure("imuqual-store exited (code " + std::to_string(*store->Poll()) + ")");
-    if (analyze->Poll()) return failure("imuqual-analyze exited (code " + std::to_string(*analyze->Poll()) + ")");
+  for (;;) {
+    bool all = true;
+    for (Supervised* p : supervised) {
+      if (auto code = p->proc->Poll()) return failure(p->name + " exited (code " + std::to_string(*code) + ")");
+      all = all && reported(*p);
+    }
+    if (all) break;
     if (MonotonicSeconds() > start_deadline) return failure("imuqual-store/analyze did not start");
     if (ShutdownRequested()) return Status::Unavailable("interrupted before the soak started");
     IMUQUAL_RETURN_IF_ERROR(bus.HandleFor(50));
@@ -214,6 +353,9 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   if (o.sim_units > 0) acquire_args.insert(acquire_args.end(), {"--sim", std::to_string(o.sim_units)});
   if (o.duration_s > 0) acquire_args.insert(acquire_args.end(), {"--duration", std::to_string(o.duration_s)});
   for (const std::string& unit : o.units) acquire_args.insert(acquire_args.end(), {"--unit", unit});
+  for (size_t i = 0; i < o.slots.size(); ++i) {
+    acquire_args.insert(acquire_args.end(), {"--slot", model.units[static_cast<size_t>(o.sim_units) + i].slot});
+  }
   if (o.rate_hz > 0) acquire_args.insert(acquire_args.end(), {"--rate", std::to_string(o.rate_hz)});
   if (!plan_spec.empty()) acquire_args.insert(acquire_args.end(), {"--plan", plan_spec});
   if (!o.operator_name.empty()) acquire_args.insert(acquire_args.end(), {"--operator", o.operator_name});
@@ -229,48 +371,102 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   std::optional<Subprocess>& acquire = children.acquire;
 
   const bool tty = o.show_progress && ::isatty(STDERR_FILENO);
+  LiveScreen screen(tty);
   const double t0 = MonotonicSeconds();
-  double last_change = t0, last_line = t0;
+  double last_change = t0, last_draw = t0 - kRedrawS, last_line = t0;
   double drain_deadline = -1;  // set when the runs are ending abnormally
   int64_t last_total = -1;
   int last_done = -1;
   Status outcome;
+  auto notice = [&](const std::string& text) {
+    model.notice = text;
+    if (!tty) LogWarning(text);
+  };
   for (;;) {
     IMUQUAL_RETURN_IF_ERROR(bus.HandleFor(100));
     const double now = MonotonicSeconds();
     int64_t published = 0;
-    int done = 0;
-    for (const auto& [id, p] : runs) {
-      published += p.samples_published;
-      done += p.store_done;
+    int done = 0, announced = 0;
+    for (const ConsoleUnit& u : model.units) {
+      published += u.samples;
+      done += u.archived;
+      announced += !u.run_id.empty();
     }
     if (published != last_total || done != last_done) {
       last_total = published;
       last_done = done;
       last_change = now;
     }
-    if (o.show_progress && (tty ? now - last_line > 0.2 : now - last_line > 10)) {
-      const double frac = total_samples > 0 ? std::min(1.0, published / total_samples)
-                                            : static_cast<double>(done) / expected_runs;
-      const int bar = static_cast<int>(frac * 30);
-      std::fprintf(stderr, "%s[%s%s] %3.0f%%  %s/%s samples  runs archived %d/%d  %.0f s%s",
-                   tty ? "\r" : "", std::string(bar, '=').c_str(),
-                   std::string(30 - bar, ' ').c_str(), 100 * frac, Si(published).c_str(),
-                   total_samples > 0 ? Si(total_samples).c_str() : "?", done, expected_runs,
-                   now - t0, tty ? "" : "\n");
-      std::fflush(stderr);
+    // Supervision: a dead store or analyze process is restarted; it catches
+    // up from the source's retention and the archive.
+    for (Supervised* p : supervised) {
+      if (p->restart_at < 0) {
+        if (auto code = p->proc->Poll()) {
+          p->crashes.push_back(now);
+          std::erase_if(p->crashes, [&](double t) { return now - t > kCrashWindowS; });
+          if (static_cast<int>(p->crashes.size()) > o.max_restarts) {
+            outcome = failure(p->name + " died " + std::to_string(p->crashes.size()) + " times in " +
+                              std::to_string(static_cast<int>(kCrashWindowS)) + " s (last exit code " +
+                              std::to_string(*code) + ")");
+            break;
+          }
+          p->restart_at = now + kRestartDelayS;
+          notice(p->name + " exited (code " + std::to_string(*code) + "); restarting it");
+        }
+      } else if (now >= p->restart_at) {
+        auto started = Subprocess::Start(p->argv, result.log_path);
+        if (!started.ok()) {
+          outcome = started.status();
+          break;
+        }
+        p->proc = std::move(*started);
+        p->restart_at = -1;
+        ++p->restarts;
+        ++result.restarts;
+        notice(p->name + " restarted (pid " + std::to_string(p->proc->pid()) + "); catching up");
+      }
+    }
+    if (!outcome.ok()) break;
+
+    model.wall_s = now - t0;
+    model.processes.clear();
+    {
+      ConsoleProcess store_p, analyze_p, acquire_p;
+      store_p.name = "store";
+      store_p.running = children.store->restart_at < 0 ? 1 : 0;
+      store_p.restarts = children.store->restarts;
+      analyze_p.name = "analyze";
+      analyze_p.expected = static_cast<int>(children.analyze.size());
+      for (const Supervised& a : children.analyze) {
+        analyze_p.running += a.restart_at < 0;
+        analyze_p.restarts += a.restarts;
+      }
+      acquire_p.name = "acquire";
+      acquire_p.running = acquire->Poll() ? 0 : 1;
+      for (ConsoleProcess* cp : {&store_p, &analyze_p, &acquire_p}) {
+        if (auto it = problems.find(cp->name); it != problems.end()) cp->problem = it->second;
+        model.processes.push_back(*cp);
+      }
+    }
+    if (tty && now - last_draw >= kRedrawS) {
+      screen.Draw(model);
+      last_draw = now;
+    } else if (o.show_progress && !tty && now - last_line >= kLogLineS) {
+      std::fprintf(stderr, "%s\n", ConsoleSummaryLine(model).c_str());
       last_line = now;
     }
-    if (done >= expected_runs) break;
+
+    if (done >= static_cast<int>(model.units.size())) break;
     if (ShutdownRequested() && drain_deadline < 0) {
       drain_deadline = now + kAbortDrainS;
       result.interrupted = true;
-      if (tty) std::fprintf(stderr, "\n");
-      LogWarning("interrupted: aborting the runs and archiving what was measured");
+      notice("interrupted: aborting the runs and archiving what was measured ...");
       acquire->Signal(SIGTERM);
     }
+    // Aborted: done once the source has ended and every announced run is archived.
+    if (result.interrupted && acquire->Poll() && done >= announced) break;
     if (drain_deadline >= 0 && now > drain_deadline) break;
-    if (auto code = acquire->Poll(); code && *code != 0 && runs.empty()) {
+    if (auto code = acquire->Poll(); code && *code != 0 && announced == 0) {
       // It failed before announcing anything (a bad source or plan): nothing to wait for.
       outcome = failure("imuqual-acquire failed (exit " + std::to_string(*code) + ")");
       break;
@@ -282,17 +478,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
       result.failure = "imuqual-acquire failed (exit " + std::to_string(*code) +
                        "); its runs are archived as incomplete. Last lines of " +
                        result.log_path + ":\n" + LogTail(result.log_path, 6);
-      if (tty) std::fprintf(stderr, "\n");
-      LogWarning("imuqual-acquire ended with code " + std::to_string(*code) +
-                 "; waiting for its runs to be archived as incomplete");
-    }
-    if (store->Poll()) {
-      outcome = failure("imuqual-store exited (code " + std::to_string(*store->Poll()) + ")");
-      break;
-    }
-    if (analyze->Poll()) {
-      outcome = failure("imuqual-analyze exited (code " + std::to_string(*analyze->Poll()) + ")");
-      break;
+      notice("imuqual-acquire ended with code " + std::to_string(*code) +
+             "; waiting for its runs to be archived as incomplete");
     }
     if (now - last_change > o.stall_timeout_s) {
       outcome = failure("the station made no progress for " +
@@ -300,19 +487,23 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
       break;
     }
   }
-  if (tty) std::fprintf(stderr, "\n");
+  screen.Close();
   // Stop in order: the source first (it normally ends by itself once its
   // last acknowledgements arrive), then analysis, then the archive (which
   // drains and commits what it holds).
   if (outcome.ok() && !result.interrupted && result.failure.empty()) acquire->Wait(kAcquireEndS);
   acquire->Stop(kStopTimeoutS);
-  analyze->Stop(kStopTimeoutS);
-  const int store_code = store->Stop(kStopTimeoutS);
+  for (Supervised& a : children.analyze) {
+    if (a.proc) a.proc->Stop(kStopTimeoutS);
+  }
+  const int store_code = children.store->proc->Stop(kStopTimeoutS);
   if (!outcome.ok()) return outcome;
   if (store_code != 0 && !result.interrupted) {
     return failure("imuqual-store ended with code " + std::to_string(store_code));
   }
-  for (const auto& [id, p] : runs) result.run_ids.push_back(id);
+  for (const ConsoleUnit& u : model.units) {
+    if (!u.run_id.empty()) result.run_ids.push_back(u.run_id);
+  }
   return result;
 }
 

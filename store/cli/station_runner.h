@@ -1,10 +1,13 @@
-// `imuqual run`: a whole station on one host. Starts imuqual-store and
-// imuqual-analyze, waits until both report on the bus, starts
-// imuqual-acquire, follows the runs to the end (every run archived with its
-// final result), stops the processes cleanly and reports. Its own LCM URL
-// (a unique port, ttl=0) keeps it off every other station. Nothing is paced
-// on the wall clock: a 2-hour simulated soak runs as fast as the processes
-// acknowledge each other.
+// `imuqual run`: a whole station on one host. Starts imuqual-store and one
+// or more imuqual-analyze shards, waits until they report on the bus, starts
+// imuqual-acquire, supervises them (a store or analyze process that dies is
+// restarted and catches up from the source's retention and the archive),
+// shows the soak live (station_console.h) on a terminal, follows the runs to
+// the end (every run archived with its final result), stops the processes
+// cleanly and reports. Ctrl-C aborts the runs: what was measured is archived
+// and judged. Its own LCM URL (a unique port, ttl=0) keeps it off every
+// other station. Unless paced, nothing waits for the wall clock: a 2-hour
+// simulated soak runs as fast as the processes acknowledge each other.
 #ifndef IMUQUAL_STORE_CLI_STATION_RUNNER_H_
 #define IMUQUAL_STORE_CLI_STATION_RUNNER_H_
 
@@ -18,6 +21,7 @@ namespace imuqual::cli {
 struct StationRunOptions {
   int sim_units = 0;               // simulated units
   std::vector<std::string> units;  // more units as SERIAL=SOURCE (csv:FILE,..., sim:PROFILE,...)
+  std::vector<std::string> slots;  // fixture positions of `units`, in order ("" = numbered)
   std::string profile = "vg700";   // simulated lot profile
   double duration_s = 0;           // simulated seconds per unit
   double rate_hz = 0;              // 0: the profile's rate
@@ -26,12 +30,15 @@ struct StationRunOptions {
   std::string plan_spec;           // file or builtin:NAME; "" = the profile's default
   std::string lcm_url;             // "" = a fresh port on 239.255.76.67, ttl=0
   std::string station = "station-1";
+  int analyze_shards = 1;          // analyze processes splitting the units
+  std::string report_path;         // HTML report at the end; "" = <db without .db>-<lot>.html
   std::string operator_name;
   double inject_drop = 0;          // fault injection in acquire
   double pace = 0;                 // 0: as fast as acknowledged; 1: real time; k: k x real time
   double stale_after_s = 10;       // store: acquire silent this long ends its runs as incomplete
   double stall_timeout_s = 120;    // no progress this long: give up
-  bool show_progress = true;       // progress line on stderr
+  bool show_progress = true;       // live console on a terminal, else a progress line (stderr)
+  int max_restarts = 5;            // a store/analyze process dying more often in a minute: give up
   Status Validate() const;
 };
 
@@ -41,6 +48,7 @@ struct StationRunResult {
   std::string log_path;            // the processes' output
   bool interrupted = false;        // Ctrl-C: runs were aborted
   std::string failure;             // the source failed; runs were archived as they ended
+  int restarts = 0;                // store/analyze processes restarted
 };
 
 Result<StationRunResult> RunStation(const StationRunOptions& options);

@@ -1,0 +1,26 @@
+// `imuqual run --station FILE`: the station configuration file (protobuf
+// text format, proto/imuqual/station.proto) read, checked and turned into a
+// station run. Errors are one line, "FILE:LINE: field: problem".
+#ifndef IMUQUAL_STORE_CLI_STATION_CONFIG_H_
+#define IMUQUAL_STORE_CLI_STATION_CONFIG_H_
+
+#include <string>
+
+#include "common/status.h"
+#include "imuqual/station.pb.h"
+#include "store/cli/station_runner.h"
+
+namespace imuqual::cli {
+
+// Parses and checks the configuration text; `path` names it in errors and
+// anchors its relative paths (archive, plan, report, csv: and archive:
+// sources), which come back resolved.
+Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std::string& path);
+Result<pb::StationConfig> LoadStationConfig(const std::string& path);
+
+// The station run the (checked) configuration describes.
+StationRunOptions StationRunFromConfig(const pb::StationConfig& config);
+
+}  // namespace imuqual::cli
+
+#endif  // IMUQUAL_STORE_CLI_STATION_CONFIG_H_

@@ -1,0 +1,265 @@
+#include "store/cli/station_console.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "imuqual/measurement_t.hpp"
+#include "imuqual/run_t.hpp"
+#include "store/cli/table_writer.h"
+
+namespace imuqual::cli {
+namespace {
+
+using imuqual::measurement_t;
+using imuqual::run_t;
+
+constexpr int kHeaderLines = 5;  // station, bus, progress, processes, blank
+constexpr int kTableFrame = 2;   // column names and rule
+constexpr int kNoticeLines = 2;  // blank, notice
+
+std::string Printf(const char* format, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+std::string Si(double v) {
+  if (v >= 1e9) return Printf("%.2fG", v / 1e9);
+  if (v >= 1e6) return Printf("%.2fM", v / 1e6);
+  if (v >= 1e4) return Printf("%.1fk", v / 1e3);
+  return Printf("%.0f", v);
+}
+
+const char* OutcomeWord(int8_t outcome) {
+  switch (outcome) {
+    case measurement_t::OUTCOME_PASS: return "pass";
+    case measurement_t::OUTCOME_MARGINAL: return "marginal";
+    case measurement_t::OUTCOME_FAIL: return "fail";
+    default: return "";
+  }
+}
+
+std::string Upper(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// Provisional verdicts read "pass?", final ones "PASS"; "-" when nothing is judged.
+std::string VerdictText(int8_t outcome, bool final_result) {
+  const std::string word = OutcomeWord(outcome);
+  if (word.empty()) return final_result ? "-" : "";
+  return final_result ? Upper(word) : word + "?";
+}
+
+std::string StateText(const ConsoleUnit& u) {
+  if (u.state == 0) return "waiting";
+  if (u.archived && u.final_result) return "done";
+  switch (u.state) {
+    case run_t::STATE_RUNNING: return "running";
+    case run_t::STATE_COMPLETE: return "finishing";
+    case run_t::STATE_ABORTED: return "aborted";
+    case run_t::STATE_INCOMPLETE: return "incomplete";
+    default: return "?";
+  }
+}
+
+std::string ElapsedText(const ConsoleUnit& u, double planned_s) {
+  if (u.state == 0) return "";
+  std::string out = FormatDuration(u.elapsed_s);
+  if (planned_s > 0) out += " / " + FormatDuration(planned_s);
+  return out;
+}
+
+std::string Bar(double fraction, int width) {
+  const int full = std::clamp(static_cast<int>(std::floor(fraction * width)), 0, width);
+  std::string bar(static_cast<size_t>(width) + 2, '.');
+  bar.front() = '[';
+  bar.back() = ']';
+  std::fill_n(bar.begin() + 1, full, '#');
+  return bar;
+}
+
+// FAIL first, then MARGINAL, then the rest; slot order within each.
+int AttentionRank(const ConsoleUnit& u) {
+  if (u.verdict == measurement_t::OUTCOME_FAIL) return 0;
+  if (u.verdict == measurement_t::OUTCOME_MARGINAL) return 1;
+  return 2;
+}
+
+std::vector<std::string> Lines(const std::string& text) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (start < text.size()) {
+    const size_t end = text.find('\n', start);
+    out.push_back(text.substr(start, end - start));
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return out;
+}
+
+// One row per unit and axis.
+std::vector<std::string> AxisRows(const ConsoleModel& m) {
+  TableWriter t({"slot", "unit", "state", "elapsed / planned", "samples", "gaps", "axis",
+                 "BI (live)", "axis verdict", "unit verdict"});
+  for (const ConsoleUnit& u : m.units) {
+    const std::string samples = u.state == 0 ? "" : Si(static_cast<double>(u.samples));
+    const std::string gaps = u.state == 0 ? "" : std::to_string(u.gap_samples);
+    if (u.axes.empty()) {
+      t.AddRow({Cell::Text(u.slot), Cell::Text(u.serial), Cell::Text(StateText(u)),
+                Cell::Text(ElapsedText(u, m.planned_s)), Cell::Text(samples), Cell::Text(gaps)});
+      continue;
+    }
+    for (size_t a = 0; a < u.axes.size(); ++a) {
+      const ConsoleAxis& x = u.axes[a];
+      const bool first = a == 0;
+      t.AddRow({Cell::Text(first ? u.slot : ""), Cell::Text(first ? u.serial : ""),
+                Cell::Text(first ? StateText(u) : ""),
+                Cell::Text(first ? ElapsedText(u, m.planned_s) : ""), Cell::Text(first ? samples : ""),
+                Cell::Text(first ? gaps : ""), Cell::Text(x.name),
+                Cell::Text(std::isnan(x.bias_instability) ? "-" : Printf("%.3g ", x.bias_instability) + x.unit),
+                Cell::Text(VerdictText(x.outcome, u.final_result)),
+                Cell::Text(first ? VerdictText(u.verdict, u.final_result) : "")});
+    }
+  }
+  return Lines(t.Render(Format::kTable));
+}
+
+// One row per unit, the axes' live bias instability side by side ('!' FAIL,
+// '~' MARGINAL); at most `max_units` units, those needing attention first.
+std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
+  std::vector<std::string> axis_names;
+  for (const ConsoleUnit& u : m.units) {
+    for (const ConsoleAxis& x : u.axes) {
+      if (std::find(axis_names.begin(), axis_names.end(), x.name) == axis_names.end()) {
+        axis_names.push_back(x.name);
+      }
+    }
+  }
+  std::vector<std::string> columns = {"slot", "unit", "state", "elapsed / planned", "samples", "gaps"};
+  for (const std::string& a : axis_names) columns.push_back(a);
+  columns.push_back("verdict");
+  std::vector<const ConsoleUnit*> shown;
+  for (const ConsoleUnit& u : m.units) shown.push_back(&u);
+  const bool cut = static_cast<int>(shown.size()) > max_units;
+  if (cut) {
+    std::stable_sort(shown.begin(), shown.end(), [](const ConsoleUnit* a, const ConsoleUnit* b) {
+      return AttentionRank(*a) < AttentionRank(*b);
+    });
+    shown.resize(static_cast<size_t>(std::max(0, max_units - 1)));
+  }
+  TableWriter t(columns, 3);
+  for (const ConsoleUnit* u : shown) {
+    std::vector<Cell> row = {Cell::Text(u->slot), Cell::Text(u->serial), Cell::Text(StateText(*u)),
+                             Cell::Text(ElapsedText(*u, m.planned_s)),
+                             Cell::Text(u->state == 0 ? "" : Si(static_cast<double>(u->samples))),
+                             Cell::Text(u->state == 0 ? "" : std::to_string(u->gap_samples))};
+    for (const std::string& name : axis_names) {
+      std::string text;
+      for (const ConsoleAxis& x : u->axes) {
+        if (x.name != name || std::isnan(x.bias_instability)) continue;
+        text = Printf("%.3g", x.bias_instability);
+        if (x.outcome == measurement_t::OUTCOME_FAIL) text += "!";
+        if (x.outcome == measurement_t::OUTCOME_MARGINAL) text += "~";
+      }
+      row.push_back(Cell::Text(text));
+    }
+    row.push_back(Cell::Text(VerdictText(u->verdict, u->final_result)));
+    t.AddRow(std::move(row));
+  }
+  std::vector<std::string> lines = Lines(t.Render(Format::kTable));
+  if (cut) {
+    const size_t hidden = m.units.size() - shown.size();
+    int pass = 0, pending = 0;
+    for (const ConsoleUnit& u : m.units) {
+      if (std::find(shown.begin(), shown.end(), &u) != shown.end()) continue;
+      if (u.verdict == measurement_t::OUTCOME_PASS) ++pass; else ++pending;
+    }
+    lines.push_back("... " + std::to_string(hidden) + " more units (" + std::to_string(pass) +
+                    " pass, " + std::to_string(pending) + " not judged yet)");
+  }
+  return lines;
+}
+
+}  // namespace
+
+std::string FormatDuration(double seconds) {
+  const long s = std::lround(std::max(0.0, seconds));
+  char buf[32];
+  if (s >= 3600) {
+    std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
+  } else {
+    std::snprintf(buf, sizeof buf, "%ld:%02ld", s / 60, s % 60);
+  }
+  return buf;
+}
+
+double ConsoleProgress(const ConsoleModel& m) {
+  if (m.units.empty()) return 0;
+  double done = 0;
+  for (const ConsoleUnit& u : m.units) {
+    if (u.archived) {
+      done += 1;
+    } else if (m.planned_s > 0) {
+      done += std::min(u.elapsed_s / m.planned_s, 0.999);
+    }
+  }
+  return std::clamp(done / static_cast<double>(m.units.size()), 0.0, 1.0);
+}
+
+std::string ConsoleSummaryLine(const ConsoleModel& m) {
+  double samples = 0;
+  int archived = 0;
+  for (const ConsoleUnit& u : m.units) {
+    samples += static_cast<double>(u.samples) * static_cast<double>(std::max<size_t>(1, u.axes.size()));
+    archived += u.archived;
+  }
+  const double f = ConsoleProgress(m);
+  return Bar(f, 30) + Printf(" %3.0f%%", 100 * f) + "  " + Si(samples) + " values  runs archived " +
+         std::to_string(archived) + "/" + std::to_string(m.units.size()) + "  " +
+         FormatDuration(m.wall_s);
+}
+
+std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int height) {
+  std::vector<std::string> out;
+  std::string title = "imuqual station " + m.station + "   lot " + m.lot + "   plan " + m.plan;
+  if (!m.operator_name.empty()) title += "   operator " + m.operator_name;
+  out.push_back(title);
+  out.push_back("bus " + m.bus + "   archive " + m.archive);
+  const double f = ConsoleProgress(m);
+  int archived = 0;
+  for (const ConsoleUnit& u : m.units) archived += u.archived;
+  std::string progress = Bar(f, 30) + Printf(" %3.0f%%", 100 * f) + "   elapsed " +
+                         FormatDuration(m.wall_s);
+  if (f > 0.01 && f < 1) progress += "   left ~" + FormatDuration(m.wall_s * (1 - f) / f);
+  progress += "   runs archived " + std::to_string(archived) + "/" + std::to_string(m.units.size());
+  out.push_back(progress);
+  std::string procs = "processes:";
+  for (const ConsoleProcess& p : m.processes) {
+    procs += "  " + p.name + " ";
+    procs += p.expected > 1 ? std::to_string(p.running) + "/" + std::to_string(p.expected)
+                            : std::string(p.running > 0 ? "up" : "down");
+    if (p.restarts > 0) procs += " (restarted " + std::to_string(p.restarts) + "x)";
+    if (!p.problem.empty()) procs += " [" + p.problem + "]";
+  }
+  out.push_back(procs);
+  out.push_back("");
+
+  size_t axis_rows = 0;
+  for (const ConsoleUnit& u : m.units) axis_rows += std::max<size_t>(1, u.axes.size());
+  const int room = height - kHeaderLines - kTableFrame - kNoticeLines;
+  std::vector<std::string> table = static_cast<int>(axis_rows) <= room
+                                       ? AxisRows(m)
+                                       : UnitRows(m, std::max(1, room));
+  out.insert(out.end(), table.begin(), table.end());
+  out.push_back("");
+  out.push_back(m.notice.empty() ? "Ctrl-C: stop the soak (runs are archived as aborted)" : m.notice);
+  if (static_cast<int>(out.size()) > height) out.resize(static_cast<size_t>(std::max(0, height)));
+  for (std::string& line : out) {
+    if (static_cast<int>(line.size()) > width) line.resize(static_cast<size_t>(std::max(0, width)));
+  }
+  return out;
+}
+
+}  // namespace imuqual::cli

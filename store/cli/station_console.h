@@ -1,0 +1,77 @@
+// What `imuqual run` shows while a soak runs: a snapshot of the station
+// (filled from the bus by the station runner) and its rendering as screen
+// lines. Pure: no I/O, so what an operator sees can be tested as text.
+//
+// On a terminal the screen holds, top to bottom: the station header, the
+// progress bar (elapsed vs planned over every unit, wall time, estimated
+// time left), the processes (up, restarts), one row per unit and axis
+// (slot, unit, axis, elapsed/planned, samples, gap samples, the live
+// bias-instability estimate of the streaming engine, the axis's and the
+// unit's provisional verdict; provisional verdicts are lower case with a
+// '?', final ones upper case) and a notice line. When the rows do not fit
+// the screen, one row per unit with the axes side by side; when even those
+// do not fit, the units needing attention first and a count of the rest.
+#ifndef IMUQUAL_STORE_CLI_STATION_CONSOLE_H_
+#define IMUQUAL_STORE_CLI_STATION_CONSOLE_H_
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace imuqual::cli {
+
+struct ConsoleAxis {
+  std::string name;
+  double bias_instability = std::numeric_limits<double>::quiet_NaN();  // live estimate
+  std::string unit;        // of bias_instability, e.g. "deg/h"
+  int8_t outcome = 0;      // worst measurement outcome of the axis (measurement_t.OUTCOME_*)
+};
+
+struct ConsoleUnit {
+  std::string slot, serial, run_id;  // run_id "" until the run is announced
+  double elapsed_s = 0;              // device time published
+  int64_t samples = 0;               // samples published per axis
+  int64_t gap_samples = 0;           // samples the analysis found missing
+  int8_t state = 0;                  // run_t.STATE_* (0: not announced yet)
+  bool archived = false;             // the store has committed the whole run
+  bool final_result = false;         // the verdict is final
+  int8_t verdict = 0;                // measurement_t.OUTCOME_*
+  std::string end_reason;
+  std::vector<ConsoleAxis> axes;
+};
+
+struct ConsoleProcess {
+  std::string name;    // "store", "analyze", "acquire"
+  int running = 0;     // processes of this kind alive
+  int expected = 1;
+  int restarts = 0;
+  std::string problem; // last unhealthy message, "" when healthy
+};
+
+struct ConsoleModel {
+  std::string station, lot, plan, operator_name, bus, archive;
+  double planned_s = 0;   // per unit; 0: unknown (recordings run to their end)
+  double wall_s = 0;      // since the soak started
+  std::vector<ConsoleUnit> units;
+  std::vector<ConsoleProcess> processes;
+  std::string notice;     // e.g. "interrupted: aborting the runs"
+};
+
+// Fraction of the soak done, 0..1: device time over planned time of every
+// unit (archived runs count as done), or archived runs when unplanned.
+double ConsoleProgress(const ConsoleModel& model);
+
+// The screen, one string per line, each at most `width` columns, at most
+// `height` lines.
+std::vector<std::string> RenderConsole(const ConsoleModel& model, int width, int height);
+
+// One line for a log or a pipe (no terminal): progress, samples, runs archived.
+std::string ConsoleSummaryLine(const ConsoleModel& model);
+
+// "1:02:03" (h:mm:ss) or "2:03" (m:ss).
+std::string FormatDuration(double seconds);
+
+}  // namespace imuqual::cli
+
+#endif  // IMUQUAL_STORE_CLI_STATION_CONSOLE_H_
