@@ -1,0 +1,152 @@
+#include "store/cli/station_console.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "imuqual/measurement_t.hpp"
+#include "imuqual/run_t.hpp"
+
+namespace imuqual::cli {
+namespace {
+
+using imuqual::measurement_t;
+using imuqual::run_t;
+
+std::string Screen(const std::vector<std::string>& lines) {
+  std::string out;
+  for (const std::string& l : lines) out += l + "\n";
+  return out;
+}
+
+ConsoleUnit Unit(const std::string& slot, const std::string& serial, double elapsed_s, int8_t verdict,
+                 bool final_result = false) {
+  ConsoleUnit u;
+  u.slot = slot;
+  u.serial = serial;
+  u.run_id = "R-" + serial;
+  u.state = run_t::STATE_RUNNING;
+  u.elapsed_s = elapsed_s;
+  u.samples = static_cast<int64_t>(elapsed_s * 100);
+  u.verdict = verdict;
+  u.final_result = final_result;
+  for (const char* name : {"x", "y", "z"}) {
+    ConsoleAxis a;
+    a.name = name;
+    a.bias_instability = 10.25;
+    a.unit = "deg/h";
+    a.outcome = verdict;
+    u.axes.push_back(a);
+  }
+  return u;
+}
+
+ConsoleModel Model() {
+  ConsoleModel m;
+  m.station = "bench-A";
+  m.lot = "LOT-7";
+  m.plan = "vg700ca-eol";
+  m.operator_name = "ana";
+  m.bus = "udpm://239.255.76.67:7700?ttl=0";
+  m.archive = "lot.db";
+  m.planned_s = 600;
+  m.wall_s = 30;
+  m.units.push_back(Unit("A1", "SN-1", 300, measurement_t::OUTCOME_PASS));
+  m.units.push_back(Unit("A2", "SN-2", 300, measurement_t::OUTCOME_FAIL));
+  ConsoleUnit waiting;
+  waiting.slot = "A3";
+  waiting.serial = "SN-3";
+  m.units.push_back(waiting);
+  ConsoleProcess store;
+  store.name = "store";
+  store.running = 1;
+  store.restarts = 1;
+  m.processes.push_back(store);
+  return m;
+}
+
+TEST(StationConsoleTest, RowPerUnitAndAxisWhenTheScreenHoldsThem) {
+  const std::string screen = Screen(RenderConsole(Model(), 160, 50));
+  EXPECT_NE(screen.find("imuqual station bench-A   lot LOT-7   plan vg700ca-eol   operator ana"),
+            std::string::npos)
+      << screen;
+  EXPECT_NE(screen.find("store up (restarted 1x)"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("5:00 / 10:00"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("10.2 deg/h"), std::string::npos) << screen;
+  // Provisional verdicts are lower case with '?', per axis and per unit.
+  EXPECT_NE(screen.find("pass?"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("fail?"), std::string::npos) << screen;
+  EXPECT_EQ(screen.find("PASS"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("waiting"), std::string::npos) << screen;
+  // Two of three units half way, one not started: a third done.
+  EXPECT_NE(screen.find("[##########....................]  33%"), std::string::npos) << screen;
+  // 3 + 3 axis rows and the waiting unit.
+  int axis_rows = 0;
+  for (const std::string& line : RenderConsole(Model(), 160, 50)) {
+    axis_rows += line.find(" deg/h") != std::string::npos;
+  }
+  EXPECT_EQ(axis_rows, 6);
+}
+
+TEST(StationConsoleTest, FinalVerdictsAreUpperCase) {
+  ConsoleModel m = Model();
+  m.units[0].final_result = true;
+  m.units[0].archived = true;
+  const std::string screen = Screen(RenderConsole(m, 160, 50));
+  EXPECT_NE(screen.find("PASS"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("done"), std::string::npos) << screen;
+}
+
+TEST(StationConsoleTest, SmallScreenShowsAUnitPerRowAttentionFirst) {
+  ConsoleModel m = Model();
+  for (int i = 4; i <= 40; ++i) {
+    std::string slot = "A", serial = "SN-";
+    slot += std::to_string(i);
+    serial += std::to_string(i);
+    m.units.push_back(Unit(slot, serial, 100, measurement_t::OUTCOME_PASS));
+  }
+  m.units.push_back(Unit("A41", "SN-41", 100, measurement_t::OUTCOME_MARGINAL));
+  const std::vector<std::string> lines = RenderConsole(m, 120, 20);
+  const std::string screen = Screen(lines);
+  EXPECT_LE(lines.size(), 20u);
+  for (const std::string& l : lines) EXPECT_LE(l.size(), 120u);
+  // Axes side by side, FAIL and MARGINAL units listed before the rest.
+  const auto header = std::find_if(lines.begin(), lines.end(),
+                                   [](const std::string& l) { return l.rfind("slot", 0) == 0; });
+  ASSERT_NE(header, lines.end()) << screen;
+  for (const char* column : {"  x  ", "  y  ", "  z  ", "verdict"}) {
+    EXPECT_NE(header->find(column), std::string::npos) << *header;
+  }
+  const size_t fail = screen.find("SN-2 "), marginal = screen.find("SN-41"), pass = screen.find("SN-1 ");
+  ASSERT_NE(fail, std::string::npos) << screen;
+  ASSERT_NE(marginal, std::string::npos) << screen;
+  EXPECT_LT(fail, marginal);
+  if (pass != std::string::npos) {
+    EXPECT_LT(marginal, pass);
+  }
+  EXPECT_NE(screen.find("10.2!"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("10.2~"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("more units ("), std::string::npos) << screen;
+}
+
+TEST(StationConsoleTest, ProgressCountsArchivedRunsAsDone) {
+  ConsoleModel m = Model();
+  EXPECT_NEAR(ConsoleProgress(m), (0.5 + 0.5 + 0) / 3, 1e-12);
+  for (ConsoleUnit& u : m.units) u.archived = true;
+  EXPECT_DOUBLE_EQ(ConsoleProgress(m), 1.0);
+  m.planned_s = 0;  // recordings of unknown length: runs archived
+  m.units[2].archived = false;
+  EXPECT_NEAR(ConsoleProgress(m), 2.0 / 3, 1e-12);
+  EXPECT_NE(ConsoleSummaryLine(m).find("runs archived 2/3"), std::string::npos);
+}
+
+TEST(StationConsoleTest, Durations) {
+  EXPECT_EQ(FormatDuration(0), "0:00");
+  EXPECT_EQ(FormatDuration(59.6), "1:00");
+  EXPECT_EQ(FormatDuration(3599), "59:59");
+  EXPECT_EQ(FormatDuration(7325), "2:02:05");
+  EXPECT_EQ(FormatDuration(-3), "0:00");
+}
+
+}  // namespace
+}  // namespace imuqual::cli

@@ -1,0 +1,136 @@
+#!/usr/bin/env bash
+# The operator's view: `imuqual run --station FILE` in a terminal (a tmux
+# pane, 140 x 50), read the way a person reads it. A soak of four units in
+# named slots with two analyze shards: the live table (slots, units, axes,
+# elapsed vs planned, live bias instability, provisional verdicts, progress
+# bar); the store killed mid-soak and restarted by the station, the soak
+# still archived whole; the final verdict table and report. Then a second
+# soak stopped with Ctrl-C: runs archived as aborted, nothing measured lost.
+# Usage: console_test.sh BIN_DIR SOURCE_DIR
+set -euo pipefail
+bin="$1"
+src="$2"
+work="$(mktemp -d)"
+sock="imuqual-console-$$"
+tm() { tmux -L "$sock" -f "$work/tmux.conf" "$@"; }
+cleanup() {
+  tm kill-server 2>/dev/null || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+echo "set -g remain-on-exit on" >"$work/tmux.conf"
+
+fail() {
+  echo "FAIL: $*" >&2
+  echo "--- screen:" >&2
+  tm capture-pane -p -t soak >&2 2>/dev/null || true
+  echo "--- process log (tail):" >&2
+  tail -n 30 "$work/lot.db.log" >&2 2>/dev/null || true
+  exit 1
+}
+screen() { tm capture-pane -p -t soak; }
+# Waits until the screen matches the extended regular expression.
+wait_screen() {
+  local pattern="$1" timeout="$2" t=0
+  until screen | grep -Eq -- "$pattern"; do
+    sleep 0.5
+    t=$((t + 1))
+    [ "$t" -lt $((timeout * 2)) ] || fail "no '$pattern' on screen within $timeout s"
+  done
+}
+wait_exit() {
+  local timeout="$1" t=0
+  until [ "$(tm display -p -t soak '#{pane_dead}')" = "1" ]; do
+    sleep 0.5
+    t=$((t + 1))
+    [ "$t" -lt $((timeout * 2)) ] || fail "imuqual run did not end within $timeout s"
+  done
+  tm display -p -t soak '#{pane_dead_status}'
+}
+sql() { sqlite3 "$work/lot.db" "$1"; }
+
+# A short-soak variant of the VG700CA plan: 20 simulated minutes suffice.
+sed 's/^min_duration_s: .*/min_duration_s: 600/; s/^name: .*/name: "vg700ca-short"/' \
+  "$src/plans/vg700ca.textproto" >"$work/plan.textproto"
+write_config() {  # PACE
+  cat >"$work/station.textproto" <<EOF
+# Bench C, four fixtures
+station_id: "bench-C"
+lot: "CONSOLE-LOT"
+operator_name: "ana"
+plan: "plan.textproto"
+duration_s: 1200
+archive: "lot.db"
+analyze_shards: 2
+pace: $1
+rate_hz: 100
+slot { name: "A1" unit_serial: "SN-101" source: "sim:vg700,index=0" }
+slot { name: "A2" unit_serial: "SN-102" source: "sim:vg700,index=1" }
+slot { name: "B1" unit_serial: "SN-103" source: "sim:vg700,index=2" }
+slot { name: "B2" unit_serial: "SN-104" source: "sim:vg700,index=3" }
+EOF
+}
+
+# --- A configuration error is one line naming the file and line.
+printf 'station_id: "bench-C"\nlot: "L"\nplan: "builtin:vg700ca"\nduration_s: -5\n' >"$work/bad.textproto"
+set +e
+err="$("$bin/imuqual" run --station "$work/bad.textproto" 2>&1)"
+code=$?
+set -e
+[ "$code" = 2 ] || fail "bad configuration: exit $code"
+[ "$(printf '%s\n' "$err" | wc -l)" = 1 ] || fail "bad configuration: not one line: $err"
+printf '%s' "$err" | grep -q "bad.textproto:4: duration_s: must be > 0" || fail "bad configuration: $err"
+
+# --- Soak 1: live table, the store killed and restarted, the end.
+write_config 40
+tm new-session -d -s soak -x 140 -y 50 "$bin/imuqual run --station $work/station.textproto"
+wait_screen "imuqual station bench-C +lot CONSOLE-LOT +plan vg700ca-short +operator ana" 20
+wait_screen "^A1 +SN-101 +running" 30
+wait_screen "deg/h" 30  # the live bias instability, once past the warm-up
+now="$(screen)"
+for want in "^\[#*\.*\] +[0-9]+% +elapsed" "analyze 2/2" "^B2 +SN-104 +running +[0-9:]+ / 20:00" \
+    "^A1 .* x +[0-9.]+ deg/h +(pass|marginal|fail)\? +(pass|marginal|fail)\?$" \
+    "^ +y +[0-9.]+ deg/h +(pass|marginal|fail)\?$" "^ +z +[0-9.]+ deg/h" \
+    "Ctrl-C: stop the soak"; do
+  printf '%s\n' "$now" | grep -Eq -- "$want" || fail "live table lacks '$want'"
+done
+pkill -9 -f "imuqual-store .*--db $work/lot.db" || fail "no store process to kill"
+wait_screen "store up \(restarted 1x\)" 30
+code="$(wait_exit 240)"
+[ "$code" = 0 ] || fail "soak 1: imuqual run exit $code"
+final="$(screen)"
+for want in "^4 units: [0-9]+ PASS, [0-9]+ MARGINAL, [0-9]+ FAIL$" "^SN-101 +x " "^SN-104 +z " \
+    "^report: $work/lot-CONSOLE-LOT.html$" "restarted 1 time"; do
+  printf '%s\n' "$final" | grep -Eq -- "$want" || fail "final screen lacks '$want'"
+done
+printf '%s\n' "$final" | grep -q "running" && fail "final screen still shows the live table"
+[ -s "$work/lot-CONSOLE-LOT.html" ] || fail "no report file"
+[ "$(sql "SELECT COUNT(*) FROM runs WHERE state = 'complete' AND verdict IS NOT NULL")" = 4 ] ||
+  fail "soak 1: not 4 complete judged runs: $(sql 'SELECT run_id, state, verdict FROM runs')"
+[ "$(sql "SELECT group_concat(slot, ' ') FROM (SELECT slot FROM runs ORDER BY slot)")" = "A1 A2 B1 B2" ] ||
+  fail "soak 1: slots $(sql 'SELECT slot FROM runs')"
+[ "$(sql "SELECT SUM(samples_archived) || ' ' || SUM(gap_samples) FROM run_archive")" = "480000 0" ] ||
+  fail "soak 1: archive $(sql 'SELECT * FROM run_archive')"
+tm kill-session -t soak
+
+# --- Soak 2: Ctrl-C mid-soak.
+write_config 10
+tm new-session -d -s soak -x 140 -y 50 "$bin/imuqual run --station $work/station.textproto"
+wait_screen "^A1 +SN-101 +running" 30
+wait_screen "deg/h" 40
+tm send-keys -t soak C-c
+code="$(wait_exit 120)"
+[ "$code" = 130 ] || fail "soak 2: imuqual run exit $code after Ctrl-C"
+final="$(screen)"
+for want in "^4 units: .*\(interrupted: runs aborted\)$" "SN-101: run aborted before completion" \
+    "^report: "; do
+  printf '%s\n' "$final" | grep -Eq -- "$want" || fail "final screen after Ctrl-C lacks '$want'"
+done
+runs="$(sql "SELECT COUNT(*) FROM runs WHERE lot = 'CONSOLE-LOT' AND state = 'aborted' AND verdict = 'FAIL'")"
+[ "$runs" = 4 ] || fail "soak 2: $runs aborted runs judged; $(sql 'SELECT run_id, state, verdict FROM runs')"
+# Everything published before the stop is archived: no gap, every sample.
+bad="$(sql "SELECT COUNT(*) FROM runs r JOIN run_archive a USING (run_id)
+            WHERE r.state = 'aborted' AND (a.gap_samples != 0 OR a.samples_archived != r.end_sample - r.first_sample
+                                           OR a.samples_archived < 6000)")"
+[ "$bad" = 0 ] || fail "soak 2: aborted runs lost data: $(sql 'SELECT * FROM run_archive')"
+echo "console test: ok"
