@@ -1,6 +1,7 @@
 #include "store/cli/station_config.h"
 
 #include <cmath>
+#include <filesystem>
 #include <set>
 
 #include "acquire/source_spec.h"
@@ -21,7 +22,7 @@ std::string DirOf(const std::string& path) {
 
 std::string Resolve(const std::string& dir, const std::string& path) {
   if (path.empty() || path[0] == '/' || dir == ".") return path;
-  return dir + "/" + path;
+  return std::filesystem::path(dir + "/" + path).lexically_normal().string();
 }
 
 }  // namespace
