@@ -51,6 +51,14 @@ class LcmBus {
   // size it to what can be in flight. `handler(channel, msg, recv_utime)`.
   template <typename T>
   void Subscribe(const std::string& channel_regex, int queue_capacity,
+                 std::function<void(const std::string&, T&&, int64_t)> handler) {
+    Subscribe<T>(channel_regex, queue_capacity, nullptr, std::move(handler));
+  }
+  // The same, but a message whose channel `accept` refuses is dropped before
+  // it is decoded (e.g. an analyze shard skipping other shards' units).
+  template <typename T>
+  void Subscribe(const std::string& channel_regex, int queue_capacity,
+                 std::function<bool(const char* channel)> accept,
                  std::function<void(const std::string&, T&&, int64_t)> handler);
 
   // Encodes and publishes. Fails if encoding or sending fails.
@@ -120,10 +128,13 @@ Status DecodeExactly(const void* data, int size, T* out) {
 
 template <typename T>
 void LcmBus::Subscribe(const std::string& channel_regex, int queue_capacity,
+                       std::function<bool(const char* channel)> accept,
                        std::function<void(const std::string&, T&&, int64_t)> handler) {
   auto sub = std::make_unique<RawSubscription>();
-  sub->fn = [this, handler = std::move(handler)](const lcm_recv_buf_t* rbuf, const char* channel) {
+  sub->fn = [this, accept = std::move(accept), handler = std::move(handler)](const lcm_recv_buf_t* rbuf,
+                                                                             const char* channel) {
     ++received_;
+    if (accept && !accept(channel)) return;
     T msg;
     Status st = DecodeExactly(rbuf->data, static_cast<int>(rbuf->data_size), &msg);
     if (!st.ok()) {

@@ -1,6 +1,7 @@
 #include "analyze/service/analyze_service.h"
 
 #include <atomic>
+#include <cstring>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -455,8 +456,21 @@ Status AnalyzeService::Run() {
         s.heard.Note(run.run_id);
         s.queue.TryPush(std::move(run));
       });
+  // Other shards' batches are skipped by channel name, before decoding.
+  const size_t raw_prefix = std::strlen(channels::kRawPrefix);
+  std::function<bool(const char*)> in_shard = nullptr;
+  if (o.shard_count > 1) {
+    in_shard = [&s, &o, raw_prefix](const char* channel) {
+      if (std::strlen(channel) > raw_prefix &&
+          InShard(channel + raw_prefix, o.shard_index, o.shard_count)) {
+        return true;
+      }
+      ++s.out_of_shard;
+      return false;
+    };
+  }
   s.bus->Subscribe<imuqual::rate_batch_t>(
-      channels::kRawAll, o.queue_capacity,
+      channels::kRawAll, o.queue_capacity, in_shard,
       [&s, &o](const std::string&, imuqual::rate_batch_t&& batch, int64_t) {
         if (!InShard(batch.unit_serial, o.shard_index, o.shard_count)) {
           ++s.out_of_shard;
