@@ -3,8 +3,8 @@
 # pane, 140 x 50), read the way a person reads it. A soak of four units in
 # named slots with two analyze shards: the live table (slots, units, axes,
 # elapsed vs planned, live bias instability, provisional verdicts, progress
-# bar); the store killed mid-soak and restarted by the station, the soak
-# still archived whole; the final verdict table and report. Then a second
+# bar); the store and an analyze shard killed mid-soak and restarted by the
+# station, the soak still archived whole and analysed bit for bit; the final verdict table and report. Then a second
 # soak stopped with Ctrl-C: runs archived as aborted, nothing measured lost.
 # Usage: console_test.sh BIN_DIR SOURCE_DIR
 set -euo pipefail
@@ -96,11 +96,13 @@ for want in "^\[#*\.*\] +[0-9]+% +elapsed" "analyze 2/2" "^B2 +SN-104 +running +
 done
 pkill -9 -f "imuqual-store .*--db $work/lot.db" || fail "no store process to kill"
 wait_screen "store up \(restarted 1x\)" 30
+pkill -9 -f "imuqual-analyze .*--shard 1/2" || fail "no analyze shard 1/2 to kill"
+wait_screen "analyze 2/2 \(restarted 1x\)" 30
 code="$(wait_exit 240)"
 [ "$code" = 0 ] || fail "soak 1: imuqual run exit $code"
 final="$(screen)"
 for want in "^4 units: [0-9]+ PASS, [0-9]+ MARGINAL, [0-9]+ FAIL$" "^SN-101 +x " "^SN-104 +z " \
-    "^report: $work/lot-CONSOLE-LOT.html$" "restarted 1 time"; do
+    "^report: $work/lot-CONSOLE-LOT.html$" "restarted 2 time"; do
   printf '%s\n' "$final" | grep -Eq -- "$want" || fail "final screen lacks '$want'"
 done
 printf '%s\n' "$final" | grep -q "running" && fail "final screen still shows the live table"
@@ -111,6 +113,12 @@ printf '%s\n' "$final" | grep -q "running" && fail "final screen still shows the
   fail "soak 1: slots $(sql 'SELECT slot FROM runs')"
 [ "$(sql "SELECT SUM(samples_archived) || ' ' || SUM(gap_samples) FROM run_archive")" = "480000 0" ] ||
   fail "soak 1: archive $(sql 'SELECT * FROM run_archive')"
+# The restarted analysis caught up: each archived result is what the
+# analysis of the archived samples gives, bit for bit.
+for run in $(sql "SELECT run_id FROM runs"); do
+  "$bin/imuqual" reanalyze "$run" --db "$work/lot.db" --check >/dev/null 2>&1 ||
+    fail "soak 1: $run: archived result differs from re-analysis"
+done
 tm kill-session -t soak
 
 # --- Soak 2: Ctrl-C mid-soak.
