@@ -40,7 +40,8 @@ wait_screen() {
 }
 wait_exit() {
   local timeout="$1" t=0
-  until [ "$(tm display -p -t soak '#{pane_dead}')" = "1" ]; do
+  until [ "$(tm display -p -t soak '#{pane_dead}:#{pane_dead_status}')" != "0:" ] &&
+        [ -n "$(tm display -p -t soak '#{pane_dead_status}')" ]; do
     sleep 0.5
     t=$((t + 1))
     [ "$t" -lt $((timeout * 2)) ] || fail "imuqual run did not end within $timeout s"
