@@ -38,15 +38,15 @@ wait_screen() {
     [ "$t" -lt $((timeout * 2)) ] || fail "no '$pattern' on screen within $timeout s"
   done
 }
+# The pane runs `imuqual run` under a shell that reports its exit code (the
+# shell keeps Ctrl-C for imuqual: its trap runs only once imuqual has ended).
+start_soak() {
+  tm new-session -d -s soak -x 140 -y 50 \
+    "trap : INT; '$bin/imuqual' run --station '$work/station.textproto'; echo \"imuqual run exited with \$?\""
+}
 wait_exit() {
-  local timeout="$1" t=0
-  until [ "$(tm display -p -t soak '#{pane_dead}:#{pane_dead_status}')" != "0:" ] &&
-        [ -n "$(tm display -p -t soak '#{pane_dead_status}')" ]; do
-    sleep 0.5
-    t=$((t + 1))
-    [ "$t" -lt $((timeout * 2)) ] || fail "imuqual run did not end within $timeout s"
-  done
-  tm display -p -t soak '#{pane_dead_status}'
+  wait_screen "^imuqual run exited with [0-9]+$" "$1"
+  screen | sed -nE 's/^imuqual run exited with ([0-9]+)$/\1/p' | tail -n 1
 }
 sql() { sqlite3 "$work/lot.db" "$1"; }
 
@@ -84,7 +84,7 @@ printf '%s' "$err" | grep -q "bad.textproto:4: duration_s: must be > 0" || fail 
 
 # --- Soak 1: live table, the store killed and restarted, the end.
 write_config 40
-tm new-session -d -s soak -x 140 -y 50 "$bin/imuqual run --station $work/station.textproto"
+start_soak
 wait_screen "imuqual station bench-C +lot CONSOLE-LOT +plan vg700ca-short +operator ana" 20
 wait_screen "^A1 +SN-101 +running" 30
 wait_screen "deg/h" 30  # the live bias instability, once past the warm-up
@@ -124,7 +124,7 @@ tm kill-session -t soak
 
 # --- Soak 2: Ctrl-C mid-soak.
 write_config 10
-tm new-session -d -s soak -x 140 -y 50 "$bin/imuqual run --station $work/station.textproto"
+start_soak
 wait_screen "^A1 +SN-101 +running" 30
 wait_screen "deg/h" 40
 tm send-keys -t soak C-c

@@ -41,6 +41,7 @@ constexpr double kRestartDelayS = 1;    // a dead store/analyze is restarted aft
 constexpr double kCrashWindowS = 60;    // restarts counted over this window
 constexpr double kRedrawS = 0.25;       // live console refresh
 constexpr double kLogLineS = 10;        // progress line when not on a terminal
+constexpr double kComplaintS = 3;       // an unhealthy status shows this long after it was heard
 
 std::string CompactUtc(int64_t utime) {
   std::string out;
@@ -221,15 +222,19 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     return u.run_id == run_id ? &u : nullptr;
   };
   std::map<std::string, std::set<std::string>> heard;  // process -> instances (host:pid)
-  std::map<std::string, std::string> problems;         // process -> last unhealthy message
+  struct Complaint {
+    std::string message;
+    double heard_s = 0;
+  };
+  std::map<std::pair<std::string, std::string>, Complaint> problems;  // (process, instance) -> last unhealthy message
 
   bus.Subscribe<imuqual::status_t>(channels::kStatus, 1000,
                                    [&](const std::string&, imuqual::status_t&& s, int64_t) {
                                      heard[s.process].insert(s.instance);
                                      if (s.healthy) {
-                                       problems.erase(s.process);
+                                       problems.erase({s.process, s.instance});
                                      } else {
-                                       problems[s.process] = s.message;
+                                       problems[{s.process, s.instance}] = {s.message, MonotonicSeconds()};
                                      }
                                    });
   bus.Subscribe<imuqual::run_t>(
@@ -444,7 +449,11 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
       acquire_p.name = "acquire";
       acquire_p.running = acquire->Poll() ? 0 : 1;
       for (ConsoleProcess* cp : {&store_p, &analyze_p, &acquire_p}) {
-        if (auto it = problems.find(cp->name); it != problems.end()) cp->problem = it->second;
+        // A complaint stands while its process keeps reporting it (a dead
+        // process's last words fade after a few seconds).
+        for (const auto& [who, complaint] : problems) {
+          if (who.first == cp->name && now - complaint.heard_s < kComplaintS) cp->problem = complaint.message;
+        }
         model.processes.push_back(*cp);
       }
     }
