@@ -37,7 +37,8 @@ struct AcquireOptions {
   std::vector<std::string> await;     // consumer roles whose acks gate time-warped sources
   int window_batches = 64;            // unacknowledged batches in flight per run
   int batch_samples = 0;              // samples per batch; 0 = the most that fit batch_bytes
-  int batch_bytes = 0;                // message budget; 0 = 8 KB on one host (ttl=0), else one datagram
+  int batch_bytes = 0;                // message budget; 0 = on one host (ttl=0) 8 KB, 16 KB when
+                                      // time-warped (pace 0); else one datagram
   double heartbeat_s = 1.0;           // run_t period
   double retention_s = 120.0;         // seconds of data kept for resends (plus the window)
   double pace = 0.0;                  // 0: as fast as acknowledged; 1: real time; k: k x real time

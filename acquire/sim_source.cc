@@ -44,20 +44,26 @@ Result<std::unique_ptr<SimSource>> SimSource::Create(const sim::LotProfile& prof
                      ",seed=" + std::to_string(truth.seed());
   info.truth = truth.SerializeAsString();
   return std::unique_ptr<SimSource>(
-      new SimSource(std::move(*simulator), std::move(info), total, NowUtime(), actual, output));
+      new SimSource(std::move(*simulator), std::move(info), total, /*start_utime=*/0, actual, output));
 }
 
-Result<int> SimSource::Read(int max_samples, SampleBlock* block) {
+SimSource::~SimSource() {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  if (generator_.joinable()) generator_.join();
+}
+
+void SimSource::Generate(int max_samples, SampleBlock* block) {
   const int64_t left = total_ - sim_.sample_counter();
   const int n = static_cast<int>(std::min<int64_t>(max_samples, left));
   block->first_sample = sim_.sample_counter();
-  // Simulated arrival: the device's own clock read by a perfect host clock.
-  block->first_sample_utime =
-      start_utime_ + std::llround(static_cast<double>(block->first_sample) / actual_rate_hz_ * 1e6);
   block->flags.clear();
   block->samples.assign(info_.axes.size(), {});
   block->temperature_c = static_cast<float>(sim_.temperature_c());
-  if (n <= 0) return 0;
+  if (n <= 0) return;
   for (auto& axis : block->samples) axis.reserve(n);
   sim_.Generate(n, block->samples);
   if (output_.lsb > 0) {
@@ -76,6 +82,77 @@ Result<int> SimSource::Read(int max_samples, SampleBlock* block) {
       }
     }
   }
+}
+
+void SimSource::GenerateAhead(int block_samples) {
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lock(mu_);
+      cv_.wait(lock, [&] { return stop_ || ready_.size() < kBlocksAhead; });
+      if (stop_) return;
+    }
+    SampleBlock block;
+    Generate(block_samples, &block);
+    const bool end = block.size() == 0;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      ready_.push_back(std::move(block));
+    }
+    cv_.notify_all();
+    if (end) return;
+  }
+}
+
+Result<int> SimSource::Read(int max_samples, SampleBlock* block) {
+  if (max_samples < 1) return Status::InvalidArgument("max_samples must be >= 1");
+  if (!generator_.joinable()) {
+    generator_ = std::thread([this, max_samples] { GenerateAhead(max_samples); });
+  }
+  if (current_offset_ >= current_.size() && !ended_) {
+    {
+      std::unique_lock<std::mutex> lock(mu_);
+      // At most one block's generation away: the thread keeps kBlocksAhead ready.
+      cv_.wait(lock, [&] { return !ready_.empty(); });
+      current_ = std::move(ready_.front());
+      ready_.pop_front();
+    }
+    cv_.notify_all();
+    current_offset_ = 0;
+    ended_ = current_.size() == 0;
+  }
+  if (start_utime_ == 0) {
+    // The simulated clock starts with the first block read, its newest
+    // sample taken now (in real time that is when a device would send it).
+    start_utime_ = NowUtime() - std::llround(static_cast<double>(std::max(0, current_.size() - 1)) /
+                                             actual_rate_hz_ * 1e6);
+  }
+  block->first_sample = current_.first_sample + current_offset_;
+  // Simulated arrival: the device's own clock read by a perfect host clock.
+  block->first_sample_utime =
+      start_utime_ + std::llround(static_cast<double>(block->first_sample) / actual_rate_hz_ * 1e6);
+  block->temperature_c = current_.temperature_c;
+  block->flags.clear();
+  block->samples.assign(info_.axes.size(), {});
+  const int n = std::min(max_samples, current_.size() - current_offset_);
+  if (n <= 0) return 0;  // the end
+  if (current_offset_ == 0 && n == current_.size()) {
+    // The whole block as generated (the usual case): moved, not copied.
+    block->samples = std::move(current_.samples);
+    block->flags = std::move(current_.flags);
+    current_ = SampleBlock();
+    current_offset_ = 0;
+    return n;
+  }
+  for (size_t a = 0; a < current_.samples.size(); ++a) {
+    const auto from = current_.samples[a].begin() + current_offset_;
+    block->samples[a].assign(from, from + n);
+  }
+  for (const SampleFlagEntry& f : current_.flags) {
+    if (f.sample >= current_offset_ && f.sample < current_offset_ + n) {
+      block->flags.push_back({f.sample - current_offset_, f.axis, f.bits});
+    }
+  }
+  current_offset_ += n;
   return n;
 }
 

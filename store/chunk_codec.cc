@@ -331,6 +331,8 @@ constexpr uint8_t kAxisQuantized = 1;
 // Codec 3's body: per axis a mode byte, then the quantized form or the
 // float form (XOR with the previous value, 4 byte planes); false if no axis
 // is quantized (codec 2 is then as good).
+constexpr double kFloatReprobeChunks = 16;
+
 bool MixedBody(const ChunkData& c, std::vector<double>* scales, std::vector<uint8_t>* body) {
   if (scales && scales->size() != static_cast<size_t>(c.num_axes)) scales->assign(c.num_axes, 0.0);
   bool any = false;
@@ -338,10 +340,14 @@ bool MixedBody(const ChunkData& c, std::vector<double>* scales, std::vector<uint
   for (int a = 0; a < c.num_axes; ++a) {
     const std::span<const float> v(c.samples.data() + static_cast<size_t>(a) * c.num_samples,
                                    static_cast<size_t>(c.num_samples));
-    // The previous chunk's scale almost always fits the next one.
+    // The previous chunk's scale almost always fits the next one; an axis
+    // of float noise stays float, so the search (which then fails, at seven
+    // times the cost of the compression) runs again only every
+    // kFloatReprobeChunks chunks.
     const double hint = scales ? (*scales)[a] : 0.0;
-    const bool quantized = (hint > 0 && TryScale(v, hint, &q) == 0) || QuantizeAxis(v, &q);
-    if (scales) (*scales)[a] = quantized ? q.scale : 0.0;
+    const bool skip_search = hint < 0 && -hint < kFloatReprobeChunks;
+    const bool quantized = (hint > 0 && TryScale(v, hint, &q) == 0) || (!skip_search && QuantizeAxis(v, &q));
+    if (scales) (*scales)[a] = quantized ? q.scale : skip_search ? hint - 1 : -1.0;
     if (!quantized) {
       body->push_back(kAxisFloat);
       const size_t at = body->size();

@@ -62,9 +62,12 @@ struct EncodedChunk {
 std::vector<uint8_t> EncodeChunk(const ChunkData& chunk, int codec);
 // What the archive stores: codec 3 when some axis is quantized, else codec
 // 2, or codec 1 when compression does not pay. Always succeeds.
-// `scales` (optional, one per axis, 0 = none) carries each axis's scale from
-// one chunk of a run to the next: tried first, it spares the search that
-// finds a quantized sensor's scale; updated with the scales used.
+// `scales` (optional, one per axis, start with 0 = unknown) carries each
+// axis's scale from one chunk of a run to the next: tried first, it spares
+// the search that finds a quantized sensor's scale; updated with the scales
+// used. A negative entry counts the float chunks in a row of an axis that
+// has no scale: the search is retried only every 16 of them. Lossless
+// either way; only the size can differ.
 EncodedChunk EncodeChunkCompact(const ChunkData& chunk, std::vector<double>* scales = nullptr);
 // Checks every length against the BLOB; a lying or truncated BLOB is a
 // Corruption error, never a crash.

@@ -1,6 +1,9 @@
 #include "store/store_service.h"
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
+#include <cstdio>
 #include <map>
 #include <optional>
 #include <set>
@@ -33,6 +36,13 @@ constexpr int64_t kMaxServedPerRequest = 512;  // archived batches resent per re
 constexpr int64_t kMaxAhead = int64_t{1} << 20;  // seqs accepted beyond the frontier
 constexpr double kRetryPeriodS = 1.0;          // a failed result/curve write is retried
 
+std::string Fixed(double value, int decimals) {
+  char text[48];
+  std::snprintf(text, sizeof text, "%.*f", decimals, value);
+  return text;
+}
+std::string Ms(int64_t micros) { return Fixed(static_cast<double>(micros) / 1e3, 1); }
+
 struct StoreRun {
   int64_t key = -1;  // -1: not in the archive yet
   RunInfo info;
@@ -52,12 +62,28 @@ struct StoreRun {
   bool acquire_gone = false;
   double next_announce_s = 0;
   std::vector<double> codec_scales;  // per axis, from one chunk to the next
+  // Seqs this store asked to be resent (pruned below the frontier): a batch
+  // among them arrives late by design and stays out of the latency figures.
+  std::vector<SeqRange> requested;
+  bool WasRequested(int64_t seq) const {
+    return std::any_of(requested.begin(), requested.end(),
+                       [seq](const SeqRange& h) { return seq >= h.first && seq <= h.last; });
+  }
   explicit StoreRun(const SeqTracker::Options& o) : tracker(0, o) {}
+};
+
+// A chunk written in a transaction.
+struct StagedChunk {
+  std::string run_id;
+  int64_t seq = 0;
+  int64_t values = 0;        // samples x axes, when the row is new
+  int64_t newest_utime = 0;  // host time its newest sample arrived; 0: not timed
+  int64_t sent_utime = 0;    // host time acquire sent it; 0: not timed
 };
 
 // What a transaction changed, applied to the in-memory state after COMMIT.
 struct Staged {
-  std::vector<std::pair<std::string, int64_t>> chunks;  // (run, seq) now durable
+  std::vector<StagedChunk> chunks;                       // now durable
   std::set<std::string> curves;                          // runs whose pending curves are durable
   std::set<std::string> results;                         // runs whose result is durable
 };
@@ -92,7 +118,15 @@ struct StoreService::Impl {
   int64_t chunks_inserted = 0, duplicates = 0, absurd = 0, rejected = 0, waiting_dropped = 0,
           commits = 0, commit_failures = 0, apply_errors = 0, resend_requests = 0,
           batches_given_up = 0, runs_done = 0, batches_served = 0, runs_taken_over = 0,
-          late_messages = 0;
+          late_messages = 0, values_archived = 0;
+  // Commit time minus the arrival of each batch's newest sample, over the
+  // batches archived on their first arrival (resends and replays after a
+  // restart are late by design): how far the archive trails the units.
+  LatencyHistogram sample_to_archive;
+  // Commit time minus the time acquire sent the batch, same batches: the
+  // station's own share (bus, queue, transaction), whatever the source's
+  // timing.
+  LatencyHistogram sent_to_archive;
 
   explicit Impl(const StoreOptions& o) : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
     tracker_options.give_up_after_s = o.hole_give_up_s;
@@ -116,6 +150,7 @@ struct StoreService::Impl {
   void Tick(double now);
   Status Finalize(StoreRun& r);
   Counters StatusCounters() const;
+  void LogSummary() const;
 };
 
 StoreService::StoreService(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -330,7 +365,20 @@ Status StoreService::Impl::ApplyBatch(StoreRun& r, const imuqual::rate_batch_t& 
   bool inserted = false;
   IMUQUAL_RETURN_IF_ERROR(archive->InsertChunk(r.key, ChunkFromBatch(b, &r.codec_scales), &inserted));
   if (!inserted) ++duplicates;
-  staged->chunks.emplace_back(b.run_id, b.seq);  // durable either way once committed
+  StagedChunk staged_chunk{b.run_id, b.seq, 0, 0, 0};  // durable either way once committed
+  if (inserted) {
+    staged_chunk.values = int64_t{b.num_samples} * b.num_axes;
+    if (!r.WasRequested(b.seq)) {
+      staged_chunk.sent_utime = b.host_utime;
+      // The newest sample arrived (num_samples - 1) sample periods after the
+      // first: the batch could not have been sent before that.
+      if (b.sample_utime > 0 && b.nominal_rate_hz > 0) {
+        staged_chunk.newest_utime =
+            b.sample_utime + std::llround((b.num_samples - 1) * 1e6 / b.nominal_rate_hz);
+      }
+    }
+  }
+  staged->chunks.push_back(std::move(staged_chunk));
   return Status::Ok();
 }
 
@@ -374,9 +422,15 @@ Status StoreService::Impl::Apply(Item& item, Staged* staged) {
 void StoreService::Impl::Committed(const Staged& staged) {
   ++commits;
   health_message.clear();
-  for (const auto& [run_id, seq] : staged.chunks) {
-    auto it = runs.find(run_id);
-    if (it != runs.end() && it->second.tracker.Offer(seq) == SeqTracker::Arrival::kNew) ++chunks_inserted;
+  const int64_t committed_utime = staged.chunks.empty() ? 0 : NowUtime();
+  for (const StagedChunk& c : staged.chunks) {
+    auto it = runs.find(c.run_id);
+    if (it != runs.end() && it->second.tracker.Offer(c.seq) == SeqTracker::Arrival::kNew) {
+      ++chunks_inserted;
+      values_archived += c.values;
+      if (c.newest_utime > 0) sample_to_archive.Add(committed_utime - c.newest_utime);
+      if (c.sent_utime > 0) sent_to_archive.Add(committed_utime - c.sent_utime);
+    }
   }
   for (const std::string& run_id : staged.curves) runs.at(run_id).curves_pending.clear();
   for (const std::string& run_id : staged.results) runs.at(run_id).result_stored = true;
@@ -482,7 +536,9 @@ void StoreService::Impl::Tick(double now) {
       }
     }
     if (r.key >= 0 && !r.done) {
+      std::erase_if(r.requested, [&](const SeqRange& h) { return h.last < r.tracker.next_seq(); });
       for (const SeqRange& h : r.tracker.DueRequests(now)) {
+        if (!r.WasRequested(h.first) || !r.WasRequested(h.last)) r.requested.push_back(h);
         imuqual::resend_t req;
         req.host_utime = NowUtime();
         req.requester = instance;
@@ -540,7 +596,30 @@ Counters StoreService::Impl::StatusCounters() const {
           {"queue_depth", static_cast<int64_t>(queue.size())},
           {"queue_high_water", static_cast<int64_t>(queue.high_water())},
           {"queue_dropped", static_cast<int64_t>(queue.dropped())},
-          {"decode_errors", static_cast<int64_t>(bus->decode_errors())}};
+          {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
+          {"values_archived", values_archived},
+          {"cpu_ms", std::llround(ProcessCpuSeconds() * 1e3)},
+          {"latency_batches", sample_to_archive.count()},
+          {"sample_to_archive_p50_us", sample_to_archive.QuantileUs(0.5)},
+          {"sample_to_archive_p99_us", sample_to_archive.QuantileUs(0.99)},
+          {"sample_to_archive_max_us", sample_to_archive.max_us()},
+          {"sent_to_archive_p50_us", sent_to_archive.QuantileUs(0.5)},
+          {"sent_to_archive_p99_us", sent_to_archive.QuantileUs(0.99)},
+          {"sent_to_archive_max_us", sent_to_archive.max_us()}};
+}
+
+void StoreService::Impl::LogSummary() const {
+  LogInfo("archived " + std::to_string(values_archived) + " values in " +
+          std::to_string(chunks_inserted) + " chunks, " + std::to_string(commits) +
+          " commits; cpu " + Fixed(ProcessCpuSeconds(), 2) + " s");
+  auto summary = [](const std::string& what, const LatencyHistogram& h) {
+    if (h.count() == 0) return;
+    LogInfo(what + " latency p50 " + Ms(h.QuantileUs(0.5)) + " ms p99 " + Ms(h.QuantileUs(0.99)) +
+            " ms max " + Ms(h.max_us()) + " ms over " + std::to_string(h.count()) +
+            " batches archived on first arrival");
+  };
+  summary("sample-to-archive", sample_to_archive);
+  summary("sent-to-archive", sent_to_archive);
 }
 
 Status StoreService::Run() {
@@ -604,6 +683,7 @@ Status StoreService::Run() {
   stop = true;
   s.queue.Close();
   writer.join();
+  s.LogSummary();
   return result;
 }
 
