@@ -355,6 +355,21 @@ void AcquireService::Impl::Publish(RunState& run, bool drop, const std::vector<u
   }
 }
 
+void MoveBlockIntoBatch(SampleBlock&& block, imuqual::rate_batch_t* msg) {
+  msg->first_sample = block.first_sample;
+  msg->num_samples = static_cast<int16_t>(block.size());
+  msg->samples = std::move(block.samples);
+  msg->num_flagged = static_cast<int16_t>(block.flags.size());
+  for (const SampleFlagEntry& f : block.flags) {
+    msg->flagged_sample.push_back(static_cast<int16_t>(f.sample));
+    msg->flagged_axis.push_back(static_cast<int8_t>(f.axis));
+    msg->flagged_bits.push_back(static_cast<int8_t>(f.bits));
+  }
+  msg->has_temperature = block.temperature_c.has_value();
+  msg->temperature_c = block.temperature_c.value_or(0.0f);
+  msg->sample_utime = block.first_sample_utime;
+}
+
 Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* published_one) {
   *published_one = false;
   if (run.source_done || !GateOpen(run)) return Status::Ok();
@@ -393,30 +408,19 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
     run.first_counter = block.first_sample;
     // The first batch goes at once, as if its samples had been taken over
     // the batch period before now.
-    run.pace_origin_s = MonotonicSeconds() -
-                        static_cast<double>(*n) / (info.nominal_rate_hz * std::max(options.pace, 1e-9));
+    run.pace_origin_s = MonotonicSeconds();
+    if (options.pace > 0) run.pace_origin_s -= static_cast<double>(*n) / (info.nominal_rate_hz * options.pace);
   }
   imuqual::rate_batch_t msg;
   msg.host_utime = NowUtime();
   msg.run_id = run.run_id;
   msg.unit_serial = run.unit.serial;
   msg.seq = run.next_seq;
-  msg.first_sample = block.first_sample;
   msg.nominal_rate_hz = info.nominal_rate_hz;
   msg.num_axes = run.announcement.num_axes;
   msg.axis_names = run.announcement.axis_names;
   msg.axis_kinds = run.announcement.axis_kinds;
-  msg.num_samples = static_cast<int16_t>(*n);
-  msg.samples = std::move(block.samples);
-  msg.num_flagged = static_cast<int16_t>(block.flags.size());
-  for (const SampleFlagEntry& f : block.flags) {
-    msg.flagged_sample.push_back(static_cast<int16_t>(f.sample));
-    msg.flagged_axis.push_back(static_cast<int8_t>(f.axis));
-    msg.flagged_bits.push_back(static_cast<int8_t>(f.bits));
-  }
-  msg.has_temperature = block.temperature_c.has_value();
-  msg.temperature_c = block.temperature_c.value_or(0.0f);
-  msg.sample_utime = block.first_sample_utime;
+  MoveBlockIntoBatch(std::move(block), &msg);
 
   std::vector<uint8_t> bytes;
   IMUQUAL_RETURN_IF_ERROR(EncodeMessage(msg, &bytes));

@@ -24,6 +24,7 @@
 #include "acquire/source.h"
 #include "common/status.h"
 #include "imuqual/plan.pb.h"
+#include "imuqual/rate_batch_t.hpp"
 
 namespace imuqual::acquire {
 
@@ -50,6 +51,10 @@ struct AcquireOptions {
   // Checks every field; the error names it.
   Status Validate() const;
 };
+
+// Moves a source block into a batch: first_sample, num_samples, samples,
+// the flagged samples, the temperature and sample_utime.
+void MoveBlockIntoBatch(SampleBlock&& block, imuqual::rate_batch_t* msg);
 
 struct UnitSpec {
   std::string serial;

@@ -25,6 +25,7 @@
 
 #include <unistd.h>
 
+#include "acquire/acquire_service.h"
 #include "acquire/source_spec.h"
 #include "bench/bench_summary.h"
 #include "common/lcm_bus.h"
@@ -86,12 +87,15 @@ Workload MakeWorkload(const Variant& v) {
     for (int u = 0; u < kUnits; ++u) {
       acquire::SampleBlock block;
       auto n = sources[static_cast<size_t>(u)]->Read(kBatchSamples, &block);
+      if (!n.ok() || *n <= 0) {
+        std::fprintf(stderr, "store_ingest_bench: the simulated unit ended early\n");
+        std::exit(2);
+      }
       imuqual::rate_batch_t msg;
       msg.host_utime = block.first_sample_utime;
       msg.run_id = w.runs[static_cast<size_t>(u)].run_id;
       msg.unit_serial = w.runs[static_cast<size_t>(u)].serial;
       msg.seq = b;
-      msg.first_sample = block.first_sample;
       msg.nominal_rate_hz = kRateHz;
       msg.num_axes = static_cast<int8_t>(block.samples.size());
       for (const store::AxisInfo& a : w.runs[static_cast<size_t>(u)].axes) {
@@ -99,19 +103,12 @@ Workload MakeWorkload(const Variant& v) {
         msg.axis_kinds.push_back(a.kind == pb::ACCEL ? imuqual::rate_batch_t::KIND_ACCEL
                                                      : imuqual::rate_batch_t::KIND_GYRO);
       }
-      msg.num_samples = static_cast<int16_t>(*n);
-      msg.samples = std::move(block.samples);
-      msg.num_flagged = static_cast<int16_t>(block.flags.size());
-      for (const acquire::SampleFlagEntry& f : block.flags) {
-        msg.flagged_sample.push_back(static_cast<int16_t>(f.sample));
-        msg.flagged_axis.push_back(static_cast<int8_t>(f.axis));
-        msg.flagged_bits.push_back(static_cast<int8_t>(f.bits));
-      }
-      msg.has_temperature = block.temperature_c.has_value();
-      msg.temperature_c = block.temperature_c.value_or(0.0f);
-      msg.sample_utime = block.first_sample_utime;
+      acquire::MoveBlockIntoBatch(std::move(block), &msg);
       std::vector<uint8_t> bytes;
-      (void)EncodeMessage(msg, &bytes);
+      if (Status st = EncodeMessage(msg, &bytes); !st.ok()) {
+        std::fprintf(stderr, "store_ingest_bench: %s\n", st.message().c_str());
+        std::exit(2);
+      }
       w.messages.push_back(std::move(bytes));
       w.values += int64_t{*n} * msg.num_axes;
     }

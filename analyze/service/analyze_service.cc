@@ -64,7 +64,7 @@ struct RunEntry {
 
 }  // namespace
 
-bool InShard(const std::string& serial, int shard_index, int shard_count) {
+bool InShard(std::string_view serial, int shard_index, int shard_count) {
   uint64_t h = 0xcbf29ce484222325ULL;
   for (unsigned char c : serial) {
     h ^= c;

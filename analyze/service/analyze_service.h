@@ -13,6 +13,7 @@
 
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "common/status.h"
 
@@ -44,7 +45,7 @@ class AnalyzeService {
 };
 
 // Whether `serial` belongs to shard k of n (FNV-1a of the serial, mod n).
-bool InShard(const std::string& serial, int shard_index, int shard_count);
+bool InShard(std::string_view serial, int shard_index, int shard_count);
 
 }  // namespace imuqual::analyze
 

@@ -37,7 +37,6 @@ struct ConsoleUnit {
   bool archived = false;             // the store has committed the whole run
   bool final_result = false;         // the verdict is final
   int8_t verdict = 0;                // measurement_t.OUTCOME_*
-  std::string end_reason;
   std::vector<ConsoleAxis> axes;
 };
 

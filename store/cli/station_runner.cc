@@ -245,7 +245,6 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
         u->state = std::max(u->state, r.state);
         u->samples = std::max(u->samples, r.samples_published);
         if (r.nominal_rate_hz > 0) u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
-        if (!r.end_reason.empty()) u->end_reason = r.end_reason;
         if (u->axes.empty()) {
           for (const std::string& name : r.axis_names) {
             ConsoleAxis x;
