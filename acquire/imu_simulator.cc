@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <cstdio>
 #include <numbers>
 #include <string>
+#include <utility>
 
 namespace imuqual::sim {
 namespace {
@@ -19,6 +21,61 @@ constexpr double kAmbientC = 25.0;
 uint64_t AxisSeed(uint64_t unit_seed, int axis) {
   uint64_t s = unit_seed ^ (0xa0761d6478bd642fULL * static_cast<uint64_t>(axis + 1));
   return SplitMix64(&s);
+}
+
+bool NonNegative(double v) { return v >= 0 && std::isfinite(v); }
+
+std::string FormatHz(double hz) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g Hz", hz);
+  return text;
+}
+
+// The fields real MEMS parts add (sim.proto 11-16); the message names the
+// field, the caller prefixes the axis.
+Status ValidateMemsTerms(const pb::AxisTruth& a, double rate_hz) {
+  const double nyquist_hz = 0.5 * rate_hz;
+  const std::string below_nyquist =
+      " must be below the Nyquist frequency (" + FormatHz(nyquist_hz) + ")";
+  for (auto [name, v] : {std::pair{"white_bandwidth_hz", a.white_bandwidth_hz()},
+                         {"rate_lsb", a.rate_lsb()},
+                         {"spike_rate_hz", a.spike_rate_hz()},
+                         {"spike_amplitude", a.spike_amplitude()}}) {
+    if (!NonNegative(v)) {
+      return Status::InvalidArgument(std::string(name) + " must be finite and >= 0");
+    }
+  }
+  if (a.white_bandwidth_hz() >= nyquist_hz) {
+    return Status::InvalidArgument("white_bandwidth_hz" + below_nyquist);
+  }
+  if (a.spike_rate_hz() / rate_hz > 1) {
+    return Status::InvalidArgument("spike_rate_hz must be at most the sample rate (" +
+                                   FormatHz(rate_hz) + "): spike_rate_hz * tau0 <= 1");
+  }
+  for (int j = 0; j < a.gauss_markov_size(); ++j) {
+    const pb::GaussMarkov& g = a.gauss_markov(j);
+    const std::string name = "gauss_markov[" + std::to_string(j) + "].";
+    if (!NonNegative(g.sigma())) {
+      return Status::InvalidArgument(name + "sigma must be finite and >= 0");
+    }
+    if (!(g.correlation_time_s() > 0) || !std::isfinite(g.correlation_time_s())) {
+      return Status::InvalidArgument(name + "correlation_time_s must be finite and > 0");
+    }
+  }
+  for (int i = 0; i < a.sinusoids_size(); ++i) {
+    const pb::Sinusoid& line = a.sinusoids(i);
+    const std::string name = "sinusoids[" + std::to_string(i) + "].";
+    if (!NonNegative(line.amplitude())) {
+      return Status::InvalidArgument(name + "amplitude must be finite and >= 0");
+    }
+    if (!NonNegative(line.frequency_hz())) {
+      return Status::InvalidArgument(name + "frequency_hz must be finite and >= 0");
+    }
+    if (line.frequency_hz() >= nyquist_hz) {
+      return Status::InvalidArgument(name + "frequency_hz" + below_nyquist);
+    }
+  }
+  return Status::Ok();
 }
 
 }  // namespace
@@ -101,6 +158,9 @@ Result<ImuSimulator> ImuSimulator::Create(const pb::SimTruth& truth) {
     for (double v : {a.bias(), a.rate_ramp(), a.sine_amplitude(), a.temp_coefficient()}) {
       if (!std::isfinite(v)) return Status::InvalidArgument(where + "parameters must be finite");
     }
+    if (Status s = ValidateMemsTerms(a, truth.actual_rate_hz()); !s.ok()) {
+      return Status::InvalidArgument(where + s.message());
+    }
   }
   ImuSimulator sim(truth);
   const double f_high = 0.25 / sim.tau0_s_;  // half of Nyquist: keeps matched-z zeros accurate
@@ -108,10 +168,35 @@ Result<ImuSimulator> ImuSimulator::Create(const pb::SimTruth& truth) {
     const pb::AxisTruth& a = truth.axes(i);
     Random rng(AxisSeed(truth.seed(), i));
     const double phase = 2 * kPi * rng.Uniform();
-    sim.axes_.push_back(AxisState{
-        a, rng, FlickerNoise(a.bias_instability(), sim.tau0_s_, kFlickerLowHz, f_high),
-        a.random_walk() / std::sqrt(sim.tau0_s_), a.rate_random_walk() * std::sqrt(sim.tau0_s_),
-        0.0, a.quantization() * std::sqrt(12.0), 0.0, phase});
+    AxisState s{a,
+                rng,
+                FlickerNoise(a.bias_instability(), sim.tau0_s_, kFlickerLowHz, f_high),
+                a.random_walk() / std::sqrt(sim.tau0_s_),
+                a.rate_random_walk() * std::sqrt(sim.tau0_s_),
+                0.0,
+                a.quantization() * std::sqrt(12.0),
+                0.0,
+                phase};
+    // MEMS terms. 1 - phi and 1 - phi^2 by expm1: no cancellation when the
+    // correlation time is many samples.
+    if (a.white_bandwidth_hz() > 0) {
+      const double x = 2 * kPi * a.white_bandwidth_hz() * sim.tau0_s_;
+      const double one_minus_phi = -std::expm1(-x);
+      const double phi = std::exp(-x);
+      s.white_lowpass.emplace(phi, one_minus_phi * s.white_scale,
+                              s.white_scale * std::sqrt(one_minus_phi / (1 + phi)));
+    }
+    for (const pb::GaussMarkov& g : a.gauss_markov()) {
+      const double x = sim.tau0_s_ / g.correlation_time_s();
+      s.gauss_markov.emplace_back(std::exp(-x), g.sigma() * std::sqrt(-std::expm1(-2 * x)),
+                                  g.sigma());
+    }
+    for (const pb::Sinusoid& line : a.sinusoids()) {
+      s.lines.push_back({line.amplitude(), line.frequency_hz(), 2 * kPi * s.rng.Uniform()});
+    }
+    s.spike_probability = a.spike_rate_hz() * sim.tau0_s_;
+    s.rate_lsb = a.rate_lsb();
+    sim.axes_.push_back(std::move(s));
   }
   return sim;
 }
@@ -131,7 +216,10 @@ void ImuSimulator::Generate(int count, std::vector<std::vector<float>>& samples)
       AxisState& s = axes_[a];
       const pb::AxisTruth& p = s.truth;
       double y = p.bias() + p.rate_ramp() * t + p.temp_coefficient() * temp_offset;
-      if (s.white_scale > 0) y += s.white_scale * s.rng.Gaussian();
+      if (s.white_scale > 0) {
+        const double e = s.rng.Gaussian();
+        y += s.white_lowpass ? s.white_lowpass->Next(e) : s.white_scale * e;
+      }
       y += s.flicker.Next(s.rng);
       if (s.walk_step > 0) {
         y += s.walk;
@@ -140,6 +228,18 @@ void ImuSimulator::Generate(int count, std::vector<std::vector<float>>& samples)
       if (p.sine_amplitude() != 0) {
         y += p.sine_amplitude() * std::sin(2 * kPi * p.sine_frequency_hz() * t + s.sine_phase);
       }
+      for (Ar1Process& g : s.gauss_markov) y += g.Next(s.rng.Gaussian());
+      for (const AxisState::Line& line : s.lines) {
+        y += line.amplitude * std::sin(2 * kPi * line.frequency_hz * t + line.phase);
+      }
+      if (s.spike_probability > 0) {
+        // One uniform deviate u decides both: a spike when u < spike_probability,
+        // downwards when u is in the lower half of that interval.
+        const double u = s.rng.Uniform();
+        if (u < s.spike_probability) {
+          y += u < 0.5 * s.spike_probability ? -p.spike_amplitude() : p.spike_amplitude();
+        }
+      }
       if (s.quantum > 0) {
         // Output whole quanta of accumulated angle; carry the remainder.
         s.residual += y * tau0_s_;
@@ -147,6 +247,7 @@ void ImuSimulator::Generate(int count, std::vector<std::vector<float>>& samples)
         s.residual -= quanta * s.quantum;
         y = quanta * s.quantum / tau0_s_;
       }
+      if (s.rate_lsb > 0) y = s.rate_lsb * std::round(y / s.rate_lsb);
       samples[a].push_back(static_cast<float>(y));
     }
   }
