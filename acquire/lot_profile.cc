@@ -122,17 +122,78 @@ LotProfile MemsLab() {
   return p;
 }
 
+// An ADIS16405-class consumer MEMS IMU read at 100 Hz, as its output
+// registers give it: the noise is not the ideal IEEE model but what such a
+// part really shows.
+//  - gyro: white N = 0.033 deg/sqrt(s) (ARW 2 deg/sqrt(h)) through the part's
+//    ~15 Hz filter (the sd at tau0 drops to 0.66 of N / sqrt(tau0), the ARW
+//    stays), flicker B = 0.004 deg/s (14.4 deg/h), a Gauss-Markov term of
+//    the same size (sigma 0.004 deg/s, T = 200 s) bending the curve near its
+//    minimum, a small rate random walk K = 3e-5 deg/s/sqrt(s), a 0.05 deg/s
+//    LSB (about a quarter of the filtered white sd), one-sample spikes of
+//    1 deg/s about every 17 min (spike_rate_hz 0.001), and on z a 24.7 Hz
+//    line of 0.05 deg/s (a structural mode);
+//  - accel: white N = 0.0033 m/s/sqrt(s) (VRW 0.2 m/s/sqrt(h)), unfiltered,
+//    B = 0.2 mg, a Gauss-Markov term (sigma 1 mg, T = 100 s) and a
+//    0.0327 m/s^2 (3.33 mg) LSB, about one white sd, so the LSB shows;
+//  - z axes: the temperature coefficients of mems-lab.
+// No angle-accumulator quantization: the part outputs rates. Constant
+// offsets spread over +/-3 deg/s and +/-50 mg, the order of the part's
+// initial bias error.
+LotProfile MemsReal() {
+  constexpr double kGyroArwDegRtH = 2.0, kGyroBDegH = 14.4;     // B = 0.004 deg/s
+  constexpr double kGyroKDegHRtH = 3e-5 / kDegPerHourRootHour;  // 3e-5 deg/s/sqrt(s)
+  constexpr double kAccelVrwMsRtH = 0.2, kAccelBUg = 200;       // 0.2 mg
+  LotProfile p;
+  p.name = "mems-real";
+  p.description =
+      "ADIS16405-class consumer MEMS IMU as read at 100 Hz, 3 gyro + 3 accel: band-limited "
+      "white, flicker, Gauss-Markov, rate LSB on every axis, rate random walk and rare spikes on "
+      "the gyros, a 24.7 Hz line on gz, temperature coefficient on z";
+  p.nominal_rate_hz = 100;
+  for (const char* axis : {"gx", "gy", "gz"}) {
+    pb::AxisTruth t = Gyro(0, kGyroArwDegRtH, kGyroBDegH, kGyroKDegHRtH, 3.0);
+    t.set_white_bandwidth_hz(15);
+    pb::GaussMarkov* gm = t.add_gauss_markov();
+    gm->set_sigma(0.004);  // deg/s
+    gm->set_correlation_time_s(200);
+    t.set_rate_lsb(0.05);  // deg/s
+    t.set_spike_rate_hz(0.001);
+    t.set_spike_amplitude(1.0);  // deg/s
+    if (axis[1] == 'z') {
+      pb::Sinusoid* line = t.add_sinusoids();
+      line->set_amplitude(0.05);  // deg/s
+      line->set_frequency_hz(24.7);
+      t.set_temp_coefficient(0.02);  // deg/s per deg C
+    }
+    p.axes.push_back({axis, pb::GYRO, t});
+  }
+  for (const char* axis : {"ax", "ay", "az"}) {
+    pb::AxisTruth t = Accel(0, kAccelVrwMsRtH, kAccelBUg, 0, 50e3 * kMicroG);
+    pb::GaussMarkov* gm = t.add_gauss_markov();
+    gm->set_sigma(1e-3);  // m/s^2
+    gm->set_correlation_time_s(100);
+    t.set_rate_lsb(0.0327);                                     // m/s^2
+    if (axis[1] == 'z') t.set_temp_coefficient(300 * kMicroG);  // 300 ug per deg C
+    p.axes.push_back({axis, pb::ACCEL, t});
+  }
+  return p;
+}
+
 }  // namespace
 
-std::vector<std::string> LotProfileNames() { return {"vg700", "tactical", "fog", "mems-lab"}; }
+std::vector<std::string> LotProfileNames() {
+  return {"vg700", "tactical", "fog", "mems-lab", "mems-real"};
+}
 
 Result<LotProfile> LotProfileByName(std::string_view name) {
   if (name == "vg700") return Vg700();
   if (name == "tactical") return Tactical();
   if (name == "fog") return Fog();
   if (name == "mems-lab") return MemsLab();
+  if (name == "mems-real") return MemsReal();
   return Status::InvalidArgument("unknown lot profile '" + std::string(name) +
-                                 "' (known: vg700, tactical, fog, mems-lab)");
+                                 "' (known: vg700, tactical, fog, mems-lab, mems-real)");
 }
 
 uint64_t SeedFromName(std::string_view name) {
@@ -173,6 +234,23 @@ pb::SimTruth MakeUnitTruth(const LotProfile& profile, uint64_t lot_seed, int ind
     t->set_sine_amplitude(spread_if_set(typ.sine_amplitude()));
     t->set_sine_frequency_hz(typ.sine_frequency_hz());  // one line on the bench: no spread
     t->set_temp_coefficient(spread_if_set(typ.temp_coefficient()));
+    // The MEMS terms: sigmas, amplitudes and correlation times spread; the
+    // part's design (filter cutoff, LSB, line frequency, spike rate) does
+    // not. Draws only for terms the profile has, as above.
+    for (const pb::GaussMarkov& gm : typ.gauss_markov()) {
+      pb::GaussMarkov* u = t->add_gauss_markov();
+      u->set_sigma(spread(gm.sigma()));
+      u->set_correlation_time_s(spread(gm.correlation_time_s()));
+    }
+    t->set_white_bandwidth_hz(typ.white_bandwidth_hz());
+    t->set_rate_lsb(typ.rate_lsb());
+    t->set_spike_rate_hz(typ.spike_rate_hz());
+    t->set_spike_amplitude(spread_if_set(typ.spike_amplitude()));
+    for (const pb::Sinusoid& line : typ.sinusoids()) {
+      pb::Sinusoid* u = t->add_sinusoids();
+      u->set_amplitude(spread(line.amplitude()));
+      u->set_frequency_hz(line.frequency_hz());
+    }
     // Constant offset uniform in +/- the profile's spread; accelerometer z
     // axes see gravity (unit level, z up).
     double bias = typ.bias() * (2 * rng.Uniform() - 1);

@@ -32,7 +32,8 @@ int main(int argc, char** argv) {
                  "serial:DEVICE,protocol=text|xsens[,baud=N,...] (see the README)");
   app.add_option("--slot", slot_args,
                  "fixture position of each --unit, in order (default: 1, 2, ... after the simulated units)");
-  app.add_option("--profile", sim.profile, "simulated lot profile: vg700, tactical, fog, mems-lab")
+  app.add_option("--profile", sim.profile,
+                 "simulated lot profile: vg700, tactical, fog, mems-lab, mems-real")
       ->capture_default_str();
   app.add_option("--duration", sim.duration_s,
                  "seconds of data per unit (simulated units; serial units record this long)");

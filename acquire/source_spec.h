@@ -2,7 +2,7 @@
 // values separated by '/'.
 //   sim:PROFILE[,index=N][,duration=S][,rate=HZ][,actual_rate=HZ][,seed=N]
 //          [,quantize=0|1][,lsb=X[,bits=16]]
-//       a simulated unit (lot profile vg700, tactical, fog or mems-lab); actual_rate:
+//       a simulated unit (lot profile vg700, tactical, fog, mems-lab or mems-real); actual_rate:
 //       the simulated device really samples at that rate (rate is nominal);
 //       quantize=0: no quantization term (float output); lsb: an ADC of that
 //       LSB and width (saturating, flagged)

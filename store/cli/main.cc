@@ -38,7 +38,8 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--lot", run.lot, "production lot name");
   run_cmd->add_option("--db", run.db_path, "archive file (created if missing)");
   run_cmd->add_option("--plan", run.plan_spec, "test plan: .textproto file or builtin:NAME");
-  run_cmd->add_option("--profile", run.profile, "simulated lot profile: vg700, tactical, fog, mems-lab")
+  run_cmd->add_option("--profile", run.profile,
+                      "simulated lot profile: vg700, tactical, fog, mems-lab, mems-real")
       ->capture_default_str();
   run_cmd->add_option("--lcm-url", run.lcm_url, "station bus (default: a private port, ttl=0)");
   run_cmd->add_option("--station-id", run.station, "station id")->capture_default_str();
