@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <complex>
+#include <cstdio>
 #include <cstring>
 #include <numbers>
 #include <numeric>
@@ -78,6 +81,50 @@ pb::SimTruth OldFieldsTruth() {
   c->set_bias_instability(1e-3);
   c->set_rate_random_walk(3e-4);
   return truth;
+}
+
+double Mean(const std::vector<float>& y) {
+  return std::accumulate(y.begin(), y.end(), 0.0) / static_cast<double>(y.size());
+}
+
+// Sample variance about the sample mean.
+double Variance(const std::vector<float>& y) {
+  const double mean = Mean(y);
+  double sum = 0;
+  for (float v : y) sum += (v - mean) * (v - mean);
+  return sum / static_cast<double>(y.size() - 1);
+}
+
+// r_1 = sum (y_k - m)(y_{k+1} - m) / sum (y_k - m)^2.
+double Lag1Autocorrelation(const std::vector<float>& y) {
+  const double mean = Mean(y);
+  double num = 0, den = 0;
+  for (size_t k = 0; k < y.size(); ++k) {
+    den += (y[k] - mean) * (y[k] - mean);
+    if (k + 1 < y.size()) num += (y[k] - mean) * (y[k + 1] - mean);
+  }
+  return num / den;
+}
+
+// Variance of the means of consecutive blocks of `block` samples.
+double BlockMeanVariance(const std::vector<float>& y, size_t block) {
+  std::vector<float> means;
+  for (size_t start = 0; start + block <= y.size(); start += block) {
+    double sum = 0;
+    for (size_t k = start; k < start + block; ++k) sum += y[k];
+    means.push_back(static_cast<float>(sum / static_cast<double>(block)));
+  }
+  return Variance(means);
+}
+
+// Lock-in: amplitude of the line at f_hz, 2/n |sum_k y_k exp(-j 2 pi f k tau0)|.
+double LockInAmplitude(const std::vector<float>& y, double f_hz, double rate_hz) {
+  std::complex<double> sum = 0;
+  for (size_t k = 0; k < y.size(); ++k) {
+    sum += static_cast<double>(y[k]) *
+           std::polar(1.0, -2 * kPi * f_hz * static_cast<double>(k) / rate_hz);
+  }
+  return 2 * std::abs(sum) / static_cast<double>(y.size());
 }
 
 TEST(FlickerNoiseTest, PsdFollowsOneOverFInsideTheBand) {
@@ -186,6 +233,295 @@ TEST(ImuSimulatorTest, TruthWithoutNewTermsIsBitIdenticalToBefore) {
   }
 }
 
+TEST(ImuSimulatorTest, GaussMarkovTermsRecoverSigmaAndPhi) {
+  // GIVEN one Gauss-Markov term alone: sigma 0.02 deg/s, T = 0.5 s at 100 Hz.
+  const double rate = 100, sigma = 0.02, corr_s = 0.5;
+  const double phi = std::exp(-1 / (rate * corr_s));  // 0.9802
+  pb::SimTruth truth = OneAxis(rate, 11);
+  pb::GaussMarkov* gm = truth.mutable_axes(0)->add_gauss_markov();
+  gm->set_sigma(sigma);
+  gm->set_correlation_time_s(corr_s);
+  const int n = 2000000;  // 20000 s = 40000 correlation times
+  const std::vector<float> y = Simulate(truth, n);
+  // THEN the sample variance is sigma^2 and the lag-1 autocorrelation is phi.
+  // For an AR(1) the sample variance has a relative sd of
+  // sqrt(2 (1 + phi^2) / (1 - phi^2) / n) = 0.71 %; 4 % is > 5 sigma.
+  const double kVarianceRelTol = 0.04;
+  // r_1 has an sd of sqrt((1 - phi^2) / n) = 1.4e-4; 7e-4 is 5 sigma.
+  const double kLag1Tol = 7e-4;
+  const double var = Variance(y), r1 = Lag1Autocorrelation(y);
+  std::printf("  GM: var / sigma^2 = %.4f, r1 = %.5f (phi %.5f)\n", var / (sigma * sigma), r1, phi);
+  EXPECT_NEAR(var / (sigma * sigma), 1.0, kVarianceRelTol);
+  EXPECT_NEAR(r1, phi, kLag1Tol);
+
+  // AND with a second, faster term (0.01 deg/s, T = 0.05 s) the variances add
+  // and r_1 is the variance-weighted mean of the two phis.
+  const double sigma2 = 0.01, corr2_s = 0.05, phi2 = std::exp(-1 / (rate * corr2_s));
+  pb::GaussMarkov* gm2 = truth.mutable_axes(0)->add_gauss_markov();
+  gm2->set_sigma(sigma2);
+  gm2->set_correlation_time_s(corr2_s);
+  const std::vector<float> y2 = Simulate(truth, n);
+  const double var_sum = sigma * sigma + sigma2 * sigma2;
+  const double r1_want = (sigma * sigma * phi + sigma2 * sigma2 * phi2) / var_sum;
+  const double var2 = Variance(y2), r1_2 = Lag1Autocorrelation(y2);
+  std::printf("  two GM: var / sum sigma^2 = %.4f, r1 = %.5f (want %.5f)\n", var2 / var_sum, r1_2,
+              r1_want);
+  // The slow term dominates both statistics: the same tolerances hold.
+  EXPECT_NEAR(var2 / var_sum, 1.0, kVarianceRelTol);
+  EXPECT_NEAR(r1_2, r1_want, kLag1Tol);
+}
+
+TEST(ImuSimulatorTest, GaussMarkovStartsFromItsStationaryDistribution) {
+  // GIVEN a slow term (T = 100 s at 100 Hz: started from 0 its first sample
+  // would have a variance of (1 - phi^2) sigma^2 = 2e-4 sigma^2).
+  const double sigma = 0.01;
+  const int kUnits = 4000;
+  std::vector<float> first;
+  for (int seed = 0; seed < kUnits; ++seed) {
+    pb::SimTruth truth = OneAxis(100, 1000 + seed);
+    pb::GaussMarkov* gm = truth.mutable_axes(0)->add_gauss_markov();
+    gm->set_sigma(sigma);
+    gm->set_correlation_time_s(100);
+    first.push_back(Simulate(truth, 1)[0]);
+  }
+  // THEN across units the first sample already has variance sigma^2. With
+  // 4000 units the sample variance has a relative sd of sqrt(2 / 4000) =
+  // 2.2 %; 11 % is 5 sigma.
+  const double kRelTol = 0.11;
+  const double ratio = Variance(first) / (sigma * sigma);
+  std::printf("  GM g_0 over %d seeds: var / sigma^2 = %.4f\n", kUnits, ratio);
+  EXPECT_NEAR(ratio, 1.0, kRelTol);
+}
+
+TEST(ImuSimulatorTest, BandLimitedWhiteIsTheDocumentedAr1AndKeepsTheArw) {
+  // GIVEN white noise N = 0.01 deg/sqrt(s) at 100 Hz through a 15 Hz low-pass.
+  const double rate = 100, n_arw = 0.01, f_c = 15;
+  const double phi = std::exp(-2 * kPi * f_c / rate);  // 0.390
+  pb::SimTruth ideal = OneAxis(rate, 21);
+  ideal.mutable_axes(0)->set_random_walk(n_arw);
+  pb::SimTruth limited = ideal;
+  limited.mutable_axes(0)->set_white_bandwidth_hz(f_c);
+  const int n = 4000000;
+  const std::vector<float> y_ideal = Simulate(ideal, n);
+  const std::vector<float> y = Simulate(limited, n);
+
+  // THEN its variance is (1 - phi) / (1 + phi) N^2 / tau0 and r_1 is phi.
+  // Relative sd of the AR(1) sample variance: sqrt(2 (1 + phi^2) /
+  // (1 - phi^2) / n) = 0.08 %; 0.5 % is 6 sigma.
+  const double kVarianceRelTol = 0.005;
+  // r_1 sd sqrt((1 - phi^2) / n) = 4.6e-4; 2.5e-3 is 5 sigma.
+  const double kLag1Tol = 2.5e-3;
+  const double var_want = (1 - phi) / (1 + phi) * n_arw * n_arw * rate;
+  const double var = Variance(y), r1 = Lag1Autocorrelation(y);
+  std::printf("  band-limited white: var / want = %.4f, r1 = %.4f (phi %.4f)\n", var / var_want, r1,
+              phi);
+  EXPECT_NEAR(var / var_want, 1.0, kVarianceRelTol);
+  EXPECT_NEAR(r1, phi, kLag1Tol);
+
+  // AND means over 10 s blocks (~940 filter time constants) vary as ideal
+  // white's do, N^2 / tau: the ARW is unchanged.
+  const size_t kBlock = 1000;
+  const double tau_s = kBlock / rate;
+  const double block_ideal = BlockMeanVariance(y_ideal, kBlock);
+  const double block_limited = BlockMeanVariance(y, kBlock);
+  std::printf("  10 s block-mean variance: ideal / (N^2/tau) = %.4f, band-limited / ideal = %.5f\n",
+              block_ideal / (n_arw * n_arw / tau_s), block_limited / block_ideal);
+  // Both are driven by the same deviates (the band limit draws nothing), so
+  // their block sums differ only by the filter's edge terms, of variance
+  // ~2 phi^2 / (1 - phi^2) = 0.36 samples against 1000: the ratio is
+  // 1 - ~0.1 % (the exact AR(1) block-mean deficit) +- 0.06 %; 0.5 % bounds it.
+  const double kPairedRelTol = 0.005;
+  EXPECT_NEAR(block_limited / block_ideal, 1.0, kPairedRelTol);
+  // And against theory: 4000 block means, relative sd sqrt(2 / 4000) = 2.2 %;
+  // 11 % is 5 sigma.
+  const double kBlockRelTol = 0.11;
+  EXPECT_NEAR(block_ideal / (n_arw * n_arw / tau_s), 1.0, kBlockRelTol);
+  EXPECT_NEAR(block_limited / (n_arw * n_arw / tau_s), 1.0, kBlockRelTol);
+}
+
+TEST(ImuSimulatorTest, RateLsbPutsEveryOutputOnTheGridLastOfAll) {
+  // GIVEN noise (sd 0.3 deg/s = 6 LSB), flicker, a Gauss-Markov term and an
+  // offset, with a 0.05 deg/s rate LSB, first alone and then after the angle
+  // accumulator; and each unit without the LSB (which draws nothing, so it
+  // sees the same deviates).
+  const double lsb = 0.05;
+  const int n = 200000;
+  for (double q : {0.0, 1e-4}) {
+    pb::SimTruth truth = OneAxis(100, 31);
+    pb::AxisTruth* a = truth.mutable_axes(0);
+    a->set_bias(0.1234);
+    a->set_random_walk(0.03);
+    a->set_bias_instability(0.004);
+    a->set_quantization(q);
+    pb::GaussMarkov* gm = a->add_gauss_markov();
+    gm->set_sigma(0.004);
+    gm->set_correlation_time_s(20);
+    const pb::SimTruth unrounded = truth;
+    a->set_rate_lsb(lsb);
+    const std::vector<float> y = Simulate(truth, n);
+    const std::vector<float> ref = Simulate(unrounded, n);
+    // THEN every output is exactly float(m * lsb) for an integer m, and it is
+    // the nearest such value to the unrounded output (float32 rounding of the
+    // reference, ~1e-7 of ~1 deg/s, is the only slack).
+    const double kFloatSlack = 1e-6;
+    int off_grid = 0, not_nearest = 0;
+    std::vector<float> error(n);
+    for (int k = 0; k < n; ++k) {
+      const double m = std::round(y[k] / lsb);
+      if (static_cast<float>(lsb * m) != y[k]) ++off_grid;
+      if (std::abs(static_cast<double>(y[k]) - ref[k]) > 0.5 * lsb + kFloatSlack) ++not_nearest;
+      error[k] = y[k] - ref[k];
+    }
+    EXPECT_EQ(off_grid, 0) << "Q " << q;
+    EXPECT_EQ(not_nearest, 0) << "Q " << q;
+    if (q > 0) continue;
+    // AND without the accumulator, dithered by the noise, the rounding error
+    // is uniform: mean 0, variance lsb^2 / 12. Its mean has an sd of
+    // lsb / sqrt(12 n) = 3.2e-5 (5 sigma: 1.6e-4); its variance a relative
+    // sd of sqrt(0.8 / n) = 0.2 % (5 sigma: 1 %). (After the accumulator the
+    // input already lies on the grid q sqrt(12) / tau0 = 0.0346 deg/s, nearly
+    // commensurate with the LSB (13 : 9), and one grid rounded onto another
+    // is not dithered: its error is not uniform, so it is not checked.)
+    const double kMeanTol = 1.6e-4, kVarianceRelTol = 0.01;
+    std::printf("  rate LSB: rounding error mean %.2e deg/s, var / (lsb^2/12) = %.4f\n",
+                Mean(error), Variance(error) / (lsb * lsb / 12));
+    EXPECT_NEAR(Mean(error), 0.0, kMeanTol);
+    EXPECT_NEAR(Variance(error) / (lsb * lsb / 12), 1.0, kVarianceRelTol);
+  }
+}
+
+TEST(ImuSimulatorTest, SpikesAreSingleSamplesAtTheDeclaredRate) {
+  // GIVEN only spikes: 0.5 per second of +/-2.5 deg/s at 100 Hz (p = 0.005).
+  const double rate = 100, spike_hz = 0.5, amplitude = 2.5;
+  pb::SimTruth truth = OneAxis(rate, 41);
+  truth.mutable_axes(0)->set_spike_rate_hz(spike_hz);
+  truth.mutable_axes(0)->set_spike_amplitude(amplitude);
+  const int n = 1000000;
+  const std::vector<float> y = Simulate(truth, n);
+  int up = 0, down = 0, other = 0;
+  for (float v : y) {
+    if (v == static_cast<float>(amplitude)) {
+      ++up;
+    } else if (v == static_cast<float>(-amplitude)) {
+      ++down;
+    } else if (v != 0) {
+      ++other;
+    }
+  }
+  // THEN each outlier is exactly +/-amplitude on its one sample, their count
+  // is binomial(n, p): mean 5000, sd sqrt(n p (1 - p)) = 70.5, and the signs
+  // split binomially (sd sqrt(count / 4) = 35). 5 sigma each.
+  const double p = spike_hz / rate;
+  const double kCountTol = 5 * std::sqrt(n * p * (1 - p));
+  const int count = up + down;
+  const double kSignTol = 5 * std::sqrt(count / 4.0);
+  std::printf("  spikes: %d (expected %.0f +- %.1f), %d up / %d down\n", count, n * p,
+              std::sqrt(n * p * (1 - p)), up, down);
+  EXPECT_EQ(other, 0);
+  EXPECT_NEAR(count, n * p, kCountTol);
+  EXPECT_NEAR(up - 0.5 * count, 0.0, kSignTol);
+
+  // AND at the limit spike_rate_hz * tau0 = 1 every sample is an outlier.
+  truth.mutable_axes(0)->set_spike_rate_hz(rate);
+  for (float v : Simulate(truth, 1000)) EXPECT_EQ(std::abs(v), static_cast<float>(amplitude));
+}
+
+TEST(ImuSimulatorTest, SinusoidsAppearAtTheirFrequencies) {
+  // GIVEN white noise (sd 0.1 deg/s) and two lines, 0.02 deg/s at 3.7 Hz and
+  // 0.05 deg/s at 24.7 Hz, for one hour at 100 Hz.
+  const double rate = 100;
+  pb::SimTruth truth = OneAxis(rate, 51);
+  truth.mutable_axes(0)->set_random_walk(0.01);
+  const std::pair<double, double> kLines[] = {{0.02, 3.7}, {0.05, 24.7}};
+  for (auto [amplitude, f_hz] : kLines) {
+    pb::Sinusoid* line = truth.mutable_axes(0)->add_sinusoids();
+    line->set_amplitude(amplitude);
+    line->set_frequency_hz(f_hz);
+  }
+  const int n = 360000;
+  const std::vector<float> y = Simulate(truth, n);
+  // THEN a lock-in finds each amplitude at its frequency and nothing off the
+  // lines. The noise puts an sd of 0.1 sqrt(2 / n) = 2.4e-4 deg/s on each
+  // quadrature; 1.2e-3 is 5 sigma.
+  const double kAmplitudeTol = 1.2e-3;
+  for (auto [amplitude, f_hz] : kLines) {
+    const double found = LockInAmplitude(y, f_hz, rate);
+    const double off = LockInAmplitude(y, 0.9 * f_hz, rate);
+    std::printf("  line %.1f Hz: amplitude %.5f (truth %.3f), at 0.9 f: %.5f\n", f_hz, found,
+                amplitude, off);
+    EXPECT_NEAR(found, amplitude, kAmplitudeTol);
+    EXPECT_LT(off, kAmplitudeTol);
+  }
+}
+
+TEST(ImuSimulatorTest, MemsTermsAreSeededAndGenerateInPiecesEqualsAtOnce) {
+  pb::SimTruth truth = OldFieldsTruth();
+  pb::AxisTruth* a = truth.mutable_axes(0);
+  pb::GaussMarkov* gm = a->add_gauss_markov();
+  gm->set_sigma(0.01);
+  gm->set_correlation_time_s(3);
+  a->set_white_bandwidth_hz(20);
+  a->set_rate_lsb(0.01);
+  a->set_spike_rate_hz(1);
+  a->set_spike_amplitude(1);
+  pb::Sinusoid* line = truth.mutable_axes(2)->add_sinusoids();
+  line->set_amplitude(0.1);
+  line->set_frequency_hz(11);
+  const auto whole = SimulateAll(truth, 5000);
+  EXPECT_EQ(whole, SimulateAll(truth, 5000));
+  EXPECT_NE(whole, SimulateAll(OldFieldsTruth(), 5000));
+  auto sim = ImuSimulator::Create(truth);
+  ASSERT_TRUE(sim.ok());
+  std::vector<std::vector<float>> pieces(truth.axes_size());
+  for (int n : {1, 13, 986, 4000}) sim->Generate(n, pieces);
+  EXPECT_EQ(pieces, whole);
+}
+
+TEST(ImuSimulatorTest, RejectsInvalidMemsTermsNamingTheField) {
+  // At 100 Hz: Nyquist 50 Hz, spike_rate_hz at most 100.
+  const struct {
+    const char* field;
+    void (*set)(pb::AxisTruth*);
+  } kCases[] = {
+      {"gauss_markov[0].correlation_time_s",
+       [](pb::AxisTruth* a) { a->add_gauss_markov()->set_sigma(1); }},
+      {"gauss_markov[1].sigma",
+       [](pb::AxisTruth* a) {
+         a->add_gauss_markov()->set_correlation_time_s(1);
+         pb::GaussMarkov* g = a->add_gauss_markov();
+         g->set_sigma(-1);
+         g->set_correlation_time_s(1);
+       }},
+      {"gauss_markov[0].correlation_time_s",
+       [](pb::AxisTruth* a) { a->add_gauss_markov()->set_correlation_time_s(INFINITY); }},
+      {"white_bandwidth_hz", [](pb::AxisTruth* a) { a->set_white_bandwidth_hz(50); }},
+      {"white_bandwidth_hz", [](pb::AxisTruth* a) { a->set_white_bandwidth_hz(NAN); }},
+      {"rate_lsb", [](pb::AxisTruth* a) { a->set_rate_lsb(-0.05); }},
+      {"spike_rate_hz", [](pb::AxisTruth* a) { a->set_spike_rate_hz(100.5); }},
+      {"spike_rate_hz", [](pb::AxisTruth* a) { a->set_spike_rate_hz(-1); }},
+      {"spike_amplitude", [](pb::AxisTruth* a) { a->set_spike_amplitude(INFINITY); }},
+      {"sinusoids[0].amplitude", [](pb::AxisTruth* a) { a->add_sinusoids()->set_amplitude(-1); }},
+      {"sinusoids[0].frequency_hz",
+       [](pb::AxisTruth* a) { a->add_sinusoids()->set_frequency_hz(60); }},
+      {"sinusoids[0].frequency_hz",
+       [](pb::AxisTruth* a) { a->add_sinusoids()->set_frequency_hz(-1); }},
+  };
+  for (const auto& c : kCases) {
+    pb::SimTruth truth = OneAxis(100, 1);
+    c.set(truth.mutable_axes(0));
+    auto sim = ImuSimulator::Create(truth);
+    ASSERT_FALSE(sim.ok()) << c.field;
+    EXPECT_NE(sim.status().message().find(c.field), std::string::npos)
+        << c.field << ": " << sim.status().message();
+  }
+  // The limits themselves are accepted.
+  pb::SimTruth edge = OneAxis(100, 1);
+  edge.mutable_axes(0)->set_spike_rate_hz(100);
+  edge.mutable_axes(0)->set_white_bandwidth_hz(49.9);
+  edge.mutable_axes(0)->add_sinusoids()->set_frequency_hz(49.9);
+  EXPECT_TRUE(ImuSimulator::Create(edge).ok());
+}
+
 TEST(LotProfileTest, UnitsDifferAndPlantedFailuresAreWorse) {
   auto profile = LotProfileByName("vg700");
   ASSERT_TRUE(profile.ok());
@@ -201,6 +537,42 @@ TEST(LotProfileTest, UnitsDifferAndPlantedFailuresAreWorse) {
   // Reproducible from the lot name.
   EXPECT_EQ(MakeUnitTruth(*profile, seed, 1, 100).SerializeAsString(), u1.SerializeAsString());
   EXPECT_FALSE(LotProfileByName("nope").ok());
+}
+
+TEST(LotProfileTest, MemsRealUnitsAreFiniteOnEveryAxisAndOnTheLsbGrid) {
+  const std::vector<std::string> names = LotProfileNames();
+  EXPECT_NE(std::find(names.begin(), names.end(), "mems-real"), names.end());
+  auto profile = LotProfileByName("mems-real");
+  ASSERT_TRUE(profile.ok()) << profile.status().ToString();
+  ASSERT_EQ(profile->axes.size(), 6u);
+  const uint64_t seed = SeedFromName("LOT-REAL");
+  const pb::SimTruth u0 = MakeUnitTruth(*profile, seed, 0, profile->nominal_rate_hz);
+  const pb::SimTruth u1 = MakeUnitTruth(*profile, seed, 1, profile->nominal_rate_hz);
+  // Unit-to-unit spread reaches the new terms; the part's design does not.
+  EXPECT_NE(u0.axes(0).gauss_markov(0).sigma(), u1.axes(0).gauss_markov(0).sigma());
+  EXPECT_NE(u0.axes(0).gauss_markov(0).correlation_time_s(),
+            u1.axes(0).gauss_markov(0).correlation_time_s());
+  EXPECT_NE(u0.axes(0).spike_amplitude(), u1.axes(0).spike_amplitude());
+  EXPECT_NE(u0.axes(2).sinusoids(0).amplitude(), u1.axes(2).sinusoids(0).amplitude());
+  EXPECT_EQ(u0.axes(2).sinusoids(0).frequency_hz(), 24.7);
+  EXPECT_EQ(u0.axes(0).white_bandwidth_hz(), 15);
+  EXPECT_EQ(u0.axes(0).rate_lsb(), 0.05);
+  EXPECT_EQ(u0.axes(3).rate_lsb(), 0.0327);
+  for (int index : {0, 7}) {  // a typical unit and a planted failure
+    const pb::SimTruth truth = MakeUnitTruth(*profile, seed, index, profile->nominal_rate_hz);
+    const auto y = SimulateAll(truth, 60000);  // 10 min
+    ASSERT_EQ(y.size(), 6u);
+    for (int a = 0; a < 6; ++a) {
+      const double lsb = truth.axes(a).rate_lsb();
+      int bad = 0;
+      for (float v : y[a]) {
+        if (!std::isfinite(v) || static_cast<float>(lsb * std::round(v / lsb)) != v) ++bad;
+      }
+      EXPECT_EQ(bad, 0) << truth.profile() << " " << truth.axes(a).axis();
+    }
+    // The z accelerometer sees gravity.
+    EXPECT_NEAR(Mean(y[5]), 9.80665, 1.0);
+  }
 }
 
 }  // namespace
