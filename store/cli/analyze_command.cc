@@ -6,6 +6,8 @@
 
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/estimators.h"
+#include "analyze/allan/gmwm.h"
+#include "analyze/allan/model_quantities.h"
 #include "analyze/allan/noise_model.h"
 #include "analyze/allan/phase.h"
 #include "analyze/allan/tau_grid.h"
@@ -14,6 +16,7 @@
 #include "common/numeric_text.h"
 #include "common/text_util.h"
 #include "store/cli/curve_request.h"
+#include "store/cli/model_plot.h"
 #include "store/cli/svg_plot.h"
 #include "store/cli/table_writer.h"
 
@@ -71,31 +74,82 @@ std::pair<double, std::string> Present(NoiseTerm term, const std::optional<allan
   return {base, kBase[static_cast<int>(term)]};
 }
 
-TableWriter FitTable(const allan::NoiseFit& fit, const Curve& curve,
-                     const std::optional<allan::SensorKind>& kind) {
-  TableWriter t({"term", "fit", "sigma", "slope_line", "unit", "note"}, 5);
-  for (NoiseTerm term : allan::kNoiseTerms) {
-    const allan::TermEstimate& e = fit.term(term);
-    double line_value = allan::kNaN;
-    std::string note;
-    if (term == NoiseTerm::kBiasInstability) {
-      if (auto min = allan::FindCurveMinimum(curve)) line_value = min->bias_instability_ieee;
-      note = "slope_line = curve minimum / 0.664";
-    } else {
-      const allan::SlopeReadoff r = allan::ReadSlopeLine(curve, term);
-      line_value = r.value;
-      if (r.upper_bound_only) note = "slope line: upper bound only (no point on the slope)";
-    }
-    if (!e.active) note = note.empty() ? "not in the fitted model" : note + "; not in the fitted model";
-    const auto [v, unit] = Present(term, kind, e.value);
-    t.AddRow({Cell::Text(std::string(allan::NoiseTermName(term))), Cell::Real(v),
-              Cell::Real(e.active ? Present(term, kind, e.sigma).first : allan::kNaN),
-              Cell::Real(Present(term, kind, line_value).first), Cell::Text(unit), Cell::Text(note)});
+// The slope-line (or curve-minimum) read-off that stands beside a model figure.
+double ReadOff(const std::string& name, const Curve& curve,
+               const std::optional<allan::SensorKind>& kind) {
+  auto present = [&](NoiseTerm term, double base) { return Present(term, kind, base).first; };
+  const std::optional<allan::CurveMinimum> min = allan::FindCurveMinimum(curve);
+  if (name == "angle_random_walk" || name == "velocity_random_walk") {
+    return present(NoiseTerm::kAngleRandomWalk,
+                   allan::ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk).value);
+  }
+  if (name == "rate_random_walk") {
+    return present(NoiseTerm::kRateRandomWalk,
+                   allan::ReadSlopeLine(curve, NoiseTerm::kRateRandomWalk).value);
+  }
+  if (!min) return allan::kNaN;
+  if (name == "bias_instability") return present(NoiseTerm::kBiasInstability, min->dev);
+  if (name == "bias_instability_ieee") {
+    return present(NoiseTerm::kBiasInstability, min->bias_instability_ieee);
+  }
+  if (name == "tau_at_minimum") return min->tau_s;
+  return allan::kNaN;
+}
+
+TableWriter QuantityTable(const allan::CompositeFit& fit, const Curve& curve,
+                          const std::optional<allan::SensorKind>& kind) {
+  TableWriter t({"term", "value", "sigma", "unit", "read_off", "role", "note"}, 5);
+  for (const allan::ModelQuantity& q : allan::DescribeCompositeFit(fit, kind)) {
+    t.AddRow({Cell::Text(q.name), Cell::Real(q.value), Cell::Real(q.sigma), Cell::Text(q.unit),
+              Cell::Real(q.figure ? ReadOff(q.name, curve, kind) : allan::kNaN),
+              Cell::Text(q.figure ? "figure" : "parameter"), Cell::Text(q.note)});
   }
   return t;
 }
 
-std::string PlotCurves(const std::vector<Curve>& curves, const allan::NoiseFit* fit,
+TableWriter CandidateTable(const allan::CompositeFit& fit) {
+  TableWriter t({"model", "parameters", "objective", "aicc", "p_value"}, 5);
+  for (const allan::ModelCandidate& c : fit.candidates) {
+    t.AddRow({Cell::Text(c.name), Cell::Int(c.parameters), Cell::Real(c.objective),
+              Cell::Real(c.criterion), Cell::Real(c.p_value)});
+  }
+  return t;
+}
+
+// The model at every tau of the curve (analysed or not), for comparison
+// point by point with the measured deviation and its interval.
+TableWriter ModelCurveTable(const allan::CompositeFit& fit, const Curve& curve) {
+  TableWriter t({"tau", "dev"}, 6);
+  for (const allan::CurvePoint& p : curve.points) {
+    t.AddRow({Cell::Real(p.tau_s), Cell::Real(fit.ModelDeviation(p.tau_s))});
+  }
+  return t;
+}
+
+std::string FitSummary(const allan::CompositeFit& fit) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "noise model %s (GMWM, %d points, %d parameters): J = %.4g on %d dof, p = %.3g: %s",
+                fit.model.Name().c_str(), fit.points_used, fit.parameters, fit.objective, fit.dof,
+                fit.p_value, fit.adequate ? "adequate" : "INADEQUATE (the model does not fit)");
+  return buf;
+}
+
+std::string FitJson(const allan::CompositeFit& fit, const Curve& curve,
+                    const std::optional<allan::SensorKind>& kind) {
+  char head[512];
+  std::snprintf(head, sizeof head,
+                "{\"model\": \"%s\", \"adequate\": %s, \"p_value\": %.17g, \"objective\": "
+                "%.17g, \"dof\": %d, \"parameters\": %d, \"criterion\": \"AICc\", "
+                "\"criterion_value\": %.17g,\n",
+                fit.model.Name().c_str(), fit.adequate ? "true" : "false", fit.p_value,
+                fit.objective, fit.dof, fit.parameters, fit.criterion);
+  return std::string(head) + "\"terms\": " + QuantityTable(fit, curve, kind).Render(Format::kJson) +
+         ",\n\"curve\": " + ModelCurveTable(fit, curve).Render(Format::kJson) +
+         ",\n\"candidates\": " + CandidateTable(fit).Render(Format::kJson) + "}";
+}
+
+std::string PlotCurves(const std::vector<Curve>& curves, const allan::CompositeFit* fit,
                        const Curve* fit_curve, const std::string& title) {
   LogLogPlot plot;
   plot.title = title;
@@ -117,18 +171,8 @@ std::string PlotCurves(const std::vector<Curve>& curves, const allan::NoiseFit* 
     plot.series.push_back(std::move(s));
   }
   if (fit != nullptr && fit_curve != nullptr && !fit_curve->points.empty()) {
-    PlotSeries model;
-    model.label = "IEEE 952 fit";
-    model.color = "#555555";
-    model.markers = false;
-    model.dashed = true;
-    const double t0 = fit_curve->points.front().tau_s, t1 = fit_curve->points.back().tau_s;
-    for (int i = 0; i <= 100; ++i) {
-      const double tau = t0 * std::pow(t1 / t0, i / 100.0);
-      model.x.push_back(tau);
-      model.y.push_back(fit->ModelDeviation(tau));
-    }
-    plot.series.push_back(std::move(model));
+    AddModelSeries(fit->model, fit->tau0_s, fit_curve->points.front().tau_s,
+                   fit_curve->points.back().tau_s, fit->adequate, &plot);
     if (auto min = allan::FindCurveMinimum(*fit_curve)) {
       char label[64];
       std::snprintf(label, sizeof label, "minimum %.4g at %.4g s", min->dev, min->tau_s);
@@ -158,13 +202,13 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     return 1;
   }
   const double tau0 = 1.0 / o.rate_hz;
-  const allan::PhaseRecord phase = o.type == "rate" ? allan::PhaseFromRate(*values, tau0)
-                                                    : allan::PhaseFromPhase(*values, tau0);
+  const allan::PhaseRecord phase =
+      o.type == "rate" ? allan::PhaseFromRate(*values, tau0) : allan::PhaseFromPhase(*values, tau0);
   const std::vector<Curve> curves = ComputeCurves(phase, p.curves);
 
   // The fit works on an Allan variance curve: the OADEV (or ADEV) asked for,
   // else an octave OADEV computed for it.
-  std::optional<allan::NoiseFit> fit;
+  std::optional<allan::CompositeFit> fit;
   Curve fit_curve;
   if (o.fit) {
     bool found = false;
@@ -175,13 +219,13 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
       }
     }
     if (!found) {
-      const std::vector<int64_t> m = allan::AveragingFactors(allan::TauGridSpec{}, tau0, phase.size(),
-                                                             Deviation::kOadev, p.curves.stop);
+      const std::vector<int64_t> m = allan::AveragingFactors(
+          allan::TauGridSpec{}, tau0, phase.size(), Deviation::kOadev, p.curves.stop);
       fit_curve = allan::ComputeDeviation(phase, Deviation::kOadev, m);
     }
-    allan::FitOptions fo;
+    allan::GmwmOptions fo;
     fo.stop = allan::StopRule::kNone;  // the curve is already cut by --stop
-    auto f = allan::FitNoiseModel(fit_curve, fo);
+    auto f = allan::FitCompositeModel(fit_curve, fo);
     if (!f.ok()) {
       LogError("--fit: " + f.status().message());
       return 1;
@@ -194,23 +238,31 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     std::printf("%s: %zu %s samples at %g Hz, %lld invalid\n", o.path.c_str(), values->size(),
                 o.type.c_str(), o.rate_hz, static_cast<long long>(phase.invalid_count()));
     for (const Curve& c : curves) {
-      std::printf("\n%s (grid %s, stop %s, ci %s)\n", std::string(allan::DeviationName(c.deviation)).c_str(),
-                  o.grid.c_str(), o.stop.c_str(), o.ci.c_str());
-      std::printf("%s", CurveTable({{"", c}}, with_ci, false, false).Render(Format::kTable).c_str());
+      std::printf("\n%s (grid %s, stop %s, ci %s)\n",
+                  std::string(allan::DeviationName(c.deviation)).c_str(), o.grid.c_str(),
+                  o.stop.c_str(), o.ci.c_str());
+      std::printf("%s",
+                  CurveTable({{"", c}}, with_ci, false, false).Render(Format::kTable).c_str());
     }
     if (fit) {
-      std::printf("\nIEEE 952 noise model (weighted NNLS, %d points, %d re-weighted passes)\n",
-                  fit->points_used, fit->irls_passes);
-      std::printf("%s", FitTable(*fit, fit_curve, p.kind).Render(Format::kTable).c_str());
+      std::printf("\n%s\n", FitSummary(*fit).c_str());
+      std::printf("%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kTable).c_str());
+      std::printf("\ncandidates (best first; AICc = J + 2k + 2k(k+1)/(p-k-1))\n%s",
+                  CandidateTable(*fit).Render(Format::kTable).c_str());
     }
   } else if (p.format == Format::kCsv) {
-    std::printf("%s", CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kCsv).c_str());
-    if (fit) std::printf("\n%s", FitTable(*fit, fit_curve, p.kind).Render(Format::kCsv).c_str());
+    std::printf("%s",
+                CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kCsv).c_str());
+    if (fit) {
+      std::printf("\n%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kCsv).c_str());
+      std::printf("\n%s", CandidateTable(*fit).Render(Format::kCsv).c_str());
+    }
   } else {
-    std::string json = "{\"file\": \"" + o.path + "\", \"samples\": " + std::to_string(values->size()) +
+    std::string json = "{\"file\": \"" + o.path +
+                       "\", \"samples\": " + std::to_string(values->size()) +
                        ", \"rate_hz\": " + std::to_string(o.rate_hz) + ",\n\"curves\": " +
                        CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kJson);
-    if (fit) json += ",\n\"fit\": " + FitTable(*fit, fit_curve, p.kind).Render(Format::kJson);
+    if (fit) json += ",\n\"fit\": " + FitJson(*fit, fit_curve, p.kind);
     std::printf("%s}\n", json.c_str());
   }
   if (!o.plot_path.empty()) {

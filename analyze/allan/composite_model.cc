@@ -1,0 +1,176 @@
+#include "analyze/allan/composite_model.h"
+
+#include <array>
+#include <cmath>
+#include <numbers>
+
+namespace imuqual::allan {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kFlickerAvarFactor = 2.0 * std::numbers::ln2 / std::numbers::pi;
+
+// sinh(x) - x for x >= 0, by its series below 1 (no cancellation).
+double SinhMinusX(double x) {
+  if (x >= 1.0) return std::sinh(x) - x;
+  double term = x * x * x / 6.0, sum = 0;
+  for (int n = 3; term > 1e-18 * sum || sum == 0; n += 2) {
+    sum += term;
+    term *= x * x / ((n + 1.0) * (n + 2.0));
+    if (term == 0) break;
+  }
+  return sum;
+}
+
+// G(y) = 2y - 3 + 4 e^-y - e^-2y = sum_{n>=3} (-1)^n (4 - 2^n) y^n / n!, y >= 0.
+double GaussMarkovG(double y) {
+  if (y >= 1.0) return 2.0 * y - 3.0 + 4.0 * std::exp(-y) - std::exp(-2.0 * y);
+  double power = y * y * y / 6.0;  // y^n / n!
+  double two_n = 8.0, sum = 0;
+  for (int n = 3; n < 60; ++n) {
+    const double term = ((n % 2 == 0) ? 1.0 : -1.0) * (4.0 - two_n) * power;
+    sum += term;
+    if (std::fabs(term) <= 1e-18 * std::fabs(sum)) break;
+    power *= y / (n + 1.0);
+    two_n *= 2.0;
+  }
+  return sum;
+}
+
+double GaussMarkovAvar(double sigma, double t_s, double m, double tau0_s) {
+  const double x = tau0_s / t_s;
+  if (x > 30.0) return sigma * sigma / m;  // e^-30: white to double precision
+  const double sh = std::sinh(0.5 * x);
+  const double f = (2.0 * m * SinhMinusX(x) + GaussMarkovG(m * x)) / (4.0 * sh * sh);
+  return sigma * sigma * f / (m * m);
+}
+
+}  // namespace
+
+std::string_view TermKindName(TermKind kind) {
+  switch (kind) {
+    case TermKind::kQuantization:
+      return "quantization";
+    case TermKind::kWhite:
+      return "white";
+    case TermKind::kFlicker:
+      return "flicker";
+    case TermKind::kRandomWalk:
+      return "random_walk";
+    case TermKind::kDrift:
+      return "drift";
+    case TermKind::kGaussMarkov:
+      return "gauss_markov";
+    case TermKind::kSinusoid:
+      return "sinusoid";
+  }
+  return "";
+}
+
+std::string_view TermKindSymbol(TermKind kind) {
+  switch (kind) {
+    case TermKind::kQuantization:
+      return "Q";
+    case TermKind::kWhite:
+      return "N";
+    case TermKind::kFlicker:
+      return "B";
+    case TermKind::kRandomWalk:
+      return "K";
+    case TermKind::kDrift:
+      return "R";
+    case TermKind::kGaussMarkov:
+      return "GM";
+    case TermKind::kSinusoid:
+      return "S";
+  }
+  return "";
+}
+
+double TermAvar(const ModelTerm& t, double m, double tau0_s) {
+  const double tau = m * tau0_s;
+  const double s2 = t.scale * t.scale;
+  switch (t.kind) {
+    case TermKind::kQuantization:
+      return 3.0 * s2 / (tau * tau);
+    case TermKind::kWhite:
+      return s2 / tau;
+    case TermKind::kFlicker:
+      return kFlickerAvarFactor * s2;
+    case TermKind::kRandomWalk:
+      return s2 * tau0_s * (2.0 * m * m + 1.0) / (6.0 * m);
+    case TermKind::kDrift:
+      return 0.5 * s2 * tau * tau;
+    case TermKind::kGaussMarkov:
+      return GaussMarkovAvar(t.scale, t.correlation_time_s, m, tau0_s);
+    case TermKind::kSinusoid: {
+      const double f = t.frequency_hz * tau0_s;
+      const double s = std::sin(kPi * f * m), d = std::sin(kPi * f);
+      return s2 * s * s * s * s / (m * m * d * d);
+    }
+  }
+  return 0;
+}
+
+double TermPsd(const ModelTerm& t, double f, double tau0_s) {
+  const double s2 = t.scale * t.scale;
+  const double sin_pf = std::sin(kPi * f);
+  switch (t.kind) {
+    case TermKind::kQuantization:
+      return s2 / (tau0_s * tau0_s) * 4.0 * sin_pf * sin_pf;
+    case TermKind::kWhite:
+      return s2 / tau0_s;
+    case TermKind::kFlicker:
+      return s2 / (2.0 * kPi * f);
+    case TermKind::kRandomWalk:
+      return s2 * tau0_s / (4.0 * sin_pf * sin_pf);
+    case TermKind::kGaussMarkov: {
+      const double phi = std::exp(-tau0_s / t.correlation_time_s);
+      const double innovation = s2 * (1.0 - phi * phi);
+      return innovation / (1.0 - 2.0 * phi * std::cos(2.0 * kPi * f) + phi * phi);
+    }
+    case TermKind::kDrift:
+    case TermKind::kSinusoid:
+      return 0;
+  }
+  return 0;
+}
+
+double CompositeModel::Avar(double m, double tau0_s) const {
+  double v = 0;
+  for (const ModelTerm& t : terms) v += TermAvar(t, m, tau0_s);
+  return v;
+}
+
+double CompositeModel::Deviation(double m, double tau0_s) const {
+  return std::sqrt(Avar(m, tau0_s));
+}
+
+double CompositeModel::Psd(double f, double tau0_s) const {
+  double s = 0;
+  for (const ModelTerm& t : terms) s += TermPsd(t, f, tau0_s);
+  return s;
+}
+
+int CompositeModel::CountOf(TermKind kind) const {
+  int n = 0;
+  for (const ModelTerm& t : terms) n += t.kind == kind;
+  return n;
+}
+
+std::string CompositeModel::Name() const {
+  static constexpr std::array<TermKind, 7> kOrder = {
+      TermKind::kQuantization, TermKind::kWhite,       TermKind::kFlicker, TermKind::kRandomWalk,
+      TermKind::kDrift,        TermKind::kGaussMarkov, TermKind::kSinusoid};
+  std::string name;
+  for (TermKind kind : kOrder) {
+    const int n = CountOf(kind);
+    if (n == 0) continue;
+    if (!name.empty()) name += "+";
+    if (n > 1) name += std::to_string(n);
+    name += TermKindSymbol(kind);
+  }
+  return name.empty() ? "none" : name;
+}
+
+}  // namespace imuqual::allan

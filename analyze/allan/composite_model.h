@@ -1,0 +1,87 @@
+// Composite stochastic model of a sensor's rate output and its exact
+// discrete-time Allan variance (ALGORITHMS.md §3b).
+//
+// The rate samples y_k (interval tau0) are a sum of independent terms. For a
+// stationary term with autocovariance gamma_k, AVAR of two adjacent blocks A,
+// B of m samples is Var(ybar_A) - Cov(ybar_A, ybar_B) with
+//   Var(ybar_A)          = (1/m^2) [m gamma_0 + 2 sum_{k=1}^{m-1} (m-k) gamma_k],
+//   Cov(ybar_A, ybar_B)  = (1/m^2) sum_{k=1}^{2m-1} min(k, 2m-k) gamma_k.
+// Closed forms per term, tau = m tau0 (m may be fractional only for drawing):
+//   white        N [u sqrt(s)]   N^2 / tau                      (variance N^2/tau0 per sample)
+//   quantization Q [u s]         3 Q^2 / tau^2                  (white phase noise, variance Q^2)
+//   flicker      B [u]           (2 ln2/pi) B^2                 (IEEE 952 floor; no exact
+//                                                                discrete closed form exists)
+//   random walk  K [u/sqrt(s)]   K^2 tau0 (2 m^2 + 1) / (6 m)   (increment variance K^2 tau0)
+//   drift        R [u/s]         R^2 tau^2 / 2
+//   Gauss-Markov sigma [u], T [s]: AR(1) y_k = phi y_{k-1} + e_k, phi = exp(-x),
+//                x = tau0/T, gamma_k = sigma^2 phi^k. The geometric sums give
+//                  AVAR = sigma^2 F / m^2,
+//                  F = [2 m (sinh x - x) + G(m x)] / (4 sinh^2(x/2)),
+//                  G(y) = 2y - 3 + 4 e^-y - e^-2y,
+//                a form with no cancellation (series for small arguments);
+//                its limits are sigma^2/m (T << tau0: white) and
+//                (2 sigma^2/T) tau/3 (T >> tau: a random walk).
+//   sinusoid     A [u], f [Hz]   A^2 sin^4(pi f' m) / (m^2 sin^2(pi f')), f' = f tau0
+//                                (random phase; f' = 1/4 gives AVAR(1) = AVAR(2) = A^2/2,
+//                                 AVAR(4) = 0).
+// u is the rate unit (deg/s or m/s^2). All functions are pure and thread-safe.
+#ifndef IMUQUAL_ANALYZE_ALLAN_COMPOSITE_MODEL_H_
+#define IMUQUAL_ANALYZE_ALLAN_COMPOSITE_MODEL_H_
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "analyze/allan/curve.h"
+
+namespace imuqual::allan {
+
+enum class TermKind {
+  kQuantization,  // Q
+  kWhite,         // N: angle / velocity random walk
+  kFlicker,       // B: flicker floor (bias instability)
+  kRandomWalk,    // K: rate random walk
+  kDrift,         // R: rate ramp
+  kGaussMarkov,   // first-order Gauss-Markov (sigma, T)
+  kSinusoid,      // spectral line (amplitude, frequency)
+};
+
+// "quantization", "white", "flicker", "random_walk", "drift", "gauss_markov",
+// "sinusoid"; and the short symbols "Q", "N", "B", "K", "R", "GM", "S".
+std::string_view TermKindName(TermKind kind);
+std::string_view TermKindSymbol(TermKind kind);
+
+struct ModelTerm {
+  TermKind kind = TermKind::kWhite;
+  // Q [u s], N [u sqrt(s)], B [u], K [u/sqrt(s)], R [u/s], Gauss-Markov
+  // stationary sigma [u], sinusoid amplitude [u]. Non-negative.
+  double scale = 0;
+  double correlation_time_s = 0;  // Gauss-Markov only, > 0
+  double frequency_hz = 0;        // sinusoid only, in (0, Nyquist]
+};
+
+// AVAR of one term at averaging factor m >= 1 (fractional m allowed: the
+// same closed form, used to draw the model between grid points).
+double TermAvar(const ModelTerm& term, double m, double tau0_s);
+
+// Two-sided power spectral density of a term's rate samples at frequency f in
+// cycles per sample (0 < f <= 1/2), in u^2 per (cycle/sample), so that the
+// sample variance is the integral over [-1/2, 1/2]. Drift and sinusoids are
+// deterministic here and return 0. Used for the covariance of AVAR estimates.
+double TermPsd(const ModelTerm& term, double f_cycles, double tau0_s);
+
+struct CompositeModel {
+  std::vector<ModelTerm> terms;
+
+  double Avar(double m, double tau0_s) const;
+  double Deviation(double m, double tau0_s) const;
+  double Psd(double f_cycles, double tau0_s) const;
+  // Compact name in a fixed term order, e.g. "N+B+K+2GM+S".
+  std::string Name() const;
+  int CountOf(TermKind kind) const;
+};
+
+}  // namespace imuqual::allan
+
+#endif  // IMUQUAL_ANALYZE_ALLAN_COMPOSITE_MODEL_H_

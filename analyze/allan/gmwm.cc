@@ -1,0 +1,704 @@
+#include "analyze/allan/gmwm.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <array>
+#include <boost/math/special_functions/digamma.hpp>
+#include <boost/math/special_functions/trigamma.hpp>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <optional>
+#include <unsupported/Eigen/NonLinearOptimization>
+#include <unsupported/Eigen/NumericalDiff>
+
+#include "analyze/allan/confidence.h"
+#include "analyze/allan/noise_model.h"
+#include "analyze/allan/tau_grid.h"
+
+namespace imuqual::allan {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr std::array<TermKind, 5> kIeeeKinds = {TermKind::kQuantization, TermKind::kWhite,
+                                                TermKind::kFlicker, TermKind::kRandomWalk,
+                                                TermKind::kDrift};
+// Starting correlation times per octave span and starting line frequencies
+// (cycles per sample) of the forward search.
+constexpr int kGaussMarkovStarts = 7;
+constexpr std::array<double, 6> kSinusoidStarts = {0.04, 0.1, 0.17, 0.245, 0.33, 0.42};
+// Candidates of pass 1 re-estimated under the full covariance.
+constexpr int kPass2Candidates = 8;
+// Bounds on a Gauss-Markov correlation time, relative to tau0 and to the
+// record: beyond them the term is white noise or a random walk to the data.
+constexpr double kMinCorrelationTimeFactor = 0.1;
+constexpr double kMaxCorrelationTimeFactor = 100.0;
+
+struct Row {
+  int64_t m = 0;
+  double tau_s = 0;
+  double avar = 0;
+  int64_t n_eff = 0;          // phase points spanned by the valid terms
+  int64_t stride = 1;         // samples between consecutive terms
+  double data_edf = kNaN;     // the curve's own edf (noise identification), if any
+  double local_slope = kNaN;  // d ln AVAR / d ln tau of the measured curve
+};
+
+// alpha from an AVAR slope mu = -alpha - 1, clamped to [-2, 1] (a slope cannot
+// tell white from flicker phase noise; alpha = 1 is the conservative one).
+int AlphaFromAvarSlope(double mu) {
+  if (!std::isfinite(mu)) return 0;
+  return static_cast<int>(std::clamp(std::lround(-mu - 1.0), -2L, 1L));
+}
+
+// Greenhall edf of an AVAR point (d = 2, F = m, S = m/stride), or the
+// non-overlapped cluster count - 1 where Greenhall is undefined.
+double PointEdf(int alpha, const Row& row) {
+  const double md = static_cast<double>(row.m);
+  const std::optional<double> nu =
+      GreenhallEdf(alpha, 2, row.m, row.n_eff, md, md / static_cast<double>(row.stride));
+  if (nu.has_value() && std::isfinite(*nu) && *nu > 0) return *nu;
+  return std::max<double>(1.0, static_cast<double>((row.n_eff - 1) / row.m - 1));
+}
+
+std::vector<Row> UsableRows(const Curve& curve, const GmwmOptions& options) {
+  const bool overlapped = curve.deviation == Deviation::kOadev;
+  const int64_t m_max =
+      options.stop == StopRule::kNone
+          ? std::numeric_limits<int64_t>::max()
+          : StopRuleMaxAveragingFactor(options.stop, curve.deviation, curve.n_phase);
+  std::vector<CurvePoint> usable;
+  for (const CurvePoint& p : curve.points) {
+    if (p.m >= 1 && p.m <= m_max && p.n > 1 && std::isfinite(p.dev) && p.dev > 0 &&
+        std::isfinite(p.tau_s) && p.tau_s > 0) {
+      usable.push_back(p);
+    }
+  }
+  std::sort(usable.begin(), usable.end(),
+            [](const CurvePoint& a, const CurvePoint& b) { return a.m < b.m; });
+  std::vector<Row> rows;
+  for (const CurvePoint& p : usable) {
+    if (!rows.empty() && p.m == rows.back().m) continue;
+    if (options.thin_to_octaves && !rows.empty() && p.m < 2 * rows.back().m) continue;
+    Row row;
+    row.m = p.m;
+    row.tau_s = p.tau_s;
+    row.avar = p.dev * p.dev;
+    row.stride = p.stride > 0 ? p.stride : (overlapped ? 1 : p.m);
+    row.n_eff = std::min(curve.n_phase, (p.n - 1) * row.stride + 2 * p.m + 1);
+    if (p.alpha.has_value() && std::isfinite(p.edf) && p.edf > 0) row.data_edf = p.edf;
+    rows.push_back(row);
+  }
+  for (size_t i = 0; i < rows.size() && rows.size() > 1; ++i) {
+    const size_t a = i == 0 ? 0 : i - 1, b = i + 1 == rows.size() ? i : i + 1;
+    rows[i].local_slope =
+        std::log(rows[b].avar / rows[a].avar) / std::log(rows[b].tau_s / rows[a].tau_s);
+  }
+  return rows;
+}
+
+// The moments, their covariance and the bounds of one estimation pass.
+struct Problem {
+  double tau0_s = 0;
+  std::vector<double> m;  // averaging factors
+  Eigen::VectorXd y;      // ln avar_j - b_j
+  Eigen::VectorXd edf;
+  Eigen::MatrixXd sigma;     // Var(ln avar_hat)
+  Eigen::MatrixXd whitener;  // L^-1, Sigma = L L'
+  double ln_t_min = 0, ln_t_max = 0;
+
+  int points() const { return static_cast<int>(m.size()); }
+};
+
+Problem MakeProblem(const std::vector<Row>& rows, double tau0_s, int64_t n_phase,
+                    const Eigen::VectorXd& edf, const Eigen::MatrixXd& correlation) {
+  Problem p;
+  p.tau0_s = tau0_s;
+  const int n = static_cast<int>(rows.size());
+  p.y.resize(n);
+  p.edf = edf;
+  p.sigma.resize(n, n);
+  Eigen::VectorXd sd(n);
+  for (int j = 0; j < n; ++j) {
+    p.m.push_back(static_cast<double>(rows[j].m));
+    const double half = edf(j) / 2.0;
+    // ln(chi2_nu / nu) has mean psi(nu/2) - ln(nu/2) and variance psi'(nu/2).
+    p.y(j) = std::log(rows[j].avar) - (boost::math::digamma(half) - std::log(half));
+    sd(j) = std::sqrt(boost::math::trigamma(half));
+  }
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b < n; ++b) p.sigma(a, b) = correlation(a, b) * sd(a) * sd(b);
+  }
+  Eigen::LLT<Eigen::MatrixXd> llt(p.sigma);
+  if (llt.info() != Eigen::Success) {
+    // Numerically indefinite correlations: fall back to the diagonal.
+    p.sigma = sd.array().square().matrix().asDiagonal();
+    llt.compute(p.sigma);
+  }
+  const Eigen::MatrixXd l = llt.matrixL();
+  p.whitener = l.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(n, n));
+  p.ln_t_min = std::log(kMinCorrelationTimeFactor * tau0_s);
+  p.ln_t_max = std::log(kMaxCorrelationTimeFactor * static_cast<double>(n_phase) * tau0_s);
+  return p;
+}
+
+int ParameterCount(TermKind kind) {
+  return kind == TermKind::kGaussMarkov || kind == TermKind::kSinusoid ? 2 : 1;
+}
+
+int ParameterCount(const std::vector<TermKind>& kinds) {
+  int k = 0;
+  for (TermKind kind : kinds) k += ParameterCount(kind);
+  return k;
+}
+
+double Sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
+
+CompositeModel ToModel(const std::vector<TermKind>& kinds, const Eigen::VectorXd& theta,
+                       const Problem& p) {
+  CompositeModel model;
+  int i = 0;
+  for (TermKind kind : kinds) {
+    ModelTerm t;
+    t.kind = kind;
+    t.scale = std::exp(theta(i++));
+    if (kind == TermKind::kGaussMarkov) {
+      t.correlation_time_s = std::exp(std::clamp(theta(i++), p.ln_t_min, p.ln_t_max));
+    } else if (kind == TermKind::kSinusoid) {
+      t.frequency_hz = 0.5 / p.tau0_s * Sigmoid(theta(i++));
+    }
+    model.terms.push_back(t);
+  }
+  return model;
+}
+
+Eigen::VectorXd LogModel(const CompositeModel& model, const Problem& p) {
+  Eigen::VectorXd v(p.points());
+  for (int j = 0; j < p.points(); ++j) {
+    v(j) = std::log(std::max(model.Avar(p.m[j], p.tau0_s), 1e-300));
+  }
+  return v;
+}
+
+struct ResidualFunctor {
+  using Scalar = double;
+  enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
+  using InputType = Eigen::VectorXd;
+  using ValueType = Eigen::VectorXd;
+  using JacobianType = Eigen::MatrixXd;
+
+  const Problem* problem;
+  const std::vector<TermKind>* kinds;
+  int n_in;
+
+  int inputs() const { return n_in; }
+  int values() const { return problem->points(); }
+  int operator()(const Eigen::VectorXd& theta, Eigen::VectorXd& r) const {
+    r = problem->whitener * (problem->y - LogModel(ToModel(*kinds, theta, *problem), *problem));
+    return 0;
+  }
+};
+
+struct Candidate {
+  std::vector<TermKind> kinds;
+  Eigen::VectorXd theta;
+  double objective = std::numeric_limits<double>::infinity();
+  double criterion = std::numeric_limits<double>::infinity();
+};
+
+double Aicc(double objective, int k, int points) {
+  const int denom = points - k - 1;
+  if (denom <= 0) return std::numeric_limits<double>::infinity();
+  return objective + 2.0 * k + 2.0 * k * (k + 1.0) / denom;
+}
+
+Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, const Problem& p) {
+  Candidate c;
+  c.kinds = kinds;
+  const int k = ParameterCount(kinds);
+  if (k + 2 > p.points()) return c;
+  ResidualFunctor f{&p, &kinds, k};
+  Eigen::NumericalDiff<ResidualFunctor> diff(f);
+  Eigen::LevenbergMarquardt<Eigen::NumericalDiff<ResidualFunctor>> lm(diff);
+  lm.parameters.maxfev = 400 * (k + 1);
+  lm.parameters.xtol = 1e-9;
+  lm.parameters.ftol = 1e-12;
+  lm.minimize(theta);
+  Eigen::VectorXd r;
+  f(theta, r);
+  if (!r.allFinite()) return c;
+  c.theta = theta;
+  c.objective = r.squaredNorm();
+  c.criterion = Aicc(c.objective, k, p.points());
+  return c;
+}
+
+std::string NameOf(const std::vector<TermKind>& kinds, const Eigen::VectorXd& theta,
+                   const Problem& p) {
+  return ToModel(kinds, theta, p).Name();
+}
+
+// Starting value of a new term's parameters from the measured curve's
+// tangent bounds (ALGORITHMS.md §3), a fraction below them.
+std::vector<double> StartParameters(TermKind kind, double start, const std::vector<Row>& rows,
+                                    double tau0_s) {
+  double bound = std::numeric_limits<double>::infinity();
+  for (const Row& r : rows) {
+    const double t = r.tau_s, v = r.avar;
+    switch (kind) {
+      case TermKind::kQuantization:
+        bound = std::min(bound, std::sqrt(v * t * t / 3.0));
+        break;
+      case TermKind::kWhite:
+        bound = std::min(bound, std::sqrt(v * t));
+        break;
+      case TermKind::kFlicker:
+        bound = std::min(bound, std::sqrt(v) / kBiasInstabilityFactor);
+        break;
+      case TermKind::kRandomWalk:
+        bound = std::min(bound, std::sqrt(3.0 * v / t));
+        break;
+      case TermKind::kDrift:
+        bound = std::min(bound, std::sqrt(2.0 * v) / t);
+        break;
+      case TermKind::kGaussMarkov:
+      case TermKind::kSinusoid:
+        break;
+    }
+  }
+  if (kind == TermKind::kGaussMarkov) {
+    // sigma from the measured deviation near tau = 2T, where a GM bump peaks.
+    const Row* nearest = &rows.front();
+    for (const Row& r : rows) {
+      if (std::fabs(std::log(r.tau_s / (2 * start))) <
+          std::fabs(std::log(nearest->tau_s / (2 * start)))) {
+        nearest = &r;
+      }
+    }
+    return {std::log(std::sqrt(nearest->avar)), std::log(start)};
+  }
+  if (kind == TermKind::kSinusoid) {
+    const double f = std::clamp(start * 2.0, 1e-6, 1 - 1e-6);  // of Nyquist
+    (void)tau0_s;
+    return {std::log(0.3 * std::sqrt(2.0 * rows.front().avar)), std::log(f / (1 - f))};
+  }
+  return {std::log(0.5 * bound)};
+}
+
+Eigen::VectorXd Append(const Eigen::VectorXd& theta, const std::vector<double>& extra) {
+  Eigen::VectorXd out(theta.size() + static_cast<int>(extra.size()));
+  out << theta, Eigen::Map<const Eigen::VectorXd>(extra.data(), extra.size());
+  return out;
+}
+
+// theta without the parameters of term i.
+Eigen::VectorXd Without(const std::vector<TermKind>& kinds, const Eigen::VectorXd& theta, int i) {
+  int offset = 0;
+  for (int t = 0; t < i; ++t) offset += ParameterCount(kinds[t]);
+  const int width = ParameterCount(kinds[i]);
+  Eigen::VectorXd out(theta.size() - width);
+  out << theta.head(offset), theta.tail(theta.size() - offset - width);
+  return out;
+}
+
+// The candidate search of one pass; every estimated model lands in *seen
+// (best objective per model name).
+Candidate Search(const Problem& p, const std::vector<Row>& rows, const GmwmOptions& options,
+                 std::map<std::string, Candidate>* seen) {
+  auto record = [&](const Candidate& c) {
+    if (!std::isfinite(c.criterion)) return;
+    const std::string name = NameOf(c.kinds, c.theta, p);
+    auto it = seen->find(name);
+    if (it == seen->end() || c.objective < it->second.objective) (*seen)[name] = c;
+  };
+  Candidate current;
+  // 1. Every non-empty subset of the IEEE 952 terms.
+  for (unsigned mask = 1; mask < (1u << kIeeeKinds.size()); ++mask) {
+    std::vector<TermKind> kinds;
+    Eigen::VectorXd theta(0);
+    for (size_t t = 0; t < kIeeeKinds.size(); ++t) {
+      if (!(mask & (1u << t))) continue;
+      kinds.push_back(kIeeeKinds[t]);
+      theta = Append(theta, StartParameters(kIeeeKinds[t], 0, rows, p.tau0_s));
+    }
+    const Candidate c = Estimate(kinds, theta, p);
+    record(c);
+    if (c.criterion < current.criterion) current = c;
+  }
+  if (!std::isfinite(current.criterion)) return current;
+  // 2. Forward-backward.
+  const double tau_lo = rows.front().tau_s / 2, tau_hi = rows.back().tau_s * 2;
+  for (int step = 0; step < 16; ++step) {
+    Candidate best_move;
+    auto propose = [&](TermKind kind, double start) {
+      std::vector<TermKind> kinds = current.kinds;
+      kinds.push_back(kind);
+      const Candidate c =
+          Estimate(kinds, Append(current.theta, StartParameters(kind, start, rows, p.tau0_s)), p);
+      record(c);
+      if (c.criterion < best_move.criterion) best_move = c;
+    };
+    for (TermKind kind : kIeeeKinds) {
+      if (std::find(current.kinds.begin(), current.kinds.end(), kind) == current.kinds.end()) {
+        propose(kind, 0);
+      }
+    }
+    const CompositeModel model = ToModel(current.kinds, current.theta, p);
+    if (model.CountOf(TermKind::kGaussMarkov) < options.max_gauss_markov) {
+      for (int i = 0; i < kGaussMarkovStarts; ++i) {
+        propose(TermKind::kGaussMarkov,
+                tau_lo * std::pow(tau_hi / tau_lo, (i + 0.5) / kGaussMarkovStarts));
+      }
+    }
+    if (model.CountOf(TermKind::kSinusoid) < options.max_sinusoids) {
+      for (double f : kSinusoidStarts) propose(TermKind::kSinusoid, f);
+    }
+    if (!(best_move.criterion < current.criterion - 1e-9)) break;
+    current = best_move;
+    // Backward: drop any term whose removal improves the criterion.
+    for (bool improved = true; improved && current.kinds.size() > 1;) {
+      improved = false;
+      for (size_t i = 0; i < current.kinds.size(); ++i) {
+        std::vector<TermKind> kinds = current.kinds;
+        kinds.erase(kinds.begin() + static_cast<long>(i));
+        const Candidate c =
+            Estimate(kinds, Without(current.kinds, current.theta, static_cast<int>(i)), p);
+        record(c);
+        if (c.criterion < current.criterion - 1e-9) {
+          current = c;
+          improved = true;
+          break;
+        }
+      }
+    }
+  }
+  return current;
+}
+
+// d ln AVAR / d ln m of the model at m.
+double ModelAvarSlope(const CompositeModel& model, double m, double tau0_s) {
+  constexpr double kStep = 1.1;
+  return std::log(model.Avar(m * kStep, tau0_s) / model.Avar(m / kStep, tau0_s)) /
+         (2.0 * std::log(kStep));
+}
+
+// Mean over theta of sin^4(theta) sin^4(r theta).
+double MeanFastFactor(double r) {
+  constexpr int kPeriods = 64, kPerPeriod = 64;
+  double sum = 0;
+  const int n = kPeriods * kPerPeriod;
+  for (int i = 0; i < n; ++i) {
+    const double th = kPi * (i + 0.5) / kPerPeriod;
+    const double a = std::sin(th), b = std::sin(r * th);
+    sum += a * a * a * a * b * b * b * b;
+  }
+  return sum / n;
+}
+
+// int_lo^hi g(f) df by the midpoint rule with at least `n` intervals.
+template <typename F>
+double Midpoint(F g, double lo, double hi, double step) {
+  if (!(hi > lo)) return 0;
+  const int n = std::max(1, static_cast<int>(std::ceil((hi - lo) / step)));
+  const double h = (hi - lo) / n;
+  double sum = 0;
+  for (int i = 0; i < n; ++i) sum += g(lo + (i + 0.5) * h);
+  return sum * h;
+}
+
+// int_lo^hi g(f) df on a logarithmic grid (g smooth in ln f).
+template <typename F>
+double LogMidpoint(F g, double lo, double hi, int per_octave) {
+  if (!(hi > lo)) return 0;
+  const int n = std::max(1, static_cast<int>(std::ceil(per_octave * std::log2(hi / lo))));
+  const double step = std::log(hi / lo) / n;
+  double sum = 0;
+  for (int i = 0; i < n; ++i) {
+    const double f = lo * std::exp((i + 0.5) * step);
+    sum += g(f) * f;
+  }
+  return sum * step;
+}
+
+// I_ab = int_0^1/2 S(f)^2 H_a(f) H_b(f) df, m_a <= m_b. H_m = sin^4(pi f m) W_m,
+// W_m = 1/(m^2 sin^2(pi f)). Where a sin^4 factor oscillates much faster than
+// the rest of the integrand it is replaced by its mean (3/8, or the joint mean
+// of both factors), which keeps every pair to a few thousand evaluations.
+double SpectralOverlap(const CompositeModel& model, double tau0_s, double ma, double mb) {
+  constexpr double kFine = 16;    // samples per period of the fastest factor
+  constexpr double kCycles = 32;  // periods before a factor counts as fast
+  auto s2w = [&](double f) {
+    const double s = model.Psd(f, tau0_s), d = std::sin(kPi * f);
+    return s * s / (ma * ma * mb * mb * d * d * d * d);
+  };
+  auto sin4 = [](double x) {
+    const double s = std::sin(x);
+    return s * s * s * s;
+  };
+  const double f1 = std::min(0.5, kCycles / mb);
+  const double f2 = std::min(0.5, kCycles / ma);
+  double total =
+      Midpoint([&](double f) { return s2w(f) * sin4(kPi * f * ma) * sin4(kPi * f * mb); }, 0, f1,
+               1 / (kFine * mb));
+  const double r = mb / ma;
+  if (r >= 8) {
+    total += Midpoint([&](double f) { return s2w(f) * sin4(kPi * f * ma) * 0.375; }, f1, f2,
+                      1 / (kFine * ma));
+  } else {
+    total += Midpoint([&](double f) { return s2w(f) * sin4(kPi * f * ma) * sin4(kPi * f * mb); },
+                      f1, f2, 1 / (kFine * mb));
+  }
+  const double mean = r >= 8 ? 0.375 * 0.375 : MeanFastFactor(r);
+  total += LogMidpoint([&](double f) { return s2w(f) * mean; }, f2, 0.5, 16);
+  return total;
+}
+
+// Value of each datasheet figure for a parameter vector.
+struct Figures {
+  double white_asymptote = kNaN;
+  double curve_minimum = kNaN;
+  double tau_at_minimum = kNaN;
+  double rate_random_walk = 0;
+  bool has_white_region = false;
+  bool minimum_at_edge = false;
+};
+
+Figures ComputeFigures(const CompositeModel& model, double tau0_s, double tau_lo, double tau_hi,
+                       const GmwmOptions& options) {
+  Figures f;
+  double white2 = 0;
+  for (const ModelTerm& t : model.terms) {
+    if (t.kind == TermKind::kWhite) white2 += t.scale * t.scale;
+    if (t.kind == TermKind::kRandomWalk) f.rate_random_walk = t.scale;
+    if (t.kind == TermKind::kGaussMarkov &&
+        t.correlation_time_s < options.fast_gauss_markov_fraction * 1.0) {
+      const double phi = std::exp(-tau0_s / t.correlation_time_s);
+      white2 += t.scale * t.scale * tau0_s * (1 + phi) / (1 - phi);
+    }
+  }
+  f.white_asymptote = std::sqrt(white2);
+  // Minimum of the model deviation: a log grid, then golden-section refinement.
+  constexpr int kGrid = 240;
+  auto dev = [&](double ln_tau) { return model.Deviation(std::exp(ln_tau) / tau0_s, tau0_s); };
+  const double a = std::log(tau_lo), b = std::log(tau_hi);
+  int best = 0;
+  double best_dev = std::numeric_limits<double>::infinity(), prev = kNaN;
+  for (int i = 0; i <= kGrid; ++i) {
+    const double x = a + (b - a) * i / kGrid;
+    const double d = dev(x);
+    if (d < best_dev) {
+      best_dev = d;
+      best = i;
+    }
+    if (i > 0) {
+      const double slope = std::log(d / prev) / ((b - a) / kGrid);
+      if (std::fabs(slope + 0.5) <= 0.1) f.has_white_region = true;
+    }
+    prev = d;
+  }
+  double lo = a + (b - a) * std::max(0, best - 1) / kGrid;
+  double hi = a + (b - a) * std::min(kGrid, best + 1) / kGrid;
+  const double g = (std::sqrt(5.0) - 1) / 2;
+  for (int it = 0; it < 60; ++it) {
+    const double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+    if (dev(x1) < dev(x2)) {
+      hi = x2;
+    } else {
+      lo = x1;
+    }
+  }
+  const double x = 0.5 * (lo + hi);
+  f.curve_minimum = dev(x);
+  f.tau_at_minimum = std::exp(x);
+  f.minimum_at_edge = best == 0 || best == kGrid;
+  return f;
+}
+
+}  // namespace
+
+Status GmwmOptions::Validate() const {
+  if (max_gauss_markov < 0 || max_gauss_markov > 3) {
+    return Status::InvalidArgument("max_gauss_markov must be in [0, 3], got " +
+                                   std::to_string(max_gauss_markov));
+  }
+  if (max_sinusoids < 0 || max_sinusoids > 2) {
+    return Status::InvalidArgument("max_sinusoids must be in [0, 2], got " +
+                                   std::to_string(max_sinusoids));
+  }
+  if (!(adequacy_level > 0 && adequacy_level < 1)) {
+    return Status::InvalidArgument("adequacy_level must be in (0, 1)");
+  }
+  if (!(fast_gauss_markov_fraction >= 0 && fast_gauss_markov_fraction <= 1)) {
+    return Status::InvalidArgument("fast_gauss_markov_fraction must be in [0, 1]");
+  }
+  return Status::Ok();
+}
+
+double AvarCorrelation(const CompositeModel& model, double tau0_s, int64_t m_a, int64_t m_b) {
+  if (m_a == m_b) return 1.0;
+  const double ma = static_cast<double>(std::min(m_a, m_b));
+  const double mb = static_cast<double>(std::max(m_a, m_b));
+  const double ab = SpectralOverlap(model, tau0_s, ma, mb);
+  const double aa = SpectralOverlap(model, tau0_s, ma, ma);
+  const double bb = SpectralOverlap(model, tau0_s, mb, mb);
+  if (!(aa > 0 && bb > 0) || !std::isfinite(ab)) return 0.0;
+  return std::clamp(ab / std::sqrt(aa * bb), -1.0, 1.0);
+}
+
+Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& options) {
+  IMUQUAL_RETURN_IF_ERROR(options.Validate());
+  if (curve.deviation != Deviation::kOadev && curve.deviation != Deviation::kAdev) {
+    return Status::InvalidArgument("noise model fit needs an ADEV or OADEV curve, got " +
+                                   std::string(DeviationName(curve.deviation)));
+  }
+  const std::vector<Row> rows = UsableRows(curve, options);
+  const int n = static_cast<int>(rows.size());
+  if (n < 4) {
+    return Status::InvalidArgument("noise model fit needs at least 4 usable curve points, got " +
+                                   std::to_string(n));
+  }
+  const double tau0 = curve.tau0_s;
+
+  // Pass 1: diagonal covariance from the data's own noise identification.
+  Eigen::VectorXd edf1(n);
+  for (int j = 0; j < n; ++j) {
+    edf1(j) = std::isfinite(rows[j].data_edf)
+                  ? rows[j].data_edf
+                  : PointEdf(AlphaFromAvarSlope(rows[j].local_slope), rows[j]);
+  }
+  const Problem p1 = MakeProblem(rows, tau0, curve.n_phase, edf1, Eigen::MatrixXd::Identity(n, n));
+  std::map<std::string, Candidate> seen1;
+  const Candidate pilot = Search(p1, rows, options, &seen1);
+  if (!std::isfinite(pilot.criterion)) {
+    return Status::InvalidArgument("noise model fit: no candidate model could be estimated");
+  }
+
+  // Pass 2: the covariance of the pilot, full.
+  const CompositeModel pilot_model = ToModel(pilot.kinds, pilot.theta, p1);
+  Eigen::VectorXd edf2(n);
+  Eigen::MatrixXd corr = Eigen::MatrixXd::Identity(n, n);
+  for (int j = 0; j < n; ++j) {
+    edf2(j) = PointEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_model, p1.m[j], tau0)), rows[j]);
+    for (int k = j + 1; k < n; ++k) {
+      corr(j, k) = corr(k, j) = AvarCorrelation(pilot_model, tau0, rows[j].m, rows[k].m);
+    }
+  }
+  const Problem p2 = MakeProblem(rows, tau0, curve.n_phase, edf2, corr);
+  std::vector<Candidate> pass1(seen1.size());
+  std::transform(seen1.begin(), seen1.end(), pass1.begin(),
+                 [](const auto& kv) { return kv.second; });
+  std::sort(pass1.begin(), pass1.end(),
+            [](const Candidate& a, const Candidate& b) { return a.criterion < b.criterion; });
+  std::vector<Candidate> pass2;
+  for (size_t i = 0; i < pass1.size() && static_cast<int>(i) < kPass2Candidates; ++i) {
+    const Candidate c = Estimate(pass1[i].kinds, pass1[i].theta, p2);
+    if (std::isfinite(c.criterion)) pass2.push_back(c);
+  }
+  if (pass2.empty()) {
+    return Status::InvalidArgument("noise model fit: no candidate survived the full covariance");
+  }
+  std::sort(pass2.begin(), pass2.end(),
+            [](const Candidate& a, const Candidate& b) { return a.criterion < b.criterion; });
+  const Candidate& best = pass2.front();
+
+  CompositeFit fit;
+  fit.tau0_s = tau0;
+  fit.model = ToModel(best.kinds, best.theta, p2);
+  fit.points_used = n;
+  fit.parameters = ParameterCount(best.kinds);
+  fit.objective = best.objective;
+  fit.dof = n - fit.parameters;
+  fit.p_value = 1.0 - RegularizedGammaP(fit.dof / 2.0, fit.objective / 2.0);
+  fit.adequate = fit.p_value >= options.adequacy_level;
+  fit.criterion = best.criterion;
+  for (const Candidate& c : pass2) {
+    ModelCandidate mc;
+    mc.name = NameOf(c.kinds, c.theta, p2);
+    mc.parameters = ParameterCount(c.kinds);
+    mc.objective = c.objective;
+    mc.criterion = c.criterion;
+    mc.p_value = 1.0 - RegularizedGammaP((n - mc.parameters) / 2.0, c.objective / 2.0);
+    fit.candidates.push_back(mc);
+  }
+
+  // Covariance of theta: (G' Sigma^-1 G)^-1, G by central differences.
+  const int k = fit.parameters;
+  constexpr double kStep = 1e-5;
+  Eigen::MatrixXd g(n, k);
+  for (int i = 0; i < k; ++i) {
+    Eigen::VectorXd up = best.theta, down = best.theta;
+    up(i) += kStep;
+    down(i) -= kStep;
+    g.col(i) =
+        (LogModel(ToModel(best.kinds, up, p2), p2) - LogModel(ToModel(best.kinds, down, p2), p2)) /
+        (2 * kStep);
+  }
+  const Eigen::MatrixXd wg = p2.whitener * g;
+  const Eigen::MatrixXd info = wg.transpose() * wg;
+  Eigen::FullPivLU<Eigen::MatrixXd> lu(info);
+  const bool invertible = lu.isInvertible();
+  const Eigen::MatrixXd cov =
+      invertible ? Eigen::MatrixXd(lu.inverse()) : Eigen::MatrixXd::Constant(k, k, kNaN);
+
+  int offset = 0;
+  for (const ModelTerm& t : fit.model.terms) {
+    FittedTerm ft;
+    ft.term = t;
+    ft.scale_sigma = t.scale * std::sqrt(cov(offset, offset));
+    if (t.kind == TermKind::kGaussMarkov) {
+      ft.correlation_time_sigma_s = t.correlation_time_s * std::sqrt(cov(offset + 1, offset + 1));
+    } else if (t.kind == TermKind::kSinusoid) {
+      // f = f_N sigmoid(x): df/dx = f (1 - f/f_N).
+      const double f_n = 0.5 / tau0;
+      ft.frequency_sigma_hz =
+          t.frequency_hz * (1 - t.frequency_hz / f_n) * std::sqrt(cov(offset + 1, offset + 1));
+    }
+    offset += ParameterCount(t.kind);
+    fit.terms.push_back(ft);
+  }
+
+  // Figures and their delta-method sigmas.
+  const double tau_lo = rows.front().tau_s, tau_hi = rows.back().tau_s;
+  const Figures f0 = ComputeFigures(fit.model, tau0, tau_lo, tau_hi, options);
+  Eigen::MatrixXd fg(4, k);
+  for (int i = 0; i < k; ++i) {
+    Eigen::VectorXd up = best.theta, down = best.theta;
+    up(i) += kStep;
+    down(i) -= kStep;
+    const Figures fu = ComputeFigures(ToModel(best.kinds, up, p2), tau0, tau_lo, tau_hi, options);
+    const Figures fd = ComputeFigures(ToModel(best.kinds, down, p2), tau0, tau_lo, tau_hi, options);
+    fg(0, i) = (fu.white_asymptote - fd.white_asymptote) / (2 * kStep);
+    fg(1, i) = (fu.curve_minimum - fd.curve_minimum) / (2 * kStep);
+    fg(2, i) = (fu.tau_at_minimum - fd.tau_at_minimum) / (2 * kStep);
+    fg(3, i) = (fu.rate_random_walk - fd.rate_random_walk) / (2 * kStep);
+  }
+  const Eigen::MatrixXd fcov = fg * cov * fg.transpose();
+  auto figure = [&](double value, int row) {
+    return ModelFigure{value, std::sqrt(std::max(fcov(row, row), 0.0))};
+  };
+  fit.white_asymptote = figure(f0.white_asymptote, 0);
+  fit.has_white_region = f0.has_white_region;
+  fit.curve_minimum = figure(f0.curve_minimum, 1);
+  fit.tau_at_minimum = figure(f0.tau_at_minimum, 2);
+  fit.minimum_at_edge = f0.minimum_at_edge;
+  fit.bias_instability_ieee = {fit.curve_minimum.value / kBiasInstabilityFactor,
+                               fit.curve_minimum.sigma / kBiasInstabilityFactor};
+  fit.rate_random_walk = figure(f0.rate_random_walk, 3);
+  if (fit.model.CountOf(TermKind::kRandomWalk) == 0) fit.rate_random_walk.sigma = kNaN;
+
+  const Eigen::VectorXd model_log = LogModel(fit.model, p2);
+  for (int j = 0; j < n; ++j) {
+    GmwmPoint pt;
+    pt.m = rows[j].m;
+    pt.tau_s = rows[j].tau_s;
+    pt.avar = rows[j].avar;
+    pt.model_avar = std::exp(model_log(j));
+    pt.edf = edf2(j);
+    pt.z = (p2.y(j) - model_log(j)) / std::sqrt(p2.sigma(j, j));
+    fit.points.push_back(pt);
+  }
+  return fit;
+}
+
+}  // namespace imuqual::allan

@@ -1,0 +1,150 @@
+// Estimation of a composite noise model (composite_model.h) from an Allan
+// variance curve, in the manner of the generalized method of wavelet moments
+// (Guerrier, Skaloud, Stebler & Victoria-Feser, JASA 108(502), 2013;
+// ALGORITHMS.md §3b). The Haar wavelet variance at scale 2m is AVAR(m)/2, so
+// octave AVARs are wavelet variances up to a constant.
+//
+// Data: the curve's points (ADEV or OADEV), thinned to about one per octave,
+// up to the stop rule. Moments y_j = ln(avar_j) - b_j, where
+// b_j = psi(nu_j/2) - ln(nu_j/2) is the mean of ln(chi2_nu/nu), so that y_j is
+// unbiased for ln AVAR_j whatever the edf nu_j (no weighting by the noisy
+// value, hence none of the downward bias of weighted least squares on AVAR).
+//
+// Objective: J(theta) = (y - ln nu(theta))' Sigma^-1 (y - ln nu(theta)),
+// theta = log scales, log correlation times, logit frequencies (every scale
+// positive by construction). Sigma = Var(ln avar_hat) is fixed before the
+// candidates are compared, never re-weighted by the model being fitted:
+//  pass 1  Sigma diagonal, trigamma(nu_j/2), nu_j from the curve's own noise
+//          identification (lag-1 ACF) or, without it, from the local slope of
+//          the measured curve (Greenhall edf with the point's real stride);
+//  pass 2  Sigma from the pass-1 selected model (a smoother of the measured
+//          curve): diagonal from Greenhall's edf with the alpha of the
+//          pilot's local slope, correlations between points from the pilot's
+//          spectrum, rho_ab = I_ab / sqrt(I_aa I_bb),
+//          I_ab = int_0^1/2 S(f)^2 H_a(f) H_b(f) df, H_m = sin^4(pi f m) /
+//          (m^2 sin^2(pi f)) (the asymptotic covariance of the squared Allan
+//          differences of a Gaussian process). Neighbouring octave AVARs of
+//          white noise correlate by ~0.5, of a random walk by ~0.9.
+// Model selection: forward-backward search from the best subset of the IEEE
+// 952 terms (Q, N, B, K, R), adding one Gauss-Markov term (several starting
+// correlation times), one sinusoid (several starting frequencies) or a
+// missing IEEE term while the criterion improves, and dropping any term whose
+// removal improves it. Criterion: corrected Akaike on the objective,
+//   AICc = J + 2k + 2k(k+1)/(p-k-1)   (k parameters, p points),
+// the GMWM information criterion with Sigma^-1 weights plus the small-sample
+// correction (16 points do not carry 12 parameters). The eight best
+// candidates of pass 1 are re-estimated in pass 2 and compared there.
+// Adequacy: with Sigma^-1 weights J is asymptotically chi-square with p - k
+// degrees of freedom (Hansen's J test); p-value below the level: inadequate.
+// Uncertainty: Cov(theta) = (G' Sigma^-1 G)^-1, G = d ln nu / d theta; every
+// figure's sigma by the delta method.
+// All functions are pure and thread-safe.
+#ifndef IMUQUAL_ANALYZE_ALLAN_GMWM_H_
+#define IMUQUAL_ANALYZE_ALLAN_GMWM_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "analyze/allan/composite_model.h"
+#include "analyze/allan/curve.h"
+#include "common/status.h"
+
+namespace imuqual::allan {
+
+struct GmwmOptions {
+  // Points with m beyond the rule are ignored (see FitOptions).
+  StopRule stop = StopRule::kBins9;
+  // Keep about one point per octave: denser grids add little information and
+  // much correlation.
+  bool thin_to_octaves = true;
+  int max_gauss_markov = 3;  // in [0, 3]
+  int max_sinusoids = 2;     // in [0, 2]
+  // A model whose J-test p-value is below this level is inadequate, in (0, 1).
+  double adequacy_level = 0.01;
+  // Gauss-Markov terms with a correlation time below this fraction of 1 s are
+  // filtered white noise for the datasheet ARW (they join the -1/2 asymptote).
+  double fast_gauss_markov_fraction = 0.1;
+
+  // Ok, or InvalidArgument naming the offending field.
+  Status Validate() const;
+};
+
+// A term of the selected model with 1-sigma uncertainties (NaN where the
+// parameter does not apply).
+struct FittedTerm {
+  ModelTerm term;
+  double scale_sigma = kNaN;
+  double correlation_time_sigma_s = kNaN;
+  double frequency_sigma_hz = kNaN;
+};
+
+// A figure read off the model curve with the IEEE 952 rules.
+struct ModelFigure {
+  double value = kNaN;
+  double sigma = kNaN;  // 1-sigma, delta method
+};
+
+struct ModelCandidate {
+  std::string name;
+  int parameters = 0;
+  double objective = kNaN;  // J in the final pass
+  double criterion = kNaN;  // AICc
+  double p_value = kNaN;
+};
+
+struct GmwmPoint {
+  int64_t m = 0;
+  double tau_s = kNaN;
+  double avar = kNaN;        // measured
+  double model_avar = kNaN;  // selected model
+  double edf = kNaN;         // final pass
+  double z = kNaN;           // (y - ln model) / sd, the point's standardized residual
+};
+
+struct CompositeFit {
+  double tau0_s = kNaN;
+  CompositeModel model;
+  std::vector<FittedTerm> terms;  // the model's terms, same order
+  int points_used = 0;
+  int parameters = 0;
+  double objective = kNaN;  // J
+  int dof = 0;              // points - parameters
+  double p_value = kNaN;
+  bool adequate = false;
+  double criterion = kNaN;                 // AICc of the selected model
+  std::vector<ModelCandidate> candidates;  // best first, the selected one first
+  std::vector<GmwmPoint> points;
+
+  // Datasheet figures from the model (base units: u sqrt(s), u, s, u/sqrt(s)):
+  //  white_asymptote: the -1/2 asymptote at 1 s, sqrt(N^2 + sum over fast
+  //    Gauss-Markov terms of their long-term white level sigma^2 tau0
+  //    (1+phi)/(1-phi)); has_white_region: the model's local slope comes
+  //    within +-0.1 of -1/2 somewhere over the analysed taus.
+  //  curve_minimum / tau_at_minimum: the minimum of the model deviation over
+  //    the analysed taus; minimum_at_edge when it sits at either end.
+  //  bias_instability_ieee = curve_minimum / 0.664.
+  //  rate_random_walk: K of the random walk term (0 when not selected).
+  ModelFigure white_asymptote;
+  bool has_white_region = false;
+  ModelFigure curve_minimum;
+  ModelFigure tau_at_minimum;
+  bool minimum_at_edge = false;
+  ModelFigure bias_instability_ieee;
+  ModelFigure rate_random_walk;
+
+  double ModelDeviation(double tau_s) const { return model.Deviation(tau_s / tau0_s, tau0_s); }
+};
+
+// Errors: not an ADEV/OADEV curve, fewer than 4 usable points, bad options,
+// no candidate could be estimated.
+Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& options = {});
+
+// Correlation between the AVAR estimates at averaging factors m_a and m_b of
+// a Gaussian process with the model's spectrum (see above); 1 when
+// m_a == m_b. Exposed for tests.
+double AvarCorrelation(const CompositeModel& model, double tau0_s, int64_t m_a, int64_t m_b);
+
+}  // namespace imuqual::allan
+
+#endif  // IMUQUAL_ANALYZE_ALLAN_GMWM_H_
