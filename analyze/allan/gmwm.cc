@@ -26,8 +26,8 @@ constexpr std::array<TermKind, 5> kIeeeKinds = {TermKind::kQuantization, TermKin
                                                 TermKind::kDrift};
 // Starting correlation times per octave span and starting line frequencies
 // (cycles per sample) of the forward search.
-constexpr int kGaussMarkovStarts = 7;
-constexpr std::array<double, 6> kSinusoidStarts = {0.04, 0.1, 0.17, 0.245, 0.33, 0.42};
+constexpr int kGaussMarkovStarts = 5;
+constexpr std::array<double, 4> kSinusoidStarts = {0.05, 0.15, 0.245, 0.4};
 // Candidates of pass 1 re-estimated under the full covariance.
 constexpr int kPass2Candidates = 8;
 // Bounds on a Gauss-Markov correlation time, relative to tau0 and to the
@@ -222,8 +222,8 @@ Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, co
   Eigen::NumericalDiff<ResidualFunctor> diff(f);
   Eigen::LevenbergMarquardt<Eigen::NumericalDiff<ResidualFunctor>> lm(diff);
   lm.parameters.maxfev = 400 * (k + 1);
-  lm.parameters.xtol = 1e-9;
-  lm.parameters.ftol = 1e-12;
+  lm.parameters.xtol = 1e-7;
+  lm.parameters.ftol = 1e-10;
   lm.minimize(theta);
   Eigen::VectorXd r;
   f(theta, r);
@@ -536,14 +536,27 @@ Status GmwmOptions::Validate() const {
 }
 
 double AvarCorrelation(const CompositeModel& model, double tau0_s, int64_t m_a, int64_t m_b) {
-  if (m_a == m_b) return 1.0;
-  const double ma = static_cast<double>(std::min(m_a, m_b));
-  const double mb = static_cast<double>(std::max(m_a, m_b));
-  const double ab = SpectralOverlap(model, tau0_s, ma, mb);
-  const double aa = SpectralOverlap(model, tau0_s, ma, ma);
-  const double bb = SpectralOverlap(model, tau0_s, mb, mb);
-  if (!(aa > 0 && bb > 0) || !std::isfinite(ab)) return 0.0;
-  return std::clamp(ab / std::sqrt(aa * bb), -1.0, 1.0);
+  return AvarCorrelationMatrix(model, tau0_s, {m_a, m_b})[1];
+}
+
+std::vector<double> AvarCorrelationMatrix(const CompositeModel& model, double tau0_s,
+                                          const std::vector<int64_t>& m) {
+  const size_t n = m.size();
+  std::vector<double> self(n), out(n * n, 0.0);
+  for (size_t j = 0; j < n; ++j) {
+    const double mj = static_cast<double>(m[j]);
+    self[j] = SpectralOverlap(model, tau0_s, mj, mj);
+    out[j * n + j] = 1.0;
+  }
+  for (size_t j = 0; j < n; ++j) {
+    for (size_t k = j + 1; k < n; ++k) {
+      const double lo = static_cast<double>(std::min(m[j], m[k]));
+      const double hi = static_cast<double>(std::max(m[j], m[k]));
+      const double r = SpectralOverlap(model, tau0_s, lo, hi) / std::sqrt(self[j] * self[k]);
+      out[j * n + k] = out[k * n + j] = std::isfinite(r) ? std::clamp(r, -1.0, 1.0) : 0.0;
+    }
+  }
+  return out;
 }
 
 Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& options) {
@@ -577,13 +590,13 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   // Pass 2: the covariance of the pilot, full.
   const CompositeModel pilot_model = ToModel(pilot.kinds, pilot.theta, p1);
   Eigen::VectorXd edf2(n);
-  Eigen::MatrixXd corr = Eigen::MatrixXd::Identity(n, n);
+  std::vector<int64_t> ms;
   for (int j = 0; j < n; ++j) {
     edf2(j) = PointEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_model, p1.m[j], tau0)), rows[j]);
-    for (int k = j + 1; k < n; ++k) {
-      corr(j, k) = corr(k, j) = AvarCorrelation(pilot_model, tau0, rows[j].m, rows[k].m);
-    }
+    ms.push_back(rows[j].m);
   }
+  const std::vector<double> corr_values = AvarCorrelationMatrix(pilot_model, tau0, ms);
+  const Eigen::MatrixXd corr = Eigen::Map<const Eigen::MatrixXd>(corr_values.data(), n, n);
   const Problem p2 = MakeProblem(rows, tau0, curve.n_phase, edf2, corr);
   std::vector<Candidate> pass1(seen1.size());
   std::transform(seen1.begin(), seen1.end(), pass1.begin(),

@@ -144,6 +144,10 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
 // a Gaussian process with the model's spectrum (see above); 1 when
 // m_a == m_b. Exposed for tests.
 double AvarCorrelation(const CompositeModel& model, double tau0_s, int64_t m_a, int64_t m_b);
+// The same for every pair of averaging factors: n x n, row-major, unit
+// diagonal (the pass-2 covariance's correlations).
+std::vector<double> AvarCorrelationMatrix(const CompositeModel& model, double tau0_s,
+                                          const std::vector<int64_t>& m);
 
 }  // namespace imuqual::allan
 

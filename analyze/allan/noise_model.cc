@@ -275,9 +275,8 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options) {
       double ref = row.avar;
       if (pass == 0) {
         fp.alpha = AlphaFromAvarSlope(row.local_slope);
-        fp.edf = std::isfinite(row.point_edf) && row.point_edf > 0
-                     ? row.point_edf
-                     : PointEdf(fp.alpha, row);
+        fp.edf = std::isfinite(row.point_edf) && row.point_edf > 0 ? row.point_edf
+                                                                   : PointEdf(fp.alpha, row);
       } else {
         const double model = ModelAvar(solution->coef, row.tau_s);
         if (model > 0) ref = model;
@@ -365,10 +364,19 @@ SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
       break;
   }
   const std::vector<double> local = LocalDevSlopes(tau, dev);
+  // The tangent bound holds for sums of non-negative IEEE 952 terms. A real
+  // part's internal filter pulls the shortest taus below the -1/2 line (the
+  // curve is flatter there), so points before the first one on the slope do
+  // not bound the term.
+  size_t first_on_slope = 0;
+  while (first_on_slope < tau.size() && std::fabs(local[first_on_slope] - slope) > 0.1) {
+    ++first_on_slope;
+  }
+  if (first_on_slope == tau.size()) first_on_slope = 0;
   double bound = std::numeric_limits<double>::infinity();
   double intercept_sum = 0;
   for (size_t i = 0; i < tau.size(); ++i) {
-    bound = std::min(bound, dev[i] * std::pow(tau_read / tau[i], slope));
+    if (i >= first_on_slope) bound = std::min(bound, dev[i] * std::pow(tau_read / tau[i], slope));
     if (std::fabs(local[i] - slope) <= 0.1) {
       ++out.points_on_slope;
       intercept_sum += std::log(dev[i]) - slope * std::log(tau[i]);

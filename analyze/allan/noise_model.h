@@ -133,7 +133,10 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options = {
 //   K <= min sigma_j sqrt(3/tau_j), R <= min sigma_j sqrt(2)/tau_j,
 //   B <= sigma_min/0.664.
 // The line read-off is capped at the tangent bound (on a curve where a
-// neighbouring term lifts the slope points, the mean line can exceed it).
+// neighbouring term lifts the slope points, the mean line can exceed it). The
+// bound is taken over the points from the first one on the slope on: a real
+// part's anti-alias filter makes the shortest taus flatter than -1/2 and puts
+// them below the ARW line, where they bound nothing.
 // When no point has the slope, value = tangent_bound and upper_bound_only.
 // Points with a non-positive or non-finite dev are ignored; an empty curve
 // gives NaN values with upper_bound_only = true.
