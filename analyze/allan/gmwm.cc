@@ -107,13 +107,16 @@ struct Problem {
   Eigen::MatrixXd sigma;     // Var(ln avar_hat)
   Eigen::MatrixXd whitener;  // L^-1, Sigma = L L'
   double ln_t_min = 0, ln_t_max = 0;
+  double penalty = 2;  // per parameter in the criterion
 
   int points() const { return static_cast<int>(m.size()); }
 };
 
 Problem MakeProblem(const std::vector<Row>& rows, double tau0_s, int64_t n_phase,
-                    const Eigen::VectorXd& edf, const Eigen::MatrixXd& correlation) {
+                    const Eigen::VectorXd& edf, const Eigen::MatrixXd& correlation,
+                    double penalty) {
   Problem p;
+  p.penalty = penalty;
   p.tau0_s = tau0_s;
   const int n = static_cast<int>(rows.size());
   p.y.resize(n);
@@ -207,10 +210,10 @@ struct Candidate {
   double criterion = std::numeric_limits<double>::infinity();
 };
 
-double Aicc(double objective, int k, int points) {
+double Criterion(double objective, int k, int points, double penalty) {
   const int denom = points - k - 1;
   if (denom <= 0) return std::numeric_limits<double>::infinity();
-  return objective + 2.0 * k + 2.0 * k * (k + 1.0) / denom;
+  return objective + penalty * k + 2.0 * k * (k + 1.0) / denom;
 }
 
 Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, const Problem& p) {
@@ -230,7 +233,7 @@ Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, co
   if (!r.allFinite()) return c;
   c.theta = theta;
   c.objective = r.squaredNorm();
-  c.criterion = Aicc(c.objective, k, p.points());
+  c.criterion = Criterion(c.objective, k, p.points(), p.penalty);
   return c;
 }
 
@@ -302,10 +305,11 @@ Eigen::VectorXd Without(const std::vector<TermKind>& kinds, const Eigen::VectorX
   return out;
 }
 
-// The candidate search of one pass; every estimated model lands in *seen
+// The candidate search of one pass, from `start` (or, without one, from the
+// best subset of the IEEE 952 terms); every estimated model lands in *seen
 // (best objective per model name).
 Candidate Search(const Problem& p, const std::vector<Row>& rows, const GmwmOptions& options,
-                 std::map<std::string, Candidate>* seen) {
+                 std::map<std::string, Candidate>* seen, const Candidate* start = nullptr) {
   auto record = [&](const Candidate& c) {
     if (!std::isfinite(c.criterion)) return;
     const std::string name = NameOf(c.kinds, c.theta, p);
@@ -313,8 +317,9 @@ Candidate Search(const Problem& p, const std::vector<Row>& rows, const GmwmOptio
     if (it == seen->end() || c.objective < it->second.objective) (*seen)[name] = c;
   };
   Candidate current;
+  if (start != nullptr) current = *start;
   // 1. Every non-empty subset of the IEEE 952 terms.
-  for (unsigned mask = 1; mask < (1u << kIeeeKinds.size()); ++mask) {
+  for (unsigned mask = 1; start == nullptr && mask < (1u << kIeeeKinds.size()); ++mask) {
     std::vector<TermKind> kinds;
     Eigen::VectorXd theta(0);
     for (size_t t = 0; t < kIeeeKinds.size(); ++t) {
@@ -529,6 +534,9 @@ Status GmwmOptions::Validate() const {
   if (!(adequacy_level > 0 && adequacy_level < 1)) {
     return Status::InvalidArgument("adequacy_level must be in (0, 1)");
   }
+  if (!(parameter_penalty >= 0 && parameter_penalty <= 20)) {
+    return Status::InvalidArgument("parameter_penalty must be in [0, 20]");
+  }
   if (!(fast_gauss_markov_fraction >= 0 && fast_gauss_markov_fraction <= 1)) {
     return Status::InvalidArgument("fast_gauss_markov_fraction must be in [0, 1]");
   }
@@ -580,7 +588,8 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
                   ? rows[j].data_edf
                   : PointEdf(AlphaFromAvarSlope(rows[j].local_slope), rows[j]);
   }
-  const Problem p1 = MakeProblem(rows, tau0, curve.n_phase, edf1, Eigen::MatrixXd::Identity(n, n));
+  const Problem p1 = MakeProblem(rows, tau0, curve.n_phase, edf1, Eigen::MatrixXd::Identity(n, n),
+                                 options.parameter_penalty);
   std::map<std::string, Candidate> seen1;
   const Candidate pilot = Search(p1, rows, options, &seen1);
   if (!std::isfinite(pilot.criterion)) {
@@ -597,20 +606,29 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   }
   const std::vector<double> corr_values = AvarCorrelationMatrix(pilot_model, tau0, ms);
   const Eigen::MatrixXd corr = Eigen::Map<const Eigen::MatrixXd>(corr_values.data(), n, n);
-  const Problem p2 = MakeProblem(rows, tau0, curve.n_phase, edf2, corr);
+  const Problem p2 = MakeProblem(rows, tau0, curve.n_phase, edf2, corr, options.parameter_penalty);
   std::vector<Candidate> pass1(seen1.size());
   std::transform(seen1.begin(), seen1.end(), pass1.begin(),
                  [](const auto& kv) { return kv.second; });
   std::sort(pass1.begin(), pass1.end(),
             [](const Candidate& a, const Candidate& b) { return a.criterion < b.criterion; });
-  std::vector<Candidate> pass2;
+  std::map<std::string, Candidate> seen2;
+  Candidate best2;
   for (size_t i = 0; i < pass1.size() && static_cast<int>(i) < kPass2Candidates; ++i) {
     const Candidate c = Estimate(pass1[i].kinds, pass1[i].theta, p2);
-    if (std::isfinite(c.criterion)) pass2.push_back(c);
+    if (!std::isfinite(c.criterion)) continue;
+    seen2[NameOf(c.kinds, c.theta, p2)] = c;
+    if (c.criterion < best2.criterion) best2 = c;
   }
-  if (pass2.empty()) {
+  if (!std::isfinite(best2.criterion)) {
     return Status::InvalidArgument("noise model fit: no candidate survived the full covariance");
   }
+  // The full covariance weighs the points differently (the long taus of a
+  // random walk carry less independent information): search on from there.
+  Search(p2, rows, options, &seen2, &best2);
+  std::vector<Candidate> pass2(seen2.size());
+  std::transform(seen2.begin(), seen2.end(), pass2.begin(),
+                 [](const auto& kv) { return kv.second; });
   std::sort(pass2.begin(), pass2.end(),
             [](const Candidate& a, const Candidate& b) { return a.criterion < b.criterion; });
   const Candidate& best = pass2.front();
