@@ -227,12 +227,14 @@ TEST(CompositeFitTest, UncertaintiesOfArwAndRrwAreCalibrated) {
     pb::AxisTruth truth;
   };
   std::vector<Case> cases;
-  {
+  {  // Each term dominates somewhere: Q below 0.02 s, N to 5 s, B 5-30 s, K
+     // beyond (with B never above the others, it is dropped in ~1 seed of 10
+     // and K absorbs it: model-selection error, not calibration).
     pb::AxisTruth a = Axis();
     a.set_quantization(5e-5);
-    a.set_random_walk(0.005);
+    a.set_random_walk(0.002);
     a.set_bias_instability(0.0014);
-    a.set_rate_random_walk(6e-4);
+    a.set_rate_random_walk(3e-4);
     cases.push_back({"five-term (Q+N+B+K)", a});
   }
   cases.push_back({"white+rrw+gm", SelectionScenarios()[0].truth});

@@ -139,12 +139,19 @@ TEST(AnalyzeCliTest, FitAndPlot) {
   const auto r = RunCommand(Bin("imuqual") + " analyze " + ReferencePath("data/rw_1e4.txt") +
                             " --dev oadev,mdev --ci chi2 --fit --format json --plot " + svg);
   ASSERT_EQ(r.exit_code, 0);
-  EXPECT_NE(r.output.find("\"fit\": ["), std::string::npos);
-  EXPECT_NE(r.output.find("\"rate_random_walk\""), std::string::npos);
+  // The composite model: its name, adequacy, figures and terms, the model
+  // at every analysed tau, and the candidates it was chosen from.
+  for (const char* key : {"\"fit\": {\"model\": ", "\"adequate\": ", "\"p_value\": ",
+                          "\"terms\": [", "\"curve\": [", "\"candidates\": [",
+                          "\"term\": \"rate_random_walk\"", "\"term\": \"bias_instability\"",
+                          "\"term\": \"angle_random_walk\""}) {
+    EXPECT_NE(r.output.find(key), std::string::npos) << key;
+  }
   auto text = ReadFileToString(svg);
   ASSERT_TRUE(text.ok());
   EXPECT_EQ(text->rfind("<svg", 0), 0u);
-  EXPECT_NE(text->find("IEEE 952 fit"), std::string::npos);
+  EXPECT_NE(text->find("model "), std::string::npos);  // the dashed model and its terms
+  EXPECT_NE(text->find("model terms"), std::string::npos);
 }
 
 }  // namespace

@@ -4,12 +4,14 @@
 #include <algorithm>
 #include <array>
 #include <boost/math/special_functions/digamma.hpp>
+#include <boost/math/special_functions/gamma.hpp>
 #include <boost/math/special_functions/trigamma.hpp>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <numbers>
 #include <optional>
+#include <random>
 #include <unsupported/Eigen/NonLinearOptimization>
 #include <unsupported/Eigen/NumericalDiff>
 
@@ -381,6 +383,63 @@ Candidate Search(const Problem& p, const std::vector<Row>& rows, const GmwmOptio
   return current;
 }
 
+// A standard normal deviate from a 64-bit generator (Box-Muller), identical
+// on every platform (std::normal_distribution is not).
+double StandardNormal(std::mt19937_64& rng) {
+  constexpr double kTwoPow53 = 9007199254740992.0;
+  const double u1 = (static_cast<double>(rng() >> 11) + 0.5) / kTwoPow53;
+  const double u2 = static_cast<double>(rng() >> 11) / kTwoPow53;
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+}
+
+// The standard deviation of each of `count` quantities over bootstrap
+// replicates of the moments (see FitCompositeModel); NaN where fewer than 10
+// replicates could be refitted.
+template <typename Quantities>
+std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int replicates,
+                                    size_t count, Quantities quantities) {
+  const int n = p.points();
+  const Eigen::VectorXd sd = p.sigma.diagonal().array().sqrt();
+  const Eigen::MatrixXd corr = sd.cwiseInverse().asDiagonal() * p.sigma * sd.cwiseInverse().asDiagonal();
+  Eigen::LLT<Eigen::MatrixXd> llt(corr);
+  const Eigen::MatrixXd l = llt.info() == Eigen::Success ? Eigen::MatrixXd(llt.matrixL())
+                                                         : Eigen::MatrixXd::Identity(n, n);
+  const Eigen::VectorXd base = LogModel(ToModel(best.kinds, best.theta, p), p);
+  std::mt19937_64 rng(0x1dca5e5eedULL);
+  Problem replicate = p;
+  std::vector<double> sum(count, 0.0), sum2(count, 0.0);
+  std::vector<int> used(count, 0);
+  Eigen::VectorXd e(n);
+  for (int r = 0; r < replicates; ++r) {
+    for (int j = 0; j < n; ++j) e(j) = StandardNormal(rng);
+    const Eigen::VectorXd z = l * e;
+    for (int j = 0; j < n; ++j) {
+      const double u = std::clamp(0.5 * std::erfc(-z(j) / std::numbers::sqrt2), 1e-12, 1 - 1e-12);
+      const double half = p.edf(j) / 2.0;
+      // ln(chi2_nu / nu) - its mean, chi2_nu = 2 Gamma(nu/2) quantile.
+      const double x = std::log(boost::math::gamma_p_inv(half, u) / half) -
+                       (boost::math::digamma(half) - std::log(half));
+      replicate.y(j) = base(j) + x;
+    }
+    const Candidate c = Estimate(best.kinds, best.theta, replicate);
+    if (!std::isfinite(c.criterion)) continue;
+    const std::vector<double> q = quantities(c.theta);
+    for (size_t i = 0; i < count; ++i) {
+      if (!std::isfinite(q[i])) continue;
+      sum[i] += q[i];
+      sum2[i] += q[i] * q[i];
+      ++used[i];
+    }
+  }
+  std::vector<double> out(count, kNaN);
+  for (size_t i = 0; i < count; ++i) {
+    if (used[i] < 10) continue;
+    const double mean = sum[i] / used[i];
+    out[i] = std::sqrt(std::max(0.0, (sum2[i] - used[i] * mean * mean) / (used[i] - 1)));
+  }
+  return out;
+}
+
 // d ln AVAR / d ln m of the model at m.
 double ModelAvarSlope(const CompositeModel& model, double m, double tau0_s) {
   constexpr double kStep = 1.1;
@@ -534,6 +593,10 @@ Status GmwmOptions::Validate() const {
   if (!(adequacy_level > 0 && adequacy_level < 1)) {
     return Status::InvalidArgument("adequacy_level must be in (0, 1)");
   }
+  if (bootstrap_replicates < 0 || bootstrap_replicates > 5000) {
+    return Status::InvalidArgument("bootstrap_replicates must be in [0, 5000], got " +
+                                   std::to_string(bootstrap_replicates));
+  }
   if (!(parameter_penalty >= 0 && parameter_penalty <= 20)) {
     return Status::InvalidArgument("parameter_penalty must be in [0, 20]");
   }
@@ -653,69 +716,49 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
     fit.candidates.push_back(mc);
   }
 
-  // Covariance of theta: (G' Sigma^-1 G)^-1, G by central differences.
-  const int k = fit.parameters;
-  constexpr double kStep = 1e-5;
-  Eigen::MatrixXd g(n, k);
-  for (int i = 0; i < k; ++i) {
-    Eigen::VectorXd up = best.theta, down = best.theta;
-    up(i) += kStep;
-    down(i) -= kStep;
-    g.col(i) =
-        (LogModel(ToModel(best.kinds, up, p2), p2) - LogModel(ToModel(best.kinds, down, p2), p2)) /
-        (2 * kStep);
-  }
-  const Eigen::MatrixXd wg = p2.whitener * g;
-  const Eigen::MatrixXd info = wg.transpose() * wg;
-  Eigen::FullPivLU<Eigen::MatrixXd> lu(info);
-  const bool invertible = lu.isInvertible();
-  const Eigen::MatrixXd cov =
-      invertible ? Eigen::MatrixXd(lu.inverse()) : Eigen::MatrixXd::Constant(k, k, kNaN);
-
-  int offset = 0;
+  // Uncertainty: a parametric bootstrap in the moments. Each replicate is
+  // y* = ln nu(theta_hat) + x, x with the correlations of Sigma and, at every
+  // point, the distribution of ln(chi2_nu/nu) - b (a Gaussian copula), refitted
+  // with the selected model from theta_hat; a sigma is the standard deviation
+  // of its quantity over the replicates. Unlike the delta method this keeps
+  // the nonlinearity of the figures in the parameters and the skew of short
+  // records' moments. Seeded: the same curve gives the same sigmas.
+  const double tau_lo = rows.front().tau_s, tau_hi = rows.back().tau_s;
+  auto quantities = [&](const Eigen::VectorXd& theta) {
+    const CompositeModel m = ToModel(best.kinds, theta, p2);
+    std::vector<double> q;
+    for (const ModelTerm& t : m.terms) {
+      q.push_back(t.scale);
+      if (t.kind == TermKind::kGaussMarkov) q.push_back(t.correlation_time_s);
+      if (t.kind == TermKind::kSinusoid) q.push_back(t.frequency_hz);
+    }
+    const Figures f = ComputeFigures(m, tau0, tau_lo, tau_hi, options);
+    for (double v : {f.white_asymptote, f.curve_minimum, f.tau_at_minimum, f.rate_random_walk}) {
+      q.push_back(v);
+    }
+    return q;
+  };
+  const std::vector<double> q0 = quantities(best.theta);
+  const std::vector<double> q_sigma = BootstrapSigmas(best, p2, options.bootstrap_replicates,
+                                                      q0.size(), quantities);
+  size_t qi = 0;
   for (const ModelTerm& t : fit.model.terms) {
     FittedTerm ft;
     ft.term = t;
-    ft.scale_sigma = t.scale * std::sqrt(cov(offset, offset));
-    if (t.kind == TermKind::kGaussMarkov) {
-      ft.correlation_time_sigma_s = t.correlation_time_s * std::sqrt(cov(offset + 1, offset + 1));
-    } else if (t.kind == TermKind::kSinusoid) {
-      // f = f_N sigmoid(x): df/dx = f (1 - f/f_N).
-      const double f_n = 0.5 / tau0;
-      ft.frequency_sigma_hz =
-          t.frequency_hz * (1 - t.frequency_hz / f_n) * std::sqrt(cov(offset + 1, offset + 1));
-    }
-    offset += ParameterCount(t.kind);
+    ft.scale_sigma = q_sigma[qi++];
+    if (t.kind == TermKind::kGaussMarkov) ft.correlation_time_sigma_s = q_sigma[qi++];
+    if (t.kind == TermKind::kSinusoid) ft.frequency_sigma_hz = q_sigma[qi++];
     fit.terms.push_back(ft);
   }
-
-  // Figures and their delta-method sigmas.
-  const double tau_lo = rows.front().tau_s, tau_hi = rows.back().tau_s;
   const Figures f0 = ComputeFigures(fit.model, tau0, tau_lo, tau_hi, options);
-  Eigen::MatrixXd fg(4, k);
-  for (int i = 0; i < k; ++i) {
-    Eigen::VectorXd up = best.theta, down = best.theta;
-    up(i) += kStep;
-    down(i) -= kStep;
-    const Figures fu = ComputeFigures(ToModel(best.kinds, up, p2), tau0, tau_lo, tau_hi, options);
-    const Figures fd = ComputeFigures(ToModel(best.kinds, down, p2), tau0, tau_lo, tau_hi, options);
-    fg(0, i) = (fu.white_asymptote - fd.white_asymptote) / (2 * kStep);
-    fg(1, i) = (fu.curve_minimum - fd.curve_minimum) / (2 * kStep);
-    fg(2, i) = (fu.tau_at_minimum - fd.tau_at_minimum) / (2 * kStep);
-    fg(3, i) = (fu.rate_random_walk - fd.rate_random_walk) / (2 * kStep);
-  }
-  const Eigen::MatrixXd fcov = fg * cov * fg.transpose();
-  auto figure = [&](double value, int row) {
-    return ModelFigure{value, std::sqrt(std::max(fcov(row, row), 0.0))};
-  };
-  fit.white_asymptote = figure(f0.white_asymptote, 0);
+  fit.white_asymptote = {f0.white_asymptote, q_sigma[qi]};
+  fit.curve_minimum = {f0.curve_minimum, q_sigma[qi + 1]};
+  fit.tau_at_minimum = {f0.tau_at_minimum, q_sigma[qi + 2]};
+  fit.rate_random_walk = {f0.rate_random_walk, q_sigma[qi + 3]};
   fit.has_white_region = f0.has_white_region;
-  fit.curve_minimum = figure(f0.curve_minimum, 1);
-  fit.tau_at_minimum = figure(f0.tau_at_minimum, 2);
   fit.minimum_at_edge = f0.minimum_at_edge;
   fit.bias_instability_ieee = {fit.curve_minimum.value / kBiasInstabilityFactor,
                                fit.curve_minimum.sigma / kBiasInstabilityFactor};
-  fit.rate_random_walk = figure(f0.rate_random_walk, 3);
   if (fit.model.CountOf(TermKind::kRandomWalk) == 0) fit.rate_random_walk.sigma = kNaN;
 
   const Eigen::VectorXd model_log = LogModel(fit.model, p2);

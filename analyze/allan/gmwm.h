@@ -36,8 +36,11 @@
 // candidates of pass 1 are re-estimated in pass 2 and compared there.
 // Adequacy: with Sigma^-1 weights J is asymptotically chi-square with p - k
 // degrees of freedom (Hansen's J test); p-value below the level: inadequate.
-// Uncertainty: Cov(theta) = (G' Sigma^-1 G)^-1, G = d ln nu / d theta; every
-// figure's sigma by the delta method.
+// Uncertainty: a parametric bootstrap in the moments (replicates drawn with
+// Sigma's correlations and each point's ln chi-square distribution, refitted
+// with the selected model); every sigma is the standard deviation of its
+// quantity over the replicates. The delta method, (G' Sigma^-1 G)^-1, gave
+// sigmas of K 1.4x too small on simulated five-term records (nonlinearity).
 // All functions are pure and thread-safe.
 #ifndef IMUQUAL_ANALYZE_ALLAN_GMWM_H_
 #define IMUQUAL_ANALYZE_ALLAN_GMWM_H_
@@ -67,6 +70,8 @@ struct GmwmOptions {
   // simulated records, 3 per parameter keeps the right model in >= 90 %
   // without missing real terms (acquire/composite_fit_test).
   double parameter_penalty = 3;
+  // Bootstrap replicates behind every sigma, in [0, 5000]; 0: no sigmas.
+  int bootstrap_replicates = 100;
   // Gauss-Markov terms with a correlation time below this fraction of 1 s are
   // filtered white noise for the datasheet ARW (they join the -1/2 asymptote).
   double fast_gauss_markov_fraction = 0.1;
@@ -87,7 +92,7 @@ struct FittedTerm {
 // A figure read off the model curve with the IEEE 952 rules.
 struct ModelFigure {
   double value = kNaN;
-  double sigma = kNaN;  // 1-sigma, delta method
+  double sigma = kNaN;  // 1-sigma (bootstrap)
 };
 
 struct ModelCandidate {
