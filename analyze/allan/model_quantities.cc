@@ -79,9 +79,29 @@ std::vector<ModelQuantity> DescribeCompositeFit(const CompositeFit& fit,
   out.push_back(
       {"tau_at_minimum", true, fit.tau_at_minimum.value, fit.tau_at_minimum.sigma, "s", edge});
   const bool has_k = fit.model.CountOf(TermKind::kRandomWalk) > 0;
-  add("rate_random_walk", true, NoiseTerm::kRateRandomWalk, fit.rate_random_walk.value,
-      fit.rate_random_walk.sigma, has_k ? "" : "not in the selected model");
+  if (has_k) {
+    add("rate_random_walk", true, NoiseTerm::kRateRandomWalk, fit.rate_random_walk.value,
+        fit.rate_random_walk.sigma, "averaged over the plausible models");
+  } else {
+    add("rate_random_walk", true, NoiseTerm::kRateRandomWalk, 0.0, kNaN,
+        "not in the selected model");
+  }
 
+  // The IEEE 952 term parameters, model-averaged, always listed (0 when no
+  // plausible candidate has the term), so a plan limit on one always meets a
+  // value.
+  const TermKind ieee[] = {TermKind::kQuantization, TermKind::kWhite, TermKind::kFlicker,
+                           TermKind::kRandomWalk, TermKind::kDrift};
+  for (int i = 0; i < 5; ++i) {
+    if (ieee[i] == TermKind::kRandomWalk) continue;  // a figure above
+    if (fit.model.CountOf(ieee[i]) == 0) {
+      add(ParameterName(ieee[i]), false, Analog(ieee[i]), 0.0, kNaN, "not in the selected model");
+      continue;
+    }
+    const ModelFigure& f = fit.ieee_terms[i];
+    add(ParameterName(ieee[i]), false, Analog(ieee[i]), f.value, f.sigma,
+        "averaged over the plausible models");
+  }
   std::vector<const FittedTerm*> gms, lines;
   for (const FittedTerm& t : fit.terms) {
     switch (t.term.kind) {
@@ -91,10 +111,8 @@ std::vector<ModelQuantity> DescribeCompositeFit(const CompositeFit& fit,
       case TermKind::kSinusoid:
         lines.push_back(&t);
         break;
-      case TermKind::kRandomWalk:
-        break;  // a figure above
       default:
-        add(ParameterName(t.term.kind), false, Analog(t.term.kind), t.term.scale, t.scale_sigma);
+        break;  // listed above
     }
   }
   std::sort(gms.begin(), gms.end(), [](const FittedTerm* a, const FittedTerm* b) {
@@ -117,42 +135,6 @@ std::vector<ModelQuantity> DescribeCompositeFit(const CompositeFit& fit,
                    lines[i]->frequency_sigma_hz, "Hz", ""});
   }
   return out;
-}
-
-CompositeModel ModelFromQuantities(const std::vector<std::pair<std::string, double>>& values,
-                                   SensorKind kind) {
-  CompositeModel model;
-  auto base = [&](NoiseTerm analog, double v) { return v / Unit(analog, kind).factor; };
-  auto find = [&](const std::string& name) -> std::optional<double> {
-    for (const auto& [n, v] : values) {
-      if (n == name) return v;
-    }
-    return std::nullopt;
-  };
-  const std::pair<TermKind, const char*> simple[] = {{TermKind::kQuantization, "quantization"},
-                                                     {TermKind::kWhite, "white_noise"},
-                                                     {TermKind::kFlicker, "flicker_floor"},
-                                                     {TermKind::kRandomWalk, "rate_random_walk"},
-                                                     {TermKind::kDrift, "rate_ramp"}};
-  for (const auto& [term_kind, name] : simple) {
-    const std::optional<double> v = find(name);
-    if (v.has_value() && *v > 0) {
-      model.terms.push_back({term_kind, base(Analog(term_kind), *v), 0, 0});
-    }
-  }
-  for (int i = 1;; ++i) {
-    const std::string p = "gauss_markov_" + std::to_string(i);
-    const std::optional<double> s = find(p + "_sigma"), t = find(p + "_correlation_time");
-    if (!s.has_value() || !t.has_value()) break;
-    model.terms.push_back({TermKind::kGaussMarkov, base(NoiseTerm::kBiasInstability, *s), *t, 0});
-  }
-  for (int i = 1;; ++i) {
-    const std::string p = "sinusoid_" + std::to_string(i);
-    const std::optional<double> a = find(p + "_amplitude"), f = find(p + "_frequency");
-    if (!a.has_value() || !f.has_value()) break;
-    model.terms.push_back({TermKind::kSinusoid, base(NoiseTerm::kBiasInstability, *a), 0, *f});
-  }
-  return model;
 }
 
 }  // namespace imuqual::allan

@@ -1,8 +1,7 @@
 // The quantities a composite noise fit reports (gmwm.h), each in the unit
 // datasheets use, with its 1-sigma uncertainty: the datasheet figures read off
 // the model curve and the parameters of every selected term. One list serves
-// the offline `analyze` output, the judged measurements (named "fit_" + name)
-// and the plots that rebuild the model. Pure and thread-safe.
+// the offline `analyze` output (table, CSV, JSON). Pure and thread-safe.
 //
 // Names and units (gyro / accelerometer; base units without a sensor kind):
 //  figures     angle_random_walk (velocity_random_walk for accel)  deg/sqrt(h) / m/s/sqrt(h)
@@ -38,11 +37,6 @@ struct ModelQuantity {
 
 std::vector<ModelQuantity> DescribeCompositeFit(const CompositeFit& fit,
                                                 std::optional<SensorKind> kind);
-
-// The inverse for plotting: a model rebuilt from (name, value) pairs in the
-// units above (missing terms are absent; an unknown name is ignored).
-CompositeModel ModelFromQuantities(const std::vector<std::pair<std::string, double>>& values,
-                                   SensorKind kind);
 
 }  // namespace imuqual::allan
 

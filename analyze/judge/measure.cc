@@ -2,10 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 
-#include "analyze/allan/gmwm.h"
-#include "analyze/allan/model_quantities.h"
 #include "analyze/allan/noise_model.h"
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
@@ -35,22 +32,6 @@ double Datasheet(NoiseTerm term, pb::AxisKind kind, double base) {
   return allan::ToDatasheetUnits(term, Sensor(kind), base).value;
 }
 
-// "model N+B+K+GM, adequate: J 12.3 on 9 dof (p 0.21); AICc 40.1; runners-up
-// N+B+K (AICc 44.0), ..."
-std::string ModelSummary(const allan::CompositeFit& fit, const allan::GmwmOptions& options) {
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "model %s, %s: J %.4g on %d dof (p %.3g, level %.2g); AICc %.4g",
-                fit.model.Name().c_str(), fit.adequate ? "adequate" : "INADEQUATE", fit.objective,
-                fit.dof, fit.p_value, options.adequacy_level, fit.criterion);
-  std::string out = buf;
-  for (size_t i = 1; i < fit.candidates.size() && i <= 3; ++i) {
-    std::snprintf(buf, sizeof buf, "%s%s (AICc %.4g)", i == 1 ? "; runners-up " : ", ",
-                  fit.candidates[i].name.c_str(), fit.candidates[i].criterion);
-    out += buf;
-  }
-  return out;
-}
-
 }  // namespace
 
 std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind kind,
@@ -68,10 +49,10 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
   out.push_back(Make(axis, kBiasInstability,
                      min ? Datasheet(NoiseTerm::kBiasInstability, kind, min->dev) : nan, kind,
                      min_note));
-  out.push_back(
-      Make(axis, kBiasInstabilityIeee,
-           min ? Datasheet(NoiseTerm::kBiasInstability, kind, min->bias_instability_ieee) : nan,
-           kind, min_note));
+  out.push_back(Make(axis, kBiasInstabilityIeee,
+                     min ? Datasheet(NoiseTerm::kBiasInstability, kind, min->bias_instability_ieee)
+                         : nan,
+                     kind, min_note));
   out.push_back(Make(axis, kTauAtMinimum, min ? min->tau_s : nan, kind, min_note));
 
   // Slope-line read-offs: N at tau = 1 s on -1/2, K at tau = 3 s on +1/2.
@@ -81,37 +62,29 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
                      n.upper_bound_only ? "upper bound only: no point on the -1/2 slope" : ""));
   const allan::SlopeReadoff k = allan::ReadSlopeLine(curve, NoiseTerm::kRateRandomWalk);
   out.push_back(Make(axis, kRateRandomWalk, Datasheet(NoiseTerm::kRateRandomWalk, kind, k.value),
-                     kind,
-                     k.upper_bound_only ? "upper bound only: no point on the +1/2 slope" : ""));
-  out.push_back(
-      Make(axis, kBiasOffset, Datasheet(NoiseTerm::kBiasInstability, kind, mean_rate), kind));
+                     kind, k.upper_bound_only ? "upper bound only: no point on the +1/2 slope" : ""));
+  out.push_back(Make(axis, kBiasOffset, Datasheet(NoiseTerm::kBiasInstability, kind, mean_rate),
+                     kind));
 
-  // The composite noise model (GMWM), its figures and term parameters.
-  allan::GmwmOptions options;
+  // The weighted NNLS fit of all five terms, with uncertainties.
+  const std::pair<NoiseTerm, std::string_view> fitted[] = {
+      {NoiseTerm::kQuantization, kFitQuantization},
+      {NoiseTerm::kAngleRandomWalk, gyro ? kFitAngleRandomWalk : kFitVelocityRandomWalk},
+      {NoiseTerm::kBiasInstability, kFitBiasInstability},
+      {NoiseTerm::kRateRandomWalk, kFitRateRandomWalk},
+      {NoiseTerm::kRateRamp, kFitRateRamp}};
+  allan::FitOptions options;
   options.stop = allan::StopRule::kNone;  // the curve is already cut by the plan's rule
-  const Result<allan::CompositeFit> fit = allan::FitCompositeModel(curve, options);
-  if (!fit.ok()) {
-    const std::string note = "not measurable: no noise model (" + fit.status().message() + ")";
-    for (std::string_view name :
-         {gyro ? kFitAngleRandomWalk : kFitVelocityRandomWalk, kFitBiasInstability,
-          kFitBiasInstabilityIeee, kFitTauAtMinimum, kFitRateRandomWalk, kFitModelPValue}) {
-      out.push_back(Make(axis, name, nan, kind, note));
-    }
-    return out;
-  }
-  out.push_back(Make(axis, kFitModelPValue, fit->p_value, kind, ModelSummary(*fit, options)));
-  for (const allan::ModelQuantity& q : allan::DescribeCompositeFit(*fit, Sensor(kind))) {
-    const std::string name = "fit_" + q.name;
-    if (FindMeasurement(name) == nullptr) continue;
-    if (!fit->adequate) {
-      char why[96];
-      std::snprintf(why, sizeof why, " (%s, J-test p = %.2g < %.2g)", fit->model.Name().c_str(),
-                    fit->p_value, options.adequacy_level);
-      out.push_back(Make(axis, name, nan, kind, std::string(kModelInadequateNote) + why));
+  const Result<allan::NoiseFit> fit = allan::FitNoiseModel(curve, options);
+  for (const auto& [term, name] : fitted) {
+    if (!fit.ok()) {
+      out.push_back(Make(axis, name, nan, kind, "no fit: " + fit.status().message()));
       continue;
     }
-    pb::Measurement m = Make(axis, name, q.value, kind, q.note);
-    if (std::isfinite(q.sigma)) m.set_uncertainty(q.sigma);
+    const allan::TermEstimate& t = fit->term(term);
+    pb::Measurement m = Make(axis, name, Datasheet(term, kind, t.value), kind,
+                             t.active ? "" : "not in the fitted model (0 fits best)");
+    if (t.active && std::isfinite(t.sigma)) m.set_uncertainty(Datasheet(term, kind, t.sigma));
     out.push_back(std::move(m));
   }
   return out;

@@ -27,26 +27,14 @@ inline constexpr std::string_view kAngleRandomWalk = "angle_random_walk";
 inline constexpr std::string_view kVelocityRandomWalk = "velocity_random_walk";
 inline constexpr std::string_view kRateRandomWalk = "rate_random_walk";
 inline constexpr std::string_view kBiasOffset = "bias_offset";
-// The composite noise model (analyze/allan/gmwm.h), with 1-sigma
-// uncertainties: datasheet figures read off the model curve ...
+// IEEE 952 model terms from the weighted non-negative least-squares fit,
+// with 1-sigma uncertainties.
+inline constexpr std::string_view kFitQuantization = "fit_quantization";
 inline constexpr std::string_view kFitAngleRandomWalk = "fit_angle_random_walk";
 inline constexpr std::string_view kFitVelocityRandomWalk = "fit_velocity_random_walk";
 inline constexpr std::string_view kFitBiasInstability = "fit_bias_instability";
-inline constexpr std::string_view kFitBiasInstabilityIeee = "fit_bias_instability_ieee";
-inline constexpr std::string_view kFitTauAtMinimum = "fit_tau_at_minimum";
 inline constexpr std::string_view kFitRateRandomWalk = "fit_rate_random_walk";
-// ... the parameters of its terms ...
-inline constexpr std::string_view kFitQuantization = "fit_quantization";
-inline constexpr std::string_view kFitWhiteNoise = "fit_white_noise";
-inline constexpr std::string_view kFitFlickerFloor = "fit_flicker_floor";
 inline constexpr std::string_view kFitRateRamp = "fit_rate_ramp";
-// (fit_gauss_markov_<i>_sigma / _correlation_time, i = 1..3, and
-//  fit_sinusoid_<i>_amplitude / _frequency, i = 1..2, are catalogued too)
-// ... and its adequacy: the J-test p-value; the note names the model, the
-// criterion and the runners-up. An inadequate model makes every other fit_*
-// value NaN with a note that starts with kModelInadequateNote.
-inline constexpr std::string_view kFitModelPValue = "fit_model_p_value";
-inline constexpr std::string_view kModelInadequateNote = "not measurable: noise model inadequate";
 inline constexpr std::string_view kGapFraction = "gap_fraction";
 inline constexpr std::string_view kInvalidFraction = "invalid_fraction";
 inline constexpr std::string_view kDuration = "duration";

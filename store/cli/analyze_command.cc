@@ -108,10 +108,10 @@ TableWriter QuantityTable(const allan::CompositeFit& fit, const Curve& curve,
 }
 
 TableWriter CandidateTable(const allan::CompositeFit& fit) {
-  TableWriter t({"model", "parameters", "objective", "aicc", "p_value"}, 5);
+  TableWriter t({"model", "parameters", "objective", "criterion", "p_value", "weight"}, 5);
   for (const allan::ModelCandidate& c : fit.candidates) {
     t.AddRow({Cell::Text(c.name), Cell::Int(c.parameters), Cell::Real(c.objective),
-              Cell::Real(c.criterion), Cell::Real(c.p_value)});
+              Cell::Real(c.criterion), Cell::Real(c.p_value), Cell::Real(c.weight)});
   }
   return t;
 }
@@ -247,8 +247,11 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     if (fit) {
       std::printf("\n%s\n", FitSummary(*fit).c_str());
       std::printf("%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kTable).c_str());
-      std::printf("\ncandidates (best first; AICc = J + 2k + 2k(k+1)/(p-k-1))\n%s",
-                  CandidateTable(*fit).Render(Format::kTable).c_str());
+      std::printf(
+          "\ncandidates (best first; criterion J + 2k + 2k(k+1)/(p-k-1) (AICc); figures and IEEE "
+          "terms "
+          "are averaged with the weights)\n%s",
+          CandidateTable(*fit).Render(Format::kTable).c_str());
     }
   } else if (p.format == Format::kCsv) {
     std::printf("%s",

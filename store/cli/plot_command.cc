@@ -6,7 +6,6 @@
 #include <numbers>
 #include <set>
 
-#include "analyze/allan/model_quantities.h"
 #include "analyze/allan/noise_model.h"
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
@@ -111,32 +110,40 @@ PlotSeries CurveSeries(const allan::Curve& curve, std::string label, std::string
   return s;
 }
 
-// The composite noise model over the curve's tau span, rebuilt from the
-// stored fit_* term parameters (datasheet units -> base units). nullopt
-// without a model (none stored, or the model was inadequate: its values are
-// NaN).
+// The fitted IEEE 952 model over the curve's tau span, from the stored
+// fit_* measurements (datasheet units -> base units). nullopt without a fit
+// or when a stored unit is not the one expected (the model would be wrong).
 std::optional<PlotSeries> ModelSeries(const AxisPlotData& a, std::string label, std::string color) {
-  if (!a.curve || a.curve->points.empty() || !(a.curve->tau0_s > 0)) return std::nullopt;
-  std::vector<std::pair<std::string, double>> values;
-  for (const pb::Measurement& m : a.measurements) {
-    if (m.name().rfind("fit_", 0) == 0 && std::isfinite(m.value())) {
-      values.emplace_back(m.name().substr(4), m.value());
-    }
+  if (!a.curve || a.curve->points.empty()) return std::nullopt;
+  const bool gyro = a.kind != pb::ACCEL;
+  const std::pair<NoiseTerm, std::string_view> fitted[] = {
+      {NoiseTerm::kQuantization, judge::kFitQuantization},
+      {NoiseTerm::kAngleRandomWalk,
+       gyro ? judge::kFitAngleRandomWalk : judge::kFitVelocityRandomWalk},
+      {NoiseTerm::kBiasInstability, judge::kFitBiasInstability},
+      {NoiseTerm::kRateRandomWalk, judge::kFitRateRandomWalk},
+      {NoiseTerm::kRateRamp, judge::kFitRateRamp}};
+  std::vector<std::pair<NoiseTerm, double>> coefs;  // base units
+  for (const auto& [term, name] : fitted) {
+    const pb::Measurement* m = FindMeasurementRow(a, name);
+    if (m == nullptr || !std::isfinite(m->value())) continue;
+    if (m->unit() != DatasheetUnit(term, a.kind)) return std::nullopt;
+    coefs.emplace_back(term, m->value() / DatasheetPerBase(term, a.kind));
   }
-  const allan::CompositeModel model = allan::ModelFromQuantities(
-      values, a.kind == pb::ACCEL ? allan::SensorKind::kAccelerometer : allan::SensorKind::kGyro);
-  if (model.terms.empty()) return std::nullopt;
+  if (coefs.empty()) return std::nullopt;
   const double t0 = a.curve->points.front().tau_s, t1 = a.curve->points.back().tau_s;
   if (!(t0 > 0) || !(t1 > t0)) return std::nullopt;
   PlotSeries s;
-  s.label = std::move(label) + " (" + model.Name() + ")";
+  s.label = std::move(label);
   s.color = std::move(color);
   s.dashed = true;
   s.markers = false;
   for (int i = 0; i < kModelPoints; ++i) {
     const double tau = t0 * std::pow(t1 / t0, static_cast<double>(i) / (kModelPoints - 1));
+    double avar = 0;
+    for (const auto& [term, c] : coefs) avar += c * c * allan::NoiseTermAvarBasis(term, tau);
     s.x.push_back(tau);
-    s.y.push_back(model.Deviation(tau / a.curve->tau0_s, a.curve->tau0_s));
+    s.y.push_back(std::sqrt(avar));
   }
   return s;
 }
@@ -186,13 +193,12 @@ const LimitLine kLimitLines[] = {
     {judge::kAngleRandomWalk, NoiseTerm::kAngleRandomWalk, -0.5, 1, "ARW"},
     {judge::kVelocityRandomWalk, NoiseTerm::kAngleRandomWalk, -0.5, 1, "VRW"},
     {judge::kRateRandomWalk, NoiseTerm::kRateRandomWalk, 0.5, 1 / std::numbers::sqrt3, "RRW"},
-    // Model figures and terms, each its IEEE 952 line alone: sqrt(3) Q / tau,
-    // N / sqrt(tau), the model minimum (and 0.664 B), K sqrt(tau / 3), R tau / sqrt(2).
+    // Fitted terms, each its model term alone: sqrt(3) Q / tau, N / sqrt(tau),
+    // 0.664 B, K sqrt(tau / 3), R tau / sqrt(2).
     {judge::kFitQuantization, NoiseTerm::kQuantization, -1, std::numbers::sqrt3, "fit Q"},
     {judge::kFitAngleRandomWalk, NoiseTerm::kAngleRandomWalk, -0.5, 1, "fit ARW"},
     {judge::kFitVelocityRandomWalk, NoiseTerm::kAngleRandomWalk, -0.5, 1, "fit VRW"},
-    {judge::kFitBiasInstability, NoiseTerm::kBiasInstability, 0, 1, "fit BI"},
-    {judge::kFitBiasInstabilityIeee, NoiseTerm::kBiasInstability, 0, allan::kBiasInstabilityFactor,
+    {judge::kFitBiasInstability, NoiseTerm::kBiasInstability, 0, allan::kBiasInstabilityFactor,
      "fit B"},
     {judge::kFitRateRandomWalk, NoiseTerm::kRateRandomWalk, 0.5, 1 / std::numbers::sqrt3,
      "fit RRW"},
@@ -385,7 +391,7 @@ std::vector<AllanPlot> RunAllanPlots(const RunPlotData& run, const std::string& 
         label += ")";
       }
       p.series.push_back(CurveSeries(*a.curve, label, color));
-      if (auto model = ModelSeries(a, a.axis + " model", color)) {
+      if (auto model = ModelSeries(a, a.axis + " IEEE 952 fit", color)) {
         p.series.push_back(std::move(*model));
       }
       if (auto m = MinimumMarker(a, a.axis + ": ", color)) p.markers.push_back(std::move(*m));
