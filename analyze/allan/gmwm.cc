@@ -16,6 +16,7 @@
 #include <unsupported/Eigen/NumericalDiff>
 
 #include "analyze/allan/confidence.h"
+#include "analyze/allan/fit_rows.h"
 #include "analyze/allan/noise_model.h"
 #include "analyze/allan/tau_grid.h"
 
@@ -41,69 +42,6 @@ constexpr size_t kMaxAveraged = 4;
 constexpr double kMinCorrelationTimeFactor = 0.1;
 constexpr double kMaxCorrelationTimeFactor = 100.0;
 
-struct Row {
-  int64_t m = 0;
-  double tau_s = 0;
-  double avar = 0;
-  int64_t n_eff = 0;          // phase points spanned by the valid terms
-  int64_t stride = 1;         // samples between consecutive terms
-  double data_edf = kNaN;     // the curve's own edf (noise identification), if any
-  double local_slope = kNaN;  // d ln AVAR / d ln tau of the measured curve
-};
-
-// alpha from an AVAR slope mu = -alpha - 1, clamped to [-2, 1] (a slope cannot
-// tell white from flicker phase noise; alpha = 1 is the conservative one).
-int AlphaFromAvarSlope(double mu) {
-  if (!std::isfinite(mu)) return 0;
-  return static_cast<int>(std::clamp(std::lround(-mu - 1.0), -2L, 1L));
-}
-
-// Greenhall edf of an AVAR point (d = 2, F = m, S = m/stride), or the
-// non-overlapped cluster count - 1 where Greenhall is undefined.
-double PointEdf(int alpha, const Row& row) {
-  const double md = static_cast<double>(row.m);
-  const std::optional<double> nu =
-      GreenhallEdf(alpha, 2, row.m, row.n_eff, md, md / static_cast<double>(row.stride));
-  if (nu.has_value() && std::isfinite(*nu) && *nu > 0) return *nu;
-  return std::max<double>(1.0, static_cast<double>((row.n_eff - 1) / row.m - 1));
-}
-
-std::vector<Row> UsableRows(const Curve& curve, const GmwmOptions& options) {
-  const bool overlapped = curve.deviation == Deviation::kOadev;
-  const int64_t m_max =
-      options.stop == StopRule::kNone
-          ? std::numeric_limits<int64_t>::max()
-          : StopRuleMaxAveragingFactor(options.stop, curve.deviation, curve.n_phase);
-  std::vector<CurvePoint> usable;
-  for (const CurvePoint& p : curve.points) {
-    if (p.m >= 1 && p.m <= m_max && p.n > 1 && std::isfinite(p.dev) && p.dev > 0 &&
-        std::isfinite(p.tau_s) && p.tau_s > 0) {
-      usable.push_back(p);
-    }
-  }
-  std::sort(usable.begin(), usable.end(),
-            [](const CurvePoint& a, const CurvePoint& b) { return a.m < b.m; });
-  std::vector<Row> rows;
-  for (const CurvePoint& p : usable) {
-    if (!rows.empty() && p.m == rows.back().m) continue;
-    if (options.thin_to_octaves && !rows.empty() && p.m < 2 * rows.back().m) continue;
-    Row row;
-    row.m = p.m;
-    row.tau_s = p.tau_s;
-    row.avar = p.dev * p.dev;
-    row.stride = p.stride > 0 ? p.stride : (overlapped ? 1 : p.m);
-    row.n_eff = std::min(curve.n_phase, (p.n - 1) * row.stride + 2 * p.m + 1);
-    if (p.alpha.has_value() && std::isfinite(p.edf) && p.edf > 0) row.data_edf = p.edf;
-    rows.push_back(row);
-  }
-  for (size_t i = 0; i < rows.size() && rows.size() > 1; ++i) {
-    const size_t a = i == 0 ? 0 : i - 1, b = i + 1 == rows.size() ? i : i + 1;
-    rows[i].local_slope =
-        std::log(rows[b].avar / rows[a].avar) / std::log(rows[b].tau_s / rows[a].tau_s);
-  }
-  return rows;
-}
-
 // The moments, their covariance and the bounds of one estimation pass.
 struct Problem {
   double tau0_s = 0;
@@ -118,7 +56,7 @@ struct Problem {
   int points() const { return static_cast<int>(m.size()); }
 };
 
-Problem MakeProblem(const std::vector<Row>& rows, double tau0_s, int64_t n_phase,
+Problem MakeProblem(const std::vector<FitRow>& rows, double tau0_s, int64_t n_phase,
                     const Eigen::VectorXd& edf, const Eigen::MatrixXd& correlation,
                     double penalty) {
   Problem p;
@@ -250,10 +188,10 @@ std::string NameOf(const std::vector<TermKind>& kinds, const Eigen::VectorXd& th
 
 // Starting value of a new term's parameters from the measured curve's
 // tangent bounds (ALGORITHMS.md §3), a fraction below them.
-std::vector<double> StartParameters(TermKind kind, double start, const std::vector<Row>& rows,
+std::vector<double> StartParameters(TermKind kind, double start, const std::vector<FitRow>& rows,
                                     double tau0_s) {
   double bound = std::numeric_limits<double>::infinity();
-  for (const Row& r : rows) {
+  for (const FitRow& r : rows) {
     const double t = r.tau_s, v = r.avar;
     switch (kind) {
       case TermKind::kQuantization:
@@ -278,8 +216,8 @@ std::vector<double> StartParameters(TermKind kind, double start, const std::vect
   }
   if (kind == TermKind::kGaussMarkov) {
     // sigma from the measured deviation near tau = 2T, where a GM bump peaks.
-    const Row* nearest = &rows.front();
-    for (const Row& r : rows) {
+    const FitRow* nearest = &rows.front();
+    for (const FitRow& r : rows) {
       if (std::fabs(std::log(r.tau_s / (2 * start))) <
           std::fabs(std::log(nearest->tau_s / (2 * start)))) {
         nearest = &r;
@@ -314,7 +252,7 @@ Eigen::VectorXd Without(const std::vector<TermKind>& kinds, const Eigen::VectorX
 // The candidate search of one pass, from `start` (or, without one, from the
 // best subset of the IEEE 952 terms); every estimated model lands in *seen
 // (best objective per model name).
-Candidate Search(const Problem& p, const std::vector<Row>& rows, const GmwmOptions& options,
+Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOptions& options,
                  std::map<std::string, Candidate>* seen, const Candidate* start = nullptr) {
   auto record = [&](const Candidate& c) {
     if (!std::isfinite(c.criterion)) return;
@@ -641,7 +579,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
     return Status::InvalidArgument("noise model fit needs an ADEV or OADEV curve, got " +
                                    std::string(DeviationName(curve.deviation)));
   }
-  const std::vector<Row> rows = UsableRows(curve, options);
+  const std::vector<FitRow> rows = UsableFitRows(curve, options.stop, options.thin_to_octaves);
   const int n = static_cast<int>(rows.size());
   if (n < 4) {
     return Status::InvalidArgument("noise model fit needs at least 4 usable curve points, got " +
@@ -652,9 +590,10 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   // Pass 1: diagonal covariance from the data's own noise identification.
   Eigen::VectorXd edf1(n);
   for (int j = 0; j < n; ++j) {
-    edf1(j) = std::isfinite(rows[j].data_edf)
-                  ? rows[j].data_edf
-                  : PointEdf(AlphaFromAvarSlope(rows[j].local_slope), rows[j]);
+    const FitRow& r = rows[j];
+    edf1(j) = r.identified && std::isfinite(r.point_edf) && r.point_edf > 0
+                  ? r.point_edf
+                  : FitRowEdf(AlphaFromAvarSlope(r.local_slope), r);
   }
   const Problem p1 = MakeProblem(rows, tau0, curve.n_phase, edf1, Eigen::MatrixXd::Identity(n, n),
                                  options.parameter_penalty);
@@ -669,7 +608,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   Eigen::VectorXd edf2(n);
   std::vector<int64_t> ms;
   for (int j = 0; j < n; ++j) {
-    edf2(j) = PointEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_model, p1.m[j], tau0)), rows[j]);
+    edf2(j) = FitRowEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_model, p1.m[j], tau0)), rows[j]);
     ms.push_back(rows[j].m);
   }
   const std::vector<double> corr_values = AvarCorrelationMatrix(pilot_model, tau0, ms);

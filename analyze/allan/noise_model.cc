@@ -8,6 +8,7 @@
 #include <string>
 
 #include "analyze/allan/confidence.h"
+#include "analyze/allan/fit_rows.h"
 #include "analyze/allan/tau_grid.h"
 
 namespace imuqual::allan {
@@ -15,16 +16,6 @@ namespace {
 
 constexpr int kTerms = 5;
 constexpr double kBiasAvarFactor = 2.0 * std::numbers::ln2 / std::numbers::pi;  // 2 ln2/pi
-
-struct Row {
-  int64_t m = 0;
-  double tau_s = 0;
-  double avar = 0;
-  int64_t n_eff = 0;          // phase points spanned by the valid terms
-  int64_t stride = 1;         // samples between consecutive terms
-  double point_edf = kNaN;    // the curve's own edf, if any
-  double local_slope = kNaN;  // d ln AVAR / d ln tau
-};
 
 // Local slope of ln sigma against ln tau at each point: to both neighbours
 // (central), or to the one neighbour at the ends. NaN with one point.
@@ -38,24 +29,6 @@ std::vector<double> LocalDevSlopes(const std::vector<double>& tau, const std::ve
     slope[i] = std::log(dev[b] / dev[a]) / std::log(tau[b] / tau[a]);
   }
   return slope;
-}
-
-// alpha from the AVAR slope mu = -alpha - 1, clamped to [-2, 1]: a slope cannot
-// tell white from flicker phase noise, and alpha = 1 is the conservative one.
-int AlphaFromAvarSlope(double mu) {
-  if (!std::isfinite(mu)) return 0;
-  return static_cast<int>(std::clamp(std::lround(-mu - 1.0), -2L, 1L));
-}
-
-// Greenhall edf for an AVAR-family point (d = 2, F = m), or the non-overlapped
-// cluster count K - 1 when Greenhall is undefined.
-// The stride factor is S = m / stride (m: full overlap, 1: none).
-double PointEdf(int alpha, const Row& row) {
-  const double md = static_cast<double>(row.m);
-  const std::optional<double> nu = GreenhallEdf(alpha, /*d=*/2, row.m, row.n_eff, /*F=*/md,
-                                                /*S=*/md / static_cast<double>(row.stride));
-  if (nu.has_value() && std::isfinite(*nu) && *nu > 0) return *nu;
-  return std::max<double>(1.0, static_cast<double>((row.n_eff - 1) / row.m - 1));
 }
 
 struct SubsetSolution {
@@ -216,50 +189,12 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options) {
     return Status::InvalidArgument("noise model fit needs an ADEV or OADEV curve, got " +
                                    std::string(DeviationName(curve.deviation)));
   }
-  const bool overlapped = curve.deviation == Deviation::kOadev;
-  const int64_t n_phase = curve.n_phase;
-  const int64_t m_max = options.stop == StopRule::kNone
-                            ? std::numeric_limits<int64_t>::max()
-                            : StopRuleMaxAveragingFactor(options.stop, curve.deviation, n_phase);
-
   // 1. Usable points, ascending m, optionally thinned to about one per octave.
-  std::vector<CurvePoint> usable;
-  for (const CurvePoint& p : curve.points) {
-    if (p.m >= 1 && p.m <= m_max && p.n > 1 && std::isfinite(p.dev) && p.dev > 0 &&
-        std::isfinite(p.tau_s) && p.tau_s > 0) {
-      usable.push_back(p);
-    }
-  }
-  std::sort(usable.begin(), usable.end(),
-            [](const CurvePoint& a, const CurvePoint& b) { return a.m < b.m; });
-  std::vector<Row> rows;
-  for (const CurvePoint& p : usable) {
-    if (!rows.empty() && p.m == rows.back().m) continue;
-    if (options.thin_to_octaves && !rows.empty() && p.m < 2 * rows.back().m) continue;
-    Row row;
-    row.m = p.m;
-    row.tau_s = p.tau_s;
-    row.avar = p.dev * p.dev;
-    // The estimator's real stride (the streaming cascade takes every
-    // (m/c)-th term); without it, the deviation's own convention.
-    row.stride = p.stride > 0 ? p.stride : (overlapped ? 1 : p.m);
-    row.n_eff = std::min(n_phase, (p.n - 1) * row.stride + 2 * p.m + 1);
-    row.point_edf = p.edf;
-    rows.push_back(row);
-  }
+  const std::vector<FitRow> rows = UsableFitRows(curve, options.stop, options.thin_to_octaves);
   const int num_rows = static_cast<int>(rows.size());
   if (num_rows < 2) {
     return Status::InvalidArgument("noise model fit needs at least 2 usable curve points, got " +
                                    std::to_string(num_rows));
-  }
-  {
-    std::vector<double> tau, dev;
-    for (const Row& row : rows) {
-      tau.push_back(row.tau_s);
-      dev.push_back(std::sqrt(row.avar));
-    }
-    const std::vector<double> slope = LocalDevSlopes(tau, dev);
-    for (int i = 0; i < num_rows; ++i) rows[i].local_slope = 2.0 * slope[i];
   }
 
   NoiseFit fit;
@@ -270,18 +205,18 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options) {
     Eigen::MatrixXd a(num_rows, kTerms);
     Eigen::VectorXd b(num_rows);
     for (int j = 0; j < num_rows; ++j) {
-      const Row& row = rows[j];
+      const FitRow& row = rows[j];
       FitPoint& fp = fit.points[j];
       double ref = row.avar;
       if (pass == 0) {
         fp.alpha = AlphaFromAvarSlope(row.local_slope);
         fp.edf = std::isfinite(row.point_edf) && row.point_edf > 0 ? row.point_edf
-                                                                   : PointEdf(fp.alpha, row);
+                                                                   : FitRowEdf(fp.alpha, row);
       } else {
         const double model = ModelAvar(solution->coef, row.tau_s);
         if (model > 0) ref = model;
         fp.alpha = NoiseTermAlpha(DominantTerm(solution->coef, row.tau_s));
-        fp.edf = PointEdf(fp.alpha, row);
+        fp.edf = FitRowEdf(fp.alpha, row);
       }
       const double w = std::sqrt(fp.edf / 2.0) / ref;
       for (int t = 0; t < kTerms; ++t) a(j, t) = w * NoiseTermAvarBasis(kNoiseTerms[t], row.tau_s);
