@@ -87,7 +87,9 @@ write_config 40
 start_soak
 wait_screen "imuqual station bench-C +lot CONSOLE-LOT +plan vg700ca-short +operator ana" 20
 wait_screen "^A1 +SN-101 +running" 30
-wait_screen "deg/h" 30  # the live bias instability, once past the warm-up
+# The live bias instability of A1 itself, once past the warm-up (units reach
+# it one after another; on a loaded host "deg/h" on another row came first).
+wait_screen "^A1 .* x +[0-9.]+ deg/h" 30
 now="$(screen)"
 for want in "^\[#*\.*\] +[0-9]+% +elapsed" "analyze 2/2" "^B2 +SN-104 +running +[0-9:]+ / 20:00" \
     "^A1 .* x +[0-9.]+ deg/h +(pass|marginal|fail)\? +(pass|marginal|fail)\?$" \
