@@ -188,8 +188,7 @@ std::string NameOf(const std::vector<TermKind>& kinds, const Eigen::VectorXd& th
 
 // Starting value of a new term's parameters from the measured curve's
 // tangent bounds (ALGORITHMS.md §3), a fraction below them.
-std::vector<double> StartParameters(TermKind kind, double start, const std::vector<FitRow>& rows,
-                                    double tau0_s) {
+std::vector<double> StartParameters(TermKind kind, double start, const std::vector<FitRow>& rows) {
   double bound = std::numeric_limits<double>::infinity();
   for (const FitRow& r : rows) {
     const double t = r.tau_s, v = r.avar;
@@ -227,7 +226,6 @@ std::vector<double> StartParameters(TermKind kind, double start, const std::vect
   }
   if (kind == TermKind::kSinusoid) {
     const double f = std::clamp(start * 2.0, 1e-6, 1 - 1e-6);  // of Nyquist
-    (void)tau0_s;
     return {std::log(0.3 * std::sqrt(2.0 * rows.front().avar)), std::log(f / (1 - f))};
   }
   return {std::log(0.5 * bound)};
@@ -269,7 +267,7 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
     for (size_t t = 0; t < kIeeeKinds.size(); ++t) {
       if (!(mask & (1u << t))) continue;
       kinds.push_back(kIeeeKinds[t]);
-      theta = Append(theta, StartParameters(kIeeeKinds[t], 0, rows, p.tau0_s));
+      theta = Append(theta, StartParameters(kIeeeKinds[t], 0, rows));
     }
     const Candidate c = Estimate(kinds, theta, p);
     record(c);
@@ -284,7 +282,7 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
       std::vector<TermKind> kinds = current.kinds;
       kinds.push_back(kind);
       const Candidate c =
-          Estimate(kinds, Append(current.theta, StartParameters(kind, start, rows, p.tau0_s)), p);
+          Estimate(kinds, Append(current.theta, StartParameters(kind, start, rows)), p);
       record(c);
       if (c.criterion < best_move.criterion) best_move = c;
     };
