@@ -135,16 +135,23 @@ std::string FitSummary(const allan::CompositeFit& fit) {
   return buf;
 }
 
+// A JSON number, null when not finite (JSON has no NaN).
+std::string JsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
 std::string FitJson(const allan::CompositeFit& fit, const Curve& curve,
                     const std::optional<allan::SensorKind>& kind) {
-  char head[512];
-  std::snprintf(head, sizeof head,
-                "{\"model\": \"%s\", \"adequate\": %s, \"p_value\": %.17g, \"objective\": "
-                "%.17g, \"dof\": %d, \"parameters\": %d, \"criterion\": \"AICc\", "
-                "\"criterion_value\": %.17g,\n",
-                fit.model.Name().c_str(), fit.adequate ? "true" : "false", fit.p_value,
-                fit.objective, fit.dof, fit.parameters, fit.criterion);
-  return std::string(head) + "\"terms\": " + QuantityTable(fit, curve, kind).Render(Format::kJson) +
+  return "{\"model\": \"" + fit.model.Name() +
+         "\", \"adequate\": " + (fit.adequate ? "true" : "false") +
+         ", \"p_value\": " + JsonNumber(fit.p_value) +
+         ", \"objective\": " + JsonNumber(fit.objective) + ", \"dof\": " + std::to_string(fit.dof) +
+         ", \"parameters\": " + std::to_string(fit.parameters) +
+         ", \"criterion\": \"AICc\", \"criterion_value\": " + JsonNumber(fit.criterion) +
+         ",\n\"terms\": " + QuantityTable(fit, curve, kind).Render(Format::kJson) +
          ",\n\"curve\": " + ModelCurveTable(fit, curve).Render(Format::kJson) +
          ",\n\"candidates\": " + CandidateTable(fit).Render(Format::kJson) + "}";
 }
