@@ -18,7 +18,6 @@
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/fit_rows.h"
 #include "analyze/allan/noise_model.h"
-#include "analyze/allan/tau_grid.h"
 
 namespace imuqual::allan {
 namespace {
@@ -153,6 +152,11 @@ struct Candidate {
   double objective = std::numeric_limits<double>::infinity();
   double criterion = std::numeric_limits<double>::infinity();
 };
+
+// Hansen's J test: P(chi2 with `dof` degrees of freedom > objective).
+double JTestPValue(double objective, int dof) {
+  return 1.0 - RegularizedGammaP(dof / 2.0, objective / 2.0);
+}
 
 double Criterion(double objective, int k, int points, double penalty) {
   const int denom = points - k - 1;
@@ -464,7 +468,6 @@ struct Figures {
   double white_asymptote = kNaN;
   double curve_minimum = kNaN;
   double tau_at_minimum = kNaN;
-  double rate_random_walk = 0;
   bool has_white_region = false;
   bool minimum_at_edge = false;
 };
@@ -475,7 +478,6 @@ Figures ComputeFigures(const CompositeModel& model, double tau0_s, double tau_lo
   double white2 = 0;
   for (const ModelTerm& t : model.terms) {
     if (t.kind == TermKind::kWhite) white2 += t.scale * t.scale;
-    if (t.kind == TermKind::kRandomWalk) f.rate_random_walk = t.scale;
     if (t.kind == TermKind::kGaussMarkov &&
         t.correlation_time_s < options.fast_gauss_markov_fraction * 1.0) {
       const double phi = std::exp(-tau0_s / t.correlation_time_s);
@@ -645,7 +647,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   fit.parameters = ParameterCount(best.kinds);
   fit.objective = best.objective;
   fit.dof = n - fit.parameters;
-  fit.p_value = 1.0 - RegularizedGammaP(fit.dof / 2.0, fit.objective / 2.0);
+  fit.p_value = JTestPValue(fit.objective, fit.dof);
   fit.adequate = fit.p_value >= options.adequacy_level;
   fit.criterion = best.criterion;
   for (const Candidate& c : pass2) {
@@ -654,7 +656,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
     mc.parameters = ParameterCount(c.kinds);
     mc.objective = c.objective;
     mc.criterion = c.criterion;
-    mc.p_value = 1.0 - RegularizedGammaP((n - mc.parameters) / 2.0, c.objective / 2.0);
+    mc.p_value = JTestPValue(c.objective, n - mc.parameters);
     fit.candidates.push_back(mc);
   }
 

@@ -1,7 +1,8 @@
 // `imuqual analyze FILE`: offline Allan analysis of a recorded series (one
 // value per line, or CSV with a header and a chosen column), with every
 // estimator, grid, stop rule and confidence interval of the analysis core,
-// the IEEE 952 fit, and an SVG plot.
+// the composite noise-model fit (analyze/allan/gmwm.h) beside the slope-line
+// read-offs, and an SVG plot.
 #ifndef IMUQUAL_STORE_CLI_ANALYZE_COMMAND_H_
 #define IMUQUAL_STORE_CLI_ANALYZE_COMMAND_H_
 
@@ -19,7 +20,7 @@ struct AnalyzeFileOptions {
   std::string stop = "bins9";          // bins9, stable32, none
   std::string ci = "none";             // none, simple, chi2
   double confidence = 0.682689492137086;
-  bool fit = false;                    // IEEE 952 fit and slope-line read-offs
+  bool fit = false;                    // composite noise model and slope-line read-offs
   std::string kind;                    // gyro, accel or "" (units of the fit report)
   std::string format = "table";        // table, csv, json
   std::string plot_path;               // SVG output, "" for none

@@ -120,7 +120,10 @@ int main(int argc, char** argv) {
   analyze_cmd->add_option("--ci", an.ci, "none, simple (1/sqrt(2(K-1))) or chi2 (Greenhall edf)")
       ->capture_default_str();
   analyze_cmd->add_option("--confidence", an.confidence, "chi2 interval level")->capture_default_str();
-  analyze_cmd->add_flag("--fit", an.fit, "IEEE 952 fit (Q, N, B, K, R) and slope-line read-offs");
+  analyze_cmd->add_flag("--fit", an.fit,
+                        "composite noise model (white, quantization, flicker, RRW, drift, "
+                        "Gauss-Markov, sinusoids; selected, tested for fit, with sigmas) beside "
+                        "the slope-line read-offs");
   analyze_cmd->add_option("--kind", an.kind, "gyro or accel: datasheet units for the fit");
   analyze_cmd->add_option("--format", an.format, "table, csv or json")->capture_default_str();
   analyze_cmd->add_option("--plot", an.plot_path, "write an SVG plot of the curves");
