@@ -51,7 +51,8 @@ void AddGaussMarkov(pb::AxisTruth* a, double sigma, double t_s) {
   g->set_correlation_time_s(t_s);
 }
 
-Result<CompositeFit> FitSimulated(const pb::AxisTruth& axis, uint64_t seed) {
+Result<CompositeFit> FitSimulated(const pb::AxisTruth& axis, uint64_t seed,
+                                  const allan::GmwmOptions& options = {}) {
   pb::SimTruth truth;
   truth.set_seed(seed);
   truth.set_actual_rate_hz(kRateHz);
@@ -68,7 +69,7 @@ Result<CompositeFit> FitSimulated(const pb::AxisTruth& axis, uint64_t seed) {
                               allan::Deviation::kOadev, allan::StopRule::kBins9);
   allan::Curve curve = allan::ComputeDeviation(phase, allan::Deviation::kOadev, m);
   allan::AttachConfidence(phase, allan::CiMethod::kChi2, allan::kOneSigmaConfidence, &curve);
-  return allan::FitCompositeModel(curve);
+  return allan::FitCompositeModel(curve, options);
 }
 
 // The selected model's term of `kind` (the i-th by correlation time), or null.
@@ -265,6 +266,42 @@ TEST(CompositeFitTest, UncertaintiesOfArwAndRrwAreCalibrated) {
       EXPECT_LE(std::fabs(cov.mean_z()), kMaxMeanZ) << c.name << " " << what;
     }
     EXPECT_LE(inadequate, kMaxFalseInadequate * kCalibrationSeeds) << c.name;
+  }
+}
+
+// A term the selection leaves out is reported as an upper bound. The records
+// where that happens are those whose long-tau points came out low, so a bound
+// at its nominal level covers less often than nominal among them: with the
+// nominal 95 % (dJ 2.706) 84-91 % were measured, hence the default 99 %
+// (dJ 5.412), which covers in >= 95 % of them. Asserted: >= 90 % over the
+// seeds where the random walk (at the edge of what 87 min resolve: selected in
+// a third and in two thirds of the seeds) is left out.
+constexpr double kMinBoundCoverage = 0.90;
+
+TEST(CompositeFitTest, UpperBoundsOfTermsLeftOutCoverTheTruth) {
+  pb::AxisTruth a = Axis();
+  a.set_random_walk(0.005);
+  a.set_bias_instability(0.002);
+  for (double k : {1.2e-4, 1.8e-4}) {
+    a.set_rate_random_walk(k);
+    allan::GmwmOptions o;
+    o.bootstrap_replicates = 0;  // the bound does not use them
+    int absent = 0, covered = 0;
+    double ratio_sum = 0;
+    for (int seed = 1; seed <= 100; ++seed) {
+      auto fit = FitSimulated(a, 31 * seed + 5, o);
+      ASSERT_TRUE(fit.ok()) << fit.status().message();
+      if (fit->model.CountOf(TermKind::kRandomWalk) > 0) continue;
+      ++absent;
+      covered += fit->rate_random_walk.upper_bound >= k;
+      ratio_sum += fit->rate_random_walk.upper_bound / k;
+    }
+    std::printf(
+        "K %g: left out in %d/100 seeds, its bound covers the truth in %d, mean bound / "
+        "truth %.2f\n",
+        k, absent, covered, ratio_sum / absent);
+    ASSERT_GT(absent, 20) << k;  // not vacuous
+    EXPECT_GE(covered, kMinBoundCoverage * absent) << k;
   }
 }
 

@@ -51,6 +51,9 @@ struct Problem {
   Eigen::MatrixXd whitener;  // L^-1, Sigma = L L'
   double ln_t_min = 0, ln_t_max = 0;
   double penalty = 2;  // per parameter in the criterion
+  // AVAR of a term held fixed outside the fitted parameters (the profile of
+  // an absent term's upper bound); empty: none.
+  Eigen::VectorXd fixed_avar;
 
   int points() const { return static_cast<int>(m.size()); }
 };
@@ -122,7 +125,8 @@ CompositeModel ToModel(const std::vector<TermKind>& kinds, const Eigen::VectorXd
 Eigen::VectorXd LogModel(const CompositeModel& model, const Problem& p) {
   Eigen::VectorXd v(p.points());
   for (int j = 0; j < p.points(); ++j) {
-    v(j) = std::log(std::max(model.Avar(p.m[j], p.tau0_s), 1e-300));
+    const double fixed = p.fixed_avar.size() > 0 ? p.fixed_avar(j) : 0.0;
+    v(j) = std::log(std::max(model.Avar(p.m[j], p.tau0_s) + fixed, 1e-300));
   }
   return v;
 }
@@ -522,6 +526,40 @@ Figures ComputeFigures(const CompositeModel& model, double tau0_s, double tau_lo
   return f;
 }
 
+// The largest scale of an IEEE 952 term the selected model leaves out that
+// the data still allow: the profile of J over the term's scale s (the
+// selected model's own parameters refitted with the term held at s), and the
+// bound where J(s) - J(0) = delta_j (likelihood-ratio; see GmwmOptions). Bisection on ln s
+// between a scale the data do not notice and twice the scale at which the
+// term alone reaches the measured curve. NaN if the profile never rises that
+// far (the term is indistinguishable from the model's own terms everywhere).
+double AbsentTermUpperBound(const Candidate& best, TermKind kind, const Problem& p,
+                            const std::vector<FitRow>& rows, double delta_j) {
+  constexpr int kBisections = 12;  // ln s to ~1 % over 10 decades
+  CompositeModel unit;
+  unit.terms.push_back(ModelTerm{kind, 1.0});
+  Eigen::VectorXd unit_avar(p.points());
+  double reach = std::numeric_limits<double>::infinity();  // term alone = curve
+  for (int j = 0; j < p.points(); ++j) {
+    unit_avar(j) = unit.Avar(p.m[j], p.tau0_s);
+    if (unit_avar(j) > 0) reach = std::min(reach, std::sqrt(rows[j].avar / unit_avar(j)));
+  }
+  if (!std::isfinite(reach) || reach <= 0) return kNaN;
+  Problem fixed = p;
+  auto rise = [&](double scale) {
+    fixed.fixed_avar = scale * scale * unit_avar;
+    const Candidate c = Estimate(best.kinds, best.theta, fixed);
+    return c.objective - best.objective;
+  };
+  double lo = std::log(reach) - 10 * std::log(10.0), hi = std::log(2 * reach);
+  if (!(rise(std::exp(hi)) > delta_j)) return kNaN;
+  for (int i = 0; i < kBisections; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (rise(std::exp(mid)) > delta_j ? hi : lo) = mid;
+  }
+  return std::exp(hi);
+}
+
 }  // namespace
 
 Status GmwmOptions::Validate() const {
@@ -545,6 +583,9 @@ Status GmwmOptions::Validate() const {
   }
   if (!(fast_gauss_markov_fraction >= 0 && fast_gauss_markov_fraction <= 1)) {
     return Status::InvalidArgument("fast_gauss_markov_fraction must be in [0, 1]");
+  }
+  if (!(absent_term_bound_delta_j > 0 && absent_term_bound_delta_j <= 100)) {
+    return Status::InvalidArgument("absent_term_bound_delta_j must be in (0, 100]");
   }
   return Status::Ok();
 }
@@ -751,6 +792,10 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   // would be a confident "almost 0" the selection does not support.
   for (int i = 0; i < 5; ++i) {
     fit.ieee_terms[i] = fit.model.CountOf(kIeeeKinds[i]) > 0 ? avg[i] : ModelFigure{0.0, kNaN};
+    if (options.absent_term_bounds && fit.model.CountOf(kIeeeKinds[i]) == 0) {
+      fit.ieee_terms[i].upper_bound =
+          AbsentTermUpperBound(best, kIeeeKinds[i], p2, rows, options.absent_term_bound_delta_j);
+    }
   }
   const Figures f0 = ComputeFigures(fit.model, tau0, tau_lo, tau_hi, options);
   fit.white_asymptote = avg[5];

@@ -23,6 +23,7 @@
 #include "analyze/allan/composite_model.h"
 #include "analyze/allan/gmwm.h"
 #include "analyze/allan/units.h"
+#include "common/status.h"
 
 namespace imuqual::allan {
 
@@ -33,10 +34,28 @@ struct ModelQuantity {
   double sigma = kNaN;
   std::string unit;
   std::string note;
+  // A term the selected model leaves out: value 0, no sigma, and the 95 %
+  // upper bound the data allow (NaN if none could be stated).
+  double upper_bound = kNaN;
 };
 
 std::vector<ModelQuantity> DescribeCompositeFit(const CompositeFit& fit,
                                                 std::optional<SensorKind> kind);
+
+// The selected model itself, term by term, with the model's own parameter
+// values (not averaged) and their bootstrap sigmas: quantization,
+// white_noise, flicker_floor, rate_random_walk, rate_ramp,
+// gauss_markov_<i>_sigma / _correlation_time, sinusoid_<i>_amplitude /
+// _frequency. What the archive keeps to draw the model again.
+std::vector<ModelQuantity> DescribeModelTerms(const CompositeFit& fit,
+                                              std::optional<SensorKind> kind);
+
+// The inverse of DescribeModelTerms: the model from its named parameters
+// (name, value in `unit`); names it does not know are ignored. Errors: a
+// unit that is not the parameter's, a negative or non-finite value, a
+// Gauss-Markov term or sinusoid with one of its two parameters missing.
+Result<CompositeModel> ModelFromTerms(const std::vector<ModelQuantity>& terms,
+                                      std::optional<SensorKind> kind);
 
 }  // namespace imuqual::allan
 

@@ -44,8 +44,12 @@ void CopyLimits(const pb::Limit& limit, pb::Measurement* m) {
 std::string Reason(const pb::Measurement& m) {
   const std::string who = (m.axis().empty() ? "" : m.axis() + ": ") + m.name();
   const std::string unit = m.unit() == "1" ? "" : " " + m.unit();
-  if (std::isnan(m.value())) return who + " not measured" + (m.note().empty() ? "" : " (" + m.note() + ")");
-  const std::string v = who + " " + Num(m.value()) + unit;
+  if (std::isnan(m.value())) {
+    if (m.note().starts_with("not measurable")) return who + " " + m.note();
+    return who + " not measured" + (m.note().empty() ? "" : " (" + m.note() + ")");
+  }
+  const std::string v = who + " " + Num(m.value()) + unit +
+                        (m.note().starts_with("upper bound") ? " (upper bound)" : "");
   if (m.outcome() == pb::FAIL) {
     if (m.has_low() && m.value() < m.low()) return v + " below low limit " + Num(m.low()) + unit;
     return v + " above high limit " + Num(m.high()) + unit;
@@ -60,10 +64,14 @@ std::string Reason(const pb::Measurement& m) {
 
 const char* OutcomeName(pb::Outcome outcome) {
   switch (outcome) {
-    case pb::PASS: return "PASS";
-    case pb::MARGINAL: return "MARGINAL";
-    case pb::FAIL: return "FAIL";
-    default: return "-";
+    case pb::PASS:
+      return "PASS";
+    case pb::MARGINAL:
+      return "MARGINAL";
+    case pb::FAIL:
+      return "FAIL";
+    default:
+      return "-";
   }
 }
 
@@ -107,8 +115,9 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
 
   // Every applicable limit must meet a measurement; missing ones are FAILs.
   auto has = [&](const std::string& axis, const std::string& name) {
-    return std::any_of(measurements->begin(), measurements->end(),
-                       [&](const pb::Measurement& m) { return m.axis() == axis && m.name() == name; });
+    return std::any_of(measurements->begin(), measurements->end(), [&](const pb::Measurement& m) {
+      return m.axis() == axis && m.name() == name;
+    });
   };
   for (const pb::Limit& limit : effective.limits()) {
     const MeasurementDef* def = FindMeasurement(limit.measurement());
@@ -149,6 +158,12 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
     }
     CopyLimits(*limit, &m);
     m.set_outcome(Evaluate(*limit, m.value()));
+    if (m.model_inadequate() && std::isnan(m.value())) {
+      // Withheld because the noise model does not fit: the plan says what
+      // that means.
+      m.set_outcome(plan.on_inadequate_model() == pb::TestPlan::INADEQUATE_FAIL ? pb::FAIL
+                                                                                : pb::MARGINAL);
+    }
     any_judged = true;
     if (m.outcome() == pb::FAIL) any_fail = true;
     if (m.outcome() == pb::MARGINAL) any_marginal = true;

@@ -35,7 +35,9 @@ const pb::Limit* FindLimit(const pb::TestPlan& plan, const std::string& name, co
 // Fills limits and outcome of every measurement from the plan, adds a FAIL
 // "not measured" entry for each limit with no measurement, applies the
 // plan's min_duration_s to the "duration" measurement when no explicit limit
-// exists, and returns the verdict: FAIL if any FAIL, else MARGINAL if any
+// exists, judges a value withheld because its noise model is inadequate
+// (model_inadequate, NaN) as the plan's on_inadequate_model says (MARGINAL by
+// default) with the note as its reason, and returns the verdict: FAIL if any FAIL, else MARGINAL if any
 // MARGINAL, else PASS (UNSET if no measurement had a limit).
 Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
                 std::vector<pb::Measurement>* measurements);

@@ -20,16 +20,31 @@ pb::Measurement M(const std::string& axis, const std::string& name, double v,
 }
 
 pb::TestPlan Plan() {
-  auto plan = ParsePlanText(R"pb(
-    nominal_rate_hz: 100
-    min_duration_s: 3600
-    axes { name: "x" kind: GYRO }
-    axes { name: "y" kind: GYRO }
-    limits { measurement: "bias_instability" axis_kind: GYRO high: 20 marginal_high: 16 unit: "deg/h" }
-    limits { measurement: "bias_instability" axes: "y" high: 10 unit: "deg/h" }
-    limits { measurement: "tau_at_minimum" axis_kind: GYRO low: 2 high: 100 marginal_low: 5 unit: "s" }
-    limits { measurement: "gap_fraction" high: 0.001 unit: "1" }
-  )pb", "t");
+  auto plan =
+      ParsePlanText(R"pb(
+                      nominal_rate_hz: 100
+                      min_duration_s: 3600
+                      axes { name: "x" kind: GYRO }
+                      axes { name: "y" kind: GYRO }
+                      limits {
+                        measurement: "bias_instability"
+                        axis_kind: GYRO
+                        high: 20
+                        marginal_high: 16
+                        unit: "deg/h"
+                      }
+                      limits { measurement: "bias_instability" axes: "y" high: 10 unit: "deg/h" }
+                      limits {
+                        measurement: "tau_at_minimum"
+                        axis_kind: GYRO
+                        low: 2
+                        high: 100
+                        marginal_low: 5
+                        unit: "s"
+                      }
+                      limits { measurement: "gap_fraction" high: 0.001 unit: "1" }
+                    )pb",
+                    "t");
   EXPECT_TRUE(plan.ok()) << plan.status().ToString();
   return *plan;
 }
@@ -43,7 +58,7 @@ TEST(EvaluateTest, BandsAndEdges) {
   lim.set_marginal_high(8);
   lim.set_high(10);
   EXPECT_EQ(Evaluate(lim, 0.999), pb::FAIL);
-  EXPECT_EQ(Evaluate(lim, 1), pb::MARGINAL);   // limits are inclusive
+  EXPECT_EQ(Evaluate(lim, 1), pb::MARGINAL);  // limits are inclusive
   EXPECT_EQ(Evaluate(lim, 2), pb::PASS);
   EXPECT_EQ(Evaluate(lim, 8), pb::PASS);
   EXPECT_EQ(Evaluate(lim, 9), pb::MARGINAL);
@@ -101,6 +116,55 @@ TEST(JudgeTest, NoLimitsMeansNotJudged) {
   std::vector<pb::Measurement> ms = {M("x", "bias_instability", 12, "deg/h")};
   EXPECT_EQ(Judge(plan, kAxes, &ms).verdict, pb::OUTCOME_UNSET);
   EXPECT_EQ(ms[0].outcome(), pb::OUTCOME_UNSET);
+}
+
+// A value withheld because the axis's noise model failed its J test: the
+// plan decides; MARGINAL by default, with the note as the reason.
+TEST(JudgeTest, InadequateNoiseModelIsJudgedAsThePlanSays) {
+  auto plan = ParsePlanText(R"pb(
+                              nominal_rate_hz: 100
+                              axes { name: "x" kind: GYRO }
+                              limits {
+                                measurement: "fit_rate_random_walk"
+                                axis_kind: GYRO
+                                high: 10
+                                unit: "deg/h/sqrt(h)"
+                              }
+                            )pb",
+                            "t");
+  ASSERT_TRUE(plan.ok()) << plan.status().ToString();
+  auto withheld = [] {
+    pb::Measurement m = M("x", "fit_rate_random_walk", std::nan(""), "deg/h/sqrt(h)");
+    m.set_model_inadequate(true);
+    m.set_note("not measurable: noise model inadequate (N+B, J-test p = 0.0001 < 0.01)");
+    return std::vector<pb::Measurement>{m};
+  };
+  // GIVEN the default plan WHEN judged THEN MARGINAL with the note as reason.
+  std::vector<pb::Measurement> ms = withheld();
+  Judgement j = Judge(*plan, {{"x", pb::GYRO}}, &ms);
+  EXPECT_EQ(j.verdict, pb::MARGINAL);
+  EXPECT_EQ(ms[0].outcome(), pb::MARGINAL);
+  ASSERT_EQ(j.reasons.size(), 1u);
+  EXPECT_EQ(j.reasons[0],
+            "x: fit_rate_random_walk not measurable: noise model inadequate (N+B, J-test p = "
+            "0.0001 < 0.01)");
+  // GIVEN a plan that says FAIL.
+  pb::TestPlan strict = *plan;
+  strict.set_on_inadequate_model(pb::TestPlan::INADEQUATE_FAIL);
+  ms = withheld();
+  EXPECT_EQ(Judge(strict, {{"x", pb::GYRO}}, &ms).verdict, pb::FAIL);
+  // A NaN for any other reason stays a FAIL (not measured).
+  ms = withheld();
+  ms[0].set_model_inadequate(false);
+  EXPECT_EQ(Judge(*plan, {{"x", pb::GYRO}}, &ms).verdict, pb::FAIL);
+  // An upper bound above the limit fails, and the reason says it is a bound.
+  ms = {M("x", "fit_rate_random_walk", 12, "deg/h/sqrt(h)")};
+  ms[0].set_note("upper bound (95 %): not in the selected model");
+  j = Judge(*plan, {{"x", pb::GYRO}}, &ms);
+  ASSERT_EQ(j.reasons.size(), 1u);
+  EXPECT_EQ(j.reasons[0],
+            "x: fit_rate_random_walk 12 deg/h/sqrt(h) (upper bound) above high limit 10 "
+            "deg/h/sqrt(h)");
 }
 
 }  // namespace

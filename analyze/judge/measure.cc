@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
+#include "analyze/allan/gmwm.h"
+#include "analyze/allan/model_quantities.h"
 #include "analyze/allan/noise_model.h"
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
@@ -49,10 +52,10 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
   out.push_back(Make(axis, kBiasInstability,
                      min ? Datasheet(NoiseTerm::kBiasInstability, kind, min->dev) : nan, kind,
                      min_note));
-  out.push_back(Make(axis, kBiasInstabilityIeee,
-                     min ? Datasheet(NoiseTerm::kBiasInstability, kind, min->bias_instability_ieee)
-                         : nan,
-                     kind, min_note));
+  out.push_back(
+      Make(axis, kBiasInstabilityIeee,
+           min ? Datasheet(NoiseTerm::kBiasInstability, kind, min->bias_instability_ieee) : nan,
+           kind, min_note));
   out.push_back(Make(axis, kTauAtMinimum, min ? min->tau_s : nan, kind, min_note));
 
   // Slope-line read-offs: N at tau = 1 s on -1/2, K at tau = 3 s on +1/2.
@@ -62,29 +65,115 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
                      n.upper_bound_only ? "upper bound only: no point on the -1/2 slope" : ""));
   const allan::SlopeReadoff k = allan::ReadSlopeLine(curve, NoiseTerm::kRateRandomWalk);
   out.push_back(Make(axis, kRateRandomWalk, Datasheet(NoiseTerm::kRateRandomWalk, kind, k.value),
-                     kind, k.upper_bound_only ? "upper bound only: no point on the +1/2 slope" : ""));
-  out.push_back(Make(axis, kBiasOffset, Datasheet(NoiseTerm::kBiasInstability, kind, mean_rate),
-                     kind));
+                     kind,
+                     k.upper_bound_only ? "upper bound only: no point on the +1/2 slope" : ""));
+  out.push_back(
+      Make(axis, kBiasOffset, Datasheet(NoiseTerm::kBiasInstability, kind, mean_rate), kind));
 
-  // The weighted NNLS fit of all five terms, with uncertainties.
-  const std::pair<NoiseTerm, std::string_view> fitted[] = {
-      {NoiseTerm::kQuantization, kFitQuantization},
-      {NoiseTerm::kAngleRandomWalk, gyro ? kFitAngleRandomWalk : kFitVelocityRandomWalk},
-      {NoiseTerm::kBiasInstability, kFitBiasInstability},
-      {NoiseTerm::kRateRandomWalk, kFitRateRandomWalk},
-      {NoiseTerm::kRateRamp, kFitRateRamp}};
-  allan::FitOptions options;
-  options.stop = allan::StopRule::kNone;  // the curve is already cut by the plan's rule
-  const Result<allan::NoiseFit> fit = allan::FitNoiseModel(curve, options);
-  for (const auto& [term, name] : fitted) {
-    if (!fit.ok()) {
-      out.push_back(Make(axis, name, nan, kind, "no fit: " + fit.status().message()));
-      continue;
+  return out;
+}
+
+std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::AxisKind kind,
+                                               const allan::Curve& curve,
+                                               const NoiseModelOptions& options) {
+  const bool gyro = kind != pb::ACCEL;
+  const std::string_view judged[] = {kFitQuantization,
+                                     gyro ? kFitAngleRandomWalk : kFitVelocityRandomWalk,
+                                     kFitBiasInstability, kFitRateRandomWalk, kFitRateRamp};
+  std::vector<pb::Measurement> out;
+  allan::GmwmOptions fit_options;
+  fit_options.stop = allan::StopRule::kNone;  // the curve is already cut by the plan's rule
+  const Result<allan::CompositeFit> fit = allan::FitCompositeModel(curve, fit_options);
+  if (!fit.ok()) {
+    for (std::string_view name : judged) {
+      out.push_back(
+          Make(axis, name, allan::kNaN, kind, "no noise model: " + fit.status().message()));
     }
-    const allan::TermEstimate& t = fit->term(term);
-    pb::Measurement m = Make(axis, name, Datasheet(term, kind, t.value), kind,
-                             t.active ? "" : "not in the fitted model (0 fits best)");
-    if (t.active && std::isfinite(t.sigma)) m.set_uncertainty(Datasheet(term, kind, t.sigma));
+    out.push_back(Make(axis, kNoiseModelPValue, allan::kNaN, kind,
+                       "no noise model: " + fit.status().message()));
+    return out;
+  }
+  const allan::SensorKind sensor = Sensor(kind);
+  const std::vector<allan::ModelQuantity> quantities = allan::DescribeCompositeFit(*fit, sensor);
+  auto quantity = [&](std::string_view name) -> const allan::ModelQuantity* {
+    for (const allan::ModelQuantity& q : quantities) {
+      if (q.name == name) return &q;
+    }
+    return nullptr;
+  };
+  // The model behind every value, and the runners-up (AICc differences and
+  // Akaike weights), as the p-value's note.
+  char head[160];
+  std::snprintf(head, sizeof head, "model %s, J %.3g on %d dof, %s at the %g level",
+                fit->model.Name().c_str(), fit->objective, fit->dof,
+                fit->adequate ? "adequate" : "INADEQUATE", fit_options.adequacy_level);
+  std::string model_note = head;
+  for (size_t i = 1; i < fit->candidates.size() && i < 4; ++i) {
+    const allan::ModelCandidate& c = fit->candidates[i];
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%s %s (AICc +%.2g, weight %.2g)", i == 1 ? "; runners-up" : ",",
+                  c.name.c_str(), c.criterion - fit->criterion, c.weight);
+    model_note += buf;
+  }
+  char inadequate[200];
+  std::snprintf(inadequate, sizeof inadequate,
+                "not measurable: noise model inadequate (%s, J-test p = %.2g < %g)",
+                fit->model.Name().c_str(), fit->p_value, fit_options.adequacy_level);
+  const bool withhold = !fit->adequate && !options.judge_inadequate_values;
+
+  // name -> the quantity the judged measurement reports.
+  const std::pair<std::string_view, std::string_view> source[] = {
+      {kFitQuantization, "quantization"},
+      {kFitAngleRandomWalk, "angle_random_walk"},
+      {kFitVelocityRandomWalk, "velocity_random_walk"},
+      {kFitBiasInstability, "bias_instability_ieee"},
+      {kFitRateRandomWalk, "rate_random_walk"},
+      {kFitRateRamp, "rate_ramp"}};
+  for (std::string_view name : judged) {
+    const allan::ModelQuantity* q = nullptr;
+    for (const auto& [n, from] : source) {
+      if (n == name) q = quantity(from);
+    }
+    pb::Measurement m = Make(axis, name, allan::kNaN, kind);
+    const bool absent = q != nullptr && q->value == 0 && std::isnan(q->sigma);
+    if (q == nullptr || (absent && !std::isfinite(q->upper_bound))) {
+      m.set_note(q == nullptr ? "not in the model's report" : q->note);
+    } else if (absent) {
+      // What the data allow of a term the model leaves out, judged as such.
+      m.set_value(q->upper_bound);
+      m.set_note("upper bound (95 %): " + q->note);
+    } else {
+      m.set_value(q->value);
+      if (std::isfinite(q->sigma)) m.set_uncertainty(q->sigma);
+      m.set_note(q->note);
+    }
+    if (!fit->adequate) {
+      m.set_model_inadequate(true);
+      if (withhold) {
+        m.set_value(allan::kNaN);
+        m.clear_uncertainty();
+        m.set_note(inadequate);
+      } else {
+        char judged_anyway[120];
+        std::snprintf(judged_anyway, sizeof judged_anyway,
+                      "; judged although the model is inadequate (J-test p = %.2g)", fit->p_value);
+        m.set_note(m.note() + judged_anyway);
+      }
+    }
+    out.push_back(std::move(m));
+  }
+  pb::Measurement p = Make(axis, kNoiseModelPValue, fit->p_value, kind, model_note);
+  out.push_back(std::move(p));
+
+  // The selected model itself, for plots and audits (not judged).
+  for (const allan::ModelQuantity& q : allan::DescribeModelTerms(*fit, sensor)) {
+    pb::Measurement m;
+    m.set_axis(axis);
+    m.set_name(std::string(kModelParameterPrefix) + q.name);
+    m.set_value(q.value);
+    m.set_unit(q.unit);
+    if (std::isfinite(q.sigma)) m.set_uncertainty(q.sigma);
+    m.set_note(fit->model.Name());
     out.push_back(std::move(m));
   }
   return out;

@@ -2,7 +2,8 @@
 // (see measurements.h): the curve minimum (seed convention) and min/0.664
 // (IEEE 952), the tau of the minimum, ARW/VRW on the -1/2 line at 1 s, RRW on
 // the +1/2 line at 3 s (flagged "upper bound only" where the curve never
-// shows that slope), the mean output, and run-level data quality. Pure.
+// shows that slope), the mean output, the noise model's terms, and run-level
+// data quality. Pure.
 #ifndef IMUQUAL_ANALYZE_JUDGE_MEASURE_H_
 #define IMUQUAL_ANALYZE_JUDGE_MEASURE_H_
 
@@ -20,6 +21,25 @@ namespace imuqual::judge {
 // `mean_rate`: mean output over the analysed record, same unit.
 std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind kind,
                                          const allan::Curve& curve, double mean_rate);
+
+struct NoiseModelOptions {
+  // Report the values of an inadequate model (the plan's
+  // JUDGE_INADEQUATE_VALUE) instead of withholding them as not measurable.
+  bool judge_inadequate_values = false;
+};
+
+// The composite noise model of an axis (analyze/allan/gmwm.h: GMWM fit,
+// model selection, J test, bootstrap sigmas) and what is read off it: the
+// judged fit_* measurements and noise_model_p_value (measurements.h), then
+// every parameter of the selected model as an unjudged "model_<parameter>".
+// A term the model leaves out is reported as its 95 % upper bound, with a
+// note saying so. When the model fails its J test, every judged value is
+// withheld (NaN, "not measurable: noise model inadequate (...)") and flagged
+// model_inadequate, unless `options` asks to keep it. Costs 50-500 ms on an
+// octave grid (the bootstrap and the search): call it once a run has ended.
+std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::AxisKind kind,
+                                               const allan::Curve& curve,
+                                               const NoiseModelOptions& options = {});
 
 // Run-level: analysed duration, fraction of samples that never arrived
 // (per axis), fraction of invalid samples (over all axes).

@@ -16,12 +16,18 @@ const std::vector<MeasurementDef>& MeasurementCatalog() {
       {kRateRandomWalk, false, "deg/h/sqrt(h)", "ug/sqrt(h)",
        "rate random walk K, read at tau = 3 s on the +1/2 slope line"},
       {kBiasOffset, false, "deg/h", "ug", "mean output over the analysed record"},
-      {kFitQuantization, false, "deg", "m/s", "quantization noise Q (IEEE 952 fit)"},
-      {kFitAngleRandomWalk, false, "deg/sqrt(h)", "", "angle random walk N (IEEE 952 fit)"},
-      {kFitVelocityRandomWalk, false, "", "m/s/sqrt(h)", "velocity random walk N (IEEE 952 fit)"},
-      {kFitBiasInstability, false, "deg/h", "ug", "bias instability B (IEEE 952 fit)"},
-      {kFitRateRandomWalk, false, "deg/h/sqrt(h)", "ug/sqrt(h)", "rate random walk K (IEEE 952 fit)"},
-      {kFitRateRamp, false, "deg/h^2", "ug/h", "rate ramp R (IEEE 952 fit)"},
+      {kFitQuantization, false, "deg", "m/s", "quantization noise Q (noise model)"},
+      {kFitAngleRandomWalk, false, "deg/sqrt(h)", "",
+       "angle random walk: the noise model's -1/2 asymptote at 1 s"},
+      {kFitVelocityRandomWalk, false, "", "m/s/sqrt(h)",
+       "velocity random walk: the noise model's -1/2 asymptote at 1 s"},
+      {kFitBiasInstability, false, "deg/h", "ug",
+       "bias instability: minimum of the noise model's curve / 0.664"},
+      {kFitRateRandomWalk, false, "deg/h/sqrt(h)", "ug/sqrt(h)",
+       "rate random walk K (noise model)"},
+      {kFitRateRamp, false, "deg/h^2", "ug/h", "rate ramp R (noise model)"},
+      {kNoiseModelPValue, false, "1", "1",
+       "goodness-of-fit p-value of the noise model (J test); the note names the model"},
       {kGapFraction, true, "1", "1", "fraction of samples that never arrived"},
       {kInvalidFraction, true, "1", "1", "fraction of samples flagged invalid, NaN or saturated"},
       {kDuration, true, "s", "s", "analysed duration after warm-up"},
@@ -32,6 +38,10 @@ const std::vector<MeasurementDef>& MeasurementCatalog() {
        "RMS lateness of sample arrivals over the least-late of each second (host latency)"},
   };
   return kCatalog;
+}
+
+bool FromNoiseModel(std::string_view name) {
+  return name.starts_with("fit_") || name == kNoiseModelPValue;
 }
 
 const MeasurementDef* FindMeasurement(std::string_view name) {

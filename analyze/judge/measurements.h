@@ -27,14 +27,24 @@ inline constexpr std::string_view kAngleRandomWalk = "angle_random_walk";
 inline constexpr std::string_view kVelocityRandomWalk = "velocity_random_walk";
 inline constexpr std::string_view kRateRandomWalk = "rate_random_walk";
 inline constexpr std::string_view kBiasOffset = "bias_offset";
-// IEEE 952 model terms from the weighted non-negative least-squares fit,
-// with 1-sigma uncertainties.
+// From the axis's composite noise model (analyze/allan/gmwm.h), fitted once
+// the run has ended, with 1-sigma uncertainties (bootstrap, model-averaged):
+// the IEEE 952 terms Q, N (the model's -1/2 asymptote at 1 s), K and R, and
+// the bias instability of the model curve (its minimum / 0.664). A term the
+// selected model leaves out is reported as its 95 % upper bound (note "upper
+// bound"). noise_model_p_value: the model's goodness-of-fit p-value, its note
+// the selected model and the runners-up.
 inline constexpr std::string_view kFitQuantization = "fit_quantization";
 inline constexpr std::string_view kFitAngleRandomWalk = "fit_angle_random_walk";
 inline constexpr std::string_view kFitVelocityRandomWalk = "fit_velocity_random_walk";
 inline constexpr std::string_view kFitBiasInstability = "fit_bias_instability";
 inline constexpr std::string_view kFitRateRandomWalk = "fit_rate_random_walk";
 inline constexpr std::string_view kFitRateRamp = "fit_rate_ramp";
+inline constexpr std::string_view kNoiseModelPValue = "noise_model_p_value";
+// Not catalogued (never limited, archived for plots and audits): every
+// parameter of the selected model as "model_<parameter>" (model_quantities.h
+// names), in datasheet units.
+inline constexpr std::string_view kModelParameterPrefix = "model_";
 inline constexpr std::string_view kGapFraction = "gap_fraction";
 inline constexpr std::string_view kInvalidFraction = "invalid_fraction";
 inline constexpr std::string_view kDuration = "duration";
@@ -45,6 +55,9 @@ inline constexpr std::string_view kRateError = "rate_error";
 inline constexpr std::string_view kTimingJitter = "timing_jitter";
 
 const std::vector<MeasurementDef>& MeasurementCatalog();
+// True for the measurements read off the noise model (fit_*,
+// noise_model_p_value): they exist only once the run has ended.
+bool FromNoiseModel(std::string_view name);
 // nullptr if `name` is not catalogued.
 const MeasurementDef* FindMeasurement(std::string_view name);
 // The unit of `def` on an axis of `kind` ("" if not defined there). Run-level

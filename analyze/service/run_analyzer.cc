@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "analyze/judge/measure.h"
+#include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
 
 namespace imuqual::analyze {
@@ -80,8 +81,7 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
   if (next_counter_ >= 0 &&
       static_cast<double>(batch.first_sample - next_counter_) * tau0_s_ > kAbsurdGapSeconds) {
     return Status::InvalidArgument("device counter jumped by " +
-                                   std::to_string(batch.first_sample - next_counter_) +
-                                   " samples");
+                                   std::to_string(batch.first_sample - next_counter_) + " samples");
   }
   if (first_counter_ < 0) {
     first_counter_ = batch.first_sample;
@@ -90,7 +90,8 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
   Push(batch.first_sample - next_counter_);
 
   // Warm-up samples of this batch are skipped.
-  const int64_t skip = std::clamp<int64_t>(warmup_target_ - warmup_seen_, 0, static_cast<int64_t>(n));
+  const int64_t skip =
+      std::clamp<int64_t>(warmup_target_ - warmup_seen_, 0, static_cast<int64_t>(n));
   warmup_seen_ += skip;
   const size_t keep = n - static_cast<size_t>(skip);
   if (keep > 0) {
@@ -102,7 +103,8 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
         }
       }
       const std::span<const float> values = batch.samples[a].subspan(skip);
-      const std::span<const uint8_t> invalid = std::span<const uint8_t>(invalid_scratch_).subspan(skip);
+      const std::span<const uint8_t> invalid =
+          std::span<const uint8_t>(invalid_scratch_).subspan(skip);
       engines_[a].Append(values, invalid);
       for (size_t i = 0; i < keep; ++i) {
         if (invalid[i] || !std::isfinite(values[i])) {
@@ -142,15 +144,28 @@ RunOutcome RunAnalyzer::Outcome(bool final, const std::string& failure) const {
   const pb::TestPlan& plan = desc_.plan;
   const allan::StopRule stop =
       allan::ParseStopRule(judge::PlanStopRule(plan)).value_or(allan::StopRule::kBins9);
-  const allan::StreamGrid grid =
-      plan.grid().kind() == pb::TauGrid::OCTAVE ? allan::StreamGrid::kOctave : allan::StreamGrid::kDense;
+  const allan::StreamGrid grid = plan.grid().kind() == pb::TauGrid::OCTAVE
+                                     ? allan::StreamGrid::kOctave
+                                     : allan::StreamGrid::kDense;
   for (size_t a = 0; a < desc_.axes.size(); ++a) {
     const allan::StreamingAllan& e = engines_[a];
     out.curves.emplace_back(desc_.axes[a].name, e.Oadev(grid, stop, allan::CiMethod::kSimple));
     const allan::Curve dense = e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
     const double mean = count_[a] > 0 ? sum_[a] / static_cast<double>(count_[a]) : allan::kNaN;
-    for (pb::Measurement& m : judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, mean)) {
+    for (pb::Measurement& m :
+         judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, mean)) {
       out.measurements.push_back(std::move(m));
+    }
+    // The noise model once the run has ended (a fit costs 50-500 ms per axis;
+    // interim looks judge the read-offs only).
+    if (final) {
+      judge::NoiseModelOptions model_options;
+      model_options.judge_inadequate_values =
+          plan.on_inadequate_model() == pb::TestPlan::JUDGE_INADEQUATE_VALUE;
+      for (pb::Measurement& m :
+           judge::MeasureNoiseModel(desc_.axes[a].name, desc_.axes[a].kind, dense, model_options)) {
+        out.measurements.push_back(std::move(m));
+      }
     }
   }
   out.samples = engines_.front().samples();
@@ -172,12 +187,16 @@ RunOutcome RunAnalyzer::Outcome(bool final, const std::string& failure) const {
   if (final) {
     out.judgement = judge::Judge(plan, desc_.axes, &out.measurements);
   } else {
-    // Provisional: judge what is measured so far, not the run's length.
+    // Provisional: judge what is measured so far, not the run's length nor
+    // the noise model (fitted at the end).
     pb::TestPlan provisional = plan;
     provisional.set_min_duration_s(0);
     auto* limits = provisional.mutable_limits();
     limits->erase(std::remove_if(limits->begin(), limits->end(),
-                                 [](const pb::Limit& l) { return l.measurement() == "duration"; }),
+                                 [](const pb::Limit& l) {
+                                   return l.measurement() == "duration" ||
+                                          judge::FromNoiseModel(l.measurement());
+                                 }),
                   limits->end());
     out.judgement = judge::Judge(provisional, desc_.axes, &out.measurements);
   }

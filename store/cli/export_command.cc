@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "analyze/allan/units.h"
+#include "analyze/judge/measurements.h"
 #include "common/log.h"
 #include "common/text_util.h"
 #include "store/archive.h"
@@ -35,7 +36,8 @@ Result<std::vector<RunRef>> ResolveRuns(store::Archive& archive, const ExportOpt
     auto runs = store::QueryRuns(archive, f);
     if (!runs.ok()) return runs.status();
     if (runs->empty()) return Status::NotFound("no lot '" + o.lot + "' in " + o.db_path);
-    for (auto it = runs->rbegin(); it != runs->rend(); ++it) ids.push_back(it->run_id);  // oldest first
+    for (auto it = runs->rbegin(); it != runs->rend(); ++it)
+      ids.push_back(it->run_id);  // oldest first
   }
   std::vector<RunRef> out;
   for (const std::string& id : ids) {
@@ -105,7 +107,8 @@ Result<std::string> ExportCurves(store::Archive& archive, const std::vector<RunR
     for (const store::CurveRecord& c : *curves) {
       for (const allan::CurvePoint& p : c.curve.points) {
         t.AddRow({Cell::Text(r.info.lot), Cell::Text(r.info.serial), Cell::Text(r.run_id),
-                  Cell::Text(c.axis), Cell::Text(std::string(allan::DeviationName(c.curve.deviation))),
+                  Cell::Text(c.axis),
+                  Cell::Text(std::string(allan::DeviationName(c.curve.deviation))),
                   Cell::Text(std::string(allan::CiMethodName(c.curve.ci))), Cell::Int(p.m),
                   Cell::Real(p.tau_s), Cell::Real(p.dev), Cell::Real(p.lo), Cell::Real(p.hi),
                   Cell::Real(p.edf), Cell::Int(p.n), Cell::Int(p.stride)});
@@ -139,11 +142,24 @@ Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunR
       int n_count = 0, k_count = 0;
       std::string comments;
     } gyro, accel;
+    // A navigation filter tuned from a model that does not fit the sensor
+    // is tuned wrong: only adequate models are exported.
+    for (const pb::Measurement& m : (*result)->measurements) {
+      if (m.name() != judge::kNoiseModelPValue) continue;
+      if (!std::isfinite(m.value()) || m.note().find("INADEQUATE") != std::string::npos) {
+        return Status::InvalidArgument("run " + r.run_id + " axis " + m.axis() +
+                                       ": no adequate noise model for Kalibr (" + m.note() + ")");
+      }
+    }
     for (const pb::Measurement& m : (*result)->measurements) {
       const bool gyro_n = m.name() == "fit_angle_random_walk";
       const bool accel_n = m.name() == "fit_velocity_random_walk";
       const bool rrw = m.name() == "fit_rate_random_walk";
-      if (!(gyro_n || accel_n || rrw) || !std::isfinite(m.value())) continue;
+      if (!(gyro_n || accel_n || rrw)) continue;
+      if (!std::isfinite(m.value())) {
+        return Status::InvalidArgument("run " + r.run_id + " axis " + m.axis() + ": " + m.name() +
+                                       " not measured (" + m.note() + "); no Kalibr YAML");
+      }
       bool is_accel = accel_n;
       if (rrw) {
         for (const store::AxisInfo& a : r.info.axes) {
@@ -157,7 +173,8 @@ Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunR
       } else if (accel_n) {
         si = allan::MetersPerSecPerRootHourToMetersPerSecSqPerRootHz(m.value());  // m/s^2/sqrt(Hz)
       } else if (!is_accel) {
-        si = allan::DegPerHourPerRootHourToDegPerSecPerRootSec(m.value()) * kRadPerDeg;  // rad/s^2/sqrt(Hz)
+        si = allan::DegPerHourPerRootHourToDegPerSecPerRootSec(m.value()) *
+             kRadPerDeg;  // rad/s^2/sqrt(Hz)
       } else {
         si = allan::MicroGToMetersPerSecSq(m.value()) / 60.0;  // ug/sqrt(h) -> m/s^3/sqrt(Hz)
       }
@@ -168,13 +185,18 @@ Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunR
         s.n += si;
         ++s.n_count;
       }
-      s.comments += "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) + "\n";
+      s.comments += "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) +
+                    (m.note().starts_with("upper bound")
+                         ? " (upper bound at 95 %: the noise model has no such term)"
+                         : "") +
+                    "\n";
     }
     out += "---\n# " + r.info.serial + ", run " + r.run_id + " (lot " + r.info.lot +
-           "): IEEE 952 fit, mean over the axes\n";
+           "): composite noise model, mean over the axes\n";
     if (accel.n_count + accel.k_count > 0) {
       out += "#Accelerometer\n" + accel.comments;
-      if (accel.n_count) out += "accelerometer_noise_density: " + Num(accel.n / accel.n_count) + "\n";
+      if (accel.n_count)
+        out += "accelerometer_noise_density: " + Num(accel.n / accel.n_count) + "\n";
       if (accel.k_count) out += "accelerometer_random_walk: " + Num(accel.k / accel.k_count) + "\n";
     }
     if (gyro.n_count + gyro.k_count > 0) {
@@ -204,7 +226,8 @@ int ExportCommand(const ExportOptions& o) {
     LogError(runs.status().message());
     return runs.status().code() == Status::Code::kNotFound ? 2 : 1;
   }
-  Result<std::string> text = Status::InvalidArgument("--as must be json, measurements, curves or kalibr");
+  Result<std::string> text =
+      Status::InvalidArgument("--as must be json, measurements, curves or kalibr");
   if (o.as == "json") text = ExportJson(**archive, *runs);
   if (o.as == "measurements") text = ExportMeasurements(**archive, *runs);
   if (o.as == "curves") text = ExportCurves(**archive, *runs);

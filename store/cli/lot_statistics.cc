@@ -3,6 +3,8 @@
 #include <cmath>
 #include <map>
 
+#include "analyze/judge/measurements.h"
+
 namespace imuqual::cli {
 
 std::vector<MeasurementStats> ComputeLotStatistics(const std::vector<store::MeasurementRow>& rows) {
@@ -14,6 +16,9 @@ std::vector<MeasurementStats> ComputeLotStatistics(const std::vector<store::Meas
   std::vector<Group> groups;
   std::map<std::pair<std::string, std::string>, size_t> index;
   for (const store::MeasurementRow& r : rows) {
+    // The parameters of each unit's own noise model: units with different
+    // models have no common "gauss_markov_1" to average.
+    if (r.name.starts_with(judge::kModelParameterPrefix)) continue;
     auto [it, inserted] = index.try_emplace({r.axis, r.name}, groups.size());
     if (inserted) {
       Group g;

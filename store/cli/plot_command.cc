@@ -6,6 +6,7 @@
 #include <numbers>
 #include <set>
 
+#include "analyze/allan/model_quantities.h"
 #include "analyze/allan/noise_model.h"
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
@@ -110,27 +111,28 @@ PlotSeries CurveSeries(const allan::Curve& curve, std::string label, std::string
   return s;
 }
 
-// The fitted IEEE 952 model over the curve's tau span, from the stored
-// fit_* measurements (datasheet units -> base units). nullopt without a fit
-// or when a stored unit is not the one expected (the model would be wrong).
+// The axis's noise model over the curve's tau span, rebuilt from the stored
+// model_* parameters (judge/measure.h). nullopt without a model or when a
+// stored parameter does not make one (the model would be wrong); an
+// inadequate model is labelled so.
 std::optional<PlotSeries> ModelSeries(const AxisPlotData& a, std::string label, std::string color) {
-  if (!a.curve || a.curve->points.empty()) return std::nullopt;
-  const bool gyro = a.kind != pb::ACCEL;
-  const std::pair<NoiseTerm, std::string_view> fitted[] = {
-      {NoiseTerm::kQuantization, judge::kFitQuantization},
-      {NoiseTerm::kAngleRandomWalk,
-       gyro ? judge::kFitAngleRandomWalk : judge::kFitVelocityRandomWalk},
-      {NoiseTerm::kBiasInstability, judge::kFitBiasInstability},
-      {NoiseTerm::kRateRandomWalk, judge::kFitRateRandomWalk},
-      {NoiseTerm::kRateRamp, judge::kFitRateRamp}};
-  std::vector<std::pair<NoiseTerm, double>> coefs;  // base units
-  for (const auto& [term, name] : fitted) {
-    const pb::Measurement* m = FindMeasurementRow(a, name);
-    if (m == nullptr || !std::isfinite(m->value())) continue;
-    if (m->unit() != DatasheetUnit(term, a.kind)) return std::nullopt;
-    coefs.emplace_back(term, m->value() / DatasheetPerBase(term, a.kind));
+  if (!a.curve || a.curve->points.empty() || !(a.curve->tau0_s > 0)) return std::nullopt;
+  std::vector<allan::ModelQuantity> parameters;
+  for (const pb::Measurement& m : a.measurements) {
+    if (!m.name().starts_with(judge::kModelParameterPrefix)) continue;
+    allan::ModelQuantity q;
+    q.name = m.name().substr(judge::kModelParameterPrefix.size());
+    q.value = m.value();
+    q.unit = m.unit();
+    parameters.push_back(std::move(q));
   }
-  if (coefs.empty()) return std::nullopt;
+  if (parameters.empty()) return std::nullopt;
+  const Result<allan::CompositeModel> model = allan::ModelFromTerms(parameters, Sensor(a.kind));
+  if (!model.ok() || model->terms.empty()) return std::nullopt;
+  const pb::Measurement* p = FindMeasurementRow(a, judge::kNoiseModelPValue);
+  if (p != nullptr && p->note().find("INADEQUATE") != std::string::npos) {
+    label += " (inadequate)";
+  }
   const double t0 = a.curve->points.front().tau_s, t1 = a.curve->points.back().tau_s;
   if (!(t0 > 0) || !(t1 > t0)) return std::nullopt;
   PlotSeries s;
@@ -140,10 +142,8 @@ std::optional<PlotSeries> ModelSeries(const AxisPlotData& a, std::string label, 
   s.markers = false;
   for (int i = 0; i < kModelPoints; ++i) {
     const double tau = t0 * std::pow(t1 / t0, static_cast<double>(i) / (kModelPoints - 1));
-    double avar = 0;
-    for (const auto& [term, c] : coefs) avar += c * c * allan::NoiseTermAvarBasis(term, tau);
     s.x.push_back(tau);
-    s.y.push_back(std::sqrt(avar));
+    s.y.push_back(model->Deviation(tau / a.curve->tau0_s, a.curve->tau0_s));
   }
   return s;
 }
@@ -391,7 +391,7 @@ std::vector<AllanPlot> RunAllanPlots(const RunPlotData& run, const std::string& 
         label += ")";
       }
       p.series.push_back(CurveSeries(*a.curve, label, color));
-      if (auto model = ModelSeries(a, a.axis + " IEEE 952 fit", color)) {
+      if (auto model = ModelSeries(a, a.axis + " noise model", color)) {
         p.series.push_back(std::move(*model));
       }
       if (auto m = MinimumMarker(a, a.axis + ": ", color)) p.markers.push_back(std::move(*m));

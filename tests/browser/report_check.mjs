@@ -359,9 +359,12 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
     if (runVerdict !== (r.run_verdict || 'not judged')) fail(`${r.unit} ${r.axis}: unit verdict '${runVerdict}', archive '${r.run_verdict}'`);
   }
 
-  // Statistics, recomputed from the measurements of each unit's latest run.
+  // Statistics, recomputed from the measurements of each unit's latest run
+  // (not the parameters of each unit's own noise model, model_*: units with
+  // different models have nothing in common to average).
   const groups = new Map();
   for (const m of measurements) {
+    if (m.name.startsWith('model_')) continue;
     const key = `${m.axis}\u0000${m.name}`;
     if (!groups.has(key)) groups.set(key, { axis: m.axis, name: m.name, unit: m.unit, values: [], outcomes: [], low: null, high: null });
     const g = groups.get(key);
