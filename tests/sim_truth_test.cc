@@ -379,7 +379,9 @@ std::vector<Compared> EvaluateAxisFit(const UnitRecord& u, const pb::AxisTruth& 
         def.term == NoiseTerm::kAngleRandomWalk || def.term == NoiseTerm::kBiasInstability;
     if (std::find(outside.begin(), outside.end(), def.term) != outside.end()) {
       c.check = Compared::kOutsideModel;
-    } else if (figure || MaxShare(axis, def.term, curve) >= kSignificantShare) {
+    } else if (figure) {
+      c.check = Compared::kCompared;  // with its sigma, also where flagged a bound
+    } else if (MaxShare(axis, def.term, curve) >= kSignificantShare) {
       c.check = c.bound ? Compared::kBounded : Compared::kCompared;
     }
     terms.push_back(c);

@@ -50,7 +50,8 @@ struct Problem {
   Eigen::MatrixXd sigma;     // Var(ln avar_hat)
   Eigen::MatrixXd whitener;  // L^-1, Sigma = L L'
   double ln_t_min = 0, ln_t_max = 0;
-  double penalty = 2;  // per parameter in the criterion
+  double penalty = 2;         // per parameter of a two-parameter term in the criterion
+  double single_penalty = 2;  // per one-parameter term
   // AVAR of a term held fixed outside the fitted parameters (the profile of
   // an absent term's upper bound); empty: none.
   Eigen::VectorXd fixed_avar;
@@ -60,9 +61,10 @@ struct Problem {
 
 Problem MakeProblem(const std::vector<FitRow>& rows, double tau0_s, int64_t n_phase,
                     const Eigen::VectorXd& edf, const Eigen::MatrixXd& correlation,
-                    double penalty) {
+                    const GmwmOptions& options) {
   Problem p;
-  p.penalty = penalty;
+  p.penalty = options.parameter_penalty;
+  p.single_penalty = options.single_term_penalty;
   p.tau0_s = tau0_s;
   const int n = static_cast<int>(rows.size());
   p.y.resize(n);
@@ -162,10 +164,16 @@ double JTestPValue(double objective, int dof) {
   return 1.0 - RegularizedGammaP(dof / 2.0, objective / 2.0);
 }
 
-double Criterion(double objective, int k, int points, double penalty) {
+double Criterion(double objective, const std::vector<TermKind>& kinds, int points, double penalty,
+                 double single_penalty) {
+  const int k = ParameterCount(kinds);
   const int denom = points - k - 1;
   if (denom <= 0) return std::numeric_limits<double>::infinity();
-  return objective + penalty * k + 2.0 * k * (k + 1.0) / denom;
+  double cost = 0;
+  for (TermKind kind : kinds) {
+    cost += ParameterCount(kind) == 1 ? single_penalty : penalty * ParameterCount(kind);
+  }
+  return objective + cost + 2.0 * k * (k + 1.0) / denom;
 }
 
 Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, const Problem& p) {
@@ -185,7 +193,7 @@ Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, co
   if (!r.allFinite()) return c;
   c.theta = theta;
   c.objective = r.squaredNorm();
-  c.criterion = Criterion(c.objective, k, p.points(), p.penalty);
+  c.criterion = Criterion(c.objective, kinds, p.points(), p.penalty, p.single_penalty);
   return c;
 }
 
@@ -581,6 +589,9 @@ Status GmwmOptions::Validate() const {
   if (!(parameter_penalty >= 0 && parameter_penalty <= 20)) {
     return Status::InvalidArgument("parameter_penalty must be in [0, 20]");
   }
+  if (!(single_term_penalty >= 0 && single_term_penalty <= 20)) {
+    return Status::InvalidArgument("single_term_penalty must be in [0, 20]");
+  }
   if (!(fast_gauss_markov_fraction >= 0 && fast_gauss_markov_fraction <= 1)) {
     return Status::InvalidArgument("fast_gauss_markov_fraction must be in [0, 1]");
   }
@@ -636,8 +647,8 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
                   ? r.point_edf
                   : FitRowEdf(AlphaFromAvarSlope(r.local_slope), r);
   }
-  const Problem p1 = MakeProblem(rows, tau0, curve.n_phase, edf1, Eigen::MatrixXd::Identity(n, n),
-                                 options.parameter_penalty);
+  const Problem p1 =
+      MakeProblem(rows, tau0, curve.n_phase, edf1, Eigen::MatrixXd::Identity(n, n), options);
   std::map<std::string, Candidate> seen1;
   const Candidate pilot = Search(p1, rows, options, &seen1);
   if (!std::isfinite(pilot.criterion)) {
@@ -654,7 +665,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   }
   const std::vector<double> corr_values = AvarCorrelationMatrix(pilot_model, tau0, ms);
   const Eigen::MatrixXd corr = Eigen::Map<const Eigen::MatrixXd>(corr_values.data(), n, n);
-  const Problem p2 = MakeProblem(rows, tau0, curve.n_phase, edf2, corr, options.parameter_penalty);
+  const Problem p2 = MakeProblem(rows, tau0, curve.n_phase, edf2, corr, options);
   std::vector<Candidate> pass1(seen1.size());
   std::transform(seen1.begin(), seen1.end(), pass1.begin(),
                  [](const auto& kv) { return kv.second; });

@@ -32,7 +32,8 @@
 // removal improves it. Criterion: corrected Akaike on the objective,
 //   AICc = J + 2k + 2k(k+1)/(p-k-1)   (k parameters, p points),
 // the GMWM information criterion with Sigma^-1 weights plus the small-sample
-// correction (16 points do not carry 12 parameters). The eight best
+// correction (16 points do not carry 12 parameters), except that a
+// one-parameter IEEE term costs 3.84 instead of 2 (see GmwmOptions). The eight best
 // candidates of pass 1 are re-estimated in pass 2, and the search goes on
 // from the best of them under the full covariance.
 // Adequacy: with Sigma^-1 weights J is asymptotically chi-square with p - k
@@ -75,12 +76,18 @@ struct GmwmOptions {
   int max_sinusoids = 2;     // in [0, 2]
   // A model whose J-test p-value is below this level is inadequate, in (0, 1).
   double adequacy_level = 0.01;
-  // Criterion J + penalty k + 2k(k+1)/(p-k-1), in [0, 20]; 2 is AICc. In
-  // simulations AICc keeps the truth's model in 85-95 % of records (a spurious
-  // term costs ~2 x 1.8 % per candidate term); 3 per parameter raised the
-  // worst scenario to 90 % but dropped a real second Gauss-Markov term on the
-  // real ADIS16405 x gyro (3 of 16 points outside their 95 % interval).
+  // Criterion J + penalties + 2k(k+1)/(p-k-1): `parameter_penalty` per
+  // parameter of a two-parameter term (Gauss-Markov, sinusoid) and
+  // `single_term_penalty` per one-parameter term (Q, N, B, K, R), each in
+  // [0, 20]. 2 and 2 are AICc: in simulations it kept a spurious Q or B in
+  // 10-15 % of records (a one-parameter term that lowers J by 2 has a 16 %
+  // chance of being noise); 3.84, the chi2(1) 95 % point, makes such a term
+  // pass a 5 % likelihood-ratio test to enter and keeps the truth's model in
+  // 90-95 % of records. 3 per parameter for the two-parameter terms too
+  // dropped a real second Gauss-Markov term on the real ADIS16405 x gyro (3
+  // of 16 points outside their 95 % interval), so they keep AIC's 2.
   double parameter_penalty = 2;
+  double single_term_penalty = 3.84;
   // Bootstrap replicates behind every sigma, in [0, 5000]; 0: no sigmas.
   int bootstrap_replicates = 100;
   // Gauss-Markov terms with a correlation time below this fraction of 1 s are

@@ -111,8 +111,9 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
   for (size_t i = 1; i < fit->candidates.size() && i < 4; ++i) {
     const allan::ModelCandidate& c = fit->candidates[i];
     char buf[96];
-    std::snprintf(buf, sizeof buf, "%s %s (AICc +%.2g, weight %.2g)", i == 1 ? "; runners-up" : ",",
-                  c.name.c_str(), c.criterion - fit->criterion, c.weight);
+    std::snprintf(buf, sizeof buf, "%s %s (criterion +%.2g, weight %.2g)",
+                  i == 1 ? "; runners-up" : ",", c.name.c_str(), c.criterion - fit->criterion,
+                  c.weight);
     model_note += buf;
   }
   char inadequate[200];
@@ -141,11 +142,16 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
     } else if (absent) {
       // What the data allow of a term the model leaves out, judged as such.
       m.set_value(q->upper_bound);
-      m.set_note("upper bound (95 %): " + q->note);
+      m.set_note("upper bound (95 %): the term is not in the selected model " + fit->model.Name());
     } else {
       m.set_value(q->value);
       if (std::isfinite(q->sigma)) m.set_uncertainty(q->sigma);
       m.set_note(q->note);
+      // A minimum at the end of the analysed taus: the true one lies lower
+      // (or beyond them), so the figure bounds it from above.
+      if (name == kFitBiasInstability && fit->minimum_at_edge) {
+        m.set_note("upper bound: the model curve's minimum is at the edge of the analysed taus");
+      }
     }
     if (!fit->adequate) {
       m.set_model_inadequate(true);

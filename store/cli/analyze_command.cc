@@ -150,7 +150,7 @@ std::string FitJson(const allan::CompositeFit& fit, const Curve& curve,
          ", \"p_value\": " + JsonNumber(fit.p_value) +
          ", \"objective\": " + JsonNumber(fit.objective) + ", \"dof\": " + std::to_string(fit.dof) +
          ", \"parameters\": " + std::to_string(fit.parameters) +
-         ", \"criterion\": \"AICc\", \"criterion_value\": " + JsonNumber(fit.criterion) +
+         ", \"criterion\": \"AICc, 3.84 per one-parameter term\", \"criterion_value\": " + JsonNumber(fit.criterion) +
          ",\n\"terms\": " + QuantityTable(fit, curve, kind).Render(Format::kJson) +
          ",\n\"curve\": " + ModelCurveTable(fit, curve).Render(Format::kJson) +
          ",\n\"candidates\": " + CandidateTable(fit).Render(Format::kJson) + "}";
@@ -255,9 +255,9 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
       std::printf("\n%s\n", FitSummary(*fit).c_str());
       std::printf("%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kTable).c_str());
       std::printf(
-          "\ncandidates (best first; criterion J + 2k + 2k(k+1)/(p-k-1) (AICc); figures and IEEE "
-          "terms "
-          "are averaged with the weights)\n%s",
+          "\ncandidates (best first; criterion J + 3.84 per Q/N/B/K/R term + 2 per Gauss-Markov or "
+          "sinusoid parameter + 2k(k+1)/(p-k-1); figures and IEEE terms are averaged with the "
+          "weights)\n%s",
           CandidateTable(*fit).Render(Format::kTable).c_str());
     }
   } else if (p.format == Format::kCsv) {
