@@ -494,14 +494,12 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
       break;
     }
     if (auto code = acquire->Poll(); code && *code != 0 && drain_deadline < 0) {
-      // The source died: the store ends its runs as incomplete once it has
-      // been silent for stale_after_s; wait for that, then report.
+      // A unit's source failed (its run is aborted) or acquire died (the
+      // store ends its runs as incomplete once it has been silent for
+      // stale_after_s): wait for the runs to be archived, then report.
       drain_deadline = now + o.stale_after_s + kAbortDrainS;
-      result.failure = "imuqual-acquire failed (exit " + std::to_string(*code) +
-                       "); its runs are archived as incomplete. Last lines of " +
-                       result.log_path + ":\n" + LogTail(result.log_path, 6);
       notice("imuqual-acquire ended with code " + std::to_string(*code) +
-             "; waiting for its runs to be archived as incomplete");
+             "; waiting for its runs to be archived");
     }
     if (now - last_change > o.stall_timeout_s) {
       outcome = failure("the station made no progress for " +
@@ -514,14 +512,12 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   // last acknowledgements arrive), then analysis, then the archive (which
   // drains and commits what it holds).
   std::optional<int> acquire_code;
-  if (outcome.ok() && !result.interrupted && result.failure.empty()) {
-    acquire_code = acquire->Wait(kAcquireEndS);
-  }
+  if (outcome.ok() && !result.interrupted) acquire_code = acquire->Wait(kAcquireEndS);
   acquire->Stop(kStopTimeoutS);
   // A unit's source that failed (bad data, a device gone) aborted that run
   // only: every run may be archived by now, before acquire's exit code was
   // looked at, so the runs' end states say it.
-  if (outcome.ok() && !result.interrupted && result.failure.empty()) {
+  if (outcome.ok() && !result.interrupted) {
     std::vector<std::string> failed;
     for (const ConsoleUnit& u : model.units) {
       const bool ended_early = u.state == imuqual::run_t::STATE_ABORTED ||
@@ -535,8 +531,9 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
       result.failure = std::to_string(failed.size()) + " of " + std::to_string(model.units.size()) +
                        " units' sources failed, their runs archived as FAIL: " + Join(failed, "; ");
     } else if (acquire_code && *acquire_code != 0) {
-      result.failure = "imuqual-acquire failed (exit " + std::to_string(*acquire_code) + "); see " +
-                       result.log_path;
+      result.failure = "imuqual-acquire failed (exit " + std::to_string(*acquire_code) +
+                       "); its runs are archived as they ended. Last lines of " + result.log_path +
+                       ":\n" + LogTail(result.log_path, 6);
     }
   }
   for (Supervised& a : children.analyze) {
