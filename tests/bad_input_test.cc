@@ -11,10 +11,13 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <random>
+#include <sstream>
 
 #include "common/channels.h"
 #include "common/clock.h"
+#include "common/strings.h"
 #include "common/text_util.h"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/run_t.hpp"
@@ -245,7 +248,76 @@ TEST(BadInputTest, GarbageForeignAndLyingMessagesAreCountedAndTheRunSurvivesIt) 
   EXPECT_EQ(s->Int(0), invalid);
   // The wrong-rate batch and the backwards one are missing from the analysis.
   EXPECT_GE(s->Int(1), kSamples);
+  // Each axis counts its own: x the NaN and the saturated one, y the
+  // infinity, z the -infinity and the invalid one.
+  auto axes = (*a)->db().Prepare(
+      "SELECT axis, invalid_samples FROM axis_results WHERE run_key = ? ORDER BY axis_index");
+  axes->Bind(1, key);
+  std::map<std::string, int64_t> per_axis;
+  while (*axes->Step()) per_axis[axes->Text(0)] = axes->Int(1);
+  EXPECT_EQ(per_axis, (std::map<std::string, int64_t>{{"x", 2}, {"y", 1}, {"z", 2}}));
 
+  EXPECT_EQ(analyze.Stop(15), 0);
+  EXPECT_EQ(store.Stop(15), 0);
+}
+
+TEST(BadInputTest, InvalidSamplesOnOneAxisAreReportedOnThatAxisOnly) {
+  StationHarness h("bad_one_axis");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  // GIVEN a run whose y axis alone has NaN samples and flagged ones
+  FakeAcquire acq(h, "ONEAXIS-1", "BAD-U02");
+  acq.Announce(imuqual::run_t::STATE_RUNNING, -1, 0);
+  constexpr int64_t kBatches = 20;
+  int64_t invalid_y = 0;
+  for (int64_t seq = 0; seq < kBatches; ++seq) {
+    imuqual::rate_batch_t b = acq.Batch(seq, seq * kSamples);
+    if (seq % 4 == 1) {
+      b.samples[1][0] = std::numeric_limits<float>::quiet_NaN();
+      b.samples[1][7] = std::numeric_limits<float>::quiet_NaN();
+      invalid_y += 2;
+    }
+    if (seq == 6) {
+      b.num_flagged = 1;
+      b.flagged_sample = {9};
+      b.flagged_axis = {1};
+      b.flagged_bits = {imuqual::rate_batch_t::FLAG_SATURATED};
+      invalid_y += 1;
+    }
+    acq.Send(b);
+  }
+  for (int i = 0; i < 3; ++i) {
+    acq.Announce(imuqual::run_t::STATE_COMPLETE, kBatches - 1, kBatches * kSamples);
+    h.Pump(200);
+  }
+  ASSERT_TRUE(h.WaitRunsDone(1, 60)) << h.Logs();
+  // WHEN the lot is listed per unit and axis
+  const auto lot = RunCommand(Bin("imuqual") + " lot BAD --db " + h.db() + " --format csv");
+  ASSERT_EQ(lot.exit_code, 0) << lot.output;
+  // THEN y carries its invalid samples and x and z none (not the run's total on each)
+  std::map<std::string, std::string> invalid_of;  // axis -> invalid_samples cell
+  std::istringstream rows(lot.output);
+  std::string line;
+  std::getline(rows, line);
+  const std::vector<std::string> header = Split(line, ',');
+  const size_t axis_col = std::find(header.begin(), header.end(), "axis") - header.begin();
+  const size_t invalid_col =
+      std::find(header.begin(), header.end(), "invalid_samples") - header.begin();
+  ASSERT_LT(invalid_col, header.size()) << line;
+  while (std::getline(rows, line)) {
+    const std::vector<std::string> cells = Split(line, ',');
+    ASSERT_EQ(cells.size(), header.size()) << line;
+    invalid_of[cells[axis_col]] = cells[invalid_col];
+  }
+  EXPECT_EQ(invalid_of, (std::map<std::string, std::string>{
+                            {"x", "0"}, {"y", std::to_string(invalid_y)}, {"z", "0"}}))
+      << lot.output;
+  // AND the run's own figure is still the total, over the axes
+  auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok());
+  auto total = (*a)->db().QueryInt("SELECT invalid_samples FROM runs WHERE run_id = 'ONEAXIS-1'");
+  ASSERT_TRUE(total.ok());
+  EXPECT_EQ(*total, invalid_y);
   EXPECT_EQ(analyze.Stop(15), 0);
   EXPECT_EQ(store.Stop(15), 0);
 }
