@@ -37,6 +37,13 @@ Result<std::unique_ptr<CsvSource>> CsvSource::Open(const CsvSourceOptions& optio
       },
       options.path, wanted);
   IMUQUAL_RETURN_IF_ERROR(s->reader_->Start());
+  // A header without rows is no recording, as an empty file is none: it
+  // must not become a complete run of 0 samples. The first row is read now
+  // and delivered by the first Read().
+  Result<bool> first = s->reader_->Next(&s->row_);
+  if (!first.ok()) return first.status();
+  if (!*first) return Status::InvalidArgument(options.path + ": a header but no samples");
+  s->row_pending_ = true;
   s->info_.axes = options.axes;
   s->info_.nominal_rate_hz = options.rate_hz;
   s->info_.description = "csv:" + options.path;
@@ -51,11 +58,15 @@ Result<int> CsvSource::Read(int max_samples, SampleBlock* block) {
   int n = 0;
   while (n < max_samples && !done_) {
     if (!have_row_) {
-      Result<bool> more = reader_->Next(&row_);
-      if (!more.ok()) return more.status();
-      if (!*more) {
-        done_ = true;
-        break;
+      if (row_pending_) {
+        row_pending_ = false;
+      } else {
+        Result<bool> more = reader_->Next(&row_);
+        if (!more.ok()) return more.status();
+        if (!*more) {
+          done_ = true;
+          break;
+        }
       }
       if (options_.counter_column.empty()) {
         row_counter_ = next_index_++;

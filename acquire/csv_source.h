@@ -29,8 +29,9 @@ struct CsvSourceOptions {
 
 class CsvSource : public SampleSource {
  public:
-  // Opens the file and reads its header; errors name the file, the line and
-  // the column.
+  // Opens the file and reads its header and first row; errors name the
+  // file, the line and the column. A file without a data row (empty, or a
+  // header only) is an error.
   static Result<std::unique_ptr<CsvSource>> Open(const CsvSourceOptions& options);
   const SourceInfo& info() const override { return info_; }
   Result<int> Read(int max_samples, SampleBlock* block) override;
@@ -42,6 +43,7 @@ class CsvSource : public SampleSource {
   std::unique_ptr<NumericRowReader> reader_;
   SourceInfo info_;
   std::vector<double> row_;
+  bool row_pending_ = false;    // row_ read by Open (the first row), not yet looked at
   bool have_row_ = false;       // row_ read but not yet delivered (a counter jump ended a block)
   int64_t row_counter_ = 0;
   int64_t next_index_ = 0;      // counter of the next row without a counter column

@@ -1,6 +1,7 @@
 // imuqual-acquire: publishes the samples of units under test on a station
 // bus. Flags -> options -> AcquireService -> exit code.
 #include <CLI/CLI.hpp>
+#include <cmath>
 
 #include "acquire/acquire_service.h"
 #include "acquire/units.h"
@@ -37,7 +38,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--duration", sim.duration_s,
                  "seconds of data per unit (simulated units; serial units record this long)");
-  app.add_option("--rate", sim.rate_hz, "sample rate in Hz (default: the profile's)");
+  CLI::Option* rate_opt =
+      app.add_option("--rate", sim.rate_hz, "sample rate in Hz, > 0 (default: the profile's)");
   app.add_option("--seed", sim.seed, "lot seed (default: from the lot name)");
   app.add_option("--plan", plan_spec, "test plan: a .textproto file or builtin:NAME");
   app.add_option("--await", await, "consumers whose acks gate the data, e.g. store,analyze");
@@ -64,6 +66,11 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   SetLogProgramName("imuqual-acquire");
+  // sim.rate_hz = 0 means "the profile's": a given --rate must be a rate.
+  if (rate_opt->count() > 0 && !(sim.rate_hz > 0 && std::isfinite(sim.rate_hz))) {
+    LogError("--rate " + rate_opt->as<std::string>() + ": must be a positive, finite rate in Hz");
+    return 2;
+  }
   InstallShutdownHandlers();
   if (!plan_spec.empty()) {
     auto plan = judge::LoadPlan(plan_spec);

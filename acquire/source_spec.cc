@@ -91,6 +91,11 @@ Result<std::unique_ptr<SampleSource>> MakeSim(const SourceSpec& spec, const Sour
   for (const auto* r : {&index, &duration, &rate, &seed, &actual, &quantize, &lsb, &bits}) {
     if (!r->ok()) return r->status();
   }
+  // d.rate_hz = 0 means "the profile's"; a rate= given must be a rate.
+  if (spec.options.count("rate") > 0 && !(*rate > 0)) {
+    return Status::InvalidArgument(Where(spec) +
+                                   ": rate must be > 0 Hz (leave it out for the profile's)");
+  }
   if (*quantize != 0 && *quantize != 1) {
     return Status::InvalidArgument(Where(spec) + ": quantize must be 0 or 1");
   }

@@ -217,6 +217,7 @@ int main(int argc, char** argv) {
                                                 : "";
       res.reasons = j.reasons;
       res.samples = samples;
+      res.axis_invalid_samples.assign(axes.size(), 0);
       res.measurements = std::move(ms);
       res.result_utime = run.end_utime.value();
       res.record = store::BuildRunRecord(run, res, 0).SerializeAsString();

@@ -289,14 +289,36 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
   } else {
     up->Bind(1, r.verdict);
   }
-  return up->Bind(2, reasons)
-      .Bind(3, r.samples)
-      .Bind(4, r.gap_samples)
-      .Bind(5, r.invalid_samples)
-      .BindBlob(6, {reinterpret_cast<const uint8_t*>(r.record.data()), r.record.size()})
-      .Bind(7, r.result_utime)
-      .Bind(8, run_key)
-      .Run();
+  IMUQUAL_RETURN_IF_ERROR(
+      up->Bind(2, reasons)
+          .Bind(3, r.samples)
+          .Bind(4, r.gap_samples)
+          .Bind(5, r.invalid_samples)
+          .BindBlob(6, {reinterpret_cast<const uint8_t*>(r.record.data()), r.record.size()})
+          .Bind(7, r.result_utime)
+          .Bind(8, run_key)
+          .Run());
+  // Each axis its own count: one per axis of the run, else none is known.
+  auto count = db_->Prepare("SELECT COUNT(*) FROM run_axes WHERE run_key = ?");
+  if (!count.ok()) return count.status();
+  count->Bind(1, run_key);
+  auto counted = count->Step();
+  if (!counted.ok()) return counted.status();
+  const int64_t num_axes = *counted ? count->Int(0) : 0;
+  count->Reset();
+  const bool one_per_axis = r.axis_invalid_samples.size() == static_cast<size_t>(num_axes);
+  auto axes =
+      db_->Prepare("UPDATE run_axes SET invalid_samples = ? WHERE run_key = ? AND axis_index = ?");
+  if (!axes.ok()) return axes.status();
+  for (int64_t a = 0; a < num_axes; ++a) {
+    if (one_per_axis) {
+      axes->Bind(1, r.axis_invalid_samples[static_cast<size_t>(a)]);
+    } else {
+      axes->BindNull(1);
+    }
+    IMUQUAL_RETURN_IF_ERROR(axes->Bind(2, run_key).Bind(3, a).Run());
+  }
+  return Status::Ok();
 }
 
 Status Archive::MarkFinalized(int64_t run_key, int64_t utime) {
@@ -341,6 +363,20 @@ Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
   res.result_utime = r->Int(5);
   const std::vector<uint8_t> record = r->Blob(6);
   res.record.assign(record.begin(), record.end());
+  auto ax =
+      db_->Prepare("SELECT invalid_samples FROM run_axes WHERE run_key = ? ORDER BY axis_index");
+  if (!ax.ok()) return ax.status();
+  ax->Bind(1, run_key);
+  for (;;) {
+    auto arow = ax->Step();
+    if (!arow.ok()) return arow.status();
+    if (!*arow) break;
+    if (ax->IsNull(0)) {  // not known for every axis: not known
+      res.axis_invalid_samples.clear();
+      break;
+    }
+    res.axis_invalid_samples.push_back(ax->Int(0));
+  }
   auto m = db_->Prepare(
       "SELECT axis, name, value, unit, low, high, marginal_low, marginal_high, outcome, note, "
       "uncertainty FROM measurements WHERE run_key = ? ORDER BY axis, name");

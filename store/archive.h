@@ -88,7 +88,8 @@ struct ResultRecord {
   std::vector<std::string> reasons;
   int64_t samples = 0;
   int64_t gap_samples = 0;
-  int64_t invalid_samples = 0;
+  int64_t invalid_samples = 0;                // over all axes
+  std::vector<int64_t> axis_invalid_samples;  // per axis, run_axes order (empty: unknown)
   std::vector<pb::Measurement> measurements;
   std::string record;   // serialized pb::RunRecord
   int64_t result_utime = 0;

@@ -180,6 +180,82 @@ TEST_F(ArchiveTest, ResultsAndCurvesReplaceEarlierOnes) {
   EXPECT_EQ(stmt->Text(2), "PASS");
 }
 
+// Invalid samples of each axis as axis_results shows them, in axis order.
+std::vector<int64_t> AxisInvalidSamples(Archive& a, int64_t run_key) {
+  std::vector<int64_t> out;
+  auto s = a.db().Prepare(
+      "SELECT COALESCE(invalid_samples, -1) FROM axis_results WHERE run_key = ? "
+      "ORDER BY axis_index");
+  EXPECT_TRUE(s.ok());
+  s->Bind(1, run_key);
+  while (*s->Step()) out.push_back(s->Int(0));
+  return out;
+}
+
+TEST_F(ArchiveTest, EachAxisKeepsItsOwnInvalidSamples) {
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_TRUE(a.ok());
+  auto key = (*a)->UpsertRun(Run("R4"));
+  ASSERT_TRUE(key.ok());
+  // GIVEN a result whose 7 invalid samples are all on the second axis
+  ResultRecord res;
+  res.samples = 1000;
+  res.invalid_samples = 7;
+  res.axis_invalid_samples = {0, 7};
+  ASSERT_TRUE((*a)->PutResult(*key, res).ok());
+  // THEN each axis shows its own count, and it reads back per axis
+  EXPECT_EQ(AxisInvalidSamples(**a, *key), (std::vector<int64_t>{0, 7}));
+  auto loaded = (*a)->LoadResult(*key);
+  ASSERT_TRUE(loaded.ok() && loaded->has_value());
+  EXPECT_EQ((*loaded)->invalid_samples, 7);
+  EXPECT_EQ((*loaded)->axis_invalid_samples, (std::vector<int64_t>{0, 7}));
+  // A result without a count per axis leaves them unknown, not the total.
+  res.axis_invalid_samples = {7};
+  ASSERT_TRUE((*a)->PutResult(*key, res).ok());
+  EXPECT_EQ(AxisInvalidSamples(**a, *key), (std::vector<int64_t>{-1, -1}));
+  loaded = (*a)->LoadResult(*key);
+  ASSERT_TRUE(loaded.ok() && loaded->has_value());
+  EXPECT_TRUE((*loaded)->axis_invalid_samples.empty());
+}
+
+TEST_F(ArchiveTest, SchemaOneArchivesGetEachAxisCountFromItsFinalCurve) {
+  int64_t key = -1;
+  {
+    // GIVEN a judged run with 10 gap samples: x has no invalid sample, ax 30
+    auto a = Archive::Open(path_, Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok());
+    auto k = (*a)->UpsertRun(Run("R5"));
+    ASSERT_TRUE(k.ok());
+    key = *k;
+    for (const auto& [axis, valid] : {std::pair<std::string, int64_t>{"x", 990}, {"ax", 960}}) {
+      CurveRecord c;
+      c.axis = axis;
+      c.curve.tau0_s = 0.01;
+      c.samples = 1000;
+      c.valid_samples = valid;
+      ASSERT_TRUE((*a)->PutCurve(key, c).ok());
+    }
+    ResultRecord res;
+    res.samples = 1000;
+    res.gap_samples = 10;
+    res.invalid_samples = 30;
+    res.result_utime = 2000;
+    ASSERT_TRUE((*a)->PutResult(key, res).ok());
+    // ... in an archive as schema 1 kept it: no per-axis column.
+    for (const char* sql :
+         {"DROP VIEW axis_results", "ALTER TABLE run_axes DROP COLUMN invalid_samples",
+          "CREATE VIEW axis_results AS SELECT 1 AS schema_one", "PRAGMA user_version = 1"}) {
+      ASSERT_TRUE((*a)->db().Exec(sql).ok()) << sql;
+    }
+  }
+  // WHEN it is opened for writing (migrated)
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_TRUE(a.ok()) << a.status().message();
+  // THEN each axis has its own count: samples - valid - gaps of its curve
+  EXPECT_EQ(*(*a)->db().QueryInt("PRAGMA user_version"), SchemaVersion());
+  EXPECT_EQ(AxisInvalidSamples(**a, key), (std::vector<int64_t>{0, 30}));
+}
+
 TEST_F(ArchiveTest, RefusesFilesThatAreNotArchives) {
   // Not SQLite at all.
   { std::ofstream(path_) << "this is not a database, just some text that is long enough....."; }

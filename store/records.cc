@@ -195,6 +195,7 @@ ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg) {
   r.samples = msg.samples;
   r.gap_samples = msg.gap_samples;
   r.invalid_samples = msg.invalid_samples;
+  r.axis_invalid_samples = msg.axis_invalid_samples;
   r.result_utime = msg.host_utime;
   for (const imuqual::measurement_t& m : msg.measurements) {
     pb::Measurement pm;

@@ -191,6 +191,38 @@ SELECT r.run_id, r.lot, r.serial AS unit, r.state, r.last_seq,
        (SELECT COALESCE(SUM(MAX(num_samples, 0)), 0) FROM gaps g WHERE g.run_key = r.run_key) AS gap_samples
 FROM runs r;
 )sql",
+      // 1 -> 2: each axis its own count of invalid samples (axis_results
+      // showed the run's total, summed over the axes, on every axis). Runs
+      // archived before keep their final curves, whose valid_samples are the
+      // axis's own: samples - valid_samples - gap samples is that count.
+      R"sql(
+ALTER TABLE run_axes ADD COLUMN invalid_samples INTEGER;
+UPDATE run_axes SET invalid_samples = (
+  SELECT c.samples - c.valid_samples - r.gap_samples
+  FROM curves c JOIN runs r ON r.run_key = c.run_key
+  WHERE c.run_key = run_axes.run_key AND c.axis = run_axes.axis AND r.result_utime IS NOT NULL
+  ORDER BY c.estimator LIMIT 1);
+DROP VIEW IF EXISTS axis_results;
+-- One row per run and axis with the headline figures.
+CREATE VIEW axis_results AS
+SELECT r.lot, r.serial AS unit, r.run_id, r.run_key, r.start_utime, r.state, ra.axis_index, ra.axis, ra.kind,
+       MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.value END) AS random_walk,
+       MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.unit END) AS random_walk_unit,
+       MAX(CASE WHEN m.name = 'bias_instability' THEN m.value END) AS bias_instability,
+       MAX(CASE WHEN m.name = 'bias_instability_ieee' THEN m.value END) AS bias_instability_ieee,
+       MAX(CASE WHEN m.name = 'bias_instability' THEN m.unit END) AS bias_instability_unit,
+       MAX(CASE WHEN m.name = 'tau_at_minimum' THEN m.value END) AS tau_min_s,
+       MAX(CASE WHEN m.name = 'rate_random_walk' THEN m.value END) AS rate_random_walk,
+       r.gap_samples, ra.invalid_samples, r.samples,
+       CASE WHEN SUM(m.outcome = 'FAIL') > 0 THEN 'FAIL'
+            WHEN SUM(m.outcome = 'MARGINAL') > 0 THEN 'MARGINAL'
+            WHEN SUM(m.outcome = 'PASS') > 0 THEN 'PASS' END AS axis_verdict,
+       r.verdict AS run_verdict
+FROM runs r
+JOIN run_axes ra ON ra.run_key = r.run_key
+LEFT JOIN measurements m ON m.run_key = r.run_key AND m.axis = ra.axis
+GROUP BY r.lot, r.run_key, ra.axis_index;  -- lot first: WHERE lot = ? reaches the index
+)sql",
   };
   return kMigrations;
 }

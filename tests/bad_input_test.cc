@@ -11,15 +11,20 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <random>
+#include <sstream>
 
 #include "common/channels.h"
 #include "common/clock.h"
+#include "common/strings.h"
 #include "common/text_util.h"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/run_t.hpp"
 #include "imuqual/status_t.hpp"
 #include "store/archive.h"
 #include "store/chunk_codec.h"
+#include "store/query.h"
 #include "tests/station_harness.h"
 
 namespace imuqual {
@@ -243,7 +248,76 @@ TEST(BadInputTest, GarbageForeignAndLyingMessagesAreCountedAndTheRunSurvivesIt) 
   EXPECT_EQ(s->Int(0), invalid);
   // The wrong-rate batch and the backwards one are missing from the analysis.
   EXPECT_GE(s->Int(1), kSamples);
+  // Each axis counts its own: x the NaN and the saturated one, y the
+  // infinity, z the -infinity and the invalid one.
+  auto axes = (*a)->db().Prepare(
+      "SELECT axis, invalid_samples FROM axis_results WHERE run_key = ? ORDER BY axis_index");
+  axes->Bind(1, key);
+  std::map<std::string, int64_t> per_axis;
+  while (*axes->Step()) per_axis[axes->Text(0)] = axes->Int(1);
+  EXPECT_EQ(per_axis, (std::map<std::string, int64_t>{{"x", 2}, {"y", 1}, {"z", 2}}));
 
+  EXPECT_EQ(analyze.Stop(15), 0);
+  EXPECT_EQ(store.Stop(15), 0);
+}
+
+TEST(BadInputTest, InvalidSamplesOnOneAxisAreReportedOnThatAxisOnly) {
+  StationHarness h("bad_one_axis");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  // GIVEN a run whose y axis alone has NaN samples and flagged ones
+  FakeAcquire acq(h, "ONEAXIS-1", "BAD-U02");
+  acq.Announce(imuqual::run_t::STATE_RUNNING, -1, 0);
+  constexpr int64_t kBatches = 20;
+  int64_t invalid_y = 0;
+  for (int64_t seq = 0; seq < kBatches; ++seq) {
+    imuqual::rate_batch_t b = acq.Batch(seq, seq * kSamples);
+    if (seq % 4 == 1) {
+      b.samples[1][0] = std::numeric_limits<float>::quiet_NaN();
+      b.samples[1][7] = std::numeric_limits<float>::quiet_NaN();
+      invalid_y += 2;
+    }
+    if (seq == 6) {
+      b.num_flagged = 1;
+      b.flagged_sample = {9};
+      b.flagged_axis = {1};
+      b.flagged_bits = {imuqual::rate_batch_t::FLAG_SATURATED};
+      invalid_y += 1;
+    }
+    acq.Send(b);
+  }
+  for (int i = 0; i < 3; ++i) {
+    acq.Announce(imuqual::run_t::STATE_COMPLETE, kBatches - 1, kBatches * kSamples);
+    h.Pump(200);
+  }
+  ASSERT_TRUE(h.WaitRunsDone(1, 60)) << h.Logs();
+  // WHEN the lot is listed per unit and axis
+  const auto lot = RunCommand(Bin("imuqual") + " lot BAD --db " + h.db() + " --format csv");
+  ASSERT_EQ(lot.exit_code, 0) << lot.output;
+  // THEN y carries its invalid samples and x and z none (not the run's total on each)
+  std::map<std::string, std::string> invalid_of;  // axis -> invalid_samples cell
+  std::istringstream rows(lot.output);
+  std::string line;
+  std::getline(rows, line);
+  const std::vector<std::string> header = Split(line, ',');
+  const size_t axis_col = std::find(header.begin(), header.end(), "axis") - header.begin();
+  const size_t invalid_col =
+      std::find(header.begin(), header.end(), "invalid_samples") - header.begin();
+  ASSERT_LT(invalid_col, header.size()) << line;
+  while (std::getline(rows, line)) {
+    const std::vector<std::string> cells = Split(line, ',');
+    ASSERT_EQ(cells.size(), header.size()) << line;
+    invalid_of[cells[axis_col]] = cells[invalid_col];
+  }
+  EXPECT_EQ(invalid_of, (std::map<std::string, std::string>{
+                            {"x", "0"}, {"y", std::to_string(invalid_y)}, {"z", "0"}}))
+      << lot.output;
+  // AND the run's own figure is still the total, over the axes
+  auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok());
+  auto total = (*a)->db().QueryInt("SELECT invalid_samples FROM runs WHERE run_id = 'ONEAXIS-1'");
+  ASSERT_TRUE(total.ok());
+  EXPECT_EQ(*total, invalid_y);
   EXPECT_EQ(analyze.Stop(15), 0);
   EXPECT_EQ(store.Stop(15), 0);
 }
@@ -264,6 +338,160 @@ TEST(BadInputTest, FilesThatAreNotArchivesGetAOneLineErrorAndAreNotTouched) {
   }
   auto after = ReadFileToString(text);
   EXPECT_EQ(*after, "these are notes, not an archive; please leave them alone\n");
+}
+
+// The lines of a command's output that say "error".
+int ErrorLines(const std::string& output) {
+  int n = 0;
+  for (size_t at = output.find("error:"); at != std::string::npos;
+       at = output.find("error:", at + 1)) {
+    ++n;
+  }
+  return n;
+}
+
+TEST(BadInputTest, ARateThatIsNoRateIsRefusedByEveryCommandThatTakesIt) {
+  testing::TempDir dir("bad_rate");
+  const std::string db = dir.path("rate.db");
+  const std::string bus = "'udpm://239.255.76.67:7997?ttl=0'";
+  for (const std::string rate : {"0", "-5", "nan", "inf"}) {
+    for (const std::string& cmd :
+         {Bin("imuqual-acquire") + " --lcm-url " + bus + " --lot L --sim 1 --duration 10 --rate " +
+              rate,
+          Bin("imuqual") + " run --sim 1 --duration 10 --lot L --db " + db + " --rate " + rate,
+          Bin("imuqual") + " analyze " + std::string(IMUQUAL_SOURCE_DIR) +
+              "/tests/reference/data/white_1e4.txt --rate " + rate}) {
+      const auto r = RunCommand(cmd + " 2>&1");
+      EXPECT_EQ(r.exit_code, 2) << cmd << ":\n" << r.output;
+      EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << cmd << ":\n" << r.output;
+      EXPECT_NE(r.output.find("--rate"), std::string::npos) << cmd << ":\n" << r.output;
+    }
+  }
+  // In a station file and in a source, as on the command line.
+  const std::string station = dir.path("station.textproto");
+  {
+    std::ofstream(station) << "station_id: \"s\"\nlot: \"L\"\nplan: \"builtin:vg700ca\"\n"
+                           << "duration_s: 10\narchive: \"rate.db\"\nrate_hz: 0\n"
+                           << "slot { name: \"A1\" unit_serial: \"U1\" source: \"sim:vg700\" }\n";
+  }
+  auto r = RunCommand(Bin("imuqual") + " run --station " + station + " 2>&1");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_NE(r.output.find(station + ":6: rate_hz"), std::string::npos) << r.output;
+  r = RunCommand(Bin("imuqual-acquire") + " --lcm-url " + bus +
+                 " --lot L --duration 10 --unit U1=sim:vg700,rate=0 2>&1");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_NE(r.output.find("rate must be > 0"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(db));  // refused before anything was created
+}
+
+TEST(BadInputTest, ACsvWithoutSamplesIsRefusedNamingTheFile) {
+  testing::TempDir dir("bad_csv_empty");
+  const std::string empty = dir.path("empty.csv"), header = dir.path("header.csv");
+  { std::ofstream(empty) << ""; }
+  { std::ofstream(header) << "gx,gy,gz\n"; }
+  for (const std::string& file : {empty, header}) {
+    const std::string unit = " --unit U1=csv:" + file + ",rate=100,axes=gx/gy/gz";
+    // imuqual-acquire refuses it with one line naming the file ...
+    auto r = RunCommand(Bin("imuqual-acquire") +
+                        " --lcm-url 'udpm://239.255.76.67:7996?ttl=0' --lot L" + unit + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    EXPECT_NE(r.output.find(file + ": "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("no samples"), std::string::npos) << r.output;
+    // ... and imuqual run runs nothing: no complete run of 0 samples.
+    const std::string db = dir.path("csv.db");
+    r = RunCommand(Bin("imuqual") + " run" + unit + " --lot L --db " + db + " --quiet 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(file + ": "), std::string::npos) << r.output;
+    auto archive = store::Archive::Open(db, store::Archive::Mode::kRead);
+    ASSERT_TRUE(archive.ok()) << archive.status().message();
+    store::RunFilter all;
+    all.lot = "L";
+    auto runs = store::QueryRuns(**archive, all);
+    ASSERT_TRUE(runs.ok());
+    EXPECT_TRUE(runs->empty());
+  }
+}
+
+// A plan the recordings below pass.
+constexpr char kLoosePlan[] =
+    R"pb(name: "loose"
+         axes { name: "gx" kind: GYRO }
+         axes { name: "gy" kind: GYRO }
+         axes { name: "gz" kind: GYRO }
+         nominal_rate_hz: 100
+         min_duration_s: 30
+         grid { kind: OCTAVE }
+         limits { measurement: "angle_random_walk" axis_kind: GYRO high: 10 unit: "deg/sqrt(h)" }
+)pb";
+
+// A minute of white rate noise at 100 Hz; `bad_row` >= 0 puts a word in that row.
+void WriteRecording(const std::string& path, uint32_t seed, int bad_row) {
+  std::mt19937 gen(seed);
+  std::normal_distribution<double> noise(0.0, 0.01);  // deg/s
+  std::ofstream out(path);
+  out << "gx,gy,gz\n";
+  for (int k = 0; k < 6000; ++k) {
+    if (k == bad_row) {
+      out << "0.001,oops,0.002\n";
+    } else {
+      out << noise(gen) << ',' << noise(gen) << ',' << noise(gen) << '\n';
+    }
+  }
+}
+
+TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchived) {
+  testing::TempDir dir("bad_csv_cell");
+  const std::string plan = dir.path("loose.textproto");
+  { std::ofstream(plan) << kLoosePlan; }
+  WriteRecording(dir.path("g1.csv"), 1, -1);
+  WriteRecording(dir.path("b1.csv"), 2, 3000);  // line 3002 of the file
+  WriteRecording(dir.path("g2.csv"), 3, -1);
+  const std::string db = dir.path("cell.db");
+  // WHEN unit B1's recording has a non-numeric cell half-way
+  const auto r = RunCommand(Bin("imuqual") + " run --unit G1=csv:" + dir.path("g1.csv") +
+                            ",rate=100 --unit B1=csv:" + dir.path("b1.csv") +
+                            ",rate=100 --unit G2=csv:" + dir.path("g2.csv") + ",rate=100 --plan " +
+                            plan + " --lot CELL --db " + db + " --quiet 2>&1");
+  // THEN imuqual run exits with the source-failure code and says which unit and why, in one line
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_EQ(ErrorLines(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find("error: 1 of 3 units' sources failed, their runs archived as FAIL: B1 (" +
+                          dir.path("b1.csv") + ":3002: 'oops' is not a number (column 'gy'))"),
+            std::string::npos)
+      << r.output;
+  // AND B1 is archived as aborted and FAILs with that reason, while G1 and
+  // G2 ran to the end and were judged and archived.
+  auto archive = store::Archive::Open(db, store::Archive::Mode::kRead);
+  ASSERT_TRUE(archive.ok()) << archive.status().message();
+  store::RunFilter lot;
+  lot.lot = "CELL";
+  auto runs = store::QueryRuns(**archive, lot);
+  ASSERT_TRUE(runs.ok());
+  ASSERT_EQ(runs->size(), 3u) << r.output;
+  for (const store::RunRow& run : *runs) {
+    if (run.unit == "B1") {
+      EXPECT_EQ(run.state, "aborted");
+      EXPECT_EQ(run.verdict, "FAIL");
+      EXPECT_NE(run.reasons.find("b1.csv:3002: 'oops' is not a number"), std::string::npos)
+          << run.reasons;
+    } else {
+      EXPECT_EQ(run.state, "complete") << run.unit;
+      EXPECT_EQ(run.verdict, "PASS") << run.unit << ": " << run.reasons;
+    }
+  }
+  store::AxisRowFilter rows_of_lot;
+  rows_of_lot.lot = "CELL";
+  auto rows = store::QueryAxisRows(**archive, rows_of_lot);
+  ASSERT_TRUE(rows.ok());
+  ASSERT_EQ(rows->size(), 9u);
+  for (const store::AxisRow& row : *rows) {
+    if (row.unit != "B1") {
+      EXPECT_EQ(row.samples, 6000) << row.unit << " " << row.axis;
+    }
+  }
 }
 
 TEST(BadInputTest, AReadOnlyDirectoryIsAClearError) {

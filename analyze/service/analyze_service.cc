@@ -312,6 +312,8 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
   res.warmup_samples = out.warmup_samples;
   res.gap_samples = out.gap_samples;
   res.invalid_samples = out.invalid_samples;
+  res.axis_invalid_samples = out.axis_invalid_samples;
+  res.num_axes = static_cast<int8_t>(res.axis_invalid_samples.size());
   for (const pb::Measurement& m : out.measurements) {
     imuqual::measurement_t mm;
     mm.axis = m.axis();

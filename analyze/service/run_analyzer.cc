@@ -38,6 +38,7 @@ Result<RunAnalyzer> RunAnalyzer::Create(RunDescription description, AnalyzerOpti
   for (size_t i = 0; i < a.desc_.axes.size(); ++i) a.engines_.emplace_back(so);
   a.sum_.assign(a.desc_.axes.size(), 0.0);
   a.count_.assign(a.desc_.axes.size(), 0);
+  a.invalid_samples_.assign(a.desc_.axes.size(), 0);
   a.clock_ = DeviceClockFit(a.desc_.nominal_rate_hz);
   return a;
 }
@@ -108,7 +109,7 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
       engines_[a].Append(values, invalid);
       for (size_t i = 0; i < keep; ++i) {
         if (invalid[i] || !std::isfinite(values[i])) {
-          ++invalid_samples_;
+          ++invalid_samples_[a];
         } else {
           sum_[a] += values[i];
           ++count_[a];
@@ -170,7 +171,8 @@ RunOutcome RunAnalyzer::Outcome(bool final, const std::string& failure) const {
   }
   out.samples = engines_.front().samples();
   out.gap_samples = gap_samples_;
-  out.invalid_samples = invalid_samples_;
+  out.axis_invalid_samples = invalid_samples_;
+  for (int64_t n : invalid_samples_) out.invalid_samples += n;
   out.warmup_samples = warmup_seen_;
   for (pb::Measurement& m :
        judge::MeasureRun(static_cast<double>(out.samples) * tau0_s_, out.samples, out.gap_samples,

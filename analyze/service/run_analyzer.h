@@ -60,6 +60,7 @@ struct RunOutcome {
   int64_t samples = 0;          // per axis, after warm-up, including gaps
   int64_t gap_samples = 0;      // per axis
   int64_t invalid_samples = 0;  // over all axes
+  std::vector<int64_t> axis_invalid_samples;  // per axis, in the description's order
   int64_t warmup_samples = 0;
 };
 
@@ -102,7 +103,7 @@ class RunAnalyzer {
   int64_t next_counter_ = -1;
   int64_t warmup_seen_ = 0;
   int64_t gap_samples_ = 0;
-  int64_t invalid_samples_ = 0;
+  std::vector<int64_t> invalid_samples_;  // per axis, after warm-up
   int64_t batches_ = 0;
   std::vector<allan::StreamingAllan> engines_;
   std::vector<double> sum_;         // per axis, valid samples after warm-up

@@ -86,7 +86,31 @@ TEST(RunAnalyzerTest, InvalidSamplesAreCountedNotZeroed) {
   b.view.samples = {b.x, b.a};
   b.view.flags = {{7, 0, 1}, {8, 1, 2}, {9, 1, 4}};  // saturated, invalid, an unknown bit
   ASSERT_TRUE(a->AddBatch(b.view).ok());
-  EXPECT_EQ(a->Outcome(false).invalid_samples, 4);
+  const RunOutcome out = a->Outcome(false);
+  EXPECT_EQ(out.invalid_samples, 4);
+  // Each axis its own: x the NaN and the saturated one, a the infinity and the invalid one.
+  EXPECT_EQ(out.axis_invalid_samples, (std::vector<int64_t>{2, 2}));
+}
+
+TEST(RunAnalyzerTest, InvalidSamplesOfOneAxisAreCountedOnThatAxisOnly) {
+  // GIVEN a run whose x axis is clean and whose a axis has 5 NaN and 3 flagged samples
+  auto a = RunAnalyzer::Create(Desc());
+  ASSERT_TRUE(a.ok());
+  for (int seq = 0; seq < 3; ++seq) {
+    Batch b(seq, seq * 100, 100);
+    if (seq == 1) {
+      for (int i : {0, 10, 20, 30, 99}) b.a[i] = std::nanf("");
+      b.view.samples = {b.x, b.a};
+      b.view.flags = {{40, 1, 1}, {41, 1, 2}, {42, 1, 3}};
+    }
+    ASSERT_TRUE(a->AddBatch(b.view).ok());
+  }
+  a->Finish(0, 300);
+  // WHEN it is judged
+  const RunOutcome out = a->Outcome(true);
+  // THEN they count on a only, and the run's total is their sum
+  EXPECT_EQ(out.axis_invalid_samples, (std::vector<int64_t>{0, 8}));
+  EXPECT_EQ(out.invalid_samples, 8);
 }
 
 TEST(RunAnalyzerTest, RejectsBatchesThatDoNotFitAndChangesNothing) {

@@ -72,12 +72,13 @@ int RunCommand(const StationRunOptions& options) {
   auto run = RunStation(options);
   if (!run.ok()) {
     LogError(run.status().message());
-    return kExitError;
+    // Bad options, plan, source or archive file: refused before any run.
+    return run.status().code() == Status::Code::kInvalidArgument ? kRunExitUsage : kRunExitError;
   }
   auto archive = OpenForReading(options.db_path);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitError;
+    return kRunExitError;
   }
   store::AxisRowFilter filter;
   filter.lot = options.lot;
@@ -86,7 +87,7 @@ int RunCommand(const StationRunOptions& options) {
   auto rows = store::QueryAxisRows(**archive, filter);
   if (!rows.ok()) {
     LogError(rows.status().message());
-    return kExitError;
+    return kRunExitError;
   }
   std::printf("%s", PeopleTable(*rows).c_str());
   std::map<std::string, std::string> unit_of;
@@ -135,9 +136,9 @@ int RunCommand(const StationRunOptions& options) {
   }
   if (!run->failure.empty()) {
     LogError(run->failure);
-    return kExitError;
+    return kRunExitSourceFailed;
   }
-  return run->interrupted ? 130 : 0;
+  return run->interrupted ? kRunExitInterrupted : kRunExitOk;
 }
 
 int LotsCommand(const std::string& db_path, Format format) {

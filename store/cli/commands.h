@@ -10,7 +10,27 @@
 
 namespace imuqual::cli {
 
-// imuqual run: a simulated station end to end, then the result table.
+// Exit codes of `imuqual run` (README "Exit codes", `imuqual run --help`).
+// A unit that FAILs its plan is a result, not an error: the station still
+// exits 0.
+inline constexpr int kRunExitOk = 0;             // every run ended normally and was judged
+inline constexpr int kRunExitError = 1;          // the station failed (process, archive, stall)
+inline constexpr int kRunExitUsage = 2;          // bad options, station file, plan, source
+                                                 // or archive file: nothing was run
+inline constexpr int kRunExitSourceFailed = 3;   // a unit's source failed (bad data, device
+                                                 // gone): its run archived as FAIL; every
+                                                 // other unit finished, judged and archived
+inline constexpr int kRunExitInterrupted = 130;  // Ctrl-C: runs aborted, archived and judged
+inline constexpr char kRunExitCodesHelp[] =
+    "Exit codes: 0 every run ended normally and was judged (a FAIL verdict is a result); "
+    "1 the station failed (a process, the archive, no progress); 2 bad options, station "
+    "file, plan, source or archive file (nothing was run); 3 a unit's source failed (bad "
+    "data, a device gone): its run is archived as FAIL with the reason, every other unit "
+    "finished and was judged and archived; 130 interrupted (Ctrl-C): the runs were aborted, "
+    "archived and judged.";
+
+// imuqual run: a station end to end, then the result table. Returns one of
+// the kRunExit* codes.
 int RunCommand(const StationRunOptions& options);
 
 // imuqual lots: every lot in the archive with counts and yield.

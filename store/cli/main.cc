@@ -34,7 +34,8 @@ int main(int argc, char** argv) {
                       "serial:DEVICE,protocol=text|xsens[,baud=N,...]");
   run_cmd->add_option("--duration", run.duration_s,
                       "seconds of data per unit (simulated units; serial units record this long)");
-  run_cmd->add_option("--rate", run.rate_hz, "sample rate in Hz (default: the profile's)");
+  double rate_hz = 0;  // given or not: run.rate_hz
+  run_cmd->add_option("--rate", rate_hz, "sample rate in Hz, > 0 (default: the profile's)");
   run_cmd->add_option("--lot", run.lot, "production lot name");
   run_cmd->add_option("--db", run.db_path, "archive file (created if missing)");
   run_cmd->add_option("--plan", run.plan_spec, "test plan: .textproto file or builtin:NAME");
@@ -54,6 +55,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   run_cmd->add_option("--report", run.report_path, "HTML report written at the end (default: beside the archive)");
   run_cmd->add_flag("--quiet", quiet, "no live console or progress line");
+  run_cmd->footer(cli::kRunExitCodesHelp);
 
   std::string db, format = "table", lot;
   bool all_runs = false, stats = false;
@@ -170,6 +172,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (run_cmd->parsed()) {
+    if (run_cmd->count("--rate") > 0) run.rate_hz = rate_hz;
     if (!station_file.empty()) {
       for (const char* flag : {"--sim", "--unit", "--lot", "--db", "--plan", "--duration", "--rate",
                                "--operator", "--lcm-url", "--station-id", "--profile"}) {

@@ -60,7 +60,9 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
     return fail("analyze_shards", 0, "analyze_shards: must be 1.." + std::to_string(kMaxShards));
   }
   if (!(c.pace() >= 0) || !std::isfinite(c.pace())) return fail("pace", 0, "pace: must be >= 0");
-  if (!(c.rate_hz() >= 0) || !std::isfinite(c.rate_hz())) return fail("rate_hz", 0, "rate_hz: must be >= 0");
+  if (c.has_rate_hz() && !(c.rate_hz() > 0 && std::isfinite(c.rate_hz()))) {
+    return fail("rate_hz", 0, "rate_hz: must be > 0 Hz (leave it out for the profile's rate)");
+  }
   if (!(c.stale_after_s() >= 0) || !std::isfinite(c.stale_after_s())) {
     return fail("stale_after_s", 0, "stale_after_s: must be >= 0");
   }
@@ -112,7 +114,7 @@ StationRunOptions StationRunFromConfig(const pb::StationConfig& c) {
   o.report_path = c.report();
   o.analyze_shards = std::max(1, c.analyze_shards());
   o.pace = c.pace();
-  o.rate_hz = c.rate_hz();
+  if (c.has_rate_hz()) o.rate_hz = c.rate_hz();
   if (c.stale_after_s() > 0) o.stale_after_s = c.stale_after_s();
   for (const pb::Slot& s : c.slot()) {
     o.units.push_back(s.unit_serial() + "=" + s.source());

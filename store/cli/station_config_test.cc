@@ -54,7 +54,20 @@ TEST(StationConfigTest, GoodConfigBecomesAStationRun) {
   ASSERT_EQ(o.units.size(), 3u);
   EXPECT_EQ(o.units[0], "SN-1=sim:tactical,index=0");
   EXPECT_EQ(o.slots, (std::vector<std::string>{"A1", "A2", "3"}));
+  EXPECT_FALSE(o.rate_hz.has_value());  // not given: each source's own rate
   EXPECT_TRUE(o.Validate().ok()) << o.Validate().message();
+}
+
+TEST(StationConfigTest, ARateIsGivenOrAbsentNeverZero) {
+  const std::string file = "/etc/imuqual/bench-a.textproto";
+  auto c = ParseStationConfig(Replace(kGood, "pace: 1", "pace: 1 rate_hz: 400"), file);
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  EXPECT_EQ(StationRunFromConfig(*c).rate_hz, 400);
+  for (const char* bad : {"rate_hz: 0", "rate_hz: -5", "rate_hz: nan", "rate_hz: inf"}) {
+    EXPECT_EQ(ErrorOf(Replace(kGood, "pace: 1", bad)),
+              file + ":9: rate_hz: must be > 0 Hz (leave it out for the profile's rate)")
+        << bad;
+  }
 }
 
 TEST(StationConfigTest, ErrorsNameTheFileLineAndField) {

@@ -21,6 +21,7 @@
 #include "common/lcm_bus.h"
 #include "common/log.h"
 #include "common/shutdown.h"
+#include "common/strings.h"
 #include "common/subprocess.h"
 #include "common/text_util.h"
 #include "imuqual/ack_t.hpp"
@@ -49,6 +50,13 @@ std::string CompactUtc(int64_t utime) {
     if (c != '-' && c != ':') out += c;
   }
   return out;
+}
+
+// A rate as text, exactly (it is passed on to imuqual-acquire).
+std::string FormatRate(double hz) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", hz);
+  return text;
 }
 
 // A port of its own for this station run (20000..59999).
@@ -143,7 +151,10 @@ Status StationRunOptions::Validate() const {
   if (sim_units > 0 && (!(duration_s > 0) || !std::isfinite(duration_s))) {
     return Status::InvalidArgument("--duration must be > 0 s");
   }
-  if (rate_hz < 0 || !std::isfinite(rate_hz)) return Status::InvalidArgument("--rate must be > 0 Hz");
+  if (rate_hz && !(*rate_hz > 0 && std::isfinite(*rate_hz))) {
+    return Status::InvalidArgument("--rate " + FormatRate(*rate_hz) +
+                                   ": must be a positive, finite rate in Hz");
+  }
   IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("--lot", lot));
   IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("--station", station));
   if (db_path.empty()) return Status::InvalidArgument("--db is required");
@@ -212,6 +223,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     add_unit(slot, o.units[i].substr(0, o.units[i].find('=')));
   }
   std::map<std::string, size_t> unit_index;  // serial -> model.units
+  std::map<std::string, std::string> end_reasons;  // serial -> why its run ended early
   for (size_t i = 0; i < model.units.size(); ++i) unit_index[model.units[i].serial] = i;
   auto unit_of_run = [&](const std::string& run_id, const std::string& serial) -> ConsoleUnit* {
     if (run_id.rfind(result.run_prefix + "-", 0) != 0) return nullptr;  // another station run
@@ -243,6 +255,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
         if (u == nullptr) return;
         if (!r.slot.empty()) u->slot = r.slot;
         u->state = std::max(u->state, r.state);
+        if (!r.end_reason.empty()) end_reasons[r.unit_serial] = r.end_reason;
         u->samples = std::max(u->samples, r.samples_published);
         if (r.nominal_rate_hz > 0) u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
         if (u->axes.empty()) {
@@ -360,7 +373,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   for (size_t i = 0; i < o.slots.size(); ++i) {
     acquire_args.insert(acquire_args.end(), {"--slot", model.units[static_cast<size_t>(o.sim_units) + i].slot});
   }
-  if (o.rate_hz > 0) acquire_args.insert(acquire_args.end(), {"--rate", std::to_string(o.rate_hz)});
+  if (o.rate_hz) acquire_args.insert(acquire_args.end(), {"--rate", FormatRate(*o.rate_hz)});
   if (!plan_spec.empty()) acquire_args.insert(acquire_args.end(), {"--plan", plan_spec});
   if (!o.operator_name.empty()) acquire_args.insert(acquire_args.end(), {"--operator", o.operator_name});
   if (o.inject_drop > 0) {
@@ -477,17 +490,16 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     if (auto code = acquire->Poll(); code && *code != 0 && announced == 0) {
       // It failed before announcing anything (a bad source or plan): nothing to wait for.
       outcome = failure("imuqual-acquire failed (exit " + std::to_string(*code) + ")");
+      if (*code == 2) outcome = Status::InvalidArgument(outcome.message());  // it refused its input
       break;
     }
     if (auto code = acquire->Poll(); code && *code != 0 && drain_deadline < 0) {
-      // The source died: the store ends its runs as incomplete once it has
-      // been silent for stale_after_s; wait for that, then report.
+      // A unit's source failed (its run is aborted) or acquire died (the
+      // store ends its runs as incomplete once it has been silent for
+      // stale_after_s): wait for the runs to be archived, then report.
       drain_deadline = now + o.stale_after_s + kAbortDrainS;
-      result.failure = "imuqual-acquire failed (exit " + std::to_string(*code) +
-                       "); its runs are archived as incomplete. Last lines of " +
-                       result.log_path + ":\n" + LogTail(result.log_path, 6);
       notice("imuqual-acquire ended with code " + std::to_string(*code) +
-             "; waiting for its runs to be archived as incomplete");
+             "; waiting for its runs to be archived");
     }
     if (now - last_change > o.stall_timeout_s) {
       outcome = failure("the station made no progress for " +
@@ -499,8 +511,31 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   // Stop in order: the source first (it normally ends by itself once its
   // last acknowledgements arrive), then analysis, then the archive (which
   // drains and commits what it holds).
-  if (outcome.ok() && !result.interrupted && result.failure.empty()) acquire->Wait(kAcquireEndS);
+  std::optional<int> acquire_code;
+  if (outcome.ok() && !result.interrupted) acquire_code = acquire->Wait(kAcquireEndS);
   acquire->Stop(kStopTimeoutS);
+  // A unit's source that failed (bad data, a device gone) aborted that run
+  // only: every run may be archived by now, before acquire's exit code was
+  // looked at, so the runs' end states say it.
+  if (outcome.ok() && !result.interrupted) {
+    std::vector<std::string> failed;
+    for (const ConsoleUnit& u : model.units) {
+      const bool ended_early = u.state == imuqual::run_t::STATE_ABORTED ||
+                               u.state == imuqual::run_t::STATE_INCOMPLETE;
+      if (!ended_early) continue;
+      auto reason = end_reasons.find(u.serial);
+      failed.push_back(u.serial + " (" +
+                       (reason == end_reasons.end() ? "ended early" : reason->second) + ")");
+    }
+    if (!failed.empty()) {
+      result.failure = std::to_string(failed.size()) + " of " + std::to_string(model.units.size()) +
+                       " units' sources failed, their runs archived as FAIL: " + Join(failed, "; ");
+    } else if (acquire_code && *acquire_code != 0) {
+      result.failure = "imuqual-acquire failed (exit " + std::to_string(*acquire_code) +
+                       "); its runs are archived as they ended. Last lines of " + result.log_path +
+                       ":\n" + LogTail(result.log_path, 6);
+    }
+  }
   for (Supervised& a : children.analyze) {
     if (a.proc) a.proc->Stop(kStopTimeoutS);
   }

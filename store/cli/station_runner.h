@@ -11,6 +11,7 @@
 #ifndef IMUQUAL_STORE_CLI_STATION_RUNNER_H_
 #define IMUQUAL_STORE_CLI_STATION_RUNNER_H_
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,7 @@ struct StationRunOptions {
   std::vector<std::string> slots;  // fixture positions of `units`, in order ("" = numbered)
   std::string profile = "vg700";   // simulated lot profile
   double duration_s = 0;           // simulated seconds per unit
-  double rate_hz = 0;              // 0: the profile's rate
+  std::optional<double> rate_hz;   // Hz, > 0; none: the profile's rate
   std::string lot;
   std::string db_path;
   std::string plan_spec;           // file or builtin:NAME; "" = the profile's default
