@@ -660,7 +660,9 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   Eigen::VectorXd edf2(n);
   std::vector<int64_t> ms;
   for (int j = 0; j < n; ++j) {
-    edf2(j) = FitRowEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_model, p1.m[j], tau0)), rows[j]);
+    edf2(j) = options.edf_from_curve
+                  ? edf1(j)
+                  : FitRowEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_model, p1.m[j], tau0)), rows[j]);
     ms.push_back(rows[j].m);
   }
   const std::vector<double> corr_values = AvarCorrelationMatrix(pilot_model, tau0, ms);
