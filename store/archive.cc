@@ -12,15 +12,7 @@ namespace imuqual::store {
 namespace {
 
 // Statement cache slots.
-enum StmtId {
-  kInsertLot,
-  kInsertUnit,
-  kUpsertRun,
-  kInsertAxis,
-  kInsertChunk,
-  kFindRun,
-  kNumStmts
-};
+enum StmtId { kInsertLot, kInsertUnit, kUpsertRun, kInsertAxis, kInsertChunk, kFindRun, kNumStmts };
 
 const char* UnitOf(pb::AxisKind kind) { return kind == pb::ACCEL ? "m/s^2" : "deg/s"; }
 
@@ -41,7 +33,8 @@ Result<std::unique_ptr<Archive>> Archive::Open(const std::string& path, Mode mod
     // Say plainly when the directory is not writable: SQLite's own error
     // ("unable to open database file") does not.
     const size_t slash = path.find_last_of('/');
-    const std::string dir = slash == std::string::npos ? std::string(".") : path.substr(0, slash + 1);
+    const std::string dir =
+        slash == std::string::npos ? std::string(".") : path.substr(0, slash + 1);
     if (::access(dir.c_str(), W_OK) != 0) {
       return Status::IoError("cannot write the archive " + path + ": directory " + dir + ": " +
                              std::strerror(errno));
@@ -144,13 +137,18 @@ RETURNING run_key)sql");
 }
 
 Status Archive::InsertChunk(int64_t run_key, const ChunkRecord& c, bool* inserted) {
-  auto st = Cached(kInsertChunk,
-                   "INSERT OR IGNORE INTO raw_chunks(run_key, seq, first_sample, num_samples, "
-                   "host_utime, temperature_c, codec, data, sample_utime) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  auto st = Cached(
+      kInsertChunk,
+      "INSERT OR IGNORE INTO raw_chunks(run_key, seq, first_sample, num_samples, "
+      "host_utime, temperature_c, codec, data, sample_utime) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (!st.ok()) return st.status();
   Stmt& s = **st;
   s.Bind(1, run_key).Bind(2, c.seq).Bind(3, c.first_sample).Bind(4, c.num_samples);
-  s.Bind(5, c.host_utime).Bind(6, c.temperature_c).Bind(7, c.codec).BindBlob(8, c.data).Bind(9, c.sample_utime);
+  s.Bind(5, c.host_utime)
+      .Bind(6, c.temperature_c)
+      .Bind(7, c.codec)
+      .BindBlob(8, c.data)
+      .Bind(9, c.sample_utime);
   IMUQUAL_RETURN_IF_ERROR(s.Run());
   if (inserted) *inserted = sqlite3_changes(db_->handle()) > 0;
   return Status::Ok();
@@ -196,7 +194,8 @@ SELECT ?1, first_seq, last_seq, first_sample, num_samples, reason, ?3 FROM holes
 
 Status Archive::InsertGap(int64_t run_key, const GapRecord& g) {
   auto ins = db_->Prepare(
-      "INSERT OR REPLACE INTO gaps(run_key, first_seq, last_seq, first_sample, num_samples, reason, "
+      "INSERT OR REPLACE INTO gaps(run_key, first_seq, last_seq, first_sample, num_samples, "
+      "reason, "
       "detected_utime) VALUES(?, ?, ?, ?, ?, ?, ?)");
   if (!ins.ok()) return ins.status();
   ins->Bind(1, run_key).Bind(2, g.first_seq).Bind(3, g.last_seq);
@@ -215,7 +214,8 @@ Status Archive::InsertGap(int64_t run_key, const GapRecord& g) {
 
 Status Archive::PutCurve(int64_t run_key, const CurveRecord& rec) {
   const std::string est(allan::DeviationName(rec.curve.deviation));
-  auto del = db_->Prepare("DELETE FROM curve_points WHERE run_key = ? AND axis = ? AND estimator = ?");
+  auto del =
+      db_->Prepare("DELETE FROM curve_points WHERE run_key = ? AND axis = ? AND estimator = ?");
   if (!del.ok()) return del.status();
   IMUQUAL_RETURN_IF_ERROR(del->Bind(1, run_key).Bind(2, rec.axis).Bind(3, est).Run());
   auto cur = db_->Prepare(
@@ -269,10 +269,17 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
     s.Bind(8, opt(m.has_marginal_low(), m.marginal_low()));
     s.Bind(9, opt(m.has_marginal_high(), m.marginal_high()));
     switch (m.outcome()) {
-      case pb::PASS: s.Bind(10, "PASS"); break;
-      case pb::MARGINAL: s.Bind(10, "MARGINAL"); break;
-      case pb::FAIL: s.Bind(10, "FAIL"); break;
-      default: s.BindNull(10);
+      case pb::PASS:
+        s.Bind(10, "PASS");
+        break;
+      case pb::MARGINAL:
+        s.Bind(10, "MARGINAL");
+        break;
+      case pb::FAIL:
+        s.Bind(10, "FAIL");
+        break;
+      default:
+        s.BindNull(10);
     }
     s.Bind(11, m.note());
     s.Bind(12, opt(m.has_uncertainty(), m.uncertainty()));
@@ -342,7 +349,8 @@ Result<std::vector<std::string>> Archive::UnfinishedRunIds() {
 Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
   auto r = db_->Prepare(
       "SELECT COALESCE(verdict, ''), COALESCE(reasons, ''), samples, gap_samples, "
-      "invalid_samples, result_utime, record FROM runs WHERE run_key = ? AND result_utime IS NOT NULL");
+      "invalid_samples, result_utime, record FROM runs WHERE run_key = ? AND result_utime IS NOT "
+      "NULL");
   if (!r.ok()) return r.status();
   r->Bind(1, run_key);
   auto row = r->Step();
@@ -396,10 +404,10 @@ Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
     if (!m->IsNull(6)) pm.set_marginal_low(m->Real(6));
     if (!m->IsNull(7)) pm.set_marginal_high(m->Real(7));
     const std::string outcome = m->Text(8);
-    pm.set_outcome(outcome == "PASS" ? pb::PASS
+    pm.set_outcome(outcome == "PASS"       ? pb::PASS
                    : outcome == "MARGINAL" ? pb::MARGINAL
-                   : outcome == "FAIL" ? pb::FAIL
-                                       : pb::OUTCOME_UNSET);
+                   : outcome == "FAIL"     ? pb::FAIL
+                                           : pb::OUTCOME_UNSET);
     pm.set_note(m->Text(9));
     if (!m->IsNull(10)) pm.set_uncertainty(m->Real(10));
     res.measurements.push_back(std::move(pm));
@@ -570,6 +578,8 @@ Result<std::vector<CurveRecord>> Archive::LoadCurves(int64_t run_key) {
       rec.curve.ci = allan::ParseCiMethod(s->Text(2)).value_or(allan::CiMethod::kNone);
       rec.curve.tau0_s = s->Real(3);
       rec.samples = s->Int(4);
+      // Rate samples in, phase points behind the curve: one more.
+      rec.curve.n_phase = rec.samples > 0 ? rec.samples + 1 : 0;
       rec.valid_samples = s->Int(5);
       rec.computed_utime = s->Int(6);
       curves.push_back(std::move(rec));

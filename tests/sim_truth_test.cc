@@ -704,6 +704,70 @@ TEST_F(TacticalLotTest, LotSpreadShowsInTheFit) {
   }
 }
 
+// The lot noise model (`imuqual lot --model`), pooled from the archived
+// curves: where adequate, its white noise is the units' rms N within its
+// stated precision (3 sigma, and 1 % for the units' own N being read off
+// their curves); the planted unit, whose B and K are 3-4 times the others',
+// is the only unit flagged inconsistent with the lot, on most axes.
+TEST_F(TacticalLotTest, LotModelStatesTheLotAndFlagsThePlantedUnit) {
+  const testing::CommandResult r = RunCommand(Bin("imuqual") + " lot " + kTacticalLot +
+                                              " --model --format csv --db " + lot_->db);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::istringstream in(r.output);
+  std::string line;
+  std::vector<std::string> header;
+  auto fields = [](const std::string& l) {
+    std::vector<std::string> out;
+    std::stringstream ss(l);
+    for (std::string f; std::getline(ss, f, ',');) out.push_back(f);
+    return out;
+  };
+  ASSERT_TRUE(std::getline(in, line));
+  header = fields(line);
+  auto col = [&](const std::string& name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    EXPECT_NE(it, header.end()) << name;
+    return static_cast<size_t>(it - header.begin());
+  };
+  std::string planted;
+  for (const UnitRecord& u : lot_->units) {
+    if (u.planted()) planted = u.serial;
+  }
+  int rows = 0, adequate = 0, planted_flagged = 0;
+  while (std::getline(in, line) && !line.empty()) {
+    const std::vector<std::string> f = fields(line);
+    ++rows;
+    const std::string axis = f[col("axis")];
+    EXPECT_EQ(f[col("units")], std::to_string(kTacticalUnits)) << axis;
+    std::stringstream flagged(f[col("inconsistent_units")]);
+    for (std::string unit; flagged >> unit;) {
+      if (unit == "-") continue;
+      EXPECT_EQ(unit, planted) << axis << ": a typical unit flagged inconsistent";
+      planted_flagged += unit == planted;
+    }
+    if (f[col("adequate")] != "yes") continue;
+    ++adequate;
+    double mean_n2 = 0;
+    bool gyro = true;
+    for (const UnitRecord& u : lot_->units) {
+      for (const pb::AxisTruth& a : u.truth.axes()) {
+        if (a.axis() != axis) continue;
+        gyro = u.gyro(a);
+        mean_n2 += a.random_walk() * a.random_walk() / kTacticalUnits;
+      }
+    }
+    const double truth = ToDatasheet(NoiseTerm::kAngleRandomWalk, gyro, std::sqrt(mean_n2));
+    const double value = std::stod(f[col("random_walk")]);
+    const double sigma = std::stod(f[col("random_walk_sigma")]);
+    std::printf("lot model %s: %s, N %.5g +- %.2g, truth rms %.5g, flagged: %s\n", axis.c_str(),
+                f[col("model")].c_str(), value, sigma, truth, f[col("inconsistent_units")].c_str());
+    EXPECT_NEAR(value, truth, 3 * sigma + 0.01 * truth) << axis;
+  }
+  EXPECT_EQ(rows, 6);
+  EXPECT_GE(adequate, 3);
+  EXPECT_GE(planted_flagged, 3);
+}
+
 TEST_F(TacticalLotTest, PlantedUnitFailsForTheReasonItsTruthGives) {
   int planted = 0;
   for (const UnitRecord& u : lot_->units) {

@@ -538,8 +538,8 @@ Figures ComputeFigures(const CompositeModel& model, double tau0_s, double tau_lo
 // the data still allow: the profile of J over the term's scale s (the
 // selected model's own parameters refitted with the term held at s), and the
 // bound where J(s) - J(0) = delta_j (likelihood-ratio; see GmwmOptions). Bisection on ln s
-// between a scale the data do not notice and twice the scale at which the
-// term alone reaches the measured curve. NaN if the profile never rises that
+// between a scale the data do not notice and 2 to 16 times the scale at
+// which the term alone reaches the measured curve. NaN if the profile never rises that
 // far (the term is indistinguishable from the model's own terms everywhere).
 double AbsentTermUpperBound(const Candidate& best, TermKind kind, const Problem& p,
                             const std::vector<FitRow>& rows, double delta_j) {
@@ -559,7 +559,10 @@ double AbsentTermUpperBound(const Candidate& best, TermKind kind, const Problem&
     const Candidate c = Estimate(best.kinds, best.theta, fixed);
     return c.objective - best.objective;
   };
+  // Up to 16x the reach: beyond, the term would dwarf the measured curve and
+  // the data bound nothing a reader could use.
   double lo = std::log(reach) - 10 * std::log(10.0), hi = std::log(2 * reach);
+  for (int i = 0; i < 3 && !(rise(std::exp(hi)) > delta_j); ++i) hi += std::log(2.0);
   if (!(rise(std::exp(hi)) > delta_j)) return kNaN;
   for (int i = 0; i < kBisections; ++i) {
     const double mid = 0.5 * (lo + hi);
@@ -660,9 +663,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   Eigen::VectorXd edf2(n);
   std::vector<int64_t> ms;
   for (int j = 0; j < n; ++j) {
-    edf2(j) = options.edf_from_curve
-                  ? edf1(j)
-                  : FitRowEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_model, p1.m[j], tau0)), rows[j]);
+    edf2(j) = FitRowEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_model, p1.m[j], tau0)), rows[j]);
     ms.push_back(rows[j].m);
   }
   const std::vector<double> corr_values = AvarCorrelationMatrix(pilot_model, tau0, ms);

@@ -72,11 +72,6 @@ struct GmwmOptions {
   // Keep about one point per octave: denser grids add little information and
   // much correlation.
   bool thin_to_octaves = true;
-  // Take every point's variance from the curve's own edf (CurvePoint::edf
-  // with alpha set) in both passes, instead of Greenhall's edf for the pilot
-  // model in pass 2: for curves whose scatter is not one record's (a lot's
-  // pooled curve, whose edf comes from the spread between its units).
-  bool edf_from_curve = false;
   int max_gauss_markov = 3;  // in [0, 3]
   int max_sinusoids = 2;     // in [0, 2]
   // A model whose J-test p-value is below this level is inadequate, in (0, 1).

@@ -1,27 +1,14 @@
 #include "analyze/allan/lot_model.h"
 
 #include <algorithm>
+#include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 #include <map>
-
-#include <boost/math/distributions/students_t.hpp>
-#include <boost/math/special_functions/trigamma.hpp>
 
 namespace imuqual::allan {
 namespace {
 
 bool PowerOfTwo(int64_t m) { return m > 0 && (m & (m - 1)) == 0; }
-
-// The edf nu whose ln(chi2_nu / nu) has variance v: psi'(nu/2) = v, by
-// bisection on ln nu (psi' decreases; psi'(x) ~ 1/x for large x).
-double EdfForLogVariance(double v) {
-  double lo = std::log(0.2), hi = std::log(1e9);
-  for (int i = 0; i < 80; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (boost::math::trigamma(0.5 * std::exp(mid)) > v ? lo : hi) = mid;
-  }
-  return std::exp(0.5 * (lo + hi));
-}
 
 }  // namespace
 
@@ -45,7 +32,7 @@ Result<LotModel> FitLotModel(const std::vector<UnitCurve>& units, const LotModel
   const Curve& first = units.front().curve;
   // The octave averaging factors every unit has, with each unit's AVAR.
   std::map<int64_t, std::vector<double>> avar;  // m -> per unit
-  std::map<int64_t, int64_t> min_n;
+  std::map<int64_t, int64_t> sum_n, stride;
   for (int u = 0; u < k; ++u) {
     const Curve& c = units[u].curve;
     if (c.deviation != first.deviation || c.tau0_s != first.tau0_s) {
@@ -57,7 +44,8 @@ Result<LotModel> FitLotModel(const std::vector<UnitCurve>& units, const LotModel
       std::vector<double>& v = avar[p.m];
       if (static_cast<int>(v.size()) != u) continue;  // a duplicate m, or missing in a unit before
       v.push_back(p.dev * p.dev);
-      min_n[p.m] = u == 0 ? p.n : std::min(min_n[p.m], p.n);
+      sum_n[p.m] += p.n;
+      if (u == 0) stride[p.m] = p.stride;
     }
   }
   std::vector<int64_t> ms;
@@ -69,28 +57,24 @@ Result<LotModel> FitLotModel(const std::vector<UnitCurve>& units, const LotModel
                                    " octave points; a lot model needs at least 4");
   }
 
-  // The pooled curve, its per-point edf from the units' spread.
+  // The pooled curve: K records of one process in the fit's eyes, so each
+  // point carries the terms (and the edf) of all of them.
   Curve pooled;
   pooled.deviation = first.deviation;
   pooled.tau0_s = first.tau0_s;
-  pooled.n_phase = first.n_phase;
-  for (const UnitCurve& u : units) pooled.n_phase = std::min(pooled.n_phase, u.curve.n_phase);
+  pooled.n_phase = 0;
+  for (const UnitCurve& u : units) pooled.n_phase += u.curve.n_phase;
   std::vector<std::vector<double>> log_avar;  // [point][unit]
   for (int64_t m : ms) {
     const std::vector<double>& v = avar[m];
     double mean = 0;
     for (double x : v) mean += x / k;
-    double ss = 0;
-    for (double x : v) ss += (x - mean) * (x - mean);
-    const double var_log_mean = ss / (k - 1) / k / (mean * mean);
     CurvePoint p;
     p.m = m;
     p.tau_s = static_cast<double>(m) * first.tau0_s;
     p.dev = std::sqrt(mean);
-    p.n = min_n[m];
-    p.stride = 1;
-    p.edf = EdfForLogVariance(std::max(var_log_mean, 1e-12));
-    p.alpha = 0;  // "identified": the fit takes p.edf as it is
+    p.n = sum_n[m];
+    p.stride = stride[m];  // the terms of every unit, as spaced in each
     pooled.points.push_back(p);
     std::vector<double> logs;
     for (double x : v) logs.push_back(std::log(x));
@@ -98,7 +82,6 @@ Result<LotModel> FitLotModel(const std::vector<UnitCurve>& units, const LotModel
   }
 
   GmwmOptions fit_options = options.fit;
-  fit_options.edf_from_curve = true;
   fit_options.stop = StopRule::kNone;  // every unit's curve is already cut
   auto fit = FitCompositeModel(pooled, fit_options);
   if (!fit.ok()) return fit.status();

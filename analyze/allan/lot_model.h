@@ -4,16 +4,15 @@
 // al., IEEE TIM 2019, with the units of a lot as the replicates): at every
 // octave averaging factor m that every unit's curve has, the lot's AVAR is
 // the mean of the units' AVARs,
-//   nu_lot(m) = (1/K) sum_k avar_k(m),
-// an unbiased estimate of the lot-mean Allan variance whatever each unit's
-// own noise. Its uncertainty comes from the units themselves: the sample
-// variance s^2(m) of the K AVARs holds both each record's estimation noise
-// and the unit-to-unit spread, so Var(ln nu_lot) ~ s^2 / (K nu_lot^2) (delta
-// method), given to the fit as the edf whose ln chi-square has that variance.
-// The composite model (gmwm.h) fitted to that pooled curve is the lot model;
-// its sigmas are the lot mean's, its spread the between-unit sd of ln AVAR at
-// each tau.
-//
+//   nu_lot(m) = (1/K) sum_k avar_k(m).
+// The mean of the units' AVARs of any of the composite terms is the AVAR of
+// the same term with the mean square scale (N_lot^2 = mean N_k^2, and a Gauss-
+// Markov mixture stays one where the units share T), so the lot curve is in
+// the model family and the composite model (gmwm.h) fitted to it, as one
+// record of K times the samples, is the lot model: its J test says whether
+// the family holds for the lot, its sigmas are the precision of the lot-mean
+// curve from these records (not the spread of the production, which is the
+// between-unit sd of ln AVAR at each tau, reported beside it).
 // Consistency: a unit belongs to the lot when, at every pooled tau, its
 // ln AVAR lies within the others' prediction interval: with the other K-1
 // units' mean m and sd s of ln AVAR,
@@ -52,23 +51,24 @@ struct LotModelOptions {
 struct LotPoint {
   int64_t m = 0;
   double tau_s = kNaN;
-  double mean_dev = kNaN;       // sqrt of the lot's mean AVAR
-  double model_dev = kNaN;      // the lot model
-  double spread_factor = kNaN;  // exp(sd of ln AVAR / 2): the units' 1-sigma factor on the deviation
+  double mean_dev = kNaN;   // sqrt of the lot's mean AVAR
+  double model_dev = kNaN;  // the lot model
+  double spread_factor =
+      kNaN;  // exp(sd of ln AVAR / 2): the units' 1-sigma factor on the deviation
 };
 
 struct UnitConsistency {
   std::string unit;
-  double p_value = kNaN;   // Bonferroni over the pooled taus
+  double p_value = kNaN;  // Bonferroni over the pooled taus
   bool consistent = true;
-  double worst_tau_s = kNaN;  // where the unit departs most
-  double worst_factor = kNaN; // its deviation there / the other units' geometric mean
+  double worst_tau_s = kNaN;   // where the unit departs most
+  double worst_factor = kNaN;  // its deviation there / the other units' geometric mean
 };
 
 struct LotModel {
   int units = 0;
   std::vector<LotPoint> points;
-  CompositeFit fit;  // the lot model (figures with the lot mean's sigmas)
+  CompositeFit fit;  // the lot model (sigmas: the precision of the lot-mean model)
   std::vector<UnitConsistency> consistency;  // in input order
 };
 

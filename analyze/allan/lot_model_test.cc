@@ -19,9 +19,9 @@ namespace imuqual::allan {
 namespace {
 
 constexpr double kTau0 = 0.01;
-constexpr int kSamples = 1 << 18;  // 44 min at 100 Hz: 15 octave points
-constexpr double kN = 0.005;       // deg/s sqrt(s)
-constexpr double kK = 2e-4;        // deg/s/sqrt(s)
+constexpr int kSamples = 1 << 18;    // 44 min at 100 Hz: 15 octave points
+constexpr double kN = 0.005;         // deg/s sqrt(s)
+constexpr double kK = 2e-4;          // deg/s/sqrt(s)
 constexpr double kUnitSpread = 0.1;  // lognormal sd of each unit's N and K
 
 Curve SimulatedCurve(double n, double k, uint64_t seed) {

@@ -6,6 +6,7 @@
 
 #include "common/clock.h"
 #include "common/log.h"
+#include "store/cli/lot_model_view.h"
 #include "store/cli/lot_statistics.h"
 
 namespace imuqual::cli {
@@ -18,7 +19,8 @@ Result<std::unique_ptr<store::Archive>> OpenArchive(const std::string& db_path) 
   return store::Archive::Open(db_path, store::Archive::Mode::kRead);
 }
 
-Result<std::vector<MeasurementStats>> LotStatistics(store::Archive& archive, const std::string& lot) {
+Result<std::vector<MeasurementStats>> LotStatistics(store::Archive& archive,
+                                                    const std::string& lot) {
   auto rows = store::QueryLotMeasurements(archive, lot);
   if (!rows.ok()) return rows.status();
   if (rows->empty()) return Status::NotFound("no lot '" + lot + "' (imuqual lots lists them)");
@@ -36,7 +38,8 @@ Result<int64_t> ParseUtcTime(const std::string& text) {
     tm = {};
     end = strptime(text.c_str(), "%Y-%m-%d", &tm);
     if (end == nullptr || *end != '\0') {
-      return Status::InvalidArgument("'" + text + "' is not a date (2026-11-21) or UTC time "
+      return Status::InvalidArgument("'" + text +
+                                     "' is not a date (2026-11-21) or UTC time "
                                      "(2026-11-21T08:00:00Z)");
     }
   }
@@ -67,6 +70,38 @@ int LotStatsCommand(const std::string& db_path, const std::string& lot, Format f
     std::printf("lot %s: statistics over each unit's latest run\n", lot.c_str());
   }
   std::printf("%s", t.Render(format).c_str());
+  if (format == Format::kTable) return LotModelCommand(db_path, lot, format);
+  return 0;
+}
+
+int LotModelCommand(const std::string& db_path, const std::string& lot, Format format) {
+  auto archive = OpenArchive(db_path);
+  if (!archive.ok()) {
+    LogError(archive.status().message());
+    return kExitError;
+  }
+  auto runs = LoadLatestRuns(**archive, lot);
+  if (!runs.ok()) {
+    LogError(runs.status().message() + " in " + db_path);
+    return runs.status().code() == Status::Code::kNotFound ? kExitUsage : kExitError;
+  }
+  const std::vector<AxisLotModel> models = ComputeLotModels(*runs);
+  TableWriter t = LotModelTable(false);
+  AddLotModelRows("", models, &t);
+  if (format != Format::kTable) {
+    std::printf("%s", t.Render(format).c_str());
+    return 0;
+  }
+  std::printf(
+      "\nlot noise model per axis (the units' Allan variances pooled, a composite model fitted; "
+      "sigmas: the precision of the lot-mean model; spread: the units' 1-sigma factor on the "
+      "deviation)\n%s",
+      t.Render(format).c_str());
+  const TableWriter flagged = InconsistentUnitsTable(models);
+  std::printf(
+      "\nunits inconsistent with their lot (outside the others' prediction interval at "
+      "some tau; Student t, Bonferroni, 1 %%)\n%s",
+      flagged.rows() == 0 ? "none\n" : flagged.Render(format).c_str());
   return 0;
 }
 
@@ -93,7 +128,8 @@ int CompareCommand(const std::string& db_path, const std::string& lot_a, const s
                  "sd_b", "yield_b", "mean_change", "p_mean", "p_sd", "p_yield", "significant"});
   for (const Comparison& c : rows) {
     std::string sig;
-    for (auto [flag, what] : {std::pair{c.mean_significant, "mean"}, {c.spread_significant, "sd"},
+    for (auto [flag, what] : {std::pair{c.mean_significant, "mean"},
+                              {c.spread_significant, "sd"},
                               {c.yield_significant, "yield"}}) {
       if (!flag) continue;
       if (!sig.empty()) sig += ',';
@@ -109,11 +145,25 @@ int CompareCommand(const std::string& db_path, const std::string& lot_a, const s
               Cell::Text(sig.empty() ? "-" : sig)});
   }
   if (format == Format::kTable) {
-    std::printf("%s (a) vs %s (b): each unit's latest run; Welch t (mean), F (sd), Fisher exact "
-                "(yield); significant at %g family-wise (Holm, %zu tests)\n",
-                lot_a.c_str(), lot_b.c_str(), alpha, 3 * rows.size());
+    std::printf(
+        "%s (a) vs %s (b): each unit's latest run; Welch t (mean), F (sd), Fisher exact "
+        "(yield); significant at %g family-wise (Holm, %zu tests)\n",
+        lot_a.c_str(), lot_b.c_str(), alpha, 3 * rows.size());
   }
   std::printf("%s", t.Render(format).c_str());
+  if (format == Format::kTable) {
+    TableWriter models = LotModelTable(true);
+    for (const std::string& lot : {lot_a, lot_b}) {
+      auto runs = LoadLatestRuns(**archive, lot);
+      if (!runs.ok()) {
+        LogError(runs.status().message());
+        return kExitError;
+      }
+      AddLotModelRows(lot, ComputeLotModels(*runs), &models);
+    }
+    std::printf("\nlot noise models per axis (sigmas: the precision of each lot-mean model)\n%s",
+                models.Render(format).c_str());
+  }
   return 0;
 }
 
@@ -137,9 +187,10 @@ int UnitCommand(const std::string& db_path, const std::string& serial, Format fo
                  "gap_samples", "axis_verdict", "run_verdict"});
   for (const store::AxisRow& r : *rows) {
     t.AddRow({Cell::Text(r.run_id), Cell::Text(r.lot), Cell::Text(FormatUtimeIso(r.start_utime)),
-              Cell::Text(r.state), Cell::Text(r.axis), Cell::Text(r.kind), Cell::Real(r.random_walk),
-              Cell::Real(r.bias_instability), Cell::Real(r.bias_instability_ieee),
-              Cell::Real(r.tau_min_s), Cell::Real(r.rate_random_walk), Cell::Int(r.gap_samples),
+              Cell::Text(r.state), Cell::Text(r.axis), Cell::Text(r.kind),
+              Cell::Real(r.random_walk), Cell::Real(r.bias_instability),
+              Cell::Real(r.bias_instability_ieee), Cell::Real(r.tau_min_s),
+              Cell::Real(r.rate_random_walk), Cell::Int(r.gap_samples),
               Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
               Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)});
   }
@@ -176,7 +227,8 @@ int RunsCommand(const std::string& db_path, store::RunFilter filter, const std::
     LogError(rows.status().message());
     return kExitError;
   }
-  TableWriter t({"run_id", "unit", "lot", "station", "slot", "start", "state", "verdict", "reason"});
+  TableWriter t(
+      {"run_id", "unit", "lot", "station", "slot", "start", "state", "verdict", "reason"});
   for (const store::RunRow& r : *rows) {
     t.AddRow({Cell::Text(r.run_id), Cell::Text(r.unit), Cell::Text(r.lot), Cell::Text(r.station),
               Cell::Text(r.slot), Cell::Text(FormatUtimeIso(r.start_utime)), Cell::Text(r.state),

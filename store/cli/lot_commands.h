@@ -11,12 +11,19 @@
 namespace imuqual::cli {
 
 // imuqual lot LOT --stats: per axis and measurement n, mean, sd, min, max,
-// yield and capability against the plan's limits (each unit's latest run).
+// yield and capability against the plan's limits (each unit's latest run);
+// as a table, followed by the lot noise model of each axis and the units
+// inconsistent with it (lot_model_view.h).
 int LotStatsCommand(const std::string& db_path, const std::string& lot, Format format);
+
+// imuqual lot LOT --model: the lot noise model of each axis (one row per
+// axis), then, as a table, the units inconsistent with their lot.
+int LotModelCommand(const std::string& db_path, const std::string& lot, Format format);
 
 // imuqual compare LOT_A LOT_B: the statistics side by side; Welch's t-test on
 // means, the F-test on spreads, Fisher's exact test on yields, significance
-// by Holm's procedure at `alpha` over every test of the comparison.
+// by Holm's procedure at `alpha` over every test of the comparison. As a
+// table, followed by both lots' noise models per axis.
 int CompareCommand(const std::string& db_path, const std::string& lot_a, const std::string& lot_b,
                    double alpha, Format format);
 

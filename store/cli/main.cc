@@ -10,8 +10,8 @@
 #include "store/cli/lot_commands.h"
 #include "store/cli/plot_command.h"
 #include "store/cli/reanalyze_command.h"
-#include "store/cli/station_config.h"
 #include "store/cli/report.h"
+#include "store/cli/station_config.h"
 
 int main(int argc, char** argv) {
   using namespace imuqual;
@@ -22,11 +22,13 @@ int main(int argc, char** argv) {
   cli::StationRunOptions run;
   bool quiet = false;
   std::string station_file;
-  CLI::App* run_cmd = app.add_subcommand("run", "run a station on this host: a multi-unit soak end to end");
-  run_cmd->add_option("--station", station_file,
-                      "station configuration (protobuf text: station id, bus, slots with unit serials "
-                      "and sources, plan, lot, operator, duration, archive); replaces --sim/--unit/--lot/--db/"
-                      "--plan/--duration/--rate/--operator/--lcm-url");
+  CLI::App* run_cmd =
+      app.add_subcommand("run", "run a station on this host: a multi-unit soak end to end");
+  run_cmd->add_option(
+      "--station", station_file,
+      "station configuration (protobuf text: station id, bus, slots with unit serials "
+      "and sources, plan, lot, operator, duration, archive); replaces --sim/--unit/--lot/--db/"
+      "--plan/--duration/--rate/--operator/--lcm-url");
   run_cmd->add_option("--sim", run.sim_units, "number of simulated units");
   run_cmd->add_option("--unit", run.units,
                       "SERIAL=SOURCE, repeatable: sim:PROFILE[,index=N,duration=S,actual_rate=HZ], "
@@ -39,26 +41,35 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--lot", run.lot, "production lot name");
   run_cmd->add_option("--db", run.db_path, "archive file (created if missing)");
   run_cmd->add_option("--plan", run.plan_spec, "test plan: .textproto file or builtin:NAME");
-  run_cmd->add_option("--profile", run.profile,
-                      "simulated lot profile: vg700, tactical, fog, mems-lab, mems-real")
+  run_cmd
+      ->add_option("--profile", run.profile,
+                   "simulated lot profile: vg700, tactical, fog, mems-lab, mems-real")
       ->capture_default_str();
   run_cmd->add_option("--lcm-url", run.lcm_url, "station bus (default: a private port, ttl=0)");
   run_cmd->add_option("--station-id", run.station, "station id")->capture_default_str();
   run_cmd->add_option("--operator", run.operator_name, "operator name");
-  run_cmd->add_option("--inject-drop", run.inject_drop, "fault injection: drop this fraction of batches")
+  run_cmd
+      ->add_option("--inject-drop", run.inject_drop,
+                   "fault injection: drop this fraction of batches")
       ->capture_default_str();
-  run_cmd->add_option("--stall-timeout", run.stall_timeout_s, "seconds without progress before giving up")
+  run_cmd
+      ->add_option("--stall-timeout", run.stall_timeout_s,
+                   "seconds without progress before giving up")
       ->capture_default_str();
-  run_cmd->add_option("--pace", run.pace, "0: as fast as the station goes, 1: real time, k: k x real time")
+  run_cmd
+      ->add_option("--pace", run.pace,
+                   "0: as fast as the station goes, 1: real time, k: k x real time")
       ->capture_default_str();
-  run_cmd->add_option("--analyze-shards", run.analyze_shards, "analyze processes splitting the units")
+  run_cmd
+      ->add_option("--analyze-shards", run.analyze_shards, "analyze processes splitting the units")
       ->capture_default_str();
-  run_cmd->add_option("--report", run.report_path, "HTML report written at the end (default: beside the archive)");
+  run_cmd->add_option("--report", run.report_path,
+                      "HTML report written at the end (default: beside the archive)");
   run_cmd->add_flag("--quiet", quiet, "no live console or progress line");
   run_cmd->footer(cli::kRunExitCodesHelp);
 
   std::string db, format = "table", lot;
-  bool all_runs = false, stats = false;
+  bool all_runs = false, stats = false, lot_model = false;
   CLI::App* lots_cmd = app.add_subcommand("lots", "list the lots in an archive");
   lots_cmd->add_option("--db", db, "archive file")->required();
   lots_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
@@ -69,7 +80,11 @@ int main(int argc, char** argv) {
   lot_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
   lot_cmd->add_flag("--all-runs", all_runs, "every run, not only each unit's latest");
   lot_cmd->add_flag("--stats", stats,
-                    "per axis and measurement: n, mean, sd, min, max, yield, Cpk/Cpu/Cpl");
+                    "per axis and measurement: n, mean, sd, min, max, yield, Cpk/Cpu/Cpl (and, as "
+                    "a table, the lot noise model)");
+  lot_cmd->add_flag("--model", lot_model,
+                    "the lot noise model per axis: the units' curves pooled, a composite model "
+                    "fitted, the units inconsistent with it");
 
   std::string lot_b;
   double alpha = 0.05;
@@ -94,34 +109,41 @@ int main(int argc, char** argv) {
   runs_cmd->add_option("--lot", run_filter.lot, "only this lot");
   runs_cmd->add_option("--station", run_filter.station, "only this station");
   runs_cmd->add_option("--unit", run_filter.unit, "only this unit serial");
-  runs_cmd->add_option("--since", since, "started at or after (2026-11-21 or 2026-11-21T08:00:00Z)");
+  runs_cmd->add_option("--since", since,
+                       "started at or after (2026-11-21 or 2026-11-21T08:00:00Z)");
   runs_cmd->add_option("--verdict,--outcome", run_filter.verdict, "PASS, MARGINAL, FAIL or none");
   runs_cmd->add_option("--limit", run_filter.limit, "at most this many")->capture_default_str();
   runs_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
 
   cli::ExportOptions ex;
-  CLI::App* export_cmd = app.add_subcommand("export", "run records, measurements, curves or Kalibr YAML");
+  CLI::App* export_cmd =
+      app.add_subcommand("export", "run records, measurements, curves or Kalibr YAML");
   export_cmd->add_option("--db", ex.db_path, "archive file")->required();
   export_cmd->add_option("--lot", ex.lot, "every run of this lot");
   export_cmd->add_option("--run", ex.run_id, "this run");
-  export_cmd->add_option("--as", ex.as, "json (run records), measurements (CSV), curves (CSV), kalibr (YAML)")
+  export_cmd
+      ->add_option("--as", ex.as,
+                   "json (run records), measurements (CSV), curves (CSV), kalibr (YAML)")
       ->capture_default_str();
   export_cmd->add_option("-o,--output", ex.output, "file (default: standard output)");
 
   cli::AnalyzeFileOptions an;
-  CLI::App* analyze_cmd = app.add_subcommand("analyze", "offline Allan analysis of a recorded series");
+  CLI::App* analyze_cmd =
+      app.add_subcommand("analyze", "offline Allan analysis of a recorded series");
   analyze_cmd->add_option("file", an.path, "one value per line, or CSV with a header")->required();
   analyze_cmd->add_option("--column", an.column, "CSV column to analyse");
   analyze_cmd->add_option("--rate", an.rate_hz, "sample rate in Hz")->capture_default_str();
   analyze_cmd->add_option("--type", an.type, "rate or phase")->capture_default_str();
   analyze_cmd->add_option("--dev", an.devs, "estimators: adev,oadev,mdev,tdev,hdev,ohdev,totdev")
       ->capture_default_str();
-  analyze_cmd->add_option("--grid", an.grid, "octave, decade, all, logN (N per decade), or taus 1,2,5")
+  analyze_cmd
+      ->add_option("--grid", an.grid, "octave, decade, all, logN (N per decade), or taus 1,2,5")
       ->capture_default_str();
   analyze_cmd->add_option("--stop", an.stop, "bins9, stable32 or none")->capture_default_str();
   analyze_cmd->add_option("--ci", an.ci, "none, simple (1/sqrt(2(K-1))) or chi2 (Greenhall edf)")
       ->capture_default_str();
-  analyze_cmd->add_option("--confidence", an.confidence, "chi2 interval level")->capture_default_str();
+  analyze_cmd->add_option("--confidence", an.confidence, "chi2 interval level")
+      ->capture_default_str();
   analyze_cmd->add_flag("--fit", an.fit,
                         "composite noise model (white, quantization, flicker, RRW, drift, "
                         "Gauss-Markov, sinusoids; selected, tested for fit, with sigmas) beside "
@@ -139,19 +161,23 @@ int main(int argc, char** argv) {
   reanalyze_cmd->add_flag("--check", re.check, "live mode: verify it equals the archived result");
   reanalyze_cmd->add_option("--dev", re.devs, "--exact: estimators")->capture_default_str();
   reanalyze_cmd->add_option("--grid", re.grid, "--exact: tau grid")->capture_default_str();
-  reanalyze_cmd->add_option("--stop", re.stop, "--exact: bins9, stable32 or none")->capture_default_str();
+  reanalyze_cmd->add_option("--stop", re.stop, "--exact: bins9, stable32 or none")
+      ->capture_default_str();
   reanalyze_cmd->add_option("--ci", re.ci, "--exact: none, simple or chi2")->capture_default_str();
   reanalyze_cmd->add_option("--format", re.format, "table, csv or json")->capture_default_str();
 
   cli::PlotOptions plot;
-  CLI::App* plot_cmd = app.add_subcommand(
-      "plot", "SVG Allan deviation plots: one run (axes of a kind overlaid) or a lot (units overlaid per axis)");
+  CLI::App* plot_cmd = app.add_subcommand("plot",
+                                          "SVG Allan deviation plots: one run (axes of a kind "
+                                          "overlaid) or a lot (units overlaid per axis)");
   plot_cmd->add_option("--db", plot.db_path, "archive file")->required();
-  plot_cmd->add_option("--run", plot.run_id, "plot this run: its axes overlaid, one plot per axis kind");
+  plot_cmd->add_option("--run", plot.run_id,
+                       "plot this run: its axes overlaid, one plot per axis kind");
   plot_cmd->add_option("--lot", plot.lot, "overlay every unit of this lot, one plot per axis");
   plot_cmd->add_option("--axis", plot.axis, "only this axis");
-  plot_cmd->add_option("-o,--output", plot.output,
-                       "SVG file; several plots go to FILE-<kind or axis>.svg beside it")
+  plot_cmd
+      ->add_option("-o,--output", plot.output,
+                   "SVG file; several plots go to FILE-<kind or axis>.svg beside it")
       ->required();
 
   cli::ReportOptions report;
@@ -177,7 +203,8 @@ int main(int argc, char** argv) {
       for (const char* flag : {"--sim", "--unit", "--lot", "--db", "--plan", "--duration", "--rate",
                                "--operator", "--lcm-url", "--station-id", "--profile"}) {
         if (run_cmd->count(flag) > 0) {
-          LogError(std::string("--station ") + station_file + " holds the station's setup: do not also give " + flag);
+          LogError(std::string("--station ") + station_file +
+                   " holds the station's setup: do not also give " + flag);
           return 2;
         }
       }
@@ -195,7 +222,8 @@ int main(int argc, char** argv) {
       from_file.stall_timeout_s = run.stall_timeout_s;
       run = std::move(from_file);
     } else if (run.lot.empty() || run.db_path.empty()) {
-      LogError("run: give --station FILE, or --lot and --db (with --sim N and/or --unit SERIAL=SOURCE)");
+      LogError(
+          "run: give --station FILE, or --lot and --db (with --sim N and/or --unit SERIAL=SOURCE)");
       return 2;
     }
     InstallShutdownHandlers();
@@ -204,6 +232,7 @@ int main(int argc, char** argv) {
   }
   if (lots_cmd->parsed()) return cli::LotsCommand(db, *fmt);
   if (lot_cmd->parsed()) {
+    if (lot_model) return cli::LotModelCommand(db, lot, *fmt);
     return stats ? cli::LotStatsCommand(db, lot, *fmt) : cli::LotCommand(db, lot, *fmt, all_runs);
   }
   if (compare_cmd->parsed()) return cli::CompareCommand(db, lot, lot_b, alpha, *fmt);

@@ -10,11 +10,13 @@
 #include <tuple>
 #include <vector>
 
+#include "analyze/allan/model_quantities.h"
 #include "analyze/judge/measurements.h"
 #include "common/clock.h"
 #include "common/log.h"
 #include "common/text_util.h"
 #include "common/version.h"
+#include "store/cli/lot_model_view.h"
 #include "store/cli/lot_statistics.h"
 #include "store/cli/plot_command.h"
 #include "store/query.h"
@@ -650,6 +652,81 @@ constexpr char kScript[] = R"js(
 })();
 )js";
 
+// The lot noise model of each axis (lot_model_view.h): the model, its
+// figures with their sigmas, the spread between units, and the
+// units inconsistent with their lot.
+void LotModelSection(const std::vector<AxisLotModel>& models, std::string* out) {
+  *out +=
+      "<section id=\"lot-model\">\n<h2>Lot noise model</h2>\n<div class=\"scroll\"><table "
+      "class=\"lot-model\">\n<thead><tr><th scope=\"col\">Axis</th><th scope=\"col\" "
+      "class=\"num\">Units</th><th scope=\"col\">Model</th><th scope=\"col\" "
+      "class=\"num\">J-test p</th><th scope=\"col\" class=\"num\">Random walk "
+      "(ARW/VRW)</th><th scope=\"col\" class=\"num\">Bias instability (min/0.664)</th><th "
+      "scope=\"col\" class=\"num\">Rate random walk</th><th scope=\"col\" "
+      "class=\"num\">Spread short/long &tau;</th><th scope=\"col\">Inconsistent "
+      "units</th></tr></thead>\n<tbody>\n";
+  for (const AxisLotModel& m : models) {
+    Add(out, "<tr", Attr("data-axis", m.axis), "><td>", Esc(m.axis), "</td><td class=\"num\">",
+        std::to_string(m.curves), "</td>");
+    if (!m.model.ok()) {
+      Add(out, "<td colspan=\"7\" class=\"note\">not measurable: ", Esc(m.model.status().message()),
+          "</td></tr>\n");
+      continue;
+    }
+    const allan::LotModel& lm = *m.model;
+    const std::vector<allan::ModelQuantity> q = allan::DescribeCompositeFit(
+        lm.fit, m.kind == pb::ACCEL ? allan::SensorKind::kAccelerometer : allan::SensorKind::kGyro);
+    auto figure = [&](const std::string& name, const char* key) {
+      for (const allan::ModelQuantity& x : q) {
+        if (x.name != name) continue;
+        const bool absent = std::isnan(x.sigma) && x.value == 0;
+        if (!lm.fit.adequate) return std::string("<td class=\"num\">&ndash;</td>");
+        std::string cell = "<td class=\"num\"" + Attr("data-m", key) +
+                           Attr("data-v", Exact(absent ? x.upper_bound : x.value)) + ">";
+        if (absent) {
+          Add(&cell,
+              std::isfinite(x.upper_bound) ? "&le;&nbsp;" + Human(x.upper_bound) : "&ndash;");
+        } else {
+          Add(&cell, Human(x.value), " &plusmn; ", Human(x.sigma));
+        }
+        Add(&cell, " ", PrettyUnit(x.unit), "</td>");
+        return cell;
+      }
+      return std::string("<td class=\"num\">&ndash;</td>");
+    };
+    char p_value[32];
+    std::snprintf(p_value, sizeof p_value, "%.3g", lm.fit.p_value);
+    Add(out, "<td>", Esc(lm.fit.model.Name()), lm.fit.adequate ? "" : " (inadequate)",
+        "</td><td class=\"num\">", p_value, "</td>",
+        figure(m.kind == pb::ACCEL ? "velocity_random_walk" : "angle_random_walk", "random_walk"),
+        figure("bias_instability_ieee", "bias_instability"),
+        figure("rate_random_walk", "rate_random_walk"));
+    char spread[64];
+    std::snprintf(spread, sizeof spread, "&times;%.3g / &times;%.3g",
+                  lm.points.front().spread_factor, lm.points.back().spread_factor);
+    Add(out, "<td class=\"num\">", spread, "</td><td>");
+    bool any = false;
+    for (const allan::UnitConsistency& c : lm.consistency) {
+      if (c.consistent) continue;
+      char why[96];
+      std::snprintf(why, sizeof why, " (&times;%.3g at %.3g&nbsp;s, p&nbsp;%.2g)", c.worst_factor,
+                    c.worst_tau_s, c.p_value);
+      Add(out, any ? "; " : "", "<span class=\"o-FAIL\">", Esc(c.unit), "</span>", why);
+      any = true;
+    }
+    Add(out, any ? "" : "none", "</td></tr>\n");
+  }
+  *out +=
+      "</tbody></table></div>\n<p class=\"note\">The units' Allan variances pooled per octave "
+      "(multi-signal wavelet variance) and the composite noise model fitted to them as one long "
+      "record; &plusmn; is the 1-sigma precision of that lot-mean model from these records (the "
+      "spread of the production is the next column), &le; a 95&nbsp;% upper bound for a term the "
+      "model leaves out; an inadequate model (J-test p below 1&nbsp;%) gives no figures. "
+      "Spread: the units' 1-sigma factor on the deviation at the shortest and longest pooled "
+      "&tau;. A unit is inconsistent when at some &tau; it lies outside the other units' "
+      "prediction interval (Student t, Bonferroni over the &tau;s, 1&nbsp;%).</p>\n</section>\n";
+}
+
 }  // namespace
 
 Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
@@ -718,12 +795,14 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
   html +=
       "<nav aria-label=\"Contents\"><a href=\"#attention\">Failing and marginal units</a>"
       "<a href=\"#results\">Results per unit</a><a href=\"#statistics\">Lot statistics</a>"
+      "<a href=\"#lot-model\">Lot noise model</a>"
       "<a href=\"#lot-plots\">Lot Allan plots</a>";
   if (!unit_figures.empty()) html += "<a href=\"#unit-plots\">Unit Allan plots</a>";
   html += "</nav>\n";
   Attention(d, plot_anchor, &html);
   Results(d, &html);
   Statistics(d, &html);
+  LotModelSection(ComputeLotModels(d.runs), &html);
   html += "<section id=\"lot-plots\">\n<h2>Allan deviation: the lot, per axis</h2>\n";
   if (lot_plots.empty()) {
     html += "<p class=\"note\">No Allan curve stored for this lot.</p>\n";
@@ -742,7 +821,7 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
     Add(&html,
         "<section id=\"unit-plots\">\n<h2>Allan deviation: failing and marginal units</h2>\n",
         "<div class=\"plots\">\n", unit_figures, "</div>\n",
-        "<p class=\"note\">Each axis with its confidence band, the fitted IEEE 952 model "
+        "<p class=\"note\">Each axis with its confidence band, its composite noise model "
         "(dashed) and its curve minimum (ringed).</p>\n</section>\n");
   }
   Add(&html,
