@@ -114,16 +114,19 @@ double TermAvar(const ModelTerm& t, double m, double tau0_s) {
 
 double TermPsd(const ModelTerm& t, double f, double tau0_s) {
   const double s2 = t.scale * t.scale;
-  const double sin_pf = std::sin(kPi * f);
   switch (t.kind) {
-    case TermKind::kQuantization:
+    case TermKind::kQuantization: {
+      const double sin_pf = std::sin(kPi * f);
       return s2 / (tau0_s * tau0_s) * 4.0 * sin_pf * sin_pf;
+    }
     case TermKind::kWhite:
       return s2 / tau0_s;
     case TermKind::kFlicker:
       return s2 / (2.0 * kPi * f);
-    case TermKind::kRandomWalk:
+    case TermKind::kRandomWalk: {
+      const double sin_pf = std::sin(kPi * f);
       return s2 * tau0_s / (4.0 * sin_pf * sin_pf);
+    }
     case TermKind::kGaussMarkov: {
       const double phi = std::exp(-tau0_s / t.correlation_time_s);
       const double innovation = s2 * (1.0 - phi * phi);

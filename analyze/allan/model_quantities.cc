@@ -103,10 +103,18 @@ std::vector<ModelQuantity> DescribeCompositeFit(const CompositeFit& fit,
                    std::move(note), bound * u.factor});
   };
   const bool accel = kind == SensorKind::kAccelerometer;
-  add(accel ? "velocity_random_walk" : "angle_random_walk", true, NoiseTerm::kAngleRandomWalk,
-      fit.white_asymptote.value, fit.white_asymptote.sigma,
-      fit.has_white_region ? "-1/2 asymptote of the model at 1 s"
-                           : "-1/2 asymptote only: the model has no -1/2 region");
+  const char* arw_name = accel ? "velocity_random_walk" : "angle_random_walk";
+  if (!(fit.white_asymptote.value > 0)) {
+    // No white noise and no fast Gauss-Markov term in the model: what the
+    // data allow of N, not a confident 0.
+    add(arw_name, true, NoiseTerm::kAngleRandomWalk, 0.0, kNaN, "absent",
+        fit.ieee_terms[1].upper_bound);
+  } else {
+    add(arw_name, true, NoiseTerm::kAngleRandomWalk, fit.white_asymptote.value,
+        fit.white_asymptote.sigma,
+        fit.has_white_region ? "-1/2 asymptote of the model at 1 s"
+                             : "-1/2 asymptote only: the model has no -1/2 region");
+  }
   const std::string edge =
       fit.minimum_at_edge ? "minimum at the edge of the analysed taus: a bound, not a minimum" : "";
   add("bias_instability", true, NoiseTerm::kBiasInstability, fit.curve_minimum.value,
