@@ -12,6 +12,7 @@
 #include "analyze/judge/measurements.h"
 #include "common/log.h"
 #include "common/text_util.h"
+#include "store/cli/model_plot.h"
 #include "store/cli/svg_plot.h"
 #include "store/query.h"
 
@@ -111,12 +112,15 @@ PlotSeries CurveSeries(const allan::Curve& curve, std::string label, std::string
   return s;
 }
 
-// The axis's noise model over the curve's tau span, rebuilt from the stored
-// model_* parameters (judge/measure.h). nullopt without a model or when a
-// stored parameter does not make one (the model would be wrong); an
-// inadequate model is labelled so.
-std::optional<PlotSeries> ModelSeries(const AxisPlotData& a, std::string label, std::string color) {
-  if (!a.curve || a.curve->points.empty() || !(a.curve->tau0_s > 0)) return std::nullopt;
+// The axis's noise model, rebuilt from the stored model_* parameters
+// (judge/measure.h), and whether it passed its J test. nullopt without a
+// model or when a stored parameter does not make one (the model would be
+// wrong).
+struct ArchivedModel {
+  allan::CompositeModel model;
+  bool adequate = true;
+};
+std::optional<ArchivedModel> LoadArchivedModel(const AxisPlotData& a) {
   std::vector<allan::ModelQuantity> parameters;
   for (const pb::Measurement& m : a.measurements) {
     if (!m.name().starts_with(judge::kModelParameterPrefix)) continue;
@@ -130,9 +134,17 @@ std::optional<PlotSeries> ModelSeries(const AxisPlotData& a, std::string label, 
   const Result<allan::CompositeModel> model = allan::ModelFromTerms(parameters, Sensor(a.kind));
   if (!model.ok() || model->terms.empty()) return std::nullopt;
   const pb::Measurement* p = FindMeasurementRow(a, judge::kNoiseModelPValue);
-  if (p != nullptr && p->note().find("INADEQUATE") != std::string::npos) {
-    label += " (inadequate)";
-  }
+  const bool adequate = p == nullptr || p->note().find("INADEQUATE") == std::string::npos;
+  return ArchivedModel{*model, adequate};
+}
+
+// The axis's noise model over the curve's tau span, dashed in the axis's
+// colour (several axes on one plot: the model's terms would crowd it).
+std::optional<PlotSeries> ModelSeries(const AxisPlotData& a, std::string label, std::string color) {
+  if (!a.curve || a.curve->points.empty() || !(a.curve->tau0_s > 0)) return std::nullopt;
+  const std::optional<ArchivedModel> m = LoadArchivedModel(a);
+  if (!m) return std::nullopt;
+  if (!m->adequate) label += " (inadequate)";
   const double t0 = a.curve->points.front().tau_s, t1 = a.curve->points.back().tau_s;
   if (!(t0 > 0) || !(t1 > t0)) return std::nullopt;
   PlotSeries s;
@@ -143,7 +155,7 @@ std::optional<PlotSeries> ModelSeries(const AxisPlotData& a, std::string label, 
   for (int i = 0; i < kModelPoints; ++i) {
     const double tau = t0 * std::pow(t1 / t0, static_cast<double>(i) / (kModelPoints - 1));
     s.x.push_back(tau);
-    s.y.push_back(model->Deviation(tau / a.curve->tau0_s, a.curve->tau0_s));
+    s.y.push_back(m->model.Deviation(tau / a.curve->tau0_s, a.curve->tau0_s));
   }
   return s;
 }
@@ -391,7 +403,13 @@ std::vector<AllanPlot> RunAllanPlots(const RunPlotData& run, const std::string& 
         label += ")";
       }
       p.series.push_back(CurveSeries(*a.curve, label, color));
-      if (auto model = ModelSeries(a, a.axis + " noise model", color)) {
+      if (!axis.empty()) {
+        // One axis: the model and each of its terms (model_plot.h).
+        if (const std::optional<ArchivedModel> m = LoadArchivedModel(a)) {
+          AddModelSeries(m->model, a.curve->tau0_s, a.curve->points.front().tau_s,
+                         a.curve->points.back().tau_s, m->adequate, &p);
+        }
+      } else if (auto model = ModelSeries(a, a.axis + " noise model", color)) {
         p.series.push_back(std::move(*model));
       }
       if (auto m = MinimumMarker(a, a.axis + ": ", color)) p.markers.push_back(std::move(*m));
