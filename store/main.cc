@@ -10,6 +10,9 @@ int main(int argc, char** argv) {
   using namespace imuqual;
   store::StoreOptions opt;
   CLI::App app{"imuqual-store: archive raw samples, curves and results of a station in SQLite"};
+  app.add_option("--station", opt.station,
+                 "serve only this station's runs (run_t.station); others on the bus are ignored")
+      ->capture_default_str();
   app.add_option("--lcm-url", opt.lcm_url, "station bus, e.g. udpm://239.255.76.67:7701?ttl=0")
       ->required();
   app.add_option("--db", opt.db_path, "archive file (created if missing)")->required();

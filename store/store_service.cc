@@ -22,6 +22,7 @@
 #include "common/shutdown.h"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
+#include "common/text_util.h"
 #include "store/records.h"
 
 namespace imuqual::store {
@@ -98,6 +99,7 @@ Status StoreOptions::Validate() const {
   if (!(hole_give_up_s > 0)) return Status::InvalidArgument("hole_give_up_s: must be > 0");
   if (!(stale_after_s > 0)) return Status::InvalidArgument("stale_after_s: must be > 0");
   if (!(heartbeat_s > 0)) return Status::InvalidArgument("heartbeat_s: must be > 0");
+  if (!station.empty()) IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("station", station));
   return Status::Ok();
 }
 
@@ -118,7 +120,8 @@ struct StoreService::Impl {
   int64_t chunks_inserted = 0, duplicates = 0, absurd = 0, rejected = 0, waiting_dropped = 0,
           commits = 0, commit_failures = 0, apply_errors = 0, resend_requests = 0,
           batches_given_up = 0, runs_done = 0, batches_served = 0, runs_taken_over = 0,
-          late_messages = 0, values_archived = 0;
+          late_messages = 0, values_archived = 0, foreign_messages = 0;
+  std::set<std::string> foreign_runs;  // runs of other stations (writer thread)
   // Commit time minus the arrival of each batch's newest sample, over the
   // batches archived on their first arrival (resends and replays after a
   // restart are late by design): how far the archive trails the units.
@@ -402,8 +405,22 @@ Status StoreService::Impl::WritePending(StoreRun& r, Staged* staged) {
 }
 
 Status StoreService::Impl::Apply(Item& item, Staged* staged) {
-  if (auto* run = std::get_if<imuqual::run_t>(&item)) return ApplyRun(*run, staged);
   const std::string& run_id = std::visit([](const auto& m) -> const std::string& { return m.run_id; }, item);
+  if (foreign_runs.count(run_id)) {
+    ++foreign_messages;
+    return Status::Ok();
+  }
+  if (auto* run = std::get_if<imuqual::run_t>(&item)) {
+    if (!options.station.empty() && run->station != options.station) {
+      // Another station's run on this bus: its own store archives it.
+      foreign_runs.insert(run_id);
+      ++foreign_messages;
+      LogWarning("ignoring run " + run_id + " of station '" + run->station +
+                 "' (this store serves station '" + options.station + "')");
+      return Status::Ok();
+    }
+    return ApplyRun(*run, staged);
+  }
   StoreRun* r = Find(run_id);
   if (r == nullptr) {
     ++late_messages;
@@ -586,6 +603,8 @@ Counters StoreService::Impl::StatusCounters() const {
           {"rejected", rejected},
           {"waiting_dropped", waiting_dropped},
           {"late_messages", late_messages},
+          {"foreign_runs", static_cast<int64_t>(foreign_runs.size())},
+          {"foreign_messages", foreign_messages},
           {"commits", commits},
           {"commit_failures", commit_failures},
           {"apply_errors", apply_errors},

@@ -31,6 +31,9 @@ struct StoreOptions {
   double hole_give_up_s = 30.0;   // a batch not resent by then is a gap
   double stale_after_s = 10.0;    // acquire silent this long: it is gone
   double heartbeat_s = 1.0;       // re-announcement period of runs the store took over
+  // The station whose runs this store archives (run_t.station); other
+  // stations' runs on the same bus are ignored and counted. "": every run.
+  std::string station;
   Status Validate() const;
 };
 

@@ -1,9 +1,12 @@
 // Scale-out: three analyze processes, each taking its shard of the units,
 // give exactly the results of one analyze taking them all; every unit is
-// analysed by exactly one shard.
+// analysed by exactly one shard. Station identity: two stations on one bus
+// keep to their own runs.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <map>
+#include <tuple>
 
 #include "common/clock.h"
 #include "store/archive.h"
@@ -92,6 +95,60 @@ TEST(ShardTest, ThreeAnalyzeShardsGiveTheResultsOfOne) {
   while (finished(0) + finished(1) + finished(2) < kUnits && MonotonicSeconds() < deadline) three.Pump(100);
   for (int k = 0; k < 3; ++k) EXPECT_GT(finished(k), 0) << "shard " << k << " analysed nothing";
   EXPECT_EQ(finished(0) + finished(1) + finished(2), kUnits);
+}
+
+// Two stations forced onto one bus: each store and analyze serves its own
+// station id, archives and judges exactly that station's runs (although both
+// soak the same lot, hence the same serials), and counts the other's as
+// foreign instead of archiving or analysing them.
+TEST(StationIdentityTest, TwoStationsOnOneBusKeepTheirOwnRuns) {
+  constexpr int kUnitsEach = 3;
+  StationHarness bus("two_stations");
+  const std::string db_b = bus.path("b.db");
+  Subprocess store_a = bus.StartStore({"--station", "A"});
+  Subprocess store_b = bus.StartStore({"--station", "B", "--db", db_b});
+  Subprocess analyze_a = bus.StartAnalyze({"--station", "A"});
+  Subprocess analyze_b = bus.StartAnalyze({"--station", "B"});
+  auto acquire_args = [](const std::string& station, const std::string& prefix) {
+    return std::vector<std::string>{"--lot", "TWIN", "--profile", "tactical", "--sim",
+                                    std::to_string(kUnitsEach), "--duration", "300", "--await",
+                                    "store,analyze", "--run-prefix", prefix, "--station", station,
+                                    "--plan", "builtin:tactical"};
+  };
+  Subprocess acquire_a = bus.Start("imuqual-acquire", acquire_args("A", "RUN-A"));
+  Subprocess acquire_b = bus.Start("imuqual-acquire", acquire_args("B", "RUN-B"));
+  ASSERT_TRUE(bus.WaitRunsDone(2 * kUnitsEach, kRunTimeoutS)) << bus.Logs();
+  EXPECT_EQ(acquire_a.Wait(30), 0);
+  EXPECT_EQ(acquire_b.Wait(30), 0);
+  for (const auto& [db, own, other] : {std::tuple{bus.db(), "RUN-A", "RUN-B"},
+                                       std::tuple{db_b, "RUN-B", "RUN-A"}}) {
+    auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
+    ASSERT_TRUE(a.ok()) << a.status().ToString();
+    for (int u = 1; u <= kUnitsEach; ++u) {
+      char serial[32];
+      std::snprintf(serial, sizeof serial, "TWIN-U%02d", u);
+      auto mine = (*a)->FindRunKey(std::string(own) + "-" + serial);
+      ASSERT_TRUE(mine.ok() && mine->has_value()) << db << " lacks its run of " << serial;
+      auto result = (*a)->LoadResult(**mine);
+      ASSERT_TRUE(result.ok() && result->has_value()) << serial << " not judged in " << db;
+      EXPECT_FALSE((*result)->verdict.empty()) << serial;
+      auto theirs = (*a)->FindRunKey(std::string(other) + "-" + serial);
+      ASSERT_TRUE(theirs.ok());
+      EXPECT_FALSE(theirs->has_value()) << db << " archived the other station's run of " << serial;
+    }
+  }
+  // Each process saw the other station's runs and counted them.
+  const double deadline = MonotonicSeconds() + 10;
+  auto counted = [&] {
+    for (pid_t pid : {store_a.pid(), store_b.pid(), analyze_a.pid(), analyze_b.pid()}) {
+      if (bus.CounterOf(pid, "foreign_runs") < kUnitsEach) return false;
+    }
+    return true;
+  };
+  while (!counted() && MonotonicSeconds() < deadline) bus.Pump(100);
+  for (pid_t pid : {store_a.pid(), store_b.pid(), analyze_a.pid(), analyze_b.pid()}) {
+    EXPECT_EQ(bus.CounterOf(pid, "foreign_runs"), kUnitsEach) << "pid " << pid;
+  }
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 
 #include "analyze/judge/plan.h"
 #include "analyze/service/run_analyzer.h"
+#include "common/text_util.h"
 #include "common/ack.h"
 #include "common/bounded_queue.h"
 #include "common/last_heard.h"
@@ -85,6 +86,7 @@ Status AnalyzeOptions::Validate() const {
   if (queue_capacity < 16) return Status::InvalidArgument("queue_capacity: must be >= 16");
   if (!(hole_give_up_s > 0)) return Status::InvalidArgument("hole_give_up_s: must be > 0");
   if (!(stale_after_s > 0)) return Status::InvalidArgument("stale_after_s: must be > 0");
+  if (!station.empty()) IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("station", station));
   return Status::Ok();
 }
 
@@ -100,7 +102,8 @@ struct AnalyzeService::Impl {
   // Counters (worker thread, except where atomic).
   std::atomic<int64_t> batches_received{0}, out_of_shard{0};
   int64_t batches_processed = 0, duplicates = 0, absurd = 0, rejected = 0, resend_requests = 0,
-          batches_given_up = 0, runs_finished = 0, late_after_finish = 0;
+          batches_given_up = 0, runs_finished = 0, late_after_finish = 0, foreign_messages = 0;
+  std::set<std::string> foreign_ids;  // runs of other stations (worker thread)
 
   explicit Impl(const AnalyzeOptions& o) : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
     tracker_options.give_up_after_s = o.hole_give_up_s;
@@ -138,6 +141,17 @@ void AnalyzeService::Impl::Handle(Work&& work, double now) {
 
 void AnalyzeService::Impl::OnRun(imuqual::run_t&& run, double now) {
   if (finished_ids.count(run.run_id)) return;
+  if (!options.station.empty() && run.station != options.station) {
+    // Another station's run on this bus: not ours to analyse (nor to hold
+    // batches for).
+    if (foreign_ids.insert(run.run_id).second) {
+      LogWarning("ignoring run " + run.run_id + " of station '" + run.station +
+                 "' (this analyze serves station '" + options.station + "')");
+    }
+    ++foreign_messages;
+    runs.erase(run.run_id);
+    return;
+  }
   auto [it, inserted] = runs.try_emplace(run.run_id, tracker_options);
   RunEntry& e = it->second;
   (void)inserted;
@@ -188,6 +202,10 @@ void AnalyzeService::Impl::StartAnalyzer(RunEntry& e) {
 }
 
 void AnalyzeService::Impl::OnBatch(imuqual::rate_batch_t&& batch, double now) {
+  if (foreign_ids.count(batch.run_id)) {
+    ++foreign_messages;
+    return;
+  }
   if (finished_ids.count(batch.run_id)) {
     ++late_after_finish;
     return;
@@ -443,7 +461,9 @@ Counters AnalyzeService::Impl::StatusCounters() {
           {"queue_high_water", static_cast<int64_t>(queue.high_water())},
           {"queue_dropped", static_cast<int64_t>(queue.dropped())},
           {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
-          {"out_of_shard", out_of_shard.load()}};
+          {"out_of_shard", out_of_shard.load()},
+          {"foreign_runs", static_cast<int64_t>(foreign_ids.size())},
+          {"foreign_messages", foreign_messages}};
 }
 
 Status AnalyzeService::Run() {

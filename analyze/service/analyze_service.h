@@ -28,6 +28,9 @@ struct AnalyzeOptions {
   int queue_capacity = 50000;       // batches waiting for the worker
   double hole_give_up_s = 30.0;     // a missing batch not resent by then is a gap
   double stale_after_s = 15.0;      // a running run not announced this long is incomplete
+  // The station whose runs this process analyses (run_t.station); other
+  // stations' runs on the same bus are ignored and counted. "": every run.
+  std::string station;
   Status Validate() const;
 };
 

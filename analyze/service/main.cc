@@ -13,6 +13,9 @@ int main(int argc, char** argv) {
   analyze::AnalyzeOptions opt;
   std::string shard = "0/1";
   CLI::App app{"imuqual-analyze: Allan curves, noise terms and verdicts for every run on a bus"};
+  app.add_option("--station", opt.station,
+                 "serve only this station's runs (run_t.station); others on the bus are ignored")
+      ->capture_default_str();
   app.add_option("--lcm-url", opt.lcm_url, "station bus, e.g. udpm://239.255.76.67:7701?ttl=0")
       ->required();
   app.add_option("--shard", shard, "K/N: analyse only the units of shard K of N")

@@ -188,7 +188,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   }
 
   StationRunResult result;
-  result.run_prefix = CompactUtc(NowUtime());
+  // The station in every run id: two stations never mint the same one.
+  result.run_prefix = CompactUtc(NowUtime()) + "-" + o.station;
   result.log_path = o.db_path + ".log";
   std::string url = o.lcm_url;
   if (url.empty()) {
@@ -315,10 +316,12 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   };
   children.store = supervised_process("imuqual-store", "store",
                                       {dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path,
-                                       "--stale-after", std::to_string(o.stale_after_s)});
+                                       "--stale-after", std::to_string(o.stale_after_s),
+                                       "--station", o.station});
   for (int k = 0; k < o.analyze_shards; ++k) {
     Supervised a =
-        supervised_process("imuqual-analyze", "analyze", {dir + "/imuqual-analyze", "--lcm-url", url});
+        supervised_process("imuqual-analyze", "analyze",
+                           {dir + "/imuqual-analyze", "--lcm-url", url, "--station", o.station});
     if (o.analyze_shards > 1) {
       const std::string shard = std::to_string(k) + "/" + std::to_string(o.analyze_shards);
       a.name += " " + shard;
