@@ -1,7 +1,8 @@
 // When each key (a run) was last heard on the bus, noted by the LCM handler
 // thread as messages arrive and read by the worker. Staleness judged from
-// dequeue times would mistake a worker's backlog for a silent source.
-// Thread-safe.
+// dequeue times would mistake a worker's backlog for a silent source. Times
+// are the process's listening clock (listening_clock.h): a process that was
+// frozen does not find everyone silent when it wakes. Thread-safe.
 #ifndef IMUQUAL_COMMON_LAST_HEARD_H_
 #define IMUQUAL_COMMON_LAST_HEARD_H_
 
@@ -10,18 +11,19 @@
 #include <mutex>
 #include <string>
 
-#include "common/clock.h"
+#include "common/listening_clock.h"
 
 namespace imuqual {
 
 class LastHeard {
  public:
   void Note(const std::string& key) {
-    const double now = MonotonicSeconds();
+    const double now = ListeningSeconds();
     std::lock_guard<std::mutex> lock(mu_);
     heard_[key] = now;
   }
-  // Seconds since `key` was last noted; +infinity if never.
+  // Listening seconds since `key` was last noted (`now_s` from
+  // ListeningSeconds()); +infinity if never.
   double SecondsSince(const std::string& key, double now_s) const {
     std::lock_guard<std::mutex> lock(mu_);
     auto it = heard_.find(key);

@@ -10,6 +10,7 @@
 #include <thread>
 #include <variant>
 
+#include "common/listening_clock.h"
 #include "common/ack.h"
 #include "common/bounded_queue.h"
 #include "common/last_heard.h"
@@ -168,7 +169,7 @@ Result<std::unique_ptr<StoreService>> StoreService::Create(const StoreOptions& o
   auto unfinished = impl->archive->UnfinishedRunIds();
   if (!unfinished.ok()) return unfinished.status();
   for (const std::string& id : *unfinished) {
-    IMUQUAL_RETURN_IF_ERROR(impl->Resume(id, MonotonicSeconds()));
+    IMUQUAL_RETURN_IF_ERROR(impl->Resume(id, ListeningSeconds()));
   }
   return std::unique_ptr<StoreService>(new StoreService(std::move(impl)));
 }
@@ -604,6 +605,7 @@ Counters StoreService::Impl::StatusCounters() const {
           {"waiting_dropped", waiting_dropped},
           {"late_messages", late_messages},
           {"foreign_runs", static_cast<int64_t>(foreign_runs.size())},
+          {"stopped_ms", std::llround(ListeningPausedSeconds() * 1e3)},
           {"foreign_messages", foreign_messages},
           {"commits", commits},
           {"commit_failures", commit_failures},
@@ -679,7 +681,9 @@ Status StoreService::Run() {
       std::vector<Item> items =
           s.queue.PopAll(std::chrono::milliseconds(5), static_cast<size_t>(s.options.max_transaction));
       if (!items.empty()) s.Transaction(items);
-      const double now = MonotonicSeconds();
+      // Every timer (silence, give-up) on the listening clock: a store that
+      // was frozen does not find acquire silent or its holes unrepairable.
+      const double now = ListeningSeconds();
       if (items.empty() && stop.load() && s.queue.size() == 0) break;
       s.Tick(now);
       if (now >= next_status) {
@@ -694,6 +698,7 @@ Status StoreService::Run() {
   Status result;
   while (!ShutdownRequested()) {
     Status st = s.bus->HandleFor(100);
+    (void)ListeningSeconds();  // observed while the writer is busy too
     if (!st.ok()) {
       result = st;
       break;

@@ -7,6 +7,7 @@
 #include <signal.h>
 
 #include <dirent.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <fstream>
@@ -186,6 +187,83 @@ TEST(FaultTest, AnalyzeKilledMidRunGivesTheUninterruptedResult) {
     }
   }
   for (const auto& [id, c] : CheckArchive(h.db())) EXPECT_EQ(c.gap_ranges, 0) << id;
+}
+
+// A process frozen (SIGSTOP: Ctrl-Z, a paused VM, a swap storm) for longer
+// than every one of its timers (the harness's store: give-up 5 s, stale-after
+// 2 s; analyze: 5 s and 4 s), then woken: it judges silence by its own
+// listening time, so nothing it was doing is cut short.
+constexpr int kFreezeS = 8;
+
+void Freeze(const Subprocess& p, int seconds) {
+  ::kill(p.pid(), SIGSTOP);
+  const double until = MonotonicSeconds() + seconds;
+  while (MonotonicSeconds() < until) ::usleep(100000);
+  ::kill(p.pid(), SIGCONT);
+}
+
+TEST(FaultTest, StoreFrozenLongerThanItsTimersLosesNothing) {
+  StationHarness h("fault_store_frozen");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FFROZ", 2, 1500, 100, "FROZEN"));
+  // GIVEN a soak under way with data committed
+  ASSERT_TRUE(WaitArchived(h, 100, 30)) << h.Logs();
+  // WHEN the archiver is frozen while acquire keeps publishing
+  Freeze(store, kFreezeS);
+  // THEN it catches up: every run complete, every batch, no gap, judged.
+  ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
+  EXPECT_EQ(acquire.Wait(30), 0);
+  const auto runs = CheckArchive(h.db());
+  ASSERT_EQ(runs.size(), 2u);
+  for (const auto& [id, c] : runs) {
+    EXPECT_EQ(c.state, "complete") << id << ": " << c.reasons;
+    EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
+    EXPECT_EQ(c.gap_ranges, 0) << id;
+    EXPECT_NE(c.verdict, "") << id;
+    ExpectResultEqualsReanalysis(h.db(), id);
+  }
+}
+
+TEST(FaultTest, AnalyzeFrozenLongerThanItsTimersGivesTheUninterruptedResult) {
+  StationHarness h("fault_analyze_frozen");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  // An undisturbed run of the same units (same seed) ...
+  Subprocess clean = h.Start("imuqual-acquire", AcquireArgs("FAF", 2, 1500, 0, "CLEAN"));
+  ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
+  EXPECT_EQ(clean.Wait(30), 0);
+  // ... and one whose analysis is frozen half way.
+  Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FAF", 2, 1500, 100, "FROZEN"));
+  ASSERT_TRUE(WaitArchived(h, h.Counter("store", "chunks_inserted") + 200, 30)) << h.Logs();
+  Freeze(analyze, kFreezeS);
+  ASSERT_TRUE(h.WaitRunsDone(4, kRunTimeoutS)) << h.Logs();
+  EXPECT_EQ(acquire.Wait(30), 0);
+  auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok());
+  for (const std::string unit : {"FAF-U01", "FAF-U02"}) {
+    auto clean_result = (*a)->LoadResult(**(*a)->FindRunKey("CLEAN-" + unit));
+    auto frozen_result = (*a)->LoadResult(**(*a)->FindRunKey("FROZEN-" + unit));
+    ASSERT_TRUE(clean_result.ok() && clean_result->has_value());
+    ASSERT_TRUE(frozen_result.ok() && frozen_result->has_value()) << unit;
+    EXPECT_EQ((*frozen_result)->verdict, (*clean_result)->verdict) << unit;
+    EXPECT_EQ((*frozen_result)->reasons, (*clean_result)->reasons) << unit;
+    EXPECT_EQ((*frozen_result)->samples, (*clean_result)->samples) << unit;
+    auto clean_curves = (*a)->LoadCurves(**(*a)->FindRunKey("CLEAN-" + unit));
+    auto frozen_curves = (*a)->LoadCurves(**(*a)->FindRunKey("FROZEN-" + unit));
+    ASSERT_TRUE(clean_curves.ok() && frozen_curves.ok());
+    ASSERT_EQ(frozen_curves->size(), clean_curves->size()) << unit;
+    for (size_t i = 0; i < clean_curves->size(); ++i) {
+      const auto& x = (*clean_curves)[i].curve.points;
+      const auto& y = (*frozen_curves)[i].curve.points;
+      ASSERT_EQ(x.size(), y.size()) << unit;
+      for (size_t p = 0; p < x.size(); ++p) EXPECT_EQ(x[p].dev, y[p].dev) << unit;  // bit for bit
+    }
+  }
+  for (const auto& [id, c] : CheckArchive(h.db())) {
+    EXPECT_EQ(c.state, "complete") << id << ": " << c.reasons;
+    EXPECT_EQ(c.gap_ranges, 0) << id;
+  }
 }
 
 TEST(FaultTest, AnalyzeRestartedAfterAcquireLeftCatchesUpFromTheArchive) {

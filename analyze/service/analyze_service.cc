@@ -11,6 +11,7 @@
 
 #include "analyze/judge/plan.h"
 #include "analyze/service/run_analyzer.h"
+#include "common/listening_clock.h"
 #include "common/text_util.h"
 #include "common/ack.h"
 #include "common/bounded_queue.h"
@@ -463,6 +464,7 @@ Counters AnalyzeService::Impl::StatusCounters() {
           {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
           {"out_of_shard", out_of_shard.load()},
           {"foreign_runs", static_cast<int64_t>(foreign_ids.size())},
+          {"stopped_ms", std::llround(ListeningPausedSeconds() * 1e3)},
           {"foreign_messages", foreign_messages}};
 }
 
@@ -507,7 +509,9 @@ Status AnalyzeService::Run() {
     double next_status = 0;
     for (;;) {
       std::vector<Work> items = s.queue.PopAll(std::chrono::milliseconds(5), 1024);
-      double now = MonotonicSeconds();
+      // Every timer (silence, give-up) on the listening clock: an analyze
+      // that was frozen does not end the runs it was analysing as silent.
+      double now = ListeningSeconds();
       for (Work& w : items) s.Handle(std::move(w), now);
       if (items.empty() && stop.load() && s.queue.size() == 0) break;
       s.Tick(now);
@@ -523,6 +527,7 @@ Status AnalyzeService::Run() {
   Status result;
   while (!ShutdownRequested()) {
     Status st = s.bus->HandleFor(100);
+    (void)ListeningSeconds();  // observed while the worker is busy (a fit) too
     if (!st.ok()) {
       result = st;
       break;
