@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <map>
 #include <optional>
+#include <limits>
 #include <set>
 #include <thread>
 #include <variant>
@@ -55,6 +56,15 @@ struct StoreRun {
   std::vector<CurveRecord> curves_pending;
   std::optional<ResultRecord> result;  // the final result, once received
   bool result_stored = false;
+  std::set<std::string> curves_stored;  // axes whose final curve is durable
+  // A run is archived when its samples, a final curve of every axis and its
+  // judgement are (curves and results lost on the bus are published again
+  // by analyze until this store confirms the run done).
+  bool JudgedAndCurved() const {
+    if (!result_stored) return false;
+    return std::all_of(info.axes.begin(), info.axes.end(),
+                       [&](const AxisInfo& a) { return curves_stored.count(a.name) > 0; });
+  }
   double next_retry_s = 0;
   bool done = false;
   double done_s = 0;
@@ -217,6 +227,9 @@ Status StoreService::Impl::Resume(const std::string& run_id, double now) {
     r.result = std::move(**result);
     r.result_stored = true;
   }
+  auto curves = archive->LoadCurves(r.key);
+  if (!curves.ok()) return curves.status();
+  for (const CurveRecord& c : *curves) r.curves_stored.insert(c.axis);
   (void)now;
   acquire_heard.Note(run_id);  // acquire gets stale_after_s from now to show up
   LogInfo("run " + run_id + ": resuming an unfinished run, " + std::to_string(*next) +
@@ -425,6 +438,12 @@ Status StoreService::Impl::Apply(Item& item, Staged* staged) {
   StoreRun* r = Find(run_id);
   if (r == nullptr) {
     ++late_messages;
+    // A result or curve of a run archived for good: its analyze did not hear
+    // the confirmation; say it again.
+    if (finalized.count(run_id) && (std::holds_alternative<imuqual::unit_result_t>(item) ||
+                                    std::holds_alternative<imuqual::allan_curve_t>(item))) {
+      (void)PublishAck(*bus, "store", instance, run_id, std::numeric_limits<int64_t>::max(), true);
+    }
     return Status::Ok();
   }
   if (auto* b = std::get_if<imuqual::rate_batch_t>(&item)) return ApplyBatch(*r, *b, staged);
@@ -450,7 +469,11 @@ void StoreService::Impl::Committed(const Staged& staged) {
       if (c.sent_utime > 0) sent_to_archive.Add(committed_utime - c.sent_utime);
     }
   }
-  for (const std::string& run_id : staged.curves) runs.at(run_id).curves_pending.clear();
+  for (const std::string& run_id : staged.curves) {
+    StoreRun& r = runs.at(run_id);
+    for (const CurveRecord& c : r.curves_pending) r.curves_stored.insert(c.axis);
+    r.curves_pending.clear();
+  }
   for (const std::string& run_id : staged.results) runs.at(run_id).result_stored = true;
 }
 
@@ -566,7 +589,7 @@ void StoreService::Impl::Tick(double now) {
         if (bus->Publish(channels::kResend, req).ok()) ++resend_requests;
       }
       RecordGivenUp(r, r.tracker.TakeGivenUp(now));
-      if (r.tracker.complete() && r.result_stored) {
+      if (r.tracker.complete() && r.JudgedAndCurved()) {
         Status st = Finalize(r);
         if (!st.ok()) {
           write_errors.Error("run " + id + ": " + st.message());

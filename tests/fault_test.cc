@@ -122,6 +122,56 @@ TEST(FaultTest, InjectedDropsAreRepairedToZeroGaps) {
   }
 }
 
+// Results are repaired like raw batches: with half of the final curves and
+// results lost on their first publication, analyze publishes them again
+// until the store confirms each run archived, which it does only once it
+// holds a final curve of every axis and the judgement.
+TEST(FaultTest, LostResultsArePublishedAgainUntilArchived) {
+  StationHarness h("fault_results");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze({"--inject-result-drop", "0.5"});
+  Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FRES", 4, 600, 0, "RES"));
+  ASSERT_TRUE(h.WaitRunsDone(4, kRunTimeoutS)) << h.Logs();
+  EXPECT_EQ(acquire.Wait(30), 0);
+  // Not vacuous: results were lost and published again.
+  EXPECT_GT(h.WaitCounter("analyze", "results_dropped_on_purpose", 1, 10), 0);
+  EXPECT_GT(h.WaitCounter("analyze", "results_republished", 1, 10), 0);
+  auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok());
+  const auto runs = CheckArchive(h.db());
+  ASSERT_EQ(runs.size(), 4u);
+  for (const auto& [id, c] : runs) {
+    EXPECT_EQ(c.state, "complete") << id;
+    EXPECT_NE(c.verdict, "") << id << " has no verdict";
+    auto curves = (*a)->LoadCurves(**(*a)->FindRunKey(id));
+    ASSERT_TRUE(curves.ok());
+    EXPECT_EQ(curves->size(), 3u) << id << " lacks a curve";
+    ExpectResultEqualsReanalysis(h.db(), id);
+    // And the check that an auditor runs agrees.
+    const auto check = RunCommand(Bin("imuqual") + " reanalyze " + id + " --check --db " + h.db() +
+                                  " > /dev/null");
+    EXPECT_EQ(check.exit_code, 0) << id << ": " << check.output;
+  }
+  // A run whose archive lacks a curve or its judgement fails that check,
+  // saying what is missing.
+  const std::string id = runs.begin()->first;
+  a->reset();
+  {
+    auto w = store::Archive::Open(h.db(), store::Archive::Mode::kWrite);
+    ASSERT_TRUE(w.ok()) << w.status().ToString();
+    const std::string key = std::to_string(**(*w)->FindRunKey(id));
+    ASSERT_TRUE((*w)->db().Exec("DELETE FROM curve_points WHERE run_key = " + key + " AND axis = 'y'").ok());
+    ASSERT_TRUE((*w)->db().Exec("DELETE FROM curves WHERE run_key = " + key + " AND axis = 'y'").ok());
+    ASSERT_TRUE((*w)->db().Exec("UPDATE runs SET verdict = NULL, record = NULL, result_utime = NULL "
+                                "WHERE run_key = " + key).ok());
+  }
+  const auto check = RunCommand(Bin("imuqual") + " reanalyze " + id + " --check --db " + h.db() +
+                                " 2>&1 > /dev/null");
+  EXPECT_EQ(check.exit_code, 1) << check.output;
+  EXPECT_NE(check.output.find("axis y: no archived curve"), std::string::npos) << check.output;
+  EXPECT_NE(check.output.find("no judgement archived"), std::string::npos) << check.output;
+}
+
 TEST(FaultTest, StoreKilledMidRunRestartsWithoutLosingABatch) {
   StationHarness h("fault_store");
   Subprocess store = h.StartStore();

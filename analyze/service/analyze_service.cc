@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <optional>
+#include <random>
 #include <set>
 #include <thread>
 #include <variant>
@@ -26,15 +27,21 @@
 #include "imuqual/allan_curve_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
+#include "imuqual/ack_t.hpp"
 #include "imuqual/run_t.hpp"
 #include "imuqual/unit_result_t.hpp"
 
 namespace imuqual::analyze {
 namespace {
 
-using Work = std::variant<imuqual::run_t, imuqual::rate_batch_t>;
+using Work = std::variant<imuqual::run_t, imuqual::rate_batch_t, imuqual::ack_t>;
 
 constexpr double kDoneReackForS = 60.0;     // finished runs keep saying so this long
+// A final result no store has confirmed is published again after 2 s, then
+// with the period doubling up to 30 s, for at most 30 min.
+constexpr double kFirstRepublishS = 2.0;
+constexpr double kMaxRepublishPeriodS = 30.0;
+constexpr double kResultRetentionS = 1800.0;
 constexpr size_t kMaxHeldBeforeRunInfo = 4096;
 
 int8_t OutcomeCode(pb::Outcome o) {
@@ -60,6 +67,13 @@ struct RunEntry {
   int64_t acked_after_finish = 0;  // late batches of a finished run are acknowledged too
   bool inferred_incomplete = false;  // ended here for silence, not announced so
   int64_t rejected = 0;
+  // The final outcome, kept and published again until a store says it has
+  // archived the run (ack_t run_done): a result lost on the bus is repaired
+  // like a batch. Released on that confirmation or after kResultRetentionS.
+  std::optional<RunOutcome> final_outcome;
+  bool store_confirmed = false;
+  double next_republish_s = 0;
+  double republish_period_s = 0;
 
   explicit RunEntry(const SeqTracker::Options& o) : tracker(0, o) {}
 };
@@ -88,6 +102,9 @@ Status AnalyzeOptions::Validate() const {
   if (!(hole_give_up_s > 0)) return Status::InvalidArgument("hole_give_up_s: must be > 0");
   if (!(stale_after_s > 0)) return Status::InvalidArgument("stale_after_s: must be > 0");
   if (!station.empty()) IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("station", station));
+  if (!(inject_result_drop >= 0 && inject_result_drop < 1)) {
+    return Status::InvalidArgument("inject_result_drop: must be in [0, 1)");
+  }
   return Status::Ok();
 }
 
@@ -103,7 +120,8 @@ struct AnalyzeService::Impl {
   // Counters (worker thread, except where atomic).
   std::atomic<int64_t> batches_received{0}, out_of_shard{0};
   int64_t batches_processed = 0, duplicates = 0, absurd = 0, rejected = 0, resend_requests = 0,
-          batches_given_up = 0, runs_finished = 0, late_after_finish = 0, foreign_messages = 0;
+          batches_given_up = 0, runs_finished = 0, late_after_finish = 0, foreign_messages = 0,
+          results_republished = 0, results_abandoned = 0, results_dropped_on_purpose = 0;
   std::set<std::string> foreign_ids;  // runs of other stations (worker thread)
 
   explicit Impl(const AnalyzeOptions& o) : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
@@ -112,6 +130,8 @@ struct AnalyzeService::Impl {
   }
 
   void Handle(Work&& work, double now);
+  void OnStoreAck(const imuqual::ack_t& ack, double now);
+  void RepublishUnconfirmed(const std::string& run_id, RunEntry& e, double now);
   void OnRun(imuqual::run_t&& run, double now);
   void OnBatch(imuqual::rate_batch_t&& batch, double now);
   void Tick(double now);
@@ -119,7 +139,18 @@ struct AnalyzeService::Impl {
   void StartAnalyzer(RunEntry& e);
   void ProcessHeld(RunEntry& e);
   void Finish(const std::string& run_id, RunEntry& e, double now);
-  void PublishOutcome(const RunEntry& e, const RunOutcome& out, bool final);
+  // `first`: the final outcome's first publication (the only one fault
+  // injection may drop).
+  void PublishOutcome(const RunEntry& e, const RunOutcome& out, bool final, bool first = false);
+  // Fault injection: true to drop this message.
+  bool InjectDrop(bool final, bool first) {
+    if (!final || !first || !(options.inject_result_drop > 0)) return false;
+    const bool drop = std::uniform_real_distribution<double>(0, 1)(inject_rng) <
+                      options.inject_result_drop;
+    results_dropped_on_purpose += drop;
+    return drop;
+  }
+  std::mt19937_64 inject_rng{1};
   void Ack(const std::string& run_id, RunEntry& e, double now, bool force);
   Counters StatusCounters();
 };
@@ -135,6 +166,8 @@ Result<std::unique_ptr<AnalyzeService>> AnalyzeService::Create(const AnalyzeOpti
 void AnalyzeService::Impl::Handle(Work&& work, double now) {
   if (auto* run = std::get_if<imuqual::run_t>(&work)) {
     OnRun(std::move(*run), now);
+  } else if (auto* ack = std::get_if<imuqual::ack_t>(&work)) {
+    OnStoreAck(*ack, now);
   } else {
     OnBatch(std::move(std::get<imuqual::rate_batch_t>(work)), now);
   }
@@ -285,7 +318,8 @@ void AnalyzeService::Impl::Ack(const std::string& run_id, RunEntry& e, double no
   }
 }
 
-void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& out, bool final) {
+void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& out, bool final,
+                                          bool first) {
   const imuqual::run_t& r = *e.info;
   const int64_t now = NowUtime();
   for (const auto& [axis, curve] : out.curves) {
@@ -315,6 +349,7 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
       msg.n_terms.push_back(p.n);
       msg.stride.push_back(p.stride);
     }
+    if (InjectDrop(final, first)) continue;
     Status st = bus->Publish(channels::Curve(r.unit_serial), msg);
     if (!st.ok()) LogWarning(st.message());
   }
@@ -349,8 +384,38 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
     res.measurements.push_back(std::move(mm));
   }
   res.num_measurements = static_cast<int16_t>(res.measurements.size());
+  if (InjectDrop(final, first)) return;
   Status st = bus->Publish(channels::Result(r.unit_serial), res);
   if (!st.ok()) LogWarning(st.message());
+}
+
+void AnalyzeService::Impl::OnStoreAck(const imuqual::ack_t& ack, double now) {
+  (void)now;
+  if (!ack.run_done) return;
+  auto it = runs.find(ack.run_id);
+  if (it == runs.end() || !it->second.finished || it->second.store_confirmed) return;
+  it->second.store_confirmed = true;
+  it->second.final_outcome.reset();
+}
+
+// A finished run's final curves and result, published again while no store
+// has confirmed the run archived: first after kFirstRepublishS, then with
+// the period doubling up to kMaxRepublishPeriodS.
+void AnalyzeService::Impl::RepublishUnconfirmed(const std::string& run_id, RunEntry& e,
+                                                double now) {
+  if (e.store_confirmed || !e.final_outcome || now < e.next_republish_s) return;
+  if (now - e.finished_s > kResultRetentionS) {
+    LogWarning("run " + run_id + ": no store confirmed its result in " +
+               std::to_string(static_cast<int>(kResultRetentionS)) +
+               " s; no longer publishing it (the store re-announces an unjudged run)");
+    e.final_outcome.reset();
+    ++results_abandoned;
+    return;
+  }
+  PublishOutcome(e, *e.final_outcome, true);
+  ++results_republished;
+  e.republish_period_s = std::min(2 * e.republish_period_s, kMaxRepublishPeriodS);
+  e.next_republish_s = now + e.republish_period_s;
 }
 
 void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double now) {
@@ -368,16 +433,23 @@ void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double
       out.judgement.verdict = pb::FAIL;
       out.judgement.reasons.insert(out.judgement.reasons.begin(), e.error);
     }
-    PublishOutcome(e, out, true);
+    PublishOutcome(e, out, true, true);
     LogInfo("run " + run_id + " done: " + judge::OutcomeName(out.judgement.verdict) + ", " +
             std::to_string(out.samples) + " samples per axis, " +
             std::to_string(out.gap_samples) + " gap samples");
+    e.final_outcome = std::move(out);
   } else {
     RunOutcome out;
     out.judgement.verdict = pb::FAIL;
     out.judgement.reasons = {"cannot analyse the run: " + e.error};
-    PublishOutcome(e, out, true);
+    // An empty final curve per axis: the store archives a run once it has a
+    // final curve of every axis, and this run has nothing more to give.
+    for (const std::string& axis : e.info->axis_names) out.curves.emplace_back(axis, allan::Curve{});
+    PublishOutcome(e, out, true, true);
+    e.final_outcome = std::move(out);
   }
+  e.republish_period_s = kFirstRepublishS;
+  e.next_republish_s = now + kFirstRepublishS;
   e.finished = true;
   e.finished_s = now;
   ++runs_finished;
@@ -388,6 +460,7 @@ void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double
 void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, double now) {
   if (e.finished) {
     Ack(run_id, e, now, false);
+    RepublishUnconfirmed(run_id, e, now);
     return;
   }
   if (!e.info) return;  // batches before the run's first heartbeat wait
@@ -431,7 +504,9 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
 void AnalyzeService::Impl::Tick(double now) {
   for (auto it = runs.begin(); it != runs.end();) {
     TickRun(it->first, it->second, now);
-    if (it->second.finished && now - it->second.finished_s > kDoneReackForS) {
+    // A finished run stays while its result waits for a store's confirmation.
+    if (it->second.finished && now - it->second.finished_s > kDoneReackForS &&
+        !it->second.final_outcome) {
       finished_ids.insert(it->first);
       heard.Forget(it->first);
       it = runs.erase(it);
@@ -464,6 +539,9 @@ Counters AnalyzeService::Impl::StatusCounters() {
           {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
           {"out_of_shard", out_of_shard.load()},
           {"foreign_runs", static_cast<int64_t>(foreign_ids.size())},
+          {"results_republished", results_republished},
+          {"results_abandoned", results_abandoned},
+          {"results_dropped_on_purpose", results_dropped_on_purpose},
           {"stopped_ms", std::llround(ListeningPausedSeconds() * 1e3)},
           {"foreign_messages", foreign_messages}};
 }
@@ -502,6 +580,12 @@ Status AnalyzeService::Run() {
         }
         ++s.batches_received;
         s.queue.TryPush(std::move(batch));
+      });
+
+  // Stores' confirmations that a run is archived (its final result too).
+  s.bus->Subscribe<imuqual::ack_t>(
+      channels::kAck, 1000, [&s](const std::string&, imuqual::ack_t&& ack, int64_t) {
+        if (ack.process == "store" && ack.run_done) s.queue.TryPush(std::move(ack));
       });
 
   std::atomic<bool> stop{false};

@@ -31,6 +31,9 @@ struct AnalyzeOptions {
   // The station whose runs this process analyses (run_t.station); other
   // stations' runs on the same bus are ignored and counted. "": every run.
   std::string station;
+  // Fault injection (tests): drop this fraction of the final curves and
+  // results the first time they are published, in [0, 1).
+  double inject_result_drop = 0.0;
   Status Validate() const;
 };
 

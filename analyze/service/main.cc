@@ -13,6 +13,9 @@ int main(int argc, char** argv) {
   analyze::AnalyzeOptions opt;
   std::string shard = "0/1";
   CLI::App app{"imuqual-analyze: Allan curves, noise terms and verdicts for every run on a bus"};
+  app.add_option("--inject-result-drop", opt.inject_result_drop,
+                 "fault injection: drop this fraction of final curves and results when first published")
+      ->capture_default_str();
   app.add_option("--station", opt.station,
                  "serve only this station's runs (run_t.station); others on the bus are ignored")
       ->capture_default_str();

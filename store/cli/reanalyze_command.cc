@@ -1,6 +1,9 @@
 #include "store/cli/reanalyze_command.h"
 
 #include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
 
 #include "analyze/judge/judge.h"
 #include "common/log.h"
@@ -59,27 +62,53 @@ int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
   }
   std::printf("%s", CurveTable(curves, true, true, true).Render(format).c_str());
   if (!o.check) return 0;
-  // Bit for bit against what the live analysis archived.
-  auto archived = archive.LoadCurves(**archive.FindRunKey(o.run_id));
-  if (!archived.ok()) {
-    LogError(archived.status().message());
+  // Complete in the archive (a judgement and a final curve of every axis),
+  // and bit for bit what the live analysis archived, axis by axis.
+  auto key = archive.FindRunKey(o.run_id);
+  if (!key.ok() || !key->has_value()) {
+    LogError("run " + o.run_id + " is not in the archive");
     return 1;
   }
-  size_t differences = archived->size() == curves.size() ? 0 : 1;
-  for (size_t i = 0; differences == 0 && i < curves.size(); ++i) {
-    const auto& x = (*archived)[i].curve.points;
-    const auto& y = curves[i].second.points;
-    if ((*archived)[i].axis != curves[i].first || x.size() != y.size()) {
-      ++differences;
+  auto archived = archive.LoadCurves(**key);
+  auto result = archive.LoadResult(**key);
+  if (!archived.ok() || !result.ok()) {
+    LogError((archived.ok() ? result.status() : archived.status()).message());
+    return 1;
+  }
+  std::vector<std::string> problems;
+  if (!result->has_value()) problems.push_back("no judgement archived");
+  std::map<std::string, const allan::Curve*> by_axis;
+  for (const store::CurveRecord& c : *archived) by_axis.emplace(c.axis, &c.curve);
+  for (const auto& [axis, curve] : curves) {
+    auto it = by_axis.find(axis);
+    if (it == by_axis.end()) {
+      problems.push_back("axis " + axis + ": no archived curve");
       continue;
     }
+    const auto& x = it->second->points;
+    const auto& y = curve.points;
+    by_axis.erase(it);
+    if (x.size() != y.size()) {
+      problems.push_back("axis " + axis + ": " + std::to_string(x.size()) + " points archived, " +
+                         std::to_string(y.size()) + " re-analysed");
+      continue;
+    }
+    size_t differ = 0;
     for (size_t p = 0; p < x.size(); ++p) {
-      if (x[p].m != y[p].m || x[p].dev != y[p].dev || x[p].n != y[p].n) ++differences;
+      if (x[p].m != y[p].m || x[p].dev != y[p].dev || x[p].n != y[p].n) ++differ;
+    }
+    if (differ > 0) {
+      problems.push_back("axis " + axis + ": " + std::to_string(differ) + " of " +
+                         std::to_string(x.size()) + " points differ");
     }
   }
-  if (differences > 0) {
-    LogError("re-analysis differs from the archived result of " + o.run_id + " (" +
-             std::to_string(differences) + " differences)");
+  for (const auto& [axis, curve] : by_axis) {
+    problems.push_back("axis " + axis + ": archived but not an axis of the run");
+  }
+  if (!problems.empty()) {
+    std::string what;
+    for (const std::string& p : problems) what += (what.empty() ? "" : "; ") + p;
+    LogError("run " + o.run_id + " fails the check: " + what);
     return 1;
   }
   std::fprintf(stderr, "re-analysis equals the archived result bit for bit\n");
