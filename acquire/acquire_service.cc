@@ -9,6 +9,7 @@
 #include <set>
 
 #include "acquire/random.h"
+#include "acquire/retention.h"
 #include "common/channels.h"
 #include "common/clock.h"
 #include "common/lcm_bus.h"
@@ -51,6 +52,7 @@ constexpr int kMaxResendRange = 4096;
 constexpr int kBatchesPerRunPerRound = 8;
 constexpr int kFinalAnnouncements = 3;    // an end is said more than once (datagrams get lost)
 constexpr double kResendQuietS = 2.0;     // without consumers to wait for: linger until requests stop
+constexpr double kRetentionWarningS = 10.0;  // an unacknowledged drop stays in status this long
 constexpr double kResendDedupS = 0.05;    // a batch resent this recently already answers a request
 
 std::string CompactUtc(int64_t utime) {
@@ -66,13 +68,6 @@ int8_t KindCode(pb::AxisKind kind) {
   return kind == pb::ACCEL ? imuqual::rate_batch_t::KIND_ACCEL : imuqual::rate_batch_t::KIND_GYRO;
 }
 
-struct Retained {
-  int64_t seq;
-  double sent_s;
-  std::vector<uint8_t> bytes;
-  double resent_s = -1e300;  // last resend: consumers often ask for the same hole together
-};
-
 struct RunState {
   UnitSpec unit;
   std::string run_id;
@@ -87,7 +82,7 @@ struct RunState {
   int8_t state = imuqual::run_t::STATE_RUNNING;
   std::map<std::string, int64_t> acked;  // role -> next_seq acknowledged
   double last_ack_progress_s = 0;
-  std::deque<Retained> retained;
+  Retention retained;
   imuqual::run_t announcement;
 };
 
@@ -115,6 +110,7 @@ Status AcquireOptions::Validate() const {
   }
   if (!(heartbeat_s > 0)) return Status::InvalidArgument("heartbeat_s: must be > 0");
   if (!(retention_s >= 0)) return Status::InvalidArgument("retention_s: must be >= 0");
+  if (retention_mb < 1) return Status::InvalidArgument("retention_mb: must be >= 1");
   if (!(pace >= 0) || !std::isfinite(pace)) return Status::InvalidArgument("pace: must be >= 0");
   if (!(consumer_timeout_s > 0)) return Status::InvalidArgument("consumer_timeout_s: must be > 0");
   if (!(linger_s >= 0)) return Status::InvalidArgument("linger_s: must be >= 0");
@@ -135,6 +131,9 @@ struct AcquireService::Impl {
           resend_requests = 0, publish_errors = 0, evicted_unacknowledged = 0;
   double last_resend_request_s = 0;
   ThrottledLog publish_log;
+  ThrottledLog retention_log;
+  std::string retention_warning;  // the last batches dropped unacknowledged
+  double retention_warning_s = -1e300;
   std::vector<std::string> failures;  // runs whose source failed, with why
 
   // Ok, or the failure of the runs whose source failed.
@@ -294,7 +293,8 @@ void AcquireService::Impl::Announce(RunState& run, int times) {
   run.announcement.first_sample = run.first_counter;
   run.announcement.end_sample = run.end_counter;
   run.announcement.announcer = "acquire";
-  run.announcement.retained_first_seq = run.retained.empty() ? run.next_seq : run.retained.front().seq;
+  run.announcement.retained_first_seq =
+      run.retained.empty() ? run.next_seq : run.retained.first_seq();
   for (int i = 0; i < times; ++i) {
     Status st = bus->Publish(channels::kRun, run.announcement);
     if (!st.ok()) {
@@ -426,7 +426,7 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
   IMUQUAL_RETURN_IF_ERROR(EncodeMessage(msg, &bytes));
   const bool drop = options.inject_drop > 0 && drop_rng.Uniform() < options.inject_drop;
   Publish(run, drop, bytes);
-  run.retained.push_back({run.next_seq, now_s, std::move(bytes)});
+  run.retained.Add({run.next_seq, now_s, std::move(bytes)});
   ++run.next_seq;
   run.samples_published += *n;
   run.end_counter = msg.first_sample + *n;
@@ -443,9 +443,8 @@ Status AcquireService::Impl::ServeResends() {
       const int64_t first = std::max<int64_t>(req.first_seq, 0);
       const int64_t last = std::min<int64_t>(req.last_seq, first + kMaxResendRange - 1);
       for (int64_t seq = first; seq <= last && seq < run.next_seq; ++seq) {
-        auto it = std::lower_bound(run.retained.begin(), run.retained.end(), seq,
-                                   [](const Retained& r, int64_t s) { return r.seq < s; });
-        if (it == run.retained.end() || it->seq != seq) {
+        RetainedBatch* it = run.retained.Find(seq);
+        if (it == nullptr) {
           ++resend_misses;
           continue;
         }
@@ -464,11 +463,11 @@ Status AcquireService::Impl::ServeResends() {
   return Status::Ok();
 }
 
-// Retention is bounded in batches, whatever the pace: the window plus
-// retention_s of data. Older batches are dropped (counted if a consumer had
-// not acknowledged them: the store still serves those from its archive).
+// Acknowledged batches are kept for the window plus retention_s of data;
+// unacknowledged ones until the awaited consumers have them (a store that
+// cannot write yet), within retention_mb over all runs; beyond, the oldest
+// go, counted and warned about in the log, status_t and the console.
 void AcquireService::Impl::Prune(double now_s) {
-  (void)now_s;
   for (RunState& run : runs) {
     // Device-paced sources publish part-filled batches: size by the average.
     const double batch = run.next_seq > 0 ? std::min<double>(run.batch_samples, static_cast<double>(run.samples_published) /
@@ -482,9 +481,14 @@ void AcquireService::Impl::Prune(double now_s) {
       auto it = run.acked.find(role);
       acked_all = std::min(acked_all, it == run.acked.end() ? int64_t{0} : it->second);
     }
-    while (run.retained.size() > cap) {
-      if (run.retained.front().seq >= acked_all) ++evicted_unacknowledged;
-      run.retained.pop_front();
+    const int64_t max_bytes =
+        (int64_t{options.retention_mb} << 20) / static_cast<int64_t>(runs.size());
+    const Retention::Pruned pruned = run.retained.Prune(cap, acked_all, max_bytes);
+    if (pruned.unacknowledged > 0) {
+      evicted_unacknowledged += pruned.unacknowledged;
+      retention_warning = RetentionExceededWarning(run.run_id, pruned, options.retention_mb);
+      retention_warning_s = now_s;
+      retention_log.Error(retention_warning);
     }
   }
 }
@@ -503,10 +507,11 @@ Status AcquireService::Impl::Abort(const std::string& why) {
 }
 
 Counters AcquireService::Impl::StatusCounters() const {
-  int64_t retained = 0, active = 0;
+  int64_t retained = 0, retained_bytes = 0, active = 0;
   std::map<std::string, int64_t> sources;
   for (const RunState& r : runs) {
     retained += static_cast<int64_t>(r.retained.size());
+    retained_bytes += r.retained.bytes();
     active += r.state == imuqual::run_t::STATE_RUNNING;
     r.unit.source->AddCounters(&sources);
   }
@@ -519,6 +524,7 @@ Counters AcquireService::Impl::StatusCounters() const {
                   {"injected_drops", injected_drops},
                   {"acks_received", acks},
                   {"batches_retained", retained},
+                  {"retained_bytes", retained_bytes},
                   {"publish_errors", publish_errors},
                   {"evicted_unacknowledged", evicted_unacknowledged},
                   {"decode_errors", static_cast<int64_t>(bus->decode_errors())}};
@@ -584,7 +590,10 @@ Status AcquireService::Run() {
       next_heartbeat = now + s.options.heartbeat_s;
     }
     if (now >= next_status) {
-      (void)PublishStatus(*s.bus, "acquire", true, "", s.StatusCounters());
+      // Unhealthy for a while after batches were dropped unacknowledged.
+      const bool dropping = now - s.retention_warning_s < kRetentionWarningS;
+      (void)PublishStatus(*s.bus, "acquire", !dropping, dropping ? s.retention_warning : "",
+                          s.StatusCounters());
       next_status = now + 1.0;
     }
 

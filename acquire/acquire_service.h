@@ -7,9 +7,11 @@
 // as fast as the awaited consumers (store, analyze) acknowledge, keeping at
 // most `window_batches` unacknowledged batches in flight per run, so a
 // station never overruns its own bus. Device-paced sources (serial) are
-// never held back. Retention is bounded either way: the window plus
-// retention_s of data per run; older batches are served by the store from
-// its archive (run_t.retained_first_seq says where acquire's memory starts).
+// never held back. Acknowledged batches are kept for the window plus
+// retention_s of data per run (older ones are served by the store from its
+// archive; run_t.retained_first_seq says where acquire's memory starts);
+// unacknowledged ones until the awaited consumers acknowledge them, within
+// retention_mb (acquire/retention.h).
 //
 // Threading: Run() is single-threaded; handlers only record acks and queue
 // resend requests for the loop.
@@ -41,7 +43,9 @@ struct AcquireOptions {
   int batch_bytes = 0;                // message budget; 0 = on one host (ttl=0) 8 KB, 16 KB when
                                       // time-warped (pace 0); else one datagram
   double heartbeat_s = 1.0;           // run_t period
-  double retention_s = 120.0;         // seconds of data kept for resends (plus the window)
+  double retention_s = 120.0;  // seconds of acknowledged data kept for resends (plus the window)
+  int retention_mb = 512;      // memory for retained batches over all runs; unacknowledged
+                               // ones are kept up to it (beyond: dropped, warned, a gap)
   double pace = 0.0;                  // 0: as fast as acknowledged; 1: real time; k: k x real time
   double consumer_timeout_s = 120.0;  // no ack progress this long while waiting: fail (well
                                       // beyond the consumers' 30 s give-up on a lost batch)

@@ -53,6 +53,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--pace", opt.pace, "0: as fast as acknowledged, 1: real time, k: k x")
       ->capture_default_str();
+  app.add_option("--retention-mb", opt.retention_mb,
+                 "MB of batches kept over all runs; unacknowledged ones up to it, beyond: dropped "
+                 "with a warning")
+      ->capture_default_str();
   app.add_option("--retention", opt.retention_s, "seconds of batches kept for resends")
       ->capture_default_str();
   app.add_option("--linger", opt.linger_s, "seconds to wait for final acks")->capture_default_str();

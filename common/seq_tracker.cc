@@ -96,6 +96,13 @@ std::vector<SeqRange> SeqTracker::TakeGivenUp(double now_s) {
   return given_up;
 }
 
+void SeqTracker::Postpone(double now_s) {
+  Refresh(now_s);
+  for (auto& [first, st] : holes_) {
+    st = HoleState{now_s, now_s + options_.first_request_delay_s, options_.first_request_delay_s};
+  }
+}
+
 void SeqTracker::Skip(const SeqRange& range) {
   for (int64_t s = std::max(range.first, next_seq_); s <= range.last; ++s) ahead_.insert(s);
   Advance();

@@ -58,6 +58,9 @@ class SeqTracker {
   // Every hole up to the announced last seq becomes a gap now (the source is
   // gone: nothing more can be resent). Returned in ascending order.
   std::vector<SeqRange> GiveUpAll();
+  // The receiver cannot take batches now (its archive fails to write): every
+  // hole waits, its requests and its give-up clock start again from now.
+  void Postpone(double now_s);
   // Treats a range as handled without it arriving (a gap recorded earlier,
   // e.g. by a store before it restarted).
   void Skip(const SeqRange& range);

@@ -75,6 +75,26 @@ TEST(SeqTrackerTest, GivesUpInOrderAndCompletes) {
   EXPECT_TRUE(t.complete());
 }
 
+TEST(SeqTrackerTest, PostponedHolesAreNeitherRequestedNorGivenUp) {
+  // GIVEN a hole seen at t = 0 with a 5 s give-up
+  SeqTracker::Options opt;
+  opt.give_up_after_s = 5;
+  SeqTracker t(0, opt);
+  t.Offer(0);
+  t.SetAnnouncedLast(3);
+  EXPECT_TRUE(t.TakeGivenUp(0.0).empty());
+  // WHEN the receiver cannot write for 8 s (it postpones every tick)
+  for (double now = 0; now <= 8.0; now += 0.5) t.Postpone(now);
+  // THEN the hole is neither due nor given up right after, and gets its full
+  // give-up time from the last postponement
+  EXPECT_TRUE(t.DueRequests(8.0).empty());
+  EXPECT_TRUE(t.TakeGivenUp(12.9).empty());
+  EXPECT_EQ(t.next_seq(), 1);
+  auto lost = t.TakeGivenUp(13.0);
+  ASSERT_EQ(lost.size(), 1u);
+  EXPECT_EQ(lost[0], (SeqRange{1, 3}));
+}
+
 TEST(SeqTrackerTest, LongHolesAreRequestedInBoundedSlicesAndProgressResetsTheClock) {
   // GIVEN a consumer that restarted: the run is at seq 10000, nothing held.
   SeqTracker::Options opt;

@@ -192,6 +192,15 @@ SELECT ?1, first_seq, last_seq, first_sample, num_samples, reason, ?3 FROM holes
   return ins->Bind(1, run_key).Bind(2, last_seq).Bind(3, now_utime).Run();
 }
 
+Status Archive::LabelSeqGaps(int64_t run_key, int64_t first_seq, int64_t last_seq,
+                             const std::string& reason) {
+  auto up = db_->Prepare(
+      "UPDATE gaps SET reason = ?1 WHERE run_key = ?2 AND reason = 'seq' AND first_seq <= ?4 "
+      "AND last_seq >= ?3");
+  if (!up.ok()) return up.status();
+  return up->Bind(1, reason).Bind(2, run_key).Bind(3, first_seq).Bind(4, last_seq).Run();
+}
+
 Status Archive::InsertGap(int64_t run_key, const GapRecord& g) {
   auto ins = db_->Prepare(
       "INSERT OR REPLACE INTO gaps(run_key, first_seq, last_seq, first_sample, num_samples, "

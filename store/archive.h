@@ -68,7 +68,9 @@ struct GapRecord {
   int64_t last_seq = 0;
   std::optional<int64_t> first_sample;
   std::optional<int64_t> num_samples;
-  // "seq": batches never archived; "counter": the device counter jumped
+  // "seq": batches that never arrived; "store_write": batches that arrived
+  // but the store could not write (full disk) and nobody could resend;
+  // "counter": the device counter jumped
   // forward (num_samples missing); "counter_backwards": it went back
   // (num_samples negative: the overlap).
   std::string reason;
@@ -122,6 +124,10 @@ class Archive {
   Status RecomputeGaps(int64_t run_key, int64_t last_seq, int64_t now_utime);
   // Records a hole as soon as it is given up (RecomputeGaps redoes them all
   // at the end), so a restarted store does not wait for it again.
+  // Gives the "seq" gaps of a run that overlap first_seq..last_seq another
+  // reason (e.g. "store_write": arrived but never written).
+  Status LabelSeqGaps(int64_t run_key, int64_t first_seq, int64_t last_seq,
+                      const std::string& reason);
   Status InsertGap(int64_t run_key, const GapRecord& gap);
   Status PutCurve(int64_t run_key, const CurveRecord& curve);
   Status PutResult(int64_t run_key, const ResultRecord& result);

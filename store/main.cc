@@ -1,5 +1,7 @@
 // imuqual-store: archives a station bus into SQLite. Flags -> options ->
-// StoreService -> exit code.
+// StoreService -> exit code (0 ok, 1 failed, 2 bad options or archive file,
+// 4 the archive could not be written: what it holds is all that was
+// acknowledged).
 #include <CLI/CLI.hpp>
 
 #include "common/log.h"
@@ -23,6 +25,13 @@ int main(int argc, char** argv) {
   app.add_option("--stale-after", opt.stale_after_s,
                  "seconds of acquire silence before a run is taken over (incomplete if running)")
       ->capture_default_str();
+  app.add_option("--max-unwritten-mb", opt.max_unwritten_mb,
+                 "MB of batches held while the archive cannot write (full disk); beyond, acquire "
+                 "keeps them")
+      ->capture_default_str();
+  app.add_option("--write-give-up", opt.write_give_up_s,
+                 "seconds of failing writes after which the store stops (exit 4)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   SetLogProgramName("imuqual-store");
@@ -35,7 +44,7 @@ int main(int argc, char** argv) {
   Status st = (*service)->Run();
   if (!st.ok()) {
     LogError(st.message());
-    return 1;
+    return st.code() == Status::Code::kIoError ? store::kStoreExitUnwritable : 1;
   }
   return 0;
 }

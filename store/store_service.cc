@@ -14,14 +14,15 @@
 #include "common/listening_clock.h"
 #include "common/ack.h"
 #include "common/bounded_queue.h"
-#include "common/last_heard.h"
 #include "common/channels.h"
 #include "common/clock.h"
+#include "common/last_heard.h"
 #include "common/lcm_bus.h"
 #include "common/log.h"
 #include "common/process_status.h"
 #include "common/seq_tracker.h"
 #include "common/shutdown.h"
+#include "common/strings.h"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
 #include "common/text_util.h"
@@ -38,6 +39,25 @@ constexpr double kDoneAckForS = 60.0;          // a finished run keeps saying so
 constexpr int64_t kMaxServedPerRequest = 512;  // archived batches resent per request
 constexpr int64_t kMaxAhead = int64_t{1} << 20;  // seqs accepted beyond the frontier
 constexpr double kRetryPeriodS = 1.0;          // a failed result/curve write is retried
+constexpr double kFirstWriteRetryS = 0.1;      // a failed transaction is retried after this,
+constexpr double kMaxWriteRetryS = 2.0;        // doubling up to this
+constexpr int64_t kBatchOverheadBytes = 256;   // a held batch's size beyond its samples
+
+// Adds `seq` to a set of ranges (kept short: consecutive seqs extend the last).
+void AddSeq(std::vector<SeqRange>* ranges, int64_t seq) {
+  for (SeqRange& r : *ranges) {
+    if (seq >= r.first && seq <= r.last) return;
+  }
+  if (!ranges->empty() && ranges->back().last + 1 == seq) {
+    ranges->back().last = seq;
+  } else {
+    ranges->push_back({seq, seq});
+  }
+}
+bool InRanges(const std::vector<SeqRange>& ranges, int64_t seq) {
+  return std::any_of(ranges.begin(), ranges.end(),
+                     [seq](const SeqRange& r) { return seq >= r.first && seq <= r.last; });
+}
 
 std::string Fixed(double value, int decimals) {
   char text[48];
@@ -77,6 +97,10 @@ struct StoreRun {
   // Seqs this store asked to be resent (pruned below the frontier): a batch
   // among them arrives late by design and stays out of the latency figures.
   std::vector<SeqRange> requested;
+  // Seqs that arrived but could not be written at least once, and why: if
+  // one of them is never archived it is a "store_write" gap, not "seq".
+  std::vector<SeqRange> unwritten;
+  std::string unwritten_cause;
   bool WasRequested(int64_t seq) const {
     return std::any_of(requested.begin(), requested.end(),
                        [seq](const SeqRange& h) { return seq >= h.first && seq <= h.last; });
@@ -111,6 +135,8 @@ Status StoreOptions::Validate() const {
   if (!(stale_after_s > 0)) return Status::InvalidArgument("stale_after_s: must be > 0");
   if (!(heartbeat_s > 0)) return Status::InvalidArgument("heartbeat_s: must be > 0");
   if (!station.empty()) IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("station", station));
+  if (max_unwritten_mb < 1) return Status::InvalidArgument("max_unwritten_mb: must be >= 1");
+  if (!(write_give_up_s > 0)) return Status::InvalidArgument("write_give_up_s: must be > 0");
   return Status::Ok();
 }
 
@@ -131,8 +157,18 @@ struct StoreService::Impl {
   int64_t chunks_inserted = 0, duplicates = 0, absurd = 0, rejected = 0, waiting_dropped = 0,
           commits = 0, commit_failures = 0, apply_errors = 0, resend_requests = 0,
           batches_given_up = 0, runs_done = 0, batches_served = 0, runs_taken_over = 0,
-          late_messages = 0, values_archived = 0, foreign_messages = 0;
+          late_messages = 0, values_archived = 0, foreign_messages = 0, write_retries = 0,
+          unwritten_dropped = 0;
   std::set<std::string> foreign_runs;  // runs of other stations (writer thread)
+  // Runs and batches of failed transactions, written again (before anything
+  // newer) once the back-off allows; bounded by max_unwritten_mb.
+  std::vector<Item> held;
+  int64_t held_bytes = 0, held_batches = 0;
+  std::map<std::string, size_t> held_run_at;  // run id -> its run_t in `held`
+  bool write_failing = false;
+  double write_failing_since_s = 0, next_write_s = 0, write_backoff_s = 0;
+  std::string write_error;
+  std::atomic<bool> gave_up_writing{false};
   // Commit time minus the arrival of each batch's newest sample, over the
   // batches archived on their first arrival (resends and replays after a
   // restart are late by design): how far the archive trails the units.
@@ -155,7 +191,13 @@ struct StoreService::Impl {
   Status ApplyRun(const imuqual::run_t& msg, Staged* staged);
   Status ApplyBatch(StoreRun& r, const imuqual::rate_batch_t& b, Staged* staged);
   Status WritePending(StoreRun& r, Staged* staged);
-  void Transaction(std::vector<Item>& items);
+  Status Commit();
+  void Transaction(std::vector<Item>& items, double now, bool force = false);
+  void Hold(Item&& item);
+  void Remember(Item& item);
+  void WriteFailed(const Status& st, double now);
+  void WriteRecovered(double now);
+  int64_t UnwrittenBatches() const { return held_batches; }
   void Committed(const Staged& staged);
   void RolledBack();
   Status ServeResend(const imuqual::resend_t& req);
@@ -217,7 +259,7 @@ Status StoreService::Impl::Resume(const std::string& run_id, double now) {
   r.tracker = SeqTracker(*next, tracker_options);
   for (int64_t seq : *held) r.tracker.Offer(seq);
   for (const GapRecord& g : *gaps) {
-    if (g.reason == "seq") r.tracker.Skip({g.first_seq, g.last_seq});
+    if (g.reason == "seq" || g.reason == "store_write") r.tracker.Skip({g.first_seq, g.last_seq});
   }
   r.tracker.SetAnnouncedLast(r.info.last_seq);
   if (r.info.state != "running") r.tracker.SetFinal();
@@ -250,7 +292,7 @@ void StoreService::Impl::TakeOver(const std::string& run_id, StoreRun& r, double
                         " s after " + std::to_string(r.info.last_seq + 1) + " batches";
     Status st = archive->Begin();
     if (st.ok()) st = archive->UpsertRun(r.info).status();
-    if (st.ok()) st = archive->Commit();
+    if (st.ok()) st = Commit();
     if (!st.ok()) {
       (void)archive->Rollback();
       write_errors.Error("run " + run_id + ": cannot mark it incomplete: " + st.message());
@@ -269,13 +311,31 @@ void StoreService::Impl::TakeOver(const std::string& run_id, StoreRun& r, double
 void StoreService::Impl::RecordGivenUp(StoreRun& r, const std::vector<SeqRange>& holes) {
   if (holes.empty()) return;
   Status st = archive->Begin();
-  for (const SeqRange& h : holes) {
-    batches_given_up += h.last - h.first + 1;
-    LogWarning("run " + r.info.run_id + ": batches " + std::to_string(h.first) + ".." +
-               std::to_string(h.last) + " never arrived; recorded as a gap");
-    if (st.ok()) st = archive->InsertGap(r.key, {h.first, h.last, {}, {}, "seq", NowUtime()});
+  for (const SeqRange& hole : holes) {
+    batches_given_up += hole.last - hole.first + 1;
+    // Split the hole where it changes between batches that never arrived
+    // and batches that arrived but could not be written.
+    for (int64_t first = hole.first; first <= hole.last;) {
+      const bool unwritten = InRanges(r.unwritten, first);
+      int64_t last = first;
+      while (last < hole.last && InRanges(r.unwritten, last + 1) == unwritten) ++last;
+      const std::string range = std::to_string(first) + ".." + std::to_string(last);
+      if (unwritten) {
+        LogError("run " + r.info.run_id + ": batches " + range +
+                 " arrived but were never archived (store could not write: " + r.unwritten_cause +
+                 ") and acquire no longer has them; recorded as a gap");
+      } else {
+        LogWarning("run " + r.info.run_id + ": batches " + range +
+                   " never arrived; recorded as a gap");
+      }
+      if (st.ok()) {
+        st = archive->InsertGap(
+            r.key, {first, last, {}, {}, unwritten ? "store_write" : "seq", NowUtime()});
+      }
+      first = last + 1;
+    }
   }
-  if (st.ok()) st = archive->Commit();
+  if (st.ok()) st = Commit();
   if (!st.ok()) {
     (void)archive->Rollback();
     write_errors.Error("run " + r.info.run_id + ": cannot record gaps: " + st.message());
@@ -399,6 +459,40 @@ Status StoreService::Impl::ApplyBatch(StoreRun& r, const imuqual::rate_batch_t& 
   return Status::Ok();
 }
 
+namespace {
+
+// The analysis judged samples the archive does not hold (batches it
+// received but could not write, then lost): they are gap samples of the
+// archived result, and the run FAILs with the cause, since its verdict can
+// no longer be recomputed from the archive.
+void AmendForUnarchived(const StoreRun& r, const std::vector<GapRecord>& gaps,
+                        ResultRecord* result) {
+  int64_t lost = 0, batches = 0;
+  std::vector<std::string> ranges;
+  const double per_batch = r.info.last_seq >= 0 ? static_cast<double>(r.info.samples_announced) /
+                                                      static_cast<double>(r.info.last_seq + 1)
+                                                : 0.0;
+  for (const GapRecord& g : gaps) {
+    if (g.reason != "store_write") continue;
+    const int64_t n = g.last_seq - g.first_seq + 1;
+    batches += n;
+    lost += g.num_samples && *g.num_samples > 0 ? *g.num_samples
+                                                : std::llround(per_batch * static_cast<double>(n));
+    ranges.push_back(std::to_string(g.first_seq) + ".." + std::to_string(g.last_seq));
+  }
+  if (batches == 0) return;
+  result->gap_samples += lost;
+  result->verdict = "FAIL";
+  result->reasons.push_back(
+      "archive incomplete: " + std::to_string(lost) + " samples (" + std::to_string(batches) +
+      " batches, seq " + Join(ranges, ", ") +
+      ") arrived but were never archived (store could not write: " +
+      (r.unwritten_cause.empty() ? std::string("write failed") : r.unwritten_cause) +
+      "); the verdict cannot be recomputed from the archive");
+}
+
+}  // namespace
+
 // Writes the run's pending curves and result (if any) into the current
 // transaction.
 Status StoreService::Impl::WritePending(StoreRun& r, Staged* staged) {
@@ -406,13 +500,15 @@ Status StoreService::Impl::WritePending(StoreRun& r, Staged* staged) {
   if (!r.curves_pending.empty()) staged->curves.insert(r.info.run_id);
   if (r.result && !r.result_stored) {
     int64_t gap_ranges = 0;
+    ResultRecord stored = *r.result;
     if (r.done) {
       auto gaps = archive->LoadGaps(r.key);
       if (!gaps.ok()) return gaps.status();
       gap_ranges = static_cast<int64_t>(gaps->size());
+      AmendForUnarchived(r, *gaps, &stored);
     }
-    r.result->record = BuildRunRecord(r.info, *r.result, gap_ranges).SerializeAsString();
-    IMUQUAL_RETURN_IF_ERROR(archive->PutResult(r.key, *r.result));
+    stored.record = BuildRunRecord(r.info, stored, gap_ranges).SerializeAsString();
+    IMUQUAL_RETURN_IF_ERROR(archive->PutResult(r.key, stored));
     staged->results.insert(r.info.run_id);
   }
   return Status::Ok();
@@ -457,8 +553,6 @@ Status StoreService::Impl::Apply(Item& item, Staged* staged) {
 }
 
 void StoreService::Impl::Committed(const Staged& staged) {
-  ++commits;
-  health_message.clear();
   const int64_t committed_utime = staged.chunks.empty() ? 0 : NowUtime();
   for (const StagedChunk& c : staged.chunks) {
     auto it = runs.find(c.run_id);
@@ -478,7 +572,6 @@ void StoreService::Impl::Committed(const Staged& staged) {
 }
 
 void StoreService::Impl::RolledBack() {
-  ++commit_failures;
   // Keys of runs created in the failed transaction are gone again.
   for (auto& [id, r] : runs) {
     if (r.key >= 0) {
@@ -488,37 +581,148 @@ void StoreService::Impl::RolledBack() {
   }
 }
 
-// One transaction for everything popped; the in-memory state (trackers,
-// acks, pending results) moves only after COMMIT, so an acknowledged batch
-// is durable and a failed write is retried, never lost.
-void StoreService::Impl::Transaction(std::vector<Item>& items) {
-  Staged staged;
+Status StoreService::Impl::Commit() {
+  if (options.before_commit) IMUQUAL_RETURN_IF_ERROR(options.before_commit());
+  return archive->Commit();
+}
+
+// An item of a failed transaction (or one that came while writes back off):
+// runs and batches are held to be written again; curves and results already
+// wait in their run (Remember).
+void StoreService::Impl::Hold(Item&& item) {
+  if (auto* run = std::get_if<imuqual::run_t>(&item)) {
+    auto at = held_run_at.find(run->run_id);
+    if (at != held_run_at.end()) {
+      held[at->second] = std::move(item);  // its newest announcement, where the first one was
+    } else {
+      held_run_at[run->run_id] = held.size();
+      held.push_back(std::move(item));
+    }
+    return;
+  }
+  auto* b = std::get_if<imuqual::rate_batch_t>(&item);
+  if (b == nullptr) return;
+  StoreRun* r = Find(b->run_id);
+  if (r == nullptr || (r->key >= 0 && r->tracker.Has(b->seq))) return;  // archived already
+  AddSeq(&r->unwritten, b->seq);
+  r->unwritten_cause = write_error;
+  const int64_t bytes = kBatchOverheadBytes + 4 * static_cast<int64_t>(b->samples.size());
+  if (held_bytes + bytes > int64_t{options.max_unwritten_mb} << 20) {
+    // Not acknowledged: acquire retains it and resends it when asked.
+    ++unwritten_dropped;
+    return;
+  }
+  held_bytes += bytes;
+  ++held_batches;
+  held.push_back(std::move(item));
+}
+
+// Curves and results wait in their run until a transaction holding them
+// commits (WritePending); this only puts them there.
+void StoreService::Impl::Remember(Item& item) {
+  const bool curve = std::holds_alternative<imuqual::allan_curve_t>(item);
+  if (!curve && !std::holds_alternative<imuqual::unit_result_t>(item)) return;
+  const std::string& run_id =
+      std::visit([](const auto& m) -> const std::string& { return m.run_id; }, item);
+  StoreRun* r = Find(run_id);
+  if (r == nullptr) return;
+  if (curve) {
+    r->curves_pending.push_back(CurveFromMessage(std::get<imuqual::allan_curve_t>(item)));
+  } else {
+    r->result = ResultFromMessage(std::get<imuqual::unit_result_t>(item));
+    r->result_stored = false;
+  }
+}
+
+void StoreService::Impl::WriteFailed(const Status& st, double now) {
+  ++commit_failures;
+  write_error = st.message();
+  if (!write_failing) {
+    write_failing = true;
+    write_failing_since_s = now;
+    write_backoff_s = kFirstWriteRetryS;
+  } else {
+    write_backoff_s = std::min(write_backoff_s * 2, kMaxWriteRetryS);
+    ++write_retries;
+  }
+  next_write_s = now + write_backoff_s;
+  const int failing_s = static_cast<int>(now - write_failing_since_s);
+  health_message = "archive cannot write (" + st.message() + ") for " + std::to_string(failing_s) +
+                   " s: " + std::to_string(held_batches) + " batches held unacknowledged, retrying";
+  write_errors.Error("archive write failed, nothing of it is acknowledged; " +
+                     std::to_string(held_batches) + " batches held, retried in " +
+                     Fixed(write_backoff_s, 1) + " s: " + st.message());
+  if (now - write_failing_since_s > options.write_give_up_s) gave_up_writing = true;
+}
+
+void StoreService::Impl::WriteRecovered(double now) {
+  if (!write_failing) return;
+  write_failing = false;
+  LogInfo("the archive writes again after " + Fixed(now - write_failing_since_s, 1) + " s (" +
+          std::to_string(write_retries) + " retries so far)");
+  // Holes get their full time again: acquire resends what the store could
+  // not keep.
+  for (auto& [id, r] : runs) r.tracker.Postpone(now);
+}
+
+// One transaction for what was held after a failed write, then everything
+// popped; the in-memory state (trackers, acks, pending results) moves only
+// after COMMIT, so an acknowledged batch is durable. A failed transaction
+// holds its runs and batches for the next attempt (back-off) instead of
+// losing them. `force`: try now, whatever the back-off.
+void StoreService::Impl::Transaction(std::vector<Item>& items, double now, bool force) {
   std::vector<imuqual::resend_t> resends;  // served after the commit, outside the transaction
-  Status st = archive->Begin();
+  std::vector<Item> work = std::move(held);
+  held.clear();
+  held_run_at.clear();
+  held_bytes = 0;
+  held_batches = 0;
+  work.reserve(work.size() + items.size());
   for (Item& item : items) {
     if (auto* req = std::get_if<imuqual::resend_t>(&item)) {
       resends.push_back(std::move(*req));
-      continue;
-    }
-    if (!st.ok()) continue;  // keep collecting resends; the data comes again
-    Status ap = Apply(item, &staged);
-    if (!ap.ok()) {
-      ++apply_errors;
-      write_errors.Error(ap.message());
-      // Disk or file trouble fails the whole transaction; anything else
-      // loses only the message at fault.
-      if (ap.code() == Status::Code::kIoError || ap.code() == Status::Code::kCorruption) st = ap;
+    } else {
+      work.push_back(std::move(item));
     }
   }
-  if (st.ok()) st = archive->Commit();
-  if (st.ok()) {
-    Committed(staged);
-  } else {
-    (void)archive->Rollback();
-    RolledBack();
-    health_message = st.message();
-    write_errors.Error("archive write failed, nothing of this transaction is acknowledged: " +
-                       st.message());
+  if (write_failing && now < next_write_s && !force) {
+    for (Item& item : work) {
+      Remember(item);
+      Hold(std::move(item));
+    }
+  } else if (!work.empty()) {
+    Staged staged;
+    Status st = archive->Begin();
+    size_t applied = 0;
+    for (; applied < work.size() && st.ok(); ++applied) {
+      Status ap = Apply(work[applied], &staged);
+      if (!ap.ok()) {
+        ++apply_errors;
+        // Disk or file trouble fails the whole transaction; anything else
+        // loses only the message at fault.
+        if (ap.code() == Status::Code::kIoError || ap.code() == Status::Code::kCorruption) {
+          st = ap;
+        } else {
+          write_errors.Error(ap.message());
+        }
+      }
+    }
+    if (st.ok()) st = Commit();
+    if (st.ok()) {
+      ++commits;
+      Committed(staged);
+      WriteRecovered(now);
+      health_message.clear();
+    } else {
+      (void)archive->Rollback();
+      RolledBack();
+      write_error = st.message();
+      for (size_t i = 0; i < work.size(); ++i) {
+        if (i >= applied) Remember(work[i]);  // not applied yet
+        Hold(std::move(work[i]));
+      }
+      WriteFailed(st, now);
+    }
   }
   for (const imuqual::resend_t& req : resends) {
     Status served = ServeResend(req);
@@ -531,16 +735,31 @@ Status StoreService::Impl::Finalize(StoreRun& r) {
   Staged staged;
   r.done = true;  // gap ranges go into the record
   r.result_stored = false;
-  Status st = archive->RecomputeGaps(r.key, r.info.last_seq, NowUtime());
+  // Batches that arrived but were never written keep their cause when the
+  // gaps are recomputed (also those recorded before a restart).
+  std::vector<SeqRange> unwritten = r.unwritten;
+  auto before = archive->LoadGaps(r.key);
+  Status st = before.status();
+  if (st.ok()) {
+    for (const GapRecord& g : *before) {
+      if (g.reason == "store_write") unwritten.push_back({g.first_seq, g.last_seq});
+    }
+    st = archive->RecomputeGaps(r.key, r.info.last_seq, NowUtime());
+  }
+  for (const SeqRange& u : unwritten) {
+    if (st.ok()) st = archive->LabelSeqGaps(r.key, u.first, u.last, "store_write");
+  }
   if (st.ok()) st = WritePending(r, &staged);
   if (st.ok()) st = archive->MarkFinalized(r.key, NowUtime());
-  if (st.ok()) st = archive->Commit();
+  if (st.ok()) st = Commit();
   if (!st.ok()) {
     r.done = false;
+    ++commit_failures;
     (void)archive->Rollback();
     RolledBack();
     return st;
   }
+  ++commits;
   Committed(staged);
   finalized.insert(r.info.run_id);
   return Status::Ok();
@@ -563,20 +782,26 @@ void StoreService::Impl::Tick(double now) {
     // A result or curves whose transaction failed (full disk, ...) are
     // written again, at most once a retry period.
     if (r.key >= 0 && !r.done && ((r.result && !r.result_stored) || !r.curves_pending.empty()) &&
-        now >= r.next_retry_s) {
+        now >= r.next_retry_s && (!write_failing || now >= next_write_s)) {
       r.next_retry_s = now + kRetryPeriodS;
       Staged staged;
       Status st = archive->Begin();
       if (st.ok()) st = WritePending(r, &staged);
-      if (st.ok()) st = archive->Commit();
+      if (st.ok()) st = Commit();
       if (st.ok()) {
+        ++commits;
         Committed(staged);
       } else {
+        ++commit_failures;
         (void)archive->Rollback();
         write_errors.Error("run " + id + ": cannot store the result: " + st.message());
       }
     }
-    if (r.key >= 0 && !r.done) {
+    if (r.key >= 0 && !r.done && write_failing) {
+      // Nothing can be archived now: holes are neither requested nor given
+      // up (what the store could not write is not what never arrived).
+      r.tracker.Postpone(now);
+    } else if (r.key >= 0 && !r.done) {
       std::erase_if(r.requested, [&](const SeqRange& h) { return h.last < r.tracker.next_seq(); });
       for (const SeqRange& h : r.tracker.DueRequests(now)) {
         if (!r.WasRequested(h.first) || !r.WasRequested(h.last)) r.requested.push_back(h);
@@ -635,6 +860,12 @@ Counters StoreService::Impl::StatusCounters() const {
           {"apply_errors", apply_errors},
           {"resend_requests", resend_requests},
           {"batches_given_up", batches_given_up},
+          {"write_failing_s",
+           write_failing ? std::llround(ListeningSeconds() - write_failing_since_s) : 0},
+          {"write_retries", write_retries},
+          {"batches_unwritten", held_batches},
+          {"unwritten_bytes", held_bytes},
+          {"unwritten_dropped", unwritten_dropped},
           {"batches_served", batches_served},
           {"runs_taken_over", runs_taken_over},
           {"queue_depth", static_cast<int64_t>(queue.size())},
@@ -701,13 +932,19 @@ Status StoreService::Run() {
   std::thread writer([&s, &stop] {
     double next_status = 0;
     for (;;) {
-      std::vector<Item> items =
-          s.queue.PopAll(std::chrono::milliseconds(5), static_cast<size_t>(s.options.max_transaction));
-      if (!items.empty()) s.Transaction(items);
+      std::vector<Item> items = s.queue.PopAll(std::chrono::milliseconds(5),
+                                               static_cast<size_t>(s.options.max_transaction));
       // Every timer (silence, give-up) on the listening clock: a store that
       // was frozen does not find acquire silent or its holes unrepairable.
       const double now = ListeningSeconds();
-      if (items.empty() && stop.load() && s.queue.size() == 0) break;
+      // Held items are retried even when nothing new comes.
+      if (!items.empty() || !s.held.empty()) s.Transaction(items, now);
+      if (items.empty() && stop.load() && s.queue.size() == 0) {
+        // A last attempt at what is held, then the acks of what it wrote.
+        if (!s.held.empty()) s.Transaction(items, now, /*force=*/true);
+        s.Tick(ListeningSeconds());
+        break;
+      }
       s.Tick(now);
       if (now >= next_status) {
         (void)PublishStatus(*s.bus, "store", s.health_message.empty(), s.health_message,
@@ -719,7 +956,7 @@ Status StoreService::Run() {
   });
   LogInfo("archiving " + s.options.lcm_url + " into " + s.options.db_path);
   Status result;
-  while (!ShutdownRequested()) {
+  while (!ShutdownRequested() && !s.gave_up_writing) {
     Status st = s.bus->HandleFor(100);
     (void)ListeningSeconds();  // observed while the writer is busy too
     if (!st.ok()) {
@@ -731,6 +968,17 @@ Status StoreService::Run() {
   s.queue.Close();
   writer.join();
   s.LogSummary();
+  if (result.ok() && (s.gave_up_writing || s.UnwrittenBatches() > 0 || s.unwritten_dropped > 0)) {
+    std::string why = s.gave_up_writing ? "the archive could not be written for " +
+                                              Fixed(s.options.write_give_up_s, 0) + " s"
+                                        : "stopped while the archive could not be written";
+    why += " (" + s.write_error + "): " + std::to_string(s.UnwrittenBatches()) +
+           " batches received are not archived and were not acknowledged";
+    if (s.unwritten_dropped > 0) {
+      why += "; " + std::to_string(s.unwritten_dropped) + " more were left to acquire's retention";
+    }
+    result = Status::IoError(why);
+  }
   return result;
 }
 

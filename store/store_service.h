@@ -13,15 +13,31 @@
 // "store") and answers resend requests from the archive, so an analyze
 // process that restarts can still finish the run. It also answers requests
 // for batches acquire no longer retains.
+//
+// Write failures (a full disk): a batch that arrived but could not be
+// written is held in memory (bounded, max_unwritten_mb) and written again
+// with back-off before anything newer; it is neither acknowledged nor taken
+// for one that never arrived, and the holes the store waits for are not
+// given up while it cannot write. A held batch dropped at the memory bound
+// stays unacknowledged, so acquire still retains it and resends it once the
+// archive writes again; only if that fails too is it a gap, with the reason
+// "store_write" (cause: the write error), and the run's result says so.
+// An archive that cannot write for write_give_up_s ends Run() with an
+// IoError naming the error and what is not archived (none of it acknowledged).
 #ifndef IMUQUAL_STORE_STORE_SERVICE_H_
 #define IMUQUAL_STORE_STORE_SERVICE_H_
 
+#include <functional>
 #include <memory>
 #include <string>
 
 #include "common/status.h"
 
 namespace imuqual::store {
+
+// imuqual-store's exit code when the archive could not be written (a full
+// disk): everything acknowledged is archived, the rest is not.
+inline constexpr int kStoreExitUnwritable = 4;
 
 struct StoreOptions {
   std::string lcm_url;
@@ -34,6 +50,12 @@ struct StoreOptions {
   // The station whose runs this store archives (run_t.station); other
   // stations' runs on the same bus are ignored and counted. "": every run.
   std::string station;
+  int max_unwritten_mb = 256;     // batches held while the archive cannot write (MB of samples);
+                               // beyond, the newest are left unacknowledged for acquire to resend
+  double write_give_up_s = 300;  // the archive failing every write this long: Run() fails
+  // Test seam: called before each COMMIT; a non-ok Status fails the
+  // transaction as a full disk would (empty: none).
+  std::function<Status()> before_commit;
   Status Validate() const;
 };
 
@@ -44,6 +66,8 @@ class StoreService {
   static Result<std::unique_ptr<StoreService>> Create(const StoreOptions& options);
   ~StoreService();
   // Runs until shutdown is requested; then drains the queue and commits.
+  // IoError when the archive could not be written for write_give_up_s, or
+  // batches received were still unwritten at the end (none acknowledged).
   Status Run();
 
  private:

@@ -25,6 +25,7 @@
 #include "store/archive.h"
 #include "store/chunk_codec.h"
 #include "store/query.h"
+#include "store/store_service.h"
 #include "tests/station_harness.h"
 
 namespace imuqual {
@@ -542,8 +543,12 @@ TEST(BadInputTest, AFullDiskStopsAcknowledgementsButLosesNothingAccepted) {
   h.Pump(1500);
   EXPECT_FALSE(store.Poll().has_value()) << h.Logs();
   EXPECT_NE(h.Logs().find("disk is full"), std::string::npos) << h.Logs();
-  // Everything acknowledged is in the file, which is intact.
-  EXPECT_EQ(store.Stop(15), 0);
+  // Stopped with the disk still full: a clear error, what it could not write
+  // named; everything acknowledged is in the file, which is intact.
+  EXPECT_EQ(store.Stop(15), store::kStoreExitUnwritable);
+  EXPECT_NE(h.Logs().find("batches received are not archived and were not acknowledged"),
+            std::string::npos)
+      << h.Logs();
   auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
   ASSERT_TRUE(a.ok()) << a.status().ToString();
   auto check = (*a)->db().Prepare("PRAGMA integrity_check");

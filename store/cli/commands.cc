@@ -73,6 +73,7 @@ int RunCommand(const StationRunOptions& options) {
   if (!run.ok()) {
     LogError(run.status().message());
     // Bad options, plan, source or archive file: refused before any run.
+    if (run.status().code() == Status::Code::kIoError) return kRunExitArchiveUnwritable;
     return run.status().code() == Status::Code::kInvalidArgument ? kRunExitUsage : kRunExitError;
   }
   auto archive = OpenForReading(options.db_path);

@@ -20,13 +20,18 @@ inline constexpr int kRunExitUsage = 2;          // bad options, station file, p
 inline constexpr int kRunExitSourceFailed = 3;   // a unit's source failed (bad data, device
                                                  // gone): its run archived as FAIL; every
                                                  // other unit finished, judged and archived
+inline constexpr int kRunExitArchiveUnwritable = 4;  // the archive could not be written (a
+                                                     // full disk): what was acknowledged is
+                                                     // archived, the runs are not finished
 inline constexpr int kRunExitInterrupted = 130;  // Ctrl-C: runs aborted, archived and judged
 inline constexpr char kRunExitCodesHelp[] =
     "Exit codes: 0 every run ended normally and was judged (a FAIL verdict is a result); "
     "1 the station failed (a process, the archive, no progress); 2 bad options, station "
     "file, plan, source or archive file (nothing was run); 3 a unit's source failed (bad "
     "data, a device gone): its run is archived as FAIL with the reason, every other unit "
-    "finished and was judged and archived; 130 interrupted (Ctrl-C): the runs were aborted, "
+    "finished and was judged and archived; 4 the archive could not be written (a full disk) "
+    "for --archive-timeout: everything acknowledged is archived, the runs are not finished; "
+    "130 interrupted (Ctrl-C): the runs were aborted, "
     "archived and judged.";
 
 // imuqual run: a station end to end, then the result table. Returns one of

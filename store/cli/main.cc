@@ -57,6 +57,15 @@ int main(int argc, char** argv) {
                    "seconds without progress before giving up")
       ->capture_default_str();
   run_cmd
+      ->add_option("--archive-timeout", run.archive_timeout_s,
+                   "seconds the archive may fail every write (a full disk) before the station "
+                   "stops with exit code 4")
+      ->capture_default_str();
+  run_cmd
+      ->add_option("--give-up", run.give_up_s,
+                   "seconds before a batch that never arrived becomes a gap")
+      ->capture_default_str();
+  run_cmd
       ->add_option("--pace", run.pace,
                    "0: as fast as the station goes, 1: real time, k: k x real time")
       ->capture_default_str();

@@ -3,10 +3,9 @@
 #include <sys/ioctl.h>
 #include <unistd.h>
 
-#include <csignal>
-
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <map>
 #include <optional>
@@ -30,6 +29,7 @@
 #include "imuqual/unit_result_t.hpp"
 #include "store/archive.h"
 #include "store/cli/station_console.h"
+#include "store/store_service.h"
 
 namespace imuqual::cli {
 namespace {
@@ -162,6 +162,8 @@ Status StationRunOptions::Validate() const {
     return Status::InvalidArgument("--inject-drop must be in [0, 1)");
   }
   if (!(pace >= 0) || !std::isfinite(pace)) return Status::InvalidArgument("--pace must be >= 0");
+  if (!(archive_timeout_s > 0)) return Status::InvalidArgument("--archive-timeout must be > 0");
+  if (!(give_up_s > 0)) return Status::InvalidArgument("--give-up must be > 0");
   if (analyze_shards < 1 || analyze_shards > 64) return Status::InvalidArgument("--analyze-shards must be 1..64");
   if (!slots.empty() && slots.size() != units.size()) {
     return Status::InvalidArgument("slots: one per --unit");
@@ -314,10 +316,11 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     p.argv = std::move(argv);
     return p;
   };
-  children.store = supervised_process("imuqual-store", "store",
-                                      {dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path,
-                                       "--stale-after", std::to_string(o.stale_after_s),
-                                       "--station", o.station});
+  children.store = supervised_process(
+      "imuqual-store", "store",
+      {dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path, "--stale-after",
+       std::to_string(o.stale_after_s), "--give-up", std::to_string(o.give_up_s), "--write-give-up",
+       std::to_string(o.archive_timeout_s), "--station", o.station});
   for (int k = 0; k < o.analyze_shards; ++k) {
     Supervised a =
         supervised_process("imuqual-analyze", "analyze",
@@ -422,6 +425,14 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     for (Supervised* p : supervised) {
       if (p->restart_at < 0) {
         if (auto code = p->proc->Poll()) {
+          if (p->kind == "store" && *code == store::kStoreExitUnwritable) {
+            // Restarting cannot free the disk: the station stops, nothing
+            // unarchived was acknowledged.
+            outcome = Status::IoError("imuqual-store could not write the archive " + o.db_path +
+                                      "; last lines of " + result.log_path + ":\n" +
+                                      LogTail(result.log_path, 8));
+            break;
+          }
           p->crashes.push_back(now);
           std::erase_if(p->crashes, [&](double t) { return now - t > kCrashWindowS; });
           if (static_cast<int>(p->crashes.size()) > o.max_restarts) {
@@ -544,6 +555,11 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   }
   const int store_code = children.store->proc->Stop(kStopTimeoutS);
   if (!outcome.ok()) return outcome;
+  if (store_code == store::kStoreExitUnwritable) {
+    return Status::IoError("imuqual-store could not write the archive " + o.db_path +
+                           " at the end; last lines of " + result.log_path + ":\n" +
+                           LogTail(result.log_path, 8));
+  }
   if (store_code != 0 && !result.interrupted) {
     return failure("imuqual-store ended with code " + std::to_string(store_code));
   }

@@ -38,6 +38,9 @@ struct StationRunOptions {
   double pace = 0;                 // 0: as fast as acknowledged; 1: real time; k: k x real time
   double stale_after_s = 10;       // store: acquire silent this long ends its runs as incomplete
   double stall_timeout_s = 120;    // no progress this long: give up
+  double archive_timeout_s = 90;   // store: the archive failing every write this long ends the
+                                   // station (IoError, exit 4); below acquire's 120 s ack timeout
+  double give_up_s = 30;           // store: a batch that never arrived is a gap after this
   bool show_progress = true;       // live console on a terminal, else a progress line (stderr)
   int max_restarts = 5;            // a store/analyze process dying more often in a minute: give up
   Status Validate() const;
