@@ -1,8 +1,8 @@
 #include "analyze/service/analyze_service.h"
 
 #include <atomic>
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <optional>
 #include <set>
@@ -12,10 +12,11 @@
 #include "analyze/judge/plan.h"
 #include "analyze/service/run_analyzer.h"
 #include "common/ack.h"
+#include "common/batch_integrity.h"
 #include "common/bounded_queue.h"
-#include "common/last_heard.h"
 #include "common/channels.h"
 #include "common/clock.h"
+#include "common/last_heard.h"
 #include "common/lcm_bus.h"
 #include "common/log.h"
 #include "common/process_status.h"
@@ -100,7 +101,8 @@ struct AnalyzeService::Impl {
   // Counters (worker thread, except where atomic).
   std::atomic<int64_t> batches_received{0}, out_of_shard{0};
   int64_t batches_processed = 0, duplicates = 0, absurd = 0, rejected = 0, resend_requests = 0,
-          batches_given_up = 0, runs_finished = 0, late_after_finish = 0;
+          batches_given_up = 0, runs_finished = 0, late_after_finish = 0, damaged = 0;
+  ThrottledLog damage_log;
 
   explicit Impl(const AnalyzeOptions& o) : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
     tracker_options.give_up_after_s = o.hole_give_up_s;
@@ -188,6 +190,13 @@ void AnalyzeService::Impl::StartAnalyzer(RunEntry& e) {
 }
 
 void AnalyzeService::Impl::OnBatch(imuqual::rate_batch_t&& batch, double now) {
+  // Before any field is trusted: a damaged batch is dropped; its seq stays a
+  // hole that the tracker asks to be resent.
+  if (Status st = VerifyBatch(batch); !st.ok()) {
+    ++damaged;
+    damage_log.Warning(st.message() + "; dropped, to be resent");
+    return;
+  }
   if (finished_ids.count(batch.run_id)) {
     ++late_after_finish;
     return;
@@ -432,6 +441,7 @@ Counters AnalyzeService::Impl::StatusCounters() {
           {"runs_finished", runs_finished},
           {"batches_received", batches_received.load()},
           {"batches_processed", batches_processed},
+          {"batches_damaged", damaged},
           {"batches_held", held},
           {"duplicates", duplicates},
           {"absurd_seq", absurd},
