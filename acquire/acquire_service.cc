@@ -10,6 +10,7 @@
 
 #include "acquire/random.h"
 #include "acquire/retention.h"
+#include "common/batch_integrity.h"
 #include "common/channels.h"
 #include "common/clock.h"
 #include "common/lcm_bus.h"
@@ -117,6 +118,9 @@ Status AcquireOptions::Validate() const {
   if (!(inject_drop >= 0 && inject_drop < 1)) {
     return Status::InvalidArgument("inject_drop: must be in [0, 1)");
   }
+  if (!(inject_bitflip >= 0 && inject_bitflip < 1)) {
+    return Status::InvalidArgument("inject_bitflip: must be in [0, 1)");
+  }
   return Status::Ok();
 }
 
@@ -125,10 +129,11 @@ struct AcquireService::Impl {
   std::vector<RunState> runs;
   std::unique_ptr<LcmBus> bus;
   sim::Random drop_rng{1};
+  sim::Random bitflip_rng{2};
   std::deque<imuqual::resend_t> resend_queue;
   // Counters.
-  int64_t published = 0, resent = 0, resend_misses = 0, injected_drops = 0, acks = 0,
-          resend_requests = 0, publish_errors = 0, evicted_unacknowledged = 0;
+  int64_t published = 0, resent = 0, resend_misses = 0, injected_drops = 0, injected_bitflips = 0,
+          acks = 0, resend_requests = 0, publish_errors = 0, evicted_unacknowledged = 0;
   double last_resend_request_s = 0;
   ThrottledLog publish_log;
   ThrottledLog retention_log;
@@ -144,6 +149,8 @@ struct AcquireService::Impl {
   }
 
   void Publish(RunState& run, bool fresh_batch_dropped, const std::vector<uint8_t>& bytes);
+  // Sends encoded batch bytes (--inject-bitflip damages a copy first).
+  Status SendBatch(const RunState& run, const std::vector<uint8_t>& bytes);
   // Publishes the run's announcement `times` times; failures are counted.
   void Announce(RunState& run, int times = 1);
   void OnAck(const imuqual::ack_t& ack);
@@ -157,7 +164,8 @@ struct AcquireService::Impl {
   void LogSummary(const std::string& how) const {
     LogInfo(how + ": " + std::to_string(published) + " batches published, " +
             std::to_string(resent) + " resent, " + std::to_string(injected_drops) +
-            " dropped on purpose (--inject-drop), " + std::to_string(resend_misses) +
+            " dropped on purpose (--inject-drop), " + std::to_string(injected_bitflips) +
+            " damaged on purpose (--inject-bitflip), " + std::to_string(resend_misses) +
             " resend misses; cpu " + std::to_string(ProcessCpuSeconds()) + " s");
   }
 };
@@ -179,6 +187,7 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
   const int64_t now = NowUtime();
   if (options.run_prefix.empty()) options.run_prefix = CompactUtc(now);
   impl->drop_rng = sim::Random(options.inject_seed);
+  impl->bitflip_rng = sim::Random(options.inject_seed ^ 0x9E3779B97F4A7C15ULL);
 
   std::set<std::string> serials;
   for (UnitSpec& unit : units) {
@@ -348,11 +357,23 @@ void AcquireService::Impl::Publish(RunState& run, bool drop, const std::vector<u
     return;
   }
   ++published;
-  Status st = bus->PublishEncoded(run.channel, bytes);
+  Status st = SendBatch(run, bytes);
   if (!st.ok()) {
     ++publish_errors;
     publish_log.Error(st.message());
   }
+}
+
+Status AcquireService::Impl::SendBatch(const RunState& run, const std::vector<uint8_t>& bytes) {
+  if (options.inject_bitflip > 0 && !bytes.empty() &&
+      bitflip_rng.Uniform() < options.inject_bitflip) {
+    ++injected_bitflips;
+    std::vector<uint8_t> damaged = bytes;
+    const uint64_t bit = bitflip_rng.Next() % (damaged.size() * 8);
+    damaged[bit / 8] ^= static_cast<uint8_t>(1u << (bit % 8));
+    return bus->PublishEncoded(run.channel, damaged);
+  }
+  return bus->PublishEncoded(run.channel, bytes);
 }
 
 void MoveBlockIntoBatch(SampleBlock&& block, imuqual::rate_batch_t* msg) {
@@ -423,7 +444,7 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
   MoveBlockIntoBatch(std::move(block), &msg);
 
   std::vector<uint8_t> bytes;
-  IMUQUAL_RETURN_IF_ERROR(EncodeMessage(msg, &bytes));
+  IMUQUAL_RETURN_IF_ERROR(EncodeSealedBatch(&msg, &bytes));
   const bool drop = options.inject_drop > 0 && drop_rng.Uniform() < options.inject_drop;
   Publish(run, drop, bytes);
   run.retained.Add({run.next_seq, now_s, std::move(bytes)});
@@ -452,7 +473,7 @@ Status AcquireService::Impl::ServeResends() {
         if (now - it->resent_s < kResendDedupS) continue;
         it->resent_s = now;
         ++resent;
-        Status st = bus->PublishEncoded(run.channel, it->bytes);
+        Status st = SendBatch(run, it->bytes);
         if (!st.ok()) {
           ++publish_errors;
           publish_log.Error(st.message());
@@ -522,6 +543,7 @@ Counters AcquireService::Impl::StatusCounters() const {
                   {"resend_requests", resend_requests},
                   {"resend_misses", resend_misses},
                   {"injected_drops", injected_drops},
+                  {"injected_bitflips", injected_bitflips},
                   {"acks_received", acks},
                   {"batches_retained", retained},
                   {"retained_bytes", retained_bytes},

@@ -1,6 +1,6 @@
 // The acquire process's work: one run per unit, batches of consecutive
-// samples published on IMUQUAL1_RAW.<serial>, the run announced and
-// re-announced (heartbeat) on IMUQUAL1_RUN, resend requests answered from a
+// samples published on IMUQUAL2_RAW.<serial>, the run announced and
+// re-announced (heartbeat) on IMUQUAL2_RUN, resend requests answered from a
 // retention window.
 //
 // Flow control: a time-warped source (simulator, file replay) is read only
@@ -51,6 +51,10 @@ struct AcquireOptions {
                                       // beyond the consumers' 30 s give-up on a lost batch)
   double linger_s = 60.0;             // after the last batch, wait this long for final acks
   double inject_drop = 0.0;           // fault injection: drop this fraction of first publications
+  // Test only (fault injection): flip one random bit of this fraction of the
+  // datagrams sent (first publications and resends), after the checksum was
+  // computed; the retained copy stays intact. Consumers must catch each one.
+  double inject_bitflip = 0.0;
   uint64_t inject_seed = 1;
   // Checks every field; the error names it.
   Status Validate() const;

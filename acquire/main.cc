@@ -65,7 +65,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--inject-drop", opt.inject_drop, "fault injection: drop this fraction of batches")
       ->capture_default_str();
-  app.add_option("--inject-seed", opt.inject_seed, "seed of the injected drops")
+  app.add_option("--inject-bitflip", opt.inject_bitflip,
+                 "fault injection (tests): flip one bit in this fraction of sent batches")
+      ->capture_default_str();
+  app.add_option("--inject-seed", opt.inject_seed, "seed of the injected drops and bit flips")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 

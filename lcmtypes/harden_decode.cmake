@@ -11,6 +11,11 @@ foreach(f ${FILES})
   # Strings: the length includes the NUL, so it is at least 1.
   string(REGEX REPLACE "if\\(([A-Za-z0-9_]+) > maxlen - pos\\) return -1;"
          "if(\\1 <= 0 || \\1 > maxlen - pos) return -1;" text "${text}")
+  # The NUL that ends a string is part of the encoding: a message whose
+  # terminator is something else does not decode (it would not encode back
+  # to the same bytes, and a checksum over the re-encoding would miss it).
+  string(REGEX REPLACE "(this->[A-Za-z0-9_]+(\\[a0\\])?\\.assign\\(\\(\\(const char\\*\\)buf\\) \\+ offset \\+ pos, ([A-Za-z0-9_]+) - +1\\);)"
+         "if(((const char*)buf)[offset + pos + \\3 - 1] != '\\\\0') return -1;\n    \\1" text "${text}")
   # LCM strings are C strings: one with a NUL inside would not encode back
   # (the encoder measures with strlen), so it does not decode either.
   string(REGEX REPLACE "(this->[A-Za-z0-9_]+(\\[a0\\])?)(\\.assign\\(\\(\\(const char\\*\\)buf\\) \\+ offset \\+ pos, [A-Za-z0-9_]+ - +1\\);)"

@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "store/checksums.h"
 #include "store/schema.h"
 
 namespace imuqual::store {
@@ -137,10 +138,10 @@ RETURNING run_key)sql");
 }
 
 Status Archive::InsertChunk(int64_t run_key, const ChunkRecord& c, bool* inserted) {
-  auto st = Cached(
-      kInsertChunk,
-      "INSERT OR IGNORE INTO raw_chunks(run_key, seq, first_sample, num_samples, "
-      "host_utime, temperature_c, codec, data, sample_utime) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  auto st = Cached(kInsertChunk,
+                   "INSERT OR IGNORE INTO raw_chunks(run_key, seq, first_sample, num_samples, "
+                   "host_utime, temperature_c, codec, data, sample_utime, crc32c) "
+                   "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (!st.ok()) return st.status();
   Stmt& s = **st;
   s.Bind(1, run_key).Bind(2, c.seq).Bind(3, c.first_sample).Bind(4, c.num_samples);
@@ -148,7 +149,8 @@ Status Archive::InsertChunk(int64_t run_key, const ChunkRecord& c, bool* inserte
       .Bind(6, c.temperature_c)
       .Bind(7, c.codec)
       .BindBlob(8, c.data)
-      .Bind(9, c.sample_utime);
+      .Bind(9, c.sample_utime)
+      .Bind(10, static_cast<int64_t>(ChunkChecksum(c)));
   IMUQUAL_RETURN_IF_ERROR(s.Run());
   if (inserted) *inserted = sqlite3_changes(db_->handle()) > 0;
   return Status::Ok();
@@ -258,7 +260,7 @@ Status Archive::PutCurve(int64_t run_key, const CurveRecord& rec) {
                                 .Bind(11, p.stride)
                                 .Run());
   }
-  return Status::Ok();
+  return SealResults(*db_, run_key);
 }
 
 Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
@@ -334,7 +336,7 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
     }
     IMUQUAL_RETURN_IF_ERROR(axes->Bind(2, run_key).Bind(3, a).Run());
   }
-  return Status::Ok();
+  return SealResults(*db_, run_key);
 }
 
 Status Archive::MarkFinalized(int64_t run_key, int64_t utime) {

@@ -3,10 +3,11 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <filesystem>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 
+#include "store/checksums.h"
 #include "store/chunk_codec.h"
 #include "store/schema.h"
 
@@ -244,6 +245,8 @@ TEST_F(ArchiveTest, SchemaOneArchivesGetEachAxisCountFromItsFinalCurve) {
     // ... in an archive as schema 1 kept it: no per-axis column.
     for (const char* sql :
          {"DROP VIEW axis_results", "ALTER TABLE run_axes DROP COLUMN invalid_samples",
+          "ALTER TABLE raw_chunks DROP COLUMN crc32c",
+          "ALTER TABLE runs DROP COLUMN results_crc32c",
           "CREATE VIEW axis_results AS SELECT 1 AS schema_one", "PRAGMA user_version = 1"}) {
       ASSERT_TRUE((*a)->db().Exec(sql).ok()) << sql;
     }
@@ -296,6 +299,95 @@ TEST_F(ArchiveTest, RefusesANewerSchema) {
   auto a = Archive::Open(path_, Archive::Mode::kWrite);
   ASSERT_FALSE(a.ok());
   EXPECT_NE(a.status().message().find("newer than this imuqual"), std::string::npos);
+}
+
+// Runs CheckChecksums over the whole archive; the problem lines.
+std::vector<std::string> ChecksumProblems(Archive& a) {
+  std::vector<std::string> lines;
+  auto n = CheckChecksums(a.db(), -1, [&](const std::string& l) { lines.push_back(l); });
+  EXPECT_TRUE(n.ok());
+  return lines;
+}
+
+TEST_F(ArchiveTest, ChecksumsFindChunksAndResultsAlteredAtRest) {
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_TRUE(a.ok());
+  ASSERT_TRUE((*a)->Begin().ok());
+  const int64_t key = *(*a)->UpsertRun(Run("R1"));
+  for (int64_t seq = 0; seq < 4; ++seq)
+    ASSERT_TRUE((*a)->InsertChunk(key, Chunk(seq, seq * 10, 10), nullptr).ok());
+  ResultRecord r;
+  r.verdict = "PASS";
+  pb::Measurement m;
+  m.set_name("bias_instability");
+  m.set_axis("x");
+  m.set_value(12.5);
+  m.set_unit("deg/h");
+  r.measurements.push_back(m);
+  ASSERT_TRUE((*a)->PutResult(key, r).ok());
+  ASSERT_TRUE((*a)->Commit().ok());
+  EXPECT_TRUE(ChecksumProblems(**a).empty());
+  // A chunk's blob swapped for another valid one, a counter, a result value.
+  ASSERT_TRUE((*a)->db()
+                  .Exec("UPDATE raw_chunks SET data = (SELECT data FROM raw_chunks WHERE seq = 3) "
+                        "WHERE seq = 1; UPDATE raw_chunks SET first_sample = 21 WHERE seq = 2")
+                  .ok());
+  EXPECT_EQ(ChecksumProblems(**a).size(), 2u);
+  ASSERT_TRUE((*a)->db().Exec("UPDATE measurements SET value = 12.25").ok());
+  const auto lines = ChecksumProblems(**a);
+  ASSERT_EQ(lines.size(), 3u);
+  EXPECT_EQ(lines[0].rfind("run R1 chunk seq 1: damaged", 0), 0u) << lines[0];
+  EXPECT_EQ(lines[1].rfind("run R1 chunk seq 2: damaged", 0), 0u) << lines[1];
+  EXPECT_EQ(lines[2].rfind("run R1 results: damaged", 0), 0u) << lines[2];
+}
+
+TEST_F(ArchiveTest, MigrationFromVersion2ComputesTheChecksums) {
+  {
+    auto a = Archive::Open(path_, Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok());
+    ASSERT_TRUE((*a)->Begin().ok());
+    const int64_t key = *(*a)->UpsertRun(Run("R1"));
+    ASSERT_TRUE((*a)->InsertChunk(key, Chunk(0, 0, 10), nullptr).ok());
+    ASSERT_TRUE((*a)->PutResult(key, ResultRecord{}).ok());
+    ASSERT_TRUE((*a)->Commit().ok());
+    // Back to what a version 2 file is.
+    ASSERT_TRUE((*a)->db()
+                    .Exec("ALTER TABLE raw_chunks DROP COLUMN crc32c; "
+                          "ALTER TABLE runs DROP COLUMN results_crc32c; PRAGMA user_version = 2")
+                    .ok());
+  }
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  EXPECT_EQ(*(*a)->db().QueryInt("PRAGMA user_version"), 3);
+  EXPECT_EQ(*(*a)->db().QueryInt("SELECT COUNT(*) FROM raw_chunks WHERE crc32c IS NULL"), 0);
+  EXPECT_EQ(*(*a)->db().QueryInt("SELECT COUNT(*) FROM runs WHERE results_crc32c IS NULL"), 0);
+  EXPECT_TRUE(ChecksumProblems(**a).empty());
+}
+
+TEST_F(ArchiveTest, ADamagedFileIsNotOpenedForWriting) {
+  {
+    auto a = Archive::Open(path_, Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok());
+    ASSERT_TRUE((*a)->Begin().ok());
+    const int64_t key = *(*a)->UpsertRun(Run("R1"));
+    for (int64_t seq = 0; seq < 200; ++seq)
+      ASSERT_TRUE((*a)->InsertChunk(key, Chunk(seq, seq * 100, 100), nullptr).ok());
+    ASSERT_TRUE((*a)->Commit().ok());
+  }
+  const auto size = static_cast<std::streamoff>(fs::file_size(path_));
+  ASSERT_GT(size, 8 * 4096);
+  {
+    std::fstream f(path_, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp((size / 4096 / 2) * 4096);
+    const std::string junk(64, '\xFF');
+    f.write(junk.data(), 64);
+  }
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_FALSE(a.ok());
+  EXPECT_EQ(a.status().code(), Status::Code::kCorruption);
+  EXPECT_NE(a.status().message().find(path_ + " is damaged"), std::string::npos)
+      << a.status().message();
+  EXPECT_EQ(a.status().message().find('\n'), std::string::npos);
 }
 
 TEST_F(ArchiveTest, ReadOnlyDirectoryIsAClearError) {

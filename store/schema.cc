@@ -1,7 +1,10 @@
 #include "store/schema.h"
 
+#include <algorithm>
 #include <string>
 #include <vector>
+
+#include "store/checksums.h"
 
 namespace imuqual::store {
 namespace {
@@ -223,6 +226,14 @@ JOIN run_axes ra ON ra.run_key = r.run_key
 LEFT JOIN measurements m ON m.run_key = r.run_key AND m.axis = ra.axis
 GROUP BY r.lot, r.run_key, ra.axis_index;  -- lot first: WHERE lot = ? reaches the index
 )sql",
+      // 2 -> 3: checksums against damage at rest (store/checksums.h). Rows
+      // archived before get theirs computed right after this, in the same
+      // transaction (ComputeMissingChecksums): they attest the data as it
+      // was found at the migration.
+      R"sql(
+ALTER TABLE raw_chunks ADD COLUMN crc32c INTEGER;
+ALTER TABLE runs ADD COLUMN results_crc32c INTEGER;
+)sql",
   };
   return kMigrations;
 }
@@ -254,6 +265,36 @@ Status CheckIdentity(Db& db, bool* empty) {
   return Status::Ok();
 }
 
+// PRAGMA quick_check (the integrity check without the index contents): a
+// damaged file is never written into.
+Status CheckIntact(Db& db) {
+  std::string first;
+  int64_t problems = 0;
+  auto s = db.Prepare("PRAGMA quick_check(1)");
+  if (!s.ok()) {
+    first = s.status().message();
+    ++problems;
+  } else {
+    for (;;) {
+      auto row = s->Step();
+      if (!row.ok()) {
+        first = row.status().message();
+        ++problems;
+        break;
+      }
+      if (!*row) break;
+      if (s->Text(0) != "ok") {
+        if (first.empty()) first = s->Text(0);
+        ++problems;
+      }
+    }
+  }
+  if (problems == 0) return Status::Ok();
+  std::replace(first.begin(), first.end(), '\n', ' ');  // SQLite's report spans lines
+  return Status::Corruption(db.path() + " is damaged (SQLite quick_check: " + first +
+                            "); refusing to write into it (imuqual verify --db lists the damage)");
+}
+
 }  // namespace
 
 int SchemaVersion() { return static_cast<int>(Migrations().size()); }
@@ -274,6 +315,7 @@ Status CheckReadable(Db& db) {
 Status Migrate(Db& db) {
   bool empty = false;
   IMUQUAL_RETURN_IF_ERROR(CheckIdentity(db, &empty));
+  IMUQUAL_RETURN_IF_ERROR(CheckIntact(db));
   auto version = db.QueryInt("PRAGMA user_version");
   if (!version.ok()) return version.status();
   for (int v = static_cast<int>(*version); v < SchemaVersion(); ++v) {
@@ -281,6 +323,7 @@ Status Migrate(Db& db) {
     Status st = db.Exec(Migrations()[v]);
     if (st.ok()) st = db.Exec("PRAGMA user_version = " + std::to_string(v + 1));
     if (st.ok() && v == 0) st = db.Exec("PRAGMA application_id = " + std::to_string(kApplicationId));
+    if (st.ok() && v == 2) st = ComputeMissingChecksums(db);
     if (!st.ok()) {
       (void)db.Exec("ROLLBACK");
       return st.WithContext("migrating " + db.path() + " to schema " + std::to_string(v + 1));

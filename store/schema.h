@@ -16,8 +16,8 @@ int SchemaVersion();
 
 // Brings a database to SchemaVersion(): an empty file gets the whole schema,
 // an older one is migrated step by step (each step in one transaction). Fails
-// (changing nothing) on a file that is not an imuqual archive or whose
-// schema is newer than this build.
+// (changing nothing) on a file that is not an imuqual archive, whose schema
+// is newer than this build, or that fails SQLite's quick_check (damaged).
 Status Migrate(Db& db);
 
 // Checks without writing that `db` is an imuqual archive this build can

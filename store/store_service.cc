@@ -13,6 +13,7 @@
 
 #include "common/listening_clock.h"
 #include "common/ack.h"
+#include "common/batch_integrity.h"
 #include "common/bounded_queue.h"
 #include "common/channels.h"
 #include "common/clock.h"
@@ -158,7 +159,8 @@ struct StoreService::Impl {
           commits = 0, commit_failures = 0, apply_errors = 0, resend_requests = 0,
           batches_given_up = 0, runs_done = 0, batches_served = 0, runs_taken_over = 0,
           late_messages = 0, values_archived = 0, foreign_messages = 0, write_retries = 0,
-          unwritten_dropped = 0;
+          unwritten_dropped = 0, damaged = 0;
+  ThrottledLog damage_log;
   std::set<std::string> foreign_runs;  // runs of other stations (writer thread)
   // Runs and batches of failed transactions, written again (before anything
   // newer) once the back-off allows; bounded by max_unwritten_mb.
@@ -357,13 +359,15 @@ Status StoreService::Impl::ServeResend(const imuqual::resend_t& req) {
       r.key,
       [&](const ChunkRecord& c) -> Status {
         auto batch = BatchFromChunk(r.info, c);
-        if (!batch.ok()) {
+        std::vector<uint8_t> bytes;
+        Status sealed = batch.ok() ? EncodeSealedBatch(&*batch, &bytes) : batch.status();
+        if (!sealed.ok()) {
           rejections.Error("cannot resend " + r.info.run_id + " seq " + std::to_string(c.seq) +
-                           " from the archive: " + batch.status().message());
+                           " from the archive: " + sealed.message());
           return Status::Ok();  // serve the rest
         }
         ++batches_served;
-        return bus->Publish(channels::Raw(r.info.serial), *batch);
+        return bus->PublishEncoded(channels::Raw(r.info.serial), bytes);
       },
       first, last);
 }
@@ -515,6 +519,15 @@ Status StoreService::Impl::WritePending(StoreRun& r, Staged* staged) {
 }
 
 Status StoreService::Impl::Apply(Item& item, Staged* staged) {
+  // A damaged batch is never archived (nor is its run id trusted): dropped,
+  // its seq stays a hole that the tracker asks to be resent.
+  if (auto* b = std::get_if<imuqual::rate_batch_t>(&item)) {
+    if (Status st = VerifyBatch(*b); !st.ok()) {
+      ++damaged;
+      damage_log.Warning(st.message() + "; dropped, to be resent");
+      return Status::Ok();
+    }
+  }
   const std::string& run_id = std::visit([](const auto& m) -> const std::string& { return m.run_id; }, item);
   if (foreign_runs.count(run_id)) {
     ++foreign_messages;
@@ -847,6 +860,7 @@ Counters StoreService::Impl::StatusCounters() const {
           {"runs_archived", runs_done},
           {"messages_received", received.load()},
           {"chunks_inserted", chunks_inserted},
+          {"batches_damaged", damaged},
           {"duplicates", duplicates},
           {"absurd_seq", absurd},
           {"rejected", rejected},

@@ -14,6 +14,7 @@
 #include <random>
 #include <thread>
 
+#include "common/batch_integrity.h"
 #include "common/channels.h"
 #include "common/clock.h"
 #include "common/lcm_bus.h"
@@ -161,7 +162,9 @@ class StoreUnderTest {
     b.num_flagged = 0;
     b.has_temperature = 0;
     b.temperature_c = 0;
-    ASSERT_TRUE(bus_->Publish(channels::Raw("FULL-U1"), b).ok());
+    std::vector<uint8_t> bytes;  // sealed with its checksum, as acquire sends it
+    ASSERT_TRUE(EncodeSealedBatch(&b, &bytes).ok());
+    ASSERT_TRUE(bus_->PublishEncoded(channels::Raw("FULL-U1"), bytes).ok());
   }
 
   // Chunks archived and gap rows of the run, read from the file.

@@ -15,6 +15,7 @@
 #include <random>
 #include <sstream>
 
+#include "common/batch_integrity.h"
 #include "common/channels.h"
 #include "common/clock.h"
 #include "common/strings.h"
@@ -105,8 +106,16 @@ class FakeAcquire {
     return b;
   }
 
-  void Send(const imuqual::rate_batch_t& b) {
-    ASSERT_TRUE(h_.bus().Publish(channels::Raw(serial_), b).ok());
+  // Seals (checksum) and publishes, as acquire does.
+  void Send(imuqual::rate_batch_t b) { SendBytes(Sealed(&b)); }
+  // The sealed encoding of `b`.
+  static std::vector<uint8_t> Sealed(imuqual::rate_batch_t* b) {
+    std::vector<uint8_t> bytes;
+    EXPECT_TRUE(EncodeSealedBatch(b, &bytes).ok());
+    return bytes;
+  }
+  void SendBytes(const std::vector<uint8_t>& bytes) {
+    ASSERT_TRUE(h_.bus().PublishEncoded(channels::Raw(serial_), bytes).ok());
   }
 
  private:
@@ -258,6 +267,80 @@ TEST(BadInputTest, GarbageForeignAndLyingMessagesAreCountedAndTheRunSurvivesIt) 
   while (*axes->Step()) per_axis[axes->Text(0)] = axes->Int(1);
   EXPECT_EQ(per_axis, (std::map<std::string, int64_t>{{"x", 2}, {"y", 1}, {"z", 2}}));
 
+  EXPECT_EQ(analyze.Stop(15), 0);
+  EXPECT_EQ(store.Stop(15), 0);
+}
+
+// Byte offset of samples[0][0] in the encoding of `b` (see LyingBatch).
+size_t SamplesOffset(const imuqual::rate_batch_t& b) {
+  size_t off = 8 + 8 + (4 + b.run_id.size() + 1) + (4 + b.unit_serial.size() + 1) + 8 + 8 + 8 + 1;
+  for (const std::string& n : b.axis_names) off += 4 + n.size() + 1;
+  return off + b.axis_names.size() + 2;
+}
+
+TEST(BadInputTest, DamagedBatchesAreCountedDroppedAndResentNeverArchivedOrAnalysed) {
+  StationHarness h("bad_damaged");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  FakeAcquire acq(h, "DMGRUN-1", "DMG-U01");
+  acq.Announce(imuqual::run_t::STATE_RUNNING, -1, 0);
+  constexpr int kBatches = 12;
+  std::vector<imuqual::rate_batch_t> batches;
+  for (int64_t seq = 0; seq < kBatches; ++seq) batches.push_back(acq.Batch(seq, seq * kSamples));
+  // GIVEN two batches each with one bit flipped on the way, after acquire
+  // sealed them: an exponent bit of a sample (decodes to a plausible batch
+  // with one wild value), and a bit of the run id ("DMGRUN-1" -> "EMGRUN-1").
+  std::vector<uint8_t> sample_flip = FakeAcquire::Sealed(&batches[4]);
+  sample_flip[SamplesOffset(batches[4]) + 4 * 7] ^= 0x40;
+  std::vector<uint8_t> id_flip = FakeAcquire::Sealed(&batches[7]);
+  id_flip[8 + 8 + 4] ^= 0x01;
+  // WHEN the run is sent with those in place of the originals
+  for (int64_t seq = 0; seq < kBatches; ++seq) {
+    if (seq == 4) {
+      acq.SendBytes(sample_flip);
+    } else if (seq == 7) {
+      acq.SendBytes(id_flip);
+    } else {
+      acq.Send(batches[seq]);
+    }
+  }
+  // THEN both consumers count both and ask for them again
+  EXPECT_EQ(h.WaitCounter("store", "batches_damaged", 2, 10), 2) << h.Logs();
+  EXPECT_EQ(h.WaitCounter("analyze", "batches_damaged", 2, 10), 2) << h.Logs();
+  EXPECT_GE(h.WaitCounter("store", "resend_requests", 1, 10), 1) << h.Logs();
+  EXPECT_GE(h.WaitCounter("analyze", "resend_requests", 1, 10), 1) << h.Logs();
+  // AND the resent originals complete the run with nothing damaged in it.
+  acq.Send(batches[4]);
+  acq.Send(batches[7]);
+  acq.Announce(imuqual::run_t::STATE_COMPLETE, kBatches - 1, kBatches * kSamples);
+  for (int i = 0; i < 3; ++i) {
+    h.Pump(300);
+    acq.Announce(imuqual::run_t::STATE_COMPLETE, kBatches - 1, kBatches * kSamples);
+  }
+  ASSERT_TRUE(h.WaitRunsDone(1, 60)) << h.Logs();
+  auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok());
+  auto runs = (*a)->db().QueryInt("SELECT COUNT(*) FROM runs");
+  EXPECT_EQ(*runs, 1);  // no run made up from the damaged id
+  const int64_t key = **(*a)->FindRunKey("DMGRUN-1");
+  int64_t chunks = 0;
+  ASSERT_TRUE((*a)->ForEachChunk(key,
+                                 [&](const store::ChunkRecord& c) {
+                                   ++chunks;
+                                   auto d = store::DecodeChunk(c.data, c.codec);
+                                   EXPECT_TRUE(d.ok());
+                                   if (d.ok() && c.seq == 4) {
+                                     EXPECT_EQ(d->at(0, 7), batches[4].samples[0][7]);
+                                   }
+                                   return Status::Ok();
+                                 })
+                  .ok());
+  EXPECT_EQ(chunks, kBatches);
+  EXPECT_TRUE((*a)->LoadGaps(key)->empty());
+  auto gap = (*a)->db().Prepare("SELECT gap_samples FROM runs WHERE run_key = ?");
+  gap->Bind(1, key);
+  ASSERT_TRUE(*gap->Step());
+  EXPECT_EQ(gap->Int(0), 0);  // analysed whole: the resent batches, not holes
   EXPECT_EQ(analyze.Stop(15), 0);
   EXPECT_EQ(store.Stop(15), 0);
 }

@@ -1,8 +1,8 @@
 #include "analyze/service/analyze_service.h"
 
 #include <atomic>
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <optional>
 #include <random>
@@ -15,10 +15,11 @@
 #include "common/listening_clock.h"
 #include "common/text_util.h"
 #include "common/ack.h"
+#include "common/batch_integrity.h"
 #include "common/bounded_queue.h"
-#include "common/last_heard.h"
 #include "common/channels.h"
 #include "common/clock.h"
+#include "common/last_heard.h"
 #include "common/lcm_bus.h"
 #include "common/log.h"
 #include "common/process_status.h"
@@ -121,8 +122,10 @@ struct AnalyzeService::Impl {
   std::atomic<int64_t> batches_received{0}, out_of_shard{0};
   int64_t batches_processed = 0, duplicates = 0, absurd = 0, rejected = 0, resend_requests = 0,
           batches_given_up = 0, runs_finished = 0, late_after_finish = 0, foreign_messages = 0,
-          results_republished = 0, results_abandoned = 0, results_dropped_on_purpose = 0;
+          results_republished = 0, results_abandoned = 0, results_dropped_on_purpose = 0,
+          damaged = 0;
   std::set<std::string> foreign_ids;  // runs of other stations (worker thread)
+  ThrottledLog damage_log;
 
   explicit Impl(const AnalyzeOptions& o) : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
     tracker_options.give_up_after_s = o.hole_give_up_s;
@@ -236,6 +239,13 @@ void AnalyzeService::Impl::StartAnalyzer(RunEntry& e) {
 }
 
 void AnalyzeService::Impl::OnBatch(imuqual::rate_batch_t&& batch, double now) {
+  // Before any field is trusted: a damaged batch is dropped; its seq stays a
+  // hole that the tracker asks to be resent.
+  if (Status st = VerifyBatch(batch); !st.ok()) {
+    ++damaged;
+    damage_log.Warning(st.message() + "; dropped, to be resent");
+    return;
+  }
   if (foreign_ids.count(batch.run_id)) {
     ++foreign_messages;
     return;
@@ -526,6 +536,7 @@ Counters AnalyzeService::Impl::StatusCounters() {
           {"runs_finished", runs_finished},
           {"batches_received", batches_received.load()},
           {"batches_processed", batches_processed},
+          {"batches_damaged", damaged},
           {"batches_held", held},
           {"duplicates", duplicates},
           {"absurd_seq", absurd},

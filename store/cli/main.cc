@@ -12,6 +12,7 @@
 #include "store/cli/reanalyze_command.h"
 #include "store/cli/report.h"
 #include "store/cli/station_config.h"
+#include "store/cli/verify_command.h"
 
 int main(int argc, char** argv) {
   using namespace imuqual;
@@ -167,13 +168,20 @@ int main(int argc, char** argv) {
   reanalyze_cmd->add_option("--db", re.db_path, "archive file")->required();
   reanalyze_cmd->add_flag("--exact", re.exact,
                           "exact batch estimators over every archived sample (any grid, stop, CI)");
-  reanalyze_cmd->add_flag("--check", re.check, "live mode: verify it equals the archived result");
+  reanalyze_cmd->add_flag(
+      "--check", re.check,
+      "live mode: verify the run's checksums and that it equals the archived result");
   reanalyze_cmd->add_option("--dev", re.devs, "--exact: estimators")->capture_default_str();
   reanalyze_cmd->add_option("--grid", re.grid, "--exact: tau grid")->capture_default_str();
   reanalyze_cmd->add_option("--stop", re.stop, "--exact: bins9, stable32 or none")
       ->capture_default_str();
   reanalyze_cmd->add_option("--ci", re.ci, "--exact: none, simple or chi2")->capture_default_str();
   reanalyze_cmd->add_option("--format", re.format, "table, csv or json")->capture_default_str();
+
+  std::string verify_db;
+  CLI::App* verify_cmd = app.add_subcommand(
+      "verify", "check an archive for damage: SQLite's integrity check and every stored checksum");
+  verify_cmd->add_option("--db", verify_db, "archive file")->required();
 
   cli::PlotOptions plot;
   CLI::App* plot_cmd = app.add_subcommand("plot",
@@ -199,6 +207,7 @@ int main(int argc, char** argv) {
   if (plot_cmd->parsed()) return cli::PlotCommand(plot);
   if (report_cmd->parsed()) return cli::ReportCommand(report);
   if (reanalyze_cmd->parsed()) return cli::ReanalyzeCommand(re);
+  if (verify_cmd->parsed()) return cli::VerifyCommand(verify_db);
   if (analyze_cmd->parsed()) return cli::AnalyzeFileCommand(an);
 
   auto fmt = cli::ParseFormat(format);

@@ -8,6 +8,7 @@
 #include "analyze/judge/judge.h"
 #include "common/log.h"
 #include "store/archive.h"
+#include "store/checksums.h"
 #include "store/cli/curve_request.h"
 #include "store/reanalysis.h"
 
@@ -49,7 +50,27 @@ int Exact(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
   return 0;
 }
 
+// The run's stored checksums: one line per damaged chunk or result.
+int CheckRunChecksums(store::Archive& archive, const std::string& run_id) {
+  auto key = archive.FindRunKey(run_id);
+  if (!key.ok() || !key->has_value()) return 0;  // re-analysis says the run is not there
+  auto problems = store::CheckChecksums(
+      archive.db(), **key, [](const std::string& line) { std::printf("%s\n", line.c_str()); });
+  if (!problems.ok()) {
+    LogError(problems.status().message());
+    return 1;
+  }
+  if (*problems > 0) {
+    LogError("run " + run_id + ": " + std::to_string(*problems) +
+             " archived chunks or results do not match their checksums");
+    return 1;
+  }
+  return 0;
+}
+
 int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
+  // Damage at rest is reported, and so is what the re-analysis finds.
+  const bool checksums_ok = !o.check || CheckRunChecksums(archive, o.run_id) == 0;
   auto outcome = store::ReanalyzeRun(archive, o.run_id);
   if (!outcome.ok()) {
     LogError(outcome.status().message());
@@ -111,6 +132,7 @@ int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
     LogError("run " + o.run_id + " fails the check: " + what);
     return 1;
   }
+  if (!checksums_ok) return 1;
   std::fprintf(stderr, "re-analysis equals the archived result bit for bit\n");
   return 0;
 }

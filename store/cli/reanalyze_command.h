@@ -1,6 +1,8 @@
 // `imuqual reanalyze RUN`: the analysis of an archived run again.
 //  - by default, the live analysis (streaming engine, the run's plan) over the
-//    archived samples: the archived result bit for bit (--check says so);
+//    archived samples: the archived result bit for bit (--check says so,
+//    after checking the run's stored checksums: a damaged chunk or result
+//    is named and fails the check);
 //  - with --exact, the exact batch estimators on any grid, stop rule and
 //    confidence interval, over every archived sample (no warm-up skipped;
 //    missing and flagged samples are gaps): what `imuqual analyze` gives for
@@ -16,7 +18,7 @@ struct ReanalyzeOptions {
   std::string db_path;
   std::string run_id;
   bool exact = false;
-  bool check = false;              // live mode: compare with the archived curves
+  bool check = false;              // live mode: checksums, then compare with the archived curves
   std::string devs = "oadev";      // --exact: estimators, grid, stop rule, CI
   std::string grid = "octave";
   std::string stop = "bins9";
