@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -170,6 +171,54 @@ TEST(FaultTest, LostResultsArePublishedAgainUntilArchived) {
   EXPECT_EQ(check.exit_code, 1) << check.output;
   EXPECT_NE(check.output.find("axis y: no archived curve"), std::string::npos) << check.output;
   EXPECT_NE(check.output.find("no judgement archived"), std::string::npos) << check.output;
+}
+
+// Datagram loss in the kernel, for every message alike (batches, heartbeats,
+// acks, resend requests, curves, results): an nftables rule in this test's
+// private network namespace drops 10 %, then 30 %, of the UDP datagrams sent.
+// A whole station (`imuqual run`, 4 units) still ends with every sample,
+// every curve and every verdict archived, no gap, and exit 0.
+TEST(FaultTest, DatagramLossInTheKernelLosesNothing) {
+  const char* netns = std::getenv("IMUQUAL_NETNS");
+  ASSERT_TRUE(netns != nullptr && std::string(netns) == "1")
+      << "this test rewrites the network's filter rules: it runs only in a private network "
+         "namespace (tests/netns_run)";
+  for (int percent : {10, 30}) {
+    SCOPED_TRACE(std::to_string(percent) + " % loss");
+    testing::TempDir dir("kernel_loss");
+    const std::string db = dir.path("loss.db");
+    const std::string rule = "nft add table inet imuqual_loss && nft add chain inet imuqual_loss out "
+                             "'{ type filter hook output priority 0; }' && nft add rule inet "
+                             "imuqual_loss out meta l4proto udp numgen random mod 100 '<' " +
+                             std::to_string(percent) + " drop";
+    const auto added = RunCommand(rule + " 2>&1");
+    ASSERT_EQ(added.exit_code, 0) << "nftables: " << added.output;
+    const auto run = RunCommand(Bin("imuqual") + " run --sim 4 --profile vg700 --duration 900 "
+                                "--lot LOSS --quiet --db " + db + " 2>&1");
+    (void)RunCommand("nft delete table inet imuqual_loss");
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const auto runs = CheckArchive(db);
+    ASSERT_EQ(runs.size(), 4u);
+    auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
+    ASSERT_TRUE(a.ok());
+    for (const auto& [id, c] : runs) {
+      EXPECT_EQ(c.state, "complete") << id;
+      EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
+      EXPECT_EQ(c.gap_ranges, 0) << id;
+      EXPECT_NE(c.verdict, "") << id;
+      auto curves = (*a)->LoadCurves(**(*a)->FindRunKey(id));
+      ASSERT_TRUE(curves.ok());
+      EXPECT_EQ(curves->size(), 3u) << id;
+      EXPECT_EQ(*(*a)->db().QueryInt(
+                    "SELECT samples_archived = (SELECT samples_announced FROM runs WHERE run_id = '" +
+                    id + "') FROM run_archive WHERE run_id = '" + id + "'"),
+                1)
+          << id << ": samples archived differ from those announced";
+      const auto check = RunCommand(Bin("imuqual") + " reanalyze " + id + " --check --db " + db +
+                                    " > /dev/null 2>&1");
+      EXPECT_EQ(check.exit_code, 0) << id;
+    }
+  }
 }
 
 TEST(FaultTest, StoreKilledMidRunRestartsWithoutLosingABatch) {
