@@ -82,6 +82,21 @@ std::string Hex(uint32_t v) {
 // The stored 32-bit checksum of an INTEGER column.
 uint32_t Stored(const Stmt& s, int col) { return static_cast<uint32_t>(s.Int(col)); }
 
+// A chunk from a row whose columns 1..8 are seq, first_sample, num_samples,
+// host_utime, temperature_c, codec, data, sample_utime (column 0: its run).
+ChunkRecord ChunkFromRow(Stmt& row) {
+  ChunkRecord c;
+  c.seq = row.Int(1);
+  c.first_sample = row.Int(2);
+  c.num_samples = row.Int(3);
+  c.host_utime = row.Int(4);
+  if (!row.IsNull(5)) c.temperature_c = row.Real(5);
+  c.codec = static_cast<int>(row.Int(6));
+  c.data = row.Blob(7);
+  c.sample_utime = row.Int(8);
+  return c;
+}
+
 }  // namespace
 
 uint32_t ChunkChecksum(const ChunkRecord& c) {
@@ -140,15 +155,7 @@ Status ComputeMissingChecksums(Db& db) {
     auto row = chunks->Step();
     if (!row.ok()) return row.status();
     if (!*row) break;
-    ChunkRecord c;
-    c.seq = chunks->Int(1);
-    c.first_sample = chunks->Int(2);
-    c.num_samples = chunks->Int(3);
-    c.host_utime = chunks->Int(4);
-    if (!chunks->IsNull(5)) c.temperature_c = chunks->Real(5);
-    c.codec = static_cast<int>(chunks->Int(6));
-    c.data = chunks->Blob(7);
-    c.sample_utime = chunks->Int(8);
+    const ChunkRecord c = ChunkFromRow(*chunks);
     IMUQUAL_RETURN_IF_ERROR(set_chunk->Bind(1, static_cast<int64_t>(ChunkChecksum(c)))
                                 .Bind(2, chunks->Int(0))
                                 .Bind(3, c.seq)
@@ -181,15 +188,7 @@ Result<int64_t> CheckChecksums(Db& db, int64_t run_key,
     auto row = chunks->Step();
     if (!row.ok()) return row.status();
     if (!*row) break;
-    ChunkRecord c;
-    c.seq = chunks->Int(1);
-    c.first_sample = chunks->Int(2);
-    c.num_samples = chunks->Int(3);
-    c.host_utime = chunks->Int(4);
-    if (!chunks->IsNull(5)) c.temperature_c = chunks->Real(5);
-    c.codec = static_cast<int>(chunks->Int(6));
-    c.data = chunks->Blob(7);
-    c.sample_utime = chunks->Int(8);
+    const ChunkRecord c = ChunkFromRow(*chunks);
     const std::string where = "run " + chunks->Text(0) + " chunk seq " + std::to_string(c.seq);
     if (chunks->IsNull(9)) {
       ++problems;
