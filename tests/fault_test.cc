@@ -5,11 +5,15 @@
 // an undisturbed run's; nothing left hanging.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/mount.h>
 
 #include <dirent.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <cstring>
+#include <cerrno>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -219,6 +223,60 @@ TEST(FaultTest, DatagramLossInTheKernelLosesNothing) {
       EXPECT_EQ(check.exit_code, 0) << id;
     }
   }
+}
+
+// A disk that fills during a soak and is freed later than every give-up
+// timer (the harness's store gives holes up after 5 s): the store holds what
+// it cannot write, acknowledges nothing it has not archived, and once there
+// is room writes it all; acquire keeps what was not acknowledged. Nothing is
+// lost and no gap is recorded. (A disk never freed: bad_input_test.)
+TEST(FaultTest, ADiskFullForLongerThanEveryTimerAndFreedLosesNothing) {
+  const char* netns = std::getenv("IMUQUAL_NETNS");
+  ASSERT_TRUE(netns != nullptr && std::string(netns) == "1")
+      << "this test mounts a small filesystem: it runs only in the private mount namespace of "
+         "tests/netns_run";
+  StationHarness h("fault_disk");
+  const std::string disk = h.path("disk");
+  std::filesystem::create_directories(disk);
+  ASSERT_EQ(::mount("tmpfs", disk.c_str(), "tmpfs", 0, "size=48m"), 0) << std::strerror(errno);
+  struct Unmount {
+    std::string dir;
+    ~Unmount() { ::umount2(dir.c_str(), MNT_DETACH); }
+  } unmount{disk};
+  const std::string db = disk + "/archive.db";
+  Subprocess store = h.StartStore({"--db", db});
+  Subprocess analyze = h.StartAnalyze();
+  Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FDISK", 2, 1500, 100, "DISK"));
+  // GIVEN a soak under way with data committed
+  ASSERT_TRUE(WaitArchived(h, 50, 30)) << h.Logs();
+  // WHEN the disk fills up
+  const std::string filler = disk + "/filler";
+  {
+    std::ofstream out(filler, std::ios::binary);
+    const std::string block(1 << 16, 'x');
+    while (out.write(block.data(), static_cast<std::streamsize>(block.size()))) {
+    }
+  }
+  const int64_t failures_before = h.Counter("store", "commit_failures");
+  // ... for longer than the store's give-up time
+  const double until = MonotonicSeconds() + 8;
+  while (MonotonicSeconds() < until) h.Pump(100);
+  EXPECT_GT(h.Counter("store", "commit_failures"), failures_before) << "the disk never filled";
+  // ... and is then freed
+  std::filesystem::remove(filler);
+  // THEN every run ends complete: every batch archived, no gap, judged.
+  ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
+  EXPECT_EQ(acquire.Wait(60).value_or(-1), 0);
+  const auto runs = CheckArchive(db);
+  ASSERT_EQ(runs.size(), 2u);
+  for (const auto& [id, c] : runs) {
+    EXPECT_EQ(c.state, "complete") << id;
+    EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
+    EXPECT_EQ(c.gap_ranges, 0) << id;
+    EXPECT_NE(c.verdict, "") << id;
+    ExpectResultEqualsReanalysis(db, id);
+  }
+  EXPECT_EQ(h.Counter("store", "unwritten_dropped"), 0);
 }
 
 TEST(FaultTest, StoreKilledMidRunRestartsWithoutLosingABatch) {
