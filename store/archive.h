@@ -144,7 +144,9 @@ class Archive {
   Result<int64_t> NextMissingSeq(int64_t run_key);
   // Seqs archived at or above `from_seq`, ascending.
   Result<std::vector<int64_t>> ArchivedSeqsFrom(int64_t run_key, int64_t from_seq);
-  // Every chunk with first_seq <= seq <= last_seq, in seq order.
+  // Every chunk with first_seq <= seq <= last_seq, in seq order. Corruption
+  // (naming the seq) at the first chunk that does not match its stored
+  // checksum: damage at rest is neither resent nor analysed.
   Status ForEachChunk(int64_t run_key, const std::function<Status(const ChunkRecord&)>& fn,
                       int64_t first_seq = 0, int64_t last_seq = INT64_MAX);
   // Runs not yet finalized (a store that stopped mid-run resumes them).

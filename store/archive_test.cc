@@ -339,6 +339,16 @@ TEST_F(ArchiveTest, ChecksumsFindChunksAndResultsAlteredAtRest) {
   EXPECT_EQ(lines[0].rfind("run R1 chunk seq 1: damaged", 0), 0u) << lines[0];
   EXPECT_EQ(lines[1].rfind("run R1 chunk seq 2: damaged", 0), 0u) << lines[1];
   EXPECT_EQ(lines[2].rfind("run R1 results: damaged", 0), 0u) << lines[2];
+  // Reading the chunks back (a resend from the archive, a re-analysis) stops
+  // at the first damaged one instead of serving it.
+  std::vector<int64_t> served;
+  const Status read = (*a)->ForEachChunk(key, [&](const ChunkRecord& c) {
+    served.push_back(c.seq);
+    return Status::Ok();
+  });
+  EXPECT_EQ(read.code(), Status::Code::kCorruption) << read.ToString();
+  EXPECT_NE(read.message().find("chunk seq 1"), std::string::npos) << read.message();
+  EXPECT_EQ(served, std::vector<int64_t>{0});
 }
 
 TEST_F(ArchiveTest, MigrationFromVersion2ComputesTheChecksums) {
