@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <map>
 #include <filesystem>
 #include <cstring>
 #include <cerrno>
@@ -93,6 +94,36 @@ void ExpectResultEqualsReanalysis(const std::string& db, const std::string& run_
   }
 }
 
+// Every run whole: complete, every batch archived, no gap, judged.
+void ExpectEveryRunWhole(const std::map<std::string, RunCheck>& runs) {
+  for (const auto& [id, c] : runs) {
+    EXPECT_EQ(c.state, "complete") << id << ": " << c.reasons;
+    EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
+    EXPECT_EQ(c.gap_ranges, 0) << id;
+    EXPECT_NE(c.verdict, "") << id << " has no verdict";
+  }
+}
+
+// Two runs of the same seeded unit have the same curves, bit for bit, on
+// each of the `axes` axes.
+void ExpectSameCurves(store::Archive& a, const std::string& run_a, const std::string& run_b,
+                      size_t axes) {
+  auto x_curves = a.LoadCurves(**a.FindRunKey(run_a));
+  auto y_curves = a.LoadCurves(**a.FindRunKey(run_b));
+  ASSERT_TRUE(x_curves.ok() && y_curves.ok());
+  ASSERT_EQ(x_curves->size(), axes) << run_a;
+  ASSERT_EQ(y_curves->size(), axes) << run_b;
+  for (size_t i = 0; i < axes; ++i) {
+    const auto& x = (*x_curves)[i].curve.points;
+    const auto& y = (*y_curves)[i].curve.points;
+    ASSERT_EQ(x.size(), y.size()) << run_b;
+    for (size_t p = 0; p < x.size(); ++p) {
+      EXPECT_EQ(x[p].dev, y[p].dev) << run_b << " m=" << x[p].m;
+      EXPECT_EQ(x[p].n, y[p].n) << run_b << " m=" << x[p].m;
+    }
+  }
+}
+
 TEST(FaultTest, InjectedDropsAreRepairedToZeroGaps) {
   // The acceptance line, through the CLI.
   testing::TempDir dir("fault_drop");
@@ -145,9 +176,8 @@ TEST(FaultTest, LostResultsArePublishedAgainUntilArchived) {
   ASSERT_TRUE(a.ok());
   const auto runs = CheckArchive(h.db());
   ASSERT_EQ(runs.size(), 4u);
+  ExpectEveryRunWhole(runs);
   for (const auto& [id, c] : runs) {
-    EXPECT_EQ(c.state, "complete") << id;
-    EXPECT_NE(c.verdict, "") << id << " has no verdict";
     auto curves = (*a)->LoadCurves(**(*a)->FindRunKey(id));
     ASSERT_TRUE(curves.ok());
     EXPECT_EQ(curves->size(), 3u) << id << " lacks a curve";
@@ -205,11 +235,8 @@ TEST(FaultTest, DatagramLossInTheKernelLosesNothing) {
     ASSERT_EQ(runs.size(), 4u);
     auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
     ASSERT_TRUE(a.ok());
+    ExpectEveryRunWhole(runs);
     for (const auto& [id, c] : runs) {
-      EXPECT_EQ(c.state, "complete") << id;
-      EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
-      EXPECT_EQ(c.gap_ranges, 0) << id;
-      EXPECT_NE(c.verdict, "") << id;
       auto curves = (*a)->LoadCurves(**(*a)->FindRunKey(id));
       ASSERT_TRUE(curves.ok());
       EXPECT_EQ(curves->size(), 3u) << id;
@@ -269,13 +296,8 @@ TEST(FaultTest, ADiskFullForLongerThanEveryTimerAndFreedLosesNothing) {
   EXPECT_EQ(acquire.Wait(60).value_or(-1), 0);
   const auto runs = CheckArchive(db);
   ASSERT_EQ(runs.size(), 2u);
-  for (const auto& [id, c] : runs) {
-    EXPECT_EQ(c.state, "complete") << id;
-    EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
-    EXPECT_EQ(c.gap_ranges, 0) << id;
-    EXPECT_NE(c.verdict, "") << id;
-    ExpectResultEqualsReanalysis(db, id);
-  }
+  ExpectEveryRunWhole(runs);
+  for (const auto& [id, c] : runs) ExpectResultEqualsReanalysis(db, id);
   EXPECT_EQ(h.Counter("store", "unwritten_dropped"), 0);
 }
 
@@ -296,14 +318,10 @@ TEST(FaultTest, StoreKilledMidRunRestartsWithoutLosingABatch) {
   // AND a restarted store catches up: every batch, no gap.
   Subprocess store2 = h.StartStore();
   ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
+  const auto runs = CheckArchive(h.db());
+  ExpectEveryRunWhole(runs);
   int64_t total = 0;
-  for (const auto& [id, c] : CheckArchive(h.db())) {
-    EXPECT_EQ(c.state, "complete") << id;
-    EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
-    EXPECT_EQ(c.gap_ranges, 0) << id;
-    EXPECT_NE(c.verdict, "") << id;
-    total += c.chunks;
-  }
+  for (const auto& [id, c] : runs) total += c.chunks;
   EXPECT_GE(total, committed);
   EXPECT_EQ(acquire.Wait(30), 0);
 }
@@ -328,20 +346,7 @@ TEST(FaultTest, AnalyzeKilledMidRunGivesTheUninterruptedResult) {
   auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
   ASSERT_TRUE(a.ok());
   for (const std::string unit : {"FAN-U01", "FAN-U02"}) {
-    auto clean_curves = (*a)->LoadCurves(**(*a)->FindRunKey("CLEAN-" + unit));
-    auto killed_curves = (*a)->LoadCurves(**(*a)->FindRunKey("KILLED-" + unit));
-    ASSERT_TRUE(clean_curves.ok() && killed_curves.ok());
-    ASSERT_EQ(clean_curves->size(), 3u);
-    ASSERT_EQ(killed_curves->size(), 3u);
-    for (size_t i = 0; i < 3; ++i) {
-      const auto& x = (*clean_curves)[i].curve.points;
-      const auto& y = (*killed_curves)[i].curve.points;
-      ASSERT_EQ(x.size(), y.size()) << unit;
-      for (size_t p = 0; p < x.size(); ++p) {
-        EXPECT_EQ(x[p].dev, y[p].dev) << unit << " m=" << x[p].m;  // bit for bit
-        EXPECT_EQ(x[p].n, y[p].n);
-      }
-    }
+    ExpectSameCurves(**a, "CLEAN-" + unit, "KILLED-" + unit, 3);
   }
   for (const auto& [id, c] : CheckArchive(h.db())) EXPECT_EQ(c.gap_ranges, 0) << id;
 }
@@ -373,13 +378,8 @@ TEST(FaultTest, StoreFrozenLongerThanItsTimersLosesNothing) {
   EXPECT_EQ(acquire.Wait(30), 0);
   const auto runs = CheckArchive(h.db());
   ASSERT_EQ(runs.size(), 2u);
-  for (const auto& [id, c] : runs) {
-    EXPECT_EQ(c.state, "complete") << id << ": " << c.reasons;
-    EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
-    EXPECT_EQ(c.gap_ranges, 0) << id;
-    EXPECT_NE(c.verdict, "") << id;
-    ExpectResultEqualsReanalysis(h.db(), id);
-  }
+  ExpectEveryRunWhole(runs);
+  for (const auto& [id, c] : runs) ExpectResultEqualsReanalysis(h.db(), id);
 }
 
 TEST(FaultTest, AnalyzeFrozenLongerThanItsTimersGivesTheUninterruptedResult) {
@@ -406,21 +406,9 @@ TEST(FaultTest, AnalyzeFrozenLongerThanItsTimersGivesTheUninterruptedResult) {
     EXPECT_EQ((*frozen_result)->verdict, (*clean_result)->verdict) << unit;
     EXPECT_EQ((*frozen_result)->reasons, (*clean_result)->reasons) << unit;
     EXPECT_EQ((*frozen_result)->samples, (*clean_result)->samples) << unit;
-    auto clean_curves = (*a)->LoadCurves(**(*a)->FindRunKey("CLEAN-" + unit));
-    auto frozen_curves = (*a)->LoadCurves(**(*a)->FindRunKey("FROZEN-" + unit));
-    ASSERT_TRUE(clean_curves.ok() && frozen_curves.ok());
-    ASSERT_EQ(frozen_curves->size(), clean_curves->size()) << unit;
-    for (size_t i = 0; i < clean_curves->size(); ++i) {
-      const auto& x = (*clean_curves)[i].curve.points;
-      const auto& y = (*frozen_curves)[i].curve.points;
-      ASSERT_EQ(x.size(), y.size()) << unit;
-      for (size_t p = 0; p < x.size(); ++p) EXPECT_EQ(x[p].dev, y[p].dev) << unit;  // bit for bit
-    }
+    ExpectSameCurves(**a, "CLEAN-" + unit, "FROZEN-" + unit, 3);
   }
-  for (const auto& [id, c] : CheckArchive(h.db())) {
-    EXPECT_EQ(c.state, "complete") << id << ": " << c.reasons;
-    EXPECT_EQ(c.gap_ranges, 0) << id;
-  }
+  ExpectEveryRunWhole(CheckArchive(h.db()));
 }
 
 TEST(FaultTest, AnalyzeRestartedAfterAcquireLeftCatchesUpFromTheArchive) {

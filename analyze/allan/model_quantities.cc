@@ -98,9 +98,10 @@ std::vector<ModelQuantity> DescribeCompositeFit(const CompositeFit& fit,
   auto add = [&](std::string name, bool figure, NoiseTerm analog, double value, double sigma,
                  std::string note = "", double bound = kNaN) {
     const UnitOf u = Unit(analog, kind);
-    if (note == "absent") note = AbsentNote(bound * u.factor, u.unit);
+    const bool absent = note == "absent";
+    if (absent) note = AbsentNote(bound * u.factor, u.unit);
     out.push_back({std::move(name), figure, value * u.factor, sigma * u.factor, u.unit,
-                   std::move(note), bound * u.factor});
+                   std::move(note), absent, bound * u.factor});
   };
   const bool accel = kind == SensorKind::kAccelerometer;
   const char* arw_name = accel ? "velocity_random_walk" : "angle_random_walk";

@@ -34,8 +34,9 @@ struct ModelQuantity {
   double sigma = kNaN;
   std::string unit;
   std::string note;
-  // A term the selected model leaves out: value 0, no sigma, and the 95 %
-  // upper bound the data allow (NaN if none could be stated).
+  // A term the selected model leaves out: `absent`, value 0, no sigma, and
+  // the 95 % upper bound the data allow (NaN if none could be stated).
+  bool absent = false;
   double upper_bound = kNaN;
 };
 

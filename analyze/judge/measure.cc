@@ -106,7 +106,8 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
   char head[160];
   std::snprintf(head, sizeof head, "model %s, J %.3g on %d dof, %s at the %g level",
                 fit->model.Name().c_str(), fit->objective, fit->dof,
-                fit->adequate ? "adequate" : "INADEQUATE", fit_options.adequacy_level);
+                fit->adequate ? "adequate" : kInadequateModelMark.data(),  // a literal: terminated
+                fit_options.adequacy_level);
   std::string model_note = head;
   for (size_t i = 1; i < fit->candidates.size() && i < 4; ++i) {
     const allan::ModelCandidate& c = fit->candidates[i];
@@ -136,10 +137,9 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
       if (n == name) q = quantity(from);
     }
     pb::Measurement m = Make(axis, name, allan::kNaN, kind);
-    const bool absent = q != nullptr && q->value == 0 && std::isnan(q->sigma);
-    if (q == nullptr || (absent && !std::isfinite(q->upper_bound))) {
+    if (q == nullptr || (q->absent && !std::isfinite(q->upper_bound))) {
       m.set_note(q == nullptr ? "not in the model's report" : q->note);
-    } else if (absent) {
+    } else if (q->absent) {
       // What the data allow of a term the model leaves out, judged as such.
       m.set_value(q->upper_bound);
       m.set_note("upper bound (95 %): the term is not in the selected model " + fit->model.Name());

@@ -1,5 +1,8 @@
 #include "analyze/judge/measurements.h"
 
+#include <cmath>
+#include <string>
+
 namespace imuqual::judge {
 
 const std::vector<MeasurementDef>& MeasurementCatalog() {
@@ -42,6 +45,11 @@ const std::vector<MeasurementDef>& MeasurementCatalog() {
 
 bool FromNoiseModel(std::string_view name) {
   return name.starts_with("fit_") || name == kNoiseModelPValue;
+}
+
+bool NoiseModelAdequate(const pb::Measurement& p_value) {
+  return std::isfinite(p_value.value()) &&
+         p_value.note().find(kInadequateModelMark) == std::string::npos;
 }
 
 const MeasurementDef* FindMeasurement(std::string_view name) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "imuqual/plan.pb.h"
+#include "imuqual/record.pb.h"
 
 namespace imuqual::judge {
 
@@ -41,6 +42,8 @@ inline constexpr std::string_view kFitBiasInstability = "fit_bias_instability";
 inline constexpr std::string_view kFitRateRandomWalk = "fit_rate_random_walk";
 inline constexpr std::string_view kFitRateRamp = "fit_rate_ramp";
 inline constexpr std::string_view kNoiseModelPValue = "noise_model_p_value";
+// The word a noise_model_p_value note carries when the model failed its J test.
+inline constexpr std::string_view kInadequateModelMark = "INADEQUATE";
 // Not catalogued (never limited, archived for plots and audits): every
 // parameter of the selected model as "model_<parameter>" (model_quantities.h
 // names), in datasheet units.
@@ -58,6 +61,9 @@ const std::vector<MeasurementDef>& MeasurementCatalog();
 // True for the measurements read off the noise model (fit_*,
 // noise_model_p_value): they exist only once the run has ended.
 bool FromNoiseModel(std::string_view name);
+// Whether an (archived) noise_model_p_value row says its model fits: a
+// p-value, and no kInadequateModelMark in its note.
+bool NoiseModelAdequate(const pb::Measurement& p_value);
 // nullptr if `name` is not catalogued.
 const MeasurementDef* FindMeasurement(std::string_view name);
 // The unit of `def` on an axis of `kind` ("" if not defined there). Run-level

@@ -72,7 +72,6 @@ struct RunEntry {
   // archived the run (ack_t run_done): a result lost on the bus is repaired
   // like a batch. Released on that confirmation or after kResultRetentionS.
   std::optional<RunOutcome> final_outcome;
-  bool store_confirmed = false;
   double next_republish_s = 0;
   double republish_period_s = 0;
 
@@ -403,9 +402,7 @@ void AnalyzeService::Impl::OnStoreAck(const imuqual::ack_t& ack, double now) {
   (void)now;
   if (!ack.run_done) return;
   auto it = runs.find(ack.run_id);
-  if (it == runs.end() || !it->second.finished || it->second.store_confirmed) return;
-  it->second.store_confirmed = true;
-  it->second.final_outcome.reset();
+  if (it != runs.end() && it->second.finished) it->second.final_outcome.reset();
 }
 
 // A finished run's final curves and result, published again while no store
@@ -413,7 +410,7 @@ void AnalyzeService::Impl::OnStoreAck(const imuqual::ack_t& ack, double now) {
 // the period doubling up to kMaxRepublishPeriodS.
 void AnalyzeService::Impl::RepublishUnconfirmed(const std::string& run_id, RunEntry& e,
                                                 double now) {
-  if (e.store_confirmed || !e.final_outcome || now < e.next_republish_s) return;
+  if (!e.final_outcome || now < e.next_republish_s) return;
   if (now - e.finished_s > kResultRetentionS) {
     LogWarning("run " + run_id + ": no store confirmed its result in " +
                std::to_string(static_cast<int>(kResultRetentionS)) +

@@ -146,7 +146,7 @@ Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunR
     // is tuned wrong: only adequate models are exported.
     for (const pb::Measurement& m : (*result)->measurements) {
       if (m.name() != judge::kNoiseModelPValue) continue;
-      if (!std::isfinite(m.value()) || m.note().find("INADEQUATE") != std::string::npos) {
+      if (!judge::NoiseModelAdequate(m)) {
         return Status::InvalidArgument("run " + r.run_id + " axis " + m.axis() +
                                        ": no adequate noise model for Kalibr (" + m.note() + ")");
       }

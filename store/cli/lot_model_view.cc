@@ -117,7 +117,7 @@ void AddLotModelRows(const std::string& lot, const std::vector<AxisLotModel>& mo
       row.push_back(Cell::Real(lm.fit.adequate ? x->sigma : allan::kNaN));
     }
     // K left out of the model: its upper bound, or nothing where none exists.
-    const bool k_absent = lm.fit.model.CountOf(allan::TermKind::kRandomWalk) == 0;
+    const bool k_absent = k->absent;
     const bool k_bound = k_absent && std::isfinite(k->upper_bound);
     row.push_back(Cell::Real(!lm.fit.adequate || (k_absent && !k_bound) ? allan::kNaN
                              : k_bound                                  ? k->upper_bound

@@ -134,7 +134,7 @@ std::optional<ArchivedModel> LoadArchivedModel(const AxisPlotData& a) {
   const Result<allan::CompositeModel> model = allan::ModelFromTerms(parameters, Sensor(a.kind));
   if (!model.ok() || model->terms.empty()) return std::nullopt;
   const pb::Measurement* p = FindMeasurementRow(a, judge::kNoiseModelPValue);
-  const bool adequate = p == nullptr || p->note().find("INADEQUATE") == std::string::npos;
+  const bool adequate = p == nullptr || judge::NoiseModelAdequate(*p);
   return ArchivedModel{*model, adequate};
 }
 

@@ -679,7 +679,7 @@ void LotModelSection(const std::vector<AxisLotModel>& models, std::string* out) 
     auto figure = [&](const std::string& name, const char* key) {
       for (const allan::ModelQuantity& x : q) {
         if (x.name != name) continue;
-        const bool absent = std::isnan(x.sigma) && x.value == 0;
+        const bool absent = x.absent;
         if (!lm.fit.adequate) return std::string("<td class=\"num\">&ndash;</td>");
         std::string cell = "<td class=\"num\"" + Attr("data-m", key) +
                            Attr("data-v", Exact(absent ? x.upper_bound : x.value)) + ">";
