@@ -549,7 +549,8 @@ Counters AcquireService::Impl::StatusCounters() const {
                   {"retained_bytes", retained_bytes},
                   {"publish_errors", publish_errors},
                   {"evicted_unacknowledged", evicted_unacknowledged},
-                  {"decode_errors", static_cast<int64_t>(bus->decode_errors())}};
+                  {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
+                  {"messages_damaged", static_cast<int64_t>(bus->damaged())}};
   for (const auto& [name, value] : sources) out.emplace_back(name, value);
   return out;
 }

@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "common/crc32c.h"
 #include "common/log.h"
 
 namespace imuqual {
@@ -70,8 +71,17 @@ void LcmBus::SubscribeRaw(const std::string& channel_regex, int queue_capacity,
   subscriptions_.push_back(std::move(sub));
 }
 
+uint32_t MessageSeal(const std::string& channel, const void* data, size_t size) {
+  return Crc32cExtend(Crc32c(channel.c_str(), channel.size() + 1), data, size);
+}
+
 Status LcmBus::PublishBytes(const std::string& channel, const std::vector<uint8_t>& bytes) {
-  if (lcm_->publish(channel, bytes.data(), static_cast<unsigned>(bytes.size())) != 0) {
+  std::vector<uint8_t> sealed;
+  sealed.reserve(bytes.size() + kSealBytes);
+  sealed.assign(bytes.begin(), bytes.end());
+  const uint32_t seal = MessageSeal(channel, bytes.data(), bytes.size());
+  for (int shift = 24; shift >= 0; shift -= 8) sealed.push_back(static_cast<uint8_t>(seal >> shift));
+  if (lcm_->publish(channel, sealed.data(), static_cast<unsigned>(sealed.size())) != 0) {
     ++publish_errors_;
     return Status::IoError("LCM publish failed on channel " + channel);
   }
@@ -86,6 +96,27 @@ void LcmBus::NoteDecodeError(const std::string& channel, const std::string& type
     LogWarning("rejected a message on " + channel + " (expected " + type_name + "): " + why +
                " (further rejections on this channel are counted, not logged)");
   }
+}
+
+bool LcmBus::Unseal(const lcm_recv_buf_t* rbuf, const char* channel) {
+  const char* why = nullptr;
+  if (rbuf->data_size < kSealBytes) {
+    why = "shorter than its seal";
+  } else {
+    const auto* bytes = static_cast<const uint8_t*>(rbuf->data);
+    const size_t size = rbuf->data_size - kSealBytes;
+    uint32_t sent = 0;
+    for (size_t i = 0; i < kSealBytes; ++i) sent = (sent << 8) | bytes[size + i];
+    if (sent == MessageSeal(channel, bytes, size)) return true;
+    why = "its CRC-32C seal does not match (damaged in flight, or not sealed by this station)";
+  }
+  ++damaged_;
+  std::lock_guard<std::mutex> lock(warned_mu_);
+  if (damaged_channels_.insert(channel).second) {
+    LogWarning(std::string("dropped a damaged message on ") + channel + ": " + why +
+               " (further damaged messages on this channel are counted, not logged)");
+  }
+  return false;
 }
 
 void LcmBus::NoteHandlerError(const std::string& channel, const std::string& what) {

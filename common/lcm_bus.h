@@ -1,7 +1,11 @@
 // LcmBus: one LCM instance with typed, checked publish/subscribe (after
-// Drake's DrakeLcm). A message is handed to a handler only if it decodes
+// Drake's DrakeLcm). Every message on the wire is sealed: its LCM encoding
+// followed by 4 bytes, the CRC-32C (big-endian) of the channel name, a zero
+// byte and the encoding. A message is handed to a handler only if its seal
+// holds (else it is counted as damaged, e.g. a bit flipped in flight: a lost
+// message to the protocol, which repairs it like any other) and it decodes
 // completely as the subscribed type: right fingerprint and every byte
-// accounted for. Anything else is counted as a decode error and logged once
+// accounted for (else a decode error). Each kind of rejection is logged once
 // per channel. No exception escapes an LCM handler: a handler that throws is
 // counted as a handler error.
 //
@@ -65,7 +69,8 @@ class LcmBus {
   template <typename T>
   Status Publish(const std::string& channel, const T& msg);
 
-  // Publishes an already encoded message (e.g. a retained batch resent).
+  // Publishes an already encoded message (e.g. a retained batch resent); the
+  // seal is added here.
   Status PublishEncoded(const std::string& channel, const std::vector<uint8_t>& bytes) {
     return PublishBytes(channel, bytes);
   }
@@ -76,6 +81,8 @@ class LcmBus {
 
   const std::string& url() const { return url_; }
   uint64_t decode_errors() const { return decode_errors_; }
+  // Messages whose seal did not hold (damaged in flight), dropped.
+  uint64_t damaged() const { return damaged_; }
   uint64_t handler_errors() const { return handler_errors_; }
   uint64_t received() const { return received_; }
   uint64_t publish_errors() const { return publish_errors_; }
@@ -93,6 +100,8 @@ class LcmBus {
 
   explicit LcmBus(std::string url);
   void NoteDecodeError(const std::string& channel, const std::string& type_name, const char* why);
+  // True if the sealed message `rbuf` holds is intact; counts and logs it if not.
+  bool Unseal(const lcm_recv_buf_t* rbuf, const char* channel);
   void NoteHandlerError(const std::string& channel, const std::string& what);
   Status PublishBytes(const std::string& channel, const std::vector<uint8_t>& bytes);
 
@@ -100,12 +109,20 @@ class LcmBus {
   std::unique_ptr<lcm::LCM> lcm_;
   std::vector<std::unique_ptr<RawSubscription>> subscriptions_;
   std::atomic<uint64_t> decode_errors_{0};
+  std::atomic<uint64_t> damaged_{0};
   std::atomic<uint64_t> handler_errors_{0};
   std::atomic<uint64_t> received_{0};
   std::atomic<uint64_t> publish_errors_{0};
   std::mutex warned_mu_;
   std::set<std::string> warned_channels_;
+  std::set<std::string> damaged_channels_;
 };
+
+// Bytes of the seal that follows every message's encoding on the wire.
+inline constexpr uint32_t kSealBytes = 4;
+
+// The seal of a message: CRC-32C of `channel`, a zero byte and the encoding.
+uint32_t MessageSeal(const std::string& channel, const void* data, size_t size);
 
 // Decodes `size` bytes as T: the fingerprint must match and the message must
 // use every byte. Lying length fields fail (never crash). Used by the bus
@@ -135,8 +152,9 @@ void LcmBus::Subscribe(const std::string& channel_regex, int queue_capacity,
                                                                              const char* channel) {
     ++received_;
     if (accept && !accept(channel)) return;
+    if (!Unseal(rbuf, channel)) return;
     T msg;
-    Status st = DecodeExactly(rbuf->data, static_cast<int>(rbuf->data_size), &msg);
+    Status st = DecodeExactly(rbuf->data, static_cast<int>(rbuf->data_size - kSealBytes), &msg);
     if (!st.ok()) {
       NoteDecodeError(channel, std::string(T::getTypeName()), st.message().c_str());
       return;

@@ -886,6 +886,7 @@ Counters StoreService::Impl::StatusCounters() const {
           {"queue_high_water", static_cast<int64_t>(queue.high_water())},
           {"queue_dropped", static_cast<int64_t>(queue.dropped())},
           {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
+          {"messages_damaged", static_cast<int64_t>(bus->damaged())},
           {"values_archived", values_archived},
           {"cpu_ms", std::llround(ProcessCpuSeconds() * 1e3)},
           {"latency_batches", sample_to_archive.count()},

@@ -545,6 +545,7 @@ Counters AnalyzeService::Impl::StatusCounters() {
           {"queue_high_water", static_cast<int64_t>(queue.high_water())},
           {"queue_dropped", static_cast<int64_t>(queue.dropped())},
           {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
+          {"messages_damaged", static_cast<int64_t>(bus->damaged())},
           {"out_of_shard", out_of_shard.load()},
           {"foreign_runs", static_cast<int64_t>(foreign_ids.size())},
           {"results_republished", results_republished},
