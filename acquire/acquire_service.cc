@@ -302,6 +302,7 @@ void AcquireService::Impl::Announce(RunState& run, int times) {
   run.announcement.first_sample = run.first_counter;
   run.announcement.end_sample = run.end_counter;
   run.announcement.announcer = "acquire";
+  run.announcement.revision = 0;  // the store keeps the judgement rounds
   run.announcement.retained_first_seq =
       run.retained.empty() ? run.next_seq : run.retained.first_seq();
   for (int i = 0; i < times; ++i) {

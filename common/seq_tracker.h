@@ -73,6 +73,8 @@ class SeqTracker {
   bool complete() const { return final_ && next_seq_ > announced_last_; }
   // Seqs received beyond the frontier (held out of order).
   size_t ahead() const { return ahead_.size(); }
+  // The highest seq received or handled (-1 before any).
+  int64_t highest() const { return ahead_.empty() ? next_seq_ - 1 : *ahead_.rbegin(); }
 
  private:
   struct HoleState {

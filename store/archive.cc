@@ -300,7 +300,8 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
   for (const std::string& reason : r.reasons) reasons += (reasons.empty() ? "" : "\n") + reason;
   auto up = db_->Prepare(
       "UPDATE runs SET verdict = ?, reasons = ?, samples = ?, gap_samples = ?, "
-      "invalid_samples = ?, record = ?, result_utime = ? WHERE run_key = ?");
+      "invalid_samples = ?, record = ?, result_utime = ?, result_last_seq = ?, "
+      "result_gap_batches = ? WHERE run_key = ?");
   if (!up.ok()) return up.status();
   if (r.verdict.empty()) {
     up->BindNull(1);
@@ -314,7 +315,9 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
           .Bind(5, r.invalid_samples)
           .BindBlob(6, {reinterpret_cast<const uint8_t*>(r.record.data()), r.record.size()})
           .Bind(7, r.result_utime)
-          .Bind(8, run_key)
+          .Bind(8, r.last_seq)
+          .Bind(9, r.gap_batches)
+          .Bind(10, run_key)
           .Run());
   // Each axis its own count: one per axis of the run, else none is known.
   auto count = db_->Prepare("SELECT COUNT(*) FROM run_axes WHERE run_key = ?");
@@ -345,6 +348,36 @@ Status Archive::MarkFinalized(int64_t run_key, int64_t utime) {
   return up->Bind(1, utime).Bind(2, run_key).Run();
 }
 
+Result<int> Archive::SupersedeJudgement(int64_t run_key, int64_t utime, const std::string& cause) {
+  auto keep = db_->Prepare(
+      "INSERT OR REPLACE INTO superseded_judgements(run_key, revision, verdict, reasons, samples, "
+      "gap_samples, record, result_utime, superseded_utime, cause) SELECT run_key, revision, "
+      "verdict, reasons, samples, gap_samples, record, result_utime, ?, ? FROM runs "
+      "WHERE run_key = ? AND result_utime IS NOT NULL");
+  if (!keep.ok()) return keep.status();
+  IMUQUAL_RETURN_IF_ERROR(keep->Bind(1, utime).Bind(2, cause).Bind(3, run_key).Run());
+  for (const char* sql :
+       {"DELETE FROM measurements WHERE run_key = ?", "DELETE FROM curve_points WHERE run_key = ?",
+        "DELETE FROM curves WHERE run_key = ?",
+        "UPDATE run_axes SET invalid_samples = NULL WHERE run_key = ?",
+        "UPDATE runs SET verdict = NULL, reasons = NULL, samples = NULL, gap_samples = NULL, "
+        "invalid_samples = NULL, record = NULL, result_utime = NULL, result_last_seq = NULL, "
+        "result_gap_batches = NULL, finalized_utime = NULL, revision = revision + 1 "
+        "WHERE run_key = ?"}) {
+    auto s = db_->Prepare(sql);
+    if (!s.ok()) return s.status();
+    IMUQUAL_RETURN_IF_ERROR(s->Bind(1, run_key).Run());
+  }
+  IMUQUAL_RETURN_IF_ERROR(SealResults(*db_, run_key));
+  auto revision = db_->Prepare("SELECT revision FROM runs WHERE run_key = ?");
+  if (!revision.ok()) return revision.status();
+  revision->Bind(1, run_key);
+  auto row = revision->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) return Status::NotFound("no run with key " + std::to_string(run_key));
+  return static_cast<int>(revision->Int(0));
+}
+
 Result<std::vector<std::string>> Archive::UnfinishedRunIds() {
   auto s = db_->Prepare("SELECT run_id FROM runs WHERE finalized_utime IS NULL ORDER BY run_key");
   if (!s.ok()) return s.status();
@@ -360,8 +393,8 @@ Result<std::vector<std::string>> Archive::UnfinishedRunIds() {
 Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
   auto r = db_->Prepare(
       "SELECT COALESCE(verdict, ''), COALESCE(reasons, ''), samples, gap_samples, "
-      "invalid_samples, result_utime, record FROM runs WHERE run_key = ? AND result_utime IS NOT "
-      "NULL");
+      "invalid_samples, result_utime, record, revision, result_last_seq, result_gap_batches "
+      "FROM runs WHERE run_key = ? AND result_utime IS NOT NULL");
   if (!r.ok()) return r.status();
   r->Bind(1, run_key);
   auto row = r->Step();
@@ -382,6 +415,9 @@ Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
   res.result_utime = r->Int(5);
   const std::vector<uint8_t> record = r->Blob(6);
   res.record.assign(record.begin(), record.end());
+  res.revision = static_cast<int>(r->Int(7));
+  if (!r->IsNull(8)) res.last_seq = r->Int(8);
+  if (!r->IsNull(9)) res.gap_batches = r->Int(9);
   auto ax =
       db_->Prepare("SELECT invalid_samples FROM run_axes WHERE run_key = ? ORDER BY axis_index");
   if (!ax.ok()) return ax.status();
@@ -452,7 +488,8 @@ Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
   auto s = db_->Prepare(
       "SELECT run_key, serial, lot, station, slot, operator, source, software_version, "
       "start_utime, end_utime, state, nominal_rate_hz, last_seq, samples_announced, plan, "
-      "plan_sha256, truth, first_sample, end_sample, end_reason FROM runs WHERE run_id = ?");
+      "plan_sha256, truth, first_sample, end_sample, end_reason, revision FROM runs "
+      "WHERE run_id = ?");
   if (!s.ok()) return s.status();
   s->Bind(1, run_id);
   auto row = s->Step();
@@ -482,6 +519,7 @@ Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
   r.first_sample = s->Int(17);
   r.end_sample = s->Int(18);
   r.end_reason = s->Text(19);
+  r.revision = static_cast<int>(s->Int(20));
   auto ax = db_->Prepare("SELECT axis, kind FROM run_axes WHERE run_key = ? ORDER BY axis_index");
   if (!ax.ok()) return ax.status();
   ax->Bind(1, key);

@@ -50,6 +50,9 @@ struct RunInfo {
   int64_t end_sample = -1;
   std::optional<int64_t> end_utime;
   std::string end_reason;     // why an aborted or incomplete run ended early
+  // The judgement round (run_t.revision), kept by the store: read from the
+  // archive, never written by UpsertRun (SupersedeJudgement raises it).
+  int revision = 0;
 };
 
 struct ChunkRecord {
@@ -95,6 +98,12 @@ struct ResultRecord {
   std::vector<pb::Measurement> measurements;
   std::string record;   // serialized pb::RunRecord
   int64_t result_utime = 0;
+  // What the judgement covered: the run's round, batches 0..last_seq, of
+  // which gap_batches never arrived (nullopt: not known, archived before
+  // schema 4).
+  int revision = 0;
+  std::optional<int64_t> last_seq;
+  std::optional<int64_t> gap_batches;
 };
 
 class Archive {
@@ -134,6 +143,11 @@ class Archive {
   // The run is archived for good: every batch is in or recorded as a gap,
   // and its final result is stored.
   Status MarkFinalized(int64_t run_key, int64_t utime);
+  // Opens the run's judgement again (in the caller's transaction): the
+  // archived judgement, if any, moves to superseded_judgements with `cause`;
+  // its result, measurements and curves are removed; the run is no longer
+  // finalized and its revision is raised. Returns the new revision.
+  Result<int> SupersedeJudgement(int64_t run_key, int64_t utime, const std::string& cause);
 
   // --- reads ---
   Result<std::optional<int64_t>> FindRunKey(const std::string& run_id);

@@ -14,6 +14,12 @@
 namespace imuqual::store {
 namespace {
 
+// What migration 3 -> 4 added, to make a file of an older schema.
+constexpr char kUndoSchema4[] =
+    "DROP TABLE superseded_judgements; ALTER TABLE runs DROP COLUMN revision; "
+    "ALTER TABLE runs DROP COLUMN result_last_seq; ALTER TABLE runs DROP COLUMN "
+    "result_gap_batches";
+
 namespace fs = std::filesystem;
 
 class ArchiveTest : public ::testing::Test {
@@ -244,7 +250,7 @@ TEST_F(ArchiveTest, SchemaOneArchivesGetEachAxisCountFromItsFinalCurve) {
     ASSERT_TRUE((*a)->PutResult(key, res).ok());
     // ... in an archive as schema 1 kept it: no per-axis column.
     for (const char* sql :
-         {"DROP VIEW axis_results", "ALTER TABLE run_axes DROP COLUMN invalid_samples",
+         {kUndoSchema4, "DROP VIEW axis_results", "ALTER TABLE run_axes DROP COLUMN invalid_samples",
           "ALTER TABLE raw_chunks DROP COLUMN crc32c",
           "ALTER TABLE runs DROP COLUMN results_crc32c",
           "CREATE VIEW axis_results AS SELECT 1 AS schema_one", "PRAGMA user_version = 1"}) {
@@ -351,6 +357,53 @@ TEST_F(ArchiveTest, ChecksumsFindChunksAndResultsAlteredAtRest) {
   EXPECT_EQ(served, std::vector<int64_t>{0});
 }
 
+// A judged run sealed at schema 3 keeps its checksum through the migration
+// to schema 4 (the new columns and rows enter a checksum only when set), and
+// a judgement superseded afterwards is kept, sealed, and leaves the run open.
+TEST_F(ArchiveTest, Schema3ChecksumsHoldAfterMigrationAndASupersededJudgementIsKept) {
+  int64_t key = 0;
+  {
+    auto a = Archive::Open(path_, Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok());
+    ASSERT_TRUE((*a)->Begin().ok());
+    key = *(*a)->UpsertRun(Run("R1"));
+    ASSERT_TRUE((*a)->InsertChunk(key, Chunk(0, 0, 10), nullptr).ok());
+    // Judged as schema 3 did (nothing of what schema 4 adds) and sealed:
+    // the seal is the first five tables' alone, as schema 3 computed it.
+    ResultRecord res;
+    res.verdict = "FAIL";
+    res.reasons = {"run incomplete"};
+    res.samples = 10;
+    res.result_utime = 5;
+    ASSERT_TRUE((*a)->PutResult(key, res).ok());
+    ASSERT_TRUE((*a)->MarkFinalized(key, 6).ok());
+    ASSERT_TRUE((*a)->Commit().ok());
+    ASSERT_TRUE((*a)->db().Exec(std::string(kUndoSchema4) + "; PRAGMA user_version = 3").ok());
+  }
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  EXPECT_EQ(*(*a)->db().QueryInt("PRAGMA user_version"), SchemaVersion());
+  EXPECT_TRUE(ChecksumProblems(**a).empty());
+  // WHEN the judgement is superseded
+  ASSERT_TRUE((*a)->Begin().ok());
+  auto revision = (*a)->SupersedeJudgement(key, 7, "acquire came back");
+  ASSERT_TRUE(revision.ok()) << revision.status().ToString();
+  ASSERT_TRUE((*a)->Commit().ok());
+  // THEN the run is open at round 1, unjudged, the old judgement kept
+  EXPECT_EQ(*revision, 1);
+  EXPECT_EQ(*(*a)->db().QueryInt("SELECT COUNT(*) FROM runs WHERE finalized_utime IS NULL AND "
+                                 "result_utime IS NULL AND verdict IS NULL AND revision = 1"),
+            1);
+  EXPECT_EQ(*(*a)->db().QueryInt("SELECT COUNT(*) FROM superseded_judgements WHERE revision = 0 "
+                                 "AND verdict = 'FAIL' AND cause = 'acquire came back'"),
+            1);
+  EXPECT_FALSE((*(*a)->LoadResult(key)).has_value());
+  EXPECT_TRUE(ChecksumProblems(**a).empty());
+  // AND damage to the kept judgement is found
+  ASSERT_TRUE((*a)->db().Exec("UPDATE superseded_judgements SET verdict = 'PASS'").ok());
+  EXPECT_EQ(ChecksumProblems(**a).size(), 1u);
+}
+
 TEST_F(ArchiveTest, MigrationFromVersion2ComputesTheChecksums) {
   {
     auto a = Archive::Open(path_, Archive::Mode::kWrite);
@@ -362,13 +415,14 @@ TEST_F(ArchiveTest, MigrationFromVersion2ComputesTheChecksums) {
     ASSERT_TRUE((*a)->Commit().ok());
     // Back to what a version 2 file is.
     ASSERT_TRUE((*a)->db()
-                    .Exec("ALTER TABLE raw_chunks DROP COLUMN crc32c; "
+                    .Exec(std::string(kUndoSchema4) +
+                          "; ALTER TABLE raw_chunks DROP COLUMN crc32c; "
                           "ALTER TABLE runs DROP COLUMN results_crc32c; PRAGMA user_version = 2")
                     .ok());
   }
   auto a = Archive::Open(path_, Archive::Mode::kWrite);
   ASSERT_TRUE(a.ok()) << a.status().ToString();
-  EXPECT_EQ(*(*a)->db().QueryInt("PRAGMA user_version"), 3);
+  EXPECT_EQ(*(*a)->db().QueryInt("PRAGMA user_version"), SchemaVersion());
   EXPECT_EQ(*(*a)->db().QueryInt("SELECT COUNT(*) FROM raw_chunks WHERE crc32c IS NULL"), 0);
   EXPECT_EQ(*(*a)->db().QueryInt("SELECT COUNT(*) FROM runs WHERE results_crc32c IS NULL"), 0);
   EXPECT_TRUE(ChecksumProblems(**a).empty());

@@ -60,17 +60,29 @@ class Hasher {
   uint32_t crc_ = 0;
 };
 
-// The result rows of a run, table by table, in primary-key order.
-constexpr const char* kResultQueries[] = {
-    "SELECT verdict, reasons, samples, gap_samples, invalid_samples, record, result_utime "
-    "FROM runs WHERE run_key = ?",
-    "SELECT axis_index, invalid_samples FROM run_axes WHERE run_key = ? ORDER BY axis_index",
-    "SELECT axis, estimator, ci_method, tau0_s, samples, valid_samples, computed_utime "
-    "FROM curves WHERE run_key = ? ORDER BY axis, estimator",
-    "SELECT axis, estimator, m, tau_s, dev, lo, hi, edf, n_terms, stride "
-    "FROM curve_points WHERE run_key = ? ORDER BY axis, estimator, m",
-    "SELECT axis, name, value, uncertainty, unit, low, high, marginal_low, marginal_high, outcome, "
-    "note FROM measurements WHERE run_key = ? ORDER BY axis, name",
+// The result rows of a run, table by table, in primary-key order. An
+// optional query (added after schema 3) enters the checksum only when it
+// returns rows, so checksums computed before it existed still hold.
+struct ResultQuery {
+  const char* sql;
+  bool optional = false;
+};
+constexpr ResultQuery kResultQueries[] = {
+    {"SELECT verdict, reasons, samples, gap_samples, invalid_samples, record, result_utime "
+     "FROM runs WHERE run_key = ?"},
+    {"SELECT axis_index, invalid_samples FROM run_axes WHERE run_key = ? ORDER BY axis_index"},
+    {"SELECT axis, estimator, ci_method, tau0_s, samples, valid_samples, computed_utime "
+     "FROM curves WHERE run_key = ? ORDER BY axis, estimator"},
+    {"SELECT axis, estimator, m, tau_s, dev, lo, hi, edf, n_terms, stride "
+     "FROM curve_points WHERE run_key = ? ORDER BY axis, estimator, m"},
+    {"SELECT axis, name, value, uncertainty, unit, low, high, marginal_low, marginal_high, "
+     "outcome, note FROM measurements WHERE run_key = ? ORDER BY axis, name"},
+    {"SELECT revision, result_last_seq, result_gap_batches FROM runs WHERE run_key = ? AND "
+     "(revision != 0 OR result_last_seq IS NOT NULL OR result_gap_batches IS NOT NULL)",
+     true},
+    {"SELECT revision, verdict, reasons, samples, gap_samples, record, result_utime, "
+     "superseded_utime, cause FROM superseded_judgements WHERE run_key = ? ORDER BY revision",
+     true},
 };
 
 std::string Hex(uint32_t v) {
@@ -116,16 +128,20 @@ uint32_t ChunkChecksum(const ChunkRecord& c) {
 Result<uint32_t> ResultsChecksum(Db& db, int64_t run_key) {
   Hasher h;
   uint8_t table = 0;
-  for (const char* sql : kResultQueries) {
-    h.Tag(++table);
+  for (const ResultQuery& query : kResultQueries) {
+    ++table;
+    if (!query.optional) h.Tag(table);
     // The statement's columns through the C API: Stmt hides storage classes.
     sqlite3_stmt* raw = nullptr;
-    if (sqlite3_prepare_v2(db.handle(), sql, -1, &raw, nullptr) != SQLITE_OK) {
+    if (sqlite3_prepare_v2(db.handle(), query.sql, -1, &raw, nullptr) != SQLITE_OK) {
       return Status::IoError(db.path() + ": " + db.ErrorMessage());
     }
     sqlite3_bind_int64(raw, 1, run_key);
     int rc;
+    bool first = true;
     while ((rc = sqlite3_step(raw)) == SQLITE_ROW) {
+      if (query.optional && first) h.Tag(table);
+      first = false;
       h.Tag(0xFF);  // row separator
       for (int col = 0; col < sqlite3_column_count(raw); ++col) h.Column(raw, col);
     }

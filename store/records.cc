@@ -54,6 +54,7 @@ imuqual::run_t MessageFromRunInfo(const RunInfo& info) {
   r.announcer = "store";
   r.retained_first_seq = 0;
   r.end_reason = info.end_reason;
+  r.revision = static_cast<int16_t>(info.revision);
   return r;
 }
 
@@ -197,6 +198,9 @@ ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg) {
   r.invalid_samples = msg.invalid_samples;
   r.axis_invalid_samples = msg.axis_invalid_samples;
   r.result_utime = msg.host_utime;
+  r.revision = msg.revision;
+  r.last_seq = msg.last_seq;
+  r.gap_batches = msg.gap_batches;
   for (const imuqual::measurement_t& m : msg.measurements) {
     pb::Measurement pm;
     pm.set_axis(m.axis);

@@ -234,6 +234,31 @@ GROUP BY r.lot, r.run_key, ra.axis_index;  -- lot first: WHERE lot = ? reaches t
 ALTER TABLE raw_chunks ADD COLUMN crc32c INTEGER;
 ALTER TABLE runs ADD COLUMN results_crc32c INTEGER;
 )sql",
+      // 3 -> 4: judgements made again. A run ended early by a fault (acquire
+      // silent, then back) or judged on other data than the archive holds is
+      // judged again on all its data; the judgement it replaces is kept, with
+      // why. `revision` counts the rounds; the result columns say what the
+      // archived judgement covered (batches 0..result_last_seq, of which
+      // result_gap_batches never arrived). Existing checksums stay valid:
+      // these columns and rows enter a run's checksum only when set.
+      R"sql(
+ALTER TABLE runs ADD COLUMN revision INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE runs ADD COLUMN result_last_seq INTEGER;
+ALTER TABLE runs ADD COLUMN result_gap_batches INTEGER;
+CREATE TABLE superseded_judgements (
+  run_key           INTEGER NOT NULL REFERENCES runs(run_key),
+  revision          INTEGER NOT NULL,   -- the round this judgement answered
+  verdict           TEXT,
+  reasons           TEXT,
+  samples           INTEGER,
+  gap_samples       INTEGER,
+  record            BLOB,               -- its pb::RunRecord (measurements, reasons)
+  result_utime      INTEGER,
+  superseded_utime  INTEGER NOT NULL,
+  cause             TEXT NOT NULL,      -- why it was judged again
+  PRIMARY KEY (run_key, revision)
+);
+)sql",
   };
   return kMigrations;
 }
@@ -323,7 +348,8 @@ Status Migrate(Db& db) {
     Status st = db.Exec(Migrations()[v]);
     if (st.ok()) st = db.Exec("PRAGMA user_version = " + std::to_string(v + 1));
     if (st.ok() && v == 0) st = db.Exec("PRAGMA application_id = " + std::to_string(kApplicationId));
-    if (st.ok() && v == 2) st = ComputeMissingChecksums(db);
+    // Checksums of rows archived before schema 3, with today's definition.
+    if (st.ok() && v + 1 == SchemaVersion() && v >= 2) st = ComputeMissingChecksums(db);
     if (!st.ok()) {
       (void)db.Exec("ROLLBACK");
       return st.WithContext("migrating " + db.path() + " to schema " + std::to_string(v + 1));

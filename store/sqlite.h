@@ -64,6 +64,7 @@ class Stmt {
   Stmt& BindBlob(int i, std::span<const uint8_t> v);
   Stmt& BindNull(int i);
   Stmt& Bind(int i, std::optional<double> v) { return v ? Bind(i, *v) : BindNull(i); }
+  Stmt& Bind(int i, std::optional<int64_t> v) { return v ? Bind(i, *v) : BindNull(i); }
 
   // Steps once: true while a row is available, false when done.
   Result<bool> Step();

@@ -43,6 +43,7 @@ constexpr double kRetryPeriodS = 1.0;          // a failed result/curve write is
 constexpr double kFirstWriteRetryS = 0.1;      // a failed transaction is retried after this,
 constexpr double kMaxWriteRetryS = 2.0;        // doubling up to this
 constexpr int64_t kBatchOverheadBytes = 256;   // a held batch's size beyond its samples
+constexpr int kMaxRevisions = 3;               // judgement rounds before the store settles
 
 // Adds `seq` to a set of ranges (kept short: consecutive seqs extend the last).
 void AddSeq(std::vector<SeqRange>* ranges, int64_t seq) {
@@ -148,6 +149,8 @@ struct StoreService::Impl {
   BoundedQueue<Item> queue;
   std::map<std::string, StoreRun> runs;
   std::set<std::string> finalized;  // runs archived for good; their late messages are ignored
+  // Of those announced again by acquire: the state and last seq they ended with.
+  std::map<std::string, std::pair<std::string, int64_t>> final_ends;
   LastHeard acquire_heard;          // acquire's run_t arrivals, noted by the handler
   SeqTracker::Options tracker_options;
   std::string instance = InstanceName();
@@ -159,7 +162,7 @@ struct StoreService::Impl {
           commits = 0, commit_failures = 0, apply_errors = 0, resend_requests = 0,
           batches_given_up = 0, runs_done = 0, batches_served = 0, runs_taken_over = 0,
           late_messages = 0, values_archived = 0, foreign_messages = 0, write_retries = 0,
-          unwritten_dropped = 0, damaged = 0;
+          unwritten_dropped = 0, damaged = 0, judgements_superseded = 0, stale_results = 0;
   ThrottledLog damage_log;
   std::set<std::string> foreign_runs;  // runs of other stations (writer thread)
   // Runs and batches of failed transactions, written again (before anything
@@ -189,6 +192,9 @@ struct StoreService::Impl {
   // messages are ignored). Creates the state of a run seen for the first time.
   StoreRun* Find(const std::string& run_id);
   Status Resume(const std::string& run_id, double now);
+  bool ReopenIfResumed(const imuqual::run_t& msg, double now);
+  std::string UncoveredBy(const StoreRun& r);
+  void Supersede(StoreRun& r, const std::string& cause, double now);
   Status Apply(Item& item, Staged* staged);
   Status ApplyRun(const imuqual::run_t& msg, Staged* staged);
   Status ApplyBatch(StoreRun& r, const imuqual::rate_batch_t& b, Staged* staged);
@@ -281,6 +287,107 @@ Status StoreService::Impl::Resume(const std::string& run_id, double now) {
   return Status::Ok();
 }
 
+// A finalized run that acquire announces going on although the store had
+// ended it as incomplete (acquire silent, e.g. a paused host or a network
+// partition longer than stale_after_s): its judgement is superseded and the
+// run is open again, to be archived and judged on all its data.
+bool StoreService::Impl::ReopenIfResumed(const imuqual::run_t& msg, double now) {
+  if (!finalized.count(msg.run_id)) return false;
+  // How each such run ended, read once (acquire announces a run it ended
+  // every second until it leaves).
+  auto ended = final_ends.find(msg.run_id);
+  if (ended == final_ends.end()) {
+    auto archived = archive->LoadRun(msg.run_id);
+    if (!archived.ok()) return false;
+    ended = final_ends.emplace(msg.run_id, std::make_pair(archived->state, archived->last_seq)).first;
+  }
+  const auto [state, last_seq] = ended->second;
+  if (state != "incomplete") return false;
+  if (msg.state != imuqual::run_t::STATE_RUNNING && msg.last_seq <= last_seq) return false;
+  auto info = archive->LoadRun(msg.run_id);
+  auto key = archive->FindRunKey(msg.run_id);
+  if (!info.ok() || !key.ok() || !key->has_value()) return false;
+  final_ends.erase(msg.run_id);
+  const std::string cause = "acquire announced the run going on (batch " +
+                            std::to_string(msg.last_seq) + ") after it had ended as incomplete (" +
+                            info->end_reason + ") at batch " + std::to_string(info->last_seq);
+  Status st = archive->Begin();
+  Result<int> revision = st.ok() ? archive->SupersedeJudgement(**key, NowUtime(), cause) : st;
+  st = revision.status();
+  if (st.ok()) st = Commit();
+  if (!st.ok()) {
+    (void)archive->Rollback();
+    write_errors.Error("run " + msg.run_id + ": cannot open it again: " + st.message());
+    return false;
+  }
+  finalized.erase(msg.run_id);
+  runs.erase(msg.run_id);
+  ++judgements_superseded;
+  LogWarning("run " + msg.run_id + ": " + cause + "; its judgement is superseded (round " +
+             std::to_string(*revision) + "), the run is open again");
+  if (Status resumed = Resume(msg.run_id, now); !resumed.ok()) {
+    write_errors.Error("run " + msg.run_id + ": " + resumed.message());
+    return false;
+  }
+  StoreRun& r = runs.at(msg.run_id);
+  if (msg.state == imuqual::run_t::STATE_RUNNING) r.tracker.SetFinal(false);
+  r.next_announce_s = now;
+  return true;
+}
+
+// Why the run's final result does not describe what the archive holds ("" if
+// it does): another judgement round, fewer batches than the run has, or
+// other batches taken as gaps than the archive lacks. A result archived
+// before schema 4 does not say what it covered and is taken as it is.
+std::string StoreService::Impl::UncoveredBy(const StoreRun& r) {
+  const ResultRecord& res = *r.result;
+  if (res.revision != r.info.revision) {
+    return "the judgement answers round " + std::to_string(res.revision) + ", the run is at round " +
+           std::to_string(r.info.revision);
+  }
+  if (!res.last_seq || !res.gap_batches) return "";
+  const int64_t last_seq = std::max(r.info.last_seq, r.tracker.next_seq() - 1);
+  if (*res.last_seq != last_seq) {
+    return "the judgement covers batches 0.." + std::to_string(*res.last_seq) + " of 0.." +
+           std::to_string(last_seq);
+  }
+  auto archived = archive->db().QueryInt("SELECT COUNT(*) FROM raw_chunks WHERE run_key = " +
+                                         std::to_string(r.key) + " AND seq <= " +
+                                         std::to_string(last_seq));
+  if (!archived.ok()) return "";  // cannot tell; the archive's own error is reported elsewhere
+  const int64_t missing = last_seq + 1 - *archived;
+  if (*res.gap_batches != missing) {
+    return "the judgement took " + std::to_string(*res.gap_batches) +
+           " batches as never arrived, the archive lacks " + std::to_string(missing);
+  }
+  return "";
+}
+
+// Opens a new judgement round for a run whose result does not describe its
+// archived data: the result is superseded (kept, with `cause`), and the
+// store announces the round until analyze answers it.
+void StoreService::Impl::Supersede(StoreRun& r, const std::string& cause, double now) {
+  Status st = archive->Begin();
+  Result<int> revision = st.ok() ? archive->SupersedeJudgement(r.key, NowUtime(), cause) : st;
+  st = revision.status();
+  if (st.ok()) st = Commit();
+  if (!st.ok()) {
+    (void)archive->Rollback();
+    write_errors.Error("run " + r.info.run_id + ": cannot open a new judgement round: " +
+                       st.message());
+    return;
+  }
+  ++judgements_superseded;
+  LogWarning("run " + r.info.run_id + ": " + cause + "; judged again (round " +
+             std::to_string(*revision) + ")");
+  r.info.revision = *revision;
+  r.result.reset();
+  r.result_stored = false;
+  r.curves_stored.clear();
+  r.curves_pending.clear();
+  r.next_announce_s = now;
+}
+
 // acquire went silent: nothing more will come from it. A running run is
 // incomplete; its holes become gaps; the store announces the run and serves
 // its batches from the archive until its analysis is stored.
@@ -290,6 +397,9 @@ void StoreService::Impl::TakeOver(const std::string& run_id, StoreRun& r, double
   if (r.info.state == "running") {
     r.info.state = "incomplete";
     r.info.end_utime = NowUtime();
+    // Batches published after acquire's last announcement are part of it.
+    r.info.last_seq = std::max(r.info.last_seq, r.tracker.highest());
+    r.tracker.SetAnnouncedLast(r.info.last_seq);
     r.info.end_reason = "acquire silent for " + std::to_string(static_cast<int>(options.stale_after_s)) +
                         " s after " + std::to_string(r.info.last_seq + 1) + " batches";
     Status st = archive->Begin();
@@ -375,15 +485,24 @@ Status StoreService::Impl::ServeResend(const imuqual::resend_t& req) {
 Status StoreService::Impl::ApplyRun(const imuqual::run_t& msg, Staged* staged) {
   if (msg.announcer == "store") return Status::Ok();  // a store's own re-announcement
   StoreRun* found = Find(msg.run_id);
-  if (found == nullptr) {
+  if (found == nullptr || found->done) {  // archived for good: nothing of it changes
     ++late_messages;
     return Status::Ok();
   }
   StoreRun& r = *found;
   const bool first = r.key < 0;
   r.acquire_retained_first = msg.retained_first_seq;
+  if (r.acquire_gone && msg.state == imuqual::run_t::STATE_RUNNING) {
+    // Back after the store found it silent: the run goes on, and whatever
+    // was judged on its first part is judged again (UncoveredBy).
+    LogWarning("run " + msg.run_id + ": acquire is back (batch " + std::to_string(msg.last_seq) +
+               "); the run goes on");
+    r.tracker.SetFinal(false);
+  }
   r.acquire_gone = false;
+  const int revision = r.info.revision;  // the store's, not in acquire's announcements
   r.info = RunInfoFromMessage(msg);
+  r.info.revision = revision;
   auto key = archive->UpsertRun(r.info);
   if (!key.ok()) return key.status();
   if (first) {
@@ -464,6 +583,13 @@ Status StoreService::Impl::ApplyBatch(StoreRun& r, const imuqual::rate_batch_t& 
 }
 
 namespace {
+
+// The judgement round a curve or result answers (0 for other messages).
+int RoundOf(const Item& item) {
+  if (auto* c = std::get_if<imuqual::allan_curve_t>(&item)) return c->revision;
+  if (auto* res = std::get_if<imuqual::unit_result_t>(&item)) return res->revision;
+  return 0;
+}
 
 // The analysis judged samples the archive does not hold (batches it
 // received but could not write, then lost): they are gap samples of the
@@ -556,6 +682,10 @@ Status StoreService::Impl::Apply(Item& item, Staged* staged) {
     return Status::Ok();
   }
   if (auto* b = std::get_if<imuqual::rate_batch_t>(&item)) return ApplyBatch(*r, *b, staged);
+  if (RoundOf(item) != r->info.revision) {
+    ++stale_results;  // answers an earlier judgement round (or a store that forgot one)
+    return Status::Ok();
+  }
   if (auto* c = std::get_if<imuqual::allan_curve_t>(&item)) {
     r->curves_pending.push_back(CurveFromMessage(*c));
   } else if (auto* res = std::get_if<imuqual::unit_result_t>(&item)) {
@@ -638,7 +768,7 @@ void StoreService::Impl::Remember(Item& item) {
   const std::string& run_id =
       std::visit([](const auto& m) -> const std::string& { return m.run_id; }, item);
   StoreRun* r = Find(run_id);
-  if (r == nullptr) return;
+  if (r == nullptr || RoundOf(item) != r->info.revision) return;
   if (curve) {
     r->curves_pending.push_back(CurveFromMessage(std::get<imuqual::allan_curve_t>(item)));
   } else {
@@ -704,6 +834,16 @@ void StoreService::Impl::Transaction(std::vector<Item>& items, double now, bool 
       Hold(std::move(item));
     }
   } else if (!work.empty()) {
+    // Runs archived for good that acquire announces going on are opened
+    // again first, each in a transaction of its own.
+    for (const Item& item : work) {
+      const auto* run = std::get_if<imuqual::run_t>(&item);
+      if (run == nullptr || run->announcer != "acquire" || foreign_runs.count(run->run_id) ||
+          (!options.station.empty() && run->station != options.station)) {
+        continue;
+      }
+      if (StoreRun* f = Find(run->run_id); f == nullptr || f->done) (void)ReopenIfResumed(*run, now);
+    }
     Staged staged;
     Status st = archive->Begin();
     size_t applied = 0;
@@ -786,7 +926,10 @@ void StoreService::Impl::Tick(double now) {
         acquire_heard.SecondsSince(id, now) > options.stale_after_s) {
       TakeOver(id, r, now);
     }
-    if (r.key >= 0 && !r.done && r.acquire_gone && now >= r.next_announce_s) {
+    // Announced by the store once acquire is gone, and while a judgement
+    // round the store opened awaits its answer (analyze learns the round).
+    if (r.key >= 0 && !r.done && (r.acquire_gone || r.info.revision > 0) &&
+        now >= r.next_announce_s) {
       imuqual::run_t msg = MessageFromRunInfo(r.info);
       msg.host_utime = NowUtime();
       (void)bus->Publish(channels::kRun, msg);
@@ -828,6 +971,18 @@ void StoreService::Impl::Tick(double now) {
       }
       RecordGivenUp(r, r.tracker.TakeGivenUp(now));
       if (r.tracker.complete() && r.JudgedAndCurved()) {
+        // Archived only if judged on what the archive holds; else judged again.
+        if (const std::string cause = UncoveredBy(r); !cause.empty()) {
+          if (r.info.revision < kMaxRevisions) {
+            Supersede(r, cause, now);
+            ++it;
+            continue;
+          }
+          r.result->verdict = "FAIL";
+          r.result->reasons.push_back("the judgement does not cover the archived data after " +
+                                      std::to_string(kMaxRevisions) + " rounds: " + cause);
+          r.result_stored = false;
+        }
         Status st = Finalize(r);
         if (!st.ok()) {
           write_errors.Error("run " + id + ": " + st.message());
@@ -866,6 +1021,8 @@ Counters StoreService::Impl::StatusCounters() const {
           {"rejected", rejected},
           {"waiting_dropped", waiting_dropped},
           {"late_messages", late_messages},
+          {"judgements_superseded", judgements_superseded},
+          {"stale_results", stale_results},
           {"foreign_runs", static_cast<int64_t>(foreign_runs.size())},
           {"stopped_ms", std::llround(ListeningPausedSeconds() * 1e3)},
           {"foreign_messages", foreign_messages},

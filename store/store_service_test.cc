@@ -141,6 +141,7 @@ class StoreUnderTest {
     run.end_sample = last_seq >= 0 ? run.samples_published : -1;
     run.announcer = "acquire";
     run.retained_first_seq = 0;
+    run.revision = 0;
     ASSERT_TRUE(bus_->Publish(channels::kRun, run).ok());
   }
   void Send(int64_t seq) {

@@ -69,6 +69,7 @@ class FakeAcquire {
     run_.end_sample = -1;
     run_.announcer = "acquire";
     run_.retained_first_seq = 0;
+    run_.revision = 0;
   }
 
   void Announce(int8_t state, int64_t last_seq, int64_t samples) {

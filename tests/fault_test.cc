@@ -411,6 +411,79 @@ TEST(FaultTest, AnalyzeFrozenLongerThanItsTimersGivesTheUninterruptedResult) {
   ExpectEveryRunWhole(CheckArchive(h.db()));
 }
 
+// acquire frozen (a paused host, a cut cable) for longer than the store's
+// silence timer: the store ends its runs as incomplete and they are judged on
+// what arrived. When acquire wakes and goes on, the runs open again: the
+// early judgement is kept as superseded, with why, and each run is archived
+// and judged on all its data, as if nothing had happened.
+TEST(FaultTest, AcquireFrozenPastSilenceIsJudgedAgainOnAllItsData) {
+  StationHarness h("fault_acquire_frozen");
+  Subprocess store = h.StartStore();
+  Subprocess analyze = h.StartAnalyze();
+  // An undisturbed run of the same units (same seed) ...
+  Subprocess clean = h.Start("imuqual-acquire", AcquireArgs("FAQF", 2, 1500, 0, "CLEAN"));
+  ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
+  EXPECT_EQ(clean.Wait(30), 0);
+  // ... and one whose acquire is frozen a third of the way in.
+  Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FAQF", 2, 1500, 100, "FROZEN"));
+  ASSERT_TRUE(WaitArchived(h, h.Counter("store", "chunks_inserted") + 100, 30)) << h.Logs();
+  ::kill(acquire.pid(), SIGSTOP);
+  // GIVEN both runs ended as incomplete and judged on their first part
+  ASSERT_TRUE(h.WaitRunsDone(4, kRunTimeoutS)) << h.Logs();
+  const auto early = CheckArchive(h.db());
+  for (const std::string unit : {"FAQF-U01", "FAQF-U02"}) {
+    ASSERT_EQ(early.at("FROZEN-" + unit).state, "incomplete") << h.Logs();
+    EXPECT_NE(early.at("FROZEN-" + unit).verdict, "") << unit;
+  }
+  // WHEN acquire wakes and the soak goes on to its end
+  ::kill(acquire.pid(), SIGCONT);
+  EXPECT_EQ(acquire.Wait(kRunTimeoutS), 0) << h.Logs();
+  // THEN both runs are judged again (bounded wait for the new round's end)
+  const double deadline = MonotonicSeconds() + kRunTimeoutS;
+  auto judged_again = [&] {
+    auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
+    return a.ok() && *(*a)->db().QueryInt(
+                         "SELECT COUNT(*) FROM runs WHERE run_id LIKE 'FROZEN-%' AND revision = 1 "
+                         "AND finalized_utime IS NOT NULL") == 2;
+  };
+  while (!judged_again() && MonotonicSeconds() < deadline) h.Pump(200);
+  ASSERT_TRUE(judged_again()) << h.Logs();
+  EXPECT_GE(h.WaitCounter("store", "judgements_superseded", 2, 5), 2);
+  EXPECT_GE(h.WaitCounter("analyze", "runs_reopened", 2, 5), 2);
+  // AND the archive is whole, the early judgement kept with its cause
+  const auto runs = CheckArchive(h.db());
+  ExpectEveryRunWhole(runs);
+  auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok());
+  for (const std::string unit : {"FAQF-U01", "FAQF-U02"}) {
+    const std::string id = "FROZEN-" + unit;
+    const std::string key = std::to_string(**(*a)->FindRunKey(id));
+    auto s = (*a)->db().Prepare("SELECT revision, verdict, cause FROM superseded_judgements "
+                                "WHERE run_key = " + key);
+    ASSERT_TRUE(*s->Step()) << id << " kept no superseded judgement";
+    EXPECT_EQ(s->Int(0), 0);
+    EXPECT_EQ(s->Text(1), early.at(id).verdict);
+    EXPECT_NE(s->Text(2).find("after it had ended as incomplete (acquire silent"),
+              std::string::npos)
+        << s->Text(2);
+    // AND the new judgement is the undisturbed run's, on all the data
+    auto clean_result = (*a)->LoadResult(**(*a)->FindRunKey("CLEAN-" + unit));
+    auto again = (*a)->LoadResult(**(*a)->FindRunKey(id));
+    ASSERT_TRUE(clean_result.ok() && clean_result->has_value());
+    ASSERT_TRUE(again.ok() && again->has_value()) << id;
+    EXPECT_EQ((*again)->verdict, (*clean_result)->verdict) << id;
+    EXPECT_EQ((*again)->reasons, (*clean_result)->reasons) << id;
+    EXPECT_EQ((*again)->samples, (*clean_result)->samples) << id;
+    ExpectSameCurves(**a, "CLEAN-" + unit, id, 3);
+    const auto check =
+        RunCommand(Bin("imuqual") + " reanalyze " + id + " --check --db " + h.db() + " 2>&1");
+    EXPECT_EQ(check.exit_code, 0) << check.output;
+  }
+  // AND `imuqual verify` finds every checksum (superseded rows included) intact.
+  const auto verify = RunCommand(Bin("imuqual") + " verify --db " + h.db() + " 2>&1");
+  EXPECT_EQ(verify.exit_code, 0) << verify.output;
+}
+
 TEST(FaultTest, AnalyzeRestartedAfterAcquireLeftCatchesUpFromTheArchive) {
   StationHarness h("fault_archive");
   Subprocess store = h.StartStore();

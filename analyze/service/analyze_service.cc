@@ -74,9 +74,42 @@ struct RunEntry {
   std::optional<RunOutcome> final_outcome;
   double next_republish_s = 0;
   double republish_period_s = 0;
+  // The judgement round this analysis answers (run_t.revision) and the
+  // batches it treated as gaps: both go with its results, so that a store
+  // archives only a judgement computed on what it holds.
+  int revision = 0;
+  int64_t gap_batches = 0;
 
   explicit RunEntry(const SeqTracker::Options& o) : tracker(0, o) {}
 };
+
+// What is kept of a finished run: enough to tell whether an announcement
+// opens it again.
+struct FinishedRun {
+  int revision = 0;
+  int64_t last_seq = -1;      // the last batch the analysis covered
+  bool end_by_acquire = false;  // acquire itself announced the end
+};
+
+FinishedRun SummaryOf(const RunEntry& e) {
+  FinishedRun f;
+  f.revision = e.revision;
+  f.last_seq = e.tracker.next_seq() - 1;
+  f.end_by_acquire = e.info && e.info->announcer == "acquire" &&
+                     e.info->state != imuqual::run_t::STATE_RUNNING && !e.inferred_incomplete;
+  return f;
+}
+
+// A finished run is analysed again, from its first batch, when the store
+// opens a new judgement round, or when acquire announces it going on
+// although its end was not acquire's own (inferred from silence here, or
+// declared by a store that found acquire silent): it was ended early by a
+// fault, and its data are arriving after all.
+bool Reopens(const FinishedRun& f, const imuqual::run_t& run) {
+  if (run.revision > f.revision) return true;
+  if (run.announcer != "acquire" || f.end_by_acquire) return false;
+  return run.state == imuqual::run_t::STATE_RUNNING || run.last_seq > f.last_seq;
+}
 
 }  // namespace
 
@@ -113,7 +146,7 @@ struct AnalyzeService::Impl {
   std::unique_ptr<LcmBus> bus;
   BoundedQueue<Work> queue;
   std::map<std::string, RunEntry> runs;
-  std::set<std::string> finished_ids;
+  std::map<std::string, FinishedRun> finished_ids;
   LastHeard heard;  // run_t arrivals, noted by the handler
   std::string instance = InstanceName();
   SeqTracker::Options tracker_options;
@@ -122,7 +155,7 @@ struct AnalyzeService::Impl {
   int64_t batches_processed = 0, duplicates = 0, absurd = 0, rejected = 0, resend_requests = 0,
           batches_given_up = 0, runs_finished = 0, late_after_finish = 0, foreign_messages = 0,
           results_republished = 0, results_abandoned = 0, results_dropped_on_purpose = 0,
-          damaged = 0;
+          damaged = 0, runs_reopened = 0;
   std::set<std::string> foreign_ids;  // runs of other stations (worker thread)
   ThrottledLog damage_log;
 
@@ -176,7 +209,23 @@ void AnalyzeService::Impl::Handle(Work&& work, double now) {
 }
 
 void AnalyzeService::Impl::OnRun(imuqual::run_t&& run, double now) {
-  if (finished_ids.count(run.run_id)) return;
+  std::optional<FinishedRun> finished;
+  if (auto f = finished_ids.find(run.run_id); f != finished_ids.end()) finished = f->second;
+  if (auto r = runs.find(run.run_id); r != runs.end() && r->second.finished) {
+    finished = SummaryOf(r->second);
+  }
+  if (finished) {
+    if (!Reopens(*finished, run)) return;
+    LogWarning("run " + run.run_id + " is analysed again from its first batch: " +
+               (run.revision > finished->revision
+                    ? "the store opened judgement round " + std::to_string(run.revision)
+                    : "acquire announces it going on (batch " + std::to_string(run.last_seq) +
+                          ") after it was ended early at batch " +
+                          std::to_string(finished->last_seq)));
+    finished_ids.erase(run.run_id);
+    runs.erase(run.run_id);
+    ++runs_reopened;
+  }
   if (!options.station.empty() && run.station != options.station) {
     // Another station's run on this bus: not ours to analyse (nor to hold
     // batches for).
@@ -191,6 +240,11 @@ void AnalyzeService::Impl::OnRun(imuqual::run_t&& run, double now) {
   auto [it, inserted] = runs.try_emplace(run.run_id, tracker_options);
   RunEntry& e = it->second;
   (void)inserted;
+  e.revision = std::max<int>(e.revision, run.revision);
+  if (e.info && e.info->announcer == "acquire" && run.announcer == "store" &&
+      run.state == imuqual::run_t::STATE_RUNNING) {
+    return;  // acquire's own announcements describe a running run; the store's bring the round
+  }
   if (e.info && e.info->state != imuqual::run_t::STATE_RUNNING &&
       run.state == imuqual::run_t::STATE_RUNNING) {
     // An announced end never goes back to running (heartbeats may cross);
@@ -344,6 +398,7 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
     msg.estimator = std::string(allan::DeviationName(curve.deviation));
     msg.ci_method = std::string(allan::CiMethodName(curve.ci));
     msg.is_final = final;
+    msg.revision = static_cast<int16_t>(e.revision);
     msg.samples = out.samples;
     msg.valid_samples = out.samples - curve.invalid_rate_samples;  // neither missing nor invalid
     msg.tau0_s = curve.tau0_s;
@@ -367,6 +422,9 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
   res.run_id = r.run_id;
   res.unit_serial = r.unit_serial;
   res.is_final = final;
+  res.revision = static_cast<int16_t>(e.revision);
+  res.last_seq = e.tracker.next_seq() - 1;
+  res.gap_batches = e.gap_batches;
   res.verdict = OutcomeCode(out.judgement.verdict);
   res.reasons = out.judgement.reasons;
   res.num_reasons = static_cast<int16_t>(std::min<size_t>(res.reasons.size(), 32000));
@@ -492,6 +550,7 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
   }
   for (const SeqRange& r : e.tracker.TakeGivenUp(now)) {
     batches_given_up += r.last - r.first + 1;
+    e.gap_batches += r.last - r.first + 1;
     LogWarning("run " + run_id + ": batches " + std::to_string(r.first) + ".." +
                std::to_string(r.last) + " were not resent; analysing them as a gap");
   }
@@ -514,7 +573,7 @@ void AnalyzeService::Impl::Tick(double now) {
     // A finished run stays while its result waits for a store's confirmation.
     if (it->second.finished && now - it->second.finished_s > kDoneReackForS &&
         !it->second.final_outcome) {
-      finished_ids.insert(it->first);
+      finished_ids[it->first] = SummaryOf(it->second);
       heard.Forget(it->first);
       it = runs.erase(it);
     } else {
@@ -531,6 +590,7 @@ Counters AnalyzeService::Impl::StatusCounters() {
   }
   return {{"runs_active", active},
           {"runs_finished", runs_finished},
+          {"runs_reopened", runs_reopened},
           {"batches_received", batches_received.load()},
           {"batches_processed", batches_processed},
           {"batches_damaged", damaged},

@@ -257,7 +257,14 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
         ConsoleUnit* u = unit_of_run(r.run_id, r.unit_serial);
         if (u == nullptr) return;
         if (!r.slot.empty()) u->slot = r.slot;
-        u->state = std::max(u->state, r.state);
+        // States only move on, except an end the store inferred from
+        // silence: acquire announcing the run again (it was paused, or cut
+        // off) makes it running again.
+        if (r.announcer == "acquire" && u->state == imuqual::run_t::STATE_INCOMPLETE) {
+          u->state = r.state;
+        } else {
+          u->state = std::max(u->state, r.state);
+        }
         if (!r.end_reason.empty()) end_reasons[r.unit_serial] = r.end_reason;
         u->samples = std::max(u->samples, r.samples_published);
         if (r.nominal_rate_hz > 0) u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
@@ -271,9 +278,11 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
       });
   bus.Subscribe<imuqual::ack_t>(channels::kAck, 20000,
                                 [&](const std::string&, imuqual::ack_t&& a, int64_t) {
-                                  if (!a.run_done || a.process != "store") return;
+                                  // The store's latest word: a run it opens
+                                  // again (judged anew) is no longer archived.
+                                  if (a.process != "store") return;
                                   for (ConsoleUnit& u : model.units) {
-                                    if (u.run_id == a.run_id) u.archived = true;
+                                    if (u.run_id == a.run_id) u.archived = a.run_done;
                                   }
                                 });
   bus.Subscribe<imuqual::unit_result_t>(
