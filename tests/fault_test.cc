@@ -351,11 +351,12 @@ TEST(FaultTest, AnalyzeKilledMidRunGivesTheUninterruptedResult) {
   for (const auto& [id, c] : CheckArchive(h.db())) EXPECT_EQ(c.gap_ranges, 0) << id;
 }
 
-// A process frozen (SIGSTOP: Ctrl-Z, a paused VM, a swap storm) for longer
-// than every one of its timers (the harness's store: give-up 5 s, stale-after
-// 2 s; analyze: 5 s and 4 s), then woken: it judges silence by its own
-// listening time, so nothing it was doing is cut short.
-constexpr int kFreezeS = 8;
+// A process frozen (SIGSTOP: Ctrl-Z, a paused VM, a swap storm) for a
+// minute, far longer than every one of its timers (the harness's store:
+// give-up 5 s, stale-after 2 s; analyze: 5 s and 4 s) and than its socket
+// buffer holds, then woken: it judges silence by its own listening time and
+// has what it missed resent, so nothing it was doing is cut short.
+constexpr int kFreezeS = 60;
 
 void Freeze(const Subprocess& p, int seconds) {
   ::kill(p.pid(), SIGSTOP);
