@@ -252,12 +252,12 @@ TEST(FaultTest, DatagramLossInTheKernelLosesNothing) {
   }
 }
 
-// A disk that fills during a soak and is freed later than every give-up
-// timer (the harness's store gives holes up after 5 s): the store holds what
+// A disk that fills during a soak and is freed a minute later, long after
+// every give-up timer (the harness's store gives holes up after 5 s): the store holds what
 // it cannot write, acknowledges nothing it has not archived, and once there
 // is room writes it all; acquire keeps what was not acknowledged. Nothing is
 // lost and no gap is recorded. (A disk never freed: bad_input_test.)
-TEST(FaultTest, ADiskFullForLongerThanEveryTimerAndFreedLosesNothing) {
+TEST(FaultTest, ADiskFullForAMinuteAndThenFreedLosesNothing) {
   const char* netns = std::getenv("IMUQUAL_NETNS");
   ASSERT_TRUE(netns != nullptr && std::string(netns) == "1")
       << "this test mounts a small filesystem: it runs only in the private mount namespace of "
@@ -285,8 +285,8 @@ TEST(FaultTest, ADiskFullForLongerThanEveryTimerAndFreedLosesNothing) {
     }
   }
   const int64_t failures_before = h.Counter("store", "commit_failures");
-  // ... for longer than the store's give-up time
-  const double until = MonotonicSeconds() + 8;
+  // ... for a minute, longer than the store's give-up time
+  const double until = MonotonicSeconds() + 60;
   while (MonotonicSeconds() < until) h.Pump(100);
   EXPECT_GT(h.Counter("store", "commit_failures"), failures_before) << "the disk never filled";
   // ... and is then freed
@@ -365,7 +365,7 @@ void Freeze(const Subprocess& p, int seconds) {
   ::kill(p.pid(), SIGCONT);
 }
 
-TEST(FaultTest, StoreFrozenLongerThanItsTimersLosesNothing) {
+TEST(FaultTest, StoreFrozenForAMinuteLosesNothing) {
   StationHarness h("fault_store_frozen");
   Subprocess store = h.StartStore();
   Subprocess analyze = h.StartAnalyze();
@@ -383,7 +383,7 @@ TEST(FaultTest, StoreFrozenLongerThanItsTimersLosesNothing) {
   for (const auto& [id, c] : runs) ExpectResultEqualsReanalysis(h.db(), id);
 }
 
-TEST(FaultTest, AnalyzeFrozenLongerThanItsTimersGivesTheUninterruptedResult) {
+TEST(FaultTest, AnalyzeFrozenForAMinuteGivesTheUninterruptedResult) {
   StationHarness h("fault_analyze_frozen");
   Subprocess store = h.StartStore();
   Subprocess analyze = h.StartAnalyze();
