@@ -611,14 +611,17 @@ void AmendForUnarchived(const StoreRun& r, const std::vector<GapRecord>& gaps,
     ranges.push_back(std::to_string(g.first_seq) + ".." + std::to_string(g.last_seq));
   }
   if (batches == 0) return;
-  result->gap_samples += lost;
+  // A result that says what it covered was computed on the archive's data
+  // (UncoveredBy): it counts these batches as gaps already.
+  if (!result->gap_batches) result->gap_samples += lost;
   result->verdict = "FAIL";
   result->reasons.push_back(
       "archive incomplete: " + std::to_string(lost) + " samples (" + std::to_string(batches) +
       " batches, seq " + Join(ranges, ", ") +
       ") arrived but were never archived (store could not write: " +
       (r.unwritten_cause.empty() ? std::string("write failed") : r.unwritten_cause) +
-      "); the verdict cannot be recomputed from the archive");
+      ")" + (result->gap_batches ? std::string("; judged on the rest")
+                                 : std::string("; the verdict cannot be recomputed from the archive")));
 }
 
 }  // namespace
