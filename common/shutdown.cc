@@ -17,6 +17,9 @@ void InstallShutdownHandlers() {
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  // A hang-up (a dropped SSH session, a closed terminal) stops the station
+  // like Ctrl-C: runs aborted, archived and judged, nothing left running.
+  sigaction(SIGHUP, &sa, nullptr);
   std::signal(SIGPIPE, SIG_IGN);
 }
 

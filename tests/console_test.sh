@@ -144,4 +144,26 @@ bad="$(sql "SELECT COUNT(*) FROM runs r JOIN run_archive a USING (run_id)
             WHERE r.state = 'aborted' AND (a.gap_samples != 0 OR a.samples_archived != r.end_sample - r.first_sample
                                            OR a.samples_archived < 6000)")"
 [ "$bad" = 0 ] || fail "soak 2: aborted runs lost data: $(sql 'SELECT * FROM run_archive')"
+tm kill-session -t soak
+
+# --- Soak 3: the terminal hangs up (a dropped SSH session): killing the tmux
+# session sends SIGHUP to the pane's processes. The station stops as for
+# Ctrl-C: every run aborted, archived and judged, nothing left running.
+before="$(sql "SELECT COUNT(*) FROM runs")"
+start_soak
+wait_screen "^A1 +SN-101 +running" 30
+wait_screen "deg/h" 40
+tm kill-session -t soak
+t=0
+while pgrep -f "$work/station.textproto" >/dev/null || pgrep -f "$work/lot.db" >/dev/null; do
+  sleep 0.5
+  t=$((t + 1))
+  [ "$t" -lt 240 ] || fail "soak 3: station processes still running 120 s after the hang-up"
+done
+hung="$(sql "SELECT COUNT(*) FROM runs WHERE run_key > (SELECT MAX(run_key) - 4 FROM runs)
+             AND state = 'aborted' AND verdict IS NOT NULL AND finalized_utime IS NOT NULL")"
+[ "$(sql "SELECT COUNT(*) FROM runs")" = $((before + 4)) ] || fail "soak 3: not 4 new runs"
+[ "$hung" = 4 ] || fail "soak 3: after a hang-up $hung of 4 runs aborted and judged: $(sql 'SELECT run_id, state, verdict, finalized_utime FROM runs')"
+left="$(sql "SELECT COUNT(*) FROM runs WHERE state = 'running' OR finalized_utime IS NULL")"
+[ "$left" = 0 ] || fail "soak 3: $left runs left running or unfinished after a hang-up"
 echo "console test: ok"
