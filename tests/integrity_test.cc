@@ -12,6 +12,7 @@
 
 #include "common/text_util.h"
 #include "store/archive.h"
+#include "store/checksums.h"
 #include "store/sqlite.h"
 #include "tests/station_harness.h"
 
@@ -170,6 +171,67 @@ TEST(IntegrityTest, VerifyAndReanalyzeCheckNameAChunkAlteredAtRest) {
   v = RunCommand(verify);
   EXPECT_EQ(v.exit_code, 1);
   EXPECT_NE(v.output.find("run " + run_id + " results: damaged"), std::string::npos) << v.output;
+}
+
+// Re-seals a run's results after they were changed: what a wrong value
+// archived with a valid checksum looks like (only re-analysis can tell).
+void ResealResults(const std::string& db, const std::string& run_id) {
+  auto d = store::Db::Open(db, store::Db::Mode::kReadWrite);
+  ASSERT_TRUE(d.ok());
+  auto key = (*d)->QueryInt("SELECT run_key FROM runs WHERE run_id = '" + run_id + "'");
+  ASSERT_TRUE(key.ok());
+  ASSERT_TRUE(store::SealResults(**d, *key).ok());
+}
+
+// Real axis naming (gx gy gz ax ay az: not alphabetical) through the station,
+// the archive and re-analysis: the check holds on every run; a curve point or
+// a measurement changed (and re-sealed, so no checksum can tell) fails it,
+// and it names the axis, the quantity and both values.
+TEST(IntegrityTest, CheckHoldsOnASixAxisLotAndNamesAChangedPointOrMeasurement) {
+  testing::TempDir dir("integrity_six");
+  const std::string db = dir.path("six.db");
+  const auto run = RunCommand(Bin("imuqual") + " run --sim 2 --profile tactical --duration 600 " +
+                              "--lot SIX --db " + db + " --quiet 2>&1");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  std::vector<std::string> ids;
+  {
+    auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
+    ASSERT_TRUE(a.ok());
+    auto s = (*a)->db().Prepare("SELECT run_id FROM runs ORDER BY run_id");
+    while (*s->Step()) ids.push_back(s->Text(0));
+    // The plan's axis order, not the alphabet's.
+    auto axes = (*a)->db().Prepare("SELECT GROUP_CONCAT(axis, ' ') FROM (SELECT axis FROM "
+                                   "run_axes WHERE run_key = 1 ORDER BY axis_index)");
+    ASSERT_TRUE(*axes->Step());
+    EXPECT_EQ(axes->Text(0), "gx gy gz ax ay az");
+  }
+  ASSERT_EQ(ids.size(), 2u);
+  auto check = [&](const std::string& id) {
+    return RunCommand(Bin("imuqual") + " reanalyze " + id + " --db " + db + " --check 2>&1 >/dev/null");
+  };
+  for (const std::string& id : ids) {
+    const auto c = check(id);
+    EXPECT_EQ(c.exit_code, 0) << id << ": " << c.output;
+  }
+  // WHEN one curve point of gz in the first run is changed
+  Update(db, "UPDATE curve_points SET dev = dev * 1.001 WHERE axis = 'gz' AND m = 4 AND run_key = "
+             "(SELECT run_key FROM runs WHERE run_id = '" + ids[0] + "')");
+  ResealResults(db, ids[0]);
+  auto c = check(ids[0]);
+  EXPECT_EQ(c.exit_code, 1) << c.output;
+  EXPECT_NE(c.output.find("axis gz, curve point"), std::string::npos) << c.output;
+  EXPECT_NE(c.output.find("(m=4) dev: archived "), std::string::npos) << c.output;
+  EXPECT_EQ(c.output.find("axis gx"), std::string::npos) << "only gz differs: " << c.output;
+  // AND one measurement of ay in the second run
+  Update(db, "UPDATE measurements SET value = value * 1.001 WHERE axis = 'ay' AND name = "
+             "'bias_instability' AND run_key = (SELECT run_key FROM runs WHERE run_id = '" +
+             ids[1] + "')");
+  ResealResults(db, ids[1]);
+  c = check(ids[1]);
+  EXPECT_EQ(c.exit_code, 1) << c.output;
+  EXPECT_NE(c.output.find("axis ay, bias_instability value: archived "), std::string::npos)
+      << c.output;
+  EXPECT_NE(c.output.find(", recomputed "), std::string::npos) << c.output;
 }
 
 // Overwrites `n` bytes at `offset` of `path` with 0xFF.

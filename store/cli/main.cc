@@ -166,16 +166,22 @@ int main(int argc, char** argv) {
   CLI::App* reanalyze_cmd = app.add_subcommand("reanalyze", "analyse an archived run again");
   reanalyze_cmd->add_option("run", re.run_id, "run id")->required();
   reanalyze_cmd->add_option("--db", re.db_path, "archive file")->required();
-  reanalyze_cmd->add_flag("--exact", re.exact,
-                          "exact batch estimators over every archived sample (any grid, stop, CI)");
-  reanalyze_cmd->add_flag(
-      "--check", re.check,
-      "live mode: verify the run's checksums and that it equals the archived result");
-  reanalyze_cmd->add_option("--dev", re.devs, "--exact: estimators")->capture_default_str();
-  reanalyze_cmd->add_option("--grid", re.grid, "--exact: tau grid")->capture_default_str();
+  CLI::Option* exact_flag = reanalyze_cmd->add_flag(
+      "--exact", re.exact, "exact batch estimators over every archived sample (any grid, stop, CI)");
+  reanalyze_cmd
+      ->add_flag("--check", re.check,
+                 "live mode: verify the run's checksums and that it equals the archived result "
+                 "(every curve point, measurement and the verdict)")
+      ->excludes(exact_flag);
+  // Options only the exact mode honours are refused without it, never ignored.
+  reanalyze_cmd->add_option("--dev", re.devs, "--exact: estimators")->capture_default_str()->needs(exact_flag);
+  reanalyze_cmd->add_option("--grid", re.grid, "--exact: tau grid")->capture_default_str()->needs(exact_flag);
   reanalyze_cmd->add_option("--stop", re.stop, "--exact: bins9, stable32 or none")
-      ->capture_default_str();
-  reanalyze_cmd->add_option("--ci", re.ci, "--exact: none, simple or chi2")->capture_default_str();
+      ->capture_default_str()
+      ->needs(exact_flag);
+  reanalyze_cmd->add_option("--ci", re.ci, "--exact: none, simple or chi2")
+      ->capture_default_str()
+      ->needs(exact_flag);
   reanalyze_cmd->add_option("--format", re.format, "table, csv or json")->capture_default_str();
 
   std::string verify_db;

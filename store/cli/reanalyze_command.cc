@@ -1,7 +1,9 @@
 #include "store/cli/reanalyze_command.h"
 
+#include <cmath>
 #include <cstdio>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -68,6 +70,113 @@ int CheckRunChecksums(store::Archive& archive, const std::string& run_id) {
   return 0;
 }
 
+std::string Exactly(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+// The same number, NaN (not measured; NULL in the archive) included.
+bool Same(double a, double b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
+
+// An optional field as archived: absent and NaN are both NULL.
+double Opt(bool has, double v) { return has ? v : std::nan(""); }
+
+// Each differing point of an axis's curve (at most a few, then a count).
+void ComparePoints(const std::string& axis, const std::vector<allan::CurvePoint>& archived,
+                   const std::vector<allan::CurvePoint>& again, std::vector<std::string>* problems) {
+  constexpr int kShown = 3;
+  int differ = 0;
+  for (size_t p = 0; p < archived.size(); ++p) {
+    const allan::CurvePoint& x = archived[p];
+    const allan::CurvePoint& y = again[p];
+    const std::pair<const char*, std::pair<double, double>> fields[] = {
+        {"m", {static_cast<double>(x.m), static_cast<double>(y.m)}},
+        {"dev", {x.dev, y.dev}},
+        {"lo", {x.lo, y.lo}},
+        {"hi", {x.hi, y.hi}},
+        {"edf", {x.edf, y.edf}},
+        {"n", {static_cast<double>(x.n), static_cast<double>(y.n)}}};
+    bool counted = false;
+    for (const auto& [name, v] : fields) {
+      if (Same(v.first, v.second)) continue;
+      if (!counted) ++differ;
+      counted = true;
+      if (differ <= kShown) {
+        problems->push_back("axis " + axis + ", curve point " + std::to_string(p) + " (m=" +
+                            std::to_string(x.m) + ") " + name + ": archived " +
+                            Exactly(v.first) + ", recomputed " + Exactly(v.second));
+      }
+    }
+  }
+  if (differ > kShown) {
+    problems->push_back("axis " + axis + ": " + std::to_string(differ) + " of " +
+                        std::to_string(archived.size()) + " curve points differ in all");
+  }
+}
+
+// The verdict, its reasons and every measurement, by axis and name.
+void CompareJudgements(const store::ResultRecord& archived, const analyze::RunOutcome& again,
+                       std::vector<std::string>* problems) {
+  const std::string recomputed_verdict = judge::OutcomeName(again.judgement.verdict);
+  const std::string archived_verdict = archived.verdict.empty() ? "-" : archived.verdict;
+  if (archived_verdict != recomputed_verdict) {
+    problems->push_back("verdict: archived " + archived_verdict + ", recomputed " +
+                        recomputed_verdict);
+  }
+  const std::set<std::string> a_reasons(archived.reasons.begin(), archived.reasons.end());
+  const std::set<std::string> r_reasons(again.judgement.reasons.begin(),
+                                        again.judgement.reasons.end());
+  for (const std::string& r : a_reasons) {
+    if (!r_reasons.count(r)) problems->push_back("reason archived only: " + r);
+  }
+  for (const std::string& r : r_reasons) {
+    if (!a_reasons.count(r)) problems->push_back("reason recomputed only: " + r);
+  }
+  auto label = [](const pb::Measurement& m) {
+    return (m.axis().empty() ? std::string("run") : "axis " + m.axis()) + ", " + m.name();
+  };
+  std::map<std::pair<std::string, std::string>, const pb::Measurement*> stored;
+  for (const pb::Measurement& m : archived.measurements) stored[{m.axis(), m.name()}] = &m;
+  for (const pb::Measurement& y : again.measurements) {
+    auto it = stored.find({y.axis(), y.name()});
+    if (it == stored.end()) {
+      problems->push_back(label(y) + ": recomputed but not archived");
+      continue;
+    }
+    const pb::Measurement& x = *it->second;
+    stored.erase(it);
+    const std::pair<const char*, std::pair<double, double>> fields[] = {
+        {"value", {x.value(), y.value()}},
+        {"uncertainty", {Opt(x.has_uncertainty(), x.uncertainty()),
+                         Opt(y.has_uncertainty(), y.uncertainty())}},
+        {"low", {Opt(x.has_low(), x.low()), Opt(y.has_low(), y.low())}},
+        {"high", {Opt(x.has_high(), x.high()), Opt(y.has_high(), y.high())}},
+        {"marginal_low", {Opt(x.has_marginal_low(), x.marginal_low()),
+                          Opt(y.has_marginal_low(), y.marginal_low())}},
+        {"marginal_high", {Opt(x.has_marginal_high(), x.marginal_high()),
+                           Opt(y.has_marginal_high(), y.marginal_high())}}};
+    for (const auto& [name, v] : fields) {
+      if (!Same(v.first, v.second)) {
+        problems->push_back(label(x) + " " + name + ": archived " + Exactly(v.first) +
+                            ", recomputed " + Exactly(v.second));
+      }
+    }
+    if (x.outcome() != y.outcome()) {
+      problems->push_back(label(x) + " outcome: archived " + judge::OutcomeName(x.outcome()) +
+                          ", recomputed " + judge::OutcomeName(y.outcome()));
+    }
+    if (x.unit() != y.unit()) {
+      problems->push_back(label(x) + " unit: archived " + x.unit() + ", recomputed " + y.unit());
+    }
+    if (x.note() != y.note()) {
+      problems->push_back(label(x) + " note: archived \"" + x.note() + "\", recomputed \"" +
+                          y.note() + "\"");
+    }
+  }
+  for (const auto& [key, m] : stored) problems->push_back(label(*m) + ": archived but not recomputed");
+}
+
 int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
   // Damage at rest is reported, and so is what the re-analysis finds.
   const bool checksums_ok = !o.check || CheckRunChecksums(archive, o.run_id) == 0;
@@ -114,22 +223,17 @@ int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
                          std::to_string(y.size()) + " re-analysed");
       continue;
     }
-    size_t differ = 0;
-    for (size_t p = 0; p < x.size(); ++p) {
-      if (x[p].m != y[p].m || x[p].dev != y[p].dev || x[p].n != y[p].n) ++differ;
-    }
-    if (differ > 0) {
-      problems.push_back("axis " + axis + ": " + std::to_string(differ) + " of " +
-                         std::to_string(x.size()) + " points differ");
-    }
+    ComparePoints(axis, x, y, &problems);
   }
   for (const auto& [axis, curve] : by_axis) {
     problems.push_back("axis " + axis + ": archived but not an axis of the run");
   }
+  if (result->has_value()) CompareJudgements(**result, *outcome, &problems);
   if (!problems.empty()) {
-    std::string what;
-    for (const std::string& p : problems) what += (what.empty() ? "" : "; ") + p;
-    LogError("run " + o.run_id + " fails the check: " + what);
+    // One line per difference: axis, quantity, archived, recomputed.
+    LogError("run " + o.run_id + " fails the check: " + std::to_string(problems.size()) +
+             " difference" + (problems.size() == 1 ? "" : "s"));
+    for (const std::string& p : problems) std::fprintf(stderr, "  %s\n", p.c_str());
     return 1;
   }
   if (!checksums_ok) return 1;
