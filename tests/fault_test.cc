@@ -23,12 +23,16 @@
 #include "common/text_util.h"
 #include "store/archive.h"
 #include "store/reanalysis.h"
+#include "tests/archive_checks.h"
 #include "tests/station_harness.h"
 
 namespace imuqual {
 namespace {
 
 using testing::Bin;
+using testing::CheckArchive;
+using testing::ExpectEveryRunWhole;
+using testing::ExpectSoakArchivedWhole;
 using testing::RunCommand;
 using testing::StationHarness;
 
@@ -52,31 +56,6 @@ bool WaitArchived(StationHarness& h, int64_t chunks, double timeout_s) {
   return h.WaitCounter("store", "chunks_inserted", chunks, timeout_s) >= chunks;
 }
 
-struct RunCheck {
-  int64_t chunks = 0;
-  int64_t last_seq = -1;
-  int64_t gap_ranges = 0;
-  std::string state, verdict, reasons;
-};
-
-std::map<std::string, RunCheck> CheckArchive(const std::string& db) {
-  std::map<std::string, RunCheck> out;
-  auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
-  EXPECT_TRUE(a.ok()) << a.status().ToString();
-  if (!a.ok()) return out;
-  auto integrity = (*a)->db().Prepare("PRAGMA integrity_check");
-  EXPECT_TRUE(*integrity->Step());
-  EXPECT_EQ(integrity->Text(0), "ok");
-  auto s = (*a)->db().Prepare(
-      "SELECT r.run_id, x.chunks, r.last_seq, x.gap_ranges, r.state, COALESCE(r.verdict, ''), "
-      "COALESCE(r.reasons, '') FROM runs r JOIN run_archive x USING (run_id)");
-  while (*s->Step()) {
-    RunCheck c{s->Int(1), s->Int(2), s->Int(3), s->Text(4), s->Text(5), s->Text(6)};
-    out[s->Text(0)] = c;
-  }
-  return out;
-}
-
 // The archived curves of a run equal the analysis of its archived samples.
 void ExpectResultEqualsReanalysis(const std::string& db, const std::string& run_id) {
   auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
@@ -91,16 +70,6 @@ void ExpectResultEqualsReanalysis(const std::string& db, const std::string& run_
     const auto& again = outcome->curves[i].second.points;
     ASSERT_EQ(live.size(), again.size());
     for (size_t p = 0; p < live.size(); ++p) EXPECT_EQ(live[p].dev, again[p].dev) << run_id;
-  }
-}
-
-// Every run whole: complete, every batch archived, no gap, judged.
-void ExpectEveryRunWhole(const std::map<std::string, RunCheck>& runs) {
-  for (const auto& [id, c] : runs) {
-    EXPECT_EQ(c.state, "complete") << id << ": " << c.reasons;
-    EXPECT_EQ(c.chunks, c.last_seq + 1) << id;
-    EXPECT_EQ(c.gap_ranges, 0) << id;
-    EXPECT_NE(c.verdict, "") << id << " has no verdict";
   }
 }
 
@@ -231,24 +200,7 @@ TEST(FaultTest, DatagramLossInTheKernelLosesNothing) {
                                 "--lot LOSS --quiet --db " + db + " 2>&1");
     (void)RunCommand("nft delete table inet imuqual_loss");
     ASSERT_EQ(run.exit_code, 0) << run.output;
-    const auto runs = CheckArchive(db);
-    ASSERT_EQ(runs.size(), 4u);
-    auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
-    ASSERT_TRUE(a.ok());
-    ExpectEveryRunWhole(runs);
-    for (const auto& [id, c] : runs) {
-      auto curves = (*a)->LoadCurves(**(*a)->FindRunKey(id));
-      ASSERT_TRUE(curves.ok());
-      EXPECT_EQ(curves->size(), 3u) << id;
-      EXPECT_EQ(*(*a)->db().QueryInt(
-                    "SELECT samples_archived = (SELECT samples_announced FROM runs WHERE run_id = '" +
-                    id + "') FROM run_archive WHERE run_id = '" + id + "'"),
-                1)
-          << id << ": samples archived differ from those announced";
-      const auto check = RunCommand(Bin("imuqual") + " reanalyze " + id + " --check --db " + db +
-                                    " > /dev/null 2>&1");
-      EXPECT_EQ(check.exit_code, 0) << id;
-    }
+    ExpectSoakArchivedWhole(db, 4, 3);
   }
 }
 
