@@ -124,13 +124,26 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
 }
 
 void RunAnalyzer::Finish(int64_t first_sample, int64_t end_sample) {
+  // The announced range beyond the batches is missing data, unless it is
+  // absurd (a day or more: a broken or lying announcement), which would
+  // only cost hours of analysing nothing: then it is refused, with a reason.
+  auto missing = [&](int64_t from, int64_t to, const char* where) {
+    if (to <= from) return;
+    if (static_cast<double>(to - from) * tau0_s_ > kAbsurdGapSeconds) {
+      absurd_range_ = "the announced sample range " + std::to_string(first_sample) + ".." +
+                      std::to_string(end_sample) + " lies " + std::to_string(to - from) +
+                      " samples " + where + " the data received; not analysed as a gap";
+      return;
+    }
+    Push(to - from);
+  };
   if (first_counter_ < 0) {
     // Nothing arrived: the whole announced range is missing.
-    if (first_sample >= 0 && end_sample > first_sample) Push(end_sample - first_sample);
+    if (first_sample >= 0) missing(first_sample, end_sample, "beyond");
     return;
   }
-  if (first_sample >= 0 && first_sample < first_counter_) Push(first_counter_ - first_sample);
-  if (end_sample > next_counter_) Push(end_sample - next_counter_);
+  if (first_sample >= 0) missing(first_sample, first_counter_, "before");
+  missing(next_counter_, end_sample, "beyond");
 }
 
 std::string FailureForRunState(const std::string& state, const std::string& reason) {
@@ -201,6 +214,10 @@ RunOutcome RunAnalyzer::Outcome(bool final, const std::string& failure) const {
                                  }),
                   limits->end());
     out.judgement = judge::Judge(provisional, desc_.axes, &out.measurements);
+  }
+  if (!absurd_range_.empty()) {
+    out.judgement.verdict = pb::FAIL;
+    out.judgement.reasons.insert(out.judgement.reasons.begin(), absurd_range_);
   }
   if (!failure.empty()) {
     out.judgement.verdict = pb::FAIL;

@@ -103,6 +103,7 @@ class RunAnalyzer {
   int64_t next_counter_ = -1;
   int64_t warmup_seen_ = 0;
   int64_t gap_samples_ = 0;
+  std::string absurd_range_;  // why the announced range was not analysed, if it was absurd
   std::vector<int64_t> invalid_samples_;  // per axis, after warm-up
   int64_t batches_ = 0;
   std::vector<allan::StreamingAllan> engines_;

@@ -64,6 +64,23 @@ TEST(RunAnalyzerTest, LeadingLossIsAGapToo) {
   EXPECT_EQ(a->Outcome(true).gap_samples, 200);
 }
 
+// An announced end far beyond the data (a broken or lying announcement: a
+// year of samples at 100 Hz) is refused with its reason, not analysed as
+// hours of gap; the run FAILs saying so.
+TEST(RunAnalyzerTest, AnAbsurdAnnouncedEndIsRefusedNotAnalysed) {
+  auto a = RunAnalyzer::Create(Desc());
+  ASSERT_TRUE(a.ok());
+  Batch b(0, 0, 100);
+  ASSERT_TRUE(a->AddBatch(b.view).ok());
+  a->Finish(0, int64_t{100} * 86400 * 365);
+  const RunOutcome out = a->Outcome(true);
+  EXPECT_EQ(out.gap_samples, 0);
+  EXPECT_EQ(out.judgement.verdict, pb::FAIL);
+  ASSERT_FALSE(out.judgement.reasons.empty());
+  EXPECT_NE(out.judgement.reasons[0].find("not analysed as a gap"), std::string::npos)
+      << out.judgement.reasons[0];
+}
+
 TEST(RunAnalyzerTest, WarmUpIsDiscardedByCounterAndIsNotAGap) {
   auto a = RunAnalyzer::Create(Desc(/*warmup_s=*/1.5));  // 150 samples
   ASSERT_TRUE(a.ok());
