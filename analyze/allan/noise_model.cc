@@ -351,4 +351,31 @@ std::optional<CurveMinimum> FindCurveMinimum(const Curve& curve) {
   return best;
 }
 
+double MinimumUncertainty(const Curve& curve, const CurveMinimum& min) {
+  const CurvePoint* at = nullptr;
+  for (const CurvePoint& p : curve.points) {
+    if (p.m == min.m) at = &p;
+  }
+  if (at == nullptr || at->n < 1 || at->stride < 1) return kNaN;
+  // The gap-free record that gives the point's valid terms, capped at the record.
+  int64_t n_phase = (at->n - 1) * at->stride + 2 * at->m + 1;
+  if (curve.n_phase > 0) n_phase = std::min(n_phase, curve.n_phase);
+  const std::optional<double> edf = GreenhallEdf(-1, 2, at->m, n_phase, static_cast<double>(at->m),
+                                                 static_cast<double>(at->m) / at->stride);
+  if (!edf || !(*edf > 0)) return kNaN;
+  const double statistical = min.dev / std::sqrt(2 * *edf);
+  // The minimum of a noisy curve lies low: the points within an octave of it
+  // on either side (the flat bottom it was picked from) say by how much.
+  double sum = 0;
+  int count = 0;
+  for (const CurvePoint& p : curve.points) {
+    if (p.tau_s >= min.tau_s / 2 && p.tau_s <= min.tau_s * 2 && std::isfinite(p.dev)) {
+      sum += p.dev;
+      ++count;
+    }
+  }
+  const double selection = count > 0 ? sum / count - min.dev : 0.0;
+  return std::hypot(statistical, selection);
+}
+
 }  // namespace imuqual::allan

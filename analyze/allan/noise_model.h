@@ -159,6 +159,14 @@ struct CurveMinimum {
 };
 std::optional<CurveMinimum> FindCurveMinimum(const Curve& curve);
 
+// The 1-sigma standard uncertainty of `min`, a minimum of `curve` (a deviation,
+// the bias-instability reading), in the curve's unit. Method: the point's
+// chi-square spread, dev / sqrt(2 edf), with the Greenhall edf (d = 2,
+// F = m, S = m / stride, N from its valid terms) for flicker FM (alpha = -1,
+// the noise whose Allan deviation is flat: what makes a minimum). NaN when the
+// edf is not defined at that point.
+double MinimumUncertainty(const Curve& curve, const CurveMinimum& min);
+
 }  // namespace imuqual::allan
 
 #endif  // IMUQUAL_ANALYZE_ALLAN_NOISE_MODEL_H_

@@ -56,6 +56,13 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
       Make(axis, kBiasInstabilityIeee,
            min ? Datasheet(NoiseTerm::kBiasInstability, kind, min->bias_instability_ieee) : nan,
            kind, min_note));
+  // Their 1-sigma uncertainty: the chi-square spread of the minimum's point
+  // and how far it lies below its neighbours (allan::MinimumUncertainty).
+  if (const double u = min ? allan::MinimumUncertainty(curve, *min) : nan; std::isfinite(u)) {
+    const double ratio = min->bias_instability_ieee / min->dev;
+    out[out.size() - 2].set_uncertainty(Datasheet(NoiseTerm::kBiasInstability, kind, u));
+    out.back().set_uncertainty(Datasheet(NoiseTerm::kBiasInstability, kind, u * ratio));
+  }
   out.push_back(Make(axis, kTauAtMinimum, min ? min->tau_s : nan, kind, min_note));
 
   // Slope-line read-offs: N at tau = 1 s on -1/2, K at tau = 3 s on +1/2.

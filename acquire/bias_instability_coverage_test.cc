@@ -1,0 +1,123 @@
+// Coverage of the bias-instability uncertainty (analyze/allan/noise_model.h
+// MinimumUncertainty) through the simulator: records of known truths
+// (white + flicker + rate random walk, and with a Gauss-Markov bump) analysed
+// as the station does (streaming engine, dense grid, 9-bin rule), the curve
+// minimum and its 1-sigma uncertainty against the truth's own minimum over
+// the same taus. Over 200 seeds the 1-sigma interval must cover the truth in
+// 60-76 % of records (68 % nominal) and the 2-sigma one in >= 90 %. The
+// reading itself (the curve's minimum, as datasheets define it) lies low:
+// measured mean z -0.5 (the minimum of a noisy curve is picked from its
+// dips); the test keeps that bias within [-0.8, 0] and prints it.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "acquire/imu_simulator.h"
+#include "analyze/allan/noise_model.h"
+#include "analyze/allan/streaming.h"
+
+namespace imuqual {
+namespace {
+
+constexpr double kRateHz = 100.0;
+constexpr int kSamples = 1 << 19;  // 87 min at 100 Hz
+constexpr int kSeeds = 200;
+
+struct Scenario {
+  std::string name;
+  pb::AxisTruth truth;
+};
+
+// The truth's AVAR at tau, written out here (IEEE 952 terms and a
+// first-order Gauss-Markov process) so the test does not take it from the
+// library it checks.
+double TruthAvar(const pb::AxisTruth& t, double tau) {
+  double avar = t.random_walk() * t.random_walk() / tau +
+                2 * std::numbers::ln2 / std::numbers::pi * t.bias_instability() *
+                    t.bias_instability() +
+                t.rate_random_walk() * t.rate_random_walk() * tau / 3;
+  for (const pb::GaussMarkov& g : t.gauss_markov()) {
+    const double q = g.sigma() * g.sigma();
+    const double T = g.correlation_time_s();
+    const double x = tau / T;
+    avar += q * T / tau * (2 - T / tau * (3 - 4 * std::exp(-x) + std::exp(-2 * x)));
+  }
+  return avar;
+}
+
+std::vector<Scenario> Scenarios() {
+  std::vector<Scenario> out;
+  {
+    pb::AxisTruth a;
+    a.set_axis("x");
+    a.set_random_walk(0.004);
+    a.set_bias_instability(5e-4);
+    a.set_rate_random_walk(2e-5);
+    out.push_back({"white+flicker+rrw", a});
+  }
+  {
+    pb::AxisTruth a;
+    a.set_axis("x");
+    a.set_random_walk(0.004);
+    a.set_bias_instability(3e-4);
+    a.set_rate_random_walk(3e-5);
+    pb::GaussMarkov* g = a.add_gauss_markov();
+    g->set_sigma(4e-4);
+    g->set_correlation_time_s(20);
+    out.push_back({"white+flicker+gm+rrw", a});
+  }
+  return out;
+}
+
+TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {
+  for (const Scenario& s : Scenarios()) {
+    int covered1 = 0, covered2 = 0, n = 0;
+    double sum_z = 0;
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+      pb::SimTruth truth;
+      truth.set_seed(9001 * seed + 17);
+      truth.set_actual_rate_hz(kRateHz);
+      *truth.add_axes() = s.truth;
+      auto sim = sim::ImuSimulator::Create(truth);
+      ASSERT_TRUE(sim.ok());
+      std::vector<std::vector<float>> out(1);
+      out[0].reserve(kSamples);
+      sim->Generate(kSamples, out);
+      allan::StreamingOptions so;
+      so.tau0_s = 1 / kRateHz;
+      allan::StreamingAllan engine(so);
+      engine.Append(std::span<const float>(out[0]));
+      const allan::Curve dense =
+          engine.Oadev(allan::StreamGrid::kDense, allan::StopRule::kBins9, allan::CiMethod::kNone);
+      const auto min = allan::FindCurveMinimum(dense);
+      ASSERT_TRUE(min.has_value());
+      const double u = allan::MinimumUncertainty(dense, *min);
+      ASSERT_TRUE(std::isfinite(u) && u > 0) << s.name << " seed " << seed;
+      double truth_min = INFINITY;
+      for (double tau = dense.points.front().tau_s; tau <= dense.points.back().tau_s; tau *= 1.005) {
+        truth_min = std::min(truth_min, std::sqrt(TruthAvar(s.truth, tau)));
+      }
+      const double z = (min->dev - truth_min) / u;
+      sum_z += z;
+      covered1 += std::abs(z) <= 1;
+      covered2 += std::abs(z) <= 2;
+      ++n;
+    }
+    const double c1 = static_cast<double>(covered1) / n, c2 = static_cast<double>(covered2) / n;
+    std::printf("%-22s 1-sigma %.1f %%  2-sigma %.1f %%  mean z %+.2f  (%d records)\n",
+                s.name.c_str(), 100 * c1, 100 * c2, sum_z / n, n);
+    EXPECT_GE(c1, 0.60) << s.name;
+    EXPECT_LE(c1, 0.76) << s.name;
+    EXPECT_GE(c2, 0.90) << s.name;
+    EXPECT_GE(sum_z / n, -0.8) << s.name;
+    EXPECT_LE(sum_z / n, 0.0) << s.name;
+  }
+}
+
+}  // namespace
+}  // namespace imuqual
