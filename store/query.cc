@@ -5,7 +5,7 @@ namespace imuqual::store {
 namespace {
 
 constexpr char kAxisColumns[] = R"sql(
-SELECT a.lot, a.unit, a.run_id, a.start_utime, a.state, a.axis, a.kind, a.random_walk,
+SELECT a.lot, a.serial, a.run_id, a.start_utime, a.state, a.axis, a.kind, a.random_walk,
        a.bias_instability, a.bias_instability_ieee, a.tau_min_s, a.rate_random_walk,
        COALESCE(a.samples, 0), COALESCE(a.gap_samples, 0), COALESCE(a.invalid_samples, 0),
        COALESCE(a.axis_verdict, ''), COALESCE(a.run_verdict, '')
@@ -56,7 +56,7 @@ Result<std::vector<AxisRow>> QueryAxisRows(Archive& archive, const AxisRowFilter
 WHERE a.lot = ?1
   AND substr(a.run_id, 1, length(?2)) = ?2
   AND (?3 = 0 OR a.run_id IN (SELECT run_id FROM latest_runs WHERE lot = ?1))
-ORDER BY a.unit, a.start_utime, a.run_id, a.axis_index)sql");
+ORDER BY a.serial, a.start_utime, a.run_id, a.axis_index)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, filter.lot).Bind(2, filter.run_prefix).Bind(3, filter.latest_per_unit ? 1 : 0);
   return ReadAxisRows(*s);

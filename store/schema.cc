@@ -259,6 +259,96 @@ CREATE TABLE superseded_judgements (
   PRIMARY KEY (run_key, revision)
 );
 )sql",
+      // 4 -> 5: views that answer what they say. lot_measurements had two
+      // columns named `unit` (the serial and the measurement unit; SQLite
+      // called the second `unit:1`), so lot_statistics grouped by serial; it
+      // also counted every run of a retested unit, and its one-pass variance
+      // (mean of squares - square of mean) cancelled for large means. Now
+      // `serial` is a unit's serial number and `unit` a value's unit;
+      // lot_measurements holds what `imuqual lot --stats` summarizes and
+      // all_runs_measurements every run. axis_results and run_archive name
+      // the serial `serial` and keep `unit` (the same serial, last column)
+      // for queries written before.
+      R"sql(
+DROP VIEW IF EXISTS lot_statistics;
+DROP VIEW IF EXISTS lot_measurements;
+DROP VIEW IF EXISTS all_runs_measurements;
+DROP VIEW IF EXISTS axis_results;
+DROP VIEW IF EXISTS run_archive;
+
+-- One row per run and axis with the headline figures.
+CREATE VIEW axis_results AS
+SELECT r.lot, r.serial, r.run_id, r.run_key, r.start_utime, r.state, ra.axis_index, ra.axis, ra.kind,
+       MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.value END) AS random_walk,
+       MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.unit END) AS random_walk_unit,
+       MAX(CASE WHEN m.name = 'bias_instability' THEN m.value END) AS bias_instability,
+       MAX(CASE WHEN m.name = 'bias_instability_ieee' THEN m.value END) AS bias_instability_ieee,
+       MAX(CASE WHEN m.name = 'bias_instability' THEN m.unit END) AS bias_instability_unit,
+       MAX(CASE WHEN m.name = 'tau_at_minimum' THEN m.value END) AS tau_min_s,
+       MAX(CASE WHEN m.name = 'rate_random_walk' THEN m.value END) AS rate_random_walk,
+       r.gap_samples, ra.invalid_samples, r.samples,
+       CASE WHEN SUM(m.outcome = 'FAIL') > 0 THEN 'FAIL'
+            WHEN SUM(m.outcome = 'MARGINAL') > 0 THEN 'MARGINAL'
+            WHEN SUM(m.outcome = 'PASS') > 0 THEN 'PASS' END AS axis_verdict,
+       r.verdict AS run_verdict,
+       r.serial AS unit  -- before schema 5; new queries say serial
+FROM runs r
+JOIN run_axes ra ON ra.run_key = r.run_key
+LEFT JOIN measurements m ON m.run_key = r.run_key AND m.axis = ra.axis
+GROUP BY r.lot, r.run_key, ra.axis_index;  -- lot first: WHERE lot = ? reaches the index
+
+-- Every judged value of each unit's latest run in its lot: what
+-- `imuqual lot LOT --stats` summarizes. A retested unit counts once, by its
+-- latest run; a unit whose latest run is not judged (yet) has no values here.
+CREATE VIEW lot_measurements AS
+SELECT r.lot, r.serial, r.run_id, r.start_utime, m.axis, COALESCE(ra.kind, '') AS kind,
+       m.name, m.value, m.unit, m.low, m.high, m.marginal_low, m.marginal_high, m.outcome
+FROM latest_runs r
+JOIN measurements m ON m.run_key = r.run_key
+LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis;
+
+-- Every judged value of every run (each run's current judgement), retests
+-- included: a unit's history.
+CREATE VIEW all_runs_measurements AS
+SELECT r.lot, r.serial, r.run_id, r.start_utime, m.axis, COALESCE(ra.kind, '') AS kind,
+       m.name, m.value, m.unit, m.low, m.high, m.marginal_low, m.marginal_high, m.outcome
+FROM runs r
+JOIN measurements m ON m.run_key = r.run_key
+LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis;
+
+-- Per lot, axis kind, measurement and unit, over lot_measurements without
+-- the noise-model parameters (model_*: each unit's own model), as
+-- `imuqual lot --stats` counts them: n finite values, their mean, sample sd,
+-- min, max; pass_rate = (PASS + MARGINAL) / values with an outcome.
+-- sd is two-pass, sqrt(sum((x - mean)^2) / (n - 1)) with the group's mean
+-- from the inner query: sum(x^2) - n mean^2 loses every digit when
+-- |mean| >> sd. The correlated sum reaches its lot's runs through the lot
+-- index (`+x.name`: not through measurements_by_name, which would visit
+-- that measurement in every lot), so WHERE lot = ? stays a per-lot query.
+CREATE VIEW lot_statistics AS
+SELECT g.lot, g.kind, g.name, g.unit, g.n, g.mean,
+       SQRT((SELECT SUM((x.value - g.mean) * (x.value - g.mean)) FROM lot_measurements x
+             WHERE x.lot = g.lot AND x.kind = g.kind AND +x.name = g.name AND x.unit = g.unit
+               AND x.value > -1e999 AND x.value < 1e999)
+            / NULLIF(g.n - 1, 0)) AS sd,
+       g.min, g.max, g.pass_rate
+FROM (SELECT lot, kind, name, unit, COUNT(x) AS n, AVG(x) AS mean, MIN(x) AS min, MAX(x) AS max,
+             1.0 * SUM(outcome IN ('PASS', 'MARGINAL')) / NULLIF(SUM(outcome IS NOT NULL), 0) AS pass_rate
+      FROM (SELECT lot, kind, name, unit, outcome,
+                   CASE WHEN value > -1e999 AND value < 1e999 THEN value END AS x  -- finite
+            FROM lot_measurements WHERE substr(name, 1, 6) <> 'model_')
+      GROUP BY lot, kind, name, unit) g;
+
+-- Archive completeness per run: chunks and samples held, gaps recorded.
+CREATE VIEW run_archive AS
+SELECT r.run_id, r.lot, r.serial, r.state, r.last_seq,
+       (SELECT COUNT(*) FROM raw_chunks c WHERE c.run_key = r.run_key) AS chunks,
+       (SELECT COALESCE(SUM(num_samples), 0) FROM raw_chunks c WHERE c.run_key = r.run_key) AS samples_archived,
+       (SELECT COUNT(*) FROM gaps g WHERE g.run_key = r.run_key) AS gap_ranges,
+       (SELECT COALESCE(SUM(MAX(num_samples, 0)), 0) FROM gaps g WHERE g.run_key = r.run_key) AS gap_samples,
+       r.serial AS unit  -- before schema 5; new queries say serial
+FROM runs r;
+)sql",
   };
   return kMigrations;
 }

@@ -1,20 +1,30 @@
 // The lot tools and exports on a generated history: statistics agree with
 // the per-unit values they summarize, a planted difference between lots is
 // found and no difference is found between a lot and itself, and every
-// export reads back to what the archive holds.
+// export reads back to what the archive holds. The SQL examples of
+// store/SCHEMA.md, run through the sqlite3 shell, give the answers the tools
+// give.
 #include <gtest/gtest.h>
 
 #include <google/protobuf/util/json_util.h>
 #include <google/protobuf/util/message_differencer.h>
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
+#include <limits>
 #include <map>
 #include <numbers>
+#include <set>
 #include <sstream>
+#include <tuple>
 
+#include "analyze/judge/judge.h"
 #include "common/text_util.h"
 #include "imuqual/record.pb.h"
 #include "store/archive.h"
+#include "store/chunk_codec.h"
+#include "store/run_record.h"
 #include "tests/test_util.h"
 
 namespace imuqual {
@@ -23,7 +33,7 @@ namespace {
 using testing::Bin;
 using testing::RunCommand;
 
-// CSV (no quoted commas in these outputs) as header-indexed rows.
+// CSV (RFC 4180: quoted fields, CRLF or LF) as header-indexed rows.
 struct Csv {
   std::vector<std::string> header;
   std::vector<std::vector<std::string>> rows;
@@ -34,12 +44,45 @@ struct Csv {
   }
 };
 Csv ParseCsv(const std::string& text) {
+  std::vector<std::vector<std::string>> records;
+  std::vector<std::string> record;
+  std::string field;
+  bool quoted = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (quoted) {
+      if (c != '"') {
+        field += c;
+      } else if (i + 1 < text.size() && text[i + 1] == '"') {
+        field += '"';
+        ++i;
+      } else {
+        quoted = false;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      record.push_back(std::move(field));
+      field.clear();
+    } else if (c == '\n') {
+      record.push_back(std::move(field));
+      field.clear();
+      records.push_back(std::move(record));
+      record.clear();
+    } else if (c != '\r') {
+      field += c;
+    }
+  }
+  if (!field.empty() || !record.empty()) {
+    record.push_back(std::move(field));
+    records.push_back(std::move(record));
+  }
   Csv c;
-  std::istringstream in(text);
-  std::string line;
-  std::getline(in, line);
-  c.header = Split(line, ',');
-  while (std::getline(in, line) && !line.empty()) c.rows.push_back(Split(line, ','));
+  if (records.empty()) return c;
+  c.header = std::move(records[0]);
+  for (size_t i = 1; i < records.size(); ++i) {
+    if (records[i].size() > 1 || !records[i][0].empty()) c.rows.push_back(std::move(records[i]));
+  }
   return c;
 }
 
@@ -197,6 +240,487 @@ TEST_F(LotToolsTest, CsvExportsHaveEveryRow) {
   EXPECT_EQ(curves.rows.size(), points);
   EXPECT_EQ(RunCommand(Bin("imuqual") + " export --lot T-L001 --as xml --db " + db_ + " 2>/dev/null").exit_code, 2);
   EXPECT_EQ(RunCommand(Bin("imuqual") + " export --as json --db " + db_ + " 2>/dev/null").exit_code, 2);
+}
+
+// ---------------------------------------------------------------------------
+// The SQL examples of store/SCHEMA.md, each run as written through the
+// sqlite3 shell and its answer checked against the imuqual commands, on a
+// generated history (lots TAC-L001 and TAC-L002, as the examples name them)
+// with what the plain history lacks:
+// - TAC-L001: each unit that failed retested a day later with values x 0.7,
+//   two others retested with values x 3 (now failing), one whose retest
+//   is still running, one whose retest was aborted unjudged with batch 2 of
+//   0..3 missing;
+// - TAC-L002: every unit retested, its gyros' bias_offset 1e9 deg/h plus a
+//   spread of ~1 (where sum(x^2) - n mean^2 loses every digit).
+// Retests are judged by the runs' own plan, as a station would.
+
+constexpr double kDayUs = 86400e6;
+constexpr double kLargeOffsetDph = 1e9;
+
+// The statistics of one lot, axis kind, measurement and unit, pooled from
+// the per-axis rows of `imuqual lot LOT --stats`: N = sum n_i,
+// M = sum n_i m_i / N, (N - 1) sd^2 = sum (n_i - 1) s_i^2 + sum n_i (m_i - M)^2.
+struct Pooled {
+  int64_t n = 0;
+  double mean = NAN, sd = NAN, min = NAN, max = NAN, pass_rate = NAN;
+};
+
+class SchemaExamplesTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir("schema_examples");
+    db_ = dir_->path("examples.db");
+    const auto gen = RunCommand(Bin("imuqual-history-gen") + " --db " + db_ +
+                                " --lots 2 --units 12 --prefix TAC --seed 5");
+    ASSERT_EQ(gen.exit_code, 0) << gen.output;
+    AddRetests();
+  }
+  static void TearDownTestSuite() { delete dir_; }
+
+  static void AddRetests() {
+    auto a = store::Archive::Open(db_, store::Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok()) << a.status().ToString();
+    store::Archive& archive = **a;
+    ASSERT_TRUE(archive.Begin().ok());
+    std::vector<std::string> passed;  // TAC-L001's units whose run did not fail
+    for (int u = 1; u <= 12; ++u) {
+      char serial[32];
+      std::snprintf(serial, sizeof serial, "TAC-L001-U%03d", u);
+      auto key = archive.FindRunKey(std::string(serial) + "-R1");
+      ASSERT_TRUE(key.ok() && key->has_value()) << serial;
+      auto r1 = archive.LoadResult(**key);
+      ASSERT_TRUE(r1.ok() && r1->has_value());
+      if ((*r1)->verdict == "FAIL") {
+        Retest(archive, serial, "complete",
+               [](const pb::Measurement& m) { return 0.7 * m.value(); });
+      } else {
+        passed.push_back(serial);
+      }
+    }
+    ASSERT_GE(passed.size(), 4u);
+    for (int i : {0, 1}) {
+      Retest(archive, passed[i], "complete",
+             [](const pb::Measurement& m) { return 3 * m.value(); });
+    }
+    Retest(archive, passed[2], "running", nullptr);
+    Retest(archive, passed[3], "aborted", nullptr);
+    aborted_run_ = passed[3] + "-R2";
+    for (int u = 1; u <= 12; ++u) {
+      char serial[32];
+      std::snprintf(serial, sizeof serial, "TAC-L002-U%03d", u);
+      int axis = 0;
+      Retest(archive, serial, "complete", [&](const pb::Measurement& m) {
+        // The tactical profile's gyros are gx, gy, gz.
+        if (m.name() != "bias_offset" || m.axis().empty() || m.axis()[0] != 'g') return m.value();
+        return kLargeOffsetDph + 0.25 * ((7 * u + 3 * axis++) % 13);  // exact in a double
+      });
+    }
+    ASSERT_TRUE(archive.Commit().ok());
+  }
+
+  // Archives run R2 of `serial`, a day after its R1: `state` "complete" is
+  // judged on R1's values mapped by `value_of`, with R1's plan; "running" and
+  // "aborted" have no result (the aborted one holds batches 0, 1 and 3 of 0..3).
+  static void Retest(store::Archive& archive, const std::string& serial, const std::string& state,
+                     const std::function<double(const pb::Measurement&)>& value_of) {
+    auto run = archive.LoadRun(serial + "-R1");
+    ASSERT_TRUE(run.ok()) << run.status().ToString();
+    auto r1 = archive.LoadResult(**archive.FindRunKey(serial + "-R1"));
+    ASSERT_TRUE(r1.ok() && r1->has_value());
+    store::RunInfo r2 = *run;
+    r2.run_id = serial + "-R2";
+    r2.start_utime += static_cast<int64_t>(kDayUs);
+    r2.end_utime = r2.start_utime + 7200'000'000;
+    r2.state = state;
+    r2.last_seq = state == "aborted" ? 3 : -1;
+    auto key = archive.UpsertRun(r2);
+    ASSERT_TRUE(key.ok()) << key.status().ToString();
+    if (state == "aborted") {
+      for (int64_t seq : {0, 1, 3}) {
+        store::ChunkData d;
+        d.num_axes = static_cast<int>(r2.axes.size());
+        d.num_samples = 10;
+        d.samples.assign(d.num_axes * d.num_samples, 0.5f);
+        store::ChunkRecord c;
+        c.seq = seq;
+        c.first_sample = 10 * seq;
+        c.num_samples = 10;
+        c.host_utime = r2.start_utime;
+        c.codec = store::kCodecRawFloat32;
+        c.data = store::EncodeChunk(d, store::kCodecRawFloat32);
+        ASSERT_TRUE(archive.InsertChunk(*key, c, nullptr).ok());
+      }
+      ASSERT_TRUE(archive.RecomputeGaps(*key, 3, *r2.end_utime).ok());
+    }
+    if (state != "complete") return;
+    pb::TestPlan plan;
+    ASSERT_TRUE(plan.ParseFromString(r2.plan));
+    std::vector<judge::AxisDesc> axes;
+    for (const store::AxisInfo& a : r2.axes) axes.push_back({a.name, a.kind});
+    store::ResultRecord res = **r1;
+    for (pb::Measurement& m : res.measurements) {
+      const double v = value_of(m);
+      m.clear_low();
+      m.clear_high();
+      m.clear_marginal_low();
+      m.clear_marginal_high();
+      m.clear_outcome();
+      m.set_value(v);
+    }
+    const judge::Judgement j = judge::Judge(plan, axes, &res.measurements);
+    res.verdict = j.verdict == pb::OUTCOME_UNSET ? "" : judge::OutcomeName(j.verdict);
+    res.reasons = j.reasons;
+    res.result_utime = *r2.end_utime;
+    res.record = store::BuildRunRecord(r2, res, 0).SerializeAsString();
+    ASSERT_TRUE(archive.PutResult(*key, res).ok());
+    ASSERT_TRUE(archive.MarkFinalized(*key, res.result_utime).ok());
+  }
+
+  static Csv Imuqual(const std::string& args) {
+    const auto r = RunCommand(Bin("imuqual") + " " + args + " --db " + db_);
+    EXPECT_EQ(r.exit_code, 0) << args;
+    return ParseCsv(r.output);
+  }
+
+  // Every run of the archive, from `imuqual runs`.
+  static Csv Runs() { return Imuqual("runs --limit 1000000 --format csv"); }
+
+  // Each (lot, unit)'s latest run id, by start time, from `imuqual runs`.
+  static std::set<std::string> LatestRuns(const Csv& runs) {
+    std::map<std::pair<std::string, std::string>, std::pair<std::string, std::string>> latest;
+    for (const auto& r : runs.rows) {
+      auto& [start, id] = latest[{r[runs.Col("lot")], r[runs.Col("unit")]}];
+      if (r[runs.Col("start")] > start) {  // ISO 8601 UTC: text order is time order
+        start = r[runs.Col("start")];
+        id = r[runs.Col("run_id")];
+      }
+    }
+    std::set<std::string> ids;
+    for (const auto& [unit, run] : latest) ids.insert(run.second);
+    return ids;
+  }
+
+  // Axis name -> kind ("gyro", "accel"; "(run)" -> "").
+  static std::map<std::string, std::string> AxisKinds() {
+    std::map<std::string, std::string> kinds{{"(run)", ""}, {"", ""}};
+    auto a = store::Archive::Open(db_, store::Archive::Mode::kRead);
+    EXPECT_TRUE(a.ok());
+    auto s = (*a)->db().Prepare("SELECT DISTINCT axis, kind FROM run_axes");
+    while (*s->Step()) kinds[s->Text(0)] = s->Text(1);
+    return kinds;
+  }
+
+  // `imuqual lot LOT --stats`, pooled per (kind, measurement, unit).
+  static std::map<std::tuple<std::string, std::string, std::string>, Pooled> LotStats(
+      const std::string& lot) {
+    const Csv st = Imuqual("lot " + lot + " --stats --format csv");
+    const auto kinds = AxisKinds();
+    struct Sums {
+      int64_t n = 0, judged = 0;
+      double passed = 0, weighted_mean = 0, min = INFINITY, max = -INFINITY;
+      std::vector<std::tuple<int64_t, double, double>> axes;  // n_i, m_i, s_i
+    };
+    std::map<std::tuple<std::string, std::string, std::string>, Sums> sums;
+    auto real = [](const std::string& text) { return text.empty() ? NAN : std::stod(text); };
+    for (const auto& r : st.rows) {
+      Sums& s = sums[{kinds.at(r[st.Col("axis")]), r[st.Col("measurement")], r[st.Col("unit")]}];
+      const int64_t n = std::stoll(r[st.Col("n")]);
+      const int64_t judged = std::stoll(r[st.Col("judged")]);
+      s.judged += judged;
+      if (judged > 0) s.passed += std::round(real(r[st.Col("yield")]) * judged);
+      if (n == 0) continue;
+      s.n += n;
+      s.weighted_mean += n * real(r[st.Col("mean")]);
+      s.min = std::min(s.min, real(r[st.Col("min")]));
+      s.max = std::max(s.max, real(r[st.Col("max")]));
+      s.axes.push_back({n, real(r[st.Col("mean")]), n >= 2 ? real(r[st.Col("sd")]) : 0.0});
+    }
+    std::map<std::tuple<std::string, std::string, std::string>, Pooled> out;
+    for (const auto& [key, s] : sums) {
+      Pooled& p = out[key];
+      p.n = s.n;
+      if (s.judged > 0) p.pass_rate = s.passed / s.judged;
+      if (s.n == 0) continue;
+      p.mean = s.weighted_mean / s.n;
+      p.min = s.min;
+      p.max = s.max;
+      if (s.n < 2) continue;
+      double ss = 0;
+      for (const auto& [n, m, sd] : s.axes)
+        ss += (n - 1) * sd * sd + n * (m - p.mean) * (m - p.mean);
+      p.sd = std::sqrt(ss / (s.n - 1));
+    }
+    return out;
+  }
+
+  // The sqlite3 shell prints 15 significant digits: 1e-13 relative.
+  static void ExpectReal(const std::string& text, double expected, const std::string& what) {
+    if (std::isnan(expected)) {
+      EXPECT_EQ(text, "") << what;
+      return;
+    }
+    ASSERT_FALSE(text.empty()) << what;
+    EXPECT_NEAR(std::stod(text), expected, 1e-13 * std::abs(expected)) << what;
+  }
+  // sd pooled from the per-axis means: those carry a few ulps of |mean| of
+  // rounding (their sums), which enter the pooled sd as such; 64 ulps
+  // covers them (1.4e-5 deg/h at 1e9 deg/h, where one pass is off by ~10).
+  static void ExpectPooledSd(const std::string& text, const Pooled& p, const std::string& what) {
+    if (std::isnan(p.sd)) {
+      EXPECT_EQ(text, "") << what;
+      return;
+    }
+    ASSERT_FALSE(text.empty()) << what;
+    const double tolerance =
+        1e-13 * p.sd + 64 * std::numeric_limits<double>::epsilon() * std::abs(p.mean);
+    EXPECT_NEAR(std::stod(text), p.sd, tolerance) << what;
+  }
+  static void ExpectStatistics(const Csv& out, const std::vector<std::string>& row, const Pooled& p,
+                               const std::string& what) {
+    EXPECT_EQ(row[out.Col("n")], std::to_string(p.n)) << what;
+    ExpectReal(row[out.Col("mean")], p.mean, what + " mean");
+    ExpectPooledSd(row[out.Col("sd")], p, what + " sd");
+    ExpectReal(row[out.Col("min")], p.min, what + " min");
+    ExpectReal(row[out.Col("max")], p.max, what + " max");
+    ExpectReal(row[out.Col("pass_rate")], p.pass_rate, what + " pass_rate");
+  }
+
+  static testing::TempDir* dir_;
+  static std::string db_;
+  static std::string aborted_run_;
+};
+testing::TempDir* SchemaExamplesTest::dir_ = nullptr;
+std::string SchemaExamplesTest::db_;
+std::string SchemaExamplesTest::aborted_run_;
+
+struct SqlExample {
+  std::string question;  // its -- comment lines
+  std::string sql;
+};
+
+// Every statement of every ```sql block, with the comment above it.
+std::vector<SqlExample> SqlExamples(const std::string& markdown) {
+  std::vector<SqlExample> out;
+  std::istringstream in(markdown);
+  std::string line;
+  bool in_block = false;
+  SqlExample current;
+  while (std::getline(in, line)) {
+    if (!in_block) {
+      in_block = line == "```sql";
+      continue;
+    }
+    if (line == "```") {
+      in_block = false;
+      EXPECT_TRUE(current.sql.empty()) << "unterminated statement: " << current.sql;
+      current = {};
+    } else if (line.starts_with("--") && current.sql.empty()) {
+      current.question +=
+          (current.question.empty() ? "" : " ") + line.substr(line.find_first_not_of("- "));
+    } else {
+      current.sql += line + "\n";
+      if (line.ends_with(";")) {
+        out.push_back(std::move(current));
+        current = {};
+      }
+    }
+  }
+  return out;
+}
+
+TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
+  const Csv runs = Runs();
+  const std::set<std::string> latest = LatestRuns(runs);
+  const auto kinds = AxisKinds();
+  // Checks by question: an example whose question changes, or a new one,
+  // needs its check here.
+  std::map<std::string, std::function<void(const Csv&)>> checks;
+
+  checks["Yield of every lot over each unit's latest run, newest lot first."] =
+      [&](const Csv& out) {
+        struct Lot {
+          std::string last_start;
+          std::set<std::string> units;
+          int64_t pass = 0, marginal = 0, fail = 0, unjudged = 0;
+        };
+        std::map<std::string, Lot> lots;
+        for (const auto& r : runs.rows) {
+          Lot& l = lots[r[runs.Col("lot")]];
+          l.last_start = std::max(l.last_start, r[runs.Col("start")]);
+          l.units.insert(r[runs.Col("unit")]);
+          if (!latest.contains(r[runs.Col("run_id")])) continue;
+          const std::string& v = r[runs.Col("verdict")];
+          ++(v == "PASS"       ? l.pass
+             : v == "MARGINAL" ? l.marginal
+             : v == "FAIL"     ? l.fail
+                               : l.unjudged);
+        }
+        EXPECT_EQ(lots.at("TAC-L001").unjudged, 2);  // the running and the aborted retest
+        std::vector<std::string> newest_first;
+        for (const auto& [lot, l] : lots) newest_first.push_back(lot);
+        std::sort(newest_first.begin(), newest_first.end(), [&](const auto& a, const auto& b) {
+          return lots[a].last_start > lots[b].last_start;
+        });
+        ASSERT_EQ(out.rows.size(), newest_first.size());
+        for (size_t i = 0; i < out.rows.size(); ++i) {
+          const auto& row = out.rows[i];
+          const Lot& l = lots[newest_first[i]];
+          EXPECT_EQ(row[out.Col("lot")], newest_first[i]);
+          EXPECT_EQ(row[out.Col("units")], std::to_string(l.units.size()));
+          EXPECT_EQ(row[out.Col("pass")], std::to_string(l.pass));
+          EXPECT_EQ(row[out.Col("marginal")], std::to_string(l.marginal));
+          EXPECT_EQ(row[out.Col("fail")], std::to_string(l.fail));
+          EXPECT_EQ(row[out.Col("unjudged")], std::to_string(l.unjudged));
+          const int64_t judged = l.pass + l.marginal + l.fail;
+          ExpectReal(row[out.Col("yield")],
+                     judged > 0 ? static_cast<double>(l.pass + l.marginal) / judged : NAN, "yield");
+        }
+      };
+
+  checks["Bias instability of the gyros of two lots side by side."] = [&](const Csv& out) {
+    ASSERT_EQ(out.rows.size(), 2u);
+    for (size_t i = 0; i < 2; ++i) {
+      const std::string lot = i == 0 ? "TAC-L001" : "TAC-L002";
+      const auto& row = out.rows[i];
+      EXPECT_EQ(row[out.Col("lot")], lot);
+      EXPECT_EQ(row[out.Col("unit")], "deg/h");
+      const Pooled p = LotStats(lot).at({"gyro", "bias_instability", "deg/h"});
+      EXPECT_EQ(p.n, lot == "TAC-L001" ? 30 : 36);  // 3 gyros x units judged on their latest run
+      ExpectStatistics(out, row, p, lot);
+    }
+  };
+
+  checks
+      ["Every statistic of a lot, per axis kind (imuqual lot TAC-L002 --stats gives them per "
+       "axis)."] = [&](const Csv& out) {
+        const auto expected = LotStats("TAC-L002");  // ordered by (kind, name, unit), as the query
+        ASSERT_EQ(out.rows.size(), expected.size());
+        size_t i = 0;
+        for (const auto& [key, p] : expected) {
+          const auto& row = out.rows[i++];
+          const auto& [kind, name, unit] = key;
+          EXPECT_EQ(row[out.Col("kind")], kind);
+          EXPECT_EQ(row[out.Col("name")], name);
+          EXPECT_EQ(row[out.Col("unit")], unit);
+          ExpectStatistics(out, row, p, kind + " " + name);
+        }
+        const Pooled& large = expected.at({"gyro", "bias_offset", "deg/h"});
+        EXPECT_GT(large.mean, kLargeOffsetDph);
+        EXPECT_LT(large.sd, 2);  // the planted spread, not the lot's earlier runs
+      };
+
+  checks["The failing values of each unit's latest run in a lot, with their limits."] =
+      [&](const Csv& out) {
+        const Csv all = ParseCsv(
+            RunCommand(Bin("imuqual") + " export --lot TAC-L001 --as measurements --db " + db_)
+                .output);
+        std::vector<std::vector<std::string>> expected;
+        for (const auto& r : all.rows) {
+          if (r[all.Col("outcome")] != "FAIL" || !latest.contains(r[all.Col("run_id")])) continue;
+          expected.push_back({r[all.Col("unit")], r[all.Col("run_id")], r[all.Col("axis")],
+                              r[all.Col("name")], r[all.Col("value")], r[all.Col("unit_of_value")],
+                              r[all.Col("low")], r[all.Col("high")]});
+        }
+        std::sort(expected.begin(), expected.end(), [](const auto& a, const auto& b) {
+          return std::tie(a[0], a[2], a[3]) < std::tie(b[0], b[2], b[3]);
+        });
+        ASSERT_FALSE(expected.empty());  // the retests x 3 fail
+        ASSERT_EQ(out.rows.size(), expected.size());
+        for (size_t i = 0; i < expected.size(); ++i) {
+          const auto& row = out.rows[i];
+          const auto& e = expected[i];
+          EXPECT_EQ(row[out.Col("serial")], e[0]);
+          EXPECT_EQ(row[out.Col("run_id")], e[1]);
+          EXPECT_EQ(row[out.Col("axis")], e[2]);
+          EXPECT_EQ(row[out.Col("name")], e[3]);
+          ExpectReal(row[out.Col("value")], std::stod(e[4]), e[1] + " " + e[3]);
+          EXPECT_EQ(row[out.Col("unit")], e[5]);
+          ExpectReal(row[out.Col("low")], e[6].empty() ? NAN : std::stod(e[6]), "low");
+          ExpectReal(row[out.Col("high")], e[7].empty() ? NAN : std::stod(e[7]), "high");
+        }
+      };
+
+  checks["The gyros' bias instability in every run of the units tested more than once in a lot."] =
+      [&](const Csv& out) {
+        std::map<std::string, int> runs_of;
+        std::map<std::string, std::string> start_of;
+        for (const auto& r : runs.rows) {
+          if (r[runs.Col("lot")] != "TAC-L001") continue;
+          ++runs_of[r[runs.Col("unit")]];
+          start_of[r[runs.Col("run_id")]] = r[runs.Col("start")];
+        }
+        const Csv all = ParseCsv(
+            RunCommand(Bin("imuqual") + " export --lot TAC-L001 --as measurements --db " + db_)
+                .output);
+        std::vector<std::vector<std::string>> expected;
+        for (const auto& r : all.rows) {
+          if (r[all.Col("name")] != "bias_instability" || kinds.at(r[all.Col("axis")]) != "gyro" ||
+              runs_of[r[all.Col("unit")]] < 2) {
+            continue;
+          }
+          expected.push_back({r[all.Col("unit")], start_of.at(r[all.Col("run_id")]),
+                              r[all.Col("axis")], r[all.Col("run_id")], r[all.Col("value")],
+                              r[all.Col("unit_of_value")], r[all.Col("outcome")]});
+        }
+        std::sort(expected.begin(), expected.end());  // serial, start, axis
+        ASSERT_EQ(out.rows.size(), expected.size());
+        std::set<std::string> run_ids;
+        for (size_t i = 0; i < expected.size(); ++i) {
+          const auto& row = out.rows[i];
+          const auto& e = expected[i];
+          EXPECT_EQ(row[out.Col("serial")], e[0]);
+          EXPECT_EQ(row[out.Col("axis")], e[2]);
+          EXPECT_EQ(row[out.Col("run_id")], e[3]);
+          ExpectReal(row[out.Col("value")], std::stod(e[4]), e[3]);
+          EXPECT_EQ(row[out.Col("unit")], e[5]);
+          EXPECT_EQ(row[out.Col("outcome")], e[6]);
+          run_ids.insert(e[3]);
+        }
+        // Both runs of the judged retests, the first run only of the others.
+        int second_runs = 0;
+        for (const std::string& id : run_ids) second_runs += id.ends_with("-R2");
+        EXPECT_GE(second_runs, 2);
+        EXPECT_FALSE(run_ids.contains(aborted_run_));
+      };
+
+  checks["Is the archive of each run complete (every announced batch held, no gap)?"] =
+      [&](const Csv& out) {
+        std::set<std::string> listed, expected;
+        for (const auto& r : runs.rows) expected.insert(r[runs.Col("run_id")]);
+        for (const auto& row : out.rows) {
+          const std::string& id = row[out.Col("run_id")];
+          listed.insert(id);
+          const bool aborted = id == aborted_run_;  // batches 0, 1, 3 of 0..3
+          EXPECT_EQ(row[out.Col("chunks")], aborted ? "3" : "0") << id;
+          EXPECT_EQ(row[out.Col("announced")], aborted ? "4" : "0") << id;
+          EXPECT_EQ(row[out.Col("gap_ranges")], aborted ? "1" : "0") << id;
+          EXPECT_EQ(row[out.Col("complete")], aborted ? "0" : "1") << id;
+        }
+        EXPECT_EQ(listed, expected);
+        EXPECT_EQ(out.rows.size(), expected.size());
+      };
+
+  auto markdown = ReadFileToString(std::string(IMUQUAL_SOURCE_DIR) + "/store/SCHEMA.md");
+  ASSERT_TRUE(markdown.ok()) << markdown.status().ToString();
+  const std::vector<SqlExample> examples = SqlExamples(*markdown);
+  std::set<std::string> checked;
+  for (size_t i = 0; i < examples.size(); ++i) {
+    const SqlExample& e = examples[i];
+    SCOPED_TRACE(e.question + "\n" + e.sql);
+    const auto check = checks.find(e.question);
+    ASSERT_NE(check, checks.end()) << "no check for this example of store/SCHEMA.md";
+    const std::string file = dir_->path("example" + std::to_string(i) + ".sql");
+    ASSERT_TRUE(WriteStringToFile(file, e.sql).ok());
+    const auto shell =
+        RunCommand("sqlite3 -bail -readonly -csv -header " + db_ + " < " + file + " 2>&1");
+    ASSERT_EQ(shell.exit_code, 0) << "sqlite3 (scripts/bootstrap installs it): " << shell.output;
+    check->second(ParseCsv(shell.output));
+    checked.insert(e.question);
+  }
+  for (const auto& [question, check] : checks) {
+    EXPECT_TRUE(checked.contains(question)) << "store/SCHEMA.md lost the example: " << question;
+  }
 }
 
 }  // namespace
