@@ -31,7 +31,7 @@ inline constexpr char kRunExitCodesHelp[] =
     "data, a device gone): its run is archived as FAIL with the reason, every other unit "
     "finished and was judged and archived; 4 the archive could not be written (a full disk) "
     "for --archive-timeout: everything acknowledged is archived, the runs are not finished; "
-    "130 interrupted (Ctrl-C): the runs were aborted, "
+    "130 interrupted (Ctrl-C, a hang-up, SIGTERM): the runs were aborted, "
     "archived and judged.";
 
 // imuqual run: a station end to end, then the result table. Returns one of
