@@ -75,13 +75,14 @@ uint32_t MessageSeal(const std::string& channel, const void* data, size_t size) 
   return Crc32cExtend(Crc32c(channel.c_str(), channel.size() + 1), data, size);
 }
 
-Status LcmBus::PublishBytes(const std::string& channel, const std::vector<uint8_t>& bytes) {
-  std::vector<uint8_t> sealed;
-  sealed.reserve(bytes.size() + kSealBytes);
-  sealed.assign(bytes.begin(), bytes.end());
-  const uint32_t seal = MessageSeal(channel, bytes.data(), bytes.size());
-  for (int shift = 24; shift >= 0; shift -= 8) sealed.push_back(static_cast<uint8_t>(seal >> shift));
-  if (lcm_->publish(channel, sealed.data(), static_cast<unsigned>(sealed.size())) != 0) {
+void AppendSeal(const std::string& channel, std::vector<uint8_t>* bytes) {
+  const uint32_t seal = MessageSeal(channel, bytes->data(), bytes->size());
+  for (int shift = 24; shift >= 0; shift -= 8) bytes->push_back(static_cast<uint8_t>(seal >> shift));
+}
+
+Status LcmBus::PublishBytes(const std::string& channel, std::vector<uint8_t> bytes) {
+  AppendSeal(channel, &bytes);
+  if (lcm_->publish(channel, bytes.data(), static_cast<unsigned>(bytes.size())) != 0) {
     ++publish_errors_;
     return Status::IoError("LCM publish failed on channel " + channel);
   }

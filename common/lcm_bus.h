@@ -103,7 +103,8 @@ class LcmBus {
   // True if the sealed message `rbuf` holds is intact; counts and logs it if not.
   bool Unseal(const lcm_recv_buf_t* rbuf, const char* channel);
   void NoteHandlerError(const std::string& channel, const std::string& what);
-  Status PublishBytes(const std::string& channel, const std::vector<uint8_t>& bytes);
+  // Seals `bytes` (an encoding, taken by value: moved from Publish) and sends it.
+  Status PublishBytes(const std::string& channel, std::vector<uint8_t> bytes);
 
   std::string url_;
   std::unique_ptr<lcm::LCM> lcm_;
@@ -123,6 +124,9 @@ inline constexpr uint32_t kSealBytes = 4;
 
 // The seal of a message: CRC-32C of `channel`, a zero byte and the encoding.
 uint32_t MessageSeal(const std::string& channel, const void* data, size_t size);
+
+// Appends the seal of the encoding in *bytes (big-endian): the wire form.
+void AppendSeal(const std::string& channel, std::vector<uint8_t>* bytes);
 
 // Decodes `size` bytes as T: the fingerprint must match and the message must
 // use every byte. Lying length fields fail (never crash). Used by the bus
@@ -176,6 +180,7 @@ Status EncodeMessage(const T& msg, std::vector<uint8_t>* bytes) {
   try {
     int size = msg.getEncodedSize();
     if (size < 0) return Status::InvalidArgument("cannot size " + std::string(T::getTypeName()));
+    bytes->reserve(static_cast<size_t>(size) + kSealBytes);  // room for the seal, no realloc
     bytes->resize(static_cast<size_t>(size));
     if (msg.encode(bytes->data(), 0, size) != size) {
       return Status::InvalidArgument("cannot encode " + std::string(T::getTypeName()) + " (inconsistent lengths)");
@@ -190,7 +195,7 @@ template <typename T>
 Status LcmBus::Publish(const std::string& channel, const T& msg) {
   std::vector<uint8_t> bytes;
   IMUQUAL_RETURN_IF_ERROR(EncodeMessage(msg, &bytes));
-  return PublishBytes(channel, bytes);
+  return PublishBytes(channel, std::move(bytes));
 }
 
 }  // namespace imuqual

@@ -29,8 +29,7 @@ imuqual::ack_t Ack(int64_t seq) {
 std::vector<uint8_t> Sealed(const std::string& channel, const imuqual::ack_t& msg) {
   std::vector<uint8_t> bytes;
   EXPECT_TRUE(EncodeMessage(msg, &bytes).ok());
-  const uint32_t seal = MessageSeal(channel, bytes.data(), bytes.size());
-  for (int shift = 24; shift >= 0; shift -= 8) bytes.push_back(static_cast<uint8_t>(seal >> shift));
+  AppendSeal(channel, &bytes);
   return bytes;
 }
 
