@@ -149,8 +149,8 @@ struct StoreService::Impl {
   BoundedQueue<Item> queue;
   std::map<std::string, StoreRun> runs;
   std::set<std::string> finalized;  // runs archived for good; their late messages are ignored
-  // Of those announced again by acquire: the state and last seq they ended with.
-  std::map<std::string, std::pair<std::string, int64_t>> final_ends;
+  // Of those announced again by acquire: how they ended, read once.
+  std::map<std::string, RunInfo> final_ends;
   LastHeard acquire_heard;          // acquire's run_t arrivals, noted by the handler
   SeqTracker::Options tracker_options;
   std::string instance = InstanceName();
@@ -194,7 +194,11 @@ struct StoreService::Impl {
   Status Resume(const std::string& run_id, double now);
   bool ReopenIfResumed(const imuqual::run_t& msg, double now);
   std::string UncoveredBy(const StoreRun& r);
+  Result<int> OpenJudgementRound(int64_t key, const std::string& run_id, const std::string& cause);
   void Supersede(StoreRun& r, const std::string& cause, double now);
+  bool OfAnotherStation(const imuqual::run_t& run) const {
+    return !options.station.empty() && run.station != options.station;
+  }
   Status Apply(Item& item, Staged* staged);
   Status ApplyRun(const imuqual::run_t& msg, Staged* staged);
   Status ApplyBatch(StoreRun& r, const imuqual::rate_batch_t& b, Staged* staged);
@@ -299,32 +303,23 @@ bool StoreService::Impl::ReopenIfResumed(const imuqual::run_t& msg, double now) 
   if (ended == final_ends.end()) {
     auto archived = archive->LoadRun(msg.run_id);
     if (!archived.ok()) return false;
-    ended = final_ends.emplace(msg.run_id, std::make_pair(archived->state, archived->last_seq)).first;
+    archived->plan.clear();  // kept only to decide; the plan is not needed
+    archived->truth.clear();
+    ended = final_ends.emplace(msg.run_id, std::move(*archived)).first;
   }
-  const auto [state, last_seq] = ended->second;
-  if (state != "incomplete") return false;
-  if (msg.state != imuqual::run_t::STATE_RUNNING && msg.last_seq <= last_seq) return false;
-  auto info = archive->LoadRun(msg.run_id);
+  const RunInfo& info = ended->second;
+  if (info.state != "incomplete") return false;
+  if (msg.state != imuqual::run_t::STATE_RUNNING && msg.last_seq <= info.last_seq) return false;
   auto key = archive->FindRunKey(msg.run_id);
-  if (!info.ok() || !key.ok() || !key->has_value()) return false;
-  final_ends.erase(msg.run_id);
+  if (!key.ok() || !key->has_value()) return false;
   const std::string cause = "acquire announced the run going on (batch " +
                             std::to_string(msg.last_seq) + ") after it had ended as incomplete (" +
-                            info->end_reason + ") at batch " + std::to_string(info->last_seq);
-  Status st = archive->Begin();
-  Result<int> revision = st.ok() ? archive->SupersedeJudgement(**key, NowUtime(), cause) : st;
-  st = revision.status();
-  if (st.ok()) st = Commit();
-  if (!st.ok()) {
-    (void)archive->Rollback();
-    write_errors.Error("run " + msg.run_id + ": cannot open it again: " + st.message());
-    return false;
-  }
+                            info.end_reason + ") at batch " + std::to_string(info.last_seq);
+  auto revision = OpenJudgementRound(**key, msg.run_id, cause);
+  if (!revision.ok()) return false;
+  final_ends.erase(msg.run_id);
   finalized.erase(msg.run_id);
   runs.erase(msg.run_id);
-  ++judgements_superseded;
-  LogWarning("run " + msg.run_id + ": " + cause + "; its judgement is superseded (round " +
-             std::to_string(*revision) + "), the run is open again");
   if (Status resumed = Resume(msg.run_id, now); !resumed.ok()) {
     write_errors.Error("run " + msg.run_id + ": " + resumed.message());
     return false;
@@ -363,23 +358,31 @@ std::string StoreService::Impl::UncoveredBy(const StoreRun& r) {
   return "";
 }
 
-// Opens a new judgement round for a run whose result does not describe its
-// archived data: the result is superseded (kept, with `cause`), and the
-// store announces the round until analyze answers it.
-void StoreService::Impl::Supersede(StoreRun& r, const std::string& cause, double now) {
+// In a transaction of its own: the run's archived judgement superseded (kept,
+// with `cause`) and a new judgement round opened. The new round, or the
+// error (logged).
+Result<int> StoreService::Impl::OpenJudgementRound(int64_t key, const std::string& run_id,
+                                                   const std::string& cause) {
   Status st = archive->Begin();
-  Result<int> revision = st.ok() ? archive->SupersedeJudgement(r.key, NowUtime(), cause) : st;
+  Result<int> revision = st.ok() ? archive->SupersedeJudgement(key, NowUtime(), cause) : st;
   st = revision.status();
   if (st.ok()) st = Commit();
   if (!st.ok()) {
     (void)archive->Rollback();
-    write_errors.Error("run " + r.info.run_id + ": cannot open a new judgement round: " +
-                       st.message());
-    return;
+    write_errors.Error("run " + run_id + ": cannot open a new judgement round: " + st.message());
+    return st;
   }
   ++judgements_superseded;
-  LogWarning("run " + r.info.run_id + ": " + cause + "; judged again (round " +
+  LogWarning("run " + run_id + ": " + cause + "; its judgement is superseded, judged again (round " +
              std::to_string(*revision) + ")");
+  return revision;
+}
+
+// Opens a new judgement round for a run whose result does not describe its
+// archived data; the store announces the round until analyze answers it.
+void StoreService::Impl::Supersede(StoreRun& r, const std::string& cause, double now) {
+  auto revision = OpenJudgementRound(r.key, r.info.run_id, cause);
+  if (!revision.ok()) return;
   r.info.revision = *revision;
   r.result.reset();
   r.result_stored = false;
@@ -663,7 +666,7 @@ Status StoreService::Impl::Apply(Item& item, Staged* staged) {
     return Status::Ok();
   }
   if (auto* run = std::get_if<imuqual::run_t>(&item)) {
-    if (!options.station.empty() && run->station != options.station) {
+    if (OfAnotherStation(*run)) {
       // Another station's run on this bus: its own store archives it.
       foreign_runs.insert(run_id);
       ++foreign_messages;
@@ -842,7 +845,7 @@ void StoreService::Impl::Transaction(std::vector<Item>& items, double now, bool 
     for (const Item& item : work) {
       const auto* run = std::get_if<imuqual::run_t>(&item);
       if (run == nullptr || run->announcer != "acquire" || foreign_runs.count(run->run_id) ||
-          (!options.station.empty() && run->station != options.station)) {
+          OfAnotherStation(*run)) {
         continue;
       }
       if (StoreRun* f = Find(run->run_id); f == nullptr || f->done) (void)ReopenIfResumed(*run, now);

@@ -73,6 +73,14 @@ void ExpectResultEqualsReanalysis(const std::string& db, const std::string& run_
   }
 }
 
+// An undisturbed soak of `units` seeded units of `lot` (runs CLEAN-<serial>),
+// the reference a disturbed soak of the same units is compared with.
+void SoakUndisturbed(StationHarness& h, const std::string& lot, int units, double duration_s) {
+  Subprocess clean = h.Start("imuqual-acquire", AcquireArgs(lot, units, duration_s, 0, "CLEAN"));
+  ASSERT_TRUE(h.WaitRunsDone(static_cast<size_t>(units), kRunTimeoutS)) << h.Logs();
+  EXPECT_EQ(clean.Wait(30), 0);
+}
+
 // Two runs of the same seeded unit have the same curves, bit for bit, on
 // each of the `axes` axes.
 void ExpectSameCurves(store::Archive& a, const std::string& run_a, const std::string& run_b,
@@ -91,6 +99,20 @@ void ExpectSameCurves(store::Archive& a, const std::string& run_a, const std::st
       EXPECT_EQ(x[p].n, y[p].n) << run_b << " m=" << x[p].m;
     }
   }
+}
+
+// Two runs of the same seeded unit have the same judgement (verdict, reasons,
+// samples) and the same curves, bit for bit, on each of the `axes` axes.
+void ExpectSameJudgement(store::Archive& a, const std::string& run_a, const std::string& run_b,
+                         size_t axes) {
+  auto x = a.LoadResult(**a.FindRunKey(run_a));
+  auto y = a.LoadResult(**a.FindRunKey(run_b));
+  ASSERT_TRUE(x.ok() && x->has_value()) << run_a;
+  ASSERT_TRUE(y.ok() && y->has_value()) << run_b;
+  EXPECT_EQ((*y)->verdict, (*x)->verdict) << run_b;
+  EXPECT_EQ((*y)->reasons, (*x)->reasons) << run_b;
+  EXPECT_EQ((*y)->samples, (*x)->samples) << run_b;
+  ExpectSameCurves(a, run_a, run_b, axes);
 }
 
 TEST(FaultTest, InjectedDropsAreRepairedToZeroGaps) {
@@ -283,9 +305,8 @@ TEST(FaultTest, AnalyzeKilledMidRunGivesTheUninterruptedResult) {
   Subprocess store = h.StartStore();
   Subprocess analyze = h.StartAnalyze();
   // An undisturbed run of the same units (same seed) ...
-  Subprocess clean = h.Start("imuqual-acquire", AcquireArgs("FAN", 2, 900, 0, "CLEAN"));
-  ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
-  EXPECT_EQ(clean.Wait(30), 0);
+  SoakUndisturbed(h, "FAN", 2, 900);
+  if (HasFatalFailure()) return;
   // ... and one whose analysis is killed half way and restarted.
   Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FAN", 2, 900, 150, "KILLED"));
   ASSERT_TRUE(WaitArchived(h, h.Counter("store", "chunks_inserted") + 300, 30)) << h.Logs();
@@ -340,9 +361,8 @@ TEST(FaultTest, AnalyzeFrozenForAMinuteGivesTheUninterruptedResult) {
   Subprocess store = h.StartStore();
   Subprocess analyze = h.StartAnalyze();
   // An undisturbed run of the same units (same seed) ...
-  Subprocess clean = h.Start("imuqual-acquire", AcquireArgs("FAF", 2, 1500, 0, "CLEAN"));
-  ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
-  EXPECT_EQ(clean.Wait(30), 0);
+  SoakUndisturbed(h, "FAF", 2, 1500);
+  if (HasFatalFailure()) return;
   // ... and one whose analysis is frozen half way.
   Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FAF", 2, 1500, 100, "FROZEN"));
   ASSERT_TRUE(WaitArchived(h, h.Counter("store", "chunks_inserted") + 200, 30)) << h.Logs();
@@ -352,14 +372,7 @@ TEST(FaultTest, AnalyzeFrozenForAMinuteGivesTheUninterruptedResult) {
   auto a = store::Archive::Open(h.db(), store::Archive::Mode::kRead);
   ASSERT_TRUE(a.ok());
   for (const std::string unit : {"FAF-U01", "FAF-U02"}) {
-    auto clean_result = (*a)->LoadResult(**(*a)->FindRunKey("CLEAN-" + unit));
-    auto frozen_result = (*a)->LoadResult(**(*a)->FindRunKey("FROZEN-" + unit));
-    ASSERT_TRUE(clean_result.ok() && clean_result->has_value());
-    ASSERT_TRUE(frozen_result.ok() && frozen_result->has_value()) << unit;
-    EXPECT_EQ((*frozen_result)->verdict, (*clean_result)->verdict) << unit;
-    EXPECT_EQ((*frozen_result)->reasons, (*clean_result)->reasons) << unit;
-    EXPECT_EQ((*frozen_result)->samples, (*clean_result)->samples) << unit;
-    ExpectSameCurves(**a, "CLEAN-" + unit, "FROZEN-" + unit, 3);
+    ExpectSameJudgement(**a, "CLEAN-" + unit, "FROZEN-" + unit, 3);
   }
   ExpectEveryRunWhole(CheckArchive(h.db()));
 }
@@ -374,9 +387,8 @@ TEST(FaultTest, AcquireFrozenPastSilenceIsJudgedAgainOnAllItsData) {
   Subprocess store = h.StartStore();
   Subprocess analyze = h.StartAnalyze();
   // An undisturbed run of the same units (same seed) ...
-  Subprocess clean = h.Start("imuqual-acquire", AcquireArgs("FAQF", 2, 1500, 0, "CLEAN"));
-  ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
-  EXPECT_EQ(clean.Wait(30), 0);
+  SoakUndisturbed(h, "FAQF", 2, 1500);
+  if (HasFatalFailure()) return;
   // ... and one whose acquire is frozen a third of the way in.
   Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FAQF", 2, 1500, 100, "FROZEN"));
   ASSERT_TRUE(WaitArchived(h, h.Counter("store", "chunks_inserted") + 100, 30)) << h.Logs();
@@ -420,14 +432,7 @@ TEST(FaultTest, AcquireFrozenPastSilenceIsJudgedAgainOnAllItsData) {
               std::string::npos)
         << s->Text(2);
     // AND the new judgement is the undisturbed run's, on all the data
-    auto clean_result = (*a)->LoadResult(**(*a)->FindRunKey("CLEAN-" + unit));
-    auto again = (*a)->LoadResult(**(*a)->FindRunKey(id));
-    ASSERT_TRUE(clean_result.ok() && clean_result->has_value());
-    ASSERT_TRUE(again.ok() && again->has_value()) << id;
-    EXPECT_EQ((*again)->verdict, (*clean_result)->verdict) << id;
-    EXPECT_EQ((*again)->reasons, (*clean_result)->reasons) << id;
-    EXPECT_EQ((*again)->samples, (*clean_result)->samples) << id;
-    ExpectSameCurves(**a, "CLEAN-" + unit, id, 3);
+    ExpectSameJudgement(**a, "CLEAN-" + unit, id, 3);
     const auto check =
         RunCommand(Bin("imuqual") + " reanalyze " + id + " --check --db " + h.db() + " 2>&1");
     EXPECT_EQ(check.exit_code, 0) << check.output;
