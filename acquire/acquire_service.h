@@ -1,6 +1,6 @@
 // The acquire process's work: one run per unit, batches of consecutive
-// samples published on IMUQUAL3_RAW.<serial>, the run announced and
-// re-announced (heartbeat) on IMUQUAL3_RUN, resend requests answered from a
+// samples published on IMUQUAL4_RAW.<serial>, the run announced and
+// re-announced (heartbeat) on IMUQUAL4_RUN, resend requests answered from a
 // retention window.
 //
 // Flow control: a time-warped source (simulator, file replay) is read only

@@ -1,4 +1,4 @@
-// LCM channel names of a station bus. The "3" is the message-contract
+// LCM channel names of a station bus. The "4" is the message-contract
 // version: a change to any lcmtypes/ struct changes its fingerprint, and the
 // version bump keeps old and new processes on separate channels.
 #ifndef IMUQUAL_COMMON_CHANNELS_H_
@@ -8,19 +8,19 @@
 
 namespace imuqual::channels {
 
-inline constexpr char kRun[] = "IMUQUAL3_RUN";        // run_t heartbeats
-inline constexpr char kAck[] = "IMUQUAL3_ACK";        // ack_t flow control
-inline constexpr char kResend[] = "IMUQUAL3_RESEND";  // resend_t requests
-inline constexpr char kStatus[] = "IMUQUAL3_STATUS";  // status_t per process
+inline constexpr char kRun[] = "IMUQUAL4_RUN";        // run_t heartbeats
+inline constexpr char kAck[] = "IMUQUAL4_ACK";        // ack_t flow control
+inline constexpr char kResend[] = "IMUQUAL4_RESEND";  // resend_t requests
+inline constexpr char kStatus[] = "IMUQUAL4_STATUS";  // status_t per process
 
-inline constexpr char kRawPrefix[] = "IMUQUAL3_RAW.";        // + unit serial: rate_batch_t
-inline constexpr char kCurvePrefix[] = "IMUQUAL3_CURVE.";    // + unit serial: allan_curve_t
-inline constexpr char kResultPrefix[] = "IMUQUAL3_RESULT.";  // + unit serial: unit_result_t
+inline constexpr char kRawPrefix[] = "IMUQUAL4_RAW.";        // + unit serial: rate_batch_t
+inline constexpr char kCurvePrefix[] = "IMUQUAL4_CURVE.";    // + unit serial: allan_curve_t
+inline constexpr char kResultPrefix[] = "IMUQUAL4_RESULT.";  // + unit serial: unit_result_t
 
 // Regular expressions (LCM anchors them) matching every unit's channel.
-inline constexpr char kRawAll[] = "IMUQUAL3_RAW\\..*";
-inline constexpr char kCurveAll[] = "IMUQUAL3_CURVE\\..*";
-inline constexpr char kResultAll[] = "IMUQUAL3_RESULT\\..*";
+inline constexpr char kRawAll[] = "IMUQUAL4_RAW\\..*";
+inline constexpr char kCurveAll[] = "IMUQUAL4_CURVE\\..*";
+inline constexpr char kResultAll[] = "IMUQUAL4_RESULT\\..*";
 
 inline std::string Raw(const std::string& serial) { return kRawPrefix + serial; }
 inline std::string Curve(const std::string& serial) { return kCurvePrefix + serial; }

@@ -56,7 +56,7 @@ class LcmBusSealTest : public ::testing::Test {
     ASSERT_EQ(raw_->publish(kChannel, bytes.data(), static_cast<unsigned>(bytes.size())), 0);
   }
 
-  static constexpr char kChannel[] = "IMUQUAL3_ACK";
+  static constexpr char kChannel[] = "IMUQUAL4_ACK";
   std::string url_;
   std::unique_ptr<LcmBus> bus_;
   std::unique_ptr<lcm::LCM> raw_;
@@ -92,7 +92,7 @@ TEST_F(LcmBusSealTest, UnsealedOrForeignChannelMessagesAreRefused) {
   std::vector<uint8_t> unsealed;
   ASSERT_TRUE(EncodeMessage(Ack(1), &unsealed).ok());  // an older station's message
   SendRaw(unsealed);
-  SendRaw(Sealed("IMUQUAL3_RESEND", Ack(2)));  // sealed for another channel
+  SendRaw(Sealed("IMUQUAL4_RESEND", Ack(2)));  // sealed for another channel
   SendRaw({1, 2});                             // shorter than a seal
   PumpUntilSeen(3);
   EXPECT_TRUE(received_.empty());

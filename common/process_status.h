@@ -1,5 +1,5 @@
 // status_t publishing: every process reports its counters (received,
-// dropped, gaps, queue depth, ...) about once a second on IMUQUAL3_STATUS,
+// dropped, gaps, queue depth, ...) about once a second on IMUQUAL4_STATUS,
 // so drops are visible, not silent.
 #ifndef IMUQUAL_COMMON_PROCESS_STATUS_H_
 #define IMUQUAL_COMMON_PROCESS_STATUS_H_

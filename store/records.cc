@@ -174,13 +174,18 @@ CurveRecord CurveFromMessage(const imuqual::allan_curve_t& msg) {
 }
 
 namespace {
+// measurement_t's OUTCOME_*, QUALIFIER_* and RULE_* codes are the numbers
+// of pb::Outcome, pb::Qualifier and pb::Limit::DecisionRule; an unknown code
+// reads as unset.
 pb::Outcome OutcomeFromCode(int8_t code) {
-  switch (code) {
-    case imuqual::measurement_t::OUTCOME_PASS: return pb::PASS;
-    case imuqual::measurement_t::OUTCOME_MARGINAL: return pb::MARGINAL;
-    case imuqual::measurement_t::OUTCOME_FAIL: return pb::FAIL;
-    default: return pb::OUTCOME_UNSET;
-  }
+  return pb::Outcome_IsValid(code) ? static_cast<pb::Outcome>(code) : pb::OUTCOME_UNSET;
+}
+pb::Qualifier QualifierFromCode(int8_t code) {
+  return pb::Qualifier_IsValid(code) ? static_cast<pb::Qualifier>(code) : pb::QUALIFIER_NONE;
+}
+pb::Limit::DecisionRule RuleFromCode(int8_t code) {
+  return pb::Limit::DecisionRule_IsValid(code) ? static_cast<pb::Limit::DecisionRule>(code)
+                                               : pb::Limit::RULE_DEFAULT;
 }
 }  // namespace
 
@@ -214,6 +219,10 @@ ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg) {
     if (!std::isnan(m.marginal_high)) pm.set_marginal_high(m.marginal_high);
     pm.set_outcome(OutcomeFromCode(m.outcome));
     pm.set_note(m.note);
+    pm.set_uncertainty_method(m.uncertainty_method);
+    pm.set_qualifier(QualifierFromCode(m.qualifier));
+    pm.set_decision_rule(RuleFromCode(m.decision_rule));
+    if (!std::isnan(m.guard_band)) pm.set_guard_band(m.guard_band);
     r.measurements.push_back(std::move(pm));
   }
   return r;

@@ -226,7 +226,7 @@ TEST(ReplayTest, StoredRunsReplayedFromTheArchiveGiveTheSameResults) {
 TEST(ReplayTest, LoggedStationReplayedWithLcmLogplayerGivesTheLiveResults) {
   const std::string logger = Which("lcm-logger"), player = Which("lcm-logplayer");
   ASSERT_FALSE(logger.empty() || player.empty()) << "lcm-logger and lcm-logplayer (liblcm-bin) are needed";
-  const std::string acquire_channels = "IMUQUAL3_(RUN|RAW\\..*)";
+  const std::string acquire_channels = "IMUQUAL4_(RUN|RAW\\..*)";
   // GIVEN a live station whose acquire traffic the standard logger records
   testing::StationHarness live("replay_live");
   const std::string log = live.path("station.lcmlog");

@@ -45,14 +45,16 @@ constexpr double kMaxRepublishPeriodS = 30.0;
 constexpr double kResultRetentionS = 1800.0;
 constexpr size_t kMaxHeldBeforeRunInfo = 4096;
 
-int8_t OutcomeCode(pb::Outcome o) {
-  switch (o) {
-    case pb::PASS: return imuqual::measurement_t::OUTCOME_PASS;
-    case pb::MARGINAL: return imuqual::measurement_t::OUTCOME_MARGINAL;
-    case pb::FAIL: return imuqual::measurement_t::OUTCOME_FAIL;
-    default: return imuqual::measurement_t::OUTCOME_UNSET;
-  }
-}
+// measurement_t's OUTCOME_*, QUALIFIER_* and RULE_* codes are the numbers
+// of pb::Outcome, pb::Qualifier and pb::Limit::DecisionRule.
+int8_t OutcomeCode(pb::Outcome o) { return static_cast<int8_t>(o); }
+static_assert(imuqual::measurement_t::OUTCOME_INCONCLUSIVE == pb::INCONCLUSIVE &&
+              imuqual::measurement_t::OUTCOME_ABORTED == pb::ABORTED &&
+              imuqual::measurement_t::OUTCOME_ERROR == pb::ERROR);
+static_assert(imuqual::measurement_t::QUALIFIER_UPPER_BOUND == pb::UPPER_BOUND &&
+              imuqual::measurement_t::QUALIFIER_MODEL_INADEQUATE == pb::MODEL_INADEQUATE);
+static_assert(imuqual::measurement_t::RULE_SIMPLE == pb::Limit::SIMPLE &&
+              imuqual::measurement_t::RULE_GUARDED_REJECTION == pb::Limit::GUARDED_REJECTION);
 
 struct RunEntry {
   std::optional<imuqual::run_t> info;
@@ -448,6 +450,10 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
     mm.marginal_high = m.has_marginal_high() ? m.marginal_high() : allan::kNaN;
     mm.outcome = OutcomeCode(m.outcome());
     mm.note = m.note();
+    mm.uncertainty_method = m.uncertainty_method();
+    mm.qualifier = static_cast<int8_t>(m.qualifier());
+    mm.decision_rule = static_cast<int8_t>(m.decision_rule());
+    mm.guard_band = m.has_guard_band() ? m.guard_band() : allan::kNaN;
     res.measurements.push_back(std::move(mm));
   }
   res.num_measurements = static_cast<int16_t>(res.measurements.size());
