@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "analyze/allan/noise_id.h"
 
@@ -383,6 +384,31 @@ void ClearInterval(CurvePoint* point) {
   point->hi = kNaN;
   point->edf = kNaN;
   point->alpha.reset();
+  point->alpha_inherited = false;
+}
+
+// The long-tau rule of the chi2 method: a point the lag-1 method cannot
+// identify (fewer than kMinNoiseIdPoints decimated points) takes the alpha
+// of the nearest identified point of the curve, preferring shorter tau on a
+// tie (Stable32 carries the last identified noise type to the end of the
+// curve the same way). A curve with no identified point keeps none.
+void InheritAlphas(const std::vector<std::optional<NoiseId>>& ids, Curve* curve) {
+  const size_t n = curve->points.size();
+  for (size_t i = 0; i < n; ++i) {
+    CurvePoint& point = curve->points[i];
+    if (ids[i] || point.m < 1) continue;
+    for (size_t d = 1; d < n; ++d) {
+      if (i >= d && ids[i - d]) {
+        point.alpha = ids[i - d]->alpha;
+        break;
+      }
+      if (i + d < n && ids[i + d]) {
+        point.alpha = ids[i + d]->alpha;
+        break;
+      }
+    }
+    point.alpha_inherited = point.alpha.has_value();
+  }
 }
 
 }  // namespace
@@ -394,8 +420,16 @@ void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confiden
   const bool has_gaps = phase.invalid_count() > 0;
   const int dmax =
       (curve->deviation == Deviation::kHdev || curve->deviation == Deviation::kOhdev) ? 3 : 2;
+  for (CurvePoint& point : curve->points) ClearInterval(&point);
+  if (method == CiMethod::kChi2) {
+    std::vector<std::optional<NoiseId>> ids;
+    for (CurvePoint& point : curve->points) {
+      ids.push_back(point.m < 1 ? std::nullopt : IdentifyNoiseLag1(phase, point.m, dmax));
+      if (ids.back()) point.alpha = ids.back()->alpha;
+    }
+    InheritAlphas(ids, curve);
+  }
   for (CurvePoint& point : curve->points) {
-    ClearInterval(&point);
     if (point.m < 1) continue;
     switch (method) {
       case CiMethod::kNone:
@@ -410,14 +444,12 @@ void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confiden
         break;
       }
       case CiMethod::kChi2: {
-        const std::optional<NoiseId> noise = IdentifyNoiseLag1(phase, point.m, dmax);
-        if (!noise) break;
-        point.alpha = noise->alpha;
+        if (!point.alpha) break;
         const int64_t n_phase =
             has_gaps ? EquivalentPhaseLength(curve->deviation, point.m, point.n, phase.size())
                      : phase.size();
         const std::optional<double> edf =
-            DeviationEdf(curve->deviation, noise->alpha, point.m, n_phase);
+            DeviationEdf(curve->deviation, *point.alpha, point.m, n_phase);
         if (!edf) break;
         const auto [lo, hi] = Chi2Interval(point.dev, *edf, confidence);
         if (std::isnan(lo) || std::isnan(hi)) break;

@@ -76,11 +76,14 @@ std::pair<double, double> Chi2Interval(double dev, double edf, double confidence
 //            band whatever `confidence` says, and curve->confidence is set to
 //            kOneSigmaConfidence.
 //   kChi2    per point: alpha from IdentifyNoiseLag1 (dmax 2, or 3 for the
-//            Hadamard family); a point with fewer than 30 decimated points gets
-//            no alpha and no interval ("not identifiable"); a point whose alpha
-//            has no defined edf (e.g. alpha = -3 for the Allan family) keeps
-//            its alpha but gets no interval. Otherwise edf = DeviationEdf and
-//            (lo, hi) = Chi2Interval at `confidence`.
+//            Hadamard family). The long-tau rule: a point with fewer than 30
+//            decimated points (not identifiable by the lag-1 method) takes the
+//            alpha of the nearest identified point of the curve (the shorter
+//            tau on a tie) and is marked alpha_inherited; only a curve with no
+//            identified point at all leaves it without alpha and interval. A
+//            point whose alpha has no defined edf (e.g. alpha = -3 for the
+//            Allan family) keeps its alpha but gets no interval. Otherwise
+//            edf = DeviationEdf and (lo, hi) = Chi2Interval at `confidence`.
 // Gaps (ALGORITHMS.md §5 item 5): with invalid samples the Greenhall N is the
 // gap-free record length that would give the point's valid term count n
 // (oadev n + 2m, ohdev n + 3m, mdev/tdev n + 3m - 1, adev (n+1)m + 1, hdev

@@ -65,6 +65,9 @@ struct CurvePoint {
   double hi = kNaN;       // upper confidence bound on dev (NaN: none)
   double edf = kNaN;      // degrees of freedom behind lo/hi (NaN: none)
   std::optional<int> alpha;  // identified power-law exponent, if any (chi2 CI)
+  // alpha was not identified at this point (too few points for the lag-1
+  // method at the long-tau end) but taken from the nearest identified point.
+  bool alpha_inherited = false;
 };
 
 // A deviation curve over a grid of averaging factors.

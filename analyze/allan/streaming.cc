@@ -363,6 +363,28 @@ Curve StreamingAllan::Oadev(StreamGrid grid, StopRule stop, CiMethod ci, double 
   }
 
   const int64_t valid_samples = samples_ - invalid_samples();
+  // Noise identification for the chi-square interval: the local slope of
+  // ln AVAR against ln m over one octave either side, at every tracked point
+  // with at least kMinNoiseIdPoints clusters; beyond (the long-tau end, where
+  // the slope of a few noisy points says little) the alpha of the nearest
+  // identified point, the shorter tau on a tie (alpha_inherited).
+  std::vector<std::optional<int>> alphas(tracked.size());
+  if (ci == CiMethod::kChi2) {
+    for (size_t i = 0; i < tracked.size(); ++i) {
+      const CurvePoint& point = tracked[i].point;
+      if (valid_samples / point.m < kMinNoiseIdClusters) continue;
+      std::vector<double> log_m, log_avar;
+      const double center = std::log(static_cast<double>(point.m));
+      for (const Tracked& u : tracked) {
+        const double lm = std::log(static_cast<double>(u.point.m));
+        if (std::fabs(lm - center) > std::log(2.0) * (1 + 1e-9) || !(u.point.dev > 0)) continue;
+        log_m.push_back(lm);
+        log_avar.push_back(2.0 * std::log(u.point.dev));
+      }
+      const double mu = log_m.size() >= 2 ? Slope(log_m, log_avar) : kNaN;
+      if (std::isfinite(mu)) alphas[i] = static_cast<int>(std::clamp(std::lround(-mu - 1.0), -2L, 1L));
+    }
+  }
   for (size_t i = 0; i < tracked.size(); ++i) {
     const Tracked& t = tracked[i];
     if (grid == StreamGrid::kOctave && !IsPowerOfTwo(t.point.m)) continue;
@@ -376,28 +398,23 @@ Curve StreamingAllan::Oadev(StreamGrid grid, StopRule stop, CiMethod ci, double 
         point.edf = static_cast<double>(clusters - 1);
       }
     } else if (ci == CiMethod::kChi2) {
-      // Local slope of ln AVAR against ln m over one octave either side.
-      std::vector<double> log_m, log_avar;
-      const double center = std::log(static_cast<double>(point.m));
-      for (const Tracked& u : tracked) {
-        const double lm = std::log(static_cast<double>(u.point.m));
-        if (std::fabs(lm - center) > std::log(2.0) * (1 + 1e-9) || !(u.point.dev > 0)) continue;
-        log_m.push_back(lm);
-        log_avar.push_back(2.0 * std::log(u.point.dev));
+      std::optional<int> alpha = alphas[i];
+      for (size_t d = 1; !alpha && d < tracked.size(); ++d) {
+        if (i >= d && alphas[i - d]) alpha = alphas[i - d];
+        else if (i + d < tracked.size() && alphas[i + d]) alpha = alphas[i + d];
       }
-      const double mu = log_m.size() >= 2 ? Slope(log_m, log_avar) : kNaN;
-      if (std::isfinite(mu)) {
-        const int alpha = static_cast<int>(std::clamp(std::lround(-mu - 1.0), -2L, 1L));
+      if (alpha) {
         const int64_t n_eff = (point.n - 1) * t.stride + 2 * point.m + 1;
         const std::optional<double> edf =
-            GreenhallEdf(alpha, /*d=*/2, point.m, n_eff, /*F=*/static_cast<double>(point.m),
+            GreenhallEdf(*alpha, /*d=*/2, point.m, n_eff, /*F=*/static_cast<double>(point.m),
                          /*S=*/static_cast<double>(t.c));
         if (edf.has_value() && std::isfinite(*edf) && *edf > 0) {
           const auto [lo, hi] = Chi2Interval(point.dev, *edf, confidence);
           point.lo = lo;
           point.hi = hi;
           point.edf = *edf;
-          point.alpha = alpha;
+          point.alpha = *alpha;
+          point.alpha_inherited = !alphas[i].has_value();
         }
       }
     }

@@ -74,6 +74,9 @@ class StreamingAllan {
  public:
   // Number of valid samples averaged for the default reference rate.
   static constexpr int kReferenceSamples = 64;
+  // Clusters (valid samples / m) a point needs for its own noise
+  // identification; the lag-1 method's minimum, kMinNoiseIdPoints.
+  static constexpr int64_t kMinNoiseIdClusters = 30;
 
   // Precondition: options.Validate().ok() (asserted).
   explicit StreamingAllan(const StreamingOptions& options);
@@ -113,12 +116,17 @@ class StreamingAllan {
   //    when there is no gap; the heuristic of ALGORITHMS.md §5 otherwise).
   //    alpha comes from the local slope mu of log AVAR against log tau (least
   //    squares over the tracked points within one octave either side):
-  //    alpha = clamp(round(-mu - 1), -2, 1). The clamp at 1 is deliberate:
+  //    alpha = clamp(round(-mu - 1), -2, 1), at every tracked point with at
+  //    least kMinNoiseIdClusters = 30 clusters (valid samples / m). The
+  //    long-tau rule: a point with fewer takes the alpha of the nearest
+  //    identified tracked point (the shorter tau on a tie) and is marked
+  //    alpha_inherited. The clamp at 1 is deliberate:
   //    a slope cannot tell white (alpha 2) from flicker (alpha 1) phase noise,
   //    and alpha = 1 has the smaller edf, so the interval errs wide; below -2
   //    (rate ramp) AVAR-type edf are not defined and -2 is used, as in
   //    ALGORITHMS.md §2. No interval (NaN lo/hi/edf, no alpha) when fewer than
-  //    two neighbouring points give a slope or the edf is undefined.
+  //    two neighbouring points give a slope anywhere on the curve or the edf
+  //    is undefined.
   Curve Oadev(StreamGrid grid, StopRule stop, CiMethod ci,
               double confidence = 0.682689492137086) const;
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "analyze/allan/confidence.h"
 #include "analyze/judge/measure.h"
 #include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
@@ -146,6 +147,20 @@ void RunAnalyzer::Finish(int64_t first_sample, int64_t end_sample) {
   missing(next_counter_, end_sample, "beyond");
 }
 
+namespace {
+
+allan::Curve WithoutIntervals(allan::Curve curve) {
+  curve.ci = allan::CiMethod::kNone;
+  for (allan::CurvePoint& p : curve.points) {
+    p.lo = p.hi = p.edf = allan::kNaN;
+    p.alpha.reset();
+    p.alpha_inherited = false;
+  }
+  return curve;
+}
+
+}  // namespace
+
 std::string FailureForRunState(const std::string& state, const std::string& reason) {
   const std::string why = reason.empty() ? "" : " (" + reason + ")";
   if (state == "aborted") return "run aborted before completion" + why;
@@ -163,8 +178,22 @@ RunOutcome RunAnalyzer::Outcome(bool final, const std::string& failure) const {
                                      : allan::StreamGrid::kDense;
   for (size_t a = 0; a < desc_.axes.size(); ++a) {
     const allan::StreamingAllan& e = engines_[a];
-    out.curves.emplace_back(desc_.axes[a].name, e.Oadev(grid, stop, allan::CiMethod::kSimple));
-    const allan::Curve dense = e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
+    // The judged curve is the dense grid (every tracked averaging factor, a
+    // superset of the octave grid): the final result publishes it, so the
+    // archive holds every point a measurement was read from. Interim looks
+    // publish the plan's grid. Both with chi-square intervals (Greenhall edf,
+    // noise identified from the local slope; the long-tau rule in
+    // streaming.h).
+    const allan::Curve judged =
+        e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kChi2, allan::kOneSigmaConfidence);
+    out.curves.emplace_back(desc_.axes[a].name,
+                            final || grid == allan::StreamGrid::kDense
+                                ? judged
+                                : e.Oadev(grid, stop, allan::CiMethod::kChi2,
+                                          allan::kOneSigmaConfidence));
+    // The measurements read the same points without the intervals: the noise
+    // model weighs them by its own edf (gmwm.h), not the curve's.
+    const allan::Curve dense = WithoutIntervals(judged);
     const double mean = count_[a] > 0 ? sum_[a] / static_cast<double>(count_[a]) : allan::kNaN;
     for (pb::Measurement& m :
          judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, mean)) {

@@ -54,7 +54,9 @@ struct AnalyzerOptions {
 };
 
 struct RunOutcome {
-  std::vector<std::pair<std::string, allan::Curve>> curves;  // per axis, the plan's grid
+  // Per axis: interim, the plan's grid; final, the judged dense curve (every
+  // point the measurements were read from), both with chi-square intervals.
+  std::vector<std::pair<std::string, allan::Curve>> curves;
   std::vector<pb::Measurement> measurements;                   // judged
   judge::Judgement judgement;
   int64_t samples = 0;          // per axis, after warm-up, including gaps

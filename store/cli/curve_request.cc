@@ -57,7 +57,7 @@ TableWriter CurveTable(const std::vector<LabeledCurve>& curves, bool with_ci, bo
   if (with_dev_type) cols.push_back("dev_type");
   for (const char* c : {"m", "tau", "n", "dev"}) cols.push_back(c);
   if (with_ci) {
-    for (const char* c : {"lo", "hi", "edf", "alpha"}) cols.push_back(c);
+    for (const char* c : {"lo", "hi", "edf", "alpha", "alpha_from"}) cols.push_back(c);
   }
   TableWriter t(cols, 6);
   for (const auto& [axis, c] : curves) {
@@ -74,6 +74,9 @@ TableWriter CurveTable(const std::vector<LabeledCurve>& curves, bool with_ci, bo
         row.push_back(Cell::Real(p.hi));
         row.push_back(Cell::Real(p.edf));
         row.push_back(p.alpha ? Cell::Int(*p.alpha) : Cell::Text(""));
+        // "identified" at this point, or "nearest" identified point's (the
+        // long-tau rule, confidence.h).
+        row.push_back(Cell::Text(!p.alpha ? "" : p.alpha_inherited ? "nearest" : "identified"));
       }
       t.AddRow(std::move(row));
     }
