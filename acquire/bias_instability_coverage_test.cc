@@ -119,5 +119,64 @@ TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {
   }
 }
 
+// The -1/2 slope-line read-off's uncertainty (ReadSlopeLine): N at tau = 1 s
+// against the truth's N over 200 records per scenario. Stated in
+// noise_model.h: conservative at 1 sigma (measured 89.5 % / 75 %), 2 sigma
+// 97 % / 95 %, the read-off low by about half a sigma (its tangent cap). The
+// +1/2 line's K is printed for the record (its chi-square error does not
+// cover its flicker bias; the station reports none for it).
+TEST(SlopeReadoffCoverageTest, AngleRandomWalkUncertaintyCoversTheTruth) {
+  for (const Scenario& s : Scenarios()) {
+    for (allan::NoiseTerm term : {allan::NoiseTerm::kAngleRandomWalk, allan::NoiseTerm::kRateRandomWalk}) {
+      const double true_value = term == allan::NoiseTerm::kAngleRandomWalk ? s.truth.random_walk()
+                                                                          : s.truth.rate_random_walk();
+      int covered1 = 0, covered2 = 0, n = 0, bounds = 0;
+      double sum_z = 0;
+      for (int seed = 1; seed <= kSeeds; ++seed) {
+        pb::SimTruth truth;
+        truth.set_seed(7001 * seed + 3);
+        truth.set_actual_rate_hz(kRateHz);
+        *truth.add_axes() = s.truth;
+        auto sim = sim::ImuSimulator::Create(truth);
+        ASSERT_TRUE(sim.ok());
+        std::vector<std::vector<float>> out(1);
+        out[0].reserve(kSamples);
+        sim->Generate(kSamples, out);
+        allan::StreamingOptions so;
+        so.tau0_s = 1 / kRateHz;
+        allan::StreamingAllan engine(so);
+        engine.Append(std::span<const float>(out[0]));
+        const allan::Curve dense =
+            engine.Oadev(allan::StreamGrid::kDense, allan::StopRule::kBins9, allan::CiMethod::kNone);
+        const allan::SlopeReadoff r = allan::ReadSlopeLine(dense, term);
+        if (r.upper_bound_only) {
+          ++bounds;
+          continue;
+        }
+        if (!(std::isfinite(r.uncertainty) && r.uncertainty > 0)) {
+          ADD_FAILURE() << s.name << " seed " << seed << ": no uncertainty";
+          continue;
+        }
+        const double z = (r.value - true_value) / r.uncertainty;
+        sum_z += z;
+        covered1 += std::abs(z) <= 1;
+        covered2 += std::abs(z) <= 2;
+        ++n;
+      }
+      const double c1 = static_cast<double>(covered1) / n, c2 = static_cast<double>(covered2) / n;
+      std::printf("%-22s %s 1-sigma %.1f %%  2-sigma %.1f %%  mean z %+.2f  (%d records, %d bounds)\n",
+                  s.name.c_str(), term == allan::NoiseTerm::kAngleRandomWalk ? "N" : "K",
+                  100 * c1, 100 * c2, sum_z / n, n, bounds);
+      if (term != allan::NoiseTerm::kAngleRandomWalk) continue;
+      EXPECT_EQ(bounds, 0) << s.name;
+      EXPECT_GE(c1, 0.68) << s.name;
+      EXPECT_LE(c1, 0.95) << s.name;
+      EXPECT_GE(c2, 0.93) << s.name;
+      EXPECT_GE(sum_z / n, -1.0) << s.name;
+      EXPECT_LE(sum_z / n, 0.0) << s.name;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace imuqual

@@ -264,10 +264,12 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options) {
 SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
   SlopeReadoff out;
   std::vector<double> tau, dev;
+  std::vector<const CurvePoint*> used;
   for (const CurvePoint& p : curve.points) {
     if (std::isfinite(p.dev) && p.dev > 0 && std::isfinite(p.tau_s) && p.tau_s > 0) {
       tau.push_back(p.tau_s);
       dev.push_back(p.dev);
+      used.push_back(&p);
     }
   }
   if (tau.empty()) {
@@ -310,11 +312,22 @@ SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
   if (first_on_slope == tau.size()) first_on_slope = 0;
   double bound = std::numeric_limits<double>::infinity();
   double intercept_sum = 0;
+  // The read-off's relative statistical error: the mean over the points on
+  // the slope of each point's chi-square relative error 1/sqrt(2 edf), with
+  // the Greenhall edf of the term's own noise (the line averages correlated
+  // points, so no 1/sqrt(n): a bound for fully correlated errors).
+  double rel_error_sum = 0;
+  int rel_error_points = 0;
   for (size_t i = 0; i < tau.size(); ++i) {
     if (i >= first_on_slope) bound = std::min(bound, dev[i] * std::pow(tau_read / tau[i], slope));
     if (std::fabs(local[i] - slope) <= 0.1) {
       ++out.points_on_slope;
       intercept_sum += std::log(dev[i]) - slope * std::log(tau[i]);
+      const double edf = PointEdf(*used[i], curve.n_phase, NoiseTermAlpha(term));
+      if (std::isfinite(edf)) {
+        rel_error_sum += 1 / std::sqrt(2 * edf);
+        ++rel_error_points;
+      }
     }
   }
   if (term == NoiseTerm::kBiasInstability) {
@@ -327,6 +340,9 @@ SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
       const double c = intercept_sum / out.points_on_slope;
       // No non-negative model lies above a tangent line, so cap the read-off.
       out.value = std::min(std::exp(c + slope * std::log(tau_read)), bound);
+      if (rel_error_points == out.points_on_slope) {
+        out.uncertainty = out.value * rel_error_sum / rel_error_points;
+      }
     }
   }
   if (out.points_on_slope == 0) {
@@ -334,6 +350,16 @@ SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
     out.upper_bound_only = true;
   }
   return out;
+}
+
+double PointEdf(const CurvePoint& p, int64_t curve_n_phase, int alpha) {
+  if (p.n < 1 || p.stride < 1 || p.m < 1) return kNaN;
+  // The gap-free record that gives the point's valid terms, capped at the record.
+  int64_t n_phase = (p.n - 1) * p.stride + 2 * p.m + 1;
+  if (curve_n_phase > 0) n_phase = std::min(n_phase, curve_n_phase);
+  const std::optional<double> edf = GreenhallEdf(alpha, 2, p.m, n_phase, static_cast<double>(p.m),
+                                                 static_cast<double>(p.m) / p.stride);
+  return edf && *edf > 0 ? *edf : kNaN;
 }
 
 std::optional<CurveMinimum> FindCurveMinimum(const Curve& curve) {
@@ -356,14 +382,10 @@ double MinimumUncertainty(const Curve& curve, const CurveMinimum& min) {
   for (const CurvePoint& p : curve.points) {
     if (p.m == min.m) at = &p;
   }
-  if (at == nullptr || at->n < 1 || at->stride < 1) return kNaN;
-  // The gap-free record that gives the point's valid terms, capped at the record.
-  int64_t n_phase = (at->n - 1) * at->stride + 2 * at->m + 1;
-  if (curve.n_phase > 0) n_phase = std::min(n_phase, curve.n_phase);
-  const std::optional<double> edf = GreenhallEdf(-1, 2, at->m, n_phase, static_cast<double>(at->m),
-                                                 static_cast<double>(at->m) / at->stride);
-  if (!edf || !(*edf > 0)) return kNaN;
-  const double statistical = min.dev / std::sqrt(2 * *edf);
+  if (at == nullptr) return kNaN;
+  const double edf = PointEdf(*at, curve.n_phase, /*alpha=*/-1);
+  if (!std::isfinite(edf)) return kNaN;
+  const double statistical = min.dev / std::sqrt(2 * edf);
   // The minimum of a noisy curve lies low: the points within an octave of it
   // on either side (the flat bottom it was picked from) say by how much.
   double sum = 0;
@@ -376,6 +398,23 @@ double MinimumUncertainty(const Curve& curve, const CurveMinimum& min) {
   }
   const double selection = count > 0 ? sum / count - min.dev : 0.0;
   return std::hypot(statistical, selection);
+}
+
+double MinimumTauUncertainty(const Curve& curve, const CurveMinimum& min, double dev_uncertainty) {
+  if (!std::isfinite(dev_uncertainty)) return kNaN;
+  size_t at = curve.points.size();
+  for (size_t i = 0; i < curve.points.size(); ++i) {
+    if (curve.points[i].m == min.m) at = i;
+  }
+  if (at == curve.points.size()) return kNaN;
+  const double ceiling = min.dev + dev_uncertainty;
+  auto close = [&](size_t i) {
+    return std::isfinite(curve.points[i].dev) && curve.points[i].dev <= ceiling;
+  };
+  size_t lo = at, hi = at;
+  while (lo > 0 && close(lo - 1)) --lo;
+  while (hi + 1 < curve.points.size() && close(hi + 1)) ++hi;
+  return (curve.points[hi].tau_s - curve.points[lo].tau_s) / 2;
 }
 
 }  // namespace imuqual::allan

@@ -310,6 +310,54 @@ TEST(NoiseModelTest, WorkedExampleSlopeReadoffs) {
 
 // Each slope read-off recovers its term where that term alone shapes the
 // curve, and read-offs of absent slopes are flagged.
+TEST(NoiseModelTest, SlopeReadoffUncertaintyIsTheMeanChiSquareErrorOfItsPoints) {
+  // GIVEN a pure white-noise curve (slope -1/2 everywhere) of a fully
+  // overlapped record, WHEN N is read off, THEN its uncertainty is N times the
+  // mean of 1/sqrt(2 edf) over the points (white FM edf), and a term with no
+  // point on its slope has none.
+  Curve curve;
+  curve.n_phase = 100001;
+  curve.tau0_s = 0.01;
+  for (int64_t m = 1; m <= 4096; m *= 2) {
+    CurvePoint p;
+    p.m = m;
+    p.tau_s = m * curve.tau0_s;
+    p.dev = 0.1 / std::sqrt(p.tau_s);
+    p.n = curve.n_phase - 2 * m;
+    p.stride = 1;
+    curve.points.push_back(p);
+  }
+  const SlopeReadoff n = ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk);
+  ASSERT_FALSE(n.upper_bound_only);
+  double sum = 0;
+  for (const CurvePoint& p : curve.points) sum += 1 / std::sqrt(2 * PointEdf(p, curve.n_phase, 0));
+  EXPECT_NEAR(n.value, 0.1, 1e-12);
+  EXPECT_NEAR(n.uncertainty, 0.1 * sum / curve.points.size(), 1e-15);
+  EXPECT_GT(n.uncertainty, 0);
+  const SlopeReadoff k = ReadSlopeLine(curve, NoiseTerm::kRateRandomWalk);
+  EXPECT_TRUE(k.upper_bound_only);
+  EXPECT_TRUE(std::isnan(k.uncertainty));
+}
+
+TEST(NoiseModelTest, MinimumTauUncertaintySpansTheFlatBottom) {
+  Curve curve;
+  const double devs[] = {5, 3, 2, 1.05, 1.0, 1.08, 1.5, 3};
+  for (int i = 0; i < 8; ++i) {
+    CurvePoint p;
+    p.m = i + 1;
+    p.tau_s = i + 1;
+    p.dev = devs[i];
+    curve.points.push_back(p);
+  }
+  const std::optional<CurveMinimum> min = FindCurveMinimum(curve);
+  ASSERT_TRUE(min.has_value());
+  EXPECT_EQ(min->tau_s, 5);
+  EXPECT_EQ(MinimumTauUncertainty(curve, *min, 0.1), 1.0);   // taus 4..6
+  EXPECT_EQ(MinimumTauUncertainty(curve, *min, 0.6), 1.5);   // taus 4..7
+  EXPECT_EQ(MinimumTauUncertainty(curve, *min, 0.01), 0.0);  // a sharp minimum
+  EXPECT_TRUE(std::isnan(MinimumTauUncertainty(curve, *min, std::nan(""))));
+}
+
 TEST(NoiseModelTest, SlopeReadoffsOnSingleTermCurves) {
   struct Case {
     NoiseTerm term;
