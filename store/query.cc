@@ -1,5 +1,7 @@
 #include "store/query.h"
 
+#include "store/outcome.h"
+
 namespace imuqual::store {
 
 namespace {
@@ -39,13 +41,6 @@ Result<std::vector<AxisRow>> ReadAxisRows(Stmt& s) {
   }
 }
 
-pb::Outcome OutcomeFromText(const std::string& text) {
-  if (text == "PASS") return pb::PASS;
-  if (text == "MARGINAL") return pb::MARGINAL;
-  if (text == "FAIL") return pb::FAIL;
-  return pb::OUTCOME_UNSET;
-}
-
 }  // namespace
 
 Result<std::vector<AxisRow>> QueryAxisRows(Archive& archive, const AxisRowFilter& filter) {
@@ -55,7 +50,7 @@ Result<std::vector<AxisRow>> QueryAxisRows(Archive& archive, const AxisRowFilter
   auto s = archive.db().Prepare(std::string(kAxisColumns) + R"sql(
 WHERE a.lot = ?1
   AND substr(a.run_id, 1, length(?2)) = ?2
-  AND (?3 = 0 OR a.run_id IN (SELECT run_id FROM latest_runs WHERE lot = ?1))
+  AND (?3 = 0 OR a.run_id IN (SELECT run_id FROM final_runs WHERE lot = ?1))
 ORDER BY a.serial, a.start_utime, a.run_id, a.axis_index)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, filter.lot).Bind(2, filter.run_prefix).Bind(3, filter.latest_per_unit ? 1 : 0);
@@ -94,7 +89,7 @@ Result<std::vector<MeasurementRow>> QueryLotMeasurements(Archive& archive, const
   auto s = archive.db().Prepare(R"sql(
 SELECT l.serial, l.run_id, m.axis, COALESCE(ra.kind, ''), m.name, m.value, m.uncertainty, m.unit,
        m.low, m.high, m.marginal_low, m.marginal_high, COALESCE(m.outcome, ''), m.note
-FROM latest_runs l
+FROM final_runs l
 JOIN measurements m ON m.run_key = l.run_key
 LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis
 WHERE l.lot = ?1

@@ -12,6 +12,7 @@
 #include "common/text_util.h"
 #include "store/archive.h"
 #include "store/cli/table_writer.h"
+#include "store/outcome.h"
 #include "store/query.h"
 
 namespace imuqual::cli {
@@ -82,10 +83,7 @@ Result<std::string> ExportMeasurements(store::Archive& archive, const std::vecto
     if (!result->has_value()) continue;
     for (const pb::Measurement& m : (*result)->measurements) {
       auto opt = [](bool has, double v) { return Cell::Real(has ? v : allan::kNaN); };
-      const char* outcome = m.outcome() == pb::PASS       ? "PASS"
-                            : m.outcome() == pb::MARGINAL ? "MARGINAL"
-                            : m.outcome() == pb::FAIL     ? "FAIL"
-                                                          : "";
+      const char* outcome = store::OutcomeText(m.outcome());
       t.AddRow({Cell::Text(r.info.lot), Cell::Text(r.info.serial), Cell::Text(r.run_id),
                 Cell::Text(m.axis()), Cell::Text(m.name()), Cell::Real(m.value()),
                 opt(m.has_uncertainty(), m.uncertainty()), Cell::Text(m.unit()),
