@@ -76,7 +76,8 @@ Result<std::string> ExportJson(store::Archive& archive, const std::vector<RunRef
 
 Result<std::string> ExportMeasurements(store::Archive& archive, const std::vector<RunRef>& runs) {
   TableWriter t({"lot", "unit", "run_id", "axis", "name", "value", "uncertainty", "unit_of_value",
-                 "low", "high", "marginal_low", "marginal_high", "outcome", "note"});
+                 "low", "high", "marginal_low", "marginal_high", "outcome", "note",
+                 "uncertainty_method", "qualifier", "decision_rule", "guard_band"});
   for (const RunRef& r : runs) {
     auto result = archive.LoadResult(r.key);
     if (!result.ok()) return result.status();
@@ -90,7 +91,10 @@ Result<std::string> ExportMeasurements(store::Archive& archive, const std::vecto
                 opt(m.has_low(), m.low()), opt(m.has_high(), m.high()),
                 opt(m.has_marginal_low(), m.marginal_low()),
                 opt(m.has_marginal_high(), m.marginal_high()), Cell::Text(outcome),
-                Cell::Text(m.note())});
+                Cell::Text(m.note()), Cell::Text(m.uncertainty_method()),
+                Cell::Text(store::QualifierText(m.qualifier())),
+                Cell::Text(store::DecisionRuleText(m.decision_rule())),
+                opt(m.has_guard_band(), m.guard_band())});
     }
   }
   return t.Render(Format::kCsv);
