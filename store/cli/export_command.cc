@@ -120,6 +120,25 @@ Result<std::string> ExportCurves(store::Archive& archive, const std::vector<RunR
   return t.Render(Format::kCsv);
 }
 
+// A record archived before schema 6 has neither a qualifier nor an
+// uncertainty method (an analysis of schema 6 states one or why there is
+// none): only then is the note's text read for what the qualifier says.
+bool ArchivedBeforeQualifiers(const pb::Measurement& m) {
+  return m.qualifier() == pb::QUALIFIER_NONE && m.uncertainty_method().empty();
+}
+
+bool UpperBound(const pb::Measurement& m) {
+  if (ArchivedBeforeQualifiers(m)) return m.note().starts_with("upper bound");
+  return m.qualifier() == pb::UPPER_BOUND;
+}
+
+// The noise model's p-value measurement: the model fits (not
+// MODEL_INADEQUATE, and a finite p-value).
+bool ModelAdequate(const pb::Measurement& p_value) {
+  if (ArchivedBeforeQualifiers(p_value)) return judge::NoiseModelAdequate(p_value);
+  return p_value.qualifier() != pb::MODEL_INADEQUATE && std::isfinite(p_value.value());
+}
+
 std::string Num(double v) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.17g", v);
@@ -148,7 +167,7 @@ Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunR
     // is tuned wrong: only adequate models are exported.
     for (const pb::Measurement& m : (*result)->measurements) {
       if (m.name() != judge::kNoiseModelPValue) continue;
-      if (!judge::NoiseModelAdequate(m)) {
+      if (!ModelAdequate(m)) {
         return Status::InvalidArgument("run " + r.run_id + " axis " + m.axis() +
                                        ": no adequate noise model for Kalibr (" + m.note() + ")");
       }
@@ -188,7 +207,7 @@ Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunR
         ++s.n_count;
       }
       s.comments += "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) +
-                    (m.note().starts_with("upper bound")
+                    (UpperBound(m)
                          ? " (upper bound at 95 %: the noise model has no such term)"
                          : "") +
                     "\n";
