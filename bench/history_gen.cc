@@ -22,6 +22,7 @@
 #include "common/clock.h"
 #include "common/log.h"
 #include "store/archive.h"
+#include "store/outcome.h"
 #include "store/run_record.h"
 
 namespace {
@@ -211,10 +212,7 @@ int main(int argc, char** argv) {
       }
       const judge::Judgement j = judge::Judge(*plan, axes, &ms);
       store::ResultRecord res;
-      res.verdict = j.verdict == pb::PASS       ? "PASS"
-                    : j.verdict == pb::MARGINAL ? "MARGINAL"
-                    : j.verdict == pb::FAIL     ? "FAIL"
-                                                : "";
+      res.verdict = store::OutcomeText(j.verdict);
       res.reasons = j.reasons;
       res.samples = samples;
       res.axis_invalid_samples.assign(axes.size(), 0);

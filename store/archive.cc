@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "store/checksums.h"
+#include "store/outcome.h"
 #include "store/schema.h"
 
 namespace imuqual::store {
@@ -269,8 +270,8 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
   IMUQUAL_RETURN_IF_ERROR(del->Bind(1, run_key).Run());
   auto ins = db_->Prepare(
       "INSERT OR REPLACE INTO measurements(run_key, axis, name, value, unit, low, high, "
-      "marginal_low, marginal_high, outcome, note, uncertainty) "
-      "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+      "marginal_low, marginal_high, outcome, note, uncertainty, qualifier, uncertainty_method, "
+      "decision_rule, guard_band) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (!ins.ok()) return ins.status();
   for (const pb::Measurement& m : r.measurements) {
     auto opt = [](bool has, double v) { return has ? std::optional<double>(v) : std::nullopt; };
@@ -279,21 +280,25 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
     s.Bind(6, opt(m.has_low(), m.low())).Bind(7, opt(m.has_high(), m.high()));
     s.Bind(8, opt(m.has_marginal_low(), m.marginal_low()));
     s.Bind(9, opt(m.has_marginal_high(), m.marginal_high()));
-    switch (m.outcome()) {
-      case pb::PASS:
-        s.Bind(10, "PASS");
-        break;
-      case pb::MARGINAL:
-        s.Bind(10, "MARGINAL");
-        break;
-      case pb::FAIL:
-        s.Bind(10, "FAIL");
-        break;
-      default:
-        s.BindNull(10);
-    }
+    // Unset (and unknown) codes are NULL: the columns' CHECKs name the rest.
+    auto text_or_null = [&s](int col, const char* text) {
+      if (*text == '\0') {
+        s.BindNull(col);
+      } else {
+        s.Bind(col, text);
+      }
+    };
+    text_or_null(10, OutcomeText(m.outcome()));
     s.Bind(11, m.note());
     s.Bind(12, opt(m.has_uncertainty(), m.uncertainty()));
+    text_or_null(13, QualifierText(m.qualifier()));
+    if (m.uncertainty_method().empty()) {
+      s.BindNull(14);
+    } else {
+      s.Bind(14, m.uncertainty_method());
+    }
+    text_or_null(15, DecisionRuleText(m.decision_rule()));
+    s.Bind(16, opt(m.has_guard_band(), m.guard_band()));
     IMUQUAL_RETURN_IF_ERROR(s.Run());
   }
   std::string reasons;
@@ -434,7 +439,8 @@ Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
   }
   auto m = db_->Prepare(
       "SELECT axis, name, value, unit, low, high, marginal_low, marginal_high, outcome, note, "
-      "uncertainty FROM measurements WHERE run_key = ? ORDER BY axis, name");
+      "uncertainty, qualifier, uncertainty_method, decision_rule, guard_band FROM measurements "
+      "WHERE run_key = ? ORDER BY axis, name");
   if (!m.ok()) return m.status();
   m->Bind(1, run_key);
   for (;;) {
@@ -450,13 +456,13 @@ Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
     if (!m->IsNull(5)) pm.set_high(m->Real(5));
     if (!m->IsNull(6)) pm.set_marginal_low(m->Real(6));
     if (!m->IsNull(7)) pm.set_marginal_high(m->Real(7));
-    const std::string outcome = m->Text(8);
-    pm.set_outcome(outcome == "PASS"       ? pb::PASS
-                   : outcome == "MARGINAL" ? pb::MARGINAL
-                   : outcome == "FAIL"     ? pb::FAIL
-                                           : pb::OUTCOME_UNSET);
+    pm.set_outcome(OutcomeFromText(m->Text(8)));
     pm.set_note(m->Text(9));
     if (!m->IsNull(10)) pm.set_uncertainty(m->Real(10));
+    pm.set_qualifier(QualifierFromText(m->Text(11)));
+    pm.set_uncertainty_method(m->Text(12));
+    pm.set_decision_rule(DecisionRuleFromText(m->Text(13)));
+    if (!m->IsNull(14)) pm.set_guard_band(m->Real(14));
     res.measurements.push_back(std::move(pm));
   }
   return std::optional<ResultRecord>(std::move(res));

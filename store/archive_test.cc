@@ -14,8 +14,17 @@
 namespace imuqual::store {
 namespace {
 
-// What migration 3 -> 4 added, to make a file of an older schema.
+// What migrations 3 -> 4 and 5 -> 6 added (the views that read the new
+// columns go; migration 4 -> 5 and 5 -> 6 make them again), to make a file
+// of an older schema. The wider CHECKs of schema 6 stay: the migration finds
+// them done.
 constexpr char kUndoSchema4[] =
+    "DROP VIEW lot_statistics; DROP VIEW lot_overview; DROP VIEW lot_measurements; "
+    "DROP VIEW all_runs_measurements; DROP VIEW final_runs; DROP VIEW retest_reasons; "
+    "ALTER TABLE measurements DROP COLUMN qualifier; "
+    "ALTER TABLE measurements DROP COLUMN uncertainty_method; "
+    "ALTER TABLE measurements DROP COLUMN decision_rule; "
+    "ALTER TABLE measurements DROP COLUMN guard_band; "
     "DROP TABLE superseded_judgements; ALTER TABLE runs DROP COLUMN revision; "
     "ALTER TABLE runs DROP COLUMN result_last_seq; ALTER TABLE runs DROP COLUMN "
     "result_gap_batches";

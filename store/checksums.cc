@@ -83,6 +83,12 @@ constexpr ResultQuery kResultQueries[] = {
     {"SELECT revision, verdict, reasons, samples, gap_samples, record, result_utime, "
      "superseded_utime, cause FROM superseded_judgements WHERE run_key = ? ORDER BY revision",
      true},
+    // Schema 6: what kind of value, how its uncertainty was obtained, the
+    // decision rule; only the measurements that have any of them.
+    {"SELECT axis, name, qualifier, uncertainty_method, decision_rule, guard_band "
+     "FROM measurements WHERE run_key = ? AND (qualifier IS NOT NULL OR uncertainty_method IS "
+     "NOT NULL OR decision_rule IS NOT NULL OR guard_band IS NOT NULL) ORDER BY axis, name",
+     true},
 };
 
 std::string Hex(uint32_t v) {

@@ -1,5 +1,7 @@
 #include "store/query.h"
 
+#include "store/outcome.h"
+
 namespace imuqual::store {
 
 namespace {
@@ -39,13 +41,6 @@ Result<std::vector<AxisRow>> ReadAxisRows(Stmt& s) {
   }
 }
 
-pb::Outcome OutcomeFromText(const std::string& text) {
-  if (text == "PASS") return pb::PASS;
-  if (text == "MARGINAL") return pb::MARGINAL;
-  if (text == "FAIL") return pb::FAIL;
-  return pb::OUTCOME_UNSET;
-}
-
 }  // namespace
 
 Result<std::vector<AxisRow>> QueryAxisRows(Archive& archive, const AxisRowFilter& filter) {
@@ -55,7 +50,7 @@ Result<std::vector<AxisRow>> QueryAxisRows(Archive& archive, const AxisRowFilter
   auto s = archive.db().Prepare(std::string(kAxisColumns) + R"sql(
 WHERE a.lot = ?1
   AND substr(a.run_id, 1, length(?2)) = ?2
-  AND (?3 = 0 OR a.run_id IN (SELECT run_id FROM latest_runs WHERE lot = ?1))
+  AND (?3 = 0 OR a.run_id IN (SELECT run_id FROM final_runs WHERE lot = ?1))
 ORDER BY a.serial, a.start_utime, a.run_id, a.axis_index)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, filter.lot).Bind(2, filter.run_prefix).Bind(3, filter.latest_per_unit ? 1 : 0);
@@ -93,8 +88,10 @@ Result<std::vector<AxisRow>> QueryUnitHistory(Archive& archive, const std::strin
 Result<std::vector<MeasurementRow>> QueryLotMeasurements(Archive& archive, const std::string& lot) {
   auto s = archive.db().Prepare(R"sql(
 SELECT l.serial, l.run_id, m.axis, COALESCE(ra.kind, ''), m.name, m.value, m.uncertainty, m.unit,
-       m.low, m.high, m.marginal_low, m.marginal_high, COALESCE(m.outcome, ''), m.note
-FROM latest_runs l
+       m.low, m.high, m.marginal_low, m.marginal_high, COALESCE(m.outcome, ''), m.note,
+       COALESCE(m.qualifier, ''), COALESCE(m.uncertainty_method, ''),
+       COALESCE(m.decision_rule, ''), m.guard_band
+FROM final_runs l
 JOIN measurements m ON m.run_key = l.run_key
 LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis
 WHERE l.lot = ?1
@@ -122,6 +119,10 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name)sql");
     r.marginal_high = opt(11);
     r.outcome = OutcomeFromText(s->Text(12));
     r.note = s->Text(13);
+    r.qualifier = QualifierFromText(s->Text(14));
+    r.uncertainty_method = s->Text(15);
+    r.decision_rule = DecisionRuleFromText(s->Text(16));
+    r.guard_band = s->Real(17);
     rows.push_back(std::move(r));
   }
 }
@@ -160,8 +161,9 @@ LIMIT ?6)sql");
 
 Result<std::vector<LotRow>> QueryLots(Archive& archive) {
   auto s = archive.db().Prepare(
-      "SELECT lot, runs, units, pass, marginal, fail, unjudged, yield, first_start_utime, "
-      "last_start_utime FROM lot_overview ORDER BY last_start_utime DESC, lot");
+      "SELECT lot, runs, units, pass, marginal, fail, unjudged, final_yield, first_start_utime, "
+      "last_start_utime, inconclusive, aborted, error, first_pass_yield, retests, "
+      "retest_candidates FROM lot_overview ORDER BY last_start_utime DESC, lot");
   if (!s.ok()) return s.status();
   std::vector<LotRow> rows;
   for (;;) {
@@ -179,6 +181,12 @@ Result<std::vector<LotRow>> QueryLots(Archive& archive) {
     r.yield = s->Real(7);
     r.first_start_utime = s->Int(8);
     r.last_start_utime = s->Int(9);
+    r.inconclusive = s->Int(10);
+    r.aborted = s->Int(11);
+    r.error = s->Int(12);
+    r.first_pass_yield = s->Real(13);
+    r.retests = s->Int(14);
+    r.retest_candidates = s->Int(15);
     rows.push_back(std::move(r));
   }
   return rows;
@@ -197,6 +205,29 @@ Result<std::vector<std::pair<std::string, std::string>>> QueryReasons(
     s->Reset();
   }
   return out;
+}
+
+Result<std::vector<RetestRow>> QueryRetestReasons(Archive& archive, const std::string& lot) {
+  auto s = archive.db().Prepare(
+      "SELECT serial, run_id, state, COALESCE(verdict, ''), COALESCE(reasons, ''), "
+      "COALESCE(next_run_id, '') FROM retest_reasons WHERE lot = ? ORDER BY serial, start_utime, "
+      "run_id");
+  if (!s.ok()) return s.status();
+  s->Bind(1, lot);
+  std::vector<RetestRow> rows;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return rows;
+    RetestRow r;
+    r.unit = s->Text(0);
+    r.run_id = s->Text(1);
+    r.state = s->Text(2);
+    r.verdict = s->Text(3);
+    r.reasons = s->Text(4);
+    r.next_run_id = s->Text(5);
+    rows.push_back(std::move(r));
+  }
 }
 
 }  // namespace imuqual::store

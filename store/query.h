@@ -30,16 +30,26 @@ struct AxisRow {
 struct AxisRowFilter {
   std::string lot;              // required
   std::string run_prefix;       // "" = any; else run ids starting with it
-  bool latest_per_unit = true;  // only each unit's most recent run in the lot
+  // Only each unit's final run in the lot (view final_runs: its latest
+  // judged run, else its latest run).
+  bool latest_per_unit = true;
 };
 
 Result<std::vector<AxisRow>> QueryAxisRows(Archive& archive, const AxisRowFilter& filter);
 
-// One lot (view lot_overview).
+// One lot (view lot_overview): the units counted by their final run (the
+// latest judged one, else the latest; store/SCHEMA.md, Yields).
 struct LotRow {
   std::string lot;
   int64_t runs = 0, units = 0, pass = 0, marginal = 0, fail = 0, unjudged = 0;
-  double yield = allan::kNaN;  // (pass + marginal) / judged
+  int64_t inconclusive = 0, aborted = 0, error = 0;
+  // (pass + marginal) / (pass + marginal + fail) over the final runs; NaN
+  // when no unit's final run is one of those.
+  double yield = allan::kNaN;
+  // The same over each unit's first judged run.
+  double first_pass_yield = allan::kNaN;
+  int64_t retests = 0;            // runs beyond each unit's first
+  int64_t retest_candidates = 0;  // units whose final run is INCONCLUSIVE
   int64_t first_start_utime = 0, last_start_utime = 0;
 };
 
@@ -55,8 +65,12 @@ struct MeasurementRow {
   double uncertainty = allan::kNaN;
   std::optional<double> low, high, marginal_low, marginal_high;
   pb::Outcome outcome = pb::OUTCOME_UNSET;
+  pb::Qualifier qualifier = pb::QUALIFIER_NONE;
+  std::string uncertainty_method;
+  pb::Limit::DecisionRule decision_rule = pb::Limit::RULE_DEFAULT;  // none applied
+  double guard_band = allan::kNaN;
 };
-// Every measurement of each unit's latest run in `lot`.
+// Every measurement of each unit's final run in `lot` (view lot_measurements).
 Result<std::vector<MeasurementRow>> QueryLotMeasurements(Archive& archive, const std::string& lot);
 
 // A run's identity and outcome (table runs).
@@ -67,10 +81,17 @@ struct RunRow {
 struct RunFilter {
   std::string lot, station, unit;  // "" = any
   int64_t since_utime = 0;         // runs started at or after
-  std::string verdict;             // "PASS", "MARGINAL", "FAIL", "none" (not judged) or "" = any
+  std::string verdict;             // an outcome's text (store/outcome.h), "none" (not judged) or "" = any
   int64_t limit = 1000;
 };
 Result<std::vector<RunRow>> QueryRuns(Archive& archive, const RunFilter& filter);
+
+// A run followed by a later run of the same unit in its lot (view
+// retest_reasons): why the unit was tested again.
+struct RetestRow {
+  std::string unit, run_id, state, verdict, reasons, next_run_id;
+};
+Result<std::vector<RetestRow>> QueryRetestReasons(Archive& archive, const std::string& lot);
 
 // Run reasons (FAIL/MARGINAL explanations) by run id, for the runs given.
 Result<std::vector<std::pair<std::string, std::string>>> QueryReasons(

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "store/chunk_codec.h"
+#include "store/outcome.h"
 
 namespace imuqual::store {
 
@@ -177,9 +178,6 @@ namespace {
 // measurement_t's OUTCOME_*, QUALIFIER_* and RULE_* codes are the numbers
 // of pb::Outcome, pb::Qualifier and pb::Limit::DecisionRule; an unknown code
 // reads as unset.
-pb::Outcome OutcomeFromCode(int8_t code) {
-  return pb::Outcome_IsValid(code) ? static_cast<pb::Outcome>(code) : pb::OUTCOME_UNSET;
-}
 pb::Qualifier QualifierFromCode(int8_t code) {
   return pb::Qualifier_IsValid(code) ? static_cast<pb::Qualifier>(code) : pb::QUALIFIER_NONE;
 }
@@ -191,12 +189,7 @@ pb::Limit::DecisionRule RuleFromCode(int8_t code) {
 
 ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg) {
   ResultRecord r;
-  switch (OutcomeFromCode(msg.verdict)) {
-    case pb::PASS: r.verdict = "PASS"; break;
-    case pb::MARGINAL: r.verdict = "MARGINAL"; break;
-    case pb::FAIL: r.verdict = "FAIL"; break;
-    default: break;
-  }
+  r.verdict = OutcomeText(OutcomeFromNumber(msg.verdict));
   r.reasons = msg.reasons;
   r.samples = msg.samples;
   r.gap_samples = msg.gap_samples;
@@ -217,7 +210,7 @@ ResultRecord ResultFromMessage(const imuqual::unit_result_t& msg) {
     if (!std::isnan(m.high)) pm.set_high(m.high);
     if (!std::isnan(m.marginal_low)) pm.set_marginal_low(m.marginal_low);
     if (!std::isnan(m.marginal_high)) pm.set_marginal_high(m.marginal_high);
-    pm.set_outcome(OutcomeFromCode(m.outcome));
+    pm.set_outcome(OutcomeFromNumber(m.outcome));
     pm.set_note(m.note);
     pm.set_uncertainty_method(m.uncertainty_method);
     pm.set_qualifier(QualifierFromCode(m.qualifier));

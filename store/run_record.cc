@@ -1,5 +1,7 @@
 #include "store/run_record.h"
 
+#include "store/outcome.h"
+
 namespace imuqual::store {
 
 pb::RunRecord BuildRunRecord(const RunInfo& run, const ResultRecord& result, int64_t gap_ranges) {
@@ -18,10 +20,7 @@ pb::RunRecord BuildRunRecord(const RunInfo& run, const ResultRecord& result, int
   rec.mutable_plan()->ParseFromString(run.plan);
   rec.set_plan_sha256(run.plan_sha256);
   for (const pb::Measurement& m : result.measurements) *rec.add_measurements() = m;
-  rec.set_verdict(result.verdict == "PASS"       ? pb::PASS
-                  : result.verdict == "MARGINAL" ? pb::MARGINAL
-                  : result.verdict == "FAIL"     ? pb::FAIL
-                                                 : pb::OUTCOME_UNSET);
+  rec.set_verdict(OutcomeFromText(result.verdict));
   for (const std::string& reason : result.reasons) rec.add_reasons(reason);
   rec.mutable_gaps()->set_samples(result.samples);
   rec.mutable_gaps()->set_gap_samples(result.gap_samples);

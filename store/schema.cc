@@ -349,6 +349,148 @@ SELECT r.run_id, r.lot, r.serial, r.state, r.last_seq,
        r.serial AS unit  -- before schema 5; new queries say serial
 FROM runs r;
 )sql",
+      // 5 -> 6: outcomes that say what they mean. A run's verdict may also
+      // be INCONCLUSIVE (a value within the guard band of a limit: retest),
+      // ABORTED (stopped) or ERROR (the source or station failed); a
+      // measurement's outcome INCONCLUSIVE. The CHECKs of runs.verdict and
+      // measurements.outcome are widened before this SQL, by
+      // WidenOutcomeChecks (a table rebuild would have to drop the foreign
+      // keys into it). A measurement says what kind of value it is, how its
+      // uncertainty was obtained and the decision rule that judged it; these
+      // enter a run's checksum only when set, so checksums computed before
+      // still hold. Yields count judged units only: each unit's final run in
+      // a lot is its latest judged one (PASS, MARGINAL, FAIL, INCONCLUSIVE),
+      // else its latest; ABORTED and ERROR runs never enter a yield.
+      R"sql(
+ALTER TABLE measurements ADD COLUMN qualifier TEXT
+  CHECK (qualifier IN ('upper_bound', 'minimum_not_resolved', 'not_measurable', 'model_inadequate'));
+ALTER TABLE measurements ADD COLUMN uncertainty_method TEXT;
+ALTER TABLE measurements ADD COLUMN decision_rule TEXT
+  CHECK (decision_rule IN ('simple', 'guarded', 'guarded_acceptance', 'guarded_rejection'));
+ALTER TABLE measurements ADD COLUMN guard_band REAL;
+
+DROP VIEW IF EXISTS lot_statistics;
+DROP VIEW IF EXISTS lot_overview;
+DROP VIEW IF EXISTS lot_measurements;
+DROP VIEW IF EXISTS all_runs_measurements;
+DROP VIEW IF EXISTS axis_results;
+
+-- One row per run and axis with the headline figures; axis_verdict is the
+-- worst outcome of the axis: FAIL > INCONCLUSIVE > MARGINAL > PASS.
+CREATE VIEW axis_results AS
+SELECT r.lot, r.serial, r.run_id, r.run_key, r.start_utime, r.state, ra.axis_index, ra.axis, ra.kind,
+       MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.value END) AS random_walk,
+       MAX(CASE WHEN m.name IN ('angle_random_walk', 'velocity_random_walk') THEN m.unit END) AS random_walk_unit,
+       MAX(CASE WHEN m.name = 'bias_instability' THEN m.value END) AS bias_instability,
+       MAX(CASE WHEN m.name = 'bias_instability_ieee' THEN m.value END) AS bias_instability_ieee,
+       MAX(CASE WHEN m.name = 'bias_instability' THEN m.unit END) AS bias_instability_unit,
+       MAX(CASE WHEN m.name = 'tau_at_minimum' THEN m.value END) AS tau_min_s,
+       MAX(CASE WHEN m.name = 'rate_random_walk' THEN m.value END) AS rate_random_walk,
+       r.gap_samples, ra.invalid_samples, r.samples,
+       CASE WHEN SUM(m.outcome = 'FAIL') > 0 THEN 'FAIL'
+            WHEN SUM(m.outcome = 'INCONCLUSIVE') > 0 THEN 'INCONCLUSIVE'
+            WHEN SUM(m.outcome = 'MARGINAL') > 0 THEN 'MARGINAL'
+            WHEN SUM(m.outcome = 'PASS') > 0 THEN 'PASS' END AS axis_verdict,
+       r.verdict AS run_verdict,
+       r.serial AS unit  -- before schema 5; new queries say serial
+FROM runs r
+JOIN run_axes ra ON ra.run_key = r.run_key
+LEFT JOIN measurements m ON m.run_key = r.run_key AND m.axis = ra.axis
+GROUP BY r.lot, r.run_key, ra.axis_index;  -- lot first: WHERE lot = ? reaches the index
+
+-- Each unit's final run in each lot: its latest judged run (verdict PASS,
+-- MARGINAL, FAIL or INCONCLUSIVE: the unit was measured to the end), else
+-- its latest run. An aborted or failed retest does not replace a judgement.
+CREATE VIEW final_runs AS
+SELECT r.* FROM runs r
+WHERE r.run_key = (SELECT x.run_key FROM runs x
+                   WHERE x.lot = r.lot AND x.serial = r.serial
+                   ORDER BY x.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE') DESC,
+                            x.start_utime DESC, x.run_key DESC
+                   LIMIT 1);
+
+-- Every value of each unit's final run in its lot: what
+-- `imuqual lot LOT --stats` summarizes. A retested unit counts once, by its
+-- final run; a unit never judged has the values of its latest run, if any.
+CREATE VIEW lot_measurements AS
+SELECT r.lot, r.serial, r.run_id, r.start_utime, m.axis, COALESCE(ra.kind, '') AS kind,
+       m.name, m.value, m.unit, m.low, m.high, m.marginal_low, m.marginal_high, m.outcome,
+       m.uncertainty, m.qualifier, m.uncertainty_method, m.decision_rule, m.guard_band
+FROM final_runs r
+JOIN measurements m ON m.run_key = r.run_key
+LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis;
+
+-- Every value of every run (each run's current judgement), retests
+-- included: a unit's history.
+CREATE VIEW all_runs_measurements AS
+SELECT r.lot, r.serial, r.run_id, r.start_utime, m.axis, COALESCE(ra.kind, '') AS kind,
+       m.name, m.value, m.unit, m.low, m.high, m.marginal_low, m.marginal_high, m.outcome,
+       m.uncertainty, m.qualifier, m.uncertainty_method, m.decision_rule, m.guard_band
+FROM runs r
+JOIN measurements m ON m.run_key = r.run_key
+LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis;
+
+-- Per lot: runs, units, the units' final verdicts and the yields (SCHEMA.md,
+-- Yields). yield = final_yield = (PASS + MARGINAL) / (PASS + MARGINAL + FAIL)
+-- over final runs; first_pass_yield the same over each unit's first judged
+-- run; NULL when no unit counts.
+CREATE VIEW lot_overview AS
+SELECT f.lot, (SELECT COUNT(*) FROM runs x WHERE x.lot = f.lot) AS runs, COUNT(*) AS units,
+       SUM(f.verdict IS 'PASS') AS pass, SUM(f.verdict IS 'MARGINAL') AS marginal,
+       SUM(f.verdict IS 'FAIL') AS fail, SUM(f.verdict IS NULL) AS unjudged,
+       1.0 * SUM(f.verdict IN ('PASS', 'MARGINAL'))
+           / NULLIF(SUM(f.verdict IN ('PASS', 'MARGINAL', 'FAIL')), 0) AS yield,
+       (SELECT MIN(x.start_utime) FROM runs x WHERE x.lot = f.lot) AS first_start_utime,
+       (SELECT MAX(x.start_utime) FROM runs x WHERE x.lot = f.lot) AS last_start_utime,
+       SUM(f.verdict IS 'INCONCLUSIVE') AS inconclusive, SUM(f.verdict IS 'ABORTED') AS aborted,
+       SUM(f.verdict IS 'ERROR') AS error,
+       1.0 * SUM(f.verdict IN ('PASS', 'MARGINAL'))
+           / NULLIF(SUM(f.verdict IN ('PASS', 'MARGINAL', 'FAIL')), 0) AS final_yield,
+       1.0 * SUM(f.first_verdict IN ('PASS', 'MARGINAL'))
+           / NULLIF(SUM(f.first_verdict IN ('PASS', 'MARGINAL', 'FAIL')), 0) AS first_pass_yield,
+       (SELECT COUNT(*) FROM runs x WHERE x.lot = f.lot) - COUNT(*) AS retests,
+       SUM(f.verdict IS 'INCONCLUSIVE') AS retest_candidates
+FROM (SELECT l.lot, l.verdict,
+             (SELECT y.verdict FROM runs y
+              WHERE y.lot = l.lot AND y.serial = l.serial
+                AND y.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
+              ORDER BY y.start_utime, y.run_key LIMIT 1) AS first_verdict
+      FROM final_runs l) f
+GROUP BY f.lot;
+
+-- Runs followed by a later run of the same unit in the same lot: why the
+-- unit was tested again (its verdict and reasons).
+CREATE VIEW retest_reasons AS
+SELECT r.lot, r.serial, r.run_id, r.start_utime, r.state, r.verdict, r.reasons,
+       (SELECT x.run_id FROM runs x
+        WHERE x.lot = r.lot AND x.serial = r.serial
+          AND (x.start_utime, x.run_key) > (r.start_utime, r.run_key)
+        ORDER BY x.start_utime, x.run_key LIMIT 1) AS next_run_id
+FROM runs r
+WHERE EXISTS (SELECT 1 FROM runs x
+              WHERE x.lot = r.lot AND x.serial = r.serial
+                AND (x.start_utime, x.run_key) > (r.start_utime, r.run_key));
+
+-- Per lot, axis kind, measurement and unit, over lot_measurements without
+-- the noise-model parameters (model_*: each unit's own model), as
+-- `imuqual lot --stats` counts them: n finite values, their mean, sample sd,
+-- min, max; pass_rate = (PASS + MARGINAL) / (PASS + MARGINAL + FAIL) (an
+-- INCONCLUSIVE value is neither). sd is two-pass (schema 5).
+CREATE VIEW lot_statistics AS
+SELECT g.lot, g.kind, g.name, g.unit, g.n, g.mean,
+       SQRT((SELECT SUM((x.value - g.mean) * (x.value - g.mean)) FROM lot_measurements x
+             WHERE x.lot = g.lot AND x.kind = g.kind AND +x.name = g.name AND x.unit = g.unit
+               AND x.value > -1e999 AND x.value < 1e999)
+            / NULLIF(g.n - 1, 0)) AS sd,
+       g.min, g.max, g.pass_rate
+FROM (SELECT lot, kind, name, unit, COUNT(x) AS n, AVG(x) AS mean, MIN(x) AS min, MAX(x) AS max,
+             1.0 * SUM(outcome IN ('PASS', 'MARGINAL'))
+                 / NULLIF(SUM(outcome IN ('PASS', 'MARGINAL', 'FAIL')), 0) AS pass_rate
+      FROM (SELECT lot, kind, name, unit, outcome,
+                   CASE WHEN value > -1e999 AND value < 1e999 THEN value END AS x  -- finite
+            FROM lot_measurements WHERE substr(name, 1, 6) <> 'model_')
+      GROUP BY lot, kind, name, unit) g;
+)sql",
   };
   return kMigrations;
 }
@@ -380,12 +522,12 @@ Status CheckIdentity(Db& db, bool* empty) {
   return Status::Ok();
 }
 
-// PRAGMA quick_check (the integrity check without the index contents): a
-// damaged file is never written into.
-Status CheckIntact(Db& db) {
+// PRAGMA quick_check (the integrity check without the index contents) or
+// integrity_check: OK, or Corruption with SQLite's first complaint.
+Status CheckSqlite(Db& db, const std::string& check) {
   std::string first;
   int64_t problems = 0;
-  auto s = db.Prepare("PRAGMA quick_check(1)");
+  auto s = db.Prepare("PRAGMA " + check + "(1)");
   if (!s.ok()) {
     first = s.status().message();
     ++problems;
@@ -406,8 +548,66 @@ Status CheckIntact(Db& db) {
   }
   if (problems == 0) return Status::Ok();
   std::replace(first.begin(), first.end(), '\n', ' ');  // SQLite's report spans lines
-  return Status::Corruption(db.path() + " is damaged (SQLite quick_check: " + first +
+  return Status::Corruption(db.path() + " is damaged (SQLite " + check + ": " + first +
                             "); refusing to write into it (imuqual verify --db lists the damage)");
+}
+
+// A damaged file is never written into.
+Status CheckIntact(Db& db) { return CheckSqlite(db, "quick_check"); }
+
+// Schema 6 widens the CHECKs on runs.verdict and measurements.outcome in
+// place, by SQLite's documented procedure for changes that do not alter the
+// stored rows (https://sqlite.org/lang_altertable.html, "Making Other Kinds
+// Of Table Schema Changes"): a rebuilt table would have to drop and remake
+// the foreign keys that point into runs. Runs inside the migration's
+// transaction; every old value is valid under the wider CHECK.
+struct CheckChange {
+  const char* table;
+  const char* from;
+  const char* to;
+};
+constexpr CheckChange kOutcomeChecks[] = {
+    {"runs", "CHECK (verdict IN ('PASS', 'MARGINAL', 'FAIL'))",
+     "CHECK (verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE', 'ABORTED', 'ERROR'))"},
+    {"measurements", "CHECK (outcome IN ('PASS', 'MARGINAL', 'FAIL'))",
+     "CHECK (outcome IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE'))"},
+};
+
+Status RewriteChecks(Db& db) {
+  for (const CheckChange& c : kOutcomeChecks) {
+    auto up = db.Prepare(
+        "UPDATE sqlite_schema SET sql = replace(sql, ?1, ?2) "
+        "WHERE type = 'table' AND name = ?3 AND instr(sql, ?1) > 0");
+    if (!up.ok()) return up.status();
+    IMUQUAL_RETURN_IF_ERROR(up->Bind(1, c.from).Bind(2, c.to).Bind(3, c.table).Run());
+  }
+  return Status::Ok();
+}
+
+Status WidenOutcomeChecks(Db& db) {
+  auto version = db.QueryInt("PRAGMA schema_version");
+  if (!version.ok()) return version.status();
+  IMUQUAL_RETURN_IF_ERROR(db.Exec("PRAGMA writable_schema = ON"));
+  Status st = RewriteChecks(db);
+  if (st.ok()) st = db.Exec("PRAGMA schema_version = " + std::to_string(*version + 1));
+  const Status off = db.Exec("PRAGMA writable_schema = OFF");
+  IMUQUAL_RETURN_IF_ERROR(st);
+  IMUQUAL_RETURN_IF_ERROR(off);
+  for (const CheckChange& c : kOutcomeChecks) {
+    auto s = db.Prepare(
+        "SELECT COUNT(*) FROM sqlite_schema WHERE type = 'table' AND name = ?1 "
+        "AND instr(sql, ?2) > 0 AND instr(sql, ?3) = 0");
+    if (!s.ok()) return s.status();
+    s->Bind(1, c.table).Bind(2, c.to).Bind(3, c.from);
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row || s->Int(0) != 1) {
+      return Status::Corruption(db.path() + ": table " + c.table +
+                                " does not have the CHECK of schema 5 (" + c.from +
+                                "); not migrated");
+    }
+  }
+  return CheckSqlite(db, "integrity_check");
 }
 
 }  // namespace
@@ -435,7 +635,8 @@ Status Migrate(Db& db) {
   if (!version.ok()) return version.status();
   for (int v = static_cast<int>(*version); v < SchemaVersion(); ++v) {
     IMUQUAL_RETURN_IF_ERROR(db.Exec("BEGIN IMMEDIATE"));
-    Status st = db.Exec(Migrations()[v]);
+    Status st = v == 5 ? WidenOutcomeChecks(db) : Status::Ok();
+    if (st.ok()) st = db.Exec(Migrations()[v]);
     if (st.ok()) st = db.Exec("PRAGMA user_version = " + std::to_string(v + 1));
     if (st.ok() && v == 0) st = db.Exec("PRAGMA application_id = " + std::to_string(kApplicationId));
     // Checksums of rows archived before schema 3, with today's definition.

@@ -11,7 +11,9 @@
 #include <set>
 #include <tuple>
 
+#include "common/text_util.h"
 #include "store/archive.h"
+#include "store/checksums.h"
 #include "store/query.h"
 #include "store/schema.h"
 
@@ -145,13 +147,14 @@ TEST_F(ViewsTest, LotMeasurementsHoldWhatLotStatsReads) {
   ASSERT_TRUE(rows.ok()) << rows.status().ToString();
   for (const MeasurementRow& r : *rows) stats_input.insert({r.unit, r.run_id, r.axis, r.name});
 
-  // THEN lot_measurements is that population: U1's retest, U3; not U2, whose
-  // latest run is not judged yet, nor U4; all_runs_measurements has every judged run
+  // THEN lot_measurements is that population, each unit's final run: U1's
+  // retest, U2's judged run (its retest is not judged yet), U3; not U4,
+  // never judged; all_runs_measurements has every judged run
   EXPECT_EQ(view, stats_input);
   std::set<std::string> runs, every_run;
   for (const Key& k : view) runs.insert(std::get<1>(k));
   for (const Key& k : all_runs) every_run.insert(std::get<1>(k));
-  EXPECT_EQ(runs, (std::set<std::string>{"U1-R2", "U3-R1"}));
+  EXPECT_EQ(runs, (std::set<std::string>{"U1-R2", "U2-R1", "U3-R1"}));
   EXPECT_EQ(every_run, (std::set<std::string>{"U1-R1", "U1-R2", "U2-R1", "U3-R1"}));
   // AND a row says which unit (serial) and in what unit the value is
   auto s = archive_->db().Prepare(
@@ -163,16 +166,18 @@ TEST_F(ViewsTest, LotMeasurementsHoldWhatLotStatsReads) {
   // infinite one is judged but has no number), one row per lot, kind,
   // measurement and unit, without the units' own model parameters
   EXPECT_EQ(Real("SELECT n FROM lot_statistics WHERE kind = 'gyro' AND name = 'bias_instability'"),
-            1);
+            2);
   EXPECT_EQ(
-      Real("SELECT mean FROM lot_statistics WHERE kind = 'gyro' AND name = 'bias_instability'"), 2);
+      Real("SELECT mean FROM lot_statistics WHERE kind = 'gyro' AND name = 'bias_instability'"),
+      2.5);
   EXPECT_EQ(Real("SELECT pass_rate FROM lot_statistics "
                  "WHERE kind = 'gyro' AND name = 'bias_instability'"),
-            0.5);
-  EXPECT_TRUE(std::isnan(
-      Real("SELECT sd FROM lot_statistics WHERE kind = 'gyro' AND name = 'bias_instability'")));
-  EXPECT_EQ(Real("SELECT n FROM lot_statistics WHERE kind = 'accel'"), 2);
-  EXPECT_EQ(Real("SELECT mean FROM lot_statistics WHERE kind = 'accel'"), 25);
+            2.0 / 3);
+  EXPECT_NEAR(
+      Real("SELECT sd FROM lot_statistics WHERE kind = 'gyro' AND name = 'bias_instability'"),
+      std::sqrt(0.5), 1e-15);
+  EXPECT_EQ(Real("SELECT n FROM lot_statistics WHERE kind = 'accel'"), 3);
+  EXPECT_EQ(Real("SELECT mean FROM lot_statistics WHERE kind = 'accel'"), (30 + 35 + 20) / 3.0);
   EXPECT_EQ(Real("SELECT COUNT(*) FROM lot_statistics"), 3);  // gyro, accel, run-level duration
 }
 
@@ -237,6 +242,14 @@ TEST_F(ViewsTest, MigrationFromSchema4ReplacesEveryView) {
         std::string("DROP VIEW run_archive"),
         std::string("CREATE VIEW axis_results AS SELECT 1 AS schema_four"),
         std::string("CREATE VIEW run_archive AS SELECT 1 AS schema_four"),
+        // what schema 6 added
+        std::string("DROP VIEW lot_overview"), std::string("DROP VIEW final_runs"),
+        std::string("DROP VIEW retest_reasons"),
+        std::string("CREATE VIEW lot_overview AS SELECT 1 AS schema_four"),
+        std::string("ALTER TABLE measurements DROP COLUMN qualifier"),
+        std::string("ALTER TABLE measurements DROP COLUMN uncertainty_method"),
+        std::string("ALTER TABLE measurements DROP COLUMN decision_rule"),
+        std::string("ALTER TABLE measurements DROP COLUMN guard_band"),
         std::string("PRAGMA user_version = 4")}) {
     ASSERT_TRUE(archive_->db().Exec(sql).ok()) << sql;
   }
@@ -258,6 +271,101 @@ TEST_F(ViewsTest, MigrationFromSchema4ReplacesEveryView) {
   EXPECT_EQ(Real("SELECT n FROM lot_statistics"), 2);
   EXPECT_EQ(Real("SELECT mean FROM lot_statistics"), 3);
   EXPECT_EQ(Real("SELECT pass_rate FROM lot_statistics"), 1);
+}
+
+// An archive written by schema 5 (store/testdata/schema5_archive.sql: two
+// units of imuqual-history-gen, their checksums as schema 5 computed them)
+// migrates to schema 6: the CHECKs take the new outcomes, the measurements
+// gain their columns, the views hold the same values, and every checksum
+// computed by schema 5 still verifies.
+TEST_F(ViewsTest, MigrationFromSchema5KeepsDataAndChecksums) {
+  // GIVEN the schema 5 archive, loaded by the SQL its dump holds
+  archive_.reset();
+  fs::remove(path_);
+  auto dump = ReadFileToString(std::string(IMUQUAL_SOURCE_DIR) +
+                               "/store/testdata/schema5_archive.sql");
+  ASSERT_TRUE(dump.ok()) << dump.status().ToString();
+  {
+    auto db = Db::Open(path_, Db::Mode::kReadWrite);
+    ASSERT_TRUE(db.ok()) << db.status().ToString();
+    ASSERT_TRUE((*db)->Exec(*dump).ok());
+    EXPECT_EQ(*(*db)->QueryInt("PRAGMA user_version"), 5);
+    // schema 5 refuses the new verdicts
+    EXPECT_FALSE((*db)->Exec("UPDATE runs SET verdict = 'INCONCLUSIVE'").ok());
+  }
+  int64_t values_before = 0;
+  double sum_before = 0;
+  {
+    auto db = Db::Open(path_, Db::Mode::kReadWrite);
+    ASSERT_TRUE(db.ok());
+    values_before = *(*db)->QueryInt("SELECT COUNT(*) FROM lot_measurements");
+    auto s = (*db)->Prepare("SELECT TOTAL(value) FROM lot_measurements WHERE value < 1e300");
+    ASSERT_TRUE(s.ok() && *s->Step());
+    sum_before = s->Real(0);
+  }
+  ASSERT_GT(values_before, 0);
+
+  // WHEN it is opened for writing (migrated)
+  auto a = Archive::Open(path_, Archive::Mode::kWrite);
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  archive_ = std::move(*a);
+
+  // THEN it is at schema 6, intact, and schema 5's checksums all verify
+  EXPECT_EQ(*archive_->db().QueryInt("PRAGMA user_version"), SchemaVersion());
+  EXPECT_EQ(SchemaVersion(), 6);
+  std::vector<std::string> problems;
+  auto checked = CheckChecksums(archive_->db(), -1,
+                                [&](const std::string& p) { problems.push_back(p); });
+  ASSERT_TRUE(checked.ok()) << checked.status().ToString();
+  EXPECT_EQ(*checked, 0);
+  EXPECT_TRUE(problems.empty()) << problems.front();
+  auto integrity = CheckIntegrity(archive_->db(), [&](const std::string& p) { problems.push_back(p); });
+  EXPECT_EQ(*integrity, 0);
+  EXPECT_EQ(*archive_->db().QueryInt("SELECT COUNT(*) FROM runs WHERE results_crc32c IS NULL"), 0);
+  // AND the views hold the same values, the new columns NULL
+  EXPECT_EQ(*archive_->db().QueryInt("SELECT COUNT(*) FROM lot_measurements"), values_before);
+  EXPECT_EQ(Real("SELECT TOTAL(value) FROM lot_measurements WHERE value < 1e300"), sum_before);
+  EXPECT_EQ(*archive_->db().QueryInt(
+                "SELECT COUNT(*) FROM lot_measurements WHERE qualifier IS NOT NULL OR "
+                "uncertainty_method IS NOT NULL OR decision_rule IS NOT NULL OR guard_band IS NOT NULL"),
+            0);
+  // AND the wider CHECKs take the new outcomes (in this connection: the
+  // schema it reads is the rewritten one) and still refuse others
+  auto key = archive_->FindRunKey("S5-L001-U001-R1");
+  ASSERT_TRUE(key.ok() && key->has_value());
+  auto result = archive_->LoadResult(**key);
+  ASSERT_TRUE(result.ok() && result->has_value());
+  ResultRecord r = **result;
+  r.verdict = "INCONCLUSIVE";
+  ASSERT_FALSE(r.measurements.empty());
+  pb::Measurement& m = r.measurements.front();
+  m.set_outcome(pb::INCONCLUSIVE);
+  m.set_qualifier(pb::UPPER_BOUND);
+  m.set_uncertainty_method("test: a stated sigma");
+  m.set_decision_rule(pb::Limit::GUARDED_ACCEPTANCE);
+  m.set_guard_band(0.25);
+  ASSERT_TRUE(archive_->PutResult(**key, r).ok());
+  for (const char* verdict : {"ABORTED", "ERROR", "PASS"}) {
+    r.verdict = verdict;
+    EXPECT_TRUE(archive_->PutResult(**key, r).ok()) << verdict;
+  }
+  EXPECT_FALSE(archive_->db().Exec("UPDATE runs SET verdict = 'MAYBE'").ok());
+  EXPECT_FALSE(archive_->db().Exec("UPDATE measurements SET outcome = 'ABORTED'").ok());
+  EXPECT_FALSE(archive_->db().Exec("UPDATE measurements SET qualifier = 'UPPER_BOUND'").ok());
+  auto reread = archive_->LoadResult(**key);
+  ASSERT_TRUE(reread.ok() && reread->has_value());
+  const pb::Measurement& back = (*reread)->measurements.front();
+  EXPECT_EQ(back.outcome(), pb::INCONCLUSIVE);
+  EXPECT_EQ(back.qualifier(), pb::UPPER_BOUND);
+  EXPECT_EQ(back.uncertainty_method(), "test: a stated sigma");
+  EXPECT_EQ(back.decision_rule(), pb::Limit::GUARDED_ACCEPTANCE);
+  EXPECT_EQ(back.guard_band(), 0.25);
+  // AND the marks enter the checksum: the sealed run verifies, and a
+  // changed mark does not
+  problems.clear();
+  EXPECT_EQ(*CheckChecksums(archive_->db(), **key, [&](const std::string& p) { problems.push_back(p); }), 0);
+  ASSERT_TRUE(archive_->db().Exec("UPDATE measurements SET guard_band = 0.5 WHERE guard_band = 0.25").ok());
+  EXPECT_EQ(*CheckChecksums(archive_->db(), **key, [&](const std::string& p) { problems.push_back(p); }), 1);
 }
 
 }  // namespace

@@ -24,6 +24,7 @@
 #include "imuqual/record.pb.h"
 #include "store/archive.h"
 #include "store/chunk_codec.h"
+#include "store/outcome.h"
 #include "store/run_record.h"
 #include "tests/test_util.h"
 
@@ -243,6 +244,179 @@ TEST_F(LotToolsTest, CsvExportsHaveEveryRow) {
 }
 
 // ---------------------------------------------------------------------------
+// Yields that mean what they say, on a hand-built lot "Y" of five units:
+// U1 PASS the first time; U2 FAIL, then PASS on retest; U3 INCONCLUSIVE
+// (a retest candidate); U4 ABORTED only; U5 ERROR, then PASS. Final runs:
+// U1-R1, U2-R2, U3-R1, U4-R1, U5-R2: 3 PASS, 1 INCONCLUSIVE, 1 ABORTED;
+// final yield 3 / 3; first judged runs U1 PASS, U2 FAIL, U3 INCONCLUSIVE
+// (not counted), U5 PASS (its R2): first-pass yield 2 / 3; 7 runs, 2 retests;
+// tested again after U2-R1 (FAIL) and U5-R1 (ERROR).
+class YieldTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir("yields");
+    db_ = dir_->path("yields.db");
+    auto a = store::Archive::Open(db_, store::Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok()) << a.status().ToString();
+    int64_t t = 1'800'000'000'000'000;
+    auto run = [&](const std::string& serial, int n, pb::Outcome verdict,
+                   const std::string& reason) {
+      store::RunInfo r;
+      r.run_id = serial + "-R" + std::to_string(n);
+      r.serial = serial;
+      r.lot = "Y";
+      r.start_utime = t += 3'600'000'000;
+      r.end_utime = t + 1'000'000;
+      r.nominal_rate_hz = 100;
+      r.axes = {{"gx", pb::GYRO}};
+      r.state = verdict == pb::ABORTED ? "aborted" : verdict == pb::ERROR ? "incomplete" : "complete";
+      auto key = (*a)->UpsertRun(r);
+      ASSERT_TRUE(key.ok()) << key.status().ToString();
+      store::ResultRecord res;
+      res.verdict = store::OutcomeText(verdict);
+      if (!reason.empty()) res.reasons = {reason};
+      res.result_utime = *r.end_utime;
+      if (verdict != pb::ABORTED && verdict != pb::ERROR) {
+        pb::Measurement m;
+        m.set_axis("gx");
+        m.set_name("bias_instability");
+        m.set_value(verdict == pb::FAIL ? 9 : verdict == pb::INCONCLUSIVE ? 4.9 : 2);
+        m.set_uncertainty(0.2);
+        m.set_unit("deg/h");
+        m.set_high(5);
+        m.set_outcome(verdict);
+        m.set_decision_rule(pb::Limit::GUARDED);
+        m.set_guard_band(0.4);
+        m.set_uncertainty_method("chi2 at the minimum");
+        res.measurements.push_back(m);
+        pb::Measurement k;
+        k.set_axis("gx");
+        k.set_name("rate_random_walk");
+        k.set_value(0.68);
+        k.set_unit("deg/h/sqrt(h)");
+        k.set_qualifier(pb::UPPER_BOUND);
+        k.set_note("upper bound only: no point on the +1/2 slope");
+        res.measurements.push_back(k);
+      }
+      res.record = store::BuildRunRecord(r, res, 0).SerializeAsString();
+      ASSERT_TRUE((*a)->PutResult(*key, res).ok());
+      ASSERT_TRUE((*a)->MarkFinalized(*key, res.result_utime).ok());
+    };
+    run("U1", 1, pb::PASS, "");
+    run("U2", 1, pb::FAIL, "gx: bias_instability 9 deg/h above high limit 5");
+    run("U3", 1, pb::INCONCLUSIVE, "gx: bias_instability 4.9 deg/h within 0.4 of high limit 5");
+    run("U4", 1, pb::ABORTED, "stopped by the operator");
+    run("U5", 1, pb::ERROR, "the source failed: device timeout");
+    run("U2", 2, pb::PASS, "");
+    run("U5", 2, pb::PASS, "");
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static std::string Imuqual(const std::string& args) {
+    const auto r = RunCommand(Bin("imuqual") + " " + args + " --db " + db_);
+    EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.output;
+    return r.output;
+  }
+  static std::string Sql(const std::string& sql) {
+    auto a = store::Archive::Open(db_, store::Archive::Mode::kRead);
+    EXPECT_TRUE(a.ok());
+    // Every column as the sqlite3 shell's list mode shows it (NULL: "NULL").
+    sqlite3_stmt* s = nullptr;
+    EXPECT_EQ(sqlite3_prepare_v2((*a)->db().handle(), sql.c_str(), -1, &s, nullptr), SQLITE_OK)
+        << sql;
+    std::string out;
+    while (s != nullptr && sqlite3_step(s) == SQLITE_ROW) {
+      for (int c = 0; c < sqlite3_column_count(s); ++c) {
+        const unsigned char* text = sqlite3_column_text(s, c);
+        out += (c ? "|" : "") + (text ? std::string(reinterpret_cast<const char*>(text)) : "NULL");
+      }
+      out += "\n";
+    }
+    sqlite3_finalize(s);
+    return out;
+  }
+  static testing::TempDir* dir_;
+  static std::string db_;
+};
+testing::TempDir* YieldTest::dir_ = nullptr;
+std::string YieldTest::db_;
+
+TEST_F(YieldTest, TheViewCountsEachUnitByItsFinalRun) {
+  EXPECT_EQ(Sql("SELECT serial, run_id FROM final_runs ORDER BY serial"),
+            "U1|U1-R1\nU2|U2-R2\nU3|U3-R1\nU4|U4-R1\nU5|U5-R2\n");
+  EXPECT_EQ(Sql("SELECT runs, units, pass, marginal, fail, inconclusive, aborted, error, unjudged, "
+                "retests, retest_candidates FROM lot_overview WHERE lot = 'Y'"),
+            "7|5|3|0|0|1|1|0|0|2|1\n");
+  EXPECT_EQ(Sql("SELECT final_yield = 1.0, yield = final_yield, abs(first_pass_yield - 2.0 / 3) < 1e-15 "
+                "FROM lot_overview"),
+            "1|1|1\n");
+  EXPECT_EQ(Sql("SELECT serial, run_id, verdict, reasons, next_run_id FROM retest_reasons "
+                "ORDER BY serial"),
+            "U2|U2-R1|FAIL|gx: bias_instability 9 deg/h above high limit 5|U2-R2\n"
+            "U5|U5-R1|ERROR|the source failed: device timeout|U5-R2\n");
+  // lot_statistics: the final runs' values; INCONCLUSIVE neither passes nor fails
+  EXPECT_EQ(Sql("SELECT n, pass_rate FROM lot_statistics WHERE name = 'bias_instability'"),
+            "4|1.0\n");
+  // lot_measurements carries the marks
+  EXPECT_EQ(Sql("SELECT serial, qualifier, decision_rule, guard_band, uncertainty_method, "
+                "uncertainty FROM lot_measurements WHERE serial = 'U3' ORDER BY name"),
+            "U3|NULL|guarded|0.4|chi2 at the minimum|0.2\n"
+            "U3|upper_bound|NULL|NULL|NULL|NULL\n");
+  // axis_results: FAIL > INCONCLUSIVE > MARGINAL > PASS
+  EXPECT_EQ(Sql("SELECT axis_verdict FROM axis_results WHERE run_id = 'U3-R1'"), "INCONCLUSIVE\n");
+}
+
+TEST_F(YieldTest, LotsLotStatsAndTheReportSayTheSame) {
+  const Csv lots = ParseCsv(Imuqual("lots --format csv"));
+  ASSERT_EQ(lots.rows.size(), 1u);
+  const auto& l = lots.rows[0];
+  const std::map<std::string, std::string> want = {
+      {"runs", "7"},         {"units", "5"},   {"pass", "3"},    {"marginal", "0"},
+      {"fail", "0"},         {"inconclusive", "1"}, {"aborted", "1"}, {"error", "0"},
+      {"unjudged", "0"},     {"retests", "2"}, {"yield", "1"}};
+  for (const auto& [column, value] : want) EXPECT_EQ(l[lots.Col(column)], value) << column;
+  EXPECT_NEAR(std::stod(l[lots.Col("first_pass_yield")]), 2.0 / 3, 1e-15);
+  const std::string table = Imuqual("lots");
+  EXPECT_NE(table.find("0.6667"), std::string::npos) << table;
+
+  const Csv stats = ParseCsv(Imuqual("lot Y --stats --format csv"));
+  bool found = false;
+  for (const auto& r : stats.rows) {
+    if (r[stats.Col("measurement")] != "bias_instability") continue;
+    found = true;
+    EXPECT_EQ(r[stats.Col("n")], "4");
+    EXPECT_EQ(r[stats.Col("judged")], "3");  // U3's INCONCLUSIVE value is neither
+    EXPECT_EQ(r[stats.Col("yield")], "1");
+  }
+  EXPECT_TRUE(found);
+
+  const std::string lot = Imuqual("lot Y");
+  for (const char* line :
+       {"5 units by their final run: 3 PASS, 0 MARGINAL, 0 FAIL, 1 INCONCLUSIVE, 1 ABORTED",
+        "first-pass yield 66.7 %, final yield 100.0 %", "2 retest(s), 1 retest candidate(s)",
+        "U2 run U2-R1: FAIL: gx: bias_instability 9", "U5 run U5-R1: ERROR: the source failed"}) {
+    EXPECT_NE(lot.find(line), std::string::npos) << line << "\n" << lot;
+  }
+
+  const std::string html_path = dir_->path("y.html");
+  Imuqual("report --lot Y --output " + html_path);
+  auto html = ReadFileToString(html_path);
+  ASSERT_TRUE(html.ok());
+  for (const char* part :
+       {"data-field=\"first_pass_yield\" data-v=\"0.66666666666666663\"",
+        "data-field=\"final_yield\" data-v=\"1\"", "data-field=\"retests\" data-v=\"2\"",
+        "data-field=\"retest_candidates\" data-v=\"1\"",
+        "data-unit=\"U2\" data-run=\"U2-R1\" data-verdict=\"FAIL\" data-next-run=\"U2-R2\"",
+        "data-unit=\"U5\" data-run=\"U5-R1\" data-verdict=\"ERROR\" data-next-run=\"U5-R2\"",
+        "<span class=\"badge v-INCONCLUSIVE\">INCONCLUSIVE</span>",
+        "<span class=\"badge v-ABORTED\">ABORTED</span>",
+        "<span class=\"badge v-ERROR\">ERROR</span>"}) {
+    EXPECT_NE(html->find(part), std::string::npos) << part;
+  }
+  // ABORTED and INCONCLUSIVE are not badged as a FAIL
+  EXPECT_EQ(html->find("<span class=\"badge v-FAIL\">ABORTED"), std::string::npos);
+}
+
+// ---------------------------------------------------------------------------
 // The SQL examples of store/SCHEMA.md, each run as written through the
 // sqlite3 shell and its answer checked against the imuqual commands, on a
 // generated history (lots TAC-L001 and TAC-L002, as the examples name them)
@@ -369,6 +543,14 @@ class SchemaExamplesTest : public ::testing::Test {
       m.set_value(v);
     }
     const judge::Judgement j = judge::Judge(plan, axes, &res.measurements);
+    // What a schema-6 analysis says of a value read where the curve never
+    // reaches the slope (the contract's qualifier and uncertainty method).
+    for (pb::Measurement& m : res.measurements) {
+      if (m.name() != "rate_random_walk") continue;
+      m.set_qualifier(pb::UPPER_BOUND);
+      m.set_uncertainty_method("none: an upper bound");
+      if (m.has_high()) m.set_decision_rule(pb::Limit::SIMPLE);
+    }
     res.verdict = j.verdict == pb::OUTCOME_UNSET ? "" : judge::OutcomeName(j.verdict);
     res.reasons = j.reasons;
     res.result_utime = *r2.end_utime;
@@ -386,15 +568,18 @@ class SchemaExamplesTest : public ::testing::Test {
   // Every run of the archive, from `imuqual runs`.
   static Csv Runs() { return Imuqual("runs --limit 1000000 --format csv"); }
 
-  // Each (lot, unit)'s latest run id, by start time, from `imuqual runs`.
-  static std::set<std::string> LatestRuns(const Csv& runs) {
-    std::map<std::pair<std::string, std::string>, std::pair<std::string, std::string>> latest;
+  // Each (lot, unit)'s final run id, from `imuqual runs`: its latest
+  // judged run (PASS, MARGINAL, FAIL, INCONCLUSIVE), else its latest run.
+  static std::set<std::string> FinalRuns(const Csv& runs) {
+    using Rank = std::pair<bool, std::string>;  // judged, start
+    std::map<std::pair<std::string, std::string>, std::pair<Rank, std::string>> latest;
     for (const auto& r : runs.rows) {
-      auto& [start, id] = latest[{r[runs.Col("lot")], r[runs.Col("unit")]}];
-      if (r[runs.Col("start")] > start) {  // ISO 8601 UTC: text order is time order
-        start = r[runs.Col("start")];
-        id = r[runs.Col("run_id")];
-      }
+      const std::string& v = r[runs.Col("verdict")];
+      const Rank rank{v == "PASS" || v == "MARGINAL" || v == "FAIL" || v == "INCONCLUSIVE",
+                      r[runs.Col("start")]};  // ISO 8601 UTC: text order is time order
+      auto [it, fresh] = latest.try_emplace({r[runs.Col("lot")], r[runs.Col("unit")]},
+                                            rank, r[runs.Col("run_id")]);
+      if (!fresh && rank > it->second.first) it->second = {rank, r[runs.Col("run_id")]};
     }
     std::set<std::string> ids;
     for (const auto& [unit, run] : latest) ids.insert(run.second);
@@ -531,32 +716,44 @@ std::vector<SqlExample> SqlExamples(const std::string& markdown) {
 
 TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
   const Csv runs = Runs();
-  const std::set<std::string> latest = LatestRuns(runs);
+  const std::set<std::string> latest = FinalRuns(runs);
   const auto kinds = AxisKinds();
   // Checks by question: an example whose question changes, or a new one,
   // needs its check here.
   std::map<std::string, std::function<void(const Csv&)>> checks;
 
-  checks["Yield of every lot over each unit's latest run, newest lot first."] =
+  checks["Yield of every lot over each unit's final run, newest lot first."] =
       [&](const Csv& out) {
         struct Lot {
           std::string last_start;
           std::set<std::string> units;
-          int64_t pass = 0, marginal = 0, fail = 0, unjudged = 0;
+          int64_t runs = 0, pass = 0, marginal = 0, fail = 0, inconclusive = 0, unjudged = 0;
+          // each unit's first judged run: (start, verdict)
+          std::map<std::string, std::pair<std::string, std::string>> first;
         };
         std::map<std::string, Lot> lots;
-        for (const auto& r : runs.rows) {
+        // `imuqual runs` lists the newest first: oldest first here
+        for (auto it = runs.rows.rbegin(); it != runs.rows.rend(); ++it) {
+          const auto& r = *it;
           Lot& l = lots[r[runs.Col("lot")]];
+          ++l.runs;
           l.last_start = std::max(l.last_start, r[runs.Col("start")]);
           l.units.insert(r[runs.Col("unit")]);
-          if (!latest.contains(r[runs.Col("run_id")])) continue;
           const std::string& v = r[runs.Col("verdict")];
-          ++(v == "PASS"       ? l.pass
-             : v == "MARGINAL" ? l.marginal
-             : v == "FAIL"     ? l.fail
-                               : l.unjudged);
+          const bool judged = v == "PASS" || v == "MARGINAL" || v == "FAIL" || v == "INCONCLUSIVE";
+          auto& first = l.first[r[runs.Col("unit")]];
+          if (judged && (first.first.empty() || r[runs.Col("start")] < first.first)) {
+            first = {r[runs.Col("start")], v};
+          }
+          if (!latest.contains(r[runs.Col("run_id")])) continue;
+          ++(v == "PASS"           ? l.pass
+             : v == "MARGINAL"     ? l.marginal
+             : v == "FAIL"         ? l.fail
+             : v == "INCONCLUSIVE" ? l.inconclusive
+                                   : l.unjudged);
         }
-        EXPECT_EQ(lots.at("TAC-L001").unjudged, 2);  // the running and the aborted retest
+        // the running and the aborted (unjudged) retests do not replace R1
+        EXPECT_EQ(lots.at("TAC-L001").unjudged, 0);
         std::vector<std::string> newest_first;
         for (const auto& [lot, l] : lots) newest_first.push_back(lot);
         std::sort(newest_first.begin(), newest_first.end(), [&](const auto& a, const auto& b) {
@@ -572,9 +769,20 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
           EXPECT_EQ(row[out.Col("marginal")], std::to_string(l.marginal));
           EXPECT_EQ(row[out.Col("fail")], std::to_string(l.fail));
           EXPECT_EQ(row[out.Col("unjudged")], std::to_string(l.unjudged));
+          EXPECT_EQ(row[out.Col("inconclusive")], std::to_string(l.inconclusive));
+          EXPECT_EQ(row[out.Col("retests")], std::to_string(l.runs - l.units.size()));
+          EXPECT_EQ(row[out.Col("retest_candidates")], std::to_string(l.inconclusive));
           const int64_t judged = l.pass + l.marginal + l.fail;
           ExpectReal(row[out.Col("yield")],
                      judged > 0 ? static_cast<double>(l.pass + l.marginal) / judged : NAN, "yield");
+          int64_t first_pass = 0, first_judged = 0;
+          for (const auto& [unit, f] : l.first) {
+            first_judged += f.second == "PASS" || f.second == "MARGINAL" || f.second == "FAIL";
+            first_pass += f.second == "PASS" || f.second == "MARGINAL";
+          }
+          ExpectReal(row[out.Col("first_pass_yield")],
+                     first_judged > 0 ? static_cast<double>(first_pass) / first_judged : NAN,
+                     "first_pass_yield");
         }
       };
 
@@ -586,7 +794,9 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
       EXPECT_EQ(row[out.Col("lot")], lot);
       EXPECT_EQ(row[out.Col("unit")], "deg/h");
       const Pooled p = LotStats(lot).at({"gyro", "bias_instability", "deg/h"});
-      EXPECT_EQ(p.n, lot == "TAC-L001" ? 30 : 36);  // 3 gyros x units judged on their latest run
+      // 3 gyros x 12 units, each by its final run: a retest running or aborted
+      // unjudged does not hide the judged run before it
+      EXPECT_EQ(p.n, 36);
       ExpectStatistics(out, row, p, lot);
     }
   };
@@ -610,7 +820,61 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
         EXPECT_LT(large.sd, 2);  // the planted spread, not the lot's earlier runs
       };
 
-  checks["The failing values of each unit's latest run in a lot, with their limits."] =
+  checks["Why units of a lot were tested again."] = [&](const Csv& out) {
+    // every TAC-L001 run with a later run of its unit, from `imuqual runs`
+    std::map<std::string, std::vector<std::pair<std::string, std::string>>> of_unit;
+    std::map<std::string, std::string> verdict_of;
+    for (const auto& r : runs.rows) {
+      if (r[runs.Col("lot")] != "TAC-L001") continue;
+      of_unit[r[runs.Col("unit")]].push_back({r[runs.Col("start")], r[runs.Col("run_id")]});
+      verdict_of[r[runs.Col("run_id")]] = r[runs.Col("verdict")];
+    }
+    std::vector<std::vector<std::string>> expected;  // serial, run, verdict, next
+    for (auto& [unit, list] : of_unit) {
+      std::sort(list.begin(), list.end());
+      for (size_t i = 0; i + 1 < list.size(); ++i) {
+        const std::string& v = verdict_of[list[i].second];
+        expected.push_back({unit, list[i].second, v == "-" ? "" : v, list[i + 1].second});
+      }
+    }
+    ASSERT_GE(expected.size(), 4u);  // the failed units' retests, the x 3 ones, running, aborted
+    ASSERT_EQ(out.rows.size(), expected.size());
+    for (size_t i = 0; i < expected.size(); ++i) {
+      EXPECT_EQ(out.rows[i][out.Col("serial")], expected[i][0]);
+      EXPECT_EQ(out.rows[i][out.Col("run_id")], expected[i][1]);
+      EXPECT_EQ(out.rows[i][out.Col("verdict")], expected[i][2]);
+      EXPECT_EQ(out.rows[i][out.Col("next_run_id")], expected[i][3]);
+      if (expected[i][2] == "FAIL") EXPECT_FALSE(out.rows[i][out.Col("reasons")].empty());
+    }
+  };
+
+  checks["The values of a lot's final runs that are not plain measurements, with how they were "
+         "judged."] = [&](const Csv& out) {
+    const Csv all = ParseCsv(
+        RunCommand(Bin("imuqual") + " export --lot TAC-L001 --as measurements --db " + db_).output);
+    std::vector<std::vector<std::string>> expected;
+    for (const auto& r : all.rows) {
+      if (r[all.Col("qualifier")].empty() || !latest.contains(r[all.Col("run_id")])) continue;
+      expected.push_back({r[all.Col("unit")], r[all.Col("axis")], r[all.Col("name")],
+                          r[all.Col("qualifier")], r[all.Col("uncertainty_method")],
+                          r[all.Col("decision_rule")], r[all.Col("outcome")]});
+    }
+    std::sort(expected.begin(), expected.end());
+    ASSERT_FALSE(expected.empty());  // the judged retests' rate random walks
+    ASSERT_EQ(out.rows.size(), expected.size());
+    for (size_t i = 0; i < expected.size(); ++i) {
+      const auto& row = out.rows[i];
+      EXPECT_EQ(row[out.Col("serial")], expected[i][0]);
+      EXPECT_EQ(row[out.Col("axis")], expected[i][1]);
+      EXPECT_EQ(row[out.Col("name")], expected[i][2]);
+      EXPECT_EQ(row[out.Col("qualifier")], expected[i][3]);
+      EXPECT_EQ(row[out.Col("uncertainty_method")], expected[i][4]);
+      EXPECT_EQ(row[out.Col("decision_rule")], expected[i][5]);
+      EXPECT_EQ(row[out.Col("outcome")], expected[i][6]);
+    }
+  };
+
+  checks["The failing values of each unit's final run in a lot, with their limits."] =
       [&](const Csv& out) {
         const Csv all = ParseCsv(
             RunCommand(Bin("imuqual") + " export --lot TAC-L001 --as measurements --db " + db_)

@@ -1,5 +1,6 @@
 #include "store/cli/commands.h"
 
+#include <cmath>
 #include <cstdio>
 #include <map>
 
@@ -7,6 +8,7 @@
 #include "common/log.h"
 #include "common/text_util.h"
 #include "store/cli/report.h"
+#include "store/outcome.h"
 #include "store/query.h"
 
 namespace imuqual::cli {
@@ -66,6 +68,67 @@ Result<std::unique_ptr<store::Archive>> OpenForReading(const std::string& db_pat
   return store::Archive::Open(db_path, store::Archive::Mode::kRead);
 }
 
+std::string YieldText(double yield) {
+  if (std::isnan(yield)) return "not measurable: no judged unit";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f %%", 100 * yield);
+  return buf;
+}
+
+// Run verdicts counted: "3 PASS, 0 MARGINAL, 1 FAIL, 1 ABORTED" (PASS,
+// MARGINAL and FAIL always, the other outcomes and the runs not judged when
+// there are any).
+std::string VerdictCounts(const std::map<std::string, int>& counts) {
+  std::string out;
+  for (pb::Outcome o : {pb::PASS, pb::MARGINAL, pb::FAIL, pb::INCONCLUSIVE, pb::ABORTED,
+                        pb::ERROR}) {
+    const std::string text = store::OutcomeText(o);
+    auto it = counts.find(text);
+    const int n = it == counts.end() ? 0 : it->second;
+    if (n == 0 && !store::CountsInYield(o)) continue;
+    out += (out.empty() ? "" : ", ") + std::to_string(n) + " " + text;
+  }
+  auto none = counts.find("");
+  if (none != counts.end() && none->second > 0) {
+    out += (out.empty() ? "" : ", ") + std::to_string(none->second) + " not judged";
+  }
+  return out;
+}
+
+// The lot's yields and why units were tested again, under `imuqual lot`.
+std::string LotYieldLines(store::Archive& archive, const std::string& lot) {
+  auto lots = store::QueryLots(archive);
+  if (!lots.ok()) return "";
+  std::string out;
+  for (const store::LotRow& l : *lots) {
+    if (l.lot != lot) continue;
+    std::map<std::string, int> counts = {{"PASS", static_cast<int>(l.pass)},
+                                         {"MARGINAL", static_cast<int>(l.marginal)},
+                                         {"FAIL", static_cast<int>(l.fail)},
+                                         {"INCONCLUSIVE", static_cast<int>(l.inconclusive)},
+                                         {"ABORTED", static_cast<int>(l.aborted)},
+                                         {"ERROR", static_cast<int>(l.error)},
+                                         {"", static_cast<int>(l.unjudged)}};
+    out += "\n" + std::to_string(l.units) + " units by their final run: " + VerdictCounts(counts) +
+           "\nfirst-pass yield " + YieldText(l.first_pass_yield) + ", final yield " +
+           YieldText(l.yield) + " (PASS + MARGINAL over PASS, MARGINAL and FAIL); " +
+           std::to_string(l.retests) + " retest(s), " + std::to_string(l.retest_candidates) +
+           " retest candidate(s) (INCONCLUSIVE)\n";
+  }
+  auto retests = store::QueryRetestReasons(archive, lot);
+  if (retests.ok() && !retests->empty()) {
+    out += "tested again after:\n";
+    for (const store::RetestRow& r : *retests) {
+      const std::string verdict = r.verdict.empty() ? "not judged (" + r.state + ")" : r.verdict;
+      out += "  " + r.unit + " run " + r.run_id + ": " + verdict;
+      const std::string first = r.reasons.substr(0, r.reasons.find('\n'));
+      if (!first.empty()) out += ": " + first;
+      out += "\n";
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 int RunCommand(const StationRunOptions& options) {
@@ -93,8 +156,13 @@ int RunCommand(const StationRunOptions& options) {
   std::printf("%s", PeopleTable(*rows).c_str());
   std::map<std::string, std::string> unit_of;
   std::map<std::string, int> verdicts;
+  int passed = 0, counted = 0;  // the yield: judged units only
   for (const store::AxisRow& r : *rows) {
-    if (unit_of.emplace(r.run_id, r.unit).second) ++verdicts[r.run_verdict.empty() ? "-" : r.run_verdict];
+    if (!unit_of.emplace(r.run_id, r.unit).second) continue;
+    ++verdicts[r.run_verdict];
+    const pb::Outcome v = store::OutcomeFromText(r.run_verdict);
+    counted += store::CountsInYield(v);
+    passed += v == pb::PASS || v == pb::MARGINAL;
   }
   auto reasons = store::QueryReasons(**archive, run->run_ids);
   if (reasons.ok() && !reasons->empty()) {
@@ -110,11 +178,13 @@ int RunCommand(const StationRunOptions& options) {
       }
     }
   }
-  std::printf("\n%zu units: %d PASS, %d MARGINAL, %d FAIL%s%s\n", unit_of.size(), verdicts["PASS"],
-              verdicts["MARGINAL"], verdicts["FAIL"],
-              verdicts["-"] > 0 ? (", " + std::to_string(verdicts["-"]) + " not judged (no limits)").c_str()
-                                : "",
-              run->interrupted ? " (interrupted: runs aborted)" : "");
+  std::printf("\n%zu units: %s%s\nyield %s%s\n", unit_of.size(), VerdictCounts(verdicts).c_str(),
+              run->interrupted ? " (interrupted: runs aborted)" : "",
+              YieldText(counted > 0 ? static_cast<double>(passed) / counted : allan::kNaN).c_str(),
+              counted > 0 ? (" (" + std::to_string(passed) + " of " + std::to_string(counted) +
+                             " units judged PASS, MARGINAL or FAIL)")
+                                .c_str()
+                          : "");
   std::printf("lot %s archived in %s (runs %s-*; process log %s)\n", options.lot.c_str(),
               options.db_path.c_str(), run->run_prefix.c_str(), run->log_path.c_str());
   if (run->restarts > 0) {
@@ -153,15 +223,33 @@ int LotsCommand(const std::string& db_path, Format format) {
     LogError(lots.status().message());
     return kExitError;
   }
-  TableWriter t({"lot", "runs", "units", "pass", "marginal", "fail", "unjudged", "yield",
-                 "first_start", "last_start"});
+  // Each unit counted once, by its final run (its latest judged run, else
+  // its latest): yield (the final yield) and first_pass_yield count PASS and
+  // MARGINAL against PASS, MARGINAL and FAIL; INCONCLUSIVE units are retest
+  // candidates, ABORTED and ERROR runs say nothing about a unit.
+  TableWriter t({"lot", "runs", "units", "pass", "marginal", "fail", "inconclusive", "aborted",
+                 "error", "unjudged", "first_pass_yield", "yield", "retests", "first_start",
+                 "last_start"});
+  auto yield = [format](double v) {
+    return format == Format::kTable && std::isnan(v) ? Cell::Text("n/m") : Cell::Real(v);
+  };
+  bool unmeasurable = false;
   for (const store::LotRow& l : *lots) {
+    unmeasurable |= std::isnan(l.yield) || std::isnan(l.first_pass_yield);
     t.AddRow({Cell::Text(l.lot), Cell::Int(l.runs), Cell::Int(l.units), Cell::Int(l.pass),
-              Cell::Int(l.marginal), Cell::Int(l.fail), Cell::Int(l.unjudged), Cell::Real(l.yield),
+              Cell::Int(l.marginal), Cell::Int(l.fail), Cell::Int(l.inconclusive),
+              Cell::Int(l.aborted), Cell::Int(l.error), Cell::Int(l.unjudged),
+              yield(l.first_pass_yield), yield(l.yield), Cell::Int(l.retests),
               Cell::Text(FormatUtimeIso(l.first_start_utime)),
               Cell::Text(FormatUtimeIso(l.last_start_utime))});
   }
   std::printf("%s", t.Render(format).c_str());
+  if (format == Format::kTable) {
+    std::printf(
+        "units by their final run (latest judged, else latest); yield = (pass + marginal) / "
+        "(pass + marginal + fail), first_pass_yield the same over each unit's first judged run\n");
+    if (unmeasurable) std::printf("n/m: not measurable: no judged unit\n");
+  }
   return 0;
 }
 
@@ -185,6 +273,7 @@ int LotCommand(const std::string& db_path, const std::string& lot, Format format
   }
   if (format == Format::kTable) {
     std::printf("%s", PeopleTable(*rows).c_str());
+    if (!all_runs) std::printf("%s", LotYieldLines(**archive, lot).c_str());
   } else {
     std::printf("%s", MachineTable(*rows).Render(format).c_str());
   }

@@ -12,6 +12,7 @@
 #include "common/text_util.h"
 #include "store/archive.h"
 #include "store/cli/table_writer.h"
+#include "store/outcome.h"
 #include "store/query.h"
 
 namespace imuqual::cli {
@@ -75,24 +76,25 @@ Result<std::string> ExportJson(store::Archive& archive, const std::vector<RunRef
 
 Result<std::string> ExportMeasurements(store::Archive& archive, const std::vector<RunRef>& runs) {
   TableWriter t({"lot", "unit", "run_id", "axis", "name", "value", "uncertainty", "unit_of_value",
-                 "low", "high", "marginal_low", "marginal_high", "outcome", "note"});
+                 "low", "high", "marginal_low", "marginal_high", "outcome", "note",
+                 "uncertainty_method", "qualifier", "decision_rule", "guard_band"});
   for (const RunRef& r : runs) {
     auto result = archive.LoadResult(r.key);
     if (!result.ok()) return result.status();
     if (!result->has_value()) continue;
     for (const pb::Measurement& m : (*result)->measurements) {
       auto opt = [](bool has, double v) { return Cell::Real(has ? v : allan::kNaN); };
-      const char* outcome = m.outcome() == pb::PASS       ? "PASS"
-                            : m.outcome() == pb::MARGINAL ? "MARGINAL"
-                            : m.outcome() == pb::FAIL     ? "FAIL"
-                                                          : "";
+      const char* outcome = store::OutcomeText(m.outcome());
       t.AddRow({Cell::Text(r.info.lot), Cell::Text(r.info.serial), Cell::Text(r.run_id),
                 Cell::Text(m.axis()), Cell::Text(m.name()), Cell::Real(m.value()),
                 opt(m.has_uncertainty(), m.uncertainty()), Cell::Text(m.unit()),
                 opt(m.has_low(), m.low()), opt(m.has_high(), m.high()),
                 opt(m.has_marginal_low(), m.marginal_low()),
                 opt(m.has_marginal_high(), m.marginal_high()), Cell::Text(outcome),
-                Cell::Text(m.note())});
+                Cell::Text(m.note()), Cell::Text(m.uncertainty_method()),
+                Cell::Text(store::QualifierText(m.qualifier())),
+                Cell::Text(store::DecisionRuleText(m.decision_rule())),
+                opt(m.has_guard_band(), m.guard_band())});
     }
   }
   return t.Render(Format::kCsv);
@@ -116,6 +118,25 @@ Result<std::string> ExportCurves(store::Archive& archive, const std::vector<RunR
     }
   }
   return t.Render(Format::kCsv);
+}
+
+// A record archived before schema 6 has neither a qualifier nor an
+// uncertainty method (an analysis of schema 6 states one or why there is
+// none): only then is the note's text read for what the qualifier says.
+bool ArchivedBeforeQualifiers(const pb::Measurement& m) {
+  return m.qualifier() == pb::QUALIFIER_NONE && m.uncertainty_method().empty();
+}
+
+bool UpperBound(const pb::Measurement& m) {
+  if (ArchivedBeforeQualifiers(m)) return m.note().starts_with("upper bound");
+  return m.qualifier() == pb::UPPER_BOUND;
+}
+
+// The noise model's p-value measurement: the model fits (not
+// MODEL_INADEQUATE, and a finite p-value).
+bool ModelAdequate(const pb::Measurement& p_value) {
+  if (ArchivedBeforeQualifiers(p_value)) return judge::NoiseModelAdequate(p_value);
+  return p_value.qualifier() != pb::MODEL_INADEQUATE && std::isfinite(p_value.value());
 }
 
 std::string Num(double v) {
@@ -146,7 +167,7 @@ Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunR
     // is tuned wrong: only adequate models are exported.
     for (const pb::Measurement& m : (*result)->measurements) {
       if (m.name() != judge::kNoiseModelPValue) continue;
-      if (!judge::NoiseModelAdequate(m)) {
+      if (!ModelAdequate(m)) {
         return Status::InvalidArgument("run " + r.run_id + " axis " + m.axis() +
                                        ": no adequate noise model for Kalibr (" + m.note() + ")");
       }
@@ -186,7 +207,7 @@ Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunR
         ++s.n_count;
       }
       s.comments += "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) +
-                    (m.note().starts_with("upper bound")
+                    (UpperBound(m)
                          ? " (upper bound at 95 %: the noise model has no such term)"
                          : "") +
                     "\n";

@@ -8,6 +8,7 @@
 #include "common/log.h"
 #include "store/cli/lot_model_view.h"
 #include "store/cli/lot_statistics.h"
+#include "store/outcome.h"
 
 namespace imuqual::cli {
 namespace {
@@ -67,7 +68,10 @@ int LotStatsCommand(const std::string& db_path, const std::string& lot, Format f
               Cell::Text(m.capability_kind), Opt(s.low), Opt(s.high)});
   }
   if (format == Format::kTable) {
-    std::printf("lot %s: statistics over each unit's latest run\n", lot.c_str());
+    std::printf(
+        "lot %s: statistics over each unit's final run (its latest judged run, else its "
+        "latest); yield = (PASS + MARGINAL) / (PASS + MARGINAL + FAIL) values\n",
+        lot.c_str());
   }
   std::printf("%s", t.Render(format).c_str());
   if (format == Format::kTable) return LotModelCommand(db_path, lot, format);
@@ -208,9 +212,9 @@ int RunsCommand(const std::string& db_path, store::RunFilter filter, const std::
     }
     filter.since_utime = *t;
   }
-  if (!filter.verdict.empty() && filter.verdict != "PASS" && filter.verdict != "MARGINAL" &&
-      filter.verdict != "FAIL" && filter.verdict != "none") {
-    LogError("--verdict must be PASS, MARGINAL, FAIL or none");
+  if (!filter.verdict.empty() && filter.verdict != "none" &&
+      store::OutcomeFromText(filter.verdict) == pb::OUTCOME_UNSET) {
+    LogError("--verdict must be PASS, MARGINAL, FAIL, INCONCLUSIVE, ABORTED, ERROR or none");
     return kExitUsage;
   }
   if (filter.limit < 1) {

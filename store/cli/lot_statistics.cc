@@ -4,6 +4,7 @@
 #include <map>
 
 #include "analyze/judge/measurements.h"
+#include "store/outcome.h"
 
 namespace imuqual::cli {
 
@@ -32,7 +33,9 @@ std::vector<MeasurementStats> ComputeLotStatistics(const std::vector<store::Meas
     if (!g.stats.low && r.low) g.stats.low = r.low;
     if (!g.stats.high && r.high) g.stats.high = r.high;
     g.values.push_back(r.value);
-    g.outcomes.push_back(r.outcome);
+    // A yield counts PASS and MARGINAL against PASS, MARGINAL and FAIL: an
+    // INCONCLUSIVE value (a retest candidate) is neither (as lot_statistics).
+    g.outcomes.push_back(store::CountsInYield(r.outcome) ? r.outcome : pb::OUTCOME_UNSET);
   }
   std::vector<MeasurementStats> out;
   for (Group& g : groups) {

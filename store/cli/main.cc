@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
   lot_cmd->add_option("lot", lot, "lot name")->required();
   lot_cmd->add_option("--db", db, "archive file")->required();
   lot_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
-  lot_cmd->add_flag("--all-runs", all_runs, "every run, not only each unit's latest");
+  lot_cmd->add_flag("--all-runs", all_runs, "every run, not only each unit's final one (its latest judged run, else its latest)");
   lot_cmd->add_flag("--stats", stats,
                     "per axis and measurement: n, mean, sd, min, max, yield, Cpk/Cpu/Cpl (and, as "
                     "a table, the lot noise model)");
@@ -121,7 +121,8 @@ int main(int argc, char** argv) {
   runs_cmd->add_option("--unit", run_filter.unit, "only this unit serial");
   runs_cmd->add_option("--since", since,
                        "started at or after (2026-11-21 or 2026-11-21T08:00:00Z)");
-  runs_cmd->add_option("--verdict,--outcome", run_filter.verdict, "PASS, MARGINAL, FAIL or none");
+  runs_cmd->add_option("--verdict,--outcome", run_filter.verdict,
+                       "PASS, MARGINAL, FAIL, INCONCLUSIVE, ABORTED, ERROR or none");
   runs_cmd->add_option("--limit", run_filter.limit, "at most this many")->capture_default_str();
   runs_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
 

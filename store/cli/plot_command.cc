@@ -14,6 +14,7 @@
 #include "common/text_util.h"
 #include "store/cli/model_plot.h"
 #include "store/cli/svg_plot.h"
+#include "store/outcome.h"
 #include "store/query.h"
 
 namespace imuqual::cli {
@@ -73,20 +74,12 @@ const pb::Measurement* FindMeasurementRow(const AxisPlotData& a, std::string_vie
   return nullptr;
 }
 
-int Severity(const std::string& verdict) {
-  if (verdict == "FAIL") return 3;
-  if (verdict == "MARGINAL") return 2;
-  if (verdict == "PASS") return 1;
-  return 0;
-}
+int Severity(const std::string& verdict) { return store::OutcomeSeverity(verdict); }
 
 std::string WorstOutcome(const std::vector<pb::Measurement>& ms) {
   std::string worst;
   for (const pb::Measurement& m : ms) {
-    const std::string v = m.outcome() == pb::FAIL       ? "FAIL"
-                          : m.outcome() == pb::MARGINAL ? "MARGINAL"
-                          : m.outcome() == pb::PASS     ? "PASS"
-                                                        : "";
+    const std::string v = store::OutcomeText(m.outcome());
     if (Severity(v) > Severity(worst)) worst = v;
   }
   return worst;

@@ -12,6 +12,7 @@
 #include "store/archive.h"
 #include "store/checksums.h"
 #include "store/cli/curve_request.h"
+#include "store/outcome.h"
 #include "store/reanalysis.h"
 
 namespace imuqual::cli {
@@ -115,10 +116,16 @@ void ComparePoints(const std::string& axis, const std::vector<allan::CurvePoint>
   }
 }
 
+// An outcome's text, "-" when not judged.
+std::string Shown(pb::Outcome outcome) {
+  const std::string text = store::OutcomeText(outcome);
+  return text.empty() ? "-" : text;
+}
+
 // The verdict, its reasons and every measurement, by axis and name.
 void CompareJudgements(const store::ResultRecord& archived, const analyze::RunOutcome& again,
                        std::vector<std::string>* problems) {
-  const std::string recomputed_verdict = judge::OutcomeName(again.judgement.verdict);
+  const std::string recomputed_verdict = Shown(again.judgement.verdict);
   const std::string archived_verdict = archived.verdict.empty() ? "-" : archived.verdict;
   if (archived_verdict != recomputed_verdict) {
     problems->push_back("verdict: archived " + archived_verdict + ", recomputed " +
@@ -163,8 +170,8 @@ void CompareJudgements(const store::ResultRecord& archived, const analyze::RunOu
       }
     }
     if (x.outcome() != y.outcome()) {
-      problems->push_back(label(x) + " outcome: archived " + judge::OutcomeName(x.outcome()) +
-                          ", recomputed " + judge::OutcomeName(y.outcome()));
+      problems->push_back(label(x) + " outcome: archived " + Shown(x.outcome()) +
+                          ", recomputed " + Shown(y.outcome()));
     }
     if (x.unit() != y.unit()) {
       problems->push_back(label(x) + " unit: archived " + x.unit() + ", recomputed " + y.unit());
@@ -188,7 +195,7 @@ int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
   std::vector<LabeledCurve> curves(outcome->curves.begin(), outcome->curves.end());
   if (format == Format::kTable) {
     std::printf("run %s re-analysed as live: verdict %s\n", o.run_id.c_str(),
-                judge::OutcomeName(outcome->judgement.verdict));
+                Shown(outcome->judgement.verdict).c_str());
   }
   std::printf("%s", CurveTable(curves, true, true, true).Render(format).c_str());
   if (!o.check) return 0;

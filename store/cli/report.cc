@@ -19,6 +19,7 @@
 #include "store/cli/lot_model_view.h"
 #include "store/cli/lot_statistics.h"
 #include "store/cli/plot_command.h"
+#include "store/outcome.h"
 #include "store/query.h"
 
 namespace imuqual::cli {
@@ -128,32 +129,31 @@ std::string IsoTime(int64_t utime) {
   return t;
 }
 
-int Severity(std::string_view verdict) {
-  if (verdict == "FAIL") return 3;
-  if (verdict == "MARGINAL") return 2;
-  if (verdict == "PASS") return 1;
-  return 0;
-}
+int Severity(std::string_view verdict) { return store::OutcomeSeverity(verdict); }
 
-std::string OutcomeName(pb::Outcome o) {
-  switch (o) {
-    case pb::PASS:
-      return "PASS";
-    case pb::MARGINAL:
-      return "MARGINAL";
-    case pb::FAIL:
-      return "FAIL";
-    default:
-      return "";
+std::string OutcomeName(pb::Outcome o) { return store::OutcomeText(o); }
+
+// Units that need a look, worst first: FAIL, ERROR, ABORTED, INCONCLUSIVE,
+// MARGINAL (0: none needed).
+int AttentionRank(std::string_view verdict) {
+  switch (store::OutcomeFromText(verdict)) {
+    case pb::FAIL: return 5;
+    case pb::ERROR: return 4;
+    case pb::ABORTED: return 3;
+    case pb::INCONCLUSIVE: return 2;
+    case pb::MARGINAL: return 1;
+    default: return 0;
   }
 }
 
-// A verdict as a coloured badge ("not judged" for none).
+// A verdict as a badge, each outcome its own class ("not judged" for none):
+// INCONCLUSIVE (retest), ABORTED and ERROR (nothing said about the unit)
+// are not coloured as a FAIL.
 std::string Badge(std::string_view verdict) {
-  static const char* kClass[] = {"v-none", "v-PASS", "v-MARGINAL", "v-FAIL"};
-  std::string out = "<span class=\"badge ";
-  Add(&out, kClass[Severity(verdict)], "\">", verdict.empty() ? "not judged" : Esc(verdict),
-      "</span>");
+  const bool known = store::OutcomeFromText(verdict) != pb::OUTCOME_UNSET;
+  std::string out = "<span class=\"badge v-";
+  Add(&out, known ? Esc(verdict) : std::string("none"), "\">",
+      verdict.empty() ? "not judged" : Esc(verdict), "</span>");
   return out;
 }
 
@@ -251,6 +251,7 @@ struct ReportData {
   std::map<MeasurementKey, const store::MeasurementRow*> by_key;
   std::vector<MeasurementStats> stats;
   std::vector<RunPlotData> runs;  // one per unit, in the rows' order
+  std::vector<store::RetestRow> retests;
 };
 
 // ---- sections -------------------------------------------------------------
@@ -271,14 +272,23 @@ void Header(const ReportData& d, const std::string& archive_label, std::string* 
   auto joined = [](const std::vector<std::string>& v) {
     return v.empty() ? std::string("&ndash;") : Esc(Join(v, ", "));
   };
-  const char* banner = l.fail > 0 ? "v-FAIL" : l.marginal > 0 ? "v-MARGINAL" : "v-PASS";
+  const char* banner = l.fail > 0                          ? "v-FAIL"
+                       : l.marginal + l.inconclusive > 0     ? "v-MARGINAL"
+                       : l.pass > 0                          ? "v-PASS"
+                                                             : "v-none";
   Add(out, "<header class=\"top\">\n<p class=\"eyebrow\">IMU end-of-line qualification &middot; ",
       "Allan variance (IEEE Std 952)</p>\n<h1>Lot <span data-field=\"lot\"", Attr("data-v", l.lot),
       ">", Esc(l.lot), "</span></h1>\n");
-  Add(out, "<p class=\"banner ", banner, "\">Yield <strong data-field=\"yield\"",
-      Attr("data-v", Exact(l.yield)), ">", Percent(l.yield),
-      "</strong>: ", std::to_string(l.pass + l.marginal), " of ",
-      std::to_string(l.pass + l.marginal + l.fail), " judged units pass</p>\n</header>\n");
+  Add(out, "<p class=\"banner ", banner, "\">Final yield <strong data-field=\"yield\"",
+      Attr("data-v", Exact(l.yield)), ">",
+      std::isfinite(l.yield) ? Percent(l.yield) : std::string("not measurable"), "</strong>: ");
+  if (l.pass + l.marginal + l.fail > 0) {
+    Add(out, std::to_string(l.pass + l.marginal), " of ",
+        std::to_string(l.pass + l.marginal + l.fail), " judged units pass");
+  } else {
+    *out += "no judged unit";
+  }
+  *out += "</p>\n</header>\n";
 
   Add(out, "<section id=\"summary\" aria-label=\"Lot summary\">\n<dl class=\"facts\">\n");
   auto fact = [out](std::string_view title, std::string_view field, const std::string& v,
@@ -295,6 +305,14 @@ void Header(const ReportData& d, const std::string& archive_label, std::string* 
   fact("MARGINAL", "marginal", std::to_string(l.marginal), std::to_string(l.marginal),
        "c-MARGINAL");
   fact("FAIL", "fail", std::to_string(l.fail), std::to_string(l.fail), "c-FAIL");
+  fact("INCONCLUSIVE", "inconclusive", std::to_string(l.inconclusive),
+       std::to_string(l.inconclusive), "c-INCONCLUSIVE");
+  if (l.aborted > 0) {
+    fact("ABORTED", "aborted", std::to_string(l.aborted), std::to_string(l.aborted), "c-ABORTED");
+  }
+  if (l.error > 0) {
+    fact("ERROR", "error", std::to_string(l.error), std::to_string(l.error), "c-ERROR");
+  }
   if (l.unjudged > 0) {
     fact("Not judged", "unjudged", std::to_string(l.unjudged), std::to_string(l.unjudged));
   }
@@ -310,7 +328,10 @@ void Header(const ReportData& d, const std::string& archive_label, std::string* 
   const double units = static_cast<double>(std::max<int64_t>(l.units, 1));
   *out += "<div class=\"bar\" role=\"img\" aria-label=\"verdicts of the units\">";
   const std::pair<const char*, int64_t> parts[] = {
-      {"PASS", l.pass}, {"MARGINAL", l.marginal}, {"FAIL", l.fail}, {"none", l.unjudged}};
+      {"PASS", l.pass},       {"MARGINAL", l.marginal},
+      {"INCONCLUSIVE", l.inconclusive}, {"FAIL", l.fail},
+      {"ABORTED", l.aborted}, {"ERROR", l.error},
+      {"none", l.unjudged}};
   for (const auto& [name, count] : parts) {
     if (count <= 0) continue;
     char width[32];
@@ -318,20 +339,68 @@ void Header(const ReportData& d, const std::string& archive_label, std::string* 
     Add(out, "<span class=\"seg v-", name, "\" style=\"width:", width, "\" title=\"",
         std::to_string(count), " ", name, "\">", std::to_string(count), "</span>");
   }
-  Add(out, "</div>\n<p class=\"note\">Each unit's latest run in the lot. Archive ",
+  Add(out, "</div>\n<p class=\"note\">Each unit by its final run in the lot: its latest judged "
+      "run (PASS, MARGINAL, FAIL, INCONCLUSIVE), else its latest. Archive ",
       Esc(archive_label), ".</p>\n</section>\n");
+}
+
+// First-pass and final yield, retests and why each was made.
+void Yields(const ReportData& d, std::string* out) {
+  const store::LotRow& l = d.lot;
+  auto yield = [](double v) {
+    return std::isfinite(v) ? Percent(v) : std::string("not measurable: no judged unit");
+  };
+  Add(out, "<section id=\"yield\">\n<h2>Yield and retests</h2>\n<dl class=\"facts\">\n",
+      "<div class=\"fact\"><dt>First-pass yield</dt><dd data-field=\"first_pass_yield\"",
+      Attr("data-v", Exact(l.first_pass_yield)), ">", yield(l.first_pass_yield), "</dd></div>\n",
+      "<div class=\"fact\"><dt>Final yield</dt><dd data-field=\"final_yield\"",
+      Attr("data-v", Exact(l.yield)), ">", yield(l.yield), "</dd></div>\n",
+      "<div class=\"fact\"><dt>Retests</dt><dd data-field=\"retests\"",
+      Attr("data-v", std::to_string(l.retests)), ">", std::to_string(l.retests), "</dd></div>\n",
+      "<div class=\"fact c-INCONCLUSIVE\"><dt>Retest candidates</dt>",
+      "<dd data-field=\"retest_candidates\"", Attr("data-v", std::to_string(l.retest_candidates)),
+      ">", std::to_string(l.retest_candidates), "</dd></div>\n</dl>\n");
+  if (!d.retests.empty()) {
+    *out += "<ul class=\"reasons retests\">\n";
+    for (const store::RetestRow& r : d.retests) {
+      Add(out, "<li", Attr("data-unit", r.unit), Attr("data-run", r.run_id),
+          Attr("data-verdict", r.verdict), Attr("data-next-run", r.next_run_id),
+          "><div class=\"who\">", Badge(r.verdict), " <strong>", Esc(r.unit),
+          "</strong> <span class=\"run\">run ", Esc(r.run_id), " (", Esc(r.state),
+          "), tested again in ", Esc(r.next_run_id), "</span></div>\n<ul>");
+      size_t start = 0;
+      bool any = false;
+      while (start < r.reasons.size()) {
+        const size_t end = r.reasons.find('\n', start);
+        Add(out, "<li>", Esc(r.reasons.substr(start, end - start)), "</li>");
+        any = true;
+        if (end == std::string::npos) break;
+        start = end + 1;
+      }
+      if (!any) *out += "<li>(no reason recorded)</li>";
+      *out += "</ul></li>\n";
+    }
+    *out += "</ul>\n";
+  }
+  *out +=
+      "<p class=\"note\">Final yield: units whose final run is PASS or MARGINAL among those "
+      "whose final run is PASS, MARGINAL or FAIL. First-pass yield: the same over each unit's "
+      "first judged run. An INCONCLUSIVE unit (a value within the guard band of a limit) is a "
+      "retest candidate, neither a pass nor a loss; ABORTED and ERROR runs say nothing about "
+      "the unit and never count. Retests: runs beyond each unit's first.</p>\n</section>\n";
 }
 
 void Attention(const ReportData& d, const std::map<std::string, std::string>& plot_anchor,
                std::string* out) {
   std::vector<const RunPlotData*> flagged;
   for (const RunPlotData& r : d.runs) {
-    if (Severity(r.verdict) >= 2) flagged.push_back(&r);
+    if (AttentionRank(r.verdict) > 0) flagged.push_back(&r);
   }
   std::stable_sort(flagged.begin(), flagged.end(), [](const auto* a, const auto* b) {
-    return Severity(a->verdict) > Severity(b->verdict);
+    return AttentionRank(a->verdict) > AttentionRank(b->verdict);
   });
-  *out += "<section id=\"attention\">\n<h2>Units that fail or are marginal</h2>\n";
+  *out += "<section id=\"attention\">\n<h2>Units that fail, are marginal or inconclusive, or "
+          "were not measured to the end</h2>\n";
   if (flagged.empty()) {
     *out += "<p class=\"ok\">Every judged unit passes without a marginal value.</p>\n</section>\n";
     return;
@@ -524,7 +593,8 @@ void Figure(const AllanPlot& plot, const std::string& attributes, const std::str
 constexpr char kStyle[] = R"css(
 :root { --ink: #1f2328; --muted: #59636e; --line: #d1d9e0; --zebra: #f6f8fa;
   --pass: #1a7f37; --pass-bg: #dafbe1; --marg: #8a5a00; --marg-bg: #fff1c2;
-  --fail: #c11f2b; --fail-bg: #ffe3e0; }
+  --fail: #c11f2b; --fail-bg: #ffe3e0; --inc: #5a32a3; --inc-bg: #efe6ff;
+  --err: #7d4e00; --err-bg: #fbefd5; }
 * { box-sizing: border-box; }
 body { margin: 0; color: var(--ink); background: #fff;
   font: 14px/1.45 system-ui, -apple-system, "Segoe UI", Roboto, "Helvetica Neue", Arial, sans-serif; }
@@ -537,6 +607,7 @@ h2 { margin: 36px 0 12px; font-size: 20px; border-bottom: 1px solid var(--line);
 .banner.v-PASS { background: var(--pass-bg); color: var(--pass); }
 .banner.v-MARGINAL { background: var(--marg-bg); color: var(--marg); }
 .banner.v-FAIL { background: var(--fail-bg); color: var(--fail); }
+.banner.v-none { background: var(--zebra); color: var(--muted); }
 nav { margin: 12px 0; color: var(--muted); }
 nav a { margin-right: 14px; }
 a { color: #0969da; }
@@ -548,12 +619,16 @@ a { color: #0969da; }
 .fact dd small { display: block; font-size: 12px; font-weight: 400; color: var(--muted); }
 .fact.c-PASS dd { color: var(--pass); } .fact.c-MARGINAL dd { color: var(--marg); }
 .fact.c-FAIL dd { color: var(--fail); }
+.fact.c-INCONCLUSIVE dd { color: var(--inc); } .fact.c-ERROR dd { color: var(--err); }
 .bar { display: flex; height: 22px; margin: 14px 0 4px; border-radius: 4px; overflow: hidden;
   border: 1px solid var(--line); font-size: 12px; font-weight: 600; }
 .seg { display: flex; align-items: center; justify-content: center; min-width: 1.6em; }
 .seg.v-PASS { background: var(--pass-bg); color: var(--pass); }
 .seg.v-MARGINAL { background: var(--marg-bg); color: var(--marg); }
 .seg.v-FAIL { background: var(--fail-bg); color: var(--fail); }
+.seg.v-INCONCLUSIVE { background: var(--inc-bg); color: var(--inc); }
+.seg.v-ABORTED { background: #eaeef2; color: var(--ink); }
+.seg.v-ERROR { background: var(--err-bg); color: var(--err); }
 .seg.v-none { background: var(--zebra); color: var(--muted); }
 .note { color: var(--muted); font-size: 12.5px; max-width: 110ch; }
 .ok { color: var(--pass); font-weight: 600; }
@@ -562,12 +637,18 @@ a { color: #0969da; }
 .badge.v-PASS { background: var(--pass-bg); color: var(--pass); }
 .badge.v-MARGINAL { background: var(--marg-bg); color: var(--marg); }
 .badge.v-FAIL { background: var(--fail-bg); color: var(--fail); }
+.badge.v-INCONCLUSIVE { background: var(--inc-bg); color: var(--inc); }
+.badge.v-ABORTED { background: var(--zebra); color: var(--ink); border: 1px dashed var(--muted); }
+.badge.v-ERROR { background: var(--err-bg); color: var(--err); border: 1px solid var(--err); }
 .badge.v-none { background: var(--zebra); color: var(--muted); font-weight: 400; }
 ul.reasons { list-style: none; padding: 0; margin: 0; display: grid;
   grid-template-columns: repeat(auto-fill, minmax(380px, 1fr)); gap: 10px; }
 ul.reasons > li { border: 1px solid var(--line); border-radius: 6px; padding: 8px 12px; }
 ul.reasons > li[data-verdict="FAIL"] { border-left: 4px solid var(--fail); }
 ul.reasons > li[data-verdict="MARGINAL"] { border-left: 4px solid #d4a72c; }
+ul.reasons > li[data-verdict="INCONCLUSIVE"] { border-left: 4px solid var(--inc); }
+ul.reasons > li[data-verdict="ABORTED"] { border-left: 4px dashed var(--muted); }
+ul.reasons > li[data-verdict="ERROR"] { border-left: 4px solid var(--err); }
 ul.reasons ul { margin: 6px 0 0; padding-left: 18px; }
 .run { color: var(--muted); font-size: 12px; font-family: ui-monospace, SFMono-Regular, Menlo, monospace; }
 .scroll { overflow-x: auto; margin-bottom: 18px; }
@@ -751,6 +832,9 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
   d.measurements = std::move(*measurements);
   for (const store::MeasurementRow& m : d.measurements) d.by_key[{m.run_id, m.axis, m.name}] = &m;
   d.stats = ComputeLotStatistics(d.measurements);
+  auto retests = store::QueryRetestReasons(archive, lot);
+  if (!retests.ok()) return retests.status();
+  d.retests = std::move(*retests);
   for (const store::AxisRow& r : d.rows) {
     if (!d.runs.empty() && d.runs.back().info.run_id == r.run_id) continue;
     auto run = LoadRunPlotData(archive, r.run_id);
@@ -762,10 +846,10 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
   const std::vector<AllanPlot> lot_plots = LotAllanPlots(lot, d.runs, "");
   std::vector<const RunPlotData*> flagged;
   for (const RunPlotData& r : d.runs) {
-    if (Severity(r.verdict) >= 2) flagged.push_back(&r);
+    if (AttentionRank(r.verdict) > 0) flagged.push_back(&r);
   }
   std::stable_sort(flagged.begin(), flagged.end(), [](const auto* a, const auto* b) {
-    return Severity(a->verdict) > Severity(b->verdict);
+    return AttentionRank(a->verdict) > AttentionRank(b->verdict);
   });
   std::string unit_figures;
   std::map<std::string, std::string> plot_anchor;  // run id -> figure id
@@ -792,8 +876,10 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
       ": IMU qualification report</title>\n", "<link rel=\"icon\" href=\"data:,\">\n<style>",
       kStyle, "</style>\n</head>\n<body>\n<main>\n");
   Header(d, archive_label, &html);
+  Yields(d, &html);
   html +=
-      "<nav aria-label=\"Contents\"><a href=\"#attention\">Failing and marginal units</a>"
+      "<nav aria-label=\"Contents\"><a href=\"#yield\">Yield and retests</a>"
+      "<a href=\"#attention\">Units to look at</a>"
       "<a href=\"#results\">Results per unit</a><a href=\"#statistics\">Lot statistics</a>"
       "<a href=\"#lot-model\">Lot noise model</a>"
       "<a href=\"#lot-plots\">Lot Allan plots</a>";

@@ -7,6 +7,7 @@
 #include "imuqual/measurement_t.hpp"
 #include "imuqual/run_t.hpp"
 #include "store/cli/table_writer.h"
+#include "store/outcome.h"
 
 namespace imuqual::cli {
 namespace {
@@ -31,25 +32,27 @@ std::string Si(double v) {
   return Printf("%.0f", v);
 }
 
-const char* OutcomeWord(int8_t outcome) {
-  switch (outcome) {
-    case measurement_t::OUTCOME_PASS: return "pass";
-    case measurement_t::OUTCOME_MARGINAL: return "marginal";
-    case measurement_t::OUTCOME_FAIL: return "fail";
-    default: return "";
-  }
-}
-
-std::string Upper(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
 }
 
-// Provisional verdicts read "pass?", final ones "PASS"; "-" when nothing is judged.
+// Provisional verdicts read "pass?", "inconclusive?", final ones "PASS",
+// "INCONCLUSIVE", "ABORTED", "ERROR"; "-" when nothing is judged.
 std::string VerdictText(int8_t outcome, bool final_result) {
-  const std::string word = OutcomeWord(outcome);
+  const std::string word = store::OutcomeText(store::OutcomeFromNumber(outcome));
   if (word.empty()) return final_result ? "-" : "";
-  return final_result ? Upper(word) : word + "?";
+  return final_result ? word : Lower(word) + "?";
+}
+
+// A value's mark in the per-unit table: '!' FAIL, '?' INCONCLUSIVE, '~' MARGINAL.
+const char* OutcomeMark(int8_t outcome) {
+  switch (store::OutcomeFromNumber(outcome)) {
+    case pb::FAIL: return "!";
+    case pb::INCONCLUSIVE: return "?";
+    case pb::MARGINAL: return "~";
+    default: return "";
+  }
 }
 
 std::string StateText(const ConsoleUnit& u) {
@@ -80,11 +83,17 @@ std::string Bar(double fraction, int width) {
   return bar;
 }
 
-// FAIL first, then MARGINAL, then the rest; slot order within each.
+// FAIL first, then ERROR, ABORTED, INCONCLUSIVE, MARGINAL, then the rest;
+// slot order within each.
 int AttentionRank(const ConsoleUnit& u) {
-  if (u.verdict == measurement_t::OUTCOME_FAIL) return 0;
-  if (u.verdict == measurement_t::OUTCOME_MARGINAL) return 1;
-  return 2;
+  switch (store::OutcomeFromNumber(u.verdict)) {
+    case pb::FAIL: return 0;
+    case pb::ERROR: return 1;
+    case pb::ABORTED: return 2;
+    case pb::INCONCLUSIVE: return 3;
+    case pb::MARGINAL: return 4;
+    default: return 5;
+  }
 }
 
 std::vector<std::string> Lines(const std::string& text) {
@@ -159,9 +168,7 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
       std::string text;
       for (const ConsoleAxis& x : u->axes) {
         if (x.name != name || std::isnan(x.bias_instability)) continue;
-        text = Printf("%.3g", x.bias_instability);
-        if (x.outcome == measurement_t::OUTCOME_FAIL) text += "!";
-        if (x.outcome == measurement_t::OUTCOME_MARGINAL) text += "~";
+        text = Printf("%.3g", x.bias_instability) + OutcomeMark(x.outcome);
       }
       row.push_back(Cell::Text(text));
     }
@@ -171,18 +178,48 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
   std::vector<std::string> lines = Lines(t.Render(Format::kTable));
   if (cut) {
     const size_t hidden = m.units.size() - shown.size();
-    int pass = 0, pending = 0;
+    int pass = 0, pending = 0, other = 0;
     for (const ConsoleUnit& u : m.units) {
       if (std::find(shown.begin(), shown.end(), &u) != shown.end()) continue;
-      if (u.verdict == measurement_t::OUTCOME_PASS) ++pass; else ++pending;
+      if (u.verdict == measurement_t::OUTCOME_PASS) {
+        ++pass;
+      } else if (u.verdict == measurement_t::OUTCOME_UNSET) {
+        ++pending;
+      } else {
+        ++other;
+      }
     }
     lines.push_back("... " + std::to_string(hidden) + " more units (" + std::to_string(pass) +
-                    " pass, " + std::to_string(pending) + " not judged yet)");
+                    " pass, " + (other > 0 ? std::to_string(other) + " other, " : "") +
+                    std::to_string(pending) + " not judged yet)");
   }
   return lines;
 }
 
 }  // namespace
+
+std::string ConsoleTally(const ConsoleModel& m) {
+  int counts[7] = {};
+  int finals = 0;
+  for (const ConsoleUnit& u : m.units) {
+    if (!u.final_result) continue;
+    ++finals;
+    ++counts[store::OutcomeFromNumber(u.verdict)];
+  }
+  if (finals == 0) return "";
+  std::string out = "final:";
+  for (pb::Outcome o : {pb::PASS, pb::MARGINAL, pb::FAIL, pb::INCONCLUSIVE, pb::ABORTED,
+                        pb::ERROR}) {
+    if (counts[o] == 0 && !store::CountsInYield(o)) continue;
+    out += " " + std::to_string(counts[o]) + " " + store::OutcomeText(o) + ",";
+  }
+  if (counts[pb::OUTCOME_UNSET] > 0) out += " " + std::to_string(counts[pb::OUTCOME_UNSET]) + " not judged,";
+  out.back() = ';';
+  const int judged = counts[pb::PASS] + counts[pb::MARGINAL] + counts[pb::FAIL];
+  if (judged == 0) return out + " yield not measurable: no judged unit";
+  return out + Printf(" yield %.0f%%", 100.0 * (counts[pb::PASS] + counts[pb::MARGINAL]) / judged) +
+         " of " + std::to_string(judged) + " judged unit" + (judged == 1 ? "" : "s");
+}
 
 std::string FormatDuration(double seconds) {
   const long s = std::lround(std::max(0.0, seconds));
@@ -253,6 +290,8 @@ std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int hei
                                        ? AxisRows(m)
                                        : UnitRows(m, std::max(1, room));
   out.insert(out.end(), table.begin(), table.end());
+  const std::string tally = ConsoleTally(m);
+  if (!tally.empty() && static_cast<int>(out.size()) + kNoticeLines < height) out.push_back(tally);
   out.push_back("");
   out.push_back(m.notice.empty() ? "Ctrl-C: stop the soak (runs are archived as aborted)" : m.notice);
   if (static_cast<int>(out.size()) > height) out.resize(static_cast<size_t>(std::max(0, height)));

@@ -25,7 +25,9 @@ struct ConsoleAxis {
   std::string name;
   double bias_instability = std::numeric_limits<double>::quiet_NaN();  // live estimate
   std::string unit;        // of bias_instability, e.g. "deg/h"
-  int8_t outcome = 0;      // worst measurement outcome of the axis (measurement_t.OUTCOME_*)
+  // The worst measurement outcome of the axis (measurement_t.OUTCOME_*;
+  // FAIL > INCONCLUSIVE > MARGINAL > PASS, store::OutcomeSeverity).
+  int8_t outcome = 0;
 };
 
 struct ConsoleUnit {
@@ -64,6 +66,11 @@ double ConsoleProgress(const ConsoleModel& model);
 // The screen, one string per line, each at most `width` columns, at most
 // `height` lines.
 std::vector<std::string> RenderConsole(const ConsoleModel& model, int width, int height);
+
+// The final verdicts so far, e.g. "final: 3 PASS, 0 MARGINAL, 1 FAIL, 1
+// ABORTED; yield 75% of 4 judged units" (the yield over PASS, MARGINAL and
+// FAIL units only); "" while no run has its final result.
+std::string ConsoleTally(const ConsoleModel& model);
 
 // One line for a log or a pipe (no terminal): progress, samples, runs archived.
 std::string ConsoleSummaryLine(const ConsoleModel& model);

@@ -97,6 +97,41 @@ TEST(StationConsoleTest, FinalVerdictsAreUpperCase) {
   EXPECT_NE(screen.find("done"), std::string::npos) << screen;
 }
 
+// INCONCLUSIVE, ABORTED and ERROR are shown as such, and the tally's yield
+// counts the units judged PASS, MARGINAL or FAIL only.
+TEST(StationConsoleTest, EveryOutcomeIsShownAndTheYieldCountsJudgedUnitsOnly) {
+  ConsoleModel m = Model();
+  m.units.clear();
+  m.units.push_back(Unit("A1", "SN-1", 600, measurement_t::OUTCOME_PASS, true));
+  m.units.push_back(Unit("A2", "SN-2", 600, measurement_t::OUTCOME_FAIL, true));
+  m.units.push_back(Unit("A3", "SN-3", 600, measurement_t::OUTCOME_INCONCLUSIVE, true));
+  m.units.push_back(Unit("B1", "SN-4", 100, measurement_t::OUTCOME_ABORTED, true));
+  m.units.push_back(Unit("B2", "SN-5", 10, measurement_t::OUTCOME_ERROR, true));
+  m.units.push_back(Unit("B3", "SN-6", 300, measurement_t::OUTCOME_UNSET));
+  const std::string screen = Screen(RenderConsole(m, 160, 50));
+  for (const char* shown : {"INCONCLUSIVE", "ABORTED", "ERROR", "FAIL", "PASS"}) {
+    EXPECT_NE(screen.find(shown), std::string::npos) << shown << "\n" << screen;
+  }
+  // 1 of the 2 units judged PASS, MARGINAL or FAIL passes: 50 %, not 1 of 5
+  EXPECT_EQ(ConsoleTally(m),
+            "final: 1 PASS, 0 MARGINAL, 1 FAIL, 1 INCONCLUSIVE, 1 ABORTED, 1 ERROR; yield 50% of 2 "
+            "judged units");
+  EXPECT_NE(screen.find(ConsoleTally(m)), std::string::npos) << screen;
+  // AND provisional: lower case with '?'; the per-unit table marks an
+  // inconclusive value '?', and lists the FAIL first, then ERROR, ABORTED,
+  // INCONCLUSIVE
+  m.units[2].final_result = false;
+  EXPECT_NE(Screen(RenderConsole(m, 160, 50)).find("inconclusive?"), std::string::npos);
+  const std::string small = Screen(RenderConsole(m, 120, 14));
+  EXPECT_NE(small.find("10.2?"), std::string::npos) << small;
+  EXPECT_LT(small.find("SN-2"), small.find("SN-5")) << small;
+  EXPECT_LT(small.find("SN-5"), small.find("SN-4")) << small;
+  // AND no judged unit: the yield is not measurable
+  m.units.erase(m.units.begin(), m.units.begin() + 3);
+  EXPECT_NE(ConsoleTally(m).find("yield not measurable: no judged unit"), std::string::npos)
+      << ConsoleTally(m);
+}
+
 TEST(StationConsoleTest, SmallScreenShowsAUnitPerRowAttentionFirst) {
   ConsoleModel m = Model();
   for (int i = 4; i <= 40; ++i) {

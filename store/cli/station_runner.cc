@@ -29,6 +29,7 @@
 #include "imuqual/unit_result_t.hpp"
 #include "store/archive.h"
 #include "store/cli/station_console.h"
+#include "store/outcome.h"
 #include "store/store_service.h"
 
 namespace imuqual::cli {
@@ -298,10 +299,17 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
         for (ConsoleAxis& x : u->axes) x.outcome = 0;
         for (const imuqual::measurement_t& m : r.measurements) {
           const bool counts = r.is_final || (std::isfinite(m.value) && m.name != "duration");
-          if (counts && !r.is_final) u->verdict = std::max(u->verdict, m.outcome);
+          // The worst: FAIL > INCONCLUSIVE > MARGINAL > PASS (not the codes' order).
+          auto worst = [](int8_t a, int8_t b) {
+            return store::OutcomeSeverity(store::OutcomeFromNumber(b)) >
+                           store::OutcomeSeverity(store::OutcomeFromNumber(a))
+                       ? b
+                       : a;
+          };
+          if (counts && !r.is_final) u->verdict = worst(u->verdict, m.outcome);
           for (ConsoleAxis& x : u->axes) {
             if (x.name != m.axis) continue;
-            if (counts) x.outcome = std::max(x.outcome, m.outcome);
+            if (counts) x.outcome = worst(x.outcome, m.outcome);
             if (m.name == "bias_instability") {
               x.bias_instability = m.value;
               x.unit = m.unit;

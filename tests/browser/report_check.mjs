@@ -109,12 +109,13 @@ function visibleMatches(text, exact) {
 }
 
 // judge::Summarize, recomputed: n, mean, sample sd, min, max, yield over
-// judged values, capability against the limits.
+// PASS, MARGINAL and FAIL values, capability against the limits.
 function summarize(group) {
   const values = group.values.filter((v) => v !== null && Number.isFinite(v));
   const s = { n: values.length, mean: null, sd: null, min: null, max: null, yield: null,
               capability: null, kind: '' };
-  const judged = group.outcomes.filter((o) => o !== null);
+  // An INCONCLUSIVE value is neither a pass nor a loss.
+  const judged = group.outcomes.filter((o) => o === 'PASS' || o === 'MARGINAL' || o === 'FAIL');
   if (judged.length > 0) {
     s.yield = judged.filter((o) => o === 'PASS' || o === 'MARGINAL').length / judged.length;
   }
@@ -257,12 +258,12 @@ async function main() {
   const overview = sqlite(db, `SELECT * FROM lot_overview WHERE lot = ${sqlText(lot)}`);
   const measurements = sqlite(db, `
 SELECT l.serial AS unit, l.run_id, m.axis, m.name, m.value, m.unit, m.low, m.high, m.outcome
-FROM latest_runs l
+FROM final_runs l
 JOIN measurements m ON m.run_key = l.run_key
 LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis
 WHERE l.lot = ${sqlText(lot)}
 ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
-  const runs = sqlite(db, `SELECT run_id, serial, verdict, reasons FROM latest_runs WHERE lot = ${sqlText(lot)}`);
+  const runs = sqlite(db, `SELECT run_id, serial, verdict, reasons FROM final_runs WHERE lot = ${sqlText(lot)}`);
 
   const { dom, problems, ascending, descending } =
       await renderAndRead(html, args.chromium, path.join(work, 'chromium-profile'));
@@ -359,7 +360,7 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
     if (runVerdict !== (r.run_verdict || 'not judged')) fail(`${r.unit} ${r.axis}: unit verdict '${runVerdict}', archive '${r.run_verdict}'`);
   }
 
-  // Statistics, recomputed from the measurements of each unit's latest run
+  // Statistics, recomputed from the measurements of each unit's final run
   // (not the parameters of each unit's own noise model, model_*: units with
   // different models have nothing in common to average).
   const groups = new Map();
@@ -406,8 +407,10 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
     }
   }
 
-  // Units needing attention: exactly the FAIL and MARGINAL units, with their reasons.
-  const flagged = runs.filter((r) => r.verdict === 'FAIL' || r.verdict === 'MARGINAL');
+  // Units needing attention: exactly the FAIL, MARGINAL, INCONCLUSIVE,
+  // ABORTED and ERROR units, with their reasons.
+  const flagged = runs.filter((r) =>
+    ['FAIL', 'MARGINAL', 'INCONCLUSIVE', 'ABORTED', 'ERROR'].includes(r.verdict));
   const pageFlagged = new Map(dom.attention.map((a) => [a.run, a]));
   if (dom.attention.length !== flagged.length) fail(`${dom.attention.length} units listed as failing or marginal, the archive has ${flagged.length}`);
   for (const r of flagged) {
