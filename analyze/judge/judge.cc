@@ -94,17 +94,16 @@ Decision DecideValue(const pb::Limit& limit, pb::Limit::DecisionRule rule, doubl
   const std::string band = w > 0 ? " (w = " + Num(w) + ", " + rule_name + ")" : "";
 
   Decision d;
-  const Side sides[2] = {
-      !limit.has_low() ? Side::kInside
-      : bound          ? (v < limit.low() ? Side::kOutside  // the truth lies lower still
-                          : Guarded(rule) ? Side::kInconclusive
-                                          : Side::kInside)
-                       : AtBound(rule, limit.low() - v, w),
-      !limit.has_high() ? Side::kInside
-      : bound           ? (v <= limit.high()  ? Side::kInside  // the truth lies lower: conforms
-                           : Guarded(rule) ? Side::kInconclusive
-                                           : Side::kOutside)
-                        : AtBound(rule, v - limit.high(), w)};
+  auto at = [&](bool high) {
+    if (!(high ? limit.has_high() : limit.has_low())) return Side::kInside;
+    const double b = high ? limit.high() : limit.low();
+    if (!bound) return AtBound(rule, high ? v - b : b - v, w);
+    // An upper bound: the truth lies at or below it.
+    if (high && v <= b) return Side::kInside;  // conforms, whatever the band
+    if (!high && v < b) return Side::kOutside;  // lies lower still
+    return Guarded(rule) ? Side::kInconclusive : high ? Side::kOutside : Side::kInside;
+  };
+  const Side sides[2] = {at(false), at(true)};
   const char* names[2] = {"low", "high"};
   const double bounds[2] = {limit.low(), limit.high()};
   // A FAIL at either bound first, then an inconclusive one.
@@ -228,12 +227,11 @@ void JudgeMeasurement(const pb::TestPlan& plan, const pb::Limit& limit, pb::Meas
     d.outcome = pb::FAIL;
     if (m->model_inadequate()) {
       // Withheld because the noise model does not fit: the plan says what
-      // that means.
+      // that means, and the note ("not measurable: noise model inadequate
+      // (...)") is the reason.
       d.outcome = plan.on_inadequate_model() == pb::TestPlan::INADEQUATE_FAIL ? pb::FAIL
                                                                               : pb::MARGINAL;
-    }
-    if (m->model_inadequate()) {
-      d.reason = Who(*m) + " " + m->note();  // "not measurable: noise model inadequate (...)"
+      d.reason = Who(*m) + " " + m->note();
     } else {
       d.reason =
           Who(*m) + " not measured" + (m->note().empty() ? "" : " (" + m->note() + ")");
