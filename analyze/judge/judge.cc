@@ -99,7 +99,7 @@ Decision DecideValue(const pb::Limit& limit, pb::Limit::DecisionRule rule, doubl
     const double b = high ? limit.high() : limit.low();
     if (!bound) return AtBound(rule, high ? v - b : b - v, w);
     // An upper bound: the truth lies at or below it.
-    if (high && v <= b) return Side::kInside;  // conforms, whatever the band
+    if (high && v <= b) return Side::kInside;   // conforms, whatever the band
     if (!high && v < b) return Side::kOutside;  // lies lower still
     return Guarded(rule) ? Side::kInconclusive : high ? Side::kOutside : Side::kInside;
   };
@@ -229,18 +229,17 @@ void JudgeMeasurement(const pb::TestPlan& plan, const pb::Limit& limit, pb::Meas
       // Withheld because the noise model does not fit: the plan says what
       // that means, and the note ("not measurable: noise model inadequate
       // (...)") is the reason.
-      d.outcome = plan.on_inadequate_model() == pb::TestPlan::INADEQUATE_FAIL ? pb::FAIL
-                                                                              : pb::MARGINAL;
+      d.outcome =
+          plan.on_inadequate_model() == pb::TestPlan::INADEQUATE_FAIL ? pb::FAIL : pb::MARGINAL;
       d.reason = Who(*m) + " " + m->note();
     } else {
-      d.reason =
-          Who(*m) + " not measured" + (m->note().empty() ? "" : " (" + m->note() + ")");
+      d.reason = Who(*m) + " not measured" + (m->note().empty() ? "" : " (" + m->note() + ")");
     }
   } else {
     double w = 0;
     bool for_lack_of_u = false;
-    const bool has_u = m->has_uncertainty() && std::isfinite(m->uncertainty()) &&
-                       m->uncertainty() >= 0;
+    const bool has_u =
+        m->has_uncertainty() && std::isfinite(m->uncertainty()) && m->uncertainty() >= 0;
     if (Guarded(rule) && m->qualifier() != pb::UPPER_BOUND) {
       if (!has_u) {
         // No uncertainty to guard with: said, not pretended.
@@ -304,8 +303,7 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
     for (const AxisDesc& axis : axes) {
       if (Specificity(limit, &axis) < 0 || UnitFor(*def, axis.kind).empty()) continue;
       if (!has(axis.name, limit.measurement())) {
-        measurements->push_back(
-            missing(axis.name, limit.measurement(), UnitFor(*def, axis.kind)));
+        measurements->push_back(missing(axis.name, limit.measurement(), UnitFor(*def, axis.kind)));
       }
     }
   }

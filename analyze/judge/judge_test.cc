@@ -210,8 +210,7 @@ pb::TestPlan RulePlan(pb::Limit::DecisionRule rule, double k, bool low, bool hig
 }
 
 // Judges value ± u (u < 0: no uncertainty) under `plan`.
-pb::Measurement JudgeOne(const pb::TestPlan& plan, double value, double u,
-                         Judgement* j = nullptr,
+pb::Measurement JudgeOne(const pb::TestPlan& plan, double value, double u, Judgement* j = nullptr,
                          pb::Qualifier qualifier = pb::QUALIFIER_NONE) {
   std::vector<pb::Measurement> ms = {M("gx", "bias_instability", value, "deg/h")};
   if (u >= 0) ms[0].set_uncertainty(u);
@@ -351,8 +350,8 @@ TEST(DecisionRuleTest, NoUncertaintyMeansSimpleAcceptanceSaidSo) {
 // guard band; above it, it proves nothing under a guarded rule and FAILs
 // under simple acceptance (as ever).
 TEST(DecisionRuleTest, UpperBounds) {
-  for (pb::Limit::DecisionRule rule : {pb::Limit::GUARDED, pb::Limit::GUARDED_ACCEPTANCE,
-                                       pb::Limit::GUARDED_REJECTION}) {
+  for (pb::Limit::DecisionRule rule :
+       {pb::Limit::GUARDED, pb::Limit::GUARDED_ACCEPTANCE, pb::Limit::GUARDED_REJECTION}) {
     const pb::TestPlan plan = RulePlan(rule, 0, false, true);
     Judgement j;
     pb::Measurement m = JudgeOne(plan, 9.9, 0.5, &j, pb::UPPER_BOUND);

@@ -94,7 +94,8 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
     pb::Measurement& m = out[i];
     if (unresolved) m.set_qualifier(pb::MINIMUM_NOT_RESOLVED);
     if (m.has_uncertainty()) {
-      m.set_uncertainty_method(i + 2 == out.size() ? std::string(kMinimumMethod) + "; divided by 0.664 like the value"
+      m.set_uncertainty_method(i + 2 == out.size() ? std::string(kMinimumMethod) +
+                                                         "; divided by 0.664 like the value"
                                                    : kMinimumMethod);
     } else if (m.name() == kTauAtMinimum) {
       m.set_uncertainty_method(kNotYetEstimated);

@@ -82,7 +82,8 @@ TEST(MeasureNoiseModelTest, ModelOfAnExactCurveIsJudgedAndArchived) {
   EXPECT_GT(r->value(), 0);
   EXPECT_FALSE(r->has_uncertainty());
   EXPECT_EQ(r->qualifier(), pb::UPPER_BOUND);
-  EXPECT_TRUE(r->uncertainty_method().starts_with("none: upper bound only")) << r->uncertainty_method();
+  EXPECT_TRUE(r->uncertainty_method().starts_with("none: upper bound only"))
+      << r->uncertainty_method();
   // Measured terms: how their sigma was obtained.
   for (const pb::Measurement* m : {n, k, b}) {
     EXPECT_EQ(m->qualifier(), pb::QUALIFIER_NONE) << m->name();

@@ -125,21 +125,22 @@ TEST(PlanTest, ValidatePlanChecksDecodedPlans) {
 // A guarded rule is fine on any measurement, with or without guard_k, and a
 // plan-wide default.
 TEST(PlanTest, AcceptsDecisionRules) {
-  auto plan = ParsePlanText(R"pb(
-                              nominal_rate_hz: 100
-                              default_decision_rule: GUARDED_ACCEPTANCE
-                              default_guard_k: 1.5
-                              limits { measurement: "duration" low: 5 unit: "s" decision_rule: GUARDED }
-                              limits {
-                                measurement: "gap_fraction"
-                                high: 0.01
-                                unit: "1"
-                                decision_rule: GUARDED_REJECTION
-                                guard_k: 3
-                              }
-                              limits { measurement: "timing_jitter" high: 5 unit: "ms" decision_rule: SIMPLE }
-                            )pb",
-                            "p.textproto");
+  auto plan = ParsePlanText(
+      R"pb(
+        nominal_rate_hz: 100
+        default_decision_rule: GUARDED_ACCEPTANCE
+        default_guard_k: 1.5
+        limits { measurement: "duration" low: 5 unit: "s" decision_rule: GUARDED }
+        limits {
+          measurement: "gap_fraction"
+          high: 0.01
+          unit: "1"
+          decision_rule: GUARDED_REJECTION
+          guard_k: 3
+        }
+        limits { measurement: "timing_jitter" high: 5 unit: "ms" decision_rule: SIMPLE }
+      )pb",
+      "p.textproto");
   ASSERT_TRUE(plan.ok()) << plan.status().ToString();
   EXPECT_EQ(plan->limits(1).guard_k(), 3);
 }

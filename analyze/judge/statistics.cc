@@ -33,8 +33,8 @@ Summary Summarize(std::span<const double> values, std::span<const pb::Outcome> o
     // Yield counts PASS and MARGINAL against PASS, MARGINAL and FAIL: an
     // INCONCLUSIVE value is neither a pass nor a loss (and ABORTED / ERROR
     // are no measurement's outcome).
-    if (i < outcomes.size() && (outcomes[i] == pb::PASS || outcomes[i] == pb::MARGINAL ||
-                                outcomes[i] == pb::FAIL)) {
+    if (i < outcomes.size() &&
+        (outcomes[i] == pb::PASS || outcomes[i] == pb::MARGINAL || outcomes[i] == pb::FAIL)) {
       ++s.judged;
       if (outcomes[i] == pb::PASS || outcomes[i] == pb::MARGINAL) ++s.passed;
       if (outcomes[i] == pb::MARGINAL) ++s.marginal;

@@ -194,7 +194,8 @@ TEST(RunAnalyzerTest, AbnormalEndsAreAbortedOrErrorNeverFail) {
   // GIVEN its source failed.
   out = a->Outcome(true, EndingForRunState("aborted", "b1.csv:3002: 'oops' is not a number"));
   EXPECT_EQ(out.judgement.verdict, pb::ERROR);
-  EXPECT_EQ(out.judgement.reasons[0], "run aborted by a failure: b1.csv:3002: 'oops' is not a number");
+  EXPECT_EQ(out.judgement.reasons[0],
+            "run aborted by a failure: b1.csv:3002: 'oops' is not a number");
   EXPECT_EQ(duration_outcome(out), pb::FAIL);
 
   // GIVEN its source went silent.
