@@ -587,7 +587,7 @@ Status AcquireService::Run() {
   for (;;) {
     now = MonotonicSeconds();
     if (ShutdownRequested()) {
-      s.Abort("shutdown requested");
+      s.Abort(kShutdownEndReason);
       s.LogSummary("stopped");
       return Status::Ok();
     }

@@ -6,6 +6,12 @@
 
 namespace imuqual {
 
+// run_t.end_reason of a run aborted because the operator stopped the
+// station (Ctrl-C, a hang-up, SIGTERM). An aborted run with any other end
+// reason was ended by a failure (its source, or the station): the analysis
+// tells the two apart by this reason (verdict ABORTED, else ERROR).
+inline constexpr char kShutdownEndReason[] = "shutdown requested";
+
 // Installs the handlers (idempotent). SIGPIPE is ignored.
 void InstallShutdownHandlers();
 bool ShutdownRequested();

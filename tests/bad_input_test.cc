@@ -547,8 +547,9 @@ TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchiv
                           dir.path("b1.csv") + ":3002: 'oops' is not a number (column 'gy'))"),
             std::string::npos)
       << r.output;
-  // AND B1 is archived as aborted and FAILs with that reason, while G1 and
-  // G2 ran to the end and were judged and archived.
+  // AND B1 is archived as aborted with the verdict ERROR (its source failed:
+  // nothing is said of the unit) and that reason, while G1 and G2 ran to the
+  // end and were judged and archived.
   auto archive = store::Archive::Open(db, store::Archive::Mode::kRead);
   ASSERT_TRUE(archive.ok()) << archive.status().message();
   store::RunFilter lot;
@@ -559,7 +560,7 @@ TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchiv
   for (const store::RunRow& run : *runs) {
     if (run.unit == "B1") {
       EXPECT_EQ(run.state, "aborted");
-      EXPECT_EQ(run.verdict, "FAIL");
+      EXPECT_EQ(run.verdict, "ERROR");
       EXPECT_NE(run.reasons.find("b1.csv:3002: 'oops' is not a number"), std::string::npos)
           << run.reasons;
     } else {

@@ -41,24 +41,104 @@ void CopyLimits(const pb::Limit& limit, pb::Measurement* m) {
   if (limit.has_marginal_high()) m->set_marginal_high(limit.marginal_high());
 }
 
-std::string Reason(const pb::Measurement& m) {
-  const std::string who = (m.axis().empty() ? "" : m.axis() + ": ") + m.name();
-  const std::string unit = m.unit() == "1" ? "" : " " + m.unit();
-  if (std::isnan(m.value())) {
-    if (m.note().starts_with("not measurable")) return who + " " + m.note();
-    return who + " not measured" + (m.note().empty() ? "" : " (" + m.note() + ")");
-  }
-  const std::string v = who + " " + Num(m.value()) + unit +
-                        (m.note().starts_with("upper bound") ? " (upper bound)" : "");
-  if (m.outcome() == pb::FAIL) {
-    if (m.has_low() && m.value() < m.low()) return v + " below low limit " + Num(m.low()) + unit;
-    return v + " above high limit " + Num(m.high()) + unit;
-  }
-  if (m.has_marginal_low() && m.value() < m.marginal_low()) {
-    return v + " marginal (below " + Num(m.marginal_low()) + unit + ")";
-  }
-  return v + " marginal (above " + Num(m.marginal_high()) + unit + ")";
+bool Guarded(pb::Limit::DecisionRule rule) {
+  return rule == pb::Limit::GUARDED || rule == pb::Limit::GUARDED_ACCEPTANCE ||
+         rule == pb::Limit::GUARDED_REJECTION;
 }
+
+// What one bound (low or high) says of a value.
+enum class Side { kInside, kInconclusive, kOutside };
+
+// `outside`: how far the value lies beyond the bound (negative: inside);
+// `w`: the guard band's half-width (0: none).
+Side AtBound(pb::Limit::DecisionRule rule, double outside, double w) {
+  switch (rule) {
+    case pb::Limit::GUARDED:
+      if (std::abs(outside) < w) return Side::kInconclusive;
+      break;
+    case pb::Limit::GUARDED_ACCEPTANCE:
+      if (outside > 0) return Side::kOutside;
+      return -outside >= w ? Side::kInside : Side::kInconclusive;
+    case pb::Limit::GUARDED_REJECTION:
+      if (outside <= 0) return Side::kInside;
+      return outside >= w ? Side::kOutside : Side::kInconclusive;
+    default:
+      break;
+  }
+  return outside > 0 ? Side::kOutside : Side::kInside;
+}
+
+// The outcome of one judged measurement and, unless PASS, why.
+struct Decision {
+  pb::Outcome outcome = pb::PASS;
+  std::string reason;
+};
+
+std::string Who(const pb::Measurement& m) {
+  return (m.axis().empty() ? "" : m.axis() + ": ") + m.name();
+}
+
+std::string UnitSuffix(const pb::Measurement& m) { return m.unit() == "1" ? "" : " " + m.unit(); }
+
+// Applies `limit` under `rule` with guard band `w` (0: none) to the
+// measurement's finite value.
+Decision DecideValue(const pb::Limit& limit, pb::Limit::DecisionRule rule, double w,
+                     const pb::Measurement& m) {
+  const double v = m.value();
+  const std::string unit = UnitSuffix(m);
+  const bool bound = m.qualifier() == pb::UPPER_BOUND;
+  const bool with_u = w > 0 && m.has_uncertainty();
+  const std::string shown = Who(m) + " " + Num(v) + (with_u ? " ± " + Num(m.uncertainty()) : "") +
+                            unit + (bound ? " (upper bound)" : "");
+  const std::string rule_name = DecisionRuleName(rule);
+  const std::string band = w > 0 ? " (w = " + Num(w) + ", " + rule_name + ")" : "";
+
+  Decision d;
+  auto at = [&](bool high) {
+    if (!(high ? limit.has_high() : limit.has_low())) return Side::kInside;
+    const double b = high ? limit.high() : limit.low();
+    if (!bound) return AtBound(rule, high ? v - b : b - v, w);
+    // An upper bound: the truth lies at or below it.
+    if (high && v <= b) return Side::kInside;   // conforms, whatever the band
+    if (!high && v < b) return Side::kOutside;  // lies lower still
+    return Guarded(rule) ? Side::kInconclusive : high ? Side::kOutside : Side::kInside;
+  };
+  const Side sides[2] = {at(false), at(true)};
+  const char* names[2] = {"low", "high"};
+  const double bounds[2] = {limit.low(), limit.high()};
+  // A FAIL at either bound first, then an inconclusive one.
+  for (int i = 0; i < 2; ++i) {
+    if (sides[i] != Side::kOutside) continue;
+    d.outcome = pb::FAIL;
+    d.reason = shown + (i == 0 ? " below " : " above ") + names[i] + " limit " + Num(bounds[i]) +
+               unit + band;
+    return d;
+  }
+  for (int i = 0; i < 2; ++i) {
+    if (sides[i] != Side::kInconclusive) continue;
+    d.outcome = pb::INCONCLUSIVE;
+    if (bound) {
+      d.reason = shown + ": only an upper bound, " + (i == 0 ? "not shown above" : "above") +
+                 " the " + names[i] + " limit " + Num(bounds[i]) + unit + ": inconclusive (" +
+                 rule_name + ")";
+    } else {
+      d.reason = shown + " within the guard band (w = " + Num(w) + ") of the " + names[i] +
+                 " limit " + Num(bounds[i]) + unit + ": inconclusive (" + rule_name + ")";
+    }
+    return d;
+  }
+  // Marginal limits are always simple.
+  if (limit.has_marginal_low() && v < limit.marginal_low()) {
+    d.outcome = pb::MARGINAL;
+    d.reason = shown + " marginal (below " + Num(limit.marginal_low()) + unit + ")";
+  } else if (limit.has_marginal_high() && v > limit.marginal_high()) {
+    d.outcome = pb::MARGINAL;
+    d.reason = shown + " marginal (above " + Num(limit.marginal_high()) + unit + ")";
+  }
+  return d;
+}
+
+constexpr const char* kNoUncertainty = "no uncertainty: simple acceptance";
 
 }  // namespace
 
@@ -70,9 +150,42 @@ const char* OutcomeName(pb::Outcome outcome) {
       return "MARGINAL";
     case pb::FAIL:
       return "FAIL";
+    case pb::INCONCLUSIVE:
+      return "INCONCLUSIVE";
+    case pb::ABORTED:
+      return "ABORTED";
+    case pb::ERROR:
+      return "ERROR";
     default:
       return "-";
   }
+}
+
+const char* DecisionRuleName(pb::Limit::DecisionRule rule) {
+  switch (rule) {
+    case pb::Limit::SIMPLE:
+      return "simple";
+    case pb::Limit::GUARDED:
+      return "guarded";
+    case pb::Limit::GUARDED_ACCEPTANCE:
+      return "guarded acceptance";
+    case pb::Limit::GUARDED_REJECTION:
+      return "guarded rejection";
+    default:
+      return "default";
+  }
+}
+
+pb::Limit::DecisionRule ResolvedRule(const pb::TestPlan& plan, const pb::Limit& limit) {
+  if (limit.decision_rule() != pb::Limit::RULE_DEFAULT) return limit.decision_rule();
+  if (plan.default_decision_rule() != pb::Limit::RULE_DEFAULT) return plan.default_decision_rule();
+  return pb::Limit::SIMPLE;
+}
+
+double ResolvedGuardK(const pb::TestPlan& plan, const pb::Limit& limit) {
+  if (limit.has_guard_k()) return limit.guard_k();
+  if (plan.has_default_guard_k()) return plan.default_guard_k();
+  return kDefaultGuardK;
 }
 
 pb::Outcome Evaluate(const pb::Limit& limit, double value) {
@@ -102,6 +215,54 @@ const pb::Limit* FindLimit(const pb::TestPlan& plan, const std::string& name,
   return best;
 }
 
+void JudgeMeasurement(const pb::TestPlan& plan, const pb::Limit& limit, pb::Measurement* m,
+                      std::string* reason) {
+  CopyLimits(limit, m);
+  m->clear_guard_band();
+  pb::Limit::DecisionRule rule = ResolvedRule(plan, limit);
+  Decision d;
+  if (std::isnan(m->value())) {
+    // Nothing to compare: the rule does not enter.
+    m->set_decision_rule(pb::Limit::SIMPLE);
+    d.outcome = pb::FAIL;
+    if (m->model_inadequate()) {
+      // Withheld because the noise model does not fit: the plan says what
+      // that means, and the note ("not measurable: noise model inadequate
+      // (...)") is the reason.
+      d.outcome =
+          plan.on_inadequate_model() == pb::TestPlan::INADEQUATE_FAIL ? pb::FAIL : pb::MARGINAL;
+      d.reason = Who(*m) + " " + m->note();
+    } else {
+      d.reason = Who(*m) + " not measured" + (m->note().empty() ? "" : " (" + m->note() + ")");
+    }
+  } else {
+    double w = 0;
+    bool for_lack_of_u = false;
+    const bool has_u =
+        m->has_uncertainty() && std::isfinite(m->uncertainty()) && m->uncertainty() >= 0;
+    if (Guarded(rule) && m->qualifier() != pb::UPPER_BOUND) {
+      if (!has_u) {
+        // No uncertainty to guard with: said, not pretended.
+        rule = pb::Limit::SIMPLE;
+        for_lack_of_u = true;
+        if (!m->note().ends_with(kNoUncertainty)) {
+          m->set_note(m->note().empty() ? kNoUncertainty : m->note() + "; " + kNoUncertainty);
+        }
+      } else {
+        w = ResolvedGuardK(plan, limit) * m->uncertainty();
+      }
+    }
+    m->set_decision_rule(rule);
+    if (w > 0) m->set_guard_band(w);
+    d = DecideValue(limit, rule, w, *m);
+    if (d.outcome != pb::PASS && for_lack_of_u) {
+      d.reason += std::string(" (") + kNoUncertainty + ")";
+    }
+  }
+  m->set_outcome(d.outcome);
+  if (reason != nullptr) *reason = d.outcome == pb::PASS ? "" : d.reason;
+}
+
 Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
                 std::vector<pb::Measurement>* measurements) {
   // Implicit limit from the plan's minimum duration.
@@ -119,60 +280,58 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
       return m.axis() == axis && m.name() == name;
     });
   };
+  auto missing = [](const std::string& axis, const std::string& name, std::string_view unit) {
+    pb::Measurement m;
+    m.set_axis(axis);
+    m.set_name(name);
+    m.set_value(std::nan(""));
+    m.set_unit(std::string(unit));
+    m.set_note("no value was produced");
+    m.set_qualifier(pb::NOT_MEASURABLE);
+    m.set_uncertainty_method("none: not measured");
+    return m;
+  };
   for (const pb::Limit& limit : effective.limits()) {
     const MeasurementDef* def = FindMeasurement(limit.measurement());
     if (def == nullptr) continue;  // ValidatePlan rejects these
     if (def->run_level) {
       if (!has("", limit.measurement())) {
-        pb::Measurement m;
-        m.set_name(limit.measurement());
-        m.set_value(std::nan(""));
-        m.set_unit(std::string(def->gyro_unit));
-        m.set_note("no value was produced");
-        measurements->push_back(m);
+        measurements->push_back(missing("", limit.measurement(), def->gyro_unit));
       }
       continue;
     }
     for (const AxisDesc& axis : axes) {
       if (Specificity(limit, &axis) < 0 || UnitFor(*def, axis.kind).empty()) continue;
       if (!has(axis.name, limit.measurement())) {
-        pb::Measurement m;
-        m.set_axis(axis.name);
-        m.set_name(limit.measurement());
-        m.set_value(std::nan(""));
-        m.set_unit(std::string(UnitFor(*def, axis.kind)));
-        m.set_note("no value was produced");
-        measurements->push_back(m);
+        measurements->push_back(missing(axis.name, limit.measurement(), UnitFor(*def, axis.kind)));
       }
     }
   }
 
   Judgement j;
-  bool any_judged = false, any_fail = false, any_marginal = false;
+  bool any_judged = false, any_fail = false, any_inconclusive = false, any_marginal = false;
   for (pb::Measurement& m : *measurements) {
     const AxisDesc* axis = m.axis().empty() ? nullptr : FindAxis(axes, m.axis());
     const pb::Limit* limit = FindLimit(effective, m.name(), axis);
     if (limit == nullptr || (!m.axis().empty() && axis == nullptr)) {
       m.set_outcome(pb::OUTCOME_UNSET);
+      m.set_decision_rule(pb::Limit::RULE_DEFAULT);
+      m.clear_guard_band();
       continue;
     }
-    CopyLimits(*limit, &m);
-    m.set_outcome(Evaluate(*limit, m.value()));
-    if (m.model_inadequate() && std::isnan(m.value())) {
-      // Withheld because the noise model does not fit: the plan says what
-      // that means.
-      m.set_outcome(plan.on_inadequate_model() == pb::TestPlan::INADEQUATE_FAIL ? pb::FAIL
-                                                                                : pb::MARGINAL);
-    }
+    std::string reason;
+    JudgeMeasurement(effective, *limit, &m, &reason);
     any_judged = true;
-    if (m.outcome() == pb::FAIL) any_fail = true;
-    if (m.outcome() == pb::MARGINAL) any_marginal = true;
-    if (m.outcome() == pb::FAIL || m.outcome() == pb::MARGINAL) j.reasons.push_back(Reason(m));
+    any_fail |= m.outcome() == pb::FAIL;
+    any_inconclusive |= m.outcome() == pb::INCONCLUSIVE;
+    any_marginal |= m.outcome() == pb::MARGINAL;
+    if (!reason.empty()) j.reasons.push_back(reason);
   }
-  j.verdict = !any_judged    ? pb::OUTCOME_UNSET
-              : any_fail     ? pb::FAIL
-              : any_marginal ? pb::MARGINAL
-                             : pb::PASS;
+  j.verdict = !any_judged        ? pb::OUTCOME_UNSET
+              : any_fail         ? pb::FAIL
+              : any_inconclusive ? pb::INCONCLUSIVE
+              : any_marginal     ? pb::MARGINAL
+                                 : pb::PASS;
   return j;
 }
 

@@ -19,13 +19,46 @@ struct AxisDesc {
 
 struct Judgement {
   pb::Outcome verdict = pb::OUTCOME_UNSET;  // UNSET: nothing was judged
-  std::vector<std::string> reasons;         // one per FAIL / MARGINAL, in measurement order
+  std::vector<std::string> reasons;  // one per FAIL / INCONCLUSIVE / MARGINAL, in measurement order
 };
 
-// PASS inside [low, high] and inside the marginal band, MARGINAL inside
-// [low, high] but outside [marginal_low, marginal_high], FAIL outside
-// [low, high] or when the value is NaN (not measured).
+// guard_k when neither the limit nor the plan sets one: w = 2 u.
+inline constexpr double kDefaultGuardK = 2.0;
+
+// Simple acceptance: PASS inside [low, high] and inside the marginal band,
+// MARGINAL inside [low, high] but outside [marginal_low, marginal_high], FAIL
+// outside [low, high] or when the value is NaN (not measured).
 pb::Outcome Evaluate(const pb::Limit& limit, double value);
+
+// The decision rule a limit applies: its own, else the plan's
+// default_decision_rule, else SIMPLE (never RULE_DEFAULT).
+pb::Limit::DecisionRule ResolvedRule(const pb::TestPlan& plan, const pb::Limit& limit);
+// Its guard_k: its own, else the plan's default_guard_k, else kDefaultGuardK.
+double ResolvedGuardK(const pb::TestPlan& plan, const pb::Limit& limit);
+
+// Judges one measurement against `limit` of `plan` (ISO 14253-1 /
+// JCGM 106:2012 decision rules), at each of low and high, with the guard
+// band w = guard_k * u (u: the measurement's 1-sigma uncertainty):
+//   SIMPLE              FAIL outside [low, high] (limits inclusive).
+//   GUARDED             INCONCLUSIVE while |value - bound| < w; else simple.
+//   GUARDED_ACCEPTANCE  FAIL outside; INCONCLUSIVE inside by less than w;
+//                       passes the bound only at least w inside.
+//   GUARDED_REJECTION   FAIL only at least w outside; INCONCLUSIVE outside by
+//                       less than w; inside: passes the bound.
+// Marginal limits are always simple (MARGINAL when no bound says FAIL or
+// INCONCLUSIVE). A guarded rule on a value without a finite uncertainty is
+// applied as SIMPLE, recorded so, and the note says "no uncertainty: simple
+// acceptance". A value qualified UPPER_BOUND (the truth lies at or below it)
+// passes a high bound it does not exceed whatever the rule; above it, it is
+// INCONCLUSIVE under a guarded rule ("only an upper bound") and FAIL under
+// SIMPLE; below a low bound it FAILs, above one it is INCONCLUSIVE under a
+// guarded rule (nothing shows the truth is above). NaN values FAIL (not
+// measured), or, withheld for an inadequate noise model (model_inadequate),
+// as the plan's on_inadequate_model says. Sets the limits, outcome,
+// decision_rule (as applied) and guard_band (only when w > 0 was used);
+// `reason` gets why the outcome is not PASS ("" for PASS).
+void JudgeMeasurement(const pb::TestPlan& plan, const pb::Limit& limit, pb::Measurement* m,
+                      std::string* reason);
 
 // The limit of `plan` that applies to measurement `name` on an axis (or run
 // level when axis is nullptr): an axis-specific limit beats an axis-kind
@@ -37,13 +70,19 @@ const pb::Limit* FindLimit(const pb::TestPlan& plan, const std::string& name, co
 // plan's min_duration_s to the "duration" measurement when no explicit limit
 // exists, judges a value withheld because its noise model is inadequate
 // (model_inadequate, NaN) as the plan's on_inadequate_model says (MARGINAL by
-// default) with the note as its reason, and returns the verdict: FAIL if any FAIL, else MARGINAL if any
-// MARGINAL, else PASS (UNSET if no measurement had a limit).
+// default) with the note as its reason, applies each limit's decision rule
+// (JudgeMeasurement), and returns the verdict: FAIL if any FAIL, else
+// INCONCLUSIVE if any INCONCLUSIVE, else MARGINAL if any MARGINAL, else PASS
+// (UNSET if no measurement had a limit). Unjudged measurements get
+// OUTCOME_UNSET and decision_rule RULE_DEFAULT.
 Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
                 std::vector<pb::Measurement>* measurements);
 
-// "PASS", "MARGINAL", "FAIL", "-".
+// "PASS", "MARGINAL", "FAIL", "INCONCLUSIVE", "ABORTED", "ERROR", "-".
 const char* OutcomeName(pb::Outcome outcome);
+
+// "simple", "guarded", "guarded acceptance", "guarded rejection", "default".
+const char* DecisionRuleName(pb::Limit::DecisionRule rule);
 
 }  // namespace imuqual::judge
 

@@ -159,12 +159,302 @@ TEST(JudgeTest, InadequateNoiseModelIsJudgedAsThePlanSays) {
   EXPECT_EQ(Judge(*plan, {{"x", pb::GYRO}}, &ms).verdict, pb::FAIL);
   // An upper bound above the limit fails, and the reason says it is a bound.
   ms = {M("x", "fit_rate_random_walk", 12, "deg/h/sqrt(h)")};
+  ms[0].set_qualifier(pb::UPPER_BOUND);
   ms[0].set_note("upper bound (95 %): not in the selected model");
   j = Judge(*plan, {{"x", pb::GYRO}}, &ms);
   ASSERT_EQ(j.reasons.size(), 1u);
   EXPECT_EQ(j.reasons[0],
             "x: fit_rate_random_walk 12 deg/h/sqrt(h) (upper bound) above high limit 10 "
             "deg/h/sqrt(h)");
+}
+
+// The reason of a NaN value says "not measurable" from model_inadequate, not
+// from its note's wording.
+TEST(JudgeTest, NotMeasurableComesFromTheFlagNotTheNote) {
+  pb::TestPlan plan;
+  plan.set_nominal_rate_hz(100);
+  pb::Limit* lim = plan.add_limits();
+  lim->set_measurement("fit_rate_random_walk");
+  lim->set_high(10);
+  lim->set_unit("deg/h/sqrt(h)");
+  pb::Measurement m = M("x", "fit_rate_random_walk", std::nan(""), "deg/h/sqrt(h)");
+  m.set_qualifier(pb::NOT_MEASURABLE);
+  m.set_note("not measurable: something else");
+  std::vector<pb::Measurement> ms = {m};
+  Judgement j = Judge(plan, {{"x", pb::GYRO}}, &ms);
+  EXPECT_EQ(j.verdict, pb::FAIL);
+  ASSERT_EQ(j.reasons.size(), 1u);
+  EXPECT_EQ(j.reasons[0], "x: fit_rate_random_walk not measured (not measurable: something else)");
+  EXPECT_EQ(ms[0].decision_rule(), pb::Limit::SIMPLE);
+}
+
+// ---- Decision rules (ISO 14253-1, JCGM 106:2012) ----
+
+// A one-measurement plan: bias_instability in [low, high] (either optional)
+// under `rule`, guard_k `k` (<= 0: not set).
+pb::TestPlan RulePlan(pb::Limit::DecisionRule rule, double k, bool low, bool high) {
+  pb::TestPlan plan;
+  plan.set_nominal_rate_hz(100);
+  plan.add_axes()->set_name("gx");
+  plan.mutable_axes(0)->set_kind(pb::GYRO);
+  pb::Limit* lim = plan.add_limits();
+  lim->set_measurement("bias_instability");
+  lim->set_axis_kind(pb::GYRO);
+  lim->set_unit("deg/h");
+  if (low) lim->set_low(2);
+  if (high) lim->set_high(10);
+  lim->set_decision_rule(rule);
+  if (k > 0) lim->set_guard_k(k);
+  EXPECT_TRUE(ValidatePlan(plan).ok()) << ValidatePlan(plan).message();
+  return plan;
+}
+
+// Judges value ± u (u < 0: no uncertainty) under `plan`.
+pb::Measurement JudgeOne(const pb::TestPlan& plan, double value, double u, Judgement* j = nullptr,
+                         pb::Qualifier qualifier = pb::QUALIFIER_NONE) {
+  std::vector<pb::Measurement> ms = {M("gx", "bias_instability", value, "deg/h")};
+  if (u >= 0) ms[0].set_uncertainty(u);
+  ms[0].set_qualifier(qualifier);
+  Judgement local = Judge(plan, {{"gx", pb::GYRO}}, &ms);
+  if (j != nullptr) *j = local;
+  EXPECT_EQ(local.verdict, ms[0].outcome());
+  return ms[0];
+}
+
+pb::Outcome OutcomeOf(const pb::TestPlan& plan, double value, double u) {
+  return JudgeOne(plan, value, u).outcome();
+}
+
+TEST(DecisionRuleTest, SimpleIgnoresTheUncertainty) {
+  const pb::TestPlan plan = RulePlan(pb::Limit::SIMPLE, 2, true, true);
+  EXPECT_EQ(OutcomeOf(plan, 9.9, 0.5), pb::PASS);
+  EXPECT_EQ(OutcomeOf(plan, 10, 0.5), pb::PASS);  // inclusive
+  EXPECT_EQ(OutcomeOf(plan, 10.1, 0.5), pb::FAIL);
+  EXPECT_EQ(OutcomeOf(plan, 2.1, 0.5), pb::PASS);
+  EXPECT_EQ(OutcomeOf(plan, 1.9, 0.5), pb::FAIL);
+  const pb::Measurement m = JudgeOne(plan, 9.9, 0.5);
+  EXPECT_EQ(m.decision_rule(), pb::Limit::SIMPLE);
+  EXPECT_FALSE(m.has_guard_band());
+}
+
+// w = k u = 2 * 0.5 = 1: INCONCLUSIVE within 1 of either bound, both sides.
+TEST(DecisionRuleTest, GuardedIsInconclusiveWhileTheIntervalStraddlesABound) {
+  const pb::TestPlan plan = RulePlan(pb::Limit::GUARDED, 0, true, true);  // k defaults to 2
+  // High bound 10.
+  EXPECT_EQ(OutcomeOf(plan, 8.9, 0.5), pb::PASS);
+  EXPECT_EQ(OutcomeOf(plan, 9.0, 0.5), pb::PASS);  // exactly w inside: not straddling
+  EXPECT_EQ(OutcomeOf(plan, 9.1, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 10.0, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 10.9, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 11.0, 0.5), pb::FAIL);
+  EXPECT_EQ(OutcomeOf(plan, 11.1, 0.5), pb::FAIL);
+  // Low bound 2.
+  EXPECT_EQ(OutcomeOf(plan, 3.1, 0.5), pb::PASS);
+  EXPECT_EQ(OutcomeOf(plan, 2.9, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 1.1, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 0.9, 0.5), pb::FAIL);
+  const pb::Measurement m = JudgeOne(plan, 9.5, 0.5);
+  EXPECT_EQ(m.decision_rule(), pb::Limit::GUARDED);
+  ASSERT_TRUE(m.has_guard_band());
+  EXPECT_DOUBLE_EQ(m.guard_band(), 1.0);
+}
+
+TEST(DecisionRuleTest, GuardedAcceptancePassesOnlyWellInside) {
+  const pb::TestPlan plan = RulePlan(pb::Limit::GUARDED_ACCEPTANCE, 3, true, true);  // w = 1.5
+  EXPECT_EQ(OutcomeOf(plan, 8.4, 0.5), pb::PASS);
+  EXPECT_EQ(OutcomeOf(plan, 8.5, 0.5), pb::PASS);  // exactly w inside
+  EXPECT_EQ(OutcomeOf(plan, 8.6, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 10.0, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 10.01, 0.5), pb::FAIL);  // any way outside
+  EXPECT_EQ(OutcomeOf(plan, 3.6, 0.5), pb::PASS);
+  EXPECT_EQ(OutcomeOf(plan, 3.4, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 2.0, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 1.99, 0.5), pb::FAIL);
+  EXPECT_DOUBLE_EQ(JudgeOne(plan, 9, 0.5).guard_band(), 1.5);
+  EXPECT_EQ(JudgeOne(plan, 9, 0.5).decision_rule(), pb::Limit::GUARDED_ACCEPTANCE);
+}
+
+TEST(DecisionRuleTest, GuardedRejectionFailsOnlyWellOutside) {
+  const pb::TestPlan plan = RulePlan(pb::Limit::GUARDED_REJECTION, 0, true, true);  // w = 1
+  EXPECT_EQ(OutcomeOf(plan, 9.99, 0.5), pb::PASS);
+  EXPECT_EQ(OutcomeOf(plan, 10.0, 0.5), pb::PASS);
+  EXPECT_EQ(OutcomeOf(plan, 10.5, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 10.99, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 11.0, 0.5), pb::FAIL);  // exactly w outside
+  EXPECT_EQ(OutcomeOf(plan, 2.0, 0.5), pb::PASS);
+  EXPECT_EQ(OutcomeOf(plan, 1.5, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 0.9, 0.5), pb::FAIL);
+}
+
+// The plan's default rule and guard_k apply to limits that choose none; a
+// limit's own beat them.
+TEST(DecisionRuleTest, PlanDefaultsAndLimitOverrides) {
+  pb::TestPlan plan = RulePlan(pb::Limit::RULE_DEFAULT, 0, false, true);
+  EXPECT_EQ(OutcomeOf(plan, 9.5, 0.5), pb::PASS);  // SIMPLE by default
+  EXPECT_EQ(JudgeOne(plan, 9.5, 0.5).decision_rule(), pb::Limit::SIMPLE);
+  plan.set_default_decision_rule(pb::Limit::GUARDED);
+  EXPECT_EQ(OutcomeOf(plan, 9.5, 0.5), pb::INCONCLUSIVE);  // w = 2 * 0.5
+  EXPECT_EQ(JudgeOne(plan, 9.5, 0.5).decision_rule(), pb::Limit::GUARDED);
+  plan.set_default_guard_k(0.5);  // w = 0.25
+  EXPECT_EQ(OutcomeOf(plan, 9.5, 0.5), pb::PASS);
+  EXPECT_DOUBLE_EQ(JudgeOne(plan, 9.5, 0.5).guard_band(), 0.25);
+  plan.mutable_limits(0)->set_guard_k(4);  // w = 2
+  EXPECT_EQ(OutcomeOf(plan, 8.5, 0.5), pb::INCONCLUSIVE);
+  plan.mutable_limits(0)->set_decision_rule(pb::Limit::SIMPLE);
+  EXPECT_EQ(OutcomeOf(plan, 8.5, 0.5), pb::PASS);
+  EXPECT_FALSE(JudgeOne(plan, 8.5, 0.5).has_guard_band());
+}
+
+// Marginal limits stay simple whatever the rule: the guard band only acts at
+// low and high.
+TEST(DecisionRuleTest, MarginalLimitsStaySimple) {
+  pb::TestPlan plan = RulePlan(pb::Limit::GUARDED, 0, false, true);
+  plan.mutable_limits(0)->set_marginal_high(8);
+  EXPECT_EQ(OutcomeOf(plan, 7.9, 0.5), pb::PASS);  // within w of 8: still PASS
+  EXPECT_EQ(OutcomeOf(plan, 8.1, 0.5), pb::MARGINAL);
+  EXPECT_EQ(OutcomeOf(plan, 9.1, 0.5), pb::INCONCLUSIVE);  // the high bound decides
+  plan.mutable_limits(0)->set_decision_rule(pb::Limit::GUARDED_REJECTION);
+  EXPECT_EQ(OutcomeOf(plan, 10.5, 0.5), pb::INCONCLUSIVE);
+  EXPECT_EQ(OutcomeOf(plan, 9.9, 0.5), pb::MARGINAL);
+}
+
+// Without an uncertainty a guarded rule is applied as simple acceptance, and
+// the measurement says so.
+TEST(DecisionRuleTest, NoUncertaintyMeansSimpleAcceptanceSaidSo) {
+  const pb::TestPlan plan = RulePlan(pb::Limit::GUARDED_ACCEPTANCE, 0, false, true);
+  Judgement j;
+  pb::Measurement m = JudgeOne(plan, 9.9, -1, &j);
+  EXPECT_EQ(m.outcome(), pb::PASS);
+  EXPECT_EQ(m.decision_rule(), pb::Limit::SIMPLE);
+  EXPECT_FALSE(m.has_guard_band());
+  EXPECT_EQ(m.note(), "no uncertainty: simple acceptance");
+  m = JudgeOne(plan, 10.5, -1, &j);
+  EXPECT_EQ(m.outcome(), pb::FAIL);
+  ASSERT_EQ(j.reasons.size(), 1u);
+  EXPECT_EQ(j.reasons[0],
+            "gx: bias_instability 10.5 deg/h above high limit 10 deg/h (no uncertainty: simple "
+            "acceptance)");
+  // A NaN uncertainty is none either.
+  m = JudgeOne(plan, 9.9, std::nan(""));
+  EXPECT_EQ(m.outcome(), pb::PASS);
+  EXPECT_EQ(m.decision_rule(), pb::Limit::SIMPLE);
+  // An existing note is kept, the remark appended once.
+  std::vector<pb::Measurement> ms = {M("gx", "bias_instability", 9.9, "deg/h")};
+  ms[0].set_note("minimum at the longest tau");
+  Judge(plan, {{"gx", pb::GYRO}}, &ms);
+  Judge(plan, {{"gx", pb::GYRO}}, &ms);
+  EXPECT_EQ(ms[0].note(), "minimum at the longest tau; no uncertainty: simple acceptance");
+}
+
+// An upper bound at or below a high limit proves conformance whatever the
+// guard band; above it, it proves nothing under a guarded rule and FAILs
+// under simple acceptance (as ever).
+TEST(DecisionRuleTest, UpperBounds) {
+  for (pb::Limit::DecisionRule rule :
+       {pb::Limit::GUARDED, pb::Limit::GUARDED_ACCEPTANCE, pb::Limit::GUARDED_REJECTION}) {
+    const pb::TestPlan plan = RulePlan(rule, 0, false, true);
+    Judgement j;
+    pb::Measurement m = JudgeOne(plan, 9.9, 0.5, &j, pb::UPPER_BOUND);
+    EXPECT_EQ(m.outcome(), pb::PASS) << DecisionRuleName(rule);
+    EXPECT_EQ(m.decision_rule(), rule);
+    EXPECT_FALSE(m.has_guard_band());
+    m = JudgeOne(plan, 9.9, -1, &j, pb::UPPER_BOUND);  // no uncertainty: no matter
+    EXPECT_EQ(m.outcome(), pb::PASS);
+    EXPECT_EQ(m.decision_rule(), rule);
+    EXPECT_EQ(m.note(), "");
+    m = JudgeOne(plan, 10.2, -1, &j, pb::UPPER_BOUND);
+    EXPECT_EQ(m.outcome(), pb::INCONCLUSIVE) << DecisionRuleName(rule);
+    ASSERT_EQ(j.reasons.size(), 1u);
+    EXPECT_EQ(j.reasons[0], std::string("gx: bias_instability 10.2 deg/h (upper bound): only an "
+                                        "upper bound, above the high limit 10 deg/h: "
+                                        "inconclusive (") +
+                                DecisionRuleName(rule) + ")");
+  }
+  const pb::TestPlan simple = RulePlan(pb::Limit::SIMPLE, 0, false, true);
+  EXPECT_EQ(JudgeOne(simple, 10.2, -1, nullptr, pb::UPPER_BOUND).outcome(), pb::FAIL);
+  EXPECT_EQ(JudgeOne(simple, 9.9, -1, nullptr, pb::UPPER_BOUND).outcome(), pb::PASS);
+  // Below a low limit an upper bound proves non-conformance; above it, a
+  // guarded rule cannot tell.
+  const pb::TestPlan low = RulePlan(pb::Limit::GUARDED, 0, true, false);
+  EXPECT_EQ(JudgeOne(low, 1.5, -1, nullptr, pb::UPPER_BOUND).outcome(), pb::FAIL);
+  EXPECT_EQ(JudgeOne(low, 5, -1, nullptr, pb::UPPER_BOUND).outcome(), pb::INCONCLUSIVE);
+  const pb::TestPlan low_simple = RulePlan(pb::Limit::SIMPLE, 0, true, false);
+  EXPECT_EQ(JudgeOne(low_simple, 5, -1, nullptr, pb::UPPER_BOUND).outcome(), pb::PASS);
+}
+
+TEST(DecisionRuleTest, ReasonsNameAxisValueUncertaintyBoundBandAndRule) {
+  pb::TestPlan plan = RulePlan(pb::Limit::GUARDED_ACCEPTANCE, 0, true, true);
+  Judgement j;
+  JudgeOne(plan, 9.8, 0.6, &j);
+  ASSERT_EQ(j.reasons.size(), 1u);
+  EXPECT_EQ(j.reasons[0],
+            "gx: bias_instability 9.8 ± 0.6 deg/h within the guard band (w = 1.2) of the high "
+            "limit 10 deg/h: inconclusive (guarded acceptance)");
+  JudgeOne(plan, 2.5, 0.6, &j);
+  ASSERT_EQ(j.reasons.size(), 1u);
+  EXPECT_EQ(j.reasons[0],
+            "gx: bias_instability 2.5 ± 0.6 deg/h within the guard band (w = 1.2) of the low "
+            "limit 2 deg/h: inconclusive (guarded acceptance)");
+  plan.mutable_limits(0)->set_decision_rule(pb::Limit::GUARDED_REJECTION);
+  JudgeOne(plan, 12, 0.5, &j);
+  ASSERT_EQ(j.reasons.size(), 1u);
+  EXPECT_EQ(j.reasons[0],
+            "gx: bias_instability 12 ± 0.5 deg/h above high limit 10 deg/h (w = 1, guarded "
+            "rejection)");
+  JudgeOne(plan, 9, 0.5, &j);
+  EXPECT_TRUE(j.reasons.empty());
+}
+
+// FAIL beats INCONCLUSIVE beats MARGINAL beats PASS; every one but PASS gives
+// a reason, in measurement order.
+TEST(DecisionRuleTest, VerdictPrecedence) {
+  pb::TestPlan plan = RulePlan(pb::Limit::GUARDED, 0, false, true);
+  plan.mutable_limits(0)->set_marginal_high(8);
+  plan.add_axes()->set_name("gy");
+  plan.mutable_axes(1)->set_kind(pb::GYRO);
+  plan.add_axes()->set_name("gz");
+  plan.mutable_axes(2)->set_kind(pb::GYRO);
+  const std::vector<AxisDesc> axes = {{"gx", pb::GYRO}, {"gy", pb::GYRO}, {"gz", pb::GYRO}};
+  auto judge = [&](double x, double y, double z) {
+    std::vector<pb::Measurement> ms = {M("gx", "bias_instability", x, "deg/h"),
+                                       M("gy", "bias_instability", y, "deg/h"),
+                                       M("gz", "bias_instability", z, "deg/h")};
+    for (pb::Measurement& m : ms) m.set_uncertainty(0.5);
+    return Judge(plan, axes, &ms);
+  };
+  EXPECT_EQ(judge(5, 5, 5).verdict, pb::PASS);
+  EXPECT_EQ(judge(5, 8.5, 5).verdict, pb::MARGINAL);
+  Judgement j = judge(9.5, 8.5, 5);
+  EXPECT_EQ(j.verdict, pb::INCONCLUSIVE);
+  ASSERT_EQ(j.reasons.size(), 2u);
+  EXPECT_EQ(j.reasons[0].rfind("gx: ", 0), 0u) << j.reasons[0];
+  EXPECT_NE(j.reasons[0].find("inconclusive (guarded)"), std::string::npos) << j.reasons[0];
+  EXPECT_EQ(j.reasons[1], "gy: bias_instability 8.5 ± 0.5 deg/h marginal (above 8 deg/h)");
+  j = judge(9.5, 8.5, 12);
+  EXPECT_EQ(j.verdict, pb::FAIL);
+  EXPECT_EQ(j.reasons.size(), 3u);
+}
+
+TEST(JudgeTest, OutcomeAndRuleNames) {
+  EXPECT_STREQ(OutcomeName(pb::OUTCOME_UNSET), "-");
+  EXPECT_STREQ(OutcomeName(pb::PASS), "PASS");
+  EXPECT_STREQ(OutcomeName(pb::MARGINAL), "MARGINAL");
+  EXPECT_STREQ(OutcomeName(pb::FAIL), "FAIL");
+  EXPECT_STREQ(OutcomeName(pb::INCONCLUSIVE), "INCONCLUSIVE");
+  EXPECT_STREQ(OutcomeName(pb::ABORTED), "ABORTED");
+  EXPECT_STREQ(OutcomeName(pb::ERROR), "ERROR");
+  EXPECT_STREQ(DecisionRuleName(pb::Limit::GUARDED_ACCEPTANCE), "guarded acceptance");
+}
+
+// An unjudged measurement records no rule.
+TEST(JudgeTest, UnjudgedMeasurementsRecordNoRule) {
+  const pb::TestPlan plan = RulePlan(pb::Limit::GUARDED, 0, false, true);
+  std::vector<pb::Measurement> ms = {M("gx", "tau_at_minimum", 3, "s")};
+  ms[0].set_uncertainty(1);
+  Judge(plan, {{"gx", pb::GYRO}}, &ms);
+  EXPECT_EQ(ms[0].outcome(), pb::OUTCOME_UNSET);
+  EXPECT_EQ(ms[0].decision_rule(), pb::Limit::RULE_DEFAULT);
+  EXPECT_FALSE(ms[0].has_guard_band());
 }
 
 }  // namespace

@@ -26,6 +26,31 @@ pb::Measurement Make(const std::string& axis, std::string_view name, double valu
   return m;
 }
 
+// How an uncertainty was obtained, or why a measurement has none
+// (Measurement.uncertainty_method).
+constexpr const char* kMinimumMethod =
+    "chi2 (Greenhall edf, flicker FM) at the minimum combined with the spread of points within "
+    "an octave";
+constexpr const char* kNotYetEstimated = "not yet estimated";
+constexpr const char* kNotMeasured = "none: not measured";
+constexpr const char* kUpperBoundOnly = "none: upper bound only";
+constexpr const char* kExactCount = "none: a count of samples, exact";
+constexpr const char* kFitMethod =
+    "parametric bootstrap of the noise-model fit (replicates drawn from the moments' covariance "
+    "and refitted), Akaike-weighted over the plausible models with the selection uncertainty";
+constexpr const char* kModelTermMethod =
+    "parametric bootstrap of the noise-model fit (replicates drawn from the moments' covariance "
+    "and refitted with the selected model)";
+constexpr const char* kNoBootstrapSigma = "none: the noise-model fit gave no sigma";
+
+// A NaN value is not measurable: said so, whatever else was set.
+void QualifyMissing(pb::Measurement* m) {
+  if (!std::isnan(m->value())) return;
+  m->set_qualifier(pb::NOT_MEASURABLE);
+  m->clear_uncertainty();
+  if (!m->model_inadequate()) m->set_uncertainty_method(kNotMeasured);
+}
+
 allan::SensorKind Sensor(pb::AxisKind kind) {
   return kind == pb::ACCEL ? allan::SensorKind::kAccelerometer : allan::SensorKind::kGyro;
 }
@@ -64,6 +89,21 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
     out.back().set_uncertainty(Datasheet(NoiseTerm::kBiasInstability, kind, u * ratio));
   }
   out.push_back(Make(axis, kTauAtMinimum, min ? min->tau_s : nan, kind, min_note));
+  const bool unresolved = min && min->m == curve.points.back().m;
+  for (size_t i = out.size() - 3; i < out.size(); ++i) {
+    pb::Measurement& m = out[i];
+    if (unresolved) m.set_qualifier(pb::MINIMUM_NOT_RESOLVED);
+    if (m.has_uncertainty()) {
+      m.set_uncertainty_method(i + 2 == out.size() ? std::string(kMinimumMethod) +
+                                                         "; divided by 0.664 like the value"
+                                                   : kMinimumMethod);
+    } else if (m.name() == kTauAtMinimum) {
+      m.set_uncertainty_method(kNotYetEstimated);
+    } else {
+      m.set_uncertainty_method("none: no Greenhall edf at the minimum's point");
+    }
+    QualifyMissing(&m);
+  }
 
   // Slope-line read-offs: N at tau = 1 s on -1/2, K at tau = 3 s on +1/2.
   const allan::SlopeReadoff n = allan::ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk);
@@ -76,6 +116,14 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
                      k.upper_bound_only ? "upper bound only: no point on the +1/2 slope" : ""));
   out.push_back(
       Make(axis, kBiasOffset, Datasheet(NoiseTerm::kBiasInstability, kind, mean_rate), kind));
+  // The read-offs: an upper bound where the curve never shows the slope.
+  for (const auto& [m, bound_only] :
+       {std::pair{&out[out.size() - 3], n.upper_bound_only},
+        std::pair{&out[out.size() - 2], k.upper_bound_only}, std::pair{&out.back(), false}}) {
+    if (bound_only) m->set_qualifier(pb::UPPER_BOUND);
+    m->set_uncertainty_method(bound_only ? kUpperBoundOnly : kNotYetEstimated);
+    QualifyMissing(m);
+  }
 
   return out;
 }
@@ -98,6 +146,7 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
     }
     out.push_back(Make(axis, kNoiseModelPValue, allan::kNaN, kind,
                        "no noise model: " + fit.status().message()));
+    for (pb::Measurement& m : out) QualifyMissing(&m);
     return out;
   }
   const allan::SensorKind sensor = Sensor(kind);
@@ -150,14 +199,19 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
       // What the data allow of a term the model leaves out, judged as such.
       m.set_value(q->upper_bound);
       m.set_note("upper bound (95 %): the term is not in the selected model " + fit->model.Name());
+      m.set_qualifier(pb::UPPER_BOUND);
+      m.set_uncertainty_method(std::string(kUpperBoundOnly) +
+                               " (95 %, where the profile of the fit objective rises by 5.412)");
     } else {
       m.set_value(q->value);
       if (std::isfinite(q->sigma)) m.set_uncertainty(q->sigma);
+      m.set_uncertainty_method(std::isfinite(q->sigma) ? kFitMethod : kNoBootstrapSigma);
       m.set_note(q->note);
       // A minimum at the end of the analysed taus: the true one lies lower
       // (or beyond them), so the figure bounds it from above.
       if (name == kFitBiasInstability && fit->minimum_at_edge) {
         m.set_note("upper bound: the model curve's minimum is at the edge of the analysed taus");
+        m.set_qualifier(pb::UPPER_BOUND);
       }
     }
     if (!fit->adequate) {
@@ -166,16 +220,22 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
         m.set_value(allan::kNaN);
         m.clear_uncertainty();
         m.set_note(inadequate);
+        m.set_uncertainty_method("none: not measurable (noise model inadequate)");
       } else {
+        // Judged as the plan asks, but never taken for a sound figure.
+        if (std::isfinite(m.value())) m.set_qualifier(pb::MODEL_INADEQUATE);
         char judged_anyway[120];
         std::snprintf(judged_anyway, sizeof judged_anyway,
                       "; judged although the model is inadequate (J-test p = %.2g)", fit->p_value);
         m.set_note(m.note() + judged_anyway);
       }
     }
+    QualifyMissing(&m);
     out.push_back(std::move(m));
   }
   pb::Measurement p = Make(axis, kNoiseModelPValue, fit->p_value, kind, model_note);
+  p.set_uncertainty_method("none: a test statistic (the J test's p-value)");
+  QualifyMissing(&p);
   out.push_back(std::move(p));
 
   // The selected model itself, for plots and audits (not judged).
@@ -186,7 +246,10 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
     m.set_value(q.value);
     m.set_unit(q.unit);
     if (std::isfinite(q.sigma)) m.set_uncertainty(q.sigma);
+    m.set_uncertainty_method(std::isfinite(q.sigma) ? kModelTermMethod : kNoBootstrapSigma);
+    if (!fit->adequate) m.set_qualifier(pb::MODEL_INADEQUATE);
     m.set_note(fit->model.Name());
+    QualifyMissing(&m);
     out.push_back(std::move(m));
   }
   return out;
@@ -200,6 +263,10 @@ std::vector<pb::Measurement> MeasureRun(double duration_s, int64_t samples, int6
   out.push_back(Make("", kGapFraction, static_cast<double>(gap_samples) / n, pb::GYRO));
   out.push_back(Make("", kInvalidFraction,
                      static_cast<double>(invalid_samples) / (n * std::max(num_axes, 1)), pb::GYRO));
+  out[0].set_uncertainty_method("none: a count of samples times the nominal period, exact");
+  out[1].set_uncertainty_method(kExactCount);
+  out[2].set_uncertainty_method(kExactCount);
+  for (pb::Measurement& m : out) QualifyMissing(&m);
   return out;
 }
 
@@ -212,10 +279,21 @@ std::vector<pb::Measurement> MeasureTiming(double nominal_rate_hz, double measur
   if (std::isfinite(rate_sigma_hz)) {
     rate.set_uncertainty(rate_sigma_hz);
     error.set_uncertainty(rate_sigma_hz / nominal_rate_hz * 1e6);
+    rate.set_uncertainty_method(
+        "standard error of the slope of the least-squares line through each window's "
+        "least-late arrival (device counter against host clock); the host clock's own error "
+        "not included");
+    error.set_uncertainty_method("measured_rate's standard error, relative to the nominal rate");
+  } else {
+    rate.set_uncertainty_method("none: too few arrival windows for a standard error");
+    error.set_uncertainty_method("none: too few arrival windows for a standard error");
   }
   out.push_back(std::move(rate));
   out.push_back(std::move(error));
   out.push_back(Make("", kTimingJitter, jitter_rms_s * 1e3, pb::GYRO));
+  out.back().set_uncertainty_method(
+      "none: a statistic of the arrivals (RMS lateness), not an estimate of a quantity");
+  for (pb::Measurement& m : out) QualifyMissing(&m);
   return out;
 }
 

@@ -81,18 +81,34 @@ TEST(MeasureNoiseModelTest, ModelOfAnExactCurveIsJudgedAndArchived) {
   EXPECT_TRUE(r->note().starts_with("upper bound")) << r->note();
   EXPECT_GT(r->value(), 0);
   EXPECT_FALSE(r->has_uncertainty());
+  EXPECT_EQ(r->qualifier(), pb::UPPER_BOUND);
+  EXPECT_TRUE(r->uncertainty_method().starts_with("none: upper bound only"))
+      << r->uncertainty_method();
+  // Measured terms: how their sigma was obtained.
+  for (const pb::Measurement* m : {n, k, b}) {
+    EXPECT_EQ(m->qualifier(), pb::QUALIFIER_NONE) << m->name();
+    EXPECT_TRUE(m->uncertainty_method().starts_with("parametric bootstrap")) << m->name();
+  }
   // The model and its adequacy.
   const pb::Measurement* p = Find(ms, kNoiseModelPValue);
   ASSERT_NE(p, nullptr);
   EXPECT_GT(p->value(), 0.01);
   EXPECT_TRUE(p->note().starts_with("model N+K,")) << p->note();
+  EXPECT_EQ(p->qualifier(), pb::QUALIFIER_NONE);
+  EXPECT_FALSE(p->uncertainty_method().empty());
   // The selected model's own parameters, for plots.
   const pb::Measurement* white = Find(ms, "model_white_noise");
   ASSERT_NE(white, nullptr);
   EXPECT_EQ(white->unit(), "deg/sqrt(h)");
   EXPECT_NEAR(white->value(), 0.1, 0.1 * 0.01);
   EXPECT_NE(Find(ms, "model_rate_random_walk"), nullptr);
-  for (const pb::Measurement& m : ms) EXPECT_FALSE(m.model_inadequate()) << m.name();
+  EXPECT_TRUE(white->uncertainty_method().starts_with("parametric bootstrap"))
+      << white->uncertainty_method();
+  for (const pb::Measurement& m : ms) {
+    EXPECT_FALSE(m.model_inadequate()) << m.name();
+    EXPECT_FALSE(m.uncertainty_method().empty()) << m.name();
+    EXPECT_EQ(m.has_uncertainty(), !m.uncertainty_method().starts_with("none")) << m.name();
+  }
 }
 
 // No model here makes a curve that zigzags by a factor 3 between octaves:
@@ -109,6 +125,8 @@ TEST(MeasureNoiseModelTest, InadequateModelWithholdsEveryJudgedValue) {
     EXPECT_FALSE(m.has_uncertainty()) << m.name();
     EXPECT_TRUE(m.model_inadequate()) << m.name();
     EXPECT_TRUE(m.note().starts_with("not measurable: noise model inadequate")) << m.note();
+    EXPECT_EQ(m.qualifier(), pb::NOT_MEASURABLE) << m.name();
+    EXPECT_EQ(m.uncertainty_method(), "none: not measurable (noise model inadequate)");
   }
   EXPECT_EQ(judged, 5);
   const pb::Measurement* p = Find(ms, kNoiseModelPValue);
@@ -125,6 +143,11 @@ TEST(MeasureNoiseModelTest, InadequateModelWithholdsEveryJudgedValue) {
   EXPECT_TRUE(n->model_inadequate());
   EXPECT_NE(n->note().find("judged although the model is inadequate"), std::string::npos)
       << n->note();
+  for (const pb::Measurement& m : kept) {
+    if (m.name().starts_with("fit_") && std::isfinite(m.value())) {
+      EXPECT_EQ(m.qualifier(), pb::MODEL_INADEQUATE) << m.name();
+    }
+  }
 }
 
 TEST(MeasureNoiseModelTest, TooShortACurveHasNoModel) {
@@ -136,6 +159,88 @@ TEST(MeasureNoiseModelTest, TooShortACurveHasNoModel) {
   EXPECT_TRUE(std::isnan(n->value()));
   EXPECT_TRUE(n->note().starts_with("no noise model: ")) << n->note();
   EXPECT_FALSE(n->model_inadequate());  // not measured: a FAIL where limited
+  for (const pb::Measurement& m : ms) {
+    EXPECT_EQ(m.qualifier(), pb::NOT_MEASURABLE) << m.name();
+    EXPECT_EQ(m.uncertainty_method(), "none: not measured") << m.name();
+  }
+}
+
+// ---- MeasureAxis: qualifiers and uncertainty methods ----
+
+// White noise only: the curve falls to its last point, so the minimum is
+// not resolved and no +1/2 slope is seen (RRW an upper bound).
+TEST(MeasureAxisTest, UnresolvedMinimumAndUpperBoundReadOffs) {
+  allan::CompositeModel white;
+  white.terms.push_back({allan::TermKind::kWhite, 0.1 / 60});
+  const std::vector<pb::Measurement> ms = MeasureAxis("x", pb::GYRO, ExactCurve(white), 0.0);
+  for (std::string_view name : {kBiasInstability, kBiasInstabilityIeee, kTauAtMinimum}) {
+    const pb::Measurement* m = Find(ms, name);
+    ASSERT_NE(m, nullptr) << name;
+    EXPECT_EQ(m->qualifier(), pb::MINIMUM_NOT_RESOLVED) << name;
+    EXPECT_NE(m->note().find("(upper bound)"), std::string::npos) << m->note();
+  }
+  const pb::Measurement* b = Find(ms, kBiasInstability);
+  ASSERT_TRUE(b->has_uncertainty());
+  EXPECT_EQ(b->uncertainty_method(),
+            "chi2 (Greenhall edf, flicker FM) at the minimum combined with the spread of points "
+            "within an octave");
+  EXPECT_TRUE(Find(ms, kBiasInstabilityIeee)->uncertainty_method().starts_with("chi2 (Greenhall"));
+  EXPECT_EQ(Find(ms, kTauAtMinimum)->uncertainty_method(), "not yet estimated");
+  const pb::Measurement* k = Find(ms, kRateRandomWalk);
+  ASSERT_NE(k, nullptr);
+  EXPECT_EQ(k->qualifier(), pb::UPPER_BOUND);
+  EXPECT_EQ(k->uncertainty_method(), "none: upper bound only");
+  const pb::Measurement* n = Find(ms, kAngleRandomWalk);
+  ASSERT_NE(n, nullptr);
+  EXPECT_EQ(n->qualifier(), pb::QUALIFIER_NONE);
+  EXPECT_EQ(n->uncertainty_method(), "not yet estimated");
+  EXPECT_EQ(Find(ms, kBiasOffset)->uncertainty_method(), "not yet estimated");
+  EXPECT_EQ(Find(ms, kBiasOffset)->qualifier(), pb::QUALIFIER_NONE);
+}
+
+// White noise and rate random walk: a resolved minimum, both slopes seen.
+TEST(MeasureAxisTest, ResolvedMinimumIsAMeasuredValue) {
+  const std::vector<pb::Measurement> ms =
+      MeasureAxis("x", pb::GYRO, ExactCurve(WhitePlusRandomWalk()), 0.0);
+  for (const pb::Measurement& m : ms) {
+    EXPECT_EQ(m.qualifier(), pb::QUALIFIER_NONE) << m.name() << ": " << m.note();
+    EXPECT_FALSE(m.uncertainty_method().empty()) << m.name();
+  }
+  EXPECT_TRUE(Find(ms, kBiasInstability)->has_uncertainty());
+  EXPECT_EQ(Find(ms, kRateRandomWalk)->uncertainty_method(), "not yet estimated");
+}
+
+TEST(MeasureAxisTest, NoCurveIsNotMeasurable) {
+  const std::vector<pb::Measurement> ms = MeasureAxis("x", pb::GYRO, allan::Curve{}, allan::kNaN);
+  ASSERT_FALSE(ms.empty());
+  for (const pb::Measurement& m : ms) {
+    EXPECT_TRUE(std::isnan(m.value())) << m.name();
+    EXPECT_EQ(m.qualifier(), pb::NOT_MEASURABLE) << m.name();
+    EXPECT_EQ(m.uncertainty_method(), "none: not measured") << m.name();
+  }
+}
+
+TEST(MeasureRunTest, CountsAreExactAndTimingSaysHowItsSigmaWasObtained) {
+  std::vector<pb::Measurement> run = MeasureRun(3600, 360000, 10, 0, 3);
+  ASSERT_EQ(run.size(), 3u);
+  for (const pb::Measurement& m : run) {
+    EXPECT_EQ(m.qualifier(), pb::QUALIFIER_NONE) << m.name();
+    EXPECT_TRUE(m.uncertainty_method().starts_with("none: a count of samples")) << m.name();
+  }
+  run = MeasureRun(0, 0, 0, 0, 3);  // no samples: fractions not measurable
+  EXPECT_EQ(run[1].qualifier(), pb::NOT_MEASURABLE);
+  EXPECT_EQ(run[1].uncertainty_method(), "none: not measured");
+
+  std::vector<pb::Measurement> timing = MeasureTiming(100, 100.01, 0.002, 0.001);
+  ASSERT_EQ(timing.size(), 3u);
+  EXPECT_TRUE(timing[0].has_uncertainty());
+  EXPECT_TRUE(timing[0].uncertainty_method().starts_with("standard error of the slope"))
+      << timing[0].uncertainty_method();
+  EXPECT_TRUE(timing[1].uncertainty_method().starts_with("measured_rate's standard error"));
+  EXPECT_TRUE(timing[2].uncertainty_method().starts_with("none:"));
+  timing = MeasureTiming(100, 100.01, allan::kNaN, 0.001);
+  EXPECT_FALSE(timing[0].has_uncertainty());
+  EXPECT_TRUE(timing[0].uncertainty_method().starts_with("none:"));
 }
 
 }  // namespace

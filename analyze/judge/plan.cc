@@ -113,6 +113,12 @@ Status ValidateLimits(const pb::TestPlan& plan, const Locator& where) {
         lim.marginal_low() > lim.marginal_high()) {
       return fail("", "marginal_low is above marginal_high");
     }
+    if (!pb::Limit::DecisionRule_IsValid(lim.decision_rule())) {
+      return fail(".decision_rule", "unknown decision rule " + std::to_string(lim.decision_rule()));
+    }
+    if (lim.has_guard_k() && !(lim.guard_k() > 0 && Finite(lim.guard_k()))) {
+      return fail(".guard_k", "must be a finite number > 0 (w = guard_k * u)");
+    }
   }
   return Status::Ok();
 }
@@ -159,6 +165,15 @@ Status Validate(const pb::TestPlan& plan, const Locator& where) {
   if (!stop.empty() && stop != "bins9" && stop != "stable32" && stop != "none") {
     return Fail(where, "stop_rule", -1, "stop_rule",
                 "'" + stop + "' is not one of bins9, stable32, none");
+  }
+  if (!pb::Limit::DecisionRule_IsValid(plan.default_decision_rule())) {
+    return Fail(where, "default_decision_rule", -1, "default_decision_rule",
+                "unknown decision rule " + std::to_string(plan.default_decision_rule()));
+  }
+  if (plan.has_default_guard_k() &&
+      !(plan.default_guard_k() > 0 && Finite(plan.default_guard_k()))) {
+    return Fail(where, "default_guard_k", -1, "default_guard_k",
+                "must be a finite number > 0 (w = guard_k * u)");
   }
   return ValidateLimits(plan, where);
 }

@@ -80,6 +80,17 @@ TEST(PlanTest, RejectsBadPlans) {
       {"nominal_rate_hz: 100 grid { kind: EXPLICIT }", "grid.tau_s"},
       {"nominal_rate_hz: 100 grid { kind: LOG_DENSE points_per_decade: 0 }",
        "grid.points_per_decade"},
+      {"nominal_rate_hz: 100 limits { measurement: \"tau_at_minimum\" high: 5 unit: \"s\" "
+       "decision_rule: GUARDED guard_k: 0 }",
+       "limits[0].guard_k: must be a finite number > 0"},
+      {"nominal_rate_hz: 100 limits { measurement: \"tau_at_minimum\" high: 5 unit: \"s\" "
+       "guard_k: -1 }",
+       "limits[0].guard_k: must be a finite number > 0"},
+      {"nominal_rate_hz: 100 limits { measurement: \"tau_at_minimum\" high: 5 unit: \"s\" "
+       "guard_k: inf }",
+       "limits[0].guard_k: must be a finite number > 0"},
+      {"nominal_rate_hz: 100 default_guard_k: nan", "default_guard_k: must be a finite number > 0"},
+      {"nominal_rate_hz: 100 default_guard_k: 0", "default_guard_k: must be a finite number > 0"},
   };
   for (const Case& c : cases) {
     const std::string err = ErrorOf(c.text);
@@ -106,6 +117,32 @@ TEST(PlanTest, ValidatePlanChecksDecodedPlans) {
   EXPECT_TRUE(ValidatePlan(plan).ok());
   plan.set_min_duration_s(-5);
   EXPECT_EQ(ValidatePlan(plan).message(), "min_duration_s: must be >= 0 s");
+  plan.set_min_duration_s(0);
+  plan.set_default_decision_rule(static_cast<pb::Limit::DecisionRule>(9));
+  EXPECT_EQ(ValidatePlan(plan).message(), "default_decision_rule: unknown decision rule 9");
+}
+
+// A guarded rule is fine on any measurement, with or without guard_k, and a
+// plan-wide default.
+TEST(PlanTest, AcceptsDecisionRules) {
+  auto plan = ParsePlanText(
+      R"pb(
+        nominal_rate_hz: 100
+        default_decision_rule: GUARDED_ACCEPTANCE
+        default_guard_k: 1.5
+        limits { measurement: "duration" low: 5 unit: "s" decision_rule: GUARDED }
+        limits {
+          measurement: "gap_fraction"
+          high: 0.01
+          unit: "1"
+          decision_rule: GUARDED_REJECTION
+          guard_k: 3
+        }
+        limits { measurement: "timing_jitter" high: 5 unit: "ms" decision_rule: SIMPLE }
+      )pb",
+      "p.textproto");
+  ASSERT_TRUE(plan.ok()) << plan.status().ToString();
+  EXPECT_EQ(plan->limits(1).guard_k(), 3);
 }
 
 }  // namespace

@@ -29,7 +29,12 @@ Summary Summarize(std::span<const double> values, std::span<const pb::Outcome> o
   double sum = 0;
   for (size_t i = 0; i < values.size(); ++i) {
     const double v = values[i];
-    if (i < outcomes.size() && outcomes[i] != pb::OUTCOME_UNSET) {
+    if (i < outcomes.size() && outcomes[i] == pb::INCONCLUSIVE) ++s.inconclusive;
+    // Yield counts PASS and MARGINAL against PASS, MARGINAL and FAIL: an
+    // INCONCLUSIVE value is neither a pass nor a loss (and ABORTED / ERROR
+    // are no measurement's outcome).
+    if (i < outcomes.size() &&
+        (outcomes[i] == pb::PASS || outcomes[i] == pb::MARGINAL || outcomes[i] == pb::FAIL)) {
       ++s.judged;
       if (outcomes[i] == pb::PASS || outcomes[i] == pb::MARGINAL) ++s.passed;
       if (outcomes[i] == pb::MARGINAL) ++s.marginal;

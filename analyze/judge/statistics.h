@@ -23,9 +23,10 @@ struct Summary {
   double sd = std::numeric_limits<double>::quiet_NaN();  // sample sd (n - 1)
   double min = std::numeric_limits<double>::quiet_NaN();
   double max = std::numeric_limits<double>::quiet_NaN();
-  int64_t judged = 0;    // values with an outcome
+  int64_t judged = 0;    // values judged PASS, MARGINAL or FAIL
   int64_t passed = 0;    // PASS or MARGINAL
   int64_t marginal = 0;
+  int64_t inconclusive = 0;  // INCONCLUSIVE (retest candidates): not in `judged`
   double yield = std::numeric_limits<double>::quiet_NaN();  // passed / judged
   // Process capability against the limits: Cpk = min(USL - mean, mean - LSL) / 3 sd
   // with both limits, Cpu = (USL - mean) / 3 sd with an upper one only,

@@ -36,6 +36,18 @@ TEST(StatisticsTest, SummaryAndCapability) {
   EXPECT_TRUE(std::isnan(Summarize(std::vector<double>{5}, {}, 0.0, 9.0).capability));
 }
 
+// An INCONCLUSIVE value (a retest candidate) is neither a pass nor a loss.
+TEST(StatisticsTest, InconclusiveIsNotInTheYield) {
+  const std::vector<double> v = {9, 10, 11, 12};
+  const std::vector<pb::Outcome> o = {pb::PASS, pb::INCONCLUSIVE, pb::FAIL, pb::OUTCOME_UNSET};
+  const Summary s = Summarize(v, o, std::nullopt, 16.0);
+  EXPECT_EQ(s.n, 4);
+  EXPECT_EQ(s.judged, 2);
+  EXPECT_EQ(s.passed, 1);
+  EXPECT_EQ(s.inconclusive, 1);
+  EXPECT_DOUBLE_EQ(s.yield, 0.5);
+}
+
 TEST(StatisticsTest, WelchTTestAgainstTheTwoDegreeOfFreedomClosedForm) {
   // a = {0, 2}, b = {3, 5}: equal variances 2, n = 2 -> df = 2 exactly,
   // t = -3/sqrt(2); for df = 2, P(T > t) = 1/2 - t / (2 sqrt(2 + t^2)).

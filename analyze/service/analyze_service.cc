@@ -339,7 +339,7 @@ void AnalyzeService::Impl::ProcessHeld(RunEntry& e) {
   if (!e.analyzer) {
     // A run that cannot be analysed (its description is unusable): its
     // batches are counted and let go, so its acks move and it can finish
-    // with a FAIL saying why.
+    // with an ERROR saying why.
     if (!e.info) return;
     while (!e.held.empty() && e.held.begin()->first < e.tracker.next_seq()) {
       ++rejected;
@@ -490,18 +490,18 @@ void AnalyzeService::Impl::RepublishUnconfirmed(const std::string& run_id, RunEn
 }
 
 void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double now) {
-  std::string failure;
+  RunEnding ending;
   if (e.info->state == imuqual::run_t::STATE_ABORTED) {
-    failure = FailureForRunState("aborted", e.info->end_reason);
+    ending = EndingForRunState("aborted", e.info->end_reason);
   }
   if (e.info->state == imuqual::run_t::STATE_INCOMPLETE) {
-    failure = FailureForRunState("incomplete", e.info->end_reason);
+    ending = EndingForRunState("incomplete", e.info->end_reason);
   }
   if (e.analyzer) {
     e.analyzer->Finish(e.info->first_sample, e.info->end_sample);
-    RunOutcome out = e.analyzer->Outcome(true, failure);
+    RunOutcome out = e.analyzer->Outcome(true, ending);
     if (!e.error.empty()) {
-      out.judgement.verdict = pb::FAIL;
+      out.judgement.verdict = pb::ERROR;
       out.judgement.reasons.insert(out.judgement.reasons.begin(), e.error);
     }
     PublishOutcome(e, out, true, true);
@@ -511,8 +511,9 @@ void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double
     e.final_outcome = std::move(out);
   } else {
     RunOutcome out;
-    out.judgement.verdict = pb::FAIL;
+    out.judgement.verdict = pb::ERROR;
     out.judgement.reasons = {"cannot analyse the run: " + e.error};
+    if (!ending.reason.empty()) out.judgement.reasons.push_back(ending.reason);
     // An empty final curve per axis: the store archives a run once it has a
     // final curve of every axis, and this run has nothing more to give.
     for (const std::string& axis : e.info->axis_names) out.curves.emplace_back(axis, allan::Curve{});

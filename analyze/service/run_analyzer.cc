@@ -7,6 +7,7 @@
 #include "analyze/judge/measure.h"
 #include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
+#include "common/shutdown.h"
 
 namespace imuqual::analyze {
 namespace {
@@ -161,14 +162,19 @@ allan::Curve WithoutIntervals(allan::Curve curve) {
 
 }  // namespace
 
-std::string FailureForRunState(const std::string& state, const std::string& reason) {
+RunEnding EndingForRunState(const std::string& state, const std::string& reason) {
   const std::string why = reason.empty() ? "" : " (" + reason + ")";
-  if (state == "aborted") return "run aborted before completion" + why;
-  if (state == "incomplete") return "run incomplete: its source went silent before ending it" + why;
-  return "";
+  if (state == "aborted" && (reason.empty() || reason == kShutdownEndReason)) {
+    return {pb::ABORTED, "run aborted before completion" + why};
+  }
+  if (state == "aborted") return {pb::ERROR, "run aborted by a failure: " + reason};
+  if (state == "incomplete") {
+    return {pb::ERROR, "run incomplete: its source went silent before ending it" + why};
+  }
+  return {};
 }
 
-RunOutcome RunAnalyzer::Outcome(bool final, const std::string& failure) const {
+RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {
   RunOutcome out;
   const pb::TestPlan& plan = desc_.plan;
   const allan::StopRule stop =
@@ -244,13 +250,14 @@ RunOutcome RunAnalyzer::Outcome(bool final, const std::string& failure) const {
                   limits->end());
     out.judgement = judge::Judge(provisional, desc_.axes, &out.measurements);
   }
-  if (!absurd_range_.empty()) {
-    out.judgement.verdict = pb::FAIL;
-    out.judgement.reasons.insert(out.judgement.reasons.begin(), absurd_range_);
+  // The run's verdict says first whether it can be judged at all.
+  if (ending.verdict != pb::OUTCOME_UNSET) {
+    out.judgement.verdict = ending.verdict;
+    out.judgement.reasons.insert(out.judgement.reasons.begin(), ending.reason);
   }
-  if (!failure.empty()) {
-    out.judgement.verdict = pb::FAIL;
-    out.judgement.reasons.insert(out.judgement.reasons.begin(), failure);
+  if (!absurd_range_.empty()) {
+    out.judgement.verdict = pb::ERROR;
+    out.judgement.reasons.insert(out.judgement.reasons.begin(), absurd_range_);
   }
   return out;
 }

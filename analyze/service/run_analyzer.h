@@ -53,6 +53,14 @@ struct AnalyzerOptions {
   int density = 8;  // streaming engine: averaging factors per octave (C)
 };
 
+// How a run ended when it did not end normally: the verdict that replaces
+// the judgement (ABORTED: stopped by the operator; ERROR: its source or the
+// station failed, or it went silent) and why. verdict UNSET: ended normally.
+struct RunEnding {
+  pb::Outcome verdict = pb::OUTCOME_UNSET;
+  std::string reason;
+};
+
 struct RunOutcome {
   // Per axis: interim, the plan's grid; final, the judged dense curve (every
   // point the measurements were read from), both with chi-square intervals.
@@ -85,9 +93,13 @@ class RunAnalyzer {
   void Finish(int64_t first_sample, int64_t end_sample);
 
   // Curves, measurements and verdict as of now. `final` judges the run
-  // (durations, missing measurements); a non-empty `failure` (the run did
-  // not end normally) makes it FAIL with that reason first.
-  RunOutcome Outcome(bool final, const std::string& failure = "") const;
+  // (durations, missing measurements). Every measurement is judged as
+  // usual, but the verdict says whether the run can be judged at all: an
+  // `ending` (the run did not end normally) makes it ABORTED or ERROR with
+  // its reason first, never FAIL; a final analysis that refused an absurd
+  // announced range (Finish) is ERROR with that reason (ERROR wins over
+  // ABORTED; both reasons are kept).
+  RunOutcome Outcome(bool final, const RunEnding& ending = {}) const;
 
   const RunDescription& description() const { return desc_; }
   int64_t next_counter() const { return next_counter_; }
@@ -115,10 +127,18 @@ class RunAnalyzer {
   DeviceClockFit clock_{1.0};  // reset in Create with the nominal rate
 };
 
-// The FAIL reason of a run that ended in `state` ("running", "complete",
-// "aborted", "incomplete"), with the announced `reason` it ended early if
-// any; "" when it ended normally.
-std::string FailureForRunState(const std::string& state, const std::string& reason = "");
+// How a run that ended in `state` ("running", "complete", "aborted",
+// "incomplete") with the announced end `reason` ended: aborted by the
+// operator (reason kShutdownEndReason, or none) is ABORTED, "run aborted
+// before completion (...)"; aborted for any other reason (its source failed,
+// the station stopped it) is ERROR, "run aborted by a failure: ..."; an
+// incomplete run (its source went silent) is ERROR, "run incomplete: ...".
+// Verdict UNSET when it ended normally.
+RunEnding EndingForRunState(const std::string& state, const std::string& reason = "");
+// The same (the name archived re-analysis calls).
+inline RunEnding FailureForRunState(const std::string& state, const std::string& reason = "") {
+  return EndingForRunState(state, reason);
+}
 
 }  // namespace imuqual::analyze
 

@@ -66,7 +66,8 @@ TEST(RunAnalyzerTest, LeadingLossIsAGapToo) {
 
 // An announced end far beyond the data (a broken or lying announcement: a
 // year of samples at 100 Hz) is refused with its reason, not analysed as
-// hours of gap; the run FAILs saying so.
+// hours of gap; the run's verdict is ERROR saying so (the station could not
+// analyse what was announced: that says nothing about the unit).
 TEST(RunAnalyzerTest, AnAbsurdAnnouncedEndIsRefusedNotAnalysed) {
   auto a = RunAnalyzer::Create(Desc());
   ASSERT_TRUE(a.ok());
@@ -75,7 +76,7 @@ TEST(RunAnalyzerTest, AnAbsurdAnnouncedEndIsRefusedNotAnalysed) {
   a->Finish(0, int64_t{100} * 86400 * 365);
   const RunOutcome out = a->Outcome(true);
   EXPECT_EQ(out.gap_samples, 0);
-  EXPECT_EQ(out.judgement.verdict, pb::FAIL);
+  EXPECT_EQ(out.judgement.verdict, pb::ERROR);
   ASSERT_FALSE(out.judgement.reasons.empty());
   EXPECT_NE(out.judgement.reasons[0].find("not analysed as a gap"), std::string::npos)
       << out.judgement.reasons[0];
@@ -157,14 +158,70 @@ TEST(RunAnalyzerTest, RejectsBatchesThatDoNotFitAndChangesNothing) {
   EXPECT_EQ(a->batches_accepted(), 1);
 }
 
-TEST(RunAnalyzerTest, AbnormalEndsFailWithTheirReason) {
+// A run that did not end normally is not a FAIL of its unit: stopped by the
+// operator it is ABORTED, ended by a failure or gone silent it is ERROR, with
+// the reason first; its measurements are still judged as they are.
+TEST(RunAnalyzerTest, AbnormalEndsAreAbortedOrErrorNeverFail) {
+  RunDescription d = Desc();
+  d.plan.set_min_duration_s(3600);  // 3 s of data: the duration limit FAILs
+  auto a = RunAnalyzer::Create(d);
+  ASSERT_TRUE(a.ok());
+  for (int seq = 0; seq < 3; ++seq) {
+    Batch b(seq, seq * 100, 100);
+    ASSERT_TRUE(a->AddBatch(b.view).ok());
+  }
+  a->Finish(0, 300);
+  auto duration_outcome = [](const RunOutcome& out) {
+    for (const pb::Measurement& m : out.measurements) {
+      if (m.name() == "duration") return m.outcome();
+    }
+    return pb::OUTCOME_UNSET;
+  };
+  // GIVEN it ended normally THEN it FAILs on its duration.
+  const RunOutcome normal = a->Outcome(true, EndingForRunState("complete"));
+  EXPECT_EQ(normal.judgement.verdict, pb::FAIL);
+  EXPECT_EQ(duration_outcome(normal), pb::FAIL);
+
+  // GIVEN the operator stopped it (Ctrl-C, hang-up, SIGTERM).
+  RunOutcome out = a->Outcome(true, EndingForRunState("aborted", "shutdown requested"));
+  EXPECT_EQ(out.judgement.verdict, pb::ABORTED);
+  ASSERT_EQ(out.judgement.reasons.size(), normal.judgement.reasons.size() + 1);
+  EXPECT_EQ(out.judgement.reasons[0], "run aborted before completion (shutdown requested)");
+  EXPECT_EQ(out.judgement.reasons[1], normal.judgement.reasons[0]);  // the judgement kept
+  EXPECT_EQ(duration_outcome(out), pb::FAIL);
+  EXPECT_EQ(a->Outcome(true, EndingForRunState("aborted")).judgement.verdict, pb::ABORTED);
+
+  // GIVEN its source failed.
+  out = a->Outcome(true, EndingForRunState("aborted", "b1.csv:3002: 'oops' is not a number"));
+  EXPECT_EQ(out.judgement.verdict, pb::ERROR);
+  EXPECT_EQ(out.judgement.reasons[0],
+            "run aborted by a failure: b1.csv:3002: 'oops' is not a number");
+  EXPECT_EQ(duration_outcome(out), pb::FAIL);
+
+  // GIVEN its source went silent.
+  out = a->Outcome(true, EndingForRunState("incomplete", "acquire silent for 30 s"));
+  EXPECT_EQ(out.judgement.verdict, pb::ERROR);
+  EXPECT_EQ(out.judgement.reasons[0],
+            "run incomplete: its source went silent before ending it (acquire silent for 30 s)");
+
+  EXPECT_EQ(EndingForRunState("complete").verdict, pb::OUTCOME_UNSET);
+  EXPECT_EQ(EndingForRunState("running").reason, "");
+  // The name archived re-analysis calls gives the same.
+  EXPECT_EQ(FailureForRunState("aborted", "x").verdict, pb::ERROR);
+}
+
+// An aborted run whose announced range was absurd: ERROR, both reasons.
+TEST(RunAnalyzerTest, AbsurdRangeOfAnAbortedRunIsAnError) {
   auto a = RunAnalyzer::Create(Desc());
   ASSERT_TRUE(a.ok());
-  const RunOutcome out = a->Outcome(true, FailureForRunState("incomplete"));
-  EXPECT_EQ(out.judgement.verdict, pb::FAIL);
-  ASSERT_FALSE(out.judgement.reasons.empty());
-  EXPECT_NE(out.judgement.reasons[0].find("incomplete"), std::string::npos);
-  EXPECT_EQ(FailureForRunState("complete"), "");
+  Batch b(0, 0, 100);
+  ASSERT_TRUE(a->AddBatch(b.view).ok());
+  a->Finish(0, int64_t{100} * 86400 * 365);
+  const RunOutcome out = a->Outcome(true, EndingForRunState("aborted", "shutdown requested"));
+  EXPECT_EQ(out.judgement.verdict, pb::ERROR);
+  ASSERT_GE(out.judgement.reasons.size(), 2u);
+  EXPECT_NE(out.judgement.reasons[0].find("not analysed as a gap"), std::string::npos);
+  EXPECT_EQ(out.judgement.reasons[1], "run aborted before completion (shutdown requested)");
 }
 
 }  // namespace
