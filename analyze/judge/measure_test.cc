@@ -185,7 +185,10 @@ TEST(MeasureAxisTest, UnresolvedMinimumAndUpperBoundReadOffs) {
             "chi2 (Greenhall edf, flicker FM) at the minimum combined with the spread of points "
             "within an octave");
   EXPECT_TRUE(Find(ms, kBiasInstabilityIeee)->uncertainty_method().starts_with("chi2 (Greenhall"));
-  EXPECT_EQ(Find(ms, kTauAtMinimum)->uncertainty_method(), "not yet estimated");
+  const pb::Measurement* tau = Find(ms, kTauAtMinimum);
+  ASSERT_TRUE(tau->has_uncertainty());
+  EXPECT_GT(tau->uncertainty(), 0);
+  EXPECT_TRUE(tau->uncertainty_method().starts_with("half the span of the taus")) << tau->uncertainty_method();
   const pb::Measurement* k = Find(ms, kRateRandomWalk);
   ASSERT_NE(k, nullptr);
   EXPECT_EQ(k->qualifier(), pb::UPPER_BOUND);
@@ -193,8 +196,12 @@ TEST(MeasureAxisTest, UnresolvedMinimumAndUpperBoundReadOffs) {
   const pb::Measurement* n = Find(ms, kAngleRandomWalk);
   ASSERT_NE(n, nullptr);
   EXPECT_EQ(n->qualifier(), pb::QUALIFIER_NONE);
-  EXPECT_EQ(n->uncertainty_method(), "not yet estimated");
-  EXPECT_EQ(Find(ms, kBiasOffset)->uncertainty_method(), "not yet estimated");
+  ASSERT_TRUE(n->has_uncertainty());
+  EXPECT_GT(n->uncertainty(), 0);
+  EXPECT_LT(n->uncertainty(), 0.1 * n->value());
+  EXPECT_TRUE(n->uncertainty_method().starts_with("chi2 (Greenhall edf, white FM)"));
+  EXPECT_FALSE(Find(ms, kBiasOffset)->has_uncertainty());
+  EXPECT_TRUE(Find(ms, kBiasOffset)->uncertainty_method().starts_with("none: the mean"));
   EXPECT_EQ(Find(ms, kBiasOffset)->qualifier(), pb::QUALIFIER_NONE);
 }
 
@@ -207,7 +214,10 @@ TEST(MeasureAxisTest, ResolvedMinimumIsAMeasuredValue) {
     EXPECT_FALSE(m.uncertainty_method().empty()) << m.name();
   }
   EXPECT_TRUE(Find(ms, kBiasInstability)->has_uncertainty());
-  EXPECT_EQ(Find(ms, kRateRandomWalk)->uncertainty_method(), "not yet estimated");
+  EXPECT_TRUE(Find(ms, kTauAtMinimum)->has_uncertainty());
+  EXPECT_TRUE(Find(ms, kAngleRandomWalk)->has_uncertainty());
+  EXPECT_FALSE(Find(ms, kRateRandomWalk)->has_uncertainty());
+  EXPECT_TRUE(Find(ms, kRateRandomWalk)->uncertainty_method().starts_with("none: the +1/2 line"));
 }
 
 TEST(MeasureAxisTest, NoCurveIsNotMeasurable) {
