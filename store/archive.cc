@@ -224,6 +224,15 @@ Status Archive::InsertGap(int64_t run_key, const GapRecord& g) {
   return ins->Bind(6, g.reason).Bind(7, g.detected_utime).Run();
 }
 
+namespace {
+
+// curve_points.alpha_from: how a point's alpha was obtained (NULL: none).
+std::optional<std::string> AlphaFrom(const allan::CurvePoint& p) {
+  if (!p.alpha) return std::nullopt;
+  return p.alpha_inherited ? "nearest" : "identified";
+}
+}  // namespace
+
 Status Archive::PutCurve(int64_t run_key, const CurveRecord& rec) {
   const std::string est(allan::DeviationName(rec.curve.deviation));
   auto del =
@@ -245,7 +254,7 @@ Status Archive::PutCurve(int64_t run_key, const CurveRecord& rec) {
                               .Run());
   auto pt = db_->Prepare(
       "INSERT INTO curve_points(run_key, axis, estimator, m, tau_s, dev, lo, hi, edf, n_terms, "
-      "stride) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+      "stride, alpha, alpha_from) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (!pt.ok()) return pt.status();
   for (const allan::CurvePoint& p : rec.curve.points) {
     IMUQUAL_RETURN_IF_ERROR(pt->Bind(1, run_key)
@@ -259,6 +268,8 @@ Status Archive::PutCurve(int64_t run_key, const CurveRecord& rec) {
                                 .Bind(9, p.edf)
                                 .Bind(10, p.n)
                                 .Bind(11, p.stride)
+                                .Bind(12, p.alpha ? std::optional<int64_t>(*p.alpha) : std::nullopt)
+                                .Bind(13, AlphaFrom(p))
                                 .Run());
   }
   return SealResults(*db_, run_key);
@@ -621,8 +632,8 @@ Result<std::vector<GapRecord>> Archive::LoadGaps(int64_t run_key) {
 Result<std::vector<CurveRecord>> Archive::LoadCurves(int64_t run_key) {
   auto s = db_->Prepare(
       "SELECT c.axis, c.estimator, c.ci_method, c.tau0_s, c.samples, c.valid_samples, "
-      "c.computed_utime, p.m, p.tau_s, p.dev, p.lo, p.hi, p.edf, p.n_terms, p.stride "
-      "FROM curves c JOIN curve_points p USING (run_key, axis, estimator) "
+      "c.computed_utime, p.m, p.tau_s, p.dev, p.lo, p.hi, p.edf, p.n_terms, p.stride, p.alpha, "
+      "p.alpha_from FROM curves c JOIN curve_points p USING (run_key, axis, estimator) "
       "WHERE c.run_key = ? ORDER BY c.axis, c.estimator, p.m");
   if (!s.ok()) return s.status();
   s->Bind(1, run_key);
@@ -655,6 +666,10 @@ Result<std::vector<CurveRecord>> Archive::LoadCurves(int64_t run_key) {
     p.edf = s->Real(12);
     p.n = s->Int(13);
     p.stride = s->Int(14);
+    if (!s->IsNull(15)) {
+      p.alpha = static_cast<int>(s->Int(15));
+      p.alpha_inherited = s->Text(16) == "nearest";
+    }
     curves.back().curve.points.push_back(p);
   }
   return curves;

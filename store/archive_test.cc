@@ -25,6 +25,7 @@ constexpr char kUndoSchema4[] =
     "ALTER TABLE measurements DROP COLUMN uncertainty_method; "
     "ALTER TABLE measurements DROP COLUMN decision_rule; "
     "ALTER TABLE measurements DROP COLUMN guard_band; "
+    "ALTER TABLE curve_points DROP COLUMN alpha; ALTER TABLE curve_points DROP COLUMN alpha_from; "
     "DROP TABLE superseded_judgements; ALTER TABLE runs DROP COLUMN revision; "
     "ALTER TABLE runs DROP COLUMN result_last_seq; ALTER TABLE runs DROP COLUMN "
     "result_gap_batches";
@@ -157,9 +158,19 @@ TEST_F(ArchiveTest, ResultsAndCurvesReplaceEarlierOnes) {
     p.lo = 0.9 / m;
     p.hi = 1.1 / m;
     p.edf = 50;
+    if (m > 1) p.alpha = -1;  // m = 2 identified, m = 4 from the nearest
+    p.alpha_inherited = m == 4;
     c.curve.points.push_back(p);
   }
   ASSERT_TRUE((*a)->PutCurve(*key, c).ok());
+  auto all = (*a)->LoadCurves(*key);
+  ASSERT_TRUE(all.ok());
+  ASSERT_EQ((*all)[0].curve.points.size(), 3u);
+  EXPECT_FALSE((*all)[0].curve.points[0].alpha.has_value());
+  EXPECT_EQ((*all)[0].curve.points[1].alpha, -1);
+  EXPECT_FALSE((*all)[0].curve.points[1].alpha_inherited);
+  EXPECT_EQ((*all)[0].curve.points[2].alpha, -1);
+  EXPECT_TRUE((*all)[0].curve.points[2].alpha_inherited);
   c.curve.points.pop_back();
   ASSERT_TRUE((*a)->PutCurve(*key, c).ok());
   auto curves = (*a)->LoadCurves(*key);

@@ -89,6 +89,10 @@ constexpr ResultQuery kResultQueries[] = {
      "FROM measurements WHERE run_key = ? AND (qualifier IS NOT NULL OR uncertainty_method IS "
      "NOT NULL OR decision_rule IS NOT NULL OR guard_band IS NOT NULL) ORDER BY axis, name",
      true},
+    // Schema 6: the noise identification behind chi-square points.
+    {"SELECT axis, estimator, m, alpha, alpha_from FROM curve_points WHERE run_key = ? AND "
+     "(alpha IS NOT NULL OR alpha_from IS NOT NULL) ORDER BY axis, estimator, m",
+     true},
 };
 
 std::string Hex(uint32_t v) {

@@ -169,6 +169,10 @@ CurveRecord CurveFromMessage(const imuqual::allan_curve_t& msg) {
     p.edf = msg.edf[i];
     p.n = msg.n_terms[i];
     p.stride = msg.stride[i];
+    if (msg.alpha[i] != imuqual::allan_curve_t::NO_ALPHA) {
+      p.alpha = msg.alpha[i];
+      p.alpha_inherited = msg.alpha_inherited[i];
+    }
     rec.curve.points.push_back(p);
   }
   return rec;

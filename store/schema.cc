@@ -368,6 +368,11 @@ ALTER TABLE measurements ADD COLUMN uncertainty_method TEXT;
 ALTER TABLE measurements ADD COLUMN decision_rule TEXT
   CHECK (decision_rule IN ('simple', 'guarded', 'guarded_acceptance', 'guarded_rejection'));
 ALTER TABLE measurements ADD COLUMN guard_band REAL;
+-- A chi-square point's noise identification: the power-law exponent behind
+-- its edf, identified at the point or taken from the nearest identified
+-- point (the long-tau rule).
+ALTER TABLE curve_points ADD COLUMN alpha INTEGER;
+ALTER TABLE curve_points ADD COLUMN alpha_from TEXT CHECK (alpha_from IN ('identified', 'nearest'));
 
 DROP VIEW IF EXISTS lot_statistics;
 DROP VIEW IF EXISTS lot_overview;

@@ -65,6 +65,7 @@ class Stmt {
   Stmt& BindNull(int i);
   Stmt& Bind(int i, std::optional<double> v) { return v ? Bind(i, *v) : BindNull(i); }
   Stmt& Bind(int i, std::optional<int64_t> v) { return v ? Bind(i, *v) : BindNull(i); }
+  Stmt& Bind(int i, const std::optional<std::string>& v) { return v ? Bind(i, *v) : BindNull(i); }
 
   // Steps once: true while a row is available, false when done.
   Result<bool> Step();

@@ -250,6 +250,8 @@ TEST_F(ViewsTest, MigrationFromSchema4ReplacesEveryView) {
         std::string("ALTER TABLE measurements DROP COLUMN uncertainty_method"),
         std::string("ALTER TABLE measurements DROP COLUMN decision_rule"),
         std::string("ALTER TABLE measurements DROP COLUMN guard_band"),
+        std::string("ALTER TABLE curve_points DROP COLUMN alpha"),
+        std::string("ALTER TABLE curve_points DROP COLUMN alpha_from"),
         std::string("PRAGMA user_version = 4")}) {
     ASSERT_TRUE(archive_->db().Exec(sql).ok()) << sql;
   }

@@ -414,6 +414,8 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
       msg.edf.push_back(p.edf);
       msg.n_terms.push_back(p.n);
       msg.stride.push_back(p.stride);
+      msg.alpha.push_back(p.alpha ? static_cast<int8_t>(*p.alpha) : imuqual::allan_curve_t::NO_ALPHA);
+      msg.alpha_inherited.push_back(p.alpha_inherited);
     }
     if (InjectDrop(final, first)) continue;
     Status st = bus->Publish(channels::Curve(r.unit_serial), msg);

@@ -102,7 +102,7 @@ Result<std::string> ExportMeasurements(store::Archive& archive, const std::vecto
 
 Result<std::string> ExportCurves(store::Archive& archive, const std::vector<RunRef>& runs) {
   TableWriter t({"lot", "unit", "run_id", "axis", "estimator", "ci_method", "m", "tau_s", "dev",
-                 "lo", "hi", "edf", "n_terms", "stride"});
+                 "lo", "hi", "edf", "n_terms", "stride", "alpha", "alpha_from"});
   for (const RunRef& r : runs) {
     auto curves = archive.LoadCurves(r.key);
     if (!curves.ok()) return curves.status();
@@ -113,7 +113,9 @@ Result<std::string> ExportCurves(store::Archive& archive, const std::vector<RunR
                   Cell::Text(std::string(allan::DeviationName(c.curve.deviation))),
                   Cell::Text(std::string(allan::CiMethodName(c.curve.ci))), Cell::Int(p.m),
                   Cell::Real(p.tau_s), Cell::Real(p.dev), Cell::Real(p.lo), Cell::Real(p.hi),
-                  Cell::Real(p.edf), Cell::Int(p.n), Cell::Int(p.stride)});
+                  Cell::Real(p.edf), Cell::Int(p.n), Cell::Int(p.stride),
+                  p.alpha ? Cell::Int(*p.alpha) : Cell::Text(""),
+                  Cell::Text(!p.alpha ? "" : p.alpha_inherited ? "nearest" : "identified")});
       }
     }
   }

@@ -97,6 +97,8 @@ void ComparePoints(const std::string& axis, const std::vector<allan::CurvePoint>
         {"lo", {x.lo, y.lo}},
         {"hi", {x.hi, y.hi}},
         {"edf", {x.edf, y.edf}},
+        {"alpha", {x.alpha ? *x.alpha : std::nan(""), y.alpha ? *y.alpha : std::nan("")}},
+        {"alpha inherited", {x.alpha_inherited ? 1.0 : 0.0, y.alpha_inherited ? 1.0 : 0.0}},
         {"n", {static_cast<double>(x.n), static_cast<double>(y.n)}}};
     bool counted = false;
     for (const auto& [name, v] : fields) {
@@ -121,6 +123,9 @@ std::string Shown(pb::Outcome outcome) {
   const std::string text = store::OutcomeText(outcome);
   return text.empty() ? "-" : text;
 }
+
+// A qualifier's or decision rule's text, "none" for the default.
+std::string Named(const char* text) { return *text ? text : "none"; }
 
 // The verdict, its reasons and every measurement, by axis and name.
 void CompareJudgements(const store::ResultRecord& archived, const analyze::RunOutcome& again,
@@ -162,7 +167,9 @@ void CompareJudgements(const store::ResultRecord& archived, const analyze::RunOu
         {"marginal_low", {Opt(x.has_marginal_low(), x.marginal_low()),
                           Opt(y.has_marginal_low(), y.marginal_low())}},
         {"marginal_high", {Opt(x.has_marginal_high(), x.marginal_high()),
-                           Opt(y.has_marginal_high(), y.marginal_high())}}};
+                           Opt(y.has_marginal_high(), y.marginal_high())}},
+        {"guard_band", {Opt(x.has_guard_band(), x.guard_band()),
+                        Opt(y.has_guard_band(), y.guard_band())}}};
     for (const auto& [name, v] : fields) {
       if (!Same(v.first, v.second)) {
         problems->push_back(label(x) + " " + name + ": archived " + Exactly(v.first) +
@@ -175,6 +182,20 @@ void CompareJudgements(const store::ResultRecord& archived, const analyze::RunOu
     }
     if (x.unit() != y.unit()) {
       problems->push_back(label(x) + " unit: archived " + x.unit() + ", recomputed " + y.unit());
+    }
+    if (x.qualifier() != y.qualifier()) {
+      problems->push_back(label(x) + " qualifier: archived " +
+                          Named(store::QualifierText(x.qualifier())) + ", recomputed " +
+                          Named(store::QualifierText(y.qualifier())));
+    }
+    if (x.decision_rule() != y.decision_rule()) {
+      problems->push_back(label(x) + " decision rule: archived " +
+                          Named(store::DecisionRuleText(x.decision_rule())) + ", recomputed " +
+                          Named(store::DecisionRuleText(y.decision_rule())));
+    }
+    if (x.uncertainty_method() != y.uncertainty_method()) {
+      problems->push_back(label(x) + " uncertainty method: archived \"" + x.uncertainty_method() +
+                          "\", recomputed \"" + y.uncertainty_method() + "\"");
     }
     if (x.note() != y.note()) {
       problems->push_back(label(x) + " note: archived \"" + x.note() + "\", recomputed \"" +
