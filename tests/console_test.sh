@@ -133,8 +133,8 @@ tm send-keys -t soak C-c
 code="$(wait_exit 120)"
 [ "$code" = 130 ] || fail "soak 2: imuqual run exit $code after Ctrl-C"
 final="$(screen)"
-for want in "^4 units: .*\(interrupted: runs aborted\)$" "SN-101: run aborted before completion" \
-    "^report: "; do
+for want in "^4 units: 0 PASS, 0 MARGINAL, 0 FAIL, 4 ABORTED \(interrupted: runs aborted\)$" \
+    "^yield not measurable: no judged unit$" "SN-101: run aborted before completion" "^report: "; do
   printf '%s\n' "$final" | grep -Eq -- "$want" || fail "final screen after Ctrl-C lacks '$want'"
 done
 # Stopped by the operator: ABORTED, not a FAIL of the units.
@@ -162,9 +162,23 @@ while pgrep -f "$work/station.textproto" >/dev/null || pgrep -f "$work/lot.db" >
   [ "$t" -lt 240 ] || fail "soak 3: station processes still running 120 s after the hang-up"
 done
 hung="$(sql "SELECT COUNT(*) FROM runs WHERE run_key > (SELECT MAX(run_key) - 4 FROM runs)
-             AND state = 'aborted' AND verdict IS NOT NULL AND finalized_utime IS NOT NULL")"
+             AND state = 'aborted' AND verdict = 'ABORTED' AND finalized_utime IS NOT NULL")"
 [ "$(sql "SELECT COUNT(*) FROM runs")" = $((before + 4)) ] || fail "soak 3: not 4 new runs"
 [ "$hung" = 4 ] || fail "soak 3: after a hang-up $hung of 4 runs aborted and judged: $(sql 'SELECT run_id, state, verdict, finalized_utime FROM runs')"
 left="$(sql "SELECT COUNT(*) FROM runs WHERE state = 'running' OR finalized_utime IS NULL")"
 [ "$left" = 0 ] || fail "soak 3: $left runs left running or unfinished after a hang-up"
+# The lot's yield is over judged units only: the two aborted retests of each
+# unit neither lower it nor replace soak 1's judgement.
+judged="$(sql "SELECT COUNT(*) || ' ' || SUM(verdict IN ('PASS', 'MARGINAL')) FROM runs
+               WHERE lot = 'CONSOLE-LOT' AND verdict IN ('PASS', 'MARGINAL', 'FAIL')")"
+overview="$(sql "SELECT units || ' ' || aborted || ' ' || retests || ' ' || (pass + marginal + fail) || ' ' ||
+                 printf('%.6f', yield) FROM lot_overview WHERE lot = 'CONSOLE-LOT'")"
+n_judged="${judged%% *}"
+n_passed="${judged##* }"
+want="4 0 8 $n_judged $(awk -v p="$n_passed" -v n="$n_judged" 'BEGIN { printf "%.6f", p / n }')"
+[ "$n_judged" = 4 ] || fail "soak 3: $n_judged judged runs in the lot (soak 1's 4 expected)"
+[ "$overview" = "$want" ] || fail "soak 3: lot_overview '$overview', expected '$want' (units aborted retests judged yield)"
+lots="$("$bin/imuqual" lot CONSOLE-LOT --db "$work/lot.db" 2>&1)" || fail "soak 3: imuqual lot failed: $lots"
+printf '%s\n' "$lots" | grep -Eq "by their final run: .*[1-9][0-9]* ABORTED" && fail "soak 3: imuqual lot counts aborted retests as final: $lots"
+printf '%s\n' "$lots" | grep -Eq "final yield" || fail "soak 3: imuqual lot shows no final yield: $lots"
 echo "console test: ok"

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace imuqual::analyze {
@@ -53,6 +54,60 @@ TEST(RunAnalyzerTest, CountsGapsFromTheDeviceCounter) {
   // THEN 150 samples are missing: 50 skipped, 100 in the lost batch.
   EXPECT_EQ(out.gap_samples, 150);
   EXPECT_EQ(out.samples, 1050);
+}
+
+TEST(RunAnalyzerTest, EveryPointOfLiveAndFinalCurvesHasAChiSquareInterval) {
+  // GIVEN 6000 samples of white noise per axis
+  auto a = RunAnalyzer::Create(Desc());
+  ASSERT_TRUE(a.ok());
+  uint64_t state = 12345;
+  auto noise = [&] {  // uniform in [-0.5, 0.5): white
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<float>(static_cast<double>(state >> 11) / 9007199254740992.0 - 0.5);
+  };
+  for (int seq = 0; seq < 60; ++seq) {
+    Batch b(seq, seq * 100, 100);
+    for (float& v : b.x) v = noise();
+    for (float& v : b.a) v = 9.8f + 0.01f * noise();
+    ASSERT_TRUE(a->AddBatch(b.view).ok());
+  }
+  auto check = [](const allan::Curve& curve, const std::string& what) -> int {
+    EXPECT_EQ(curve.ci, allan::CiMethod::kChi2) << what;
+    int inherited = 0;
+    for (const allan::CurvePoint& p : curve.points) {
+      SCOPED_TRACE(what + " m=" + std::to_string(p.m));
+      EXPECT_TRUE(p.alpha.has_value());
+      EXPECT_TRUE(std::isfinite(p.edf) && p.edf > 0);
+      EXPECT_LT(p.lo, p.dev);
+      EXPECT_GT(p.hi, p.dev);
+      inherited += p.alpha_inherited;
+    }
+    return inherited;
+  };
+  // WHEN a live (interim) look and the final outcome are taken
+  const RunOutcome live = a->Outcome(false);
+  a->Finish(0, 6000);
+  const RunOutcome final_outcome = a->Outcome(true);
+  // THEN every point of every curve has its chi-square interval and alpha,
+  // the long-tau points (< 30 clusters) from the nearest identified point,
+  // and the final curve is the dense judged one, a superset of the live grid.
+  ASSERT_EQ(live.curves.size(), 2u);
+  ASSERT_EQ(final_outcome.curves.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    const allan::Curve& l = live.curves[i].second;
+    const allan::Curve& f = final_outcome.curves[i].second;
+    check(l, "live " + live.curves[i].first);
+    EXPECT_GT(check(f, "final " + final_outcome.curves[i].first), 0);
+    EXPECT_GT(f.points.size(), l.points.size());
+    for (const allan::CurvePoint& p : l.points) {
+      EXPECT_TRUE(std::any_of(f.points.begin(), f.points.end(),
+                              [&](const allan::CurvePoint& q) { return q.m == p.m; }))
+          << p.m;
+    }
+    for (const allan::CurvePoint& p : f.points) {
+      if (p.m <= 64) EXPECT_EQ(p.alpha.value_or(99), 0) << "white noise at m=" << p.m;
+    }
+  }
 }
 
 TEST(RunAnalyzerTest, LeadingLossIsAGapToo) {
