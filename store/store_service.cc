@@ -617,7 +617,8 @@ void AmendForUnarchived(const StoreRun& r, const std::vector<GapRecord>& gaps,
   // A result that says what it covered was computed on the archive's data
   // (UncoveredBy): it counts these batches as gaps already.
   if (!result->gap_batches) result->gap_samples += lost;
-  result->verdict = "FAIL";
+  // A station fault, not a property of the unit: ERROR (never a yield loss).
+  result->verdict = "ERROR";
   result->reasons.push_back(
       "archive incomplete: " + std::to_string(lost) + " samples (" + std::to_string(batches) +
       " batches, seq " + Join(ranges, ", ") +
@@ -984,7 +985,7 @@ void StoreService::Impl::Tick(double now) {
             ++it;
             continue;
           }
-          r.result->verdict = "FAIL";
+          r.result->verdict = "ERROR";  // a station fault, not the unit's
           r.result->reasons.push_back("the judgement does not cover the archived data after " +
                                       std::to_string(kMaxRevisions) + " rounds: " + cause);
           r.result_stored = false;

@@ -543,7 +543,7 @@ TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchiv
   // THEN imuqual run exits with the source-failure code and says which unit and why, in one line
   EXPECT_EQ(r.exit_code, 3) << r.output;
   EXPECT_EQ(ErrorLines(r.output), 1) << r.output;
-  EXPECT_NE(r.output.find("error: 1 of 3 units' sources failed, their runs archived as FAIL: B1 (" +
+  EXPECT_NE(r.output.find("error: 1 of 3 units' sources failed, their runs archived as ERROR: B1 (" +
                           dir.path("b1.csv") + ":3002: 'oops' is not a number (column 'gy'))"),
             std::string::npos)
       << r.output;

@@ -28,7 +28,7 @@ inline constexpr char kRunExitCodesHelp[] =
     "Exit codes: 0 every run ended normally and was judged (a FAIL verdict is a result); "
     "1 the station failed (a process, the archive, no progress); 2 bad options, station "
     "file, plan, source or archive file (nothing was run); 3 a unit's source failed (bad "
-    "data, a device gone): its run is archived as FAIL with the reason, every other unit "
+    "data, a device gone): its run is archived as ERROR with the reason, every other unit "
     "finished and was judged and archived; 4 the archive could not be written (a full disk) "
     "for --archive-timeout: everything acknowledged is archived, the runs are not finished; "
     "130 interrupted (Ctrl-C, a hang-up, SIGTERM): the runs were aborted, "

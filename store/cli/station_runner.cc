@@ -560,7 +560,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     }
     if (!failed.empty()) {
       result.failure = std::to_string(failed.size()) + " of " + std::to_string(model.units.size()) +
-                       " units' sources failed, their runs archived as FAIL: " + Join(failed, "; ");
+                       " units' sources failed, their runs archived as ERROR: " + Join(failed, "; ");
     } else if (acquire_code && *acquire_code != 0) {
       result.failure = "imuqual-acquire failed (exit " + std::to_string(*acquire_code) +
                        "); its runs are archived as they ended. Last lines of " + result.log_path +
