@@ -206,6 +206,53 @@ TEST(IntegrityTest, CheckHoldsOnASixAxisLotAndNamesAChangedPointOrMeasurement) {
     EXPECT_EQ(axes->Text(0), "gx gy gz ax ay az");
   }
   ASSERT_EQ(ids.size(), 2u);
+  // The judged curve is the archived one: every axis's minimum (value and
+  // tau) is a point of its archived curve, and every point carries its
+  // chi-square interval and noise identification.
+  {
+    auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
+    ASSERT_TRUE(a.ok());
+    auto s = (*a)->db().Prepare(
+        "SELECT r.run_id, m.axis, m.value, "
+        "  (SELECT COUNT(*) FROM curve_points p WHERE p.run_key = m.run_key AND p.axis = m.axis "
+        "     AND p.tau_s = m.value), "
+        "  (SELECT COUNT(*) FROM curve_points p WHERE p.run_key = m.run_key AND p.axis = m.axis "
+        "     AND (p.lo IS NULL OR p.hi IS NULL OR p.edf IS NULL OR p.alpha IS NULL)), "
+        "  (SELECT COUNT(*) FROM curve_points p WHERE p.run_key = m.run_key AND p.axis = m.axis) "
+        "FROM measurements m JOIN runs r USING (run_key) WHERE m.name = 'tau_at_minimum' "
+        "ORDER BY r.run_id, m.axis");
+    ASSERT_TRUE(s.ok());
+    int axes_seen = 0;
+    while (*s->Step()) {
+      SCOPED_TRACE(s->Text(0) + " " + s->Text(1));
+      EXPECT_EQ(s->Int(3), 1) << "tau_at_minimum " << s->Real(2) << " is not an archived point";
+      EXPECT_EQ(s->Int(4), 0) << "points without interval or alpha";
+      EXPECT_GT(s->Int(5), 40) << "not the dense judged curve";
+      ++axes_seen;
+    }
+    EXPECT_EQ(axes_seen, 12);
+  }
+  // Export and report carry every axis by its name.
+  const auto curves = RunCommand(Bin("imuqual") + " export --lot SIX --db " + db + " --as curves");
+  ASSERT_EQ(curves.exit_code, 0) << curves.output;
+  const auto measurements =
+      RunCommand(Bin("imuqual") + " export --lot SIX --db " + db + " --as measurements");
+  ASSERT_EQ(measurements.exit_code, 0) << measurements.output;
+  const auto report = RunCommand(Bin("imuqual") + " report --lot SIX --db " + db + " -o " +
+                                 dir.path("six.html") + " 2>&1");
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  const auto read = ReadFileToString(dir.path("six.html"));
+  ASSERT_TRUE(read.ok());
+  const std::string& html = *read;
+  for (const char* axis : {"gx", "gy", "gz", "ax", "ay", "az"}) {
+    for (const std::string& id : ids) {
+      const std::string row = "," + id + "," + axis + ",";
+      EXPECT_NE(curves.output.find(row), std::string::npos) << "curves export lacks " << row;
+      EXPECT_NE(measurements.output.find(row), std::string::npos)
+          << "measurements export lacks " << row;
+    }
+    EXPECT_NE(html.find(std::string(">") + axis + "<"), std::string::npos) << "report lacks " << axis;
+  }
   auto check = [&](const std::string& id) {
     return RunCommand(Bin("imuqual") + " reanalyze " + id + " --db " + db + " --check 2>&1 >/dev/null");
   };
