@@ -529,6 +529,15 @@ TEST(FaultTest, KillingImuqualRunLeavesNoOrphans) {
     ::usleep(20000);
   }
   ASSERT_EQ(ProcessesMentioning(url).size(), 4u);
+  // ... and both runs archived as started
+  auto archived_runs = [&] {
+    auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
+    if (!a.ok()) return int64_t{0};
+    auto n = (*a)->db().QueryInt("SELECT COUNT(*) FROM runs");
+    return n.ok() ? *n : int64_t{0};
+  };
+  while (archived_runs() < 2 && MonotonicSeconds() < start_deadline + 30) ::usleep(50000);
+  ASSERT_EQ(archived_runs(), 2);
   // WHEN imuqual run is killed outright
   ::kill(run->pid(), SIGKILL);
   run->Stop(5);
@@ -538,6 +547,37 @@ TEST(FaultTest, KillingImuqualRunLeavesNoOrphans) {
   EXPECT_TRUE(ProcessesMentioning(url).empty());
   // The archive opens and is consistent.
   CheckArchive(db);
+  // AND the station's next run on that archive judges the runs the crash
+  // left open, finishes them and says so; none is left running. Killed
+  // outright, imuqual run's children get their parent-death signal: an
+  // acquire that still announced its runs' end before the store went has
+  // them aborted (ABORTED: a stop), else the store finds acquire silent and
+  // they are incomplete (ERROR: a station fault, not the units').
+  const auto next = RunCommand(Bin("imuqual") + " run --sim 1 --duration 600 --lot ORPHAN2 --db " +
+                               db + " --lcm-url '" + url + "' 2>&1");
+  EXPECT_EQ(next.exit_code, 0) << next.output;
+  EXPECT_NE(next.output.find("2 run(s) left open by an earlier station process:"),
+            std::string::npos)
+      << next.output;
+  auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
+  ASSERT_TRUE(a.ok());
+  auto s = (*a)->db().Prepare(
+      "SELECT run_id, state, COALESCE(verdict, ''), finalized_utime IS NOT NULL FROM runs "
+      "WHERE lot = 'ORPHAN' ORDER BY run_id");
+  int left = 0;
+  while (*s->Step()) {
+    ++left;
+    const std::string ending = s->Text(1) + ", " + s->Text(2);
+    EXPECT_TRUE(ending == "incomplete, ERROR" || ending == "aborted, ABORTED")
+        << s->Text(0) << ": " << ending;
+    EXPECT_EQ(s->Int(3), 1) << s->Text(0);
+    EXPECT_NE(next.output.find(s->Text(0) + ": " + ending + ": run "), std::string::npos)
+        << next.output;
+  }
+  EXPECT_EQ(left, 2);
+  auto running = (*a)->db().QueryInt("SELECT COUNT(*) FROM runs WHERE state = 'running'");
+  ASSERT_TRUE(running.ok());
+  EXPECT_EQ(*running, 0);
 }
 
 }  // namespace

@@ -190,6 +190,24 @@ int RunCommand(const StationRunOptions& options) {
   if (run->restarts > 0) {
     std::printf("store/analyze restarted %d time(s) during the soak; see the process log\n", run->restarts);
   }
+  if (!run->left_open.empty()) {
+    // Runs an earlier station process left open (a crash): judged now.
+    std::printf("%zu run(s) left open by an earlier station process:\n", run->left_open.size());
+    auto s = (*archive)->db().Prepare(
+        "SELECT state, COALESCE(verdict, 'not judged'), COALESCE(reasons, ''), "
+        "finalized_utime IS NOT NULL FROM runs WHERE run_id = ?");
+    for (const std::string& id : run->left_open) {
+      if (!s.ok()) break;
+      s->Reset();
+      s->Bind(1, id);
+      auto row = s->Step();
+      if (!row.ok() || !*row) continue;
+      const std::string reasons = s->Text(2);
+      std::printf("  %s: %s, %s%s%s\n", id.c_str(), s->Text(0).c_str(), s->Text(1).c_str(),
+                  reasons.empty() ? "" : ": ", reasons.substr(0, reasons.find('\n')).c_str());
+      if (s->Int(3) == 0) std::printf("    (not finished yet: the next station run settles it)\n");
+    }
+  }
   if (!run->run_ids.empty()) {
     std::string report = options.report_path;
     if (report.empty()) {

@@ -39,6 +39,7 @@ constexpr double kStartTimeoutS = 20;   // store/analyze must report by then
 constexpr double kStopTimeoutS = 15;    // SIGTERM -> SIGKILL
 constexpr double kAbortDrainS = 30;     // after Ctrl-C: time for aborted runs to be archived
 constexpr double kAcquireEndS = 5;      // all archived: time for acquire's final acks
+constexpr double kSettleLeftOpenS = 60; // beyond the silence timer: runs left open earlier
 constexpr double kRestartDelayS = 1;    // a dead store/analyze is restarted after this
 constexpr double kCrashWindowS = 60;    // restarts counted over this window
 constexpr double kRedrawS = 0.25;       // live console refresh
@@ -184,13 +185,29 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     if (!plan.ok()) return plan.status();
     plan_name = plan->name().empty() ? plan_spec : plan->name();
   }
+  StationRunResult result;
+  // Runs of this station that an earlier station process left open (killed
+  // outright, a power cut): the store resumes them, finds their source
+  // silent and ends them incomplete, and the analysis judges them ERROR.
+  // The station waits for that too (bounded), so that the archive holds no
+  // open run once it is done.
+  std::set<std::string> left_open;
   {
     // A bad archive file fails before any process starts.
     auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kWrite);
     if (!archive.ok()) return archive.status();
+    auto open_runs = (*archive)->db().Prepare(
+        "SELECT run_id FROM runs WHERE station = ? AND finalized_utime IS NULL ORDER BY run_id");
+    if (!open_runs.ok()) return open_runs.status();
+    open_runs->Bind(1, o.station);
+    for (;;) {
+      auto row = open_runs->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      left_open.insert(open_runs->Text(0));
+    }
   }
-
-  StationRunResult result;
+  result.left_open.assign(left_open.begin(), left_open.end());
   // The station in every run id: two stations never mint the same one.
   result.run_prefix = CompactUtc(NowUtime()) + "-" + o.station;
   result.log_path = o.db_path + ".log";
@@ -282,6 +299,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
                                   // The store's latest word: a run it opens
                                   // again (judged anew) is no longer archived.
                                   if (a.process != "store") return;
+                                  if (a.run_done) left_open.erase(a.run_id);
                                   for (ConsoleUnit& u : model.units) {
                                     if (u.run_id == a.run_id) u.archived = a.run_done;
                                   }
@@ -415,6 +433,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   const double t0 = MonotonicSeconds();
   double last_change = t0, last_draw = t0 - kRedrawS, last_line = t0;
   double drain_deadline = -1;  // set when the runs are ending abnormally
+  double settle_deadline = -1;  // set when only runs left open earlier remain
   int64_t last_total = -1;
   int last_done = -1;
   Status outcome;
@@ -508,7 +527,15 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
       last_line = now;
     }
 
-    if (done >= static_cast<int>(model.units.size())) break;
+    if (done >= static_cast<int>(model.units.size())) {
+      if (left_open.empty()) break;
+      if (settle_deadline < 0) {
+        settle_deadline = now + o.stale_after_s + kSettleLeftOpenS;
+        notice(std::to_string(left_open.size()) +
+               " run(s) left open by an earlier station process: waiting for them to be judged");
+      }
+      if (now > settle_deadline) break;
+    }
     if (ShutdownRequested() && drain_deadline < 0) {
       drain_deadline = now + kAbortDrainS;
       result.interrupted = true;

@@ -53,6 +53,9 @@ struct StationRunResult {
   bool interrupted = false;        // Ctrl-C: runs were aborted
   std::string failure;             // the source failed; runs were archived as they ended
   int restarts = 0;                // store/analyze processes restarted
+  // Runs of this station an earlier station process left open (a crash),
+  // found when the archive was opened: judged (ERROR) during this run.
+  std::vector<std::string> left_open;
 };
 
 Result<StationRunResult> RunStation(const StationRunOptions& options);
