@@ -74,7 +74,7 @@ std::string PeopleTable(const std::vector<store::AxisRow>& rows) {
   for (const store::AxisRow& r : rows) {
     any_accel |= r.kind == "accel";
     auto marked = [&](double v, const store::ValueMarks& m, const char* name, bool with_u) {
-      legend.Add(m, r.unit + " " + r.axis + " " + name, v);
+      legend.Add(m, r.unit, r.axis, name, v);
       return Cell::NumText(MarkedValue(v, m, 4, with_u));
     };
     t.AddRow({Cell::Text(r.unit), Cell::Text(r.axis),
@@ -165,8 +165,8 @@ std::string LotYieldLines(store::Archive& archive, const std::string& lot) {
 }
 
 // "reasons:" and one line per reason of the runs given (every run of `rows`
-// when `run_ids` is empty), each after its unit and the run's verdict:
-// "  U3 (INCONCLUSIVE): gx: bias_instability ...".
+// when `run_ids` is empty), each after its unit (the verdict is in the
+// table): "  U3: gx: bias_instability ...".
 std::string ReasonLines(store::Archive& archive, const std::vector<store::AxisRow>& rows,
                         std::vector<std::string> run_ids) {
   std::map<std::string, const store::AxisRow*> run_of;
@@ -179,10 +179,7 @@ std::string ReasonLines(store::Archive& archive, const std::vector<store::AxisRo
   std::string out = "\nreasons:\n";
   for (const auto& [run_id, text] : *reasons) {
     auto it = run_of.find(run_id);
-    std::string who = it == run_of.end() ? run_id : it->second->unit;
-    if (it != run_of.end() && !it->second->run_verdict.empty()) {
-      who += " (" + it->second->run_verdict + ")";
-    }
+    const std::string who = it == run_of.end() ? run_id : it->second->unit;
     size_t start = 0;
     while (start < text.size()) {
       const size_t end = text.find('\n', start);

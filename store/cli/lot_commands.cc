@@ -206,7 +206,7 @@ int UnitCommand(const std::string& db_path, const std::string& serial, Format fo
   for (const store::AxisRow& r : *rows) {
     auto value = [&](double v, const store::ValueMarks& m, const char* name, bool with_u) {
       if (!people) return Cell::Real(v);
-      legend.Add(m, r.run_id + " " + r.axis + " " + name, v);
+      legend.Add(m, r.run_id, r.axis, name, v);
       return Cell::NumText(MarkedValue(v, m, 4, with_u));
     };
     std::vector<Cell> row = {

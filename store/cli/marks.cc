@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 
 namespace imuqual::cli {
 namespace {
@@ -46,22 +47,18 @@ std::string MarkedValue(double value, const store::ValueMarks& marks, int digits
   return MarkedValue(value, marks.qualifier, marks.uncertainty, digits, with_uncertainty);
 }
 
-void MarkLegend::Add(const store::ValueMarks& marks, const std::string& who, double value) {
-  AddQualifier(marks.qualifier, who, marks.note, value);
-  if (std::isfinite(marks.uncertainty) && marks.qualifier != pb::UPPER_BOUND &&
-      marks.qualifier != pb::NOT_MEASURABLE && std::isfinite(value)) {
-    uncertainty_ = true;
+void MarkLegend::Add(const store::ValueMarks& marks, const std::string& who,
+                     const std::string& axis, const std::string& name, double value) {
+  const pb::Qualifier q = marks.qualifier;
+  if (q == pb::NOT_MEASURABLE) {
+    used_.insert(q);
+    not_measurable_.push_back(
+        {who, axis, name, marks.note.empty() ? "no reason recorded" : marks.note});
+    return;
   }
-}
-
-void MarkLegend::AddQualifier(pb::Qualifier qualifier, const std::string& who,
-                              const std::string& note, double value) {
-  if (qualifier == pb::QUALIFIER_NONE) return;
-  if (qualifier != pb::NOT_MEASURABLE && !std::isfinite(value)) return;
-  used_.insert(qualifier);
-  if (qualifier == pb::NOT_MEASURABLE) {
-    not_measurable_.push_back("  " + who + ": " + (note.empty() ? "no reason recorded" : note));
-  }
+  if (!std::isfinite(value)) return;
+  if (q != pb::QUALIFIER_NONE) used_.insert(q);
+  if (std::isfinite(marks.uncertainty) && q != pb::UPPER_BOUND) uncertainty_ = true;
 }
 
 std::string MarkLegend::Render() const {
@@ -80,7 +77,40 @@ std::string MarkLegend::Render() const {
   }
   if (used_.count(pb::NOT_MEASURABLE)) {
     out += std::string(kNotMeasurableText) + ": not measurable:\n";
-    for (const std::string& line : not_measurable_) out += line + "\n";
+    // Per unit and axis, its names by reason; then the units and axes that
+    // share a reason and the same names on one line.
+    std::vector<std::pair<std::string, std::string>> places;  // who, axis, in order
+    std::map<std::pair<std::string, std::string>, std::map<std::string, std::string>> names;
+    for (const auto& [who, axis, name, note] : not_measurable_) {
+      auto& by_note = names[{who, axis}];
+      if (by_note.empty()) places.emplace_back(who, axis);
+      std::string& list = by_note[note];
+      list += (list.empty() ? "" : ", ") + name;
+    }
+    std::map<std::string, std::map<std::string, std::vector<std::string>>> axes_of;  // key -> who -> axes
+    std::vector<std::string> order;
+    for (const auto& [who, axis] : places) {
+      for (const auto& [note, list] : names[{who, axis}]) {
+        const std::string key = note + ": " + list;
+        auto& units = axes_of[key];
+        if (units.empty()) order.push_back(key);
+        units[who].push_back(axis);
+      }
+    }
+    for (const std::string& key : order) {
+      std::string line = "  " + key;
+      std::string where;
+      for (const auto& [who, axes] : axes_of[key]) {
+        where += (where.empty() ? "" : "; ") + who;
+        bool first = true;
+        for (const std::string& axis : axes) {
+          if (axis.empty()) continue;
+          where += (first ? " " : ", ") + axis;
+          first = false;
+        }
+      }
+      out += line + " of " + where + "\n";
+    }
   }
   return out;
 }

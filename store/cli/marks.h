@@ -13,6 +13,7 @@
 #ifndef IMUQUAL_STORE_CLI_MARKS_H_
 #define IMUQUAL_STORE_CLI_MARKS_H_
 
+#include <array>
 #include <set>
 #include <string>
 #include <vector>
@@ -36,21 +37,22 @@ std::string MarkedValue(double value, pb::Qualifier qualifier, double uncertaint
 std::string MarkedValue(double value, const store::ValueMarks& marks, int digits,
                         bool with_uncertainty);
 
-// The legend under a table: one line per mark used, and per value not
-// measurable its reason ("  U3 gx bias_instability: <note>").
+// The legend under a table: one line per mark used, and the reasons of the
+// values not measurable, compactly: one line per reason and set of
+// measurements, with the units and axes it holds for ("  no curve:
+// bias_instability, tau_at_minimum of SN-1 x, y, z; SN-2 x").
 class MarkLegend {
  public:
-  // `who`: e.g. "U3 gx bias_instability".
-  void Add(const store::ValueMarks& marks, const std::string& who, double value);
-  void AddQualifier(pb::Qualifier qualifier, const std::string& who, const std::string& note,
-                    double value);
-  void NoteUncertainty() { uncertainty_ = true; }
+  // `who`: the unit (or run); `axis` and `name` the value's.
+  void Add(const store::ValueMarks& marks, const std::string& who, const std::string& axis,
+           const std::string& name, double value);
   bool empty() const { return used_.empty() && !uncertainty_; }
   std::string Render() const;  // "" when nothing is marked
 
  private:
   std::set<pb::Qualifier> used_;
-  std::vector<std::string> not_measurable_;
+  // Values not measurable, in order: (who, axis, name, note).
+  std::vector<std::array<std::string, 4>> not_measurable_;
   bool uncertainty_ = false;
 };
 

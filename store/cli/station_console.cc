@@ -115,10 +115,13 @@ pb::Qualifier QualifierOf(const ConsoleAxis& x) {
   return pb::Qualifier_IsValid(q) ? static_cast<pb::Qualifier>(q) : pb::QUALIFIER_NONE;
 }
 
-// The live bias instability with its marks (marks.h); "-" before there is one.
-std::string LiveValue(const ConsoleAxis& x, int digits, bool with_uncertainty) {
+// The live bias instability with its marks (marks.h); "" before there is
+// one. A provisional value not measurable yet (no curve so far) is not
+// there yet; only a final one reads "n/m".
+std::string LiveValue(const ConsoleAxis& x, int digits, bool with_uncertainty,
+                      bool final_result) {
   const pb::Qualifier q = QualifierOf(x);
-  if (std::isnan(x.bias_instability) && q != pb::NOT_MEASURABLE) return "";
+  if (std::isnan(x.bias_instability) && (q != pb::NOT_MEASURABLE || !final_result)) return "";
   return MarkedValue(x.bias_instability, q, x.bias_instability_uncertainty, digits,
                      with_uncertainty);
 }
@@ -128,7 +131,7 @@ std::string MarksLine(const ConsoleModel& m) {
   std::set<pb::Qualifier> used;
   for (const ConsoleUnit& u : m.units) {
     for (const ConsoleAxis& x : u.axes) {
-      if (!LiveValue(x, 3, false).empty()) used.insert(QualifierOf(x));
+      if (!LiveValue(x, 3, false, u.final_result).empty()) used.insert(QualifierOf(x));
     }
   }
   std::string out;
@@ -163,8 +166,9 @@ std::vector<std::string> AxisRows(const ConsoleModel& m) {
                 Cell::Text(first ? StateText(u) : ""),
                 Cell::Text(first ? ElapsedText(u, m.planned_s) : ""), Cell::Text(first ? samples : ""),
                 Cell::Text(first ? gaps : ""), Cell::Text(x.name),
-                Cell::Text(LiveValue(x, 3, true).empty() ? "-"
-                                                         : LiveValue(x, 3, true) + " " + x.unit),
+                Cell::Text(LiveValue(x, 3, true, u.final_result).empty()
+                               ? "-"
+                               : LiveValue(x, 3, true, u.final_result) + " " + x.unit),
                 Cell::Text(VerdictText(x.outcome, u.final_result)),
                 Cell::Text(first ? VerdictText(u.verdict, u.final_result) : "")});
     }
@@ -207,8 +211,8 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
     for (const std::string& name : axis_names) {
       std::string text;
       for (const ConsoleAxis& x : u->axes) {
-        if (x.name != name || LiveValue(x, 3, false).empty()) continue;
-        text = LiveValue(x, 3, false) + OutcomeMark(x.outcome);
+        if (x.name != name || LiveValue(x, 3, false, u->final_result).empty()) continue;
+        text = LiveValue(x, 3, false, u->final_result) + OutcomeMark(x.outcome);
       }
       row.push_back(Cell::Text(text));
     }

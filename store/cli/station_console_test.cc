@@ -173,6 +173,9 @@ TEST(StationConsoleTest, LiveValuesCarryTheirMarksAndALegend) {
   m.units[0].axes[2].bias_instability_qualifier = measurement_t::QUALIFIER_UPPER_BOUND;
   m.units[1].axes[0].bias_instability = std::numeric_limits<double>::quiet_NaN();
   m.units[1].axes[0].bias_instability_qualifier = measurement_t::QUALIFIER_NOT_MEASURABLE;
+  // Provisional: not measurable yet is not there yet.
+  EXPECT_EQ(Screen(RenderConsole(m, 160, 40)).find("n/m"), std::string::npos);
+  m.units[1].final_result = true;
   m.units[1].axes[1].bias_instability_qualifier = measurement_t::QUALIFIER_MODEL_INADEQUATE;
   const std::string screen = Screen(RenderConsole(m, 160, 40));
   for (const char* shown : {"10.2 \u00B1 0.81 deg/h", "10.2\u2020 deg/h", "\u2264 10.2 deg/h",
@@ -183,7 +186,7 @@ TEST(StationConsoleTest, LiveValuesCarryTheirMarksAndALegend) {
   }
   // A unit per row: the marks without the uncertainty, the legend kept.
   const std::string small = Screen(RenderConsole(m, 160, 12));
-  EXPECT_NE(small.find("10.2\u2021!"), std::string::npos) << small;  // SN-2, failing, first
+  EXPECT_NE(small.find("10.2\u2021!"), std::string::npos) << small;  // SN-2, failed, first
   EXPECT_NE(small.find("n/m!"), std::string::npos) << small;
   EXPECT_NE(small.find("\u2021 noise model failed its fit"), std::string::npos) << small;
   // Cut to the width in columns, never inside a character.
