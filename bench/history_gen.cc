@@ -76,6 +76,7 @@ std::vector<pb::Measurement> SynthesizedModel(const std::string& axis, pb::AxisK
     m.set_unit(std::string(v.unit));
     m.set_uncertainty(kRelSigma * std::abs(v.value));
     m.set_note("history-gen: the unit's truth, scattered");
+    m.set_uncertainty_method("history-gen: the stated 5 % scatter of the truth");
     out.push_back(std::move(m));
   }
   pb::Measurement p;
@@ -84,6 +85,7 @@ std::vector<pb::Measurement> SynthesizedModel(const std::string& axis, pb::AxisK
   p.set_value(scatter.Uniform());
   p.set_unit("1");
   p.set_note("history-gen: no model was fitted");
+  p.set_uncertainty_method("none: a p-value (history-gen: drawn uniform, no model fitted)");
   out.push_back(std::move(p));
   return out;
 }

@@ -10,8 +10,73 @@ constexpr char kAxisColumns[] = R"sql(
 SELECT a.lot, a.serial, a.run_id, a.start_utime, a.state, a.axis, a.kind, a.random_walk,
        a.bias_instability, a.bias_instability_ieee, a.tau_min_s, a.rate_random_walk,
        COALESCE(a.samples, 0), COALESCE(a.gap_samples, 0), COALESCE(a.invalid_samples, 0),
-       COALESCE(a.axis_verdict, ''), COALESCE(a.run_verdict, '')
+       COALESCE(a.axis_verdict, ''), COALESCE(a.run_verdict, ''), a.run_key
 FROM axis_results a)sql";
+
+// The marks of the headline values: every measurement of the rows' runs,
+// one run at a time (a range read of the primary key).
+Status FillMarks(Archive& archive, std::vector<AxisRow>* rows) {
+  auto s = archive.db().Prepare(R"sql(
+SELECT axis, name, uncertainty, COALESCE(qualifier, ''), COALESCE(outcome, ''), COALESCE(note, ''),
+       uncertainty_method IS NULL
+FROM measurements WHERE run_key = ?1)sql");
+  if (!s.ok()) return s.status();
+  auto reasons = archive.db().Prepare("SELECT COALESCE(reasons, '') FROM runs WHERE run_key = ?1");
+  if (!reasons.ok()) return reasons.status();
+  size_t begin = 0;
+  while (begin < rows->size()) {
+    const int64_t key = (*rows)[begin].run_key;
+    size_t end = begin;
+    while (end < rows->size() && (*rows)[end].run_key == key) ++end;
+    s->Bind(1, key);
+    for (;;) {
+      auto row = s->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      const std::string axis = s->Text(0), name = s->Text(1);
+      ValueMarks m;
+      m.uncertainty = s->Real(2);
+      m.qualifier = QualifierFromText(s->Text(3));
+      m.outcome = OutcomeFromText(s->Text(4));
+      m.note = s->Text(5);
+      // Archived before schema 6 (no qualifier, no uncertainty method): the
+      // note said "upper bound".
+      if (m.qualifier == pb::QUALIFIER_NONE && s->Int(6) != 0 && m.note.starts_with("upper bound")) {
+        m.qualifier = pb::UPPER_BOUND;
+      }
+      for (size_t i = begin; i < end; ++i) {
+        AxisRow& r = (*rows)[i];
+        if (r.axis != axis) continue;
+        if (name == "angle_random_walk" || name == "velocity_random_walk") r.random_walk_marks = m;
+        if (name == "bias_instability") r.bias_instability_marks = m;
+        if (name == "bias_instability_ieee") r.bias_instability_ieee_marks = m;
+        if (name == "tau_at_minimum") r.tau_min_marks = m;
+        if (name == "rate_random_walk") r.rate_random_walk_marks = m;
+      }
+    }
+    s->Reset();
+    // The run's reasons that name the axis ("gx: bias_instability ...").
+    reasons->Bind(1, key);
+    auto found = reasons->Step();
+    if (!found.ok()) return found.status();
+    const std::string text = *found ? reasons->Text(0) : "";
+    reasons->Reset();
+    for (size_t i = begin; i < end; ++i) {
+      AxisRow& r = (*rows)[i];
+      const std::string prefix = r.axis + ": ";
+      size_t start = 0;
+      while (start < text.size()) {
+        const size_t stop = text.find('\n', start);
+        const std::string line = text.substr(start, stop - start);
+        if (line.starts_with(prefix)) r.axis_notes += (r.axis_notes.empty() ? "" : "\n") + line;
+        if (stop == std::string::npos) break;
+        start = stop + 1;
+      }
+    }
+    begin = end;
+  }
+  return Status::Ok();
+}
 
 Result<std::vector<AxisRow>> ReadAxisRows(Stmt& s) {
   std::vector<AxisRow> rows;
@@ -37,6 +102,7 @@ Result<std::vector<AxisRow>> ReadAxisRows(Stmt& s) {
     r.invalid_samples = s.Int(14);
     r.axis_verdict = s.Text(15);
     r.run_verdict = s.Text(16);
+    r.run_key = s.Int(17);
     rows.push_back(std::move(r));
   }
 }
@@ -54,7 +120,11 @@ WHERE a.lot = ?1
 ORDER BY a.serial, a.start_utime, a.run_id, a.axis_index)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, filter.lot).Bind(2, filter.run_prefix).Bind(3, filter.latest_per_unit ? 1 : 0);
-  return ReadAxisRows(*s);
+  auto rows = ReadAxisRows(*s);
+  if (!rows.ok()) return rows.status();
+  Status st = FillMarks(archive, &*rows);
+  if (!st.ok()) return st;
+  return rows;
 }
 
 Result<std::vector<AxisRow>> QueryUnitHistory(Archive& archive, const std::string& serial) {
@@ -82,6 +152,8 @@ Result<std::vector<AxisRow>> QueryUnitHistory(Archive& archive, const std::strin
     if (!part.ok()) return part.status();
     rows.insert(rows.end(), part->begin(), part->end());
   }
+  Status st = FillMarks(archive, &rows);
+  if (!st.ok()) return st;
   return rows;
 }
 

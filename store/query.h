@@ -13,6 +13,16 @@
 
 namespace imuqual::store {
 
+// What travels with a headline value (table measurements): its 1-sigma
+// uncertainty (NaN: none), what kind of value it is, its outcome against its
+// limit and the note (why it is not measurable, an upper bound, ...).
+struct ValueMarks {
+  double uncertainty = allan::kNaN;
+  pb::Qualifier qualifier = pb::QUALIFIER_NONE;
+  pb::Outcome outcome = pb::OUTCOME_UNSET;
+  std::string note;
+};
+
 // One run and axis with its headline figures (view axis_results).
 struct AxisRow {
   std::string lot, unit, run_id, state, axis, kind;
@@ -25,6 +35,13 @@ struct AxisRow {
   int64_t samples = 0, gap_samples = 0, invalid_samples = 0;
   std::string axis_verdict;  // "" if not judged
   std::string run_verdict;
+  int64_t run_key = 0;
+  // The marks of each headline value above (measurements of this run and axis).
+  ValueMarks random_walk_marks, bias_instability_marks, bias_instability_ieee_marks, tau_min_marks,
+      rate_random_walk_marks;
+  // Why the axis is not PASS: the run's reasons that name the axis
+  // ("gx: bias_instability ..."), one per line; "" if none.
+  std::string axis_notes;
 };
 
 struct AxisRowFilter {

@@ -89,11 +89,13 @@ wait_screen "imuqual station bench-C +lot CONSOLE-LOT +plan vg700ca-short +opera
 wait_screen "^A1 +SN-101 +running" 30
 # The live bias instability of A1 itself, once past the warm-up (units reach
 # it one after another; on a loaded host "deg/h" on another row came first).
-wait_screen "^A1 .* x +[0-9.]+ deg/h" 30
+# A live value with its marks: "≤ 9.8", "10.2†", "10.2‡", "10.2 ± 0.81" (n/m has no number).
+v='(≤ )?[0-9.]+(†|‡)?( ± [0-9.e+-]+)?'
+wait_screen "^A1 .* x +$v deg/h" 30
 now="$(screen)"
 for want in "^\[#*\.*\] +[0-9]+% +elapsed" "analyze 2/2" "^B2 +SN-104 +running +[0-9:]+ / 20:00" \
-    "^A1 .* x +[0-9.]+ deg/h +(pass|marginal|fail)\? +(pass|marginal|fail)\?$" \
-    "^ +y +[0-9.]+ deg/h +(pass|marginal|fail)\?$" "^ +z +[0-9.]+ deg/h" \
+    "^A1 .* x +$v deg/h +(pass|marginal|fail|inconclusive)\? +(pass|marginal|fail|inconclusive)\?$" \
+    "^ +y +$v deg/h +(pass|marginal|fail|inconclusive)\?$" "^ +z +$v deg/h" \
     "Ctrl-C: stop the soak"; do
   printf '%s\n' "$now" | grep -Eq -- "$want" || fail "live table lacks '$want'"
 done

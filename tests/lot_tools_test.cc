@@ -243,6 +243,64 @@ TEST_F(LotToolsTest, CsvExportsHaveEveryRow) {
   EXPECT_EQ(RunCommand(Bin("imuqual") + " export --as json --db " + db_ + " 2>/dev/null").exit_code, 2);
 }
 
+// Every measurement in both exports says what it is: a value (or none, then
+// not_measurable), an uncertainty or why there is none, a qualifier and an
+// outcome ("not_judged" without a limit; never the enum's old name).
+TEST_F(LotToolsTest, ExportsSayWhatEveryValueIs) {
+  const std::string text = Imuqual("export --lot T-L001 --as measurements");
+  EXPECT_EQ(text.find("OUTCOME_UNSET"), std::string::npos);
+  const Csv csv = ParseCsv(text);
+  ASSERT_GT(csv.rows.size(), 40u);
+  std::set<std::string> outcomes, qualifiers;
+  for (const auto& r : csv.rows) {
+    const std::string what = r[csv.Col("run_id")] + " " + r[csv.Col("axis")] + " " + r[csv.Col("name")];
+    const std::string qualifier = r[csv.Col("qualifier")], outcome = r[csv.Col("outcome")];
+    EXPECT_TRUE(!r[csv.Col("value")].empty() || qualifier == "not_measurable") << what;
+    const std::string method = r[csv.Col("uncertainty_method")];
+    EXPECT_TRUE(!r[csv.Col("uncertainty")].empty() || method.starts_with("none:") ||
+                method.starts_with("not"))
+        << what << ": " << method;
+    EXPECT_FALSE(qualifier.empty()) << what;
+    EXPECT_FALSE(outcome.empty()) << what;
+    EXPECT_FALSE(r[csv.Col("decision_rule")].empty()) << what;
+    // Without a limit nothing is judged, and the export says so.
+    const bool limited = !r[csv.Col("low")].empty() || !r[csv.Col("high")].empty() ||
+                         !r[csv.Col("marginal_low")].empty() || !r[csv.Col("marginal_high")].empty();
+    if (!limited) EXPECT_EQ(outcome, "not_judged") << what;
+    outcomes.insert(outcome);
+    qualifiers.insert(qualifier);
+  }
+  EXPECT_TRUE(outcomes.count("not_judged")) << "no measurement without a limit";
+  EXPECT_TRUE(qualifiers.count("measured"));
+
+  const std::string json = Imuqual("export --lot T-L001 --as json");
+  EXPECT_EQ(json.find("OUTCOME_UNSET"), std::string::npos);
+  EXPECT_EQ(json.find("QUALIFIER_NONE"), std::string::npos);
+  // Printed although they hold the default: every measurement's qualifier and outcome.
+  pb::RunRecords records;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(json, &records).ok());
+  size_t measurements = 0;
+  for (const pb::RunRecord& r : records.records()) {
+    measurements += r.measurements_size();
+    for (const pb::Measurement& m : r.measurements()) {
+      const std::string what = r.run_id() + " " + m.axis() + " " + m.name();
+      EXPECT_TRUE(std::isfinite(m.value()) || m.qualifier() == pb::NOT_MEASURABLE) << what;
+      EXPECT_TRUE(m.has_uncertainty() || m.uncertainty_method().starts_with("none:") ||
+                  m.uncertainty_method().starts_with("not"))
+          << what << ": " << m.uncertainty_method();
+    }
+  }
+  auto count = [&json](const std::string& key) {
+    size_t n = 0;
+    for (size_t at = json.find(key); at != std::string::npos; at = json.find(key, at + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(count("\"qualifier\": "), measurements);
+  EXPECT_EQ(count("\"outcome\": "), measurements);
+  EXPECT_GT(count("\"outcome\": \"NOT_JUDGED\""), 0u);
+  EXPECT_GT(count("\"qualifier\": \"MEASURED\""), 0u);
+}
+
 // ---------------------------------------------------------------------------
 // Yields that mean what they say, on a hand-built lot "Y" of five units:
 // U1 PASS the first time; U2 FAIL, then PASS on retest; U3 INCONCLUSIVE
@@ -854,10 +912,14 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
         RunCommand(Bin("imuqual") + " export --lot TAC-L001 --as measurements --db " + db_).output);
     std::vector<std::vector<std::string>> expected;
     for (const auto& r : all.rows) {
-      if (r[all.Col("qualifier")].empty() || !latest.contains(r[all.Col("run_id")])) continue;
+      // The export names what SQL leaves NULL: a plain value "measured", no
+      // decision rule "none", no outcome "not_judged".
+      if (r[all.Col("qualifier")] == "measured" || !latest.contains(r[all.Col("run_id")])) continue;
+      auto null_as = [](const std::string& v, const char* text) { return v == text ? "" : v; };
       expected.push_back({r[all.Col("unit")], r[all.Col("axis")], r[all.Col("name")],
                           r[all.Col("qualifier")], r[all.Col("uncertainty_method")],
-                          r[all.Col("decision_rule")], r[all.Col("outcome")]});
+                          null_as(r[all.Col("decision_rule")], "none"),
+                          null_as(r[all.Col("outcome")], "not_judged")});
     }
     std::sort(expected.begin(), expected.end());
     ASSERT_FALSE(expected.empty());  // the judged retests' rate random walks

@@ -7,6 +7,7 @@
 #include "common/clock.h"
 #include "common/log.h"
 #include "common/text_util.h"
+#include "store/cli/marks.h"
 #include "store/cli/report.h"
 #include "store/outcome.h"
 #include "store/query.h"
@@ -19,13 +20,27 @@ constexpr int kExitUsage = 2;
 
 double Pick(bool take, double v) { return take ? v : allan::kNaN; }
 
+// A value's qualifier as the exports write it: "measured" for a plain value
+// (store::QualifierText says "" for it), "" for no value at all.
+std::string QualifierColumn(const store::ValueMarks& m) {
+  const std::string text = store::QualifierText(m.qualifier);
+  return text.empty() ? "measured" : text;
+}
+
 // The machine-readable per-axis table (CSV/JSON): one column per quantity
 // and unit, so gyro and accelerometer rows never share a column.
 TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
   TableWriter t({"lot", "unit", "run_id", "axis", "kind", "arw_deg_rt_hr", "vrw_m_s_rt_hr",
                  "bias_instability_deg_hr", "bias_instability_ieee_deg_hr", "bias_instability_ug",
                  "bias_instability_ieee_ug", "tau_min_s", "rrw_deg_hr_rt_hr", "rrw_ug_rt_hr",
-                 "samples", "gap_samples", "invalid_samples", "verdict", "run_verdict", "state"});
+                 "samples", "gap_samples", "invalid_samples", "verdict", "run_verdict", "state",
+                 // The marks (after the columns programs already read): each value's
+                 // 1-sigma uncertainty in its column's unit, its qualifier, and why
+                 // the axis is not PASS.
+                 "random_walk_uncertainty", "random_walk_qualifier",
+                 "bias_instability_uncertainty", "bias_instability_qualifier",
+                 "tau_min_s_uncertainty", "tau_min_s_qualifier", "rate_random_walk_uncertainty",
+                 "rate_random_walk_qualifier", "axis_reasons"});
   for (const store::AxisRow& r : rows) {
     const bool gyro = r.kind != "accel";
     t.AddRow({Cell::Text(r.lot), Cell::Text(r.unit), Cell::Text(r.run_id), Cell::Text(r.axis),
@@ -36,25 +51,45 @@ TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
               Cell::Real(Pick(!gyro, r.bias_instability_ieee)), Cell::Real(r.tau_min_s),
               Cell::Real(Pick(gyro, r.rate_random_walk)), Cell::Real(Pick(!gyro, r.rate_random_walk)),
               Cell::Int(r.samples), Cell::Int(r.gap_samples), Cell::Int(r.invalid_samples),
-              Cell::Text(r.axis_verdict), Cell::Text(r.run_verdict), Cell::Text(r.state)});
+              Cell::Text(r.axis_verdict), Cell::Text(r.run_verdict), Cell::Text(r.state),
+              Cell::Real(r.random_walk_marks.uncertainty),
+              Cell::Text(QualifierColumn(r.random_walk_marks)),
+              Cell::Real(r.bias_instability_marks.uncertainty),
+              Cell::Text(QualifierColumn(r.bias_instability_marks)),
+              Cell::Real(r.tau_min_marks.uncertainty), Cell::Text(QualifierColumn(r.tau_min_marks)),
+              Cell::Real(r.rate_random_walk_marks.uncertainty),
+              Cell::Text(QualifierColumn(r.rate_random_walk_marks)), Cell::Text(r.axis_notes)});
   }
   return t;
 }
 
 // The table people read.
+// Each value with its marks (marks.h); "± u" where the value has an
+// uncertainty (not on B (IEEE), the minimum / 0.664, for room).
 std::string PeopleTable(const std::vector<store::AxisRow>& rows) {
   TableWriter t({"unit", "axis", "ARW/VRW", "bias inst.", "BI (IEEE)", "tau min s", "RRW",
                  "gap samples", "axis", "unit verdict"});
   bool any_accel = false;
+  MarkLegend legend;
   for (const store::AxisRow& r : rows) {
     any_accel |= r.kind == "accel";
-    t.AddRow({Cell::Text(r.unit), Cell::Text(r.axis), Cell::Real(r.random_walk),
-              Cell::Real(r.bias_instability), Cell::Real(r.bias_instability_ieee),
-              Cell::Real(r.tau_min_s), Cell::Real(r.rate_random_walk), Cell::Int(r.gap_samples),
+    auto marked = [&](double v, const store::ValueMarks& m, const char* name, bool with_u) {
+      legend.Add(m, r.unit, r.axis, name, v);
+      return Cell::NumText(MarkedValue(v, m, 4, with_u));
+    };
+    t.AddRow({Cell::Text(r.unit), Cell::Text(r.axis),
+              marked(r.random_walk, r.random_walk_marks, "random walk", true),
+              marked(r.bias_instability, r.bias_instability_marks, "bias_instability", true),
+              marked(r.bias_instability_ieee, r.bias_instability_ieee_marks,
+                     "bias_instability_ieee", false),
+              marked(r.tau_min_s, r.tau_min_marks, "tau_at_minimum", true),
+              marked(r.rate_random_walk, r.rate_random_walk_marks, "rate_random_walk", true),
+              Cell::Int(r.gap_samples),
               Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
               Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)});
   }
   std::string out = t.Render(Format::kTable);
+  out += legend.Render();
   out += "gyro units: ARW deg/sqrt(h), bias instability deg/h (curve minimum; IEEE B = minimum/0.664), "
          "RRW deg/h/sqrt(h)\n";
   if (any_accel) {
@@ -129,6 +164,33 @@ std::string LotYieldLines(store::Archive& archive, const std::string& lot) {
   return out;
 }
 
+// "reasons:" and one line per reason of the runs given (every run of `rows`
+// when `run_ids` is empty), each after its unit (the verdict is in the
+// table): "  U3: gx: bias_instability ...".
+std::string ReasonLines(store::Archive& archive, const std::vector<store::AxisRow>& rows,
+                        std::vector<std::string> run_ids) {
+  std::map<std::string, const store::AxisRow*> run_of;
+  const bool every_run = run_ids.empty();
+  for (const store::AxisRow& r : rows) {
+    if (run_of.emplace(r.run_id, &r).second && every_run) run_ids.push_back(r.run_id);
+  }
+  auto reasons = store::QueryReasons(archive, run_ids);
+  if (!reasons.ok() || reasons->empty()) return "";
+  std::string out = "\nreasons:\n";
+  for (const auto& [run_id, text] : *reasons) {
+    auto it = run_of.find(run_id);
+    const std::string who = it == run_of.end() ? run_id : it->second->unit;
+    size_t start = 0;
+    while (start < text.size()) {
+      const size_t end = text.find('\n', start);
+      out += "  " + who + ": " + text.substr(start, end - start) + "\n";
+      if (end == std::string::npos) break;
+      start = end + 1;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 int RunCommand(const StationRunOptions& options) {
@@ -164,20 +226,7 @@ int RunCommand(const StationRunOptions& options) {
     counted += store::CountsInYield(v);
     passed += v == pb::PASS || v == pb::MARGINAL;
   }
-  auto reasons = store::QueryReasons(**archive, run->run_ids);
-  if (reasons.ok() && !reasons->empty()) {
-    std::printf("\nreasons:\n");
-    for (const auto& [run_id, text] : *reasons) {
-      size_t start = 0;
-      while (start < text.size()) {
-        const size_t end = text.find('\n', start);
-        std::printf("  %s: %s\n", unit_of[run_id].c_str(),
-                    text.substr(start, end - start).c_str());
-        if (end == std::string::npos) break;
-        start = end + 1;
-      }
-    }
-  }
+  std::printf("%s", ReasonLines(**archive, *rows, run->run_ids).c_str());
   std::printf("\n%zu units: %s%s\nyield %s%s\n", unit_of.size(), VerdictCounts(verdicts).c_str(),
               run->interrupted ? " (interrupted: runs aborted)" : "",
               YieldText(counted > 0 ? static_cast<double>(passed) / counted : allan::kNaN).c_str(),
@@ -291,6 +340,7 @@ int LotCommand(const std::string& db_path, const std::string& lot, Format format
   }
   if (format == Format::kTable) {
     std::printf("%s", PeopleTable(*rows).c_str());
+    std::printf("%s", ReasonLines(**archive, *rows, {}).c_str());
     if (!all_runs) std::printf("%s", LotYieldLines(**archive, lot).c_str());
   } else {
     std::printf("%s", MachineTable(*rows).Render(format).c_str());

@@ -65,6 +65,9 @@ Result<std::string> ExportJson(store::Archive& archive, const std::vector<RunRef
     }
   }
   std::string json;
+  // Default values printed too, so every measurement shows its qualifier and
+  // outcome: value 0 of pb::Outcome and pb::Qualifier is first named
+  // NOT_JUDGED and MEASURED (record.proto), the names the printer writes.
   google::protobuf::util::JsonPrintOptions options;
   options.add_whitespace = true;
   options.always_print_primitive_fields = true;
@@ -84,7 +87,12 @@ Result<std::string> ExportMeasurements(store::Archive& archive, const std::vecto
     if (!result->has_value()) continue;
     for (const pb::Measurement& m : (*result)->measurements) {
       auto opt = [](bool has, double v) { return Cell::Real(has ? v : allan::kNaN); };
-      const char* outcome = store::OutcomeText(m.outcome());
+      // Every row says what it is: "not_judged" for a value without a limit,
+      // "measured" for a plain value, "none" where no decision rule applied.
+      const std::string outcome_text = store::OutcomeText(m.outcome());
+      const std::string outcome = outcome_text.empty() ? "not_judged" : outcome_text;
+      const std::string qualifier = store::QualifierText(m.qualifier());
+      const std::string rule = store::DecisionRuleText(m.decision_rule());
       t.AddRow({Cell::Text(r.info.lot), Cell::Text(r.info.serial), Cell::Text(r.run_id),
                 Cell::Text(m.axis()), Cell::Text(m.name()), Cell::Real(m.value()),
                 opt(m.has_uncertainty(), m.uncertainty()), Cell::Text(m.unit()),
@@ -92,8 +100,8 @@ Result<std::string> ExportMeasurements(store::Archive& archive, const std::vecto
                 opt(m.has_marginal_low(), m.marginal_low()),
                 opt(m.has_marginal_high(), m.marginal_high()), Cell::Text(outcome),
                 Cell::Text(m.note()), Cell::Text(m.uncertainty_method()),
-                Cell::Text(store::QualifierText(m.qualifier())),
-                Cell::Text(store::DecisionRuleText(m.decision_rule())),
+                Cell::Text(qualifier.empty() ? "measured" : qualifier),
+                Cell::Text(rule.empty() ? "none" : rule),
                 opt(m.has_guard_band(), m.guard_band())});
     }
   }

@@ -8,6 +8,7 @@
 #include "common/log.h"
 #include "store/cli/lot_model_view.h"
 #include "store/cli/lot_statistics.h"
+#include "store/cli/marks.h"
 #include "store/outcome.h"
 
 namespace imuqual::cli {
@@ -186,19 +187,66 @@ int UnitCommand(const std::string& db_path, const std::string& serial, Format fo
     LogError("no unit '" + serial + "' in " + db_path);
     return kExitUsage;
   }
-  TableWriter t({"run_id", "lot", "start", "state", "axis", "kind", "random_walk",
-                 "bias_instability", "bias_instability_ieee", "tau_min_s", "rate_random_walk",
-                 "gap_samples", "axis_verdict", "run_verdict"});
+  // For people each value carries its marks (marks.h) and "± u"; programs
+  // get the numbers, then each value's uncertainty and qualifier.
+  const bool people = format == Format::kTable;
+  std::vector<std::string> columns = {"run_id", "lot", "start", "state", "axis", "kind",
+                                      "random_walk", "bias_instability", "bias_instability_ieee",
+                                      "tau_min_s", "rate_random_walk", "gap_samples",
+                                      "axis_verdict", "run_verdict"};
+  if (!people) {
+    for (const char* c : {"random_walk", "bias_instability", "tau_min_s", "rate_random_walk"}) {
+      columns.push_back(std::string(c) + "_uncertainty");
+      columns.push_back(std::string(c) + "_qualifier");
+    }
+    columns.push_back("axis_reasons");
+  }
+  TableWriter t(columns);
+  MarkLegend legend;
   for (const store::AxisRow& r : *rows) {
-    t.AddRow({Cell::Text(r.run_id), Cell::Text(r.lot), Cell::Text(FormatUtimeIso(r.start_utime)),
-              Cell::Text(r.state), Cell::Text(r.axis), Cell::Text(r.kind),
-              Cell::Real(r.random_walk), Cell::Real(r.bias_instability),
-              Cell::Real(r.bias_instability_ieee), Cell::Real(r.tau_min_s),
-              Cell::Real(r.rate_random_walk), Cell::Int(r.gap_samples),
-              Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
-              Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)});
+    auto value = [&](double v, const store::ValueMarks& m, const char* name, bool with_u) {
+      if (!people) return Cell::Real(v);
+      legend.Add(m, r.run_id, r.axis, name, v);
+      return Cell::NumText(MarkedValue(v, m, 4, with_u));
+    };
+    std::vector<Cell> row = {
+        Cell::Text(r.run_id), Cell::Text(r.lot), Cell::Text(FormatUtimeIso(r.start_utime)),
+        Cell::Text(r.state), Cell::Text(r.axis), Cell::Text(r.kind),
+        value(r.random_walk, r.random_walk_marks, "random walk", true),
+        value(r.bias_instability, r.bias_instability_marks, "bias_instability", true),
+        value(r.bias_instability_ieee, r.bias_instability_ieee_marks, "bias_instability_ieee",
+              false),
+        value(r.tau_min_s, r.tau_min_marks, "tau_at_minimum", true),
+        value(r.rate_random_walk, r.rate_random_walk_marks, "rate_random_walk", true),
+        Cell::Int(r.gap_samples), Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
+        Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)};
+    if (!people) {
+      for (const store::ValueMarks* m : {&r.random_walk_marks, &r.bias_instability_marks,
+                                         &r.tau_min_marks, &r.rate_random_walk_marks}) {
+        const std::string q = store::QualifierText(m->qualifier);
+        row.push_back(Cell::Real(m->uncertainty));
+        row.push_back(Cell::Text(q.empty() ? "measured" : q));
+      }
+      row.push_back(Cell::Text(r.axis_notes));
+    }
+    t.AddRow(std::move(row));
   }
   std::printf("%s", t.Render(format).c_str());
+  if (people) {
+    std::printf("%s", legend.Render().c_str());
+    // Why an axis is not PASS (INCONCLUSIVE: a retest candidate).
+    std::string why;
+    for (const store::AxisRow& r : *rows) {
+      size_t start = 0;
+      while (start < r.axis_notes.size()) {
+        const size_t end = r.axis_notes.find('\n', start);
+        why += "  " + r.run_id + " " + r.axis_notes.substr(start, end - start) + "\n";
+        if (end == std::string::npos) break;
+        start = end + 1;
+      }
+    }
+    if (!why.empty()) std::printf("\nreasons:\n%s", why.c_str());
+  }
   return 0;
 }
 

@@ -18,6 +18,7 @@
 #include "common/version.h"
 #include "store/cli/lot_model_view.h"
 #include "store/cli/lot_statistics.h"
+#include "store/cli/marks.h"
 #include "store/cli/plot_command.h"
 #include "store/outcome.h"
 #include "store/query.h"
@@ -235,6 +236,39 @@ std::string NumCell(double v, std::string_view key_attr, std::string_view key,
   return out;
 }
 
+// A unit's value with its marks (store/cli/marks.h), the number in its own
+// element (class "v", to 4 digits; data-v exact) and the marks outside it:
+// "≤ " before an upper bound, † (minimum not resolved) or ‡ (inadequate
+// model) after the number, "± u" after that (data-u exact), "n/m" for a value
+// not measurable with its note as the cell's title. data-q: the qualifier
+// ("measured" for a plain value).
+std::string ValueCell(double v, std::string_view key, std::string_view outcome,
+                      const store::ValueMarks& m) {
+  std::string out = "<td class=\"num";
+  if (!outcome.empty() && outcome != "PASS") Add(&out, " o-", outcome);
+  out += "\"";
+  const std::string q = store::QualifierText(m.qualifier);
+  Add(&out, Attr("data-m", key), Attr("data-v", Exact(v)), Attr("data-u", Exact(m.uncertainty)),
+      Attr("data-q", q.empty() ? "measured" : q));
+  if (!outcome.empty()) out += Attr("data-outcome", outcome);
+  if (!m.note.empty()) out += Attr("title", m.note);
+  out += ">";
+  if (m.qualifier == pb::NOT_MEASURABLE) {
+    Add(&out, "<span class=\"v nm\">n/m</span></td>");
+    return out;
+  }
+  const bool finite = std::isfinite(v);
+  if (finite && m.qualifier == pb::UPPER_BOUND) out += "<span class=\"mk\">&le;&nbsp;</span>";
+  Add(&out, "<span class=\"v\">", Human(v), "</span>");
+  if (finite && m.qualifier == pb::MINIMUM_NOT_RESOLVED) out += "<span class=\"mk\">&dagger;</span>";
+  if (finite && m.qualifier == pb::MODEL_INADEQUATE) out += "<span class=\"mk\">&Dagger;</span>";
+  if (finite && m.qualifier != pb::UPPER_BOUND && std::isfinite(m.uncertainty)) {
+    Add(&out, "<small class=\"pm\"> &plusmn;&nbsp;", Human(m.uncertainty), "</small>");
+  }
+  out += "</td>";
+  return out;
+}
+
 std::string IntCell(int64_t v, std::string_view key_attr, std::string_view key) {
   std::string out = "<td class=\"num\"";
   Add(&out, Attr(key_attr, key), Attr("data-v", std::to_string(v)), ">", std::to_string(v),
@@ -429,16 +463,19 @@ void UnitTable(const ReportData& d, const std::string& kind, std::string* out) {
     std::string_view key;          // data-m
     const char* title;
     double store::AxisRow::*field;
+    store::ValueMarks store::AxisRow::*marks;
   };
   const Column columns[] = {
       {accel ? judge::kVelocityRandomWalk : judge::kAngleRandomWalk, "random_walk",
-       accel ? "VRW" : "ARW", &store::AxisRow::random_walk},
+       accel ? "VRW" : "ARW", &store::AxisRow::random_walk, &store::AxisRow::random_walk_marks},
       {judge::kBiasInstability, "bias_instability", "Bias instability",
-       &store::AxisRow::bias_instability},
+       &store::AxisRow::bias_instability, &store::AxisRow::bias_instability_marks},
       {judge::kBiasInstabilityIeee, "bias_instability_ieee", "B (IEEE)",
-       &store::AxisRow::bias_instability_ieee},
-      {judge::kTauAtMinimum, "tau_min_s", "\u03C4 at min.", &store::AxisRow::tau_min_s},
-      {judge::kRateRandomWalk, "rate_random_walk", "RRW", &store::AxisRow::rate_random_walk},
+       &store::AxisRow::bias_instability_ieee, &store::AxisRow::bias_instability_ieee_marks},
+      {judge::kTauAtMinimum, "tau_min_s", "\u03C4 at min.", &store::AxisRow::tau_min_s,
+       &store::AxisRow::tau_min_marks},
+      {judge::kRateRandomWalk, "rate_random_walk", "RRW", &store::AxisRow::rate_random_walk,
+       &store::AxisRow::rate_random_walk_marks},
   };
   Add(out, "<div class=\"scroll\"><table class=\"sortable results\"", Attr("data-kind", kind),
       ">\n<caption>", accel ? "Accelerometer" : "Gyro", " axes</caption>\n<thead><tr>",
@@ -471,6 +508,9 @@ void UnitTable(const ReportData& d, const std::string& kind, std::string* out) {
       "<th scope=\"col\" class=\"num\">Gap samples</th><th scope=\"col\">Axis verdict</th>"
       "<th scope=\"col\">Unit verdict</th></tr></thead>\n<tbody>\n";
   std::string previous_run;
+  std::set<pb::Qualifier> used;
+  std::vector<std::string> not_measurable;
+  bool any_uncertainty = false;
   for (const store::AxisRow& r : d.rows) {
     if (r.kind != kind) continue;
     *out += r.run_id != previous_run ? "<tr class=\"unit-start\"" : "<tr";
@@ -481,7 +521,14 @@ void UnitTable(const ReportData& d, const std::string& kind, std::string* out) {
     for (const Column& c : columns) {
       auto it = d.by_key.find({r.run_id, r.axis, std::string(c.measurement)});
       const std::string outcome = it != d.by_key.end() ? OutcomeName(it->second->outcome) : "";
-      *out += NumCell(r.*c.field, "data-m", c.key, outcome);
+      *out += ValueCell(r.*c.field, c.key, outcome, r.*c.marks);
+      const store::ValueMarks& m = r.*c.marks;
+      if (m.qualifier != pb::QUALIFIER_NONE) used.insert(m.qualifier);
+      if (m.qualifier == pb::NOT_MEASURABLE) {
+        not_measurable.push_back(Esc(r.unit + " " + r.axis + " " + std::string(c.measurement)) +
+                                 ": " + Esc(m.note.empty() ? "no reason recorded" : m.note));
+      }
+      any_uncertainty |= std::isfinite(m.uncertainty);
     }
     *out += IntCell(r.gap_samples, "data-m", "gap_samples");
     *out += VerdictCell(r.axis_verdict, "axis_verdict");
@@ -489,6 +536,24 @@ void UnitTable(const ReportData& d, const std::string& kind, std::string* out) {
     *out += "</tr>\n";
   }
   *out += "</tbody></table></div>\n";
+  // The legend of the marks this table uses.
+  std::string legend;
+  if (any_uncertainty) {
+    legend += "<li><span class=\"mk\">&plusmn;&nbsp;u</span> the value's 1-sigma uncertainty</li>";
+  }
+  const std::pair<pb::Qualifier, const char*> marks[] = {{pb::UPPER_BOUND, "&le;"},
+                                                         {pb::MINIMUM_NOT_RESOLVED, "&dagger;"},
+                                                         {pb::MODEL_INADEQUATE, "&Dagger;"}};
+  for (const auto& [q, mark] : marks) {
+    if (!used.count(q)) continue;
+    Add(&legend, "<li", Attr("data-q", store::QualifierText(q)), "><span class=\"mk\">", mark,
+        "</span> ", Esc(QualifierExplanation(q)), "</li>");
+  }
+  for (const std::string& line : not_measurable) {
+    Add(&legend, "<li data-q=\"not_measurable\"><span class=\"mk\">n/m</span> not measurable: ",
+        line, "</li>");
+  }
+  if (!legend.empty()) Add(out, "<ul class=\"legend\"", Attr("data-kind", kind), ">", legend, "</ul>\n");
 }
 
 void Results(const ReportData& d, std::string* out) {
@@ -499,7 +564,9 @@ void Results(const ReportData& d, std::string* out) {
   }
   for (const std::string& kind : kinds) UnitTable(d, kind, out);
   *out +=
-      "<p class=\"note\">A value is coloured when its own limit judged it MARGINAL or FAIL. "
+      "<p class=\"note\">A value is coloured when its own limit judged it MARGINAL, "
+      "INCONCLUSIVE (within the guard band of a limit: a retest candidate) or FAIL; "
+      "&plusmn; is its 1-sigma uncertainty, and its marks are explained under each table. "
       "Axis verdict: the worst outcome of the axis's measurements; unit verdict: the run's, "
       "which also includes run-level measurements (duration, gaps). Click a column header to "
       "sort.</p>\n</section>\n";
@@ -668,6 +735,11 @@ tbody tr:hover { background: #eaf2fb; }
 table.results:not([data-sorted]) tr.unit-start:not(:first-child) td { border-top: 2px solid #b6c2cf; }
 td.o-MARGINAL { background: var(--marg-bg); color: var(--marg); font-weight: 600; }
 td.o-FAIL { background: var(--fail-bg); color: var(--fail); font-weight: 700; }
+td.o-INCONCLUSIVE { background: var(--inc-bg); color: var(--inc); font-weight: 600; }
+td .mk { color: var(--muted); font-weight: 400; }
+td.num small.pm { color: var(--muted); font-weight: 400; }
+ul.legend { list-style: none; padding-left: 0; margin: 4px 0 14px; color: var(--muted); font-size: 12.5px; }
+ul.legend .mk { display: inline-block; min-width: 2.2em; color: var(--ink); }
 td.cap-ok { color: var(--pass); } td.cap-warn { color: var(--marg); font-weight: 600; }
 td.cap-bad { color: var(--fail); font-weight: 700; }
 td small { color: var(--muted); font-weight: 400; }

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <set>
 
 #include "imuqual/measurement_t.hpp"
 #include "imuqual/run_t.hpp"
 #include "store/cli/table_writer.h"
+#include "store/cli/marks.h"
 #include "store/outcome.h"
 
 namespace imuqual::cli {
@@ -108,6 +110,43 @@ std::vector<std::string> Lines(const std::string& text) {
   return out;
 }
 
+pb::Qualifier QualifierOf(const ConsoleAxis& x) {
+  const int q = x.bias_instability_qualifier;
+  return pb::Qualifier_IsValid(q) ? static_cast<pb::Qualifier>(q) : pb::QUALIFIER_NONE;
+}
+
+// The live bias instability with its marks (marks.h); "" before there is
+// one. A provisional value not measurable yet (no curve so far) is not
+// there yet; only a final one reads "n/m".
+std::string LiveValue(const ConsoleAxis& x, int digits, bool with_uncertainty,
+                      bool final_result) {
+  const pb::Qualifier q = QualifierOf(x);
+  if (std::isnan(x.bias_instability) && (q != pb::NOT_MEASURABLE || !final_result)) return "";
+  return MarkedValue(x.bias_instability, q, x.bias_instability_uncertainty, digits,
+                     with_uncertainty);
+}
+
+// One line explaining the marks shown ("" when none is).
+std::string MarksLine(const ConsoleModel& m) {
+  std::set<pb::Qualifier> used;
+  for (const ConsoleUnit& u : m.units) {
+    for (const ConsoleAxis& x : u.axes) {
+      if (!LiveValue(x, 3, false, u.final_result).empty()) used.insert(QualifierOf(x));
+    }
+  }
+  std::string out;
+  if (used.count(pb::UPPER_BOUND)) out += std::string(out.empty() ? "" : "   ") + "\u2264 upper bound";
+  if (used.count(pb::MINIMUM_NOT_RESOLVED)) {
+    out += std::string(out.empty() ? "" : "   ") + kMinimumNotResolvedMark +
+           " minimum at the last point: the true minimum may lie lower";
+  }
+  if (used.count(pb::MODEL_INADEQUATE)) {
+    out += std::string(out.empty() ? "" : "   ") + kModelInadequateMark + " noise model failed its fit";
+  }
+  if (used.count(pb::NOT_MEASURABLE)) out += std::string(out.empty() ? "" : "   ") + "n/m not measurable";
+  return out;
+}
+
 // One row per unit and axis.
 std::vector<std::string> AxisRows(const ConsoleModel& m) {
   TableWriter t({"slot", "unit", "state", "elapsed / planned", "samples", "gaps", "axis",
@@ -127,12 +166,17 @@ std::vector<std::string> AxisRows(const ConsoleModel& m) {
                 Cell::Text(first ? StateText(u) : ""),
                 Cell::Text(first ? ElapsedText(u, m.planned_s) : ""), Cell::Text(first ? samples : ""),
                 Cell::Text(first ? gaps : ""), Cell::Text(x.name),
-                Cell::Text(std::isnan(x.bias_instability) ? "-" : Printf("%.3g ", x.bias_instability) + x.unit),
+                Cell::Text(LiveValue(x, 3, true, u.final_result).empty()
+                               ? "-"
+                               : LiveValue(x, 3, true, u.final_result) + " " + x.unit),
                 Cell::Text(VerdictText(x.outcome, u.final_result)),
                 Cell::Text(first ? VerdictText(u.verdict, u.final_result) : "")});
     }
   }
-  return Lines(t.Render(Format::kTable));
+  std::vector<std::string> lines = Lines(t.Render(Format::kTable));
+  const std::string marks = MarksLine(m);
+  if (!marks.empty()) lines.push_back(marks);
+  return lines;
 }
 
 // One row per unit, the axes' live bias instability side by side ('!' FAIL,
@@ -167,8 +211,8 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
     for (const std::string& name : axis_names) {
       std::string text;
       for (const ConsoleAxis& x : u->axes) {
-        if (x.name != name || std::isnan(x.bias_instability)) continue;
-        text = Printf("%.3g", x.bias_instability) + OutcomeMark(x.outcome);
+        if (x.name != name || LiveValue(x, 3, false, u->final_result).empty()) continue;
+        text = LiveValue(x, 3, false, u->final_result) + OutcomeMark(x.outcome);
       }
       row.push_back(Cell::Text(text));
     }
@@ -286,9 +330,11 @@ std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int hei
   size_t axis_rows = 0;
   for (const ConsoleUnit& u : m.units) axis_rows += std::max<size_t>(1, u.axes.size());
   const int room = height - kHeaderLines - kTableFrame - kNoticeLines;
-  std::vector<std::string> table = static_cast<int>(axis_rows) <= room
+  const int legend = MarksLine(m).empty() ? 0 : 1;
+  std::vector<std::string> table = static_cast<int>(axis_rows) + legend <= room
                                        ? AxisRows(m)
-                                       : UnitRows(m, std::max(1, room));
+                                       : UnitRows(m, std::max(1, room - legend));
+  if (static_cast<int>(axis_rows) + legend > room && legend > 0) table.push_back(MarksLine(m));
   out.insert(out.end(), table.begin(), table.end());
   const std::string tally = ConsoleTally(m);
   if (!tally.empty() && static_cast<int>(out.size()) + kNoticeLines < height) out.push_back(tally);
@@ -296,7 +342,14 @@ std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int hei
   out.push_back(m.notice.empty() ? "Ctrl-C: stop the soak (runs are archived as aborted)" : m.notice);
   if (static_cast<int>(out.size()) > height) out.resize(static_cast<size_t>(std::max(0, height)));
   for (std::string& line : out) {
-    if (static_cast<int>(line.size()) > width) line.resize(static_cast<size_t>(std::max(0, width)));
+    // Cut at `width` columns, never inside a UTF-8 character.
+    if (static_cast<int>(DisplayWidth(line)) <= width) continue;
+    size_t bytes = 0;
+    for (int columns = 0; bytes < line.size(); ++bytes) {
+      if ((static_cast<unsigned char>(line[bytes]) & 0xC0) == 0x80) continue;
+      if (columns++ == std::max(0, width)) break;
+    }
+    line.resize(bytes);
   }
   return out;
 }

@@ -25,6 +25,11 @@ struct ConsoleAxis {
   std::string name;
   double bias_instability = std::numeric_limits<double>::quiet_NaN();  // live estimate
   std::string unit;        // of bias_instability, e.g. "deg/h"
+  // Its marks as measurement_t gives them: 1-sigma uncertainty (NaN: none)
+  // and qualifier (measurement_t.QUALIFIER_*): shown "10.2 ± 0.8", "≤ 10.2",
+  // "10.2†" (minimum not resolved), "10.2‡" (inadequate model), "n/m".
+  double bias_instability_uncertainty = std::numeric_limits<double>::quiet_NaN();
+  int8_t bias_instability_qualifier = 0;
   // The worst measurement outcome of the axis (measurement_t.OUTCOME_*;
   // FAIL > INCONCLUSIVE > MARGINAL > PASS, store::OutcomeSeverity).
   int8_t outcome = 0;

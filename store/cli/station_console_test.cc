@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 
 #include "imuqual/measurement_t.hpp"
 #include "imuqual/run_t.hpp"
@@ -162,6 +163,39 @@ TEST(StationConsoleTest, SmallScreenShowsAUnitPerRowAttentionFirst) {
   EXPECT_NE(screen.find("10.2!"), std::string::npos) << screen;
   EXPECT_NE(screen.find("10.2~"), std::string::npos) << screen;
   EXPECT_NE(screen.find("more units ("), std::string::npos) << screen;
+}
+
+// The provisional values carry the marks measurement_t gives them.
+TEST(StationConsoleTest, LiveValuesCarryTheirMarksAndALegend) {
+  ConsoleModel m = Model();
+  m.units[0].axes[0].bias_instability_uncertainty = 0.81;
+  m.units[0].axes[1].bias_instability_qualifier = measurement_t::QUALIFIER_MINIMUM_NOT_RESOLVED;
+  m.units[0].axes[2].bias_instability_qualifier = measurement_t::QUALIFIER_UPPER_BOUND;
+  m.units[1].axes[0].bias_instability = std::numeric_limits<double>::quiet_NaN();
+  m.units[1].axes[0].bias_instability_qualifier = measurement_t::QUALIFIER_NOT_MEASURABLE;
+  // Provisional: not measurable yet is not there yet.
+  EXPECT_EQ(Screen(RenderConsole(m, 160, 40)).find("n/m"), std::string::npos);
+  m.units[1].final_result = true;
+  m.units[1].axes[1].bias_instability_qualifier = measurement_t::QUALIFIER_MODEL_INADEQUATE;
+  const std::string screen = Screen(RenderConsole(m, 160, 40));
+  for (const char* shown : {"10.2 \u00B1 0.81 deg/h", "10.2\u2020 deg/h", "\u2264 10.2 deg/h",
+                            "n/m deg/h", "10.2\u2021 deg/h", "\u2020 minimum at the last point",
+                            "\u2021 noise model failed its fit", "n/m not measurable",
+                            "\u2264 upper bound"}) {
+    EXPECT_NE(screen.find(shown), std::string::npos) << shown << "\n" << screen;
+  }
+  // A unit per row: the marks without the uncertainty, the legend kept.
+  const std::string small = Screen(RenderConsole(m, 160, 12));
+  EXPECT_NE(small.find("10.2\u2021!"), std::string::npos) << small;  // SN-2, failed, first
+  EXPECT_NE(small.find("n/m!"), std::string::npos) << small;
+  EXPECT_NE(small.find("\u2021 noise model failed its fit"), std::string::npos) << small;
+  // Cut to the width in columns, never inside a character.
+  for (const std::string& line : RenderConsole(m, 23, 40)) {
+    size_t columns = 0;
+    for (unsigned char c : line) columns += (c & 0xC0) != 0x80;
+    EXPECT_LE(columns, 23u) << line;
+    if (!line.empty()) EXPECT_NE(static_cast<unsigned char>(line.back()) & 0xC0, 0xC0) << line;
+  }
 }
 
 TEST(StationConsoleTest, ProgressCountsArchivedRunsAsDone) {

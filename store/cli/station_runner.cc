@@ -331,6 +331,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
             if (m.name == "bias_instability") {
               x.bias_instability = m.value;
               x.unit = m.unit;
+              x.bias_instability_uncertainty = m.uncertainty;
+              x.bias_instability_qualifier = m.qualifier;
             }
           }
         }

@@ -16,7 +16,8 @@ std::string FormatReal(double v, int digits) {
 
 std::string CellText(const Cell& c, int digits) {
   switch (c.kind) {
-    case Cell::Kind::kText: return c.text;
+    case Cell::Kind::kText:
+    case Cell::Kind::kNumText: return c.text;
     case Cell::Kind::kReal: return FormatReal(c.real, digits);
     case Cell::Kind::kInt: return std::to_string(c.integer);
   }
@@ -57,6 +58,12 @@ std::string JsonString(const std::string& s) {
 
 }  // namespace
 
+size_t DisplayWidth(const std::string& s) {
+  size_t n = 0;
+  for (unsigned char c : s) n += (c & 0xC0) != 0x80;
+  return n;
+}
+
 Result<Format> ParseFormat(const std::string& name) {
   if (name == "table") return Format::kTable;
   if (name == "csv") return Format::kCsv;
@@ -75,7 +82,7 @@ std::string TableWriter::Render(Format format) const {
 
 std::string TableWriter::RenderTable() const {
   std::vector<size_t> width(columns_.size());
-  for (size_t c = 0; c < columns_.size(); ++c) width[c] = columns_[c].size();
+  for (size_t c = 0; c < columns_.size(); ++c) width[c] = DisplayWidth(columns_[c]);
   std::vector<std::vector<std::string>> cells;
   for (const auto& row : rows_) {
     std::vector<std::string> texts;
@@ -84,7 +91,7 @@ std::string TableWriter::RenderTable() const {
       // A missing number shows as "-" for people.
       if (text.empty() && c < row.size() && row[c].kind == Cell::Kind::kReal) text.push_back('-');
       texts.push_back(std::move(text));
-      width[c] = std::max(width[c], texts.back().size());
+      width[c] = std::max(width[c], DisplayWidth(texts.back()));
     }
     cells.push_back(std::move(texts));
   }
@@ -92,7 +99,7 @@ std::string TableWriter::RenderTable() const {
   auto line = [&](const std::vector<std::string>& texts, const std::vector<Cell>* row) {
     for (size_t c = 0; c < texts.size(); ++c) {
       const bool numeric = row && c < row->size() && (*row)[c].kind != Cell::Kind::kText;
-      const std::string pad(width[c] - texts[c].size(), ' ');
+      const std::string pad(width[c] - DisplayWidth(texts[c]), ' ');
       if (numeric) {
         out += pad;
         out += texts[c];
@@ -139,7 +146,7 @@ std::string TableWriter::RenderJson() const {
       out += JsonString(columns_[c]);
       out += ": ";
       const Cell& cell = c < rows_[r].size() ? rows_[r][c] : Cell::Text("");
-      if (cell.kind == Cell::Kind::kText) {
+      if (cell.kind == Cell::Kind::kText || cell.kind == Cell::Kind::kNumText) {
         out += JsonString(cell.text);
       } else if (cell.kind == Cell::Kind::kInt) {
         out += std::to_string(cell.integer);

@@ -17,14 +17,21 @@ enum class Format { kTable, kCsv, kJson };
 Result<Format> ParseFormat(const std::string& name);  // "table", "csv", "json"
 
 struct Cell {
-  enum class Kind { kText, kReal, kInt } kind = Kind::kText;
+  // kNumText: a number already written as text with its marks ("≤ 0.68",
+  // "22.1† ± 1.3", "n/m"), right-aligned like numbers, a string in JSON.
+  enum class Kind { kText, kReal, kInt, kNumText } kind = Kind::kText;
   std::string text;
   double real = 0;
   int64_t integer = 0;
   static Cell Text(std::string t) { return {Kind::kText, std::move(t), 0, 0}; }
   static Cell Real(double v) { return {Kind::kReal, "", v, 0}; }
   static Cell Int(int64_t v) { return {Kind::kInt, "", 0, v}; }
+  static Cell NumText(std::string t) { return {Kind::kNumText, std::move(t), 0, 0}; }
 };
+
+// Columns a UTF-8 string takes on a terminal: its code points ("±", "≤",
+// "†" one column each).
+size_t DisplayWidth(const std::string& s);
 
 class TableWriter {
  public:

@@ -34,6 +34,23 @@ TEST(TableWriterTest, TableAlignsNumbersRight) {
             "say \"hi\"      -     -1\n");
 }
 
+// Marked values ("≤ 0.68", "22.1† ± 1.3") align right by the columns they
+// take, not their bytes.
+TEST(TableWriterTest, MarkedNumbersAlignByTheirColumns) {
+  TableWriter t({"v"});
+  t.AddRow({Cell::NumText("\u2264 0.68")});
+  t.AddRow({Cell::NumText("22.1\u2020 \u00B1 1.3")});
+  t.AddRow({Cell::NumText("n/m")});
+  EXPECT_EQ(t.Render(Format::kTable),
+            "v\n"
+            "-----------\n"
+            "     \u2264 0.68\n"
+            "22.1\u2020 \u00B1 1.3\n"
+            "        n/m\n");
+  EXPECT_EQ(t.Render(Format::kCsv), "v\n\u2264 0.68\n22.1\u2020 \u00B1 1.3\nn/m\n");
+  EXPECT_EQ(DisplayWidth("\u2264 0.68"), 6u);
+}
+
 TEST(TableWriterTest, ParseFormat) {
   EXPECT_TRUE(ParseFormat("csv").ok());
   EXPECT_FALSE(ParseFormat("xml").ok());

@@ -170,7 +170,10 @@ async function renderAndRead(htmlPath, chromiumPath, profileDir) {
         const out = {};
         for (const td of row.querySelectorAll(`td[${attr}]`)) {
           out[td.getAttribute(attr)] = {
-            v: td.getAttribute('data-v'), text: td.textContent, outcome: td.getAttribute('data-outcome'),
+            // The number's own element when the cell carries marks (≤, †, ‡, ± u) beside it.
+            v: td.getAttribute('data-v'), text: (td.querySelector('.v') ?? td).textContent,
+            outcome: td.getAttribute('data-outcome'), u: td.getAttribute('data-u'),
+            q: td.getAttribute('data-q'), whole: td.textContent,
             kind: td.getAttribute('data-kind'), sort: td.getAttribute('data-sort'),
           };
         }
@@ -257,7 +260,8 @@ async function main() {
   const rows = JSON.parse(run(args.imuqual, ['lot', lot, '--db', db, '--format', 'json']));
   const overview = sqlite(db, `SELECT * FROM lot_overview WHERE lot = ${sqlText(lot)}`);
   const measurements = sqlite(db, `
-SELECT l.serial AS unit, l.run_id, m.axis, m.name, m.value, m.unit, m.low, m.high, m.outcome
+SELECT l.serial AS unit, l.run_id, m.axis, m.name, m.value, m.unit, m.low, m.high, m.outcome,
+       m.uncertainty, COALESCE(m.qualifier, 'measured') AS qualifier
 FROM final_runs l
 JOIN measurements m ON m.run_key = l.run_key
 LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis
@@ -317,6 +321,7 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
     fail(`results table has ${dom.results.length} rows, imuqual lot has ${rows.length}`);
   }
   const outcomeOf = new Map(measurements.map((m) => [`${m.run_id}\u0000${m.axis}\u0000${m.name}`, m.outcome]));
+  const measurementOf = new Map(measurements.map((m) => [`${m.run_id}\u0000${m.axis}\u0000${m.name}`, m]));
   for (const r of rows) {
     const p = pageRows.get(`${r.run_id}\u0000${r.axis}`);
     if (!p) {
@@ -344,13 +349,27 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
         continue;
       }
       if (!sameExact(cell.v, want)) fail(`${r.unit} ${r.axis} ${key}: page ${cell.v}, archive ${want}`);
-      if (!visibleMatches(cell.text, cell.v)) {
+      const notMeasurable = cell.q === 'not_measurable';
+      if (notMeasurable ? cell.text.trim() !== 'n/m' : !visibleMatches(cell.text, cell.v)) {
         fail(`${r.unit} ${r.axis} ${key}: visible '${cell.text}' is not ${cell.v} to 4 digits`);
       }
       if (measurementName[key]) {
         const outcome = outcomeOf.get(`${r.run_id}\u0000${r.axis}\u0000${measurementName[key]}`) ?? null;
         if ((cell.outcome || null) !== outcome) {
           fail(`${r.unit} ${r.axis} ${key}: page outcome ${cell.outcome}, archive ${outcome}`);
+        }
+        // The marks: the qualifier, the uncertainty exactly, and what is shown beside the number.
+        const m = measurementOf.get(`${r.run_id}\u0000${r.axis}\u0000${measurementName[key]}`);
+        if (m) {
+          if (cell.q !== m.qualifier) fail(`${r.unit} ${r.axis} ${key}: page qualifier ${cell.q}, archive ${m.qualifier}`);
+          if (!sameExact(cell.u ?? '', m.uncertainty)) fail(`${r.unit} ${r.axis} ${key}: page uncertainty ${cell.u}, archive ${m.uncertainty}`);
+          const marks = { upper_bound: '\u2264', minimum_not_resolved: '\u2020', model_inadequate: '\u2021' };
+          if (marks[m.qualifier] && cell.v !== '' && !cell.whole.includes(marks[m.qualifier])) {
+            fail(`${r.unit} ${r.axis} ${key}: ${m.qualifier} shown without its mark: '${cell.whole}'`);
+          }
+          const showsU = cell.whole.includes('\u00b1');
+          const wantsU = m.uncertainty !== null && cell.v !== '' && m.qualifier !== 'upper_bound' && !notMeasurable;
+          if (showsU !== wantsU) fail(`${r.unit} ${r.axis} ${key}: '${cell.whole}' ${wantsU ? 'lacks' : 'shows'} ± u`);
         }
       }
     }
