@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <strings.h>
 
@@ -72,6 +73,39 @@ bool SplitCsv(std::string_view line, std::vector<std::string>* fields) {
   return true;
 }
 
+// Why a line is not text, or "" if it is: a control byte (other than tab)
+// or DEL, as compressed and binary files have within their first bytes.
+std::string NotText(std::string_view line) {
+  if (line.starts_with("\xFD" "7zXZ")) return "an xz-compressed file (decompress it first)";
+  if (line.starts_with("\x1F\x8B")) return "a gzip-compressed file (decompress it first)";
+  for (size_t i = 0; i < line.size(); ++i) {
+    const auto c = static_cast<unsigned char>(line[i]);
+    if ((c < 0x20 && c != '\t') || c == 0x7F) {
+      char text[96];
+      std::snprintf(text, sizeof text, "not text: byte 0x%02X at column %zu (a binary file?)", c,
+                    i + 1);
+      return text;
+    }
+  }
+  return "";
+}
+
+// A cell as shown in an error: at most 40 bytes, control bytes as \xNN.
+std::string Shown(std::string_view cell) {
+  std::string out;
+  for (char ch : cell.substr(0, 40)) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c < 0x20 || c == 0x7F) {
+      char esc[8];
+      std::snprintf(esc, sizeof esc, "\\x%02X", c);
+      out += esc;
+    } else {
+      out += ch;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 NumericRowReader::NumericRowReader(LineSource next_line, std::string source_name,
@@ -86,6 +120,9 @@ Status NumericRowReader::Start() {
     const std::string_view line = Trim(*raw);
     if (line.empty() || line[0] == '#' || line[0] == '%') continue;
     const std::string where = source_ + ":" + std::to_string(line_no_) + ": ";
+    if (const std::string why = NotText(line); !why.empty()) {
+      return Status::InvalidArgument(where + why);
+    }
     if (!SplitCsv(line, &fields_)) return Status::InvalidArgument(where + "unterminated quote");
     double probe;
     const bool header = fields_.size() > 1 || !ParseNumber(fields_[0], &probe);
@@ -121,7 +158,7 @@ Result<bool> NumericRowReader::ParseRow(std::string_view line, std::vector<doubl
                                      names_[k] + "' is field " + std::to_string(pick_[k] + 1));
     }
     if (!ParseNumber(fields_[pick_[k]], &(*values)[k])) {
-      return Status::InvalidArgument(where + "'" + fields_[pick_[k]].substr(0, 40) +
+      return Status::InvalidArgument(where + "'" + Shown(fields_[pick_[k]]) +
                                      "' is not a number (column '" + names_[k] + "')");
     }
   }

@@ -17,6 +17,24 @@ TEST(NumericTextTest, OneValuePerLineWithCommentsAndGaps) {
   EXPECT_EQ((*v)[3], 0.0);  // 0 is a value, not a gap
 }
 
+TEST(NumericTextTest, BinaryAndCompressedFilesGetAOneLineError) {
+  // An xz file (as published recordings often are), a gzip file and other
+  // binary data: named as such, on one line, no raw bytes echoed.
+  const std::string xz = std::string("\xFD" "7zXZ\0\0\x04\xE6\xD6\xB4\x46", 12) + "\n1\n";
+  auto a = ParseSeries(xz, "rec.csv.xz", "gx");
+  ASSERT_FALSE(a.ok());
+  EXPECT_EQ(a.status().message(), "rec.csv.xz:1: an xz-compressed file (decompress it first)");
+  auto b = ParseSeries(std::string("\x1F\x8B\x08\0abc\n1\n", 9), "r.gz");
+  ASSERT_FALSE(b.ok());
+  EXPECT_EQ(b.status().message(), "r.gz:1: a gzip-compressed file (decompress it first)");
+  auto c = ParseSeries(std::string("gx,gy\x01\n1,2\n"), "b.csv");
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(c.status().message(), "b.csv:1: not text: byte 0x01 at column 6 (a binary file?)");
+  auto d = ParseSeries(std::string("gx\n1\n2\x02x\n"), "d.csv", "gx");
+  ASSERT_FALSE(d.ok());
+  EXPECT_EQ(d.status().message(), "d.csv:3: '2\\x02x' is not a number (column 'gx')");
+}
+
 TEST(NumericTextTest, CsvColumnsByName) {
   const char* csv = "time,gx,\"gy\"\n0.00,1,2\n0.01,,4\n0.02,5,6\r\n";
   auto t = ParseNumericText(csv, "f.csv", {"gy", "gx"});

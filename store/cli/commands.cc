@@ -130,7 +130,36 @@ std::string VerdictCounts(const std::map<std::string, int>& counts) {
   return out;
 }
 
-// The lot's yields and why units were tested again, under `imuqual lot`.
+// "reasons:" and one line per reason of the runs given (every run of `rows`
+// when `run_ids` is empty), each after its unit (the verdict is in the
+// table): "  U3: gx: bias_instability ...".
+std::string ReasonLines(store::Archive& archive, const std::vector<store::AxisRow>& rows,
+                        std::vector<std::string> run_ids) {
+  std::map<std::string, const store::AxisRow*> run_of;
+  const bool every_run = run_ids.empty();
+  for (const store::AxisRow& r : rows) {
+    if (run_of.emplace(r.run_id, &r).second && every_run) run_ids.push_back(r.run_id);
+  }
+  auto reasons = store::QueryReasons(archive, run_ids);
+  if (!reasons.ok() || reasons->empty()) return "";
+  std::string out = "\nreasons:\n";
+  for (const auto& [run_id, text] : *reasons) {
+    auto it = run_of.find(run_id);
+    const std::string who = it == run_of.end() ? run_id : it->second->unit;
+    size_t start = 0;
+    while (start < text.size()) {
+      const size_t end = text.find('\n', start);
+      out += "  " + who + ": " + text.substr(start, end - start) + "\n";
+      if (end == std::string::npos) break;
+      start = end + 1;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// The lot's yields and why units were tested again (commands.h).
 std::string LotYieldLines(store::Archive& archive, const std::string& lot) {
   auto lots = store::QueryLots(archive);
   if (!lots.ok()) return "";
@@ -163,35 +192,6 @@ std::string LotYieldLines(store::Archive& archive, const std::string& lot) {
   }
   return out;
 }
-
-// "reasons:" and one line per reason of the runs given (every run of `rows`
-// when `run_ids` is empty), each after its unit (the verdict is in the
-// table): "  U3: gx: bias_instability ...".
-std::string ReasonLines(store::Archive& archive, const std::vector<store::AxisRow>& rows,
-                        std::vector<std::string> run_ids) {
-  std::map<std::string, const store::AxisRow*> run_of;
-  const bool every_run = run_ids.empty();
-  for (const store::AxisRow& r : rows) {
-    if (run_of.emplace(r.run_id, &r).second && every_run) run_ids.push_back(r.run_id);
-  }
-  auto reasons = store::QueryReasons(archive, run_ids);
-  if (!reasons.ok() || reasons->empty()) return "";
-  std::string out = "\nreasons:\n";
-  for (const auto& [run_id, text] : *reasons) {
-    auto it = run_of.find(run_id);
-    const std::string who = it == run_of.end() ? run_id : it->second->unit;
-    size_t start = 0;
-    while (start < text.size()) {
-      const size_t end = text.find('\n', start);
-      out += "  " + who + ": " + text.substr(start, end - start) + "\n";
-      if (end == std::string::npos) break;
-      start = end + 1;
-    }
-  }
-  return out;
-}
-
-}  // namespace
 
 int RunCommand(const StationRunOptions& options) {
   auto run = RunStation(options);

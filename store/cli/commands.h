@@ -8,6 +8,10 @@
 #include "store/cli/station_runner.h"
 #include "store/cli/table_writer.h"
 
+namespace imuqual::store {
+class Archive;
+}  // namespace imuqual::store
+
 namespace imuqual::cli {
 
 // Exit codes of `imuqual run` (README "Exit codes", `imuqual run --help`).
@@ -18,7 +22,7 @@ inline constexpr int kRunExitError = 1;          // the station failed (process,
 inline constexpr int kRunExitUsage = 2;          // bad options, station file, plan, source
                                                  // or archive file: nothing was run
 inline constexpr int kRunExitSourceFailed = 3;   // a unit's source failed (bad data, device
-                                                 // gone): its run archived as FAIL; every
+                                                 // gone): its run archived as ERROR; every
                                                  // other unit finished, judged and archived
 inline constexpr int kRunExitArchiveUnwritable = 4;  // the archive could not be written (a
                                                      // full disk): what was acknowledged is
@@ -33,6 +37,11 @@ inline constexpr char kRunExitCodesHelp[] =
     "for --archive-timeout: everything acknowledged is archived, the runs are not finished; "
     "130 interrupted (Ctrl-C, a hang-up, SIGTERM): the runs were aborted, "
     "archived and judged.";
+
+// A lot's counts by final run, first-pass and final yield, retests and
+// retest candidates, and why units were tested again: lines under `imuqual
+// lot` and `imuqual lot --stats`; "" for an unknown lot.
+std::string LotYieldLines(store::Archive& archive, const std::string& lot);
 
 // imuqual run: a station end to end, then the result table. Returns one of
 // the kRunExit* codes.

@@ -6,6 +6,7 @@
 
 #include "common/clock.h"
 #include "common/log.h"
+#include "store/cli/commands.h"
 #include "store/cli/lot_model_view.h"
 #include "store/cli/lot_statistics.h"
 #include "store/cli/marks.h"
@@ -75,7 +76,10 @@ int LotStatsCommand(const std::string& db_path, const std::string& lot, Format f
         lot.c_str());
   }
   std::printf("%s", t.Render(format).c_str());
-  if (format == Format::kTable) return LotModelCommand(db_path, lot, format);
+  if (format == Format::kTable) {
+    std::printf("%s", LotYieldLines(**archive, lot).c_str());
+    return LotModelCommand(db_path, lot, format);
+  }
   return 0;
 }
 
