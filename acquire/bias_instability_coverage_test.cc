@@ -74,26 +74,32 @@ std::vector<Scenario> Scenarios() {
   return out;
 }
 
+// One simulated record of `axis` (seed), analysed as the station does:
+// streaming engine, dense grid, 9-bin rule.
+allan::Curve StationCurve(const pb::AxisTruth& axis, uint64_t seed) {
+  pb::SimTruth truth;
+  truth.set_seed(seed);
+  truth.set_actual_rate_hz(kRateHz);
+  *truth.add_axes() = axis;
+  auto sim = sim::ImuSimulator::Create(truth);
+  EXPECT_TRUE(sim.ok());
+  if (!sim.ok()) return {};
+  std::vector<std::vector<float>> out(1);
+  out[0].reserve(kSamples);
+  sim->Generate(kSamples, out);
+  allan::StreamingOptions so;
+  so.tau0_s = 1 / kRateHz;
+  allan::StreamingAllan engine(so);
+  engine.Append(std::span<const float>(out[0]));
+  return engine.Oadev(allan::StreamGrid::kDense, allan::StopRule::kBins9, allan::CiMethod::kNone);
+}
+
 TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {
   for (const Scenario& s : Scenarios()) {
     int covered1 = 0, covered2 = 0, n = 0;
     double sum_z = 0;
     for (int seed = 1; seed <= kSeeds; ++seed) {
-      pb::SimTruth truth;
-      truth.set_seed(9001 * seed + 17);
-      truth.set_actual_rate_hz(kRateHz);
-      *truth.add_axes() = s.truth;
-      auto sim = sim::ImuSimulator::Create(truth);
-      ASSERT_TRUE(sim.ok());
-      std::vector<std::vector<float>> out(1);
-      out[0].reserve(kSamples);
-      sim->Generate(kSamples, out);
-      allan::StreamingOptions so;
-      so.tau0_s = 1 / kRateHz;
-      allan::StreamingAllan engine(so);
-      engine.Append(std::span<const float>(out[0]));
-      const allan::Curve dense =
-          engine.Oadev(allan::StreamGrid::kDense, allan::StopRule::kBins9, allan::CiMethod::kNone);
+      const allan::Curve dense = StationCurve(s.truth, 9001 * seed + 17);
       const auto min = allan::FindCurveMinimum(dense);
       ASSERT_TRUE(min.has_value());
       const double u = allan::MinimumUncertainty(dense, *min);
@@ -133,21 +139,7 @@ TEST(SlopeReadoffCoverageTest, AngleRandomWalkUncertaintyCoversTheTruth) {
       int covered1 = 0, covered2 = 0, n = 0, bounds = 0;
       double sum_z = 0;
       for (int seed = 1; seed <= kSeeds; ++seed) {
-        pb::SimTruth truth;
-        truth.set_seed(7001 * seed + 3);
-        truth.set_actual_rate_hz(kRateHz);
-        *truth.add_axes() = s.truth;
-        auto sim = sim::ImuSimulator::Create(truth);
-        ASSERT_TRUE(sim.ok());
-        std::vector<std::vector<float>> out(1);
-        out[0].reserve(kSamples);
-        sim->Generate(kSamples, out);
-        allan::StreamingOptions so;
-        so.tau0_s = 1 / kRateHz;
-        allan::StreamingAllan engine(so);
-        engine.Append(std::span<const float>(out[0]));
-        const allan::Curve dense =
-            engine.Oadev(allan::StreamGrid::kDense, allan::StopRule::kBins9, allan::CiMethod::kNone);
+        const allan::Curve dense = StationCurve(s.truth, 7001 * seed + 3);
         const allan::SlopeReadoff r = allan::ReadSlopeLine(dense, term);
         if (r.upper_bound_only) {
           ++bounds;

@@ -19,6 +19,7 @@
 #include "common/text_util.h"
 #include "imuqual/record.pb.h"
 #include "store/archive.h"
+#include "tests/csv_table.h"
 #include "tests/test_util.h"
 
 namespace imuqual {
@@ -51,59 +52,8 @@ std::string Exact(double v) {
   return buf;
 }
 
-// CSV without quoted newlines (the exports quote only what needs it).
-struct Csv {
-  std::vector<std::string> header;
-  std::vector<std::vector<std::string>> rows;
-  size_t Col(const std::string& name) const {
-    for (size_t i = 0; i < header.size(); ++i) {
-      if (header[i] == name) return i;
-    }
-    ADD_FAILURE() << "no column " << name;
-    return 0;
-  }
-};
-Csv ParseCsv(const std::string& text) {
-  Csv out;
-  std::vector<std::string> record;
-  std::string field;
-  bool quoted = false, first = true;
-  auto end_record = [&] {
-    record.push_back(field);
-    field.clear();
-    if (first) {
-      out.header = record;
-      first = false;
-    } else if (record.size() > 1 || !record[0].empty()) {
-      out.rows.push_back(record);
-    }
-    record.clear();
-  };
-  for (size_t i = 0; i < text.size(); ++i) {
-    const char c = text[i];
-    if (quoted) {
-      if (c != '"') {
-        field += c;
-      } else if (i + 1 < text.size() && text[i + 1] == '"') {
-        field += '"';
-        ++i;
-      } else {
-        quoted = false;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      record.push_back(field);
-      field.clear();
-    } else if (c == '\n') {
-      end_record();
-    } else if (c != '\r') {
-      field += c;
-    }
-  }
-  if (!field.empty() || !record.empty()) end_record();
-  return out;
-}
+using testing::Csv;
+using testing::ParseCsv;
 
 struct Archived {
   std::string serial, run_id, verdict, reasons;

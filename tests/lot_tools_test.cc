@@ -26,6 +26,7 @@
 #include "store/chunk_codec.h"
 #include "store/outcome.h"
 #include "store/run_record.h"
+#include "tests/csv_table.h"
 #include "tests/test_util.h"
 
 namespace imuqual {
@@ -34,58 +35,8 @@ namespace {
 using testing::Bin;
 using testing::RunCommand;
 
-// CSV (RFC 4180: quoted fields, CRLF or LF) as header-indexed rows.
-struct Csv {
-  std::vector<std::string> header;
-  std::vector<std::vector<std::string>> rows;
-  size_t Col(const std::string& name) const {
-    const auto it = std::find(header.begin(), header.end(), name);
-    EXPECT_NE(it, header.end()) << name;
-    return it - header.begin();
-  }
-};
-Csv ParseCsv(const std::string& text) {
-  std::vector<std::vector<std::string>> records;
-  std::vector<std::string> record;
-  std::string field;
-  bool quoted = false;
-  for (size_t i = 0; i < text.size(); ++i) {
-    const char c = text[i];
-    if (quoted) {
-      if (c != '"') {
-        field += c;
-      } else if (i + 1 < text.size() && text[i + 1] == '"') {
-        field += '"';
-        ++i;
-      } else {
-        quoted = false;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      record.push_back(std::move(field));
-      field.clear();
-    } else if (c == '\n') {
-      record.push_back(std::move(field));
-      field.clear();
-      records.push_back(std::move(record));
-      record.clear();
-    } else if (c != '\r') {
-      field += c;
-    }
-  }
-  if (!field.empty() || !record.empty()) {
-    record.push_back(std::move(field));
-    records.push_back(std::move(record));
-  }
-  Csv c;
-  if (records.empty()) return c;
-  c.header = std::move(records[0]);
-  for (size_t i = 1; i < records.size(); ++i) {
-    if (records[i].size() > 1 || !records[i][0].empty()) c.rows.push_back(std::move(records[i]));
-  }
-  return c;
-}
+using testing::Csv;
+using testing::ParseCsv;
 
 class LotToolsTest : public ::testing::Test {
  protected:
