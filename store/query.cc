@@ -166,7 +166,7 @@ SELECT l.serial, l.run_id, m.axis, COALESCE(ra.kind, ''), m.name, m.value, m.unc
 FROM final_runs l
 JOIN measurements m ON m.run_key = l.run_key
 LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis
-WHERE l.lot = ?1
+WHERE l.lot = ?1 AND l.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
 ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, lot);

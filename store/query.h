@@ -87,7 +87,9 @@ struct MeasurementRow {
   pb::Limit::DecisionRule decision_rule = pb::Limit::RULE_DEFAULT;  // none applied
   double guard_band = allan::kNaN;
 };
-// Every measurement of each unit's final run in `lot` (view lot_measurements).
+// Every measurement of each unit's final run in `lot` when that run is
+// judged (view lot_measurements): ABORTED, ERROR and unjudged runs' partial
+// values say nothing about the lot.
 Result<std::vector<MeasurementRow>> QueryLotMeasurements(Archive& archive, const std::string& lot);
 
 // A run's identity and outcome (table runs).

@@ -414,16 +414,19 @@ WHERE r.run_key = (SELECT x.run_key FROM runs x
                             x.start_utime DESC, x.run_key DESC
                    LIMIT 1);
 
--- Every value of each unit's final run in its lot: what
--- `imuqual lot LOT --stats` summarizes. A retested unit counts once, by its
--- final run; a unit never judged has the values of its latest run, if any.
+-- Every value of each unit's final run in its lot, when that run is judged
+-- (PASS, MARGINAL, FAIL, INCONCLUSIVE): what `imuqual lot LOT --stats`
+-- summarizes. A retested unit counts once, by its final run; a unit whose
+-- runs were all aborted, failed by the station or not judged yet has no
+-- values here (partial records say nothing about the lot).
 CREATE VIEW lot_measurements AS
 SELECT r.lot, r.serial, r.run_id, r.start_utime, m.axis, COALESCE(ra.kind, '') AS kind,
        m.name, m.value, m.unit, m.low, m.high, m.marginal_low, m.marginal_high, m.outcome,
        m.uncertainty, m.qualifier, m.uncertainty_method, m.decision_rule, m.guard_band
 FROM final_runs r
 JOIN measurements m ON m.run_key = r.run_key
-LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis;
+LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis
+WHERE r.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE');
 
 -- Every value of every run (each run's current judgement), retests
 -- included: a unit's history.
@@ -437,8 +440,9 @@ LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis;
 
 -- Per lot: runs, units, the units' final verdicts and the yields (SCHEMA.md,
 -- Yields). yield = final_yield = (PASS + MARGINAL) / (PASS + MARGINAL + FAIL)
--- over final runs; first_pass_yield the same over each unit's first judged
--- run; NULL when no unit counts.
+-- over final runs; first_pass_yield = units whose first judged run is PASS
+-- or MARGINAL / units with a judged run (an INCONCLUSIVE first run did not
+-- pass first time); NULL when no unit counts.
 CREATE VIEW lot_overview AS
 SELECT f.lot, (SELECT COUNT(*) FROM runs x WHERE x.lot = f.lot) AS runs, COUNT(*) AS units,
        SUM(f.verdict IS 'PASS') AS pass, SUM(f.verdict IS 'MARGINAL') AS marginal,
@@ -452,7 +456,7 @@ SELECT f.lot, (SELECT COUNT(*) FROM runs x WHERE x.lot = f.lot) AS runs, COUNT(*
        1.0 * SUM(f.verdict IN ('PASS', 'MARGINAL'))
            / NULLIF(SUM(f.verdict IN ('PASS', 'MARGINAL', 'FAIL')), 0) AS final_yield,
        1.0 * SUM(f.first_verdict IN ('PASS', 'MARGINAL'))
-           / NULLIF(SUM(f.first_verdict IN ('PASS', 'MARGINAL', 'FAIL')), 0) AS first_pass_yield,
+           / NULLIF(SUM(f.first_verdict IS NOT NULL), 0) AS first_pass_yield,
        (SELECT COUNT(*) FROM runs x WHERE x.lot = f.lot) - COUNT(*) AS retests,
        SUM(f.verdict IS 'INCONCLUSIVE') AS retest_candidates
 FROM (SELECT l.lot, l.verdict,

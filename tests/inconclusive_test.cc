@@ -216,6 +216,19 @@ TEST_F(InconclusiveTest, TheReportShowsTheBadgeAndTheReason) {
   }
 }
 
+TEST_F(InconclusiveTest, TheLotPlotDrawsTheUnitAsInconclusive) {
+  ASSERT_EQ(second_->exit_code, 0);
+  const Archived a = ReadBiasInstability(db_);
+  const std::string path = dir_->path("lot.svg");
+  Imuqual(std::string("plot --lot ") + kLot + " --axis " + kAxis + " -o " + path);
+  auto svg = ReadFileToString(path);
+  ASSERT_TRUE(svg.ok());
+  // Bold, in the inconclusive violet, labelled with its verdict: not a FAIL's red.
+  EXPECT_NE(svg->find(a.serial + " INCONCLUSIVE"), std::string::npos);
+  EXPECT_NE(svg->find("#5a32a3"), std::string::npos);
+  EXPECT_NE(svg->find("bands: FAIL, INCONCLUSIVE and MARGINAL units"), std::string::npos);
+}
+
 TEST_F(InconclusiveTest, TheExportsCarryTheOutcomeTheRuleAndTheGuardBand) {
   ASSERT_EQ(second_->exit_code, 0);
   const Archived a = ReadBiasInstability(db_);

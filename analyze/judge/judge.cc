@@ -80,16 +80,27 @@ std::string Who(const pb::Measurement& m) {
 
 std::string UnitSuffix(const pb::Measurement& m) { return m.unit() == "1" ? "" : " " + m.unit(); }
 
+// A value the truth lies at or below: an upper bound, or a curve minimum at
+// the curve's last point (the true minimum may lie lower, and later: so its
+// tau is not one).
+bool IsUpperBound(const pb::Measurement& m) {
+  return m.qualifier() == pb::UPPER_BOUND ||
+         (m.qualifier() == pb::MINIMUM_NOT_RESOLVED && m.name() != kTauAtMinimum);
+}
+
 // Applies `limit` under `rule` with guard band `w` (0: none) to the
 // measurement's finite value.
 Decision DecideValue(const pb::Limit& limit, pb::Limit::DecisionRule rule, double w,
                      const pb::Measurement& m) {
   const double v = m.value();
   const std::string unit = UnitSuffix(m);
-  const bool bound = m.qualifier() == pb::UPPER_BOUND;
+  const bool bound = IsUpperBound(m);
   const bool with_u = w > 0 && m.has_uncertainty();
-  const std::string shown = Who(m) + " " + Num(v) + (with_u ? " ± " + Num(m.uncertainty()) : "") +
-                            unit + (bound ? " (upper bound)" : "");
+  const std::string shown =
+      Who(m) + " " + Num(v) + (with_u ? " ± " + Num(m.uncertainty()) : "") + unit +
+      (m.qualifier() == pb::UPPER_BOUND            ? " (upper bound)"
+       : m.qualifier() == pb::MINIMUM_NOT_RESOLVED ? " (minimum not resolved)"
+                                                   : "");
   const std::string rule_name = DecisionRuleName(rule);
   const std::string band = w > 0 ? " (w = " + Num(w) + ", " + rule_name + ")" : "";
 
@@ -240,7 +251,11 @@ void JudgeMeasurement(const pb::TestPlan& plan, const pb::Limit& limit, pb::Meas
     bool for_lack_of_u = false;
     const bool has_u =
         m->has_uncertainty() && std::isfinite(m->uncertainty()) && m->uncertainty() >= 0;
-    if (Guarded(rule) && m->qualifier() != pb::UPPER_BOUND) {
+    // A guard band only where there is a bound to guard (a limit of marginal
+    // bounds only is judged simply) and a value that is not a bound.
+    const bool bounded = limit.has_low() || limit.has_high();
+    if (!bounded) rule = pb::Limit::SIMPLE;
+    if (Guarded(rule) && !IsUpperBound(*m)) {
       if (!has_u) {
         // No uncertainty to guard with: said, not pretended.
         rule = pb::Limit::SIMPLE;
@@ -253,7 +268,8 @@ void JudgeMeasurement(const pb::TestPlan& plan, const pb::Limit& limit, pb::Meas
       }
     }
     m->set_decision_rule(rule);
-    if (w > 0) m->set_guard_band(w);
+    // The band used, 0 included (a zero uncertainty): absent only when none.
+    if (Guarded(rule) && !IsUpperBound(*m)) m->set_guard_band(w);
     d = DecideValue(limit, rule, w, *m);
     if (d.outcome != pb::PASS && for_lack_of_u) {
       d.reason += std::string(" (") + kNoUncertainty + ")";

@@ -382,6 +382,46 @@ TEST(DecisionRuleTest, UpperBounds) {
   EXPECT_EQ(JudgeOne(low_simple, 5, -1, nullptr, pb::UPPER_BOUND).outcome(), pb::PASS);
 }
 
+// A bias instability read at the curve's last point (the curve has not
+// turned up) is an upper bound of the true minimum: judged like one.
+TEST(DecisionRuleTest, AnUnresolvedMinimumIsJudgedAsAnUpperBound) {
+  const pb::TestPlan guarded = RulePlan(pb::Limit::GUARDED, 0, false, true);
+  Judgement j;
+  pb::Measurement m = JudgeOne(guarded, 10.4, 0.1, &j, pb::MINIMUM_NOT_RESOLVED);
+  EXPECT_EQ(m.outcome(), pb::INCONCLUSIVE);  // w = 0.2 would have made it a FAIL
+  EXPECT_FALSE(m.has_guard_band());
+  ASSERT_EQ(j.reasons.size(), 1u);
+  EXPECT_EQ(j.reasons[0],
+            "gx: bias_instability 10.4 deg/h (minimum not resolved): only an upper bound, above "
+            "the high limit 10 deg/h: inconclusive (guarded)");
+  EXPECT_EQ(JudgeOne(guarded, 9.9, 0.5, nullptr, pb::MINIMUM_NOT_RESOLVED).outcome(), pb::PASS);
+  const pb::TestPlan simple = RulePlan(pb::Limit::SIMPLE, 0, false, true);
+  EXPECT_EQ(JudgeOne(simple, 10.4, 0.1, nullptr, pb::MINIMUM_NOT_RESOLVED).outcome(), pb::FAIL);
+}
+
+TEST(DecisionRuleTest, ZeroUncertaintyRecordsAZeroGuardBand) {
+  const pb::TestPlan plan = RulePlan(pb::Limit::GUARDED, 0, false, true);
+  const pb::Measurement m = JudgeOne(plan, 9.99, 0.0);
+  EXPECT_EQ(m.outcome(), pb::PASS);
+  EXPECT_EQ(m.decision_rule(), pb::Limit::GUARDED);
+  ASSERT_TRUE(m.has_guard_band());
+  EXPECT_EQ(m.guard_band(), 0.0);
+  EXPECT_EQ(m.note(), "");
+}
+
+TEST(DecisionRuleTest, AGuardedLimitOfMarginalBoundsOnlyIsSimple) {
+  pb::TestPlan plan = RulePlan(pb::Limit::GUARDED, 0, false, true);
+  plan.mutable_limits(0)->clear_high();
+  plan.mutable_limits(0)->set_marginal_high(8);
+  for (double u : {0.5, -1.0}) {
+    const pb::Measurement m = JudgeOne(plan, 8.1, u);
+    EXPECT_EQ(m.outcome(), pb::MARGINAL);
+    EXPECT_EQ(m.decision_rule(), pb::Limit::SIMPLE);
+    EXPECT_FALSE(m.has_guard_band());
+    EXPECT_EQ(m.note(), "");  // no "no uncertainty" note: there was nothing to guard
+  }
+}
+
 TEST(DecisionRuleTest, ReasonsNameAxisValueUncertaintyBoundBandAndRule) {
   pb::TestPlan plan = RulePlan(pb::Limit::GUARDED_ACCEPTANCE, 0, true, true);
   Judgement j;

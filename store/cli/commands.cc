@@ -314,7 +314,8 @@ int LotsCommand(const std::string& db_path, Format format) {
   if (format == Format::kTable) {
     std::printf(
         "units by their final run (latest judged, else latest); yield = (pass + marginal) / "
-        "(pass + marginal + fail), first_pass_yield the same over each unit's first judged run\n");
+        "(pass + marginal + fail); first_pass_yield = units whose first judged run passed / units "
+        "with a judged run\n");
     if (unmeasurable) std::printf("n/m: not measurable: no judged unit\n");
   }
   return 0;

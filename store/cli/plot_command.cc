@@ -29,6 +29,7 @@ constexpr char kLimitColor[] = "#d62728";     // red: the limit
 constexpr char kMarginalColor[] = "#e69f00";  // amber: the marginal band's edge
 constexpr char kFailColor[] = "#d62728";
 constexpr char kMarginalCurveColor[] = "#e69f00";
+constexpr char kInconclusiveCurveColor[] = "#5a32a3";  // violet, as the report's
 constexpr char kPassCurveColor[] = "#4a78a8";
 constexpr char kUnjudgedCurveColor[] = "#999999";
 // Points of the model curve: smooth at plot size, one per ~1/20 decade over
@@ -75,6 +76,22 @@ const pb::Measurement* FindMeasurementRow(const AxisPlotData& a, std::string_vie
 }
 
 int Severity(const std::string& verdict) { return store::OutcomeSeverity(verdict); }
+
+// The colour of a unit's curve in a lot overlay by its axis's verdict, and
+// whether it is drawn bold with its band; nullptr: drawn thin (PASS, not
+// judged).
+const char* BoldCurveColor(const std::string& verdict) {
+  switch (store::OutcomeFromText(verdict)) {
+    case pb::FAIL:
+      return kFailColor;
+    case pb::INCONCLUSIVE:
+      return kInconclusiveCurveColor;
+    case pb::MARGINAL:
+      return kMarginalCurveColor;
+    default:
+      return nullptr;
+  }
+}
 
 std::string WorstOutcome(const std::vector<pb::Measurement>& ms) {
   std::string worst;
@@ -469,9 +486,8 @@ std::vector<AllanPlot> LotAllanPlots(const std::string& lot, const std::vector<R
     p.legend_width = kLegendWidthPx;
     bool pass_listed = false, unjudged_listed = false;
     for (const auto& [run, a] : members) {
-      const int severity = Severity(a->verdict);
-      if (severity >= 2) {
-        const std::string color = severity == 3 ? kFailColor : kMarginalCurveColor;
+      if (const char* bold = BoldCurveColor(a->verdict)) {
+        const std::string color = bold;
         PlotSeries s = CurveSeries(*a->curve, run->info.serial + " " + a->verdict, color);
         s.stroke_width = 2.2;
         s.markers = false;
@@ -479,7 +495,7 @@ std::vector<AllanPlot> LotAllanPlots(const std::string& lot, const std::vector<R
         if (auto m = MinimumMarker(*a, "", color)) p.markers.push_back(std::move(*m));
         continue;
       }
-      const bool judged = severity == 1;
+      const bool judged = a->verdict == "PASS";
       PlotSeries s = CurveSeries(*a->curve, "", judged ? kPassCurveColor : kUnjudgedCurveColor);
       s.lo.clear();
       s.hi.clear();
@@ -512,7 +528,7 @@ std::vector<AllanPlot> LotAllanPlots(const std::string& lot, const std::vector<R
     p.title = out.title;
     p.notes.push_back("colour: the axis's verdict");
     if (!members.empty()) {
-      p.notes.push_back("bands: FAIL and MARGINAL units,");
+      p.notes.push_back("bands: FAIL, INCONCLUSIVE and MARGINAL units,");
       p.notes.push_back(BandNote(*members.front().second->curve, ""));
     }
     p.notes.push_back("ring: curve minimum (BI)");

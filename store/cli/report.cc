@@ -418,8 +418,8 @@ void Yields(const ReportData& d, std::string* out) {
   }
   *out +=
       "<p class=\"note\">Final yield: units whose final run is PASS or MARGINAL among those "
-      "whose final run is PASS, MARGINAL or FAIL. First-pass yield: the same over each unit's "
-      "first judged run. An INCONCLUSIVE unit (a value within the guard band of a limit) is a "
+      "whose final run is PASS, MARGINAL or FAIL. First-pass yield: units whose first judged "
+      "run is PASS or MARGINAL among all units with a judged run. An INCONCLUSIVE unit (a value within the guard band of a limit) is a "
       "retest candidate, neither a pass nor a loss; ABORTED and ERROR runs say nothing about "
       "the unit and never count. Retests: runs beyond each unit's first.</p>\n</section>\n";
 }
