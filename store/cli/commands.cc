@@ -20,12 +20,6 @@ constexpr int kExitUsage = 2;
 
 double Pick(bool take, double v) { return take ? v : allan::kNaN; }
 
-// A value's qualifier as the exports write it: "measured" for a plain value
-// (store::QualifierText says "" for it), "" for no value at all.
-std::string QualifierColumn(const store::ValueMarks& m) {
-  const std::string text = store::QualifierText(m.qualifier);
-  return text.empty() ? "measured" : text;
-}
 
 // The machine-readable per-axis table (CSV/JSON): one column per quantity
 // and unit, so gyro and accelerometer rows never share a column.
@@ -53,12 +47,12 @@ TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
               Cell::Int(r.samples), Cell::Int(r.gap_samples), Cell::Int(r.invalid_samples),
               Cell::Text(r.axis_verdict), Cell::Text(r.run_verdict), Cell::Text(r.state),
               Cell::Real(r.random_walk_marks.uncertainty),
-              Cell::Text(QualifierColumn(r.random_walk_marks)),
+              Cell::Text(QualifierWord(r.random_walk_marks.qualifier, r.random_walk)),
               Cell::Real(r.bias_instability_marks.uncertainty),
-              Cell::Text(QualifierColumn(r.bias_instability_marks)),
-              Cell::Real(r.tau_min_marks.uncertainty), Cell::Text(QualifierColumn(r.tau_min_marks)),
+              Cell::Text(QualifierWord(r.bias_instability_marks.qualifier, r.bias_instability)),
+              Cell::Real(r.tau_min_marks.uncertainty), Cell::Text(QualifierWord(r.tau_min_marks.qualifier, r.tau_min_s)),
               Cell::Real(r.rate_random_walk_marks.uncertainty),
-              Cell::Text(QualifierColumn(r.rate_random_walk_marks)), Cell::Text(r.axis_notes)});
+              Cell::Text(QualifierWord(r.rate_random_walk_marks.qualifier, r.rate_random_walk)), Cell::Text(r.axis_notes)});
   }
   return t;
 }

@@ -11,6 +11,7 @@
 #include "common/log.h"
 #include "common/text_util.h"
 #include "store/archive.h"
+#include "store/cli/marks.h"
 #include "store/cli/table_writer.h"
 #include "store/outcome.h"
 #include "store/query.h"
@@ -88,10 +89,9 @@ Result<std::string> ExportMeasurements(store::Archive& archive, const std::vecto
     for (const pb::Measurement& m : (*result)->measurements) {
       auto opt = [](bool has, double v) { return Cell::Real(has ? v : allan::kNaN); };
       // Every row says what it is: "not_judged" for a value without a limit,
-      // "measured" for a plain value, "none" where no decision rule applied.
+      // its qualifier (QualifierWord), "none" where no decision rule applied.
       const std::string outcome_text = store::OutcomeText(m.outcome());
       const std::string outcome = outcome_text.empty() ? "not_judged" : outcome_text;
-      const std::string qualifier = store::QualifierText(m.qualifier());
       const std::string rule = store::DecisionRuleText(m.decision_rule());
       t.AddRow({Cell::Text(r.info.lot), Cell::Text(r.info.serial), Cell::Text(r.run_id),
                 Cell::Text(m.axis()), Cell::Text(m.name()), Cell::Real(m.value()),
@@ -100,7 +100,7 @@ Result<std::string> ExportMeasurements(store::Archive& archive, const std::vecto
                 opt(m.has_marginal_low(), m.marginal_low()),
                 opt(m.has_marginal_high(), m.marginal_high()), Cell::Text(outcome),
                 Cell::Text(m.note()), Cell::Text(m.uncertainty_method()),
-                Cell::Text(qualifier.empty() ? "measured" : qualifier),
+                Cell::Text(QualifierWord(m.qualifier(), m.value())),
                 Cell::Text(rule.empty() ? "none" : rule),
                 opt(m.has_guard_band(), m.guard_band())});
     }

@@ -225,11 +225,12 @@ int UnitCommand(const std::string& db_path, const std::string& serial, Format fo
         Cell::Int(r.gap_samples), Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
         Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)};
     if (!people) {
-      for (const store::ValueMarks* m : {&r.random_walk_marks, &r.bias_instability_marks,
-                                         &r.tau_min_marks, &r.rate_random_walk_marks}) {
-        const std::string q = store::QualifierText(m->qualifier);
+      for (const auto& [m, v] : {std::pair{&r.random_walk_marks, r.random_walk},
+                                 std::pair{&r.bias_instability_marks, r.bias_instability},
+                                 std::pair{&r.tau_min_marks, r.tau_min_s},
+                                 std::pair{&r.rate_random_walk_marks, r.rate_random_walk}}) {
         row.push_back(Cell::Real(m->uncertainty));
-        row.push_back(Cell::Text(q.empty() ? "measured" : q));
+        row.push_back(Cell::Text(QualifierWord(m->qualifier, v)));
       }
       row.push_back(Cell::Text(r.axis_notes));
     }

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <map>
 
+#include "store/outcome.h"
+
 namespace imuqual::cli {
 namespace {
 
@@ -14,6 +16,12 @@ std::string Digits(double v, int digits) {
 }
 
 }  // namespace
+
+std::string QualifierWord(pb::Qualifier qualifier, double value) {
+  const std::string text = store::QualifierText(qualifier);
+  if (!text.empty()) return text;
+  return std::isnan(value) ? store::QualifierText(pb::NOT_MEASURABLE) : "measured";
+}
 
 const char* QualifierExplanation(pb::Qualifier qualifier) {
   switch (qualifier) {

@@ -28,6 +28,12 @@ inline constexpr char kMinimumNotResolvedMark[] = "\u2020";  // "†" after it
 inline constexpr char kModelInadequateMark[] = "\u2021";     // "‡" after it
 inline constexpr char kNotMeasurableText[] = "n/m";
 
+// A value's qualifier as exports and the report write it: the qualifier's
+// text (store::QualifierText), else "not_measurable" for a missing value
+// (NaN: archived before qualifiers existed, or no measurement at all), else
+// "measured".
+std::string QualifierWord(pb::Qualifier qualifier, double value);
+
 // `value` to `digits` significant digits with its qualifier's mark, then
 // " ± u" (u to 2 significant digits) when `with_uncertainty` and u is
 // finite (never after "n/m" or an upper bound); "-" for a value that is

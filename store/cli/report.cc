@@ -241,15 +241,14 @@ std::string NumCell(double v, std::string_view key_attr, std::string_view key,
 // "≤ " before an upper bound, † (minimum not resolved) or ‡ (inadequate
 // model) after the number, "± u" after that (data-u exact), "n/m" for a value
 // not measurable with its note as the cell's title. data-q: the qualifier
-// ("measured" for a plain value).
+// (QualifierWord).
 std::string ValueCell(double v, std::string_view key, std::string_view outcome,
                       const store::ValueMarks& m) {
   std::string out = "<td class=\"num";
   if (!outcome.empty() && outcome != "PASS") Add(&out, " o-", outcome);
   out += "\"";
-  const std::string q = store::QualifierText(m.qualifier);
   Add(&out, Attr("data-m", key), Attr("data-v", Exact(v)), Attr("data-u", Exact(m.uncertainty)),
-      Attr("data-q", q.empty() ? "measured" : q));
+      Attr("data-q", QualifierWord(m.qualifier, v)));
   if (!outcome.empty()) out += Attr("data-outcome", outcome);
   if (!m.note.empty()) out += Attr("title", m.note);
   out += ">";

@@ -261,7 +261,8 @@ async function main() {
   const overview = sqlite(db, `SELECT * FROM lot_overview WHERE lot = ${sqlText(lot)}`);
   const measurements = sqlite(db, `
 SELECT l.serial AS unit, l.run_id, m.axis, m.name, m.value, m.unit, m.low, m.high, m.outcome,
-       m.uncertainty, COALESCE(m.qualifier, 'measured') AS qualifier
+       m.uncertainty, CASE WHEN m.qualifier IS NOT NULL THEN m.qualifier
+                   WHEN m.value IS NULL THEN 'not_measurable' ELSE 'measured' END AS qualifier
 FROM final_runs l
 JOIN measurements m ON m.run_key = l.run_key
 LEFT JOIN run_axes ra ON ra.run_key = m.run_key AND ra.axis = m.axis
