@@ -387,31 +387,16 @@ void ClearInterval(CurvePoint* point) {
   point->alpha_inherited = false;
 }
 
-// The long-tau rule of the chi2 method: a point the lag-1 method cannot
-// identify (fewer than kMinNoiseIdPoints decimated points) takes the alpha
-// of the nearest identified point of the curve, preferring shorter tau on a
-// tie (Stable32 carries the last identified noise type to the end of the
-// curve the same way). A curve with no identified point keeps none.
-void InheritAlphas(const std::vector<std::optional<NoiseId>>& ids, Curve* curve) {
-  const size_t n = curve->points.size();
-  for (size_t i = 0; i < n; ++i) {
-    CurvePoint& point = curve->points[i];
-    if (ids[i] || point.m < 1) continue;
-    for (size_t d = 1; d < n; ++d) {
-      if (i >= d && ids[i - d]) {
-        point.alpha = ids[i - d]->alpha;
-        break;
-      }
-      if (i + d < n && ids[i + d]) {
-        point.alpha = ids[i + d]->alpha;
-        break;
-      }
-    }
-    point.alpha_inherited = point.alpha.has_value();
-  }
-}
-
 }  // namespace
+
+std::optional<int> NearestIdentifiedAlpha(const std::vector<std::optional<int>>& alphas, size_t i) {
+  if (i < alphas.size() && alphas[i]) return alphas[i];
+  for (size_t d = 1; d < alphas.size(); ++d) {
+    if (i >= d && i - d < alphas.size() && alphas[i - d]) return alphas[i - d];
+    if (i + d < alphas.size() && alphas[i + d]) return alphas[i + d];
+  }
+  return std::nullopt;
+}
 
 void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confidence, Curve* curve) {
   curve->ci = method;
@@ -422,12 +407,22 @@ void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confiden
       (curve->deviation == Deviation::kHdev || curve->deviation == Deviation::kOhdev) ? 3 : 2;
   for (CurvePoint& point : curve->points) ClearInterval(&point);
   if (method == CiMethod::kChi2) {
-    std::vector<std::optional<NoiseId>> ids;
-    for (CurvePoint& point : curve->points) {
-      ids.push_back(point.m < 1 ? std::nullopt : IdentifyNoiseLag1(phase, point.m, dmax));
-      if (ids.back()) point.alpha = ids.back()->alpha;
+    // Each point's own lag-1 identification, then the long-tau rule (a point
+    // too short to identify takes its nearest identified neighbour's alpha,
+    // the shorter tau on a tie, as Stable32 carries the last identified noise
+    // type to the end of a curve).
+    std::vector<std::optional<int>> own;
+    for (const CurvePoint& point : curve->points) {
+      const std::optional<NoiseId> id =
+          point.m < 1 ? std::nullopt : IdentifyNoiseLag1(phase, point.m, dmax);
+      own.push_back(id ? std::optional<int>(id->alpha) : std::nullopt);
     }
-    InheritAlphas(ids, curve);
+    for (size_t i = 0; i < curve->points.size(); ++i) {
+      CurvePoint& point = curve->points[i];
+      if (point.m < 1) continue;
+      point.alpha = NearestIdentifiedAlpha(own, i);
+      point.alpha_inherited = point.alpha.has_value() && !own[i].has_value();
+    }
   }
   for (CurvePoint& point : curve->points) {
     if (point.m < 1) continue;

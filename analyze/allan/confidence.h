@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <optional>
 #include <utility>
+#include <vector>
 
 #include "analyze/allan/curve.h"
 #include "analyze/allan/phase.h"
@@ -67,6 +68,12 @@ std::optional<double> DeviationEdf(Deviation dev, int alpha, int64_t m, int64_t 
 // (0, 1) (SP1065 eq. 45). (NaN, NaN) when edf is not finite and positive,
 // dev is not finite, or the level is outside (0, 1).
 std::pair<double, double> Chi2Interval(double dev, double edf, double confidence);
+
+// The long-tau rule's alpha for point i of a curve whose points' own
+// identifications are `alphas` (in tau order): its own, else the nearest
+// identified point's, the shorter tau on a tie; nullopt when no point is
+// identified.
+std::optional<int> NearestIdentifiedAlpha(const std::vector<std::optional<int>>& alphas, size_t i);
 
 // Fills lo, hi, edf and alpha of every point of *curve, which was computed
 // from `phase` (ComputeDeviation), and sets curve->ci and curve->confidence.

@@ -398,11 +398,7 @@ Curve StreamingAllan::Oadev(StreamGrid grid, StopRule stop, CiMethod ci, double 
         point.edf = static_cast<double>(clusters - 1);
       }
     } else if (ci == CiMethod::kChi2) {
-      std::optional<int> alpha = alphas[i];
-      for (size_t d = 1; !alpha && d < tracked.size(); ++d) {
-        if (i >= d && alphas[i - d]) alpha = alphas[i - d];
-        else if (i + d < tracked.size() && alphas[i + d]) alpha = alphas[i + d];
-      }
+      const std::optional<int> alpha = NearestIdentifiedAlpha(alphas, i);
       if (alpha) {
         const int64_t n_eff = (point.n - 1) * t.stride + 2 * point.m + 1;
         const std::optional<double> edf =

@@ -93,13 +93,15 @@ void ComparePoints(const std::string& axis, const std::vector<allan::CurvePoint>
     const allan::CurvePoint& y = again[p];
     const std::pair<const char*, std::pair<double, double>> fields[] = {
         {"m", {static_cast<double>(x.m), static_cast<double>(y.m)}},
+        {"tau_s", {x.tau_s, y.tau_s}},
         {"dev", {x.dev, y.dev}},
         {"lo", {x.lo, y.lo}},
         {"hi", {x.hi, y.hi}},
         {"edf", {x.edf, y.edf}},
         {"alpha", {x.alpha ? *x.alpha : std::nan(""), y.alpha ? *y.alpha : std::nan("")}},
         {"alpha inherited", {x.alpha_inherited ? 1.0 : 0.0, y.alpha_inherited ? 1.0 : 0.0}},
-        {"n", {static_cast<double>(x.n), static_cast<double>(y.n)}}};
+        {"n", {static_cast<double>(x.n), static_cast<double>(y.n)}},
+        {"stride", {static_cast<double>(x.stride), static_cast<double>(y.stride)}}};
     bool counted = false;
     for (const auto& [name, v] : fields) {
       if (Same(v.first, v.second)) continue;
@@ -243,7 +245,17 @@ int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
       problems.push_back("axis " + axis + ": no archived curve");
       continue;
     }
-    const auto& x = it->second->points;
+    const allan::Curve& stored = *it->second;
+    if (stored.ci != curve.ci) {
+      problems.push_back("axis " + axis + ", curve ci_method: archived " +
+                         std::string(allan::CiMethodName(stored.ci)) + ", recomputed " +
+                         std::string(allan::CiMethodName(curve.ci)));
+    }
+    if (!Same(stored.tau0_s, curve.tau0_s)) {
+      problems.push_back("axis " + axis + ", curve tau0_s: archived " + Exactly(stored.tau0_s) +
+                         ", recomputed " + Exactly(curve.tau0_s));
+    }
+    const auto& x = stored.points;
     const auto& y = curve.points;
     by_axis.erase(it);
     if (x.size() != y.size()) {
