@@ -62,6 +62,17 @@ int OutcomeSeverity(pb::Outcome outcome) {
 
 int OutcomeSeverity(std::string_view text) { return OutcomeSeverity(OutcomeFromText(text)); }
 
+int AttentionRank(pb::Outcome verdict) {
+  switch (verdict) {
+    case pb::FAIL: return 5;
+    case pb::ERROR: return 4;
+    case pb::ABORTED: return 3;
+    case pb::INCONCLUSIVE: return 2;
+    case pb::MARGINAL: return 1;
+    default: return 0;
+  }
+}
+
 bool IsJudged(pb::Outcome outcome) {
   return outcome == pb::PASS || outcome == pb::MARGINAL || outcome == pb::FAIL ||
          outcome == pb::INCONCLUSIVE;

@@ -26,6 +26,11 @@ pb::Outcome OutcomeFromNumber(int number);
 int OutcomeSeverity(pb::Outcome outcome);
 int OutcomeSeverity(std::string_view text);
 
+// How urgently a unit with this verdict needs a look, for the report's and
+// the console's "worst first": FAIL 5, ERROR 4, ABORTED 3, INCONCLUSIVE 2,
+// MARGINAL 1; 0 for none (PASS, not judged).
+int AttentionRank(pb::Outcome verdict);
+
 // Judged verdicts say something about the unit (it was measured to the
 // end): PASS, MARGINAL, FAIL, INCONCLUSIVE. ABORTED, ERROR and unset do not.
 bool IsJudged(pb::Outcome outcome);

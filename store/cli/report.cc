@@ -134,17 +134,18 @@ int Severity(std::string_view verdict) { return store::OutcomeSeverity(verdict);
 
 std::string OutcomeName(pb::Outcome o) { return store::OutcomeText(o); }
 
-// Units that need a look, worst first: FAIL, ERROR, ABORTED, INCONCLUSIVE,
-// MARGINAL (0: none needed).
-int AttentionRank(std::string_view verdict) {
-  switch (store::OutcomeFromText(verdict)) {
-    case pb::FAIL: return 5;
-    case pb::ERROR: return 4;
-    case pb::ABORTED: return 3;
-    case pb::INCONCLUSIVE: return 2;
-    case pb::MARGINAL: return 1;
-    default: return 0;
+// The runs whose units need a look, worst first (store::AttentionRank).
+std::vector<const RunPlotData*> NeedALook(const std::vector<RunPlotData>& runs) {
+  auto rank = [](const RunPlotData* r) {
+    return store::AttentionRank(store::OutcomeFromText(r->verdict));
+  };
+  std::vector<const RunPlotData*> flagged;
+  for (const RunPlotData& r : runs) {
+    if (rank(&r) > 0) flagged.push_back(&r);
   }
+  std::stable_sort(flagged.begin(), flagged.end(),
+                   [&](const auto* a, const auto* b) { return rank(a) > rank(b); });
+  return flagged;
 }
 
 // A verdict as a badge, each outcome its own class ("not judged" for none):
@@ -425,13 +426,7 @@ void Yields(const ReportData& d, std::string* out) {
 
 void Attention(const ReportData& d, const std::map<std::string, std::string>& plot_anchor,
                std::string* out) {
-  std::vector<const RunPlotData*> flagged;
-  for (const RunPlotData& r : d.runs) {
-    if (AttentionRank(r.verdict) > 0) flagged.push_back(&r);
-  }
-  std::stable_sort(flagged.begin(), flagged.end(), [](const auto* a, const auto* b) {
-    return AttentionRank(a->verdict) > AttentionRank(b->verdict);
-  });
+  const std::vector<const RunPlotData*> flagged = NeedALook(d.runs);
   *out += "<section id=\"attention\">\n<h2>Units that fail, are marginal or inconclusive, or "
           "were not measured to the end</h2>\n";
   if (flagged.empty()) {
@@ -915,13 +910,7 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
 
   // Plots first: the attention list links to the unit plots.
   const std::vector<AllanPlot> lot_plots = LotAllanPlots(lot, d.runs, "");
-  std::vector<const RunPlotData*> flagged;
-  for (const RunPlotData& r : d.runs) {
-    if (AttentionRank(r.verdict) > 0) flagged.push_back(&r);
-  }
-  std::stable_sort(flagged.begin(), flagged.end(), [](const auto* a, const auto* b) {
-    return AttentionRank(a->verdict) > AttentionRank(b->verdict);
-  });
+  const std::vector<const RunPlotData*> flagged = NeedALook(d.runs);
   std::string unit_figures;
   std::map<std::string, std::string> plot_anchor;  // run id -> figure id
   int figure_index = 0;

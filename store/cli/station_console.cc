@@ -85,17 +85,10 @@ std::string Bar(double fraction, int width) {
   return bar;
 }
 
-// FAIL first, then ERROR, ABORTED, INCONCLUSIVE, MARGINAL, then the rest;
-// slot order within each.
+// FAIL first, then ERROR, ABORTED, INCONCLUSIVE, MARGINAL, then the rest
+// (store::AttentionRank); slot order within each.
 int AttentionRank(const ConsoleUnit& u) {
-  switch (store::OutcomeFromNumber(u.verdict)) {
-    case pb::FAIL: return 0;
-    case pb::ERROR: return 1;
-    case pb::ABORTED: return 2;
-    case pb::INCONCLUSIVE: return 3;
-    case pb::MARGINAL: return 4;
-    default: return 5;
-  }
+  return store::AttentionRank(store::OutcomeFromNumber(u.verdict));
 }
 
 std::vector<std::string> Lines(const std::string& text) {
@@ -198,7 +191,7 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
   const bool cut = static_cast<int>(shown.size()) > max_units;
   if (cut) {
     std::stable_sort(shown.begin(), shown.end(), [](const ConsoleUnit* a, const ConsoleUnit* b) {
-      return AttentionRank(*a) < AttentionRank(*b);
+      return AttentionRank(*a) > AttentionRank(*b);
     });
     shown.resize(static_cast<size_t>(std::max(0, max_units - 1)));
   }
