@@ -148,20 +148,6 @@ void RunAnalyzer::Finish(int64_t first_sample, int64_t end_sample) {
   missing(next_counter_, end_sample, "beyond");
 }
 
-namespace {
-
-allan::Curve WithoutIntervals(allan::Curve curve) {
-  curve.ci = allan::CiMethod::kNone;
-  for (allan::CurvePoint& p : curve.points) {
-    p.lo = p.hi = p.edf = allan::kNaN;
-    p.alpha.reset();
-    p.alpha_inherited = false;
-  }
-  return curve;
-}
-
-}  // namespace
-
 RunEnding EndingForRunState(const std::string& state, const std::string& reason) {
   const std::string why = reason.empty() ? "" : " (" + reason + ")";
   if (state == "aborted" && (reason.empty() || reason == kShutdownEndReason)) {
@@ -190,16 +176,13 @@ RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {
     // publish the plan's grid. Both with chi-square intervals (Greenhall edf,
     // noise identified from the local slope; the long-tau rule in
     // streaming.h).
-    const allan::Curve judged =
-        e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kChi2, allan::kOneSigmaConfidence);
+    // The measurements read the dense points without intervals (the noise
+    // model weighs them by its own edf, gmwm.h); the intervals are computed
+    // only for the curve published.
+    const allan::Curve dense = e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
     out.curves.emplace_back(desc_.axes[a].name,
-                            final || grid == allan::StreamGrid::kDense
-                                ? judged
-                                : e.Oadev(grid, stop, allan::CiMethod::kChi2,
-                                          allan::kOneSigmaConfidence));
-    // The measurements read the same points without the intervals: the noise
-    // model weighs them by its own edf (gmwm.h), not the curve's.
-    const allan::Curve dense = WithoutIntervals(judged);
+                            e.Oadev(final ? allan::StreamGrid::kDense : grid, stop,
+                                    allan::CiMethod::kChi2, allan::kOneSigmaConfidence));
     const double mean = count_[a] > 0 ? sum_[a] / static_cast<double>(count_[a]) : allan::kNaN;
     for (pb::Measurement& m :
          judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, mean)) {
