@@ -175,6 +175,25 @@ Status Validate(const pb::TestPlan& plan, const Locator& where) {
     return Fail(where, "default_guard_k", -1, "default_guard_k",
                 "must be a finite number > 0 (w = guard_k * u)");
   }
+  if (plan.has_early_decision()) {
+    const pb::EarlyDecision& e = plan.early_decision();
+    auto bad = [&](const char* sub, const std::string& problem) {
+      return Fail(where, "early_decision", -1, std::string("early_decision.") + sub, problem, sub);
+    };
+    if (!(e.risk() > 0 && e.risk() <= 0.2)) return bad("risk", "must be in (0, 0.2]");
+    if (!(e.min_duration_s() > 0) || !Finite(e.min_duration_s())) {
+      return bad("min_duration_s", "must be > 0 s (no decision before it)");
+    }
+    if (e.has_look_period_s() && !(e.look_period_s() > 0 && Finite(e.look_period_s()))) {
+      return bad("look_period_s", "must be > 0 s");
+    }
+    const double horizon = e.has_horizon_s() ? e.horizon_s() : plan.min_duration_s();
+    if (!(horizon > e.min_duration_s()) || !Finite(horizon)) {
+      return bad(e.has_horizon_s() ? "horizon_s" : "min_duration_s",
+                 "the horizon (horizon_s, else the plan's min_duration_s, " +
+                     std::to_string(horizon) + " s) must exceed early_decision.min_duration_s");
+    }
+  }
   return ValidateLimits(plan, where);
 }
 

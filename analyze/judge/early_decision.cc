@@ -1,0 +1,445 @@
+#include "analyze/judge/early_decision.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "analyze/judge/measurements.h"
+
+namespace imuqual::judge {
+namespace {
+
+constexpr double kDefaultLookPeriodS = 60.0;
+// Grid of the recursive integration: points per standard deviation of the
+// smallest increment between looks, and its extent in standard deviations
+// of the last look.
+constexpr double kPointsPerSd = 12.0;
+constexpr double kGridExtentSd = 9.0;
+
+double UpperTail(double x) { return 0.5 * std::erfc(x / std::sqrt(2.0)); }
+
+std::string Num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
+// The continuation density of S(f) (a standard Brownian motion) on a grid,
+// stepped look by look: what recursive numerical integration needs.
+class Recursion {
+ public:
+  Recursion(std::span<const double> fractions) {
+    double min_sd = std::sqrt(fractions.front());
+    for (size_t k = 1; k < fractions.size(); ++k) {
+      min_sd = std::min(min_sd, std::sqrt(fractions[k] - fractions[k - 1]));
+    }
+    const double extent = kGridExtentSd * std::sqrt(fractions.back());
+    const double h = min_sd / kPointsPerSd;
+    const int n = static_cast<int>(std::ceil(2 * extent / h)) + 1;
+    s_.resize(n);
+    for (int i = 0; i < n; ++i) s_[i] = -extent + i * h;
+    h_ = h;
+  }
+
+  // Probability that the process, continuing from the current density (or
+  // from 0 at f = 0 when first), is at or above c after an increment of
+  // variance d.
+  double Crossing(double c, double d) const {
+    const double sd = std::sqrt(d);
+    if (g_.empty()) return UpperTail(c / sd);
+    double p = 0;
+    for (size_t j = 0; j < s_.size(); ++j) {
+      if (g_[j] == 0) continue;
+      p += Weight(j) * g_[j] * UpperTail((c - s_[j]) / sd);
+    }
+    return p;
+  }
+
+  // Steps the density by an increment of variance d and truncates it at c.
+  void Step(double c, double d) {
+    const double sd = std::sqrt(d);
+    const double norm = 1.0 / (sd * std::sqrt(2 * M_PI));
+    std::vector<double> next(s_.size(), 0.0);
+    if (g_.empty()) {
+      for (size_t i = 0; i < s_.size() && s_[i] < c; ++i) {
+        next[i] = norm * std::exp(-0.5 * s_[i] * s_[i] / d);
+      }
+      g_ = std::move(next);
+      return;
+    }
+    // The kernel depends on i - j only (uniform grid); beyond 10 sd it is 0.
+    const int reach = static_cast<int>(std::ceil(10 * sd / h_));
+    std::vector<double> kernel(2 * reach + 1);
+    for (int o = -reach; o <= reach; ++o) {
+      const double x = o * h_ / sd;
+      kernel[o + reach] = norm * std::exp(-0.5 * x * x);
+    }
+    std::vector<double> weighted(s_.size());
+    for (size_t j = 0; j < s_.size(); ++j) weighted[j] = Weight(j) * g_[j];
+    const int n = static_cast<int>(s_.size());
+    for (int i = 0; i < n && s_[i] < c; ++i) {
+      const int lo = std::max(0, i - reach), hi = std::min(n - 1, i + reach);
+      double v = 0;
+      for (int j = lo; j <= hi; ++j) v += weighted[j] * kernel[i - j + reach];
+      next[i] = v;
+    }
+    g_ = std::move(next);
+  }
+
+ private:
+  double Weight(size_t j) const { return (j == 0 || j + 1 == s_.size()) ? 0.5 * h_ : h_; }
+
+  std::vector<double> s_;
+  std::vector<double> g_;  // empty before the first look
+  double h_ = 0;
+};
+
+Status CheckFractions(std::span<const double> fractions) {
+  if (fractions.empty()) return Status::InvalidArgument("no looks");
+  double prev = 0;
+  for (double f : fractions) {
+    if (!(f > prev && f <= 1.0)) {
+      return Status::InvalidArgument("information fractions must increase within (0, 1]");
+    }
+    prev = f;
+  }
+  return Status::Ok();
+}
+
+bool IsMinimum(std::string_view name) {
+  return name == kBiasInstability || name == kBiasInstabilityIeee;
+}
+
+std::string Key(const std::string& axis, const std::string& name) { return axis + "/" + name; }
+
+std::string Who(const pb::Measurement& m) {
+  return (m.axis().empty() ? "" : m.axis() + ": ") + m.name();
+}
+
+std::string UnitSuffix(const pb::Measurement& m) {
+  return m.unit() == "1" ? "" : " " + m.unit();
+}
+
+Decision Worse(Decision a, Decision b) {
+  auto rank = [](Decision d) {
+    switch (d) {
+      case Decision::kFail: return 3;
+      case Decision::kPending: return 2;
+      case Decision::kMarginal: return 1;
+      case Decision::kPass: return 0;
+    }
+    return 2;
+  };
+  return rank(a) >= rank(b) ? a : b;
+}
+
+}  // namespace
+
+double SpentAlpha(double fraction, double alpha) {
+  const double f = std::clamp(fraction, 0.0, 1.0);
+  return alpha * std::log1p((std::exp(1.0) - 1.0) * f);
+}
+
+Result<std::vector<double>> SequentialBounds(std::span<const double> fractions, double alpha) {
+  IMUQUAL_RETURN_IF_ERROR(CheckFractions(fractions));
+  if (!(alpha > 0 && alpha < 0.5)) return Status::InvalidArgument("alpha must be in (0, 0.5)");
+  Recursion r(fractions);
+  std::vector<double> bounds;
+  double prev_f = 0, spent = 0;
+  for (double f : fractions) {
+    const double target = SpentAlpha(f, alpha) - spent;
+    const double d = f - prev_f;
+    // Crossing(c) decreases in c: bisect on the S scale.
+    double lo = -10 * std::sqrt(f), hi = 40 * std::sqrt(f);
+    for (int it = 0; it < 200 && hi - lo > 1e-10; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (r.Crossing(mid, d) > target ? lo : hi) = mid;
+    }
+    const double c = 0.5 * (lo + hi);
+    spent += r.Crossing(c, d);
+    r.Step(c, d);
+    bounds.push_back(c / std::sqrt(f));
+    prev_f = f;
+  }
+  return bounds;
+}
+
+double CrossingProbability(std::span<const double> fractions, std::span<const double> bounds) {
+  if (!CheckFractions(fractions).ok() || bounds.size() != fractions.size()) return std::nan("");
+  Recursion r(fractions);
+  double prev_f = 0, total = 0;
+  for (size_t k = 0; k < fractions.size(); ++k) {
+    const double d = fractions[k] - prev_f;
+    const double c = bounds[k] * std::sqrt(fractions[k]);
+    total += r.Crossing(c, d);
+    r.Step(c, d);
+    prev_f = fractions[k];
+  }
+  return total;
+}
+
+LookSchedule MakeLookSchedule(const pb::TestPlan& plan) {
+  LookSchedule s;
+  if (!plan.has_early_decision()) return s;
+  const pb::EarlyDecision& e = plan.early_decision();
+  s.horizon_s = e.has_horizon_s() ? e.horizon_s() : plan.min_duration_s();
+  s.risk = e.risk();
+  const double period = e.has_look_period_s() ? e.look_period_s() : kDefaultLookPeriodS;
+  if (!(period > 0) || !(s.horizon_s > 0) || !(e.min_duration_s() > 0)) return s;
+  for (int k = 0;; ++k) {
+    const double t = e.min_duration_s() + k * period;
+    if (t >= s.horizon_s * (1 - 1e-12)) break;
+    s.times_s.push_back(t);
+    s.fractions.push_back(t / s.horizon_s);
+  }
+  return s;
+}
+
+const char* DecisionName(Decision d) {
+  switch (d) {
+    case Decision::kPending: return "PENDING";
+    case Decision::kPass: return "PASS";
+    case Decision::kMarginal: return "MARGINAL";
+    case Decision::kFail: return "FAIL";
+  }
+  return "PENDING";
+}
+
+bool EarlyDecider::Decides(const pb::Measurement& m) {
+  const bool judged = m.has_low() || m.has_high() || m.has_marginal_low() || m.has_marginal_high();
+  return judged && m.name() != kGapFraction && m.name() != kInvalidFraction &&
+         m.name() != kDuration;
+}
+
+Result<EarlyDecider> EarlyDecider::Create(const pb::TestPlan& plan) {
+  if (!plan.has_early_decision()) return Status::InvalidArgument("the plan has no early_decision");
+  LookSchedule s = MakeLookSchedule(plan);
+  if (s.times_s.empty()) {
+    return Status::InvalidArgument(
+        "early_decision: no look before the horizon (min_duration_s >= horizon)");
+  }
+  if (!(s.risk > 0 && s.risk <= 0.2)) return Status::InvalidArgument("early_decision.risk");
+  return EarlyDecider(std::move(s));
+}
+
+Decision EarlyDecider::MeasurementDecision(const std::string& axis,
+                                           const std::string& name) const {
+  const std::string key = Key(axis, name);
+  for (const Decided& d : decided_) {
+    if (d.key == key) return d.decision;
+  }
+  return Decision::kPending;
+}
+
+Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measurements,
+                            const MinimumSettled& settled) {
+  Look look;
+  look.index = index;
+  if (index < 0 || static_cast<size_t>(index) >= schedule_.times_s.size()) return look;
+  look.time_s = schedule_.times_s[index];
+  look.fraction = schedule_.fractions[index];
+  if (unit_ != Decision::kPending) {
+    look.unit = unit_;
+    return look;
+  }
+  // The level of each bound: the risk split among every bound tested.
+  if (bounds_.empty()) {
+    int count = 0;
+    for (const pb::Measurement& m : measurements) {
+      if (!Decides(m)) continue;
+      count += m.has_low() + m.has_high() + m.has_marginal_low() + m.has_marginal_high();
+    }
+    alpha_per_bound_ = schedule_.risk / std::max(count, 1);
+    auto b = SequentialBounds(schedule_.fractions, std::min(alpha_per_bound_, 0.49));
+    if (!b.ok()) return look;
+    bounds_ = *b;
+  }
+  const double z = bounds_[index];
+  look.z = z;
+
+  std::map<std::string, bool> settled_cache;
+  auto is_settled = [&](const std::string& axis) {
+    auto it = settled_cache.find(axis);
+    if (it != settled_cache.end()) return it->second;
+    const bool s = settled ? settled(axis) : false;
+    settled_cache[axis] = s;
+    return s;
+  };
+
+  Decision unit = Decision::kPass;
+  bool any = false;
+  for (const pb::Measurement& m : measurements) {
+    if (!Decides(m)) continue;
+    any = true;
+    LookEntry e;
+    e.axis = m.axis();
+    e.name = m.name();
+    e.value = m.value();
+    e.uncertainty = m.has_uncertainty() ? m.uncertainty() : std::nan("");
+    const std::string key = Key(m.axis(), m.name());
+    auto prior = std::find_if(decided_.begin(), decided_.end(),
+                              [&](const Decided& d) { return d.key == key; });
+    if (prior != decided_.end()) {
+      e.decision = prior->decision;
+      e.why = prior->why;
+      unit = Worse(unit, e.decision);
+      look.entries.push_back(std::move(e));
+      continue;
+    }
+    const double v = m.value(), u = e.uncertainty;
+    const bool usable = std::isfinite(v) && std::isfinite(u) && u > 0 &&
+                        m.qualifier() != pb::NOT_MEASURABLE &&
+                        m.qualifier() != pb::MODEL_INADEQUATE && !m.model_inadequate();
+    if (!usable) {
+      e.why = !std::isfinite(v) ? "not measured yet"
+              : !(std::isfinite(u) && u > 0) ? "no uncertainty to decide on"
+                                              : "not measurable";
+      unit = Worse(unit, Decision::kPending);
+      look.entries.push_back(std::move(e));
+      continue;
+    }
+    // What this value can confirm: the truth below (v + z u) / above (v - z u).
+    const bool bound_like = m.qualifier() == pb::UPPER_BOUND ||
+                            (m.qualifier() == pb::MINIMUM_NOT_RESOLVED && IsMinimum(m.name()));
+    const bool minimum_not_resolved = m.qualifier() == pb::MINIMUM_NOT_RESOLVED;
+    const bool is_tau = m.name() == kTauAtMinimum;
+    // A resolved minimum can still move to longer taus with more data.
+    const bool needs_settled = !minimum_not_resolved && (IsMinimum(m.name()) || is_tau);
+    // The truth above a bound: never from a bound-like value or an
+    // unresolved tau; for a minimum, only once it is settled.
+    auto above_ok = [&]() {
+      if (bound_like || (is_tau && minimum_not_resolved)) return false;
+      return !needs_settled || is_settled(m.axis());
+    };
+    // The truth below a bound: from any value (a minimum so far bounds the
+    // full record's from above) except the tau of a minimum, which needs it
+    // settled.
+    auto below_allowed = [&]() {
+      if (!is_tau) return true;
+      return !minimum_not_resolved && is_settled(m.axis());
+    };
+    enum class Side { kUnknown, kInside, kOutside };
+    // Confirms the truth below B (v + z u <= B) or above it (v - z u >= B).
+    auto below = [&](double b) { return v + z * u <= b && below_allowed(); };
+    auto above = [&](double b) { return v - z * u >= b && above_ok(); };
+    auto high_side = [&](double b) {
+      return below(b) ? Side::kInside : above(b) ? Side::kOutside : Side::kUnknown;
+    };
+    auto low_side = [&](double b) {
+      return above(b) ? Side::kInside : below(b) ? Side::kOutside : Side::kUnknown;
+    };
+    const std::string stat = Who(m) + " " + Num(v) + " ± " + Num(u) + UnitSuffix(m);
+    const std::string zs = " (z " + Num(z) + ")";
+    Decision d = Decision::kPending;
+    std::string why;
+    const Side fh = m.has_high() ? high_side(m.high()) : Side::kInside;
+    const Side fl = m.has_low() ? low_side(m.low()) : Side::kInside;
+    if (fh == Side::kOutside) {
+      d = Decision::kFail;
+      why = stat + " confirmed above " + Num(m.high()) + zs;
+    } else if (fl == Side::kOutside) {
+      d = Decision::kFail;
+      why = stat + " confirmed below " + Num(m.low()) + zs;
+    } else if (fh == Side::kInside && fl == Side::kInside) {
+      const Side mh = m.has_marginal_high() ? high_side(m.marginal_high()) : Side::kInside;
+      const Side ml = m.has_marginal_low() ? low_side(m.marginal_low()) : Side::kInside;
+      if (mh == Side::kOutside || ml == Side::kOutside) {
+        d = Decision::kMarginal;
+        why = stat + " confirmed inside the limits and outside the marginal band" + zs;
+      } else if (mh == Side::kInside && ml == Side::kInside) {
+        d = Decision::kPass;
+        why = stat + " confirmed inside the limits" + zs;
+      } else {
+        why = stat + ": inside the limits, not yet on one side of the marginal band" + zs;
+      }
+    } else {
+      why = stat + ": not yet on one side of a limit" + zs;
+      if (needs_settled && m.qualifier() == pb::MEASURED && !is_settled(m.axis())) {
+        why += "; minimum not settled";
+      }
+      if (minimum_not_resolved) why += "; minimum not resolved";
+    }
+    e.decision = d;
+    e.why = why;
+    if (d != Decision::kPending) decided_.push_back({key, d, why, index});
+    unit = Worse(unit, d);
+    look.entries.push_back(std::move(e));
+  }
+  if (!any) unit = Decision::kPending;
+  look.unit = unit;
+  if (unit != Decision::kPending) {
+    unit_ = unit;
+    decided_look_ = index;
+  }
+  looks_.push_back(look);
+  return look;
+}
+
+void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
+  for (pb::Measurement& m : *measurements) {
+    const std::string key = Key(m.axis(), m.name());
+    auto it = std::find_if(decided_.begin(), decided_.end(),
+                           [&](const Decided& d) { return d.key == key; });
+    if (it == decided_.end()) {
+      if (unit_ != Decision::kPending && Decides(m)) {
+        m.set_note((m.note().empty() ? "" : m.note() + "; ") +
+                   "not decided when the unit was (judged on the record analysed)");
+      }
+      continue;
+    }
+    m.set_outcome(it->decision == Decision::kFail       ? pb::FAIL
+                  : it->decision == Decision::kMarginal ? pb::MARGINAL
+                                                        : pb::PASS);
+    m.clear_guard_band();
+    m.set_note((m.note().empty() ? "" : m.note() + "; ") + "decided " +
+               DecisionName(it->decision) + " at " + Num(schedule_.times_s[it->look]) +
+               " s (look " + std::to_string(it->look + 1) + "): " + it->why);
+  }
+}
+
+Judgement JudgeDecided(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
+                       const EarlyDecider& decider, std::vector<pb::Measurement>* measurements) {
+  if (decider.unit_decision() == Decision::kPending) return Judge(plan, axes, measurements);
+  pb::TestPlan effective = plan;
+  effective.set_min_duration_s(plan.early_decision().min_duration_s());
+  const Judgement simple = Judge(effective, axes, measurements);
+  // Judge gives one reason per judged measurement that did not pass, in order.
+  std::vector<std::string> reasons(measurements->size());
+  size_t next = 0;
+  for (size_t i = 0; i < measurements->size(); ++i) {
+    const pb::Outcome o = (*measurements)[i].outcome();
+    if (o != pb::OUTCOME_UNSET && o != pb::PASS && next < simple.reasons.size()) {
+      reasons[i] = simple.reasons[next++];
+    }
+  }
+  decider.ApplyTo(measurements);
+  Judgement j;
+  bool any = false, fail = false, inconclusive = false, marginal = false;
+  for (size_t i = 0; i < measurements->size(); ++i) {
+    const pb::Measurement& m = (*measurements)[i];
+    const pb::Outcome o = m.outcome();
+    if (o == pb::OUTCOME_UNSET) continue;
+    any = true;
+    fail |= o == pb::FAIL;
+    inconclusive |= o == pb::INCONCLUSIVE;
+    marginal |= o == pb::MARGINAL;
+    if (o == pb::PASS) continue;
+    const Decision d = decider.MeasurementDecision(m.axis(), m.name());
+    if (d == Decision::kPending) {
+      if (!reasons[i].empty()) j.reasons.push_back(reasons[i]);
+    } else {
+      const std::string& note = m.note();
+      const size_t at = note.rfind("decided ");
+      j.reasons.push_back(Who(m) + ": " + (at == std::string::npos ? note : note.substr(at)));
+    }
+  }
+  j.verdict = !any ? pb::OUTCOME_UNSET
+              : fail         ? pb::FAIL
+              : inconclusive ? pb::INCONCLUSIVE
+              : marginal     ? pb::MARGINAL
+                             : pb::PASS;
+  return j;
+}
+
+}  // namespace imuqual::judge
