@@ -126,7 +126,6 @@ Decision Worse(Decision a, Decision b) {
     switch (d) {
       case Decision::kFail: return 3;
       case Decision::kPending: return 2;
-      case Decision::kMarginal: return 1;
       case Decision::kPass: return 0;
     }
     return 2;
@@ -200,14 +199,13 @@ const char* DecisionName(Decision d) {
   switch (d) {
     case Decision::kPending: return "PENDING";
     case Decision::kPass: return "PASS";
-    case Decision::kMarginal: return "MARGINAL";
     case Decision::kFail: return "FAIL";
   }
   return "PENDING";
 }
 
 bool EarlyDecider::Decides(const pb::Measurement& m) {
-  const bool judged = m.has_low() || m.has_high() || m.has_marginal_low() || m.has_marginal_high();
+  const bool judged = m.has_low() || m.has_high();
   return judged && m.name() != kGapFraction && m.name() != kInvalidFraction &&
          m.name() != kDuration;
 }
@@ -233,7 +231,7 @@ Decision EarlyDecider::MeasurementDecision(const std::string& axis,
 }
 
 Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measurements,
-                            const MinimumSettled& settled) {
+                            const SettledQuery& settled, const BoundEvidence& evidence) {
   Look look;
   look.index = index;
   if (index < 0 || static_cast<size_t>(index) >= schedule_.times_s.size()) return look;
@@ -248,7 +246,7 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
     int count = 0;
     for (const pb::Measurement& m : measurements) {
       if (!Decides(m)) continue;
-      count += m.has_low() + m.has_high() + m.has_marginal_low() + m.has_marginal_high();
+      count += m.has_low() + m.has_high();
     }
     alpha_per_bound_ = schedule_.risk / std::max(count, 1);
     auto b = SequentialBounds(schedule_.fractions, std::min(alpha_per_bound_, 0.49));
@@ -288,7 +286,11 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
       continue;
     }
     const double v = m.value(), u = e.uncertainty;
-    const bool usable = std::isfinite(v) && std::isfinite(u) && u > 0 &&
+    const bool is_tau = m.name() == kTauAtMinimum;
+    // tau_at_minimum is decided from the curve itself (BoundEvidence), the
+    // others from value and uncertainty.
+    const bool from_curve = is_tau && static_cast<bool>(evidence);
+    const bool usable = std::isfinite(v) && (from_curve || (std::isfinite(u) && u > 0)) &&
                         m.qualifier() != pb::NOT_MEASURABLE &&
                         m.qualifier() != pb::MODEL_INADEQUATE && !m.model_inadequate();
     if (!usable) {
@@ -299,63 +301,65 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
       look.entries.push_back(std::move(e));
       continue;
     }
-    // What this value can confirm: the truth below (v + z u) / above (v - z u).
-    const bool bound_like = m.qualifier() == pb::UPPER_BOUND ||
-                            (m.qualifier() == pb::MINIMUM_NOT_RESOLVED && IsMinimum(m.name()));
     const bool minimum_not_resolved = m.qualifier() == pb::MINIMUM_NOT_RESOLVED;
-    const bool is_tau = m.name() == kTauAtMinimum;
-    // A resolved minimum can still move to longer taus with more data.
-    const bool needs_settled = !minimum_not_resolved && (IsMinimum(m.name()) || is_tau);
-    // The truth above a bound: never from a bound-like value or an
-    // unresolved tau; for a minimum, only once it is settled.
-    auto above_ok = [&]() {
-      if (bound_like || (is_tau && minimum_not_resolved)) return false;
-      return !needs_settled || is_settled(m.axis());
+    // A value the truth lies at or below can only confirm "below".
+    const bool bound_like =
+        m.qualifier() == pb::UPPER_BOUND || (minimum_not_resolved && IsMinimum(m.name()));
+    // More data can only lower a curve minimum and move it to longer taus:
+    // "above" for a minimum and "below" for its tau need it settled.
+    auto above_allowed = [&]() {
+      if (bound_like) return false;
+      return !IsMinimum(m.name()) || is_settled(m.axis());
     };
-    // The truth below a bound: from any value (a minimum so far bounds the
-    // full record's from above) except the tau of a minimum, which needs it
-    // settled.
     auto below_allowed = [&]() {
-      if (!is_tau) return true;
-      return !minimum_not_resolved && is_settled(m.axis());
+      return !is_tau || (!minimum_not_resolved && is_settled(m.axis()));
+    };
+    // z of the evidence that the truth lies above b (negative: below).
+    // tau_at_minimum: the curve's evidence, or its value and uncertainty
+    // when that says more (a flat bottom: the rising side's points are too
+    // noisy one by one, the minimum's tau spread is not).
+    auto side_z = [&](double b) -> double {
+      const double by_value = std::isfinite(u) && u > 0 ? (v - b) / u : 0.0;
+      if (!from_curve) return by_value;
+      const double by_curve = evidence(m, b);
+      return std::abs(by_curve) >= std::abs(by_value) || (by_curve > 0) != (by_value > 0)
+                 ? by_curve
+                 : by_value;
     };
     enum class Side { kUnknown, kInside, kOutside };
-    // Confirms the truth below B (v + z u <= B) or above it (v - z u >= B).
-    auto below = [&](double b) { return v + z * u <= b && below_allowed(); };
-    auto above = [&](double b) { return v - z * u >= b && above_ok(); };
+    auto above = [&](double b) { return side_z(b) >= z && above_allowed(); };
+    auto below = [&](double b) { return -side_z(b) >= z && below_allowed(); };
     auto high_side = [&](double b) {
       return below(b) ? Side::kInside : above(b) ? Side::kOutside : Side::kUnknown;
     };
     auto low_side = [&](double b) {
       return above(b) ? Side::kInside : below(b) ? Side::kOutside : Side::kUnknown;
     };
-    const std::string stat = Who(m) + " " + Num(v) + " ± " + Num(u) + UnitSuffix(m);
-    const std::string zs = " (z " + Num(z) + ")";
+    const bool has_u = std::isfinite(u) && u > 0;
+    const std::string stat = Who(m) + " " + Num(v) + (has_u ? " ± " + Num(u) : "") + UnitSuffix(m);
+    auto zs = [&](double b) {
+      const bool curve = from_curve && std::abs(side_z(b)) == std::abs(evidence(m, b));
+      return " (" + std::string(curve ? "curve evidence " : "") + "z " +
+             Num(std::abs(side_z(b))) + " >= " + Num(z) + ")";
+    };
     Decision d = Decision::kPending;
     std::string why;
     const Side fh = m.has_high() ? high_side(m.high()) : Side::kInside;
     const Side fl = m.has_low() ? low_side(m.low()) : Side::kInside;
     if (fh == Side::kOutside) {
       d = Decision::kFail;
-      why = stat + " confirmed above " + Num(m.high()) + zs;
+      why = stat + " confirmed above " + Num(m.high()) + zs(m.high());
     } else if (fl == Side::kOutside) {
       d = Decision::kFail;
-      why = stat + " confirmed below " + Num(m.low()) + zs;
+      why = stat + " confirmed below " + Num(m.low()) + zs(m.low());
     } else if (fh == Side::kInside && fl == Side::kInside) {
-      const Side mh = m.has_marginal_high() ? high_side(m.marginal_high()) : Side::kInside;
-      const Side ml = m.has_marginal_low() ? low_side(m.marginal_low()) : Side::kInside;
-      if (mh == Side::kOutside || ml == Side::kOutside) {
-        d = Decision::kMarginal;
-        why = stat + " confirmed inside the limits and outside the marginal band" + zs;
-      } else if (mh == Side::kInside && ml == Side::kInside) {
-        d = Decision::kPass;
-        why = stat + " confirmed inside the limits" + zs;
-      } else {
-        why = stat + ": inside the limits, not yet on one side of the marginal band" + zs;
-      }
+      d = Decision::kPass;
+      why = stat + " confirmed inside";
+      if (m.has_low()) why += " " + Num(m.low()) + zs(m.low());
+      if (m.has_high()) why += (m.has_low() ? " and " : " ") + Num(m.high()) + zs(m.high());
     } else {
-      why = stat + ": not yet on one side of a limit" + zs;
-      if (needs_settled && m.qualifier() == pb::MEASURED && !is_settled(m.axis())) {
+      why = stat + ": not yet on one side of a limit (z " + Num(z) + ")";
+      if (IsMinimum(m.name()) && !bound_like && !is_settled(m.axis())) {
         why += "; minimum not settled";
       }
       if (minimum_not_resolved) why += "; minimum not resolved";
@@ -388,9 +392,11 @@ void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
       }
       continue;
     }
-    m.set_outcome(it->decision == Decision::kFail       ? pb::FAIL
-                  : it->decision == Decision::kMarginal ? pb::MARGINAL
-                                                        : pb::PASS);
+    // A decided PASS keeps the marginal flag the record analysed shows
+    // (marginal bands are read simply, as always).
+    m.set_outcome(it->decision == Decision::kFail ? pb::FAIL
+                  : m.outcome() == pb::MARGINAL   ? pb::MARGINAL
+                                                  : pb::PASS);
     m.clear_guard_band();
     m.set_note((m.note().empty() ? "" : m.note() + "; ") + "decided " +
                DecisionName(it->decision) + " at " + Num(schedule_.times_s[it->look]) +
@@ -426,7 +432,7 @@ Judgement JudgeDecided(const pb::TestPlan& plan, const std::vector<AxisDesc>& ax
     marginal |= o == pb::MARGINAL;
     if (o == pb::PASS) continue;
     const Decision d = decider.MeasurementDecision(m.axis(), m.name());
-    if (d == Decision::kPending) {
+    if (d == Decision::kPending || o == pb::MARGINAL) {
       if (!reasons[i].empty()) j.reasons.push_back(reasons[i]);
     } else {
       const std::string& note = m.note();

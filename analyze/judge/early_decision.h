@@ -9,7 +9,8 @@
 //
 // Error control (group-sequential, Lan & DeMets 1983). Each bound is a
 // one-sided test at level alpha = risk / (number of bounds tested for the
-// unit) (Bonferroni over bounds, so the plan's risk holds per unit). The
+// unit: every low and high of every judged measurement of every axis)
+// (Bonferroni over bounds, so the plan's risk holds per unit). The
 // level is spent over the looks by the Pocock-type function
 //   alpha(f) = alpha * ln(1 + (e - 1) f),
 // which spends a quarter of it by f = 1/6 (a decision can come early; an
@@ -25,32 +26,47 @@
 // What the spending leaves at the horizon is not used: a unit still pending
 // there gets the full-length verdict of the plan's decision rule.
 //
-// A bound B of a measurement with value v and 1-sigma uncertainty u is
-// confirmed at look k as
-//   inside   (v - B) / u >= z_k on the side the limit allows,
-//   outside  (B - v) / u >= z_k on the other side.
-// What more data can still change is respected:
+// The decisions are on the pass/fail limits (low, high) of each judged
+// measurement; a marginal band stays a flag read simply (as judge.h always
+// reads it) on the record analysed when the unit is decided. A bound B of a
+// measurement with value v and 1-sigma uncertainty u is confirmed at look k
+// with the truth above it when (v - B) / u >= z_k, below it when
+// (B - v) / u >= z_k. What more data can still change is respected:
 //   * a curve minimum (bias_instability(_ieee)) read on the points measured
-//     so far can only go down with a longer record: it confirms a high
-//     bound as inside from those points alone, but outside only when the
-//     minimum is settled (an adequate noise model, fitted at the look,
-//     puts the minimum of the curve up to the horizon's longest tau inside
-//     the measured range); tau_at_minimum needs that on both sides;
-//   * a minimum not resolved (at the last point) or any value qualified as an
-//     upper bound confirms only "inside a high bound" and "below a low one";
+//     so far can only go down with a longer record: "below a bound" needs
+//     nothing more, "above" needs the minimum settled (an adequate noise
+//     model, fitted at the look, puts the minimum of the curve up to the
+//     horizon's longest tau well inside the measured range; measure.h
+//     MinimumSettled) and resolved;
+//   * tau_at_minimum is decided from the curve as well as from its value's
+//     spread, whichever says more: the minimum lies above tau B when a point
+//     at tau in [B, tau_min) is confirmed above the minimum (z of the
+//     difference over the quadrature sum of their 1-sigma chi-square errors,
+//     conservative for positively correlated estimates), below B when one at
+//     tau in (tau_min, B] is; a sum of power-law noises is convex in log-log,
+//     so no point beyond can undo it (measure.h MinimumSideEvidence). On a
+//     flat bottom the rising side's points are too noisy one by one, and the
+//     value and its uncertainty (the spread of taus whose curve values lie
+//     within the minimum's uncertainty) decide. More data can only move a
+//     minimum to longer taus: "below" needs it resolved and settled, "above"
+//     does not;
+//   * a value qualified as an upper bound (or a minimum not resolved)
+//     confirms only "below";
 //   * values without a finite uncertainty, not measurable or withheld stay
 //     pending; the noise-model measurements (fit_*, noise_model_p_value) are
 //     fitted on the full record only, so a plan limiting them never decides
-//     early;
+//     a unit PASS early;
 //   * record-quality fractions (gap_fraction, invalid_fraction) and the
 //     duration describe the record, not the unit: they neither decide nor
 //     block a decision; they are judged on the record analysed when the run
 //     ends (the duration against early_decision.min_duration_s).
-// A measurement is decided FAIL when a fail bound is confirmed outside;
-// PASS when every bound (fail and marginal) is confirmed inside; MARGINAL
-// when every fail bound is confirmed inside and a marginal bound outside. A
-// unit is decided FAIL as soon as one measurement is, and PASS/MARGINAL when
-// every measurement that decides is decided. A decision is final.
+// A measurement is decided FAIL when a limit is confirmed on its failing
+// side, PASS when every limit is confirmed on its passing side. A unit is
+// decided FAIL as soon as one measurement is, and PASS when every measurement
+// that decides is. A decision is final. The error of a decided measurement
+// (its truth on the failing side of a limit it was decided to pass, or the
+// other way round) is one tail of one bound's test, so per unit it is at
+// most the risk.
 #ifndef IMUQUAL_ANALYZE_JUDGE_EARLY_DECISION_H_
 #define IMUQUAL_ANALYZE_JUDGE_EARLY_DECISION_H_
 
@@ -91,8 +107,8 @@ struct LookSchedule {
 // Empty (no looks) when the plan has no early_decision.
 LookSchedule MakeLookSchedule(const pb::TestPlan& plan);
 
-enum class Decision { kPending, kPass, kMarginal, kFail };
-// "PENDING", "PASS", "MARGINAL", "FAIL".
+enum class Decision { kPending, kPass, kFail };
+// "PENDING", "PASS", "FAIL".
 const char* DecisionName(Decision d);
 
 // What one measurement showed at one look: the evidence archived.
@@ -116,7 +132,10 @@ struct Look {
 
 // Whether the curve minimum of `axis` is settled (see above): asked only
 // when a decision needs it, at most once per axis and look.
-using MinimumSettled = std::function<bool(const std::string& axis)>;
+using SettledQuery = std::function<bool(const std::string& axis)>;
+// For tau_at_minimum: the z of the curve's evidence that the minimum lies
+// above tau `bound` (negative: below; measure.h MinimumSideEvidence).
+using BoundEvidence = std::function<double(const pb::Measurement& m, double bound)>;
 
 class EarlyDecider {
  public:
@@ -127,7 +146,7 @@ class EarlyDecider {
   // plan (limits set, as judge::Judge leaves them). Returns the look's
   // evidence; once the unit is decided further calls change nothing.
   Look Evaluate(int index, const std::vector<pb::Measurement>& measurements,
-                const MinimumSettled& settled);
+                const SettledQuery& settled, const BoundEvidence& evidence = nullptr);
 
   const LookSchedule& schedule() const { return schedule_; }
   Decision unit_decision() const { return unit_; }

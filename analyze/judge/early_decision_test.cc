@@ -148,11 +148,14 @@ TEST(EarlyDecider, ClearlyGoodUnitPassesAtTheFirstLook) {
   std::vector<pb::Measurement> ms = {M("bias_instability", 9.0, 0.8, plan),
                                      M("tau_at_minimum", 12, 3, plan), Gaps(0.01)};
   int asked = 0;
-  const Look look = d->Evaluate(0, ms, [&](const std::string& axis) {
-    EXPECT_EQ(axis, "x");
-    ++asked;
-    return true;
-  });
+  const Look look = d->Evaluate(
+      0, ms,
+      [&](const std::string& axis) {
+        EXPECT_EQ(axis, "x");
+        ++asked;
+        return true;
+      },
+      [](const pb::Measurement&, double bound) { return bound < 12 ? 9.0 : -9.0; });
   EXPECT_EQ(look.unit, Decision::kPass);
   EXPECT_EQ(asked, 1);  // once per axis and look
   EXPECT_EQ(d->decided_look(), 0);
@@ -206,16 +209,40 @@ TEST(EarlyDecider, ValueAtTheLimitStaysPendingAtEveryLook) {
   EXPECT_EQ(d->decided_look(), -1);
 }
 
-TEST(EarlyDecider, MarginalBandIsDecidedToo) {
+TEST(EarlyDecider, MarginalBandIsAFlagNotADecision) {
   const pb::TestPlan plan = Plan();
   auto d = EarlyDecider::Create(plan);
   const auto settled = [](const std::string&) { return true; };
-  // 17.5 +- 0.3: inside 20, above 16 by 5 u.
+  // 17.5 +- 0.3: inside 20 by 8 u: decided PASS although 16 is only 5 u away.
   EXPECT_EQ(d->Evaluate(0, {M("bias_instability", 17.5, 0.3, plan)}, settled).unit,
-            Decision::kMarginal);
-  auto e = EarlyDecider::Create(plan);
-  // 17.5 +- 0.8: inside 20 by 3.1 u but 16 only 1.9 u away: pending.
-  EXPECT_EQ(e->Evaluate(0, {M("bias_instability", 17.5, 0.8, plan)}, settled).unit,
+            Decision::kPass);
+}
+
+// tau_at_minimum is decided by the curve's evidence; "below" a bound needs a
+// settled minimum (more data can only move it to longer taus), "above" not.
+TEST(EarlyDecider, TauAtMinimumFollowsTheCurveEvidence) {
+  const pb::TestPlan plan = Plan();
+  const pb::Measurement tau = M("tau_at_minimum", 12, 0, plan);
+  // The minimum is confirmed above 2 s and below 120 s.
+  const auto inside = [](const pb::Measurement&, double bound) { return bound < 12 ? 9.0 : -9.0; };
+  auto unsettled = EarlyDecider::Create(plan);
+  EXPECT_EQ(unsettled->Evaluate(0, {tau}, [](const std::string&) { return false; }, inside).unit,
+            Decision::kPending);
+  auto settled = EarlyDecider::Create(plan);
+  const Look look = settled->Evaluate(0, {tau}, [](const std::string&) { return true; }, inside);
+  EXPECT_EQ(look.unit, Decision::kPass);
+  EXPECT_NE(look.entries[0].why.find("curve evidence"), std::string::npos) << look.entries[0].why;
+  // Confirmed above 120 s: a FAIL even before the minimum is settled.
+  auto beyond = EarlyDecider::Create(plan);
+  const auto above = [](const pb::Measurement&, double) { return 9.0; };
+  EXPECT_EQ(beyond->Evaluate(0, {M("tau_at_minimum", 300, 0, plan)},
+                             [](const std::string&) { return false; }, above)
+                .unit,
+            Decision::kFail);
+  // Weak evidence: pending.
+  auto weak = EarlyDecider::Create(plan);
+  const auto little = [](const pb::Measurement&, double bound) { return bound < 12 ? 1.0 : -1.0; };
+  EXPECT_EQ(weak->Evaluate(0, {tau}, [](const std::string&) { return true; }, little).unit,
             Decision::kPending);
 }
 
@@ -236,7 +263,8 @@ TEST(JudgeDecided, DecisionsBecomeOutcomesAndTheShortRecordIsLongEnough) {
   const auto settled = [](const std::string&) { return true; };
   std::vector<pb::Measurement> look = {M("bias_instability", 17.5, 0.3, plan),
                                        M("tau_at_minimum", 12, 2, plan)};
-  ASSERT_EQ(d->Evaluate(0, look, settled).unit, Decision::kMarginal);
+  const auto inside = [](const pb::Measurement&, double bound) { return bound < 12 ? 9.0 : -9.0; };
+  ASSERT_EQ(d->Evaluate(0, look, settled, inside).unit, Decision::kPass);
   // The final analysis of the decided record (600 s).
   std::vector<pb::Measurement> final = {M("bias_instability", 17.6, 0.3, plan),
                                         M("tau_at_minimum", 12, 2, plan), Gaps(0)};
@@ -253,8 +281,9 @@ TEST(JudgeDecided, DecisionsBecomeOutcomesAndTheShortRecordIsLongEnough) {
   const Judgement j = JudgeDecided(plan, {{"x", pb::GYRO}}, *d, &final);
   EXPECT_EQ(j.verdict, pb::MARGINAL);
   ASSERT_EQ(j.reasons.size(), 1u);
-  EXPECT_NE(j.reasons[0].find("decided MARGINAL at 600 s (look 1)"), std::string::npos)
-      << j.reasons[0];
+  EXPECT_NE(j.reasons[0].find("marginal"), std::string::npos) << j.reasons[0];
+  EXPECT_NE(final[0].note().find("decided PASS at 600 s (look 1)"), std::string::npos)
+      << final[0].note();
   EXPECT_EQ(final[3].outcome(), pb::PASS);  // 600 s >= early_decision.min_duration_s
   // Without a decision the plan's own minimum duration applies.
   auto pending = EarlyDecider::Create(plan);

@@ -13,6 +13,12 @@
 namespace imuqual::judge {
 namespace {
 
+std::string Num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
 using allan::NoiseTerm;
 
 pb::Measurement Make(const std::string& axis, std::string_view name, double value,
@@ -328,6 +334,62 @@ std::vector<pb::Measurement> MeasureTiming(double nominal_rate_hz, double measur
       "none: a statistic of the arrivals (RMS lateness), not an estimate of a quantity");
   for (pb::Measurement& m : out) QualifyMissing(&m);
   return out;
+}
+
+bool MinimumSettled(const allan::Curve& curve, double horizon_m, std::string* why) {
+  auto say = [&](std::string text) {
+    if (why) *why = std::move(text);
+    return false;
+  };
+  if (curve.points.size() < 4) return say("too few curve points");
+  allan::GmwmOptions options;
+  options.bootstrap_replicates = 0;
+  options.absent_term_bounds = false;
+  const auto fit = allan::FitCompositeModel(curve, options);
+  if (!fit.ok()) return say("no noise model: " + fit.status().message());
+  if (!fit->adequate) return say("noise model inadequate (J-test p " + Num(fit->p_value) + ")");
+  const double last_m = static_cast<double>(curve.points.back().m);
+  const double top = std::max(horizon_m, last_m);
+  // The model on a fine log grid up to the horizon.
+  double best_m = 1, best = fit->model.Avar(1, curve.tau0_s);
+  const int steps = static_cast<int>(std::ceil(std::log2(top) * 32));
+  for (int i = 1; i <= steps; ++i) {
+    const double m = std::exp2(std::log2(top) * i / steps);
+    const double v = fit->model.Avar(m, curve.tau0_s);
+    if (v < best) {
+      best = v;
+      best_m = m;
+    }
+  }
+  if (best_m > last_m / 2) {
+    return say("the noise model's minimum up to the horizon lies at tau " +
+               Num(best_m * curve.tau0_s) + " s, not well inside the measured " +
+               Num(last_m * curve.tau0_s) + " s");
+  }
+  if (why) why->clear();
+  return true;
+}
+
+double MinimumSideEvidence(const allan::Curve& curve, double bound_s) {
+  const std::vector<allan::CurvePoint>& p = curve.points;
+  auto sigma = [](const allan::CurvePoint& q) {
+    return std::isfinite(q.lo) && std::isfinite(q.hi) ? 0.5 * (q.hi - q.lo) : allan::kNaN;
+  };
+  size_t at = p.size();
+  for (size_t i = 0; i < p.size(); ++i) {
+    if (std::isfinite(p[i].dev) && (at == p.size() || p[i].dev < p[at].dev)) at = i;
+  }
+  if (at == p.size() || !std::isfinite(sigma(p[at]))) return 0;
+  const double tau_m = p[at].tau_s, dev_m = p[at].dev, u_m = sigma(p[at]);
+  const bool above = tau_m > bound_s;
+  double best = 0;
+  for (const allan::CurvePoint& q : p) {
+    const bool between = above ? (q.tau_s >= bound_s && q.tau_s < tau_m)
+                               : (q.tau_s > tau_m && q.tau_s <= bound_s);
+    if (!between || !std::isfinite(q.dev) || !std::isfinite(sigma(q))) continue;
+    best = std::max(best, (q.dev - dev_m) / std::hypot(sigma(q), u_m));
+  }
+  return above ? best : -best;
 }
 
 }  // namespace imuqual::judge

@@ -52,6 +52,28 @@ std::vector<pb::Measurement> MeasureRun(double duration_s, int64_t samples, int6
 std::vector<pb::Measurement> MeasureTiming(double nominal_rate_hz, double measured_rate_hz,
                                            double rate_sigma_hz, double jitter_rms_s);
 
+// Whether the minimum of an axis's Allan curve `curve` (OADEV, dense or
+// octave, base units) measured so far is settled: a longer record, whose
+// curve would reach `horizon_m` (averaging factor), would not find a lower
+// minimum at the taus not yet measured. Fits the composite noise model
+// (gmwm.h; no bootstrap) and asks that it be adequate (J test) and that its
+// minimum over m in [1, horizon_m] lie at least an octave inside the
+// curve's last point: well inside what was measured, the model rising from
+// there to the horizon. `why` says what failed. Costs one
+// fit (tens of ms). For early decisions (early_decision.h).
+bool MinimumSettled(const allan::Curve& curve, double horizon_m, std::string* why = nullptr);
+
+// The evidence, as a z, that the minimum of `curve` (OADEV with 1-sigma
+// chi-square intervals lo/hi on its points) lies above tau `bound_s`
+// (positive) or below it (negative): with the minimum point (tau_m, d_m), the
+// largest (d_j - d_m) / sqrt(u_j^2 + u_m^2) over the points j with tau_j in
+// [bound_s, tau_m) (minimum above the bound) or in (tau_m, bound_s] (below),
+// u = (hi - lo) / 2. For a curve convex in log-log (a sum of power-law
+// noises) a point confirmed above the minimum bounds where the minimum can
+// be. 0 when no point lies between the bound and the minimum, or no point
+// carries an interval.
+double MinimumSideEvidence(const allan::Curve& curve, double bound_s);
+
 }  // namespace imuqual::judge
 
 #endif  // IMUQUAL_ANALYZE_JUDGE_MEASURE_H_

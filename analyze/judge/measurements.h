@@ -56,6 +56,9 @@ inline constexpr std::string_view kDuration = "duration";
 inline constexpr std::string_view kMeasuredRate = "measured_rate";
 inline constexpr std::string_view kRateError = "rate_error";
 inline constexpr std::string_view kTimingJitter = "timing_jitter";
+// Early decisions (early_decision.h): the analysed device time at which the
+// unit was decided; NaN, not measurable, when it stayed pending to the end.
+inline constexpr std::string_view kDecisionTime = "decision_time";
 
 const std::vector<MeasurementDef>& MeasurementCatalog();
 // True for the measurements read off the noise model (fit_*,

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "analyze/allan/confidence.h"
+#include "analyze/allan/tau_grid.h"
 #include "analyze/judge/measure.h"
 #include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
@@ -19,6 +20,50 @@ constexpr int kUnusableFlags = 1 | 2;
 constexpr double kAbsurdGapSeconds = 86400.0;
 // The device clock is measured once arrivals span this much device time.
 constexpr double kMinClockSpanS = 2.0;
+
+// The plan an interim look judges by: what is measured so far, not the run's
+// length nor the noise model (fitted at the end).
+pb::TestPlan ProvisionalPlan(const pb::TestPlan& plan) {
+  pb::TestPlan provisional = plan;
+  provisional.set_min_duration_s(0);
+  auto* limits = provisional.mutable_limits();
+  limits->erase(std::remove_if(limits->begin(), limits->end(),
+                               [](const pb::Limit& l) {
+                                 return l.measurement() == judge::kDuration ||
+                                        judge::FromNoiseModel(l.measurement());
+                               }),
+                limits->end());
+  return provisional;
+}
+
+// The run-level record of early decisions: when the unit was decided
+// (analysed device time), or NaN when it stayed pending at every look.
+pb::Measurement DecisionTime(const judge::EarlyDecider& d, const pb::TestPlan& plan) {
+  pb::Measurement m;
+  m.set_name(std::string(judge::kDecisionTime));
+  m.set_unit("s");
+  m.set_uncertainty_method("none: exact (device sample counter)");
+  const judge::LookSchedule& s = d.schedule();
+  char buf[256];
+  if (d.unit_decision() == judge::Decision::kPending) {
+    m.set_value(std::nan(""));
+    m.set_qualifier(pb::NOT_MEASURABLE);
+    std::snprintf(buf, sizeof buf,
+                  "pending at every one of %zu looks (%g..%g s): full-length verdict", 
+                  s.times_s.size(), s.times_s.empty() ? 0.0 : s.times_s.front(),
+                  s.times_s.empty() ? 0.0 : s.times_s.back());
+  } else {
+    m.set_value(d.decided_time_s());
+    const judge::Look& look = d.looks().back();
+    std::snprintf(buf, sizeof buf,
+                  "decided %s at look %d of %zu (z %.3g; risk %g per unit, Pocock-type "
+                  "spending over %g s)",
+                  judge::DecisionName(d.unit_decision()), look.index + 1, s.times_s.size(),
+                  look.z, plan.early_decision().risk(), s.horizon_s);
+  }
+  m.set_note(buf);
+  return m;
+}
 
 }  // namespace
 
@@ -42,6 +87,15 @@ Result<RunAnalyzer> RunAnalyzer::Create(RunDescription description, AnalyzerOpti
   a.count_.assign(a.desc_.axes.size(), 0);
   a.invalid_samples_.assign(a.desc_.axes.size(), 0);
   a.clock_ = DeviceClockFit(a.desc_.nominal_rate_hz);
+  a.invalid_scratch_.resize(a.desc_.axes.size());
+  if (a.desc_.plan.has_early_decision()) {
+    auto decider = judge::EarlyDecider::Create(a.desc_.plan);
+    if (!decider.ok()) return decider.status();
+    a.decider_ = std::move(*decider);
+    for (double t : a.decider_->schedule().times_s) {
+      a.look_samples_.push_back(std::llround(t * a.desc_.nominal_rate_hz));
+    }
+  }
   return a;
 }
 
@@ -49,10 +103,60 @@ Result<RunAnalyzer> RunAnalyzer::Create(RunDescription description, AnalyzerOpti
 void RunAnalyzer::Push(int64_t count_missing) {
   const int64_t warm = std::min(count_missing, warmup_target_ - warmup_seen_);
   warmup_seen_ += std::max<int64_t>(warm, 0);
-  const int64_t rest = count_missing - std::max<int64_t>(warm, 0);
-  if (rest <= 0) return;
-  for (allan::StreamingAllan& e : engines_) e.AppendMissing(rest);
-  gap_samples_ += rest;
+  int64_t rest = count_missing - std::max<int64_t>(warm, 0);
+  while (rest > 0) {
+    if (decided()) {
+      after_decision_ += rest;
+      return;
+    }
+    const int64_t n = std::min(rest, UntilLook());
+    for (allan::StreamingAllan& e : engines_) e.AppendMissing(n);
+    gap_samples_ += n;
+    rest -= n;
+    LookIfDue();
+  }
+}
+
+int64_t RunAnalyzer::UntilLook() const {
+  if (!decider_ || next_look_ >= look_samples_.size()) return INT64_MAX;
+  return std::max<int64_t>(look_samples_[next_look_] - engines_.front().samples(), 0);
+}
+
+void RunAnalyzer::LookIfDue() {
+  if (!decider_ || decided() || next_look_ >= look_samples_.size()) return;
+  if (engines_.front().samples() < look_samples_[next_look_]) return;
+  std::vector<pb::Measurement> measurements = MeasureNow(false, nullptr);
+  judge::Judge(ProvisionalPlan(desc_.plan), desc_.axes, &measurements);
+  // The longest tau the full-length record would show.
+  const double horizon_samples = decider_->schedule().horizon_s * desc_.nominal_rate_hz;
+  const allan::StopRule stop =
+      allan::ParseStopRule(judge::PlanStopRule(desc_.plan)).value_or(allan::StopRule::kBins9);
+  const double horizon_m = static_cast<double>(allan::StopRuleMaxAveragingFactor(
+      stop, allan::Deviation::kOadev, static_cast<int64_t>(horizon_samples) + 1));
+  const auto settled = [&](const std::string& axis) {
+    for (size_t a = 0; a < desc_.axes.size(); ++a) {
+      if (desc_.axes[a].name != axis) continue;
+      const allan::Curve dense =
+          engines_[a].Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
+      return judge::MinimumSettled(dense, horizon_m);
+    }
+    return false;
+  };
+  // tau_at_minimum from the curve with its chi-square intervals, once per axis.
+  std::vector<std::optional<allan::Curve>> with_intervals(desc_.axes.size());
+  const auto evidence = [&](const pb::Measurement& m, double bound) {
+    for (size_t a = 0; a < desc_.axes.size(); ++a) {
+      if (desc_.axes[a].name != m.axis()) continue;
+      if (!with_intervals[a]) {
+        with_intervals[a] = engines_[a].Oadev(allan::StreamGrid::kDense, stop,
+                                              allan::CiMethod::kChi2, allan::kOneSigmaConfidence);
+      }
+      return judge::MinimumSideEvidence(*with_intervals[a], bound);
+    }
+    return 0.0;
+  };
+  decider_->Evaluate(static_cast<int>(next_look_), measurements, settled, evidence);
+  ++next_look_;
 }
 
 Status RunAnalyzer::AddBatch(const BatchView& batch) {
@@ -96,20 +200,30 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
   const int64_t skip =
       std::clamp<int64_t>(warmup_target_ - warmup_seen_, 0, static_cast<int64_t>(n));
   warmup_seen_ += skip;
-  const size_t keep = n - static_cast<size_t>(skip);
-  if (keep > 0) {
-    for (size_t a = 0; a < axes; ++a) {
-      invalid_scratch_.assign(n, 0);
-      for (const BatchView::Flag& f : batch.flags) {
-        if (static_cast<size_t>(f.axis) == a && (f.bits & kUnusableFlags)) {
-          invalid_scratch_[f.sample] = 1;
-        }
+  for (size_t a = 0; a < axes; ++a) {
+    invalid_scratch_[a].assign(n, 0);
+    for (const BatchView::Flag& f : batch.flags) {
+      if (static_cast<size_t>(f.axis) == a && (f.bits & kUnusableFlags)) {
+        invalid_scratch_[a][f.sample] = 1;
       }
-      const std::span<const float> values = batch.samples[a].subspan(skip);
+    }
+  }
+  // The kept samples in pieces that end at the looks (early decisions), so
+  // each look sees the same record whatever the batch boundaries.
+  size_t pos = static_cast<size_t>(skip);
+  while (pos < n) {
+    if (decided()) {
+      after_decision_ += static_cast<int64_t>(n - pos);
+      break;
+    }
+    const size_t len = static_cast<size_t>(
+        std::min<int64_t>(static_cast<int64_t>(n - pos), UntilLook()));
+    for (size_t a = 0; a < axes; ++a) {
+      const std::span<const float> values = batch.samples[a].subspan(pos, len);
       const std::span<const uint8_t> invalid =
-          std::span<const uint8_t>(invalid_scratch_).subspan(skip);
+          std::span<const uint8_t>(invalid_scratch_[a]).subspan(pos, len);
       engines_[a].Append(values, invalid);
-      for (size_t i = 0; i < keep; ++i) {
+      for (size_t i = 0; i < len; ++i) {
         if (invalid[i] || !std::isfinite(values[i])) {
           ++invalid_samples_[a];
         } else {
@@ -118,6 +232,8 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
         }
       }
     }
+    pos += len;
+    LookIfDue();
   }
   next_counter_ = batch.first_sample + static_cast<int64_t>(n);
   if (batch.sample_utime > 0) clock_.Add(batch.first_sample, batch.sample_utime);
@@ -160,8 +276,9 @@ RunEnding EndingForRunState(const std::string& state, const std::string& reason)
   return {};
 }
 
-RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {
-  RunOutcome out;
+std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
+    bool final, std::vector<std::pair<std::string, allan::Curve>>* curves) const {
+  std::vector<pb::Measurement> out;
   const pb::TestPlan& plan = desc_.plan;
   const allan::StopRule stop =
       allan::ParseStopRule(judge::PlanStopRule(plan)).value_or(allan::StopRule::kBins9);
@@ -180,13 +297,15 @@ RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {
     // model weighs them by its own edf, gmwm.h); the intervals are computed
     // only for the curve published.
     const allan::Curve dense = e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
-    out.curves.emplace_back(desc_.axes[a].name,
-                            e.Oadev(final ? allan::StreamGrid::kDense : grid, stop,
-                                    allan::CiMethod::kChi2, allan::kOneSigmaConfidence));
+    if (curves) {
+      curves->emplace_back(desc_.axes[a].name,
+                           e.Oadev(final ? allan::StreamGrid::kDense : grid, stop,
+                                   allan::CiMethod::kChi2, allan::kOneSigmaConfidence));
+    }
     const double mean = count_[a] > 0 ? sum_[a] / static_cast<double>(count_[a]) : allan::kNaN;
     for (pb::Measurement& m :
          judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, mean)) {
-      out.measurements.push_back(std::move(m));
+      out.push_back(std::move(m));
     }
     // The noise model once the run has ended (a fit costs 50-500 ms per axis;
     // interim looks judge the read-offs only).
@@ -196,42 +315,55 @@ RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {
           plan.on_inadequate_model() == pb::TestPlan::JUDGE_INADEQUATE_VALUE;
       for (pb::Measurement& m :
            judge::MeasureNoiseModel(desc_.axes[a].name, desc_.axes[a].kind, dense, model_options)) {
-        out.measurements.push_back(std::move(m));
+        out.push_back(std::move(m));
       }
     }
   }
-  out.samples = engines_.front().samples();
-  out.gap_samples = gap_samples_;
-  out.axis_invalid_samples = invalid_samples_;
-  for (int64_t n : invalid_samples_) out.invalid_samples += n;
-  out.warmup_samples = warmup_seen_;
+  const int64_t samples = engines_.front().samples();
+  int64_t invalid = 0;
+  for (int64_t n : invalid_samples_) invalid += n;
   for (pb::Measurement& m :
-       judge::MeasureRun(static_cast<double>(out.samples) * tau0_s_, out.samples, out.gap_samples,
-                         out.invalid_samples, static_cast<int>(desc_.axes.size()))) {
-    out.measurements.push_back(std::move(m));
+       judge::MeasureRun(static_cast<double>(samples) * tau0_s_, samples, gap_samples_, invalid,
+                         static_cast<int>(desc_.axes.size()))) {
+    out.push_back(std::move(m));
   }
   // Timing truth once the counter spans a few seconds of arrivals.
   if (clock_.Usable(kMinClockSpanS * desc_.nominal_rate_hz)) {
     for (pb::Measurement& m : judge::MeasureTiming(desc_.nominal_rate_hz, clock_.RateHz(),
                                                    clock_.RateSigmaHz(), clock_.JitterRmsS())) {
-      out.measurements.push_back(std::move(m));
+      out.push_back(std::move(m));
     }
   }
+  return out;
+}
+
+RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {
+  RunOutcome out;
+  const pb::TestPlan& plan = desc_.plan;
+  out.measurements = MeasureNow(final, &out.curves);
+  out.samples = engines_.front().samples();
+  out.gap_samples = gap_samples_;
+  out.axis_invalid_samples = invalid_samples_;
+  for (int64_t n : invalid_samples_) out.invalid_samples += n;
+  out.warmup_samples = warmup_seen_;
+  out.samples_after_decision = after_decision_;
+  if (decider_) {
+    RunOutcome::Early early;
+    early.unit = decider_->unit_decision();
+    early.decided_at_s = decider_->decided_time_s();
+    early.looks_done = static_cast<int>(next_look_);
+    early.looks_planned = static_cast<int>(look_samples_.size());
+    early.looks = decider_->looks();
+    out.early = std::move(early);
+    if (final) out.measurements.push_back(DecisionTime(*decider_, desc_.plan));
+  }
   if (final) {
-    out.judgement = judge::Judge(plan, desc_.axes, &out.measurements);
+    out.judgement = decider_ ? judge::JudgeDecided(plan, desc_.axes, *decider_, &out.measurements)
+                             : judge::Judge(plan, desc_.axes, &out.measurements);
   } else {
     // Provisional: judge what is measured so far, not the run's length nor
     // the noise model (fitted at the end).
-    pb::TestPlan provisional = plan;
-    provisional.set_min_duration_s(0);
-    auto* limits = provisional.mutable_limits();
-    limits->erase(std::remove_if(limits->begin(), limits->end(),
-                                 [](const pb::Limit& l) {
-                                   return l.measurement() == "duration" ||
-                                          judge::FromNoiseModel(l.measurement());
-                                 }),
-                  limits->end());
-    out.judgement = judge::Judge(provisional, desc_.axes, &out.measurements);
+    out.judgement = judge::Judge(ProvisionalPlan(plan), desc_.axes, &out.measurements);
   }
   // The run's verdict says first whether it can be judged at all.
   if (ending.verdict != pb::OUTCOME_UNSET) {

@@ -12,6 +12,7 @@
 #define IMUQUAL_ANALYZE_SERVICE_RUN_ANALYZER_H_
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -19,6 +20,7 @@
 #include "analyze/allan/curve.h"
 #include "analyze/allan/streaming.h"
 #include "analyze/service/device_clock.h"
+#include "analyze/judge/early_decision.h"
 #include "analyze/judge/judge.h"
 #include "common/status.h"
 #include "imuqual/plan.pb.h"
@@ -72,6 +74,18 @@ struct RunOutcome {
   int64_t invalid_samples = 0;  // over all axes
   std::vector<int64_t> axis_invalid_samples;  // per axis, in the description's order
   int64_t warmup_samples = 0;
+  // Early decisions (plans with early_decision; nullopt otherwise): the
+  // unit's decision so far, when it was made, and every look's evidence.
+  struct Early {
+    judge::Decision unit = judge::Decision::kPending;
+    double decided_at_s = 0;  // analysed device time (when decided)
+    int looks_done = 0;
+    int looks_planned = 0;
+    std::vector<judge::Look> looks;
+  };
+  std::optional<Early> early;
+  // Samples per axis that arrived after the decision (archived, not analysed).
+  int64_t samples_after_decision = 0;
 };
 
 class RunAnalyzer {
@@ -103,11 +117,24 @@ class RunAnalyzer {
 
   const RunDescription& description() const { return desc_; }
   int64_t next_counter() const { return next_counter_; }
+  // True once early decisions decided the unit: later samples are counted,
+  // not analysed, and the run may end.
+  bool decided() const {
+    return decider_ && decider_->unit_decision() != judge::Decision::kPending;
+  }
   int64_t batches_accepted() const { return batches_; }
 
  private:
   RunAnalyzer(RunDescription description, AnalyzerOptions options);
   void Push(int64_t count_missing);
+  // Analysed samples left before the next look (INT64_MAX: no more looks).
+  int64_t UntilLook() const;
+  // Runs the look due now (early decisions), if one is.
+  void LookIfDue();
+  // Every measurement of the record as analysed so far (the noise model
+  // only when `final`); the judged curves into `curves` if given.
+  std::vector<pb::Measurement> MeasureNow(
+      bool final, std::vector<std::pair<std::string, allan::Curve>>* curves) const;
 
   RunDescription desc_;
   AnalyzerOptions options_;
@@ -123,7 +150,11 @@ class RunAnalyzer {
   std::vector<allan::StreamingAllan> engines_;
   std::vector<double> sum_;         // per axis, valid samples after warm-up
   std::vector<int64_t> count_;
-  std::vector<uint8_t> invalid_scratch_;
+  std::vector<std::vector<uint8_t>> invalid_scratch_;  // per axis
+  std::optional<judge::EarlyDecider> decider_;
+  std::vector<int64_t> look_samples_;  // analysed samples at each look
+  size_t next_look_ = 0;
+  int64_t after_decision_ = 0;
   DeviceClockFit clock_{1.0};  // reset in Create with the nominal rate
 };
 

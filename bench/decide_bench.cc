@@ -1,0 +1,270 @@
+// Early decisions against full-length soaks on a simulated lot with known
+// truth (./scripts/bench decide). Each unit's record is generated once and
+// analysed twice by the station's own analysis (RunAnalyzer): with the
+// plan's early_decision (fed until the unit is decided, as a station would
+// stop its source) and without (the whole soak). Prints
+//   soak_time_ratio_median     slot time (warm-up + analysed) decided / full
+//   decision_disagreement_rate early verdict != full-length verdict
+//   decision_error_rate_vs_truth_{early,full}  accept/reject side wrong
+//     against the truth's verdict (PASS or MARGINAL = accept)
+//   verdict_category_error_rate_vs_truth_{early,full}  PASS/MARGINAL/FAIL
+// and the units decided, pending to the end, and their soak times. The truth
+// of a unit is its simulated noise model (acquire/lot_profile.h): its Allan
+// deviation minimum over the taus the full-length curve shows, the tau of
+// that minimum and N, judged against the plan's limits. Never asserts.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "acquire/imu_simulator.h"
+#include "acquire/lot_profile.h"
+#include "analyze/allan/composite_model.h"
+#include "analyze/allan/tau_grid.h"
+#include "analyze/judge/judge.h"
+#include "analyze/judge/measurements.h"
+#include "analyze/judge/plan.h"
+#include "analyze/service/run_analyzer.h"
+
+namespace imuqual {
+namespace {
+
+struct UnitResult {
+  int index = 0;
+  std::string role;
+  pb::Outcome truth = pb::OUTCOME_UNSET;
+  pb::Outcome full = pb::OUTCOME_UNSET;
+  pb::Outcome early = pb::OUTCOME_UNSET;
+  bool decided = false;
+  double decided_at_s = 0;
+  double truth_bi = 0;  // worst axis, deg/h
+  std::string pending;  // what the last look left pending
+};
+
+allan::CompositeModel TruthModel(const pb::AxisTruth& t) {
+  allan::CompositeModel m;
+  auto add = [&](allan::TermKind kind, double scale) {
+    if (scale > 0) m.terms.push_back({kind, scale, 0, 0});
+  };
+  add(allan::TermKind::kQuantization, t.quantization());
+  add(allan::TermKind::kWhite, t.random_walk());
+  add(allan::TermKind::kFlicker, t.bias_instability());
+  add(allan::TermKind::kRandomWalk, t.rate_random_walk());
+  add(allan::TermKind::kDrift, t.rate_ramp());
+  for (const pb::GaussMarkov& g : t.gauss_markov()) {
+    m.terms.push_back({allan::TermKind::kGaussMarkov, g.sigma(), g.correlation_time_s(), 0});
+  }
+  return m;
+}
+
+// The truth's verdict: the plan's limits on the truth's bias instability
+// (curve minimum up to m_max), tau at minimum and angle random walk.
+pb::Outcome TruthVerdict(const pb::TestPlan& plan, const pb::SimTruth& truth, double tau0,
+                         int64_t m_max, double* worst_bi) {
+  pb::Outcome worst = pb::PASS;
+  *worst_bi = 0;
+  auto fold = [&](pb::Outcome o) {
+    if (o == pb::FAIL || (o == pb::MARGINAL && worst == pb::PASS)) worst = o;
+  };
+  for (const pb::AxisTruth& a : truth.axes()) {
+    const allan::CompositeModel model = TruthModel(a);
+    double best = INFINITY, best_m = 1;
+    const int steps = 2000;
+    for (int i = 0; i <= steps; ++i) {
+      const double m = std::exp2(std::log2(static_cast<double>(m_max)) * i / steps);
+      const double dev = model.Deviation(m, tau0);
+      if (dev < best) {
+        best = dev;
+        best_m = m;
+      }
+    }
+    const judge::AxisDesc axis{a.axis(), pb::GYRO};
+    const double values[] = {best * 3600.0, best_m * tau0, a.random_walk() * 60.0};
+    const std::string_view names[] = {judge::kBiasInstability, judge::kTauAtMinimum,
+                                      judge::kAngleRandomWalk};
+    *worst_bi = std::max(*worst_bi, values[0]);
+    for (int k = 0; k < 3; ++k) {
+      const pb::Limit* limit = judge::FindLimit(plan, std::string(names[k]), &axis);
+      if (limit) fold(judge::Evaluate(*limit, values[k]));
+    }
+  }
+  return worst;
+}
+
+bool Accepts(pb::Outcome o) { return o == pb::PASS || o == pb::MARGINAL; }
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n == 0 ? NAN : n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+}  // namespace
+}  // namespace imuqual
+
+int main(int argc, char** argv) {
+  using namespace imuqual;
+  CLI::App app{"early decisions vs full-length soaks on a simulated lot"};
+  int units = 200;
+  double spread = 0.35;
+  double risk = 0.01;
+  double min_duration_s = 600;
+  double look_period_s = 60;
+  int threads = 2;
+  std::string lot = "DECIDE-BENCH";
+  bool verbose = false;
+  app.add_option("--units", units, "units in the lot")->capture_default_str();
+  app.add_option("--spread", spread, "lognormal unit-to-unit spread of the noise terms")
+      ->capture_default_str();
+  app.add_option("--risk", risk, "early_decision.risk")->capture_default_str();
+  app.add_option("--min-duration", min_duration_s, "early_decision.min_duration_s")
+      ->capture_default_str();
+  app.add_option("--look-period", look_period_s, "early_decision.look_period_s")
+      ->capture_default_str();
+  app.add_option("--threads", threads, "worker threads")->capture_default_str();
+  app.add_option("--lot", lot, "lot name (seeds the truths)")->capture_default_str();
+  app.add_flag("--verbose", verbose, "one line per unit on stderr");
+  CLI11_PARSE(app, argc, argv);
+
+  auto profile = sim::LotProfileByName("vg700");
+  auto full_plan = judge::BuiltinPlan("vg700ca");
+  if (!profile.ok() || !full_plan.ok()) {
+    std::fprintf(stderr, "decide_bench: no vg700 profile or plan\n");
+    return 1;
+  }
+  profile->spread = spread;
+  pb::TestPlan early_plan = *full_plan;
+  early_plan.mutable_early_decision()->set_risk(risk);
+  early_plan.mutable_early_decision()->set_min_duration_s(min_duration_s);
+  early_plan.mutable_early_decision()->set_look_period_s(look_period_s);
+  if (Status st = judge::ValidatePlan(early_plan); !st.ok()) {
+    std::fprintf(stderr, "decide_bench: %s\n", st.message().c_str());
+    return 1;
+  }
+  const double rate = full_plan->nominal_rate_hz();
+  const double tau0 = 1.0 / rate;
+  const double warmup_s = full_plan->warmup_s();
+  const double soak_s = full_plan->min_duration_s();
+  const int64_t total = std::llround((warmup_s + soak_s) * rate);
+  const int64_t m_max = allan::StopRuleMaxAveragingFactor(
+      allan::StopRule::kBins9, allan::Deviation::kOadev, std::llround(soak_s * rate) + 1);
+  const uint64_t seed = sim::SeedFromName(lot);
+
+  std::vector<UnitResult> results(units);
+  std::atomic<int> next{0};
+  std::mutex log;
+  auto work = [&]() {
+    for (int i = next++; i < units; i = next++) {
+      UnitResult& r = results[i];
+      r.index = i;
+      const pb::SimTruth truth = sim::MakeUnitTruth(*profile, seed, i, rate);
+      r.role = truth.profile();
+      r.truth = TruthVerdict(*full_plan, truth, tau0, m_max, &r.truth_bi);
+      auto simulator = sim::ImuSimulator::Create(truth);
+      analyze::RunDescription desc;
+      desc.run_id = "R" + std::to_string(i);
+      desc.serial = "U" + std::to_string(i);
+      desc.nominal_rate_hz = rate;
+      for (const pb::Axis& a : full_plan->axes()) desc.axes.push_back({a.name(), a.kind()});
+      desc.plan = *full_plan;
+      auto full = analyze::RunAnalyzer::Create(desc);
+      desc.plan = early_plan;
+      auto early = analyze::RunAnalyzer::Create(desc);
+      if (!simulator.ok() || !full.ok() || !early.ok()) {
+        std::fprintf(stderr, "decide_bench: unit %d could not be set up\n", i);
+        continue;
+      }
+      std::vector<std::vector<float>> samples(desc.axes.size());
+      int64_t counter = 0, early_end = -1;
+      const int batch = static_cast<int>(rate);  // 1 s batches
+      for (int64_t seq = 0; counter < total; ++seq) {
+        const int n = static_cast<int>(std::min<int64_t>(batch, total - counter));
+        for (auto& s : samples) s.clear();
+        simulator->Generate(n, samples);
+        analyze::BatchView view;
+        view.seq = seq;
+        view.first_sample = counter;
+        view.nominal_rate_hz = rate;
+        for (const auto& s : samples) view.samples.emplace_back(s);
+        (void)full->AddBatch(view);
+        if (early_end < 0) {
+          (void)early->AddBatch(view);
+          // The station stops the source once the unit is decided.
+          if (early->decided()) early_end = counter + n;
+        }
+        counter += n;
+      }
+      full->Finish(0, total);
+      early->Finish(0, early_end < 0 ? total : early_end);
+      const analyze::RunOutcome f = full->Outcome(true);
+      const analyze::RunOutcome e = early->Outcome(true);
+      r.full = f.judgement.verdict;
+      r.early = e.judgement.verdict;
+      r.decided = e.early && e.early->unit != judge::Decision::kPending;
+      r.decided_at_s = r.decided ? e.early->decided_at_s : soak_s;
+      if (e.early && !e.early->looks.empty()) {
+        for (const judge::LookEntry& entry : e.early->looks.back().entries) {
+          if (entry.decision == judge::Decision::kPending) r.pending += "\n    " + entry.why;
+        }
+      }
+      if (verbose) {
+        std::lock_guard<std::mutex> lock(log);
+        std::fprintf(stderr, "unit %3d %-13s truth %-8s full %-8s early %-8s %s bi %.2f\n", i,
+                     r.role.c_str(), judge::OutcomeName(r.truth), judge::OutcomeName(r.full),
+                     judge::OutcomeName(r.early),
+                     r.decided ? ("decided at " + std::to_string(std::lround(r.decided_at_s)) +
+                                  " s").c_str()
+                               : "pending to the end",
+                     r.truth_bi);
+        if (!r.decided) std::fprintf(stderr, "  pending:%s\n", r.pending.c_str());
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < std::max(threads, 1); ++t) pool.emplace_back(work);
+  for (std::thread& t : pool) t.join();
+
+  std::vector<double> ratios, decided_times;
+  int disagree = 0, early_wrong = 0, full_wrong = 0, early_cat = 0, full_cat = 0, decided = 0;
+  int truth_fail = 0, early_fail_decided = 0;
+  for (const UnitResult& r : results) {
+    ratios.push_back((warmup_s + r.decided_at_s) / (warmup_s + soak_s));
+    if (r.decided) {
+      ++decided;
+      decided_times.push_back(r.decided_at_s);
+      if (r.early == pb::FAIL) ++early_fail_decided;
+    }
+    disagree += r.early != r.full;
+    early_wrong += Accepts(r.early) != Accepts(r.truth);
+    full_wrong += Accepts(r.full) != Accepts(r.truth);
+    early_cat += r.early != r.truth;
+    full_cat += r.full != r.truth;
+    truth_fail += r.truth == pb::FAIL;
+  }
+  const double n = units;
+  std::printf("decide_units %d units\n", units);
+  std::printf("decide_truth_fail_units %d units\n", truth_fail);
+  std::printf("decide_risk %g 1\n", risk);
+  std::printf("soak_time_ratio_median %.4f 1\n", Median(ratios));
+  std::printf("soak_time_saved_fraction %.4f 1\n",
+              1.0 - [&] {
+                double s = 0;
+                for (double x : ratios) s += x;
+                return s / n;
+              }());
+  std::printf("decided_early_fraction %.4f 1\n", decided / n);
+  std::printf("decided_fail_units %d units\n", early_fail_decided);
+  std::printf("decision_time_median_s %.0f s\n", Median(decided_times));
+  std::printf("decision_disagreement_rate %.4f 1\n", disagree / n);
+  std::printf("decision_error_rate_vs_truth_early %.4f 1\n", early_wrong / n);
+  std::printf("decision_error_rate_vs_truth_full %.4f 1\n", full_wrong / n);
+  std::printf("verdict_category_error_rate_vs_truth_early %.4f 1\n", early_cat / n);
+  std::printf("verdict_category_error_rate_vs_truth_full %.4f 1\n", full_cat / n);
+  return 0;
+}
