@@ -5,6 +5,7 @@
 // stop its source) and without (the whole soak). Prints
 //   soak_time_ratio_median     slot time (warm-up + analysed) decided / full
 //   decision_disagreement_rate early verdict != full-length verdict
+//     (PASS, MARGINAL, FAIL), and _accept_reject (PASS or MARGINAL vs FAIL)
 //   decision_error_rate_vs_truth_{early,full}  accept/reject side wrong
 //     against the truth's verdict (PASS or MARGINAL = accept)
 //   verdict_category_error_rate_vs_truth_{early,full}  PASS/MARGINAL/FAIL
@@ -119,6 +120,7 @@ int main(int argc, char** argv) {
   int threads = 2;
   std::string lot = "DECIDE-BENCH";
   bool verbose = false;
+  bool decide_marginal = false;
   app.add_option("--units", units, "units in the lot")->capture_default_str();
   app.add_option("--spread", spread, "lognormal unit-to-unit spread of the noise terms")
       ->capture_default_str();
@@ -130,6 +132,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads")->capture_default_str();
   app.add_option("--lot", lot, "lot name (seeds the truths)")->capture_default_str();
   app.add_flag("--verbose", verbose, "one line per unit on stderr");
+  app.add_flag("--decide-marginal", decide_marginal, "early_decision.decide_marginal");
   CLI11_PARSE(app, argc, argv);
 
   auto profile = sim::LotProfileByName("vg700");
@@ -143,6 +146,7 @@ int main(int argc, char** argv) {
   early_plan.mutable_early_decision()->set_risk(risk);
   early_plan.mutable_early_decision()->set_min_duration_s(min_duration_s);
   early_plan.mutable_early_decision()->set_look_period_s(look_period_s);
+  early_plan.mutable_early_decision()->set_decide_marginal(decide_marginal);
   if (Status st = judge::ValidatePlan(early_plan); !st.ok()) {
     std::fprintf(stderr, "decide_bench: %s\n", st.message().c_str());
     return 1;
@@ -231,7 +235,7 @@ int main(int argc, char** argv) {
   for (std::thread& t : pool) t.join();
 
   std::vector<double> ratios, decided_times;
-  int disagree = 0, early_wrong = 0, full_wrong = 0, early_cat = 0, full_cat = 0, decided = 0;
+  int disagree = 0, disagree_side = 0, early_wrong = 0, full_wrong = 0, early_cat = 0, full_cat = 0, decided = 0;
   int truth_fail = 0, early_fail_decided = 0;
   for (const UnitResult& r : results) {
     ratios.push_back((warmup_s + r.decided_at_s) / (warmup_s + soak_s));
@@ -241,6 +245,7 @@ int main(int argc, char** argv) {
       if (r.early == pb::FAIL) ++early_fail_decided;
     }
     disagree += r.early != r.full;
+    disagree_side += Accepts(r.early) != Accepts(r.full);
     early_wrong += Accepts(r.early) != Accepts(r.truth);
     full_wrong += Accepts(r.full) != Accepts(r.truth);
     early_cat += r.early != r.truth;
@@ -262,6 +267,7 @@ int main(int argc, char** argv) {
   std::printf("decided_fail_units %d units\n", early_fail_decided);
   std::printf("decision_time_median_s %.0f s\n", Median(decided_times));
   std::printf("decision_disagreement_rate %.4f 1\n", disagree / n);
+  std::printf("decision_disagreement_rate_accept_reject %.4f 1\n", disagree_side / n);
   std::printf("decision_error_rate_vs_truth_early %.4f 1\n", early_wrong / n);
   std::printf("decision_error_rate_vs_truth_full %.4f 1\n", full_wrong / n);
   std::printf("verdict_category_error_rate_vs_truth_early %.4f 1\n", early_cat / n);

@@ -218,7 +218,9 @@ Result<EarlyDecider> EarlyDecider::Create(const pb::TestPlan& plan) {
         "early_decision: no look before the horizon (min_duration_s >= horizon)");
   }
   if (!(s.risk > 0 && s.risk <= 0.2)) return Status::InvalidArgument("early_decision.risk");
-  return EarlyDecider(std::move(s));
+  EarlyDecider d(std::move(s));
+  d.decide_marginal_ = plan.early_decision().decide_marginal();
+  return d;
 }
 
 Decision EarlyDecider::MeasurementDecision(const std::string& axis,
@@ -247,6 +249,7 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
     for (const pb::Measurement& m : measurements) {
       if (!Decides(m)) continue;
       count += m.has_low() + m.has_high();
+      if (decide_marginal_) count += m.has_marginal_low() + m.has_marginal_high();
     }
     alpha_per_bound_ = schedule_.risk / std::max(count, 1);
     auto b = SequentialBounds(schedule_.fractions, std::min(alpha_per_bound_, 0.49));
@@ -287,16 +290,25 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
     }
     const double v = m.value(), u = e.uncertainty;
     const bool is_tau = m.name() == kTauAtMinimum;
-    // tau_at_minimum is decided from the curve itself (BoundEvidence), the
-    // others from value and uncertainty.
-    const bool from_curve = is_tau && static_cast<bool>(evidence);
-    const bool usable = std::isfinite(v) && (from_curve || (std::isfinite(u) && u > 0)) &&
-                        m.qualifier() != pb::NOT_MEASURABLE &&
+    const bool has_u = std::isfinite(u) && u > 0;
+    // Evidence the caller reads off the curve (tau_at_minimum, the -1/2
+    // read-offs), per direction; what it leaves NaN comes from v and u.
+    auto side_evidence = [&](double b) {
+      SideEvidence ev = evidence ? evidence(m, b) : SideEvidence{};
+      if (!std::isfinite(ev.above)) {
+        ev.above = has_u ? (v - b) / u : -INFINITY;
+        ev.above_source = "";
+      }
+      if (!std::isfinite(ev.below)) {
+        ev.below = has_u ? (b - v) / u : -INFINITY;
+        ev.below_source = "";
+      }
+      return ev;
+    };
+    const bool usable = std::isfinite(v) && m.qualifier() != pb::NOT_MEASURABLE &&
                         m.qualifier() != pb::MODEL_INADEQUATE && !m.model_inadequate();
     if (!usable) {
-      e.why = !std::isfinite(v) ? "not measured yet"
-              : !(std::isfinite(u) && u > 0) ? "no uncertainty to decide on"
-                                              : "not measurable";
+      e.why = !std::isfinite(v) ? "not measured yet" : "not measurable";
       unit = Worse(unit, Decision::kPending);
       look.entries.push_back(std::move(e));
       continue;
@@ -314,59 +326,63 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
     auto below_allowed = [&]() {
       return !is_tau || (!minimum_not_resolved && is_settled(m.axis()));
     };
-    // z of the evidence that the truth lies above b (negative: below).
-    // tau_at_minimum: the curve's evidence, or its value and uncertainty
-    // when that says more (a flat bottom: the rising side's points are too
-    // noisy one by one, the minimum's tau spread is not).
-    auto side_z = [&](double b) -> double {
-      const double by_value = std::isfinite(u) && u > 0 ? (v - b) / u : 0.0;
-      if (!from_curve) return by_value;
-      const double by_curve = evidence(m, b);
-      return std::abs(by_curve) >= std::abs(by_value) || (by_curve > 0) != (by_value > 0)
-                 ? by_curve
-                 : by_value;
-    };
     enum class Side { kUnknown, kInside, kOutside };
-    auto above = [&](double b) { return side_z(b) >= z && above_allowed(); };
-    auto below = [&](double b) { return -side_z(b) >= z && below_allowed(); };
+    auto above = [&](double b) { return side_evidence(b).above >= z && above_allowed(); };
+    auto below = [&](double b) { return side_evidence(b).below >= z && below_allowed(); };
     auto high_side = [&](double b) {
       return below(b) ? Side::kInside : above(b) ? Side::kOutside : Side::kUnknown;
     };
     auto low_side = [&](double b) {
       return above(b) ? Side::kInside : below(b) ? Side::kOutside : Side::kUnknown;
     };
-    const bool has_u = std::isfinite(u) && u > 0;
     const std::string stat = Who(m) + " " + Num(v) + (has_u ? " ± " + Num(u) : "") + UnitSuffix(m);
-    auto zs = [&](double b) {
-      const bool curve = from_curve && std::abs(side_z(b)) == std::abs(evidence(m, b));
-      return " (" + std::string(curve ? "curve evidence " : "") + "z " +
-             Num(std::abs(side_z(b))) + " >= " + Num(z) + ")";
+    // The z that confirmed bound b on the side `truth_above` says, and whence.
+    auto zs = [&](double b, bool truth_above) {
+      const SideEvidence ev = side_evidence(b);
+      const double zz = truth_above ? ev.above : ev.below;
+      const std::string source = truth_above ? ev.above_source : ev.below_source;
+      return " (" + (source.empty() ? std::string() : source + ": ") + "z " + Num(zz) +
+             " >= " + Num(z) + ")";
     };
     Decision d = Decision::kPending;
+    bool marginal = false;
     std::string why;
     const Side fh = m.has_high() ? high_side(m.high()) : Side::kInside;
     const Side fl = m.has_low() ? low_side(m.low()) : Side::kInside;
     if (fh == Side::kOutside) {
       d = Decision::kFail;
-      why = stat + " confirmed above " + Num(m.high()) + zs(m.high());
+      why = stat + " confirmed above " + Num(m.high()) + zs(m.high(), true);
     } else if (fl == Side::kOutside) {
       d = Decision::kFail;
-      why = stat + " confirmed below " + Num(m.low()) + zs(m.low());
+      why = stat + " confirmed below " + Num(m.low()) + zs(m.low(), false);
     } else if (fh == Side::kInside && fl == Side::kInside) {
-      d = Decision::kPass;
       why = stat + " confirmed inside";
-      if (m.has_low()) why += " " + Num(m.low()) + zs(m.low());
-      if (m.has_high()) why += (m.has_low() ? " and " : " ") + Num(m.high()) + zs(m.high());
+      if (m.has_low()) why += " " + Num(m.low()) + zs(m.low(), true);
+      if (m.has_high()) why += (m.has_low() ? " and " : " ") + Num(m.high()) + zs(m.high(), false);
+      d = Decision::kPass;
+      if (decide_marginal_) {
+        // The marginal flag decided too: each marginal bound on a confirmed side.
+        const Side mh = m.has_marginal_high() ? high_side(m.marginal_high()) : Side::kInside;
+        const Side ml = m.has_marginal_low() ? low_side(m.marginal_low()) : Side::kInside;
+        if (mh == Side::kUnknown || ml == Side::kUnknown) {
+          d = Decision::kPending;
+          why += ", not yet on one side of the marginal band (z " + Num(z) + ")";
+        } else {
+          marginal = mh == Side::kOutside || ml == Side::kOutside;
+          why += marginal ? ", confirmed in the marginal band" : ", confirmed clear of the marginal band";
+        }
+      }
     } else {
       why = stat + ": not yet on one side of a limit (z " + Num(z) + ")";
       if (IsMinimum(m.name()) && !bound_like && !is_settled(m.axis())) {
         why += "; minimum not settled";
       }
       if (minimum_not_resolved) why += "; minimum not resolved";
+      if (!has_u) why += "; no uncertainty to decide on";
     }
     e.decision = d;
     e.why = why;
-    if (d != Decision::kPending) decided_.push_back({key, d, why, index});
+    if (d != Decision::kPending) decided_.push_back({key, d, why, index, marginal});
     unit = Worse(unit, d);
     look.entries.push_back(std::move(e));
   }
@@ -394,8 +410,9 @@ void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
     }
     // A decided PASS keeps the marginal flag the record analysed shows
     // (marginal bands are read simply, as always).
+    const bool flag = decide_marginal_ ? it->marginal : m.outcome() == pb::MARGINAL;
     m.set_outcome(it->decision == Decision::kFail ? pb::FAIL
-                  : m.outcome() == pb::MARGINAL   ? pb::MARGINAL
+                  : flag                          ? pb::MARGINAL
                                                   : pb::PASS);
     m.clear_guard_band();
     m.set_note((m.note().empty() ? "" : m.note() + "; ") + "decided " +

@@ -28,7 +28,10 @@
 //
 // The decisions are on the pass/fail limits (low, high) of each judged
 // measurement; a marginal band stays a flag read simply (as judge.h always
-// reads it) on the record analysed when the unit is decided. A bound B of a
+// reads it) on the record analysed when the unit is decided, unless the plan
+// sets early_decision.decide_marginal: then each marginal bound is decided
+// like a limit (and counted in the Bonferroni split) and a measurement is
+// decided only once its flag is too. A bound B of a
 // measurement with value v and 1-sigma uncertainty u is confirmed at look k
 // with the truth above it when (v - B) / u >= z_k, below it when
 // (B - v) / u >= z_k. What more data can still change is respected:
@@ -71,6 +74,7 @@
 #define IMUQUAL_ANALYZE_JUDGE_EARLY_DECISION_H_
 
 #include <functional>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -133,9 +137,16 @@ struct Look {
 // Whether the curve minimum of `axis` is settled (see above): asked only
 // when a decision needs it, at most once per axis and look.
 using SettledQuery = std::function<bool(const std::string& axis)>;
-// For tau_at_minimum: the z of the curve's evidence that the minimum lies
-// above tau `bound` (negative: below; measure.h MinimumSideEvidence).
-using BoundEvidence = std::function<double(const pb::Measurement& m, double bound)>;
+// Evidence read off the curve that the truth of a measurement lies above /
+// below `bound`, as z (NaN: none; the value and uncertainty decide that
+// direction), and where it came from (said in the evidence archived).
+struct SideEvidence {
+  double above = std::numeric_limits<double>::quiet_NaN();
+  double below = std::numeric_limits<double>::quiet_NaN();
+  std::string above_source;
+  std::string below_source;
+};
+using BoundEvidence = std::function<SideEvidence(const pb::Measurement& m, double bound)>;
 
 class EarlyDecider {
  public:
@@ -181,8 +192,10 @@ class EarlyDecider {
     Decision decision;
     std::string why;
     int look;
+    bool marginal = false;  // decided in the marginal band (decide_marginal)
   };
   std::vector<Decided> decided_;
+  bool decide_marginal_ = false;
 };
 
 // The final judgement of a run with early decisions, on the record analysed

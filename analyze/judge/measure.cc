@@ -392,4 +392,19 @@ double MinimumSideEvidence(const allan::Curve& curve, double bound_s) {
   return above ? best : -best;
 }
 
+Ceiling WhiteNoiseCeiling(const allan::Curve& curve, pb::AxisKind kind) {
+  Ceiling c;
+  const allan::CurvePoint* best = nullptr;
+  for (const allan::CurvePoint& p : curve.points) {
+    if (!std::isfinite(p.dev) || !std::isfinite(p.lo) || !std::isfinite(p.hi)) continue;
+    if (!best || std::abs(std::log(p.tau_s)) < std::abs(std::log(best->tau_s))) best = &p;
+  }
+  if (!best) return c;
+  const double root = std::sqrt(best->tau_s);
+  c.value = Datasheet(NoiseTerm::kAngleRandomWalk, kind, best->dev * root);
+  c.sigma = Datasheet(NoiseTerm::kAngleRandomWalk, kind, 0.5 * (best->hi - best->lo) * root);
+  c.tau_s = best->tau_s;
+  return c;
+}
+
 }  // namespace imuqual::judge

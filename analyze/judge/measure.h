@@ -74,6 +74,19 @@ bool MinimumSettled(const allan::Curve& curve, double horizon_m, std::string* wh
 // carries an interval.
 double MinimumSideEvidence(const allan::Curve& curve, double bound_s);
 
+// A ceiling on the white-noise term (ARW / VRW, datasheet units) with its
+// 1-sigma error: sigma(tau) sqrt(tau) >= N at every tau (every other term
+// adds to the Allan variance), read at the point of `curve` (OADEV with
+// 1-sigma chi-square intervals) nearest 1 s, where its chi-square error is
+// small and no point is selected for being low (unlike a read-off along the
+// -1/2 line). NaN when no point carries an interval.
+struct Ceiling {
+  double value = allan::kNaN;
+  double sigma = allan::kNaN;
+  double tau_s = allan::kNaN;
+};
+Ceiling WhiteNoiseCeiling(const allan::Curve& curve, pb::AxisKind kind);
+
 }  // namespace imuqual::judge
 
 #endif  // IMUQUAL_ANALYZE_JUDGE_MEASURE_H_

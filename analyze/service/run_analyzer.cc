@@ -142,18 +142,54 @@ void RunAnalyzer::LookIfDue() {
     }
     return false;
   };
-  // tau_at_minimum from the curve with its chi-square intervals, once per axis.
+  // Evidence read off each axis's curve with its chi-square intervals
+  // (computed once per axis and look, when asked): tau_at_minimum from the
+  // curve's shape and its spread, whichever says more; the white-noise
+  // read-offs' "below" from the ceiling sigma(tau) sqrt(tau) >= N (the read-off
+  // along the -1/2 line is biased low, which is conservative only for "above").
   std::vector<std::optional<allan::Curve>> with_intervals(desc_.axes.size());
-  const auto evidence = [&](const pb::Measurement& m, double bound) {
+  const auto curve_of = [&](const std::string& axis) -> const allan::Curve* {
     for (size_t a = 0; a < desc_.axes.size(); ++a) {
-      if (desc_.axes[a].name != m.axis()) continue;
+      if (desc_.axes[a].name != axis) continue;
       if (!with_intervals[a]) {
         with_intervals[a] = engines_[a].Oadev(allan::StreamGrid::kDense, stop,
                                               allan::CiMethod::kChi2, allan::kOneSigmaConfidence);
       }
-      return judge::MinimumSideEvidence(*with_intervals[a], bound);
+      return &*with_intervals[a];
     }
-    return 0.0;
+    return nullptr;
+  };
+  const auto kind_of = [&](const std::string& axis) {
+    for (const judge::AxisDesc& a : desc_.axes) {
+      if (a.name == axis) return a.kind;
+    }
+    return pb::GYRO;
+  };
+  const auto evidence = [&](const pb::Measurement& m, double bound) {
+    judge::SideEvidence ev;
+    const allan::Curve* curve = curve_of(m.axis());
+    if (curve == nullptr) return ev;
+    if (m.name() == judge::kTauAtMinimum) {
+      const double c = judge::MinimumSideEvidence(*curve, bound);
+      const bool has_u = m.has_uncertainty() && m.uncertainty() > 0;
+      const double v = has_u ? (m.value() - bound) / m.uncertainty() : -INFINITY;
+      ev.above = std::max(c, v);
+      ev.above_source = c >= v ? "curve evidence" : "tau spread";
+      ev.below = std::max(-c, -v);
+      ev.below_source = -c >= -v ? "curve evidence" : "tau spread";
+    } else if (m.name() == judge::kAngleRandomWalk || m.name() == judge::kVelocityRandomWalk) {
+      const judge::Ceiling c = judge::WhiteNoiseCeiling(*curve, kind_of(m.axis()));
+      if (std::isfinite(c.value) && c.sigma > 0) {
+        ev.below = (bound - c.value) / c.sigma;
+        char buf[96];
+        std::snprintf(buf, sizeof buf, "ceiling sigma(%.3g s) sqrt(tau) = %.4g ± %.3g", c.tau_s,
+                      c.value, c.sigma);
+        ev.below_source = buf;
+      } else {
+        ev.below = -INFINITY;  // never from the biased read-off
+      }
+    }
+    return ev;
   };
   decider_->Evaluate(static_cast<int>(next_look_), measurements, settled, evidence);
   ++next_look_;

@@ -12,6 +12,7 @@
 #include "store/cli/reanalyze_command.h"
 #include "store/cli/report.h"
 #include "store/cli/station_config.h"
+#include "store/cli/plan_soak_command.h"
 #include "store/cli/verify_command.h"
 
 int main(int argc, char** argv) {
@@ -190,6 +191,23 @@ int main(int argc, char** argv) {
       "verify", "check an archive for damage: SQLite's integrity check and every stored checksum");
   verify_cmd->add_option("--db", verify_db, "archive file")->required();
 
+  cli::PlanSoakOptions soak;
+  CLI::App* soak_cmd = app.add_subcommand(
+      "plan-soak",
+      "predict, by simulating records through the station's analysis, how long a plan with "
+      "early_decision soaks a unit before deciding it, and the distribution over a lot");
+  soak_cmd->add_option("--plan", soak.plan, "builtin:NAME or a plan .textproto with early_decision")
+      ->required();
+  soak_cmd->add_option("--model", soak.model,
+                       "a typical unit's noise model: CSV axis,name,value,unit (model term "
+                       "names and datasheet units, as the archive's model_* rows)");
+  soak_cmd->add_option("--lot", soak.lot, "a past lot whose units' noise models to use (with --db)");
+  soak_cmd->add_option("--db", soak.db, "archive file of --lot");
+  soak_cmd->add_option("--profile", soak.profile, "a simulator lot profile (e.g. vg700)");
+  soak_cmd->add_option("--records", soak.records, "records to simulate")->capture_default_str();
+  soak_cmd->add_option("--seed", soak.seed, "first seed")->capture_default_str();
+  soak_cmd->add_option("--threads", soak.threads, "worker threads")->capture_default_str();
+
   cli::PlotOptions plot;
   CLI::App* plot_cmd = app.add_subcommand("plot",
                                           "SVG Allan deviation plots: one run (axes of a kind "
@@ -212,6 +230,7 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   if (plot_cmd->parsed()) return cli::PlotCommand(plot);
+  if (soak_cmd->parsed()) return cli::PlanSoakCommand(soak);
   if (report_cmd->parsed()) return cli::ReportCommand(report);
   if (reanalyze_cmd->parsed()) return cli::ReanalyzeCommand(re);
   if (verify_cmd->parsed()) return cli::VerifyCommand(verify_db);

@@ -122,31 +122,6 @@ PlotSeries CurveSeries(const allan::Curve& curve, std::string label, std::string
   return s;
 }
 
-// The axis's noise model, rebuilt from the stored model_* parameters
-// (judge/measure.h), and whether it passed its J test. nullopt without a
-// model or when a stored parameter does not make one (the model would be
-// wrong).
-struct ArchivedModel {
-  allan::CompositeModel model;
-  bool adequate = true;
-};
-std::optional<ArchivedModel> LoadArchivedModel(const AxisPlotData& a) {
-  std::vector<allan::ModelQuantity> parameters;
-  for (const pb::Measurement& m : a.measurements) {
-    if (!m.name().starts_with(judge::kModelParameterPrefix)) continue;
-    allan::ModelQuantity q;
-    q.name = m.name().substr(judge::kModelParameterPrefix.size());
-    q.value = m.value();
-    q.unit = m.unit();
-    parameters.push_back(std::move(q));
-  }
-  if (parameters.empty()) return std::nullopt;
-  const Result<allan::CompositeModel> model = allan::ModelFromTerms(parameters, Sensor(a.kind));
-  if (!model.ok() || model->terms.empty()) return std::nullopt;
-  const pb::Measurement* p = FindMeasurementRow(a, judge::kNoiseModelPValue);
-  const bool adequate = p == nullptr || judge::NoiseModelAdequate(*p);
-  return ArchivedModel{*model, adequate};
-}
 
 // The axis's noise model over the curve's tau span, dashed in the axis's
 // colour (several axes on one plot: the model's terms would crowd it).
@@ -341,6 +316,24 @@ std::string JoinAxes(const std::vector<AxisPlotData>& axes) {
 }
 
 }  // namespace
+
+std::optional<ArchivedModel> LoadArchivedModel(const AxisPlotData& a) {
+  std::vector<allan::ModelQuantity> parameters;
+  for (const pb::Measurement& m : a.measurements) {
+    if (!m.name().starts_with(judge::kModelParameterPrefix)) continue;
+    allan::ModelQuantity q;
+    q.name = m.name().substr(judge::kModelParameterPrefix.size());
+    q.value = m.value();
+    q.unit = m.unit();
+    parameters.push_back(std::move(q));
+  }
+  if (parameters.empty()) return std::nullopt;
+  const Result<allan::CompositeModel> model = allan::ModelFromTerms(parameters, Sensor(a.kind));
+  if (!model.ok() || model->terms.empty()) return std::nullopt;
+  const pb::Measurement* p = FindMeasurementRow(a, judge::kNoiseModelPValue);
+  const bool adequate = p == nullptr || judge::NoiseModelAdequate(*p);
+  return ArchivedModel{*model, adequate};
+}
 
 Result<RunPlotData> LoadRunPlotData(store::Archive& archive, const std::string& run_id) {
   auto key = archive.FindRunKey(run_id);

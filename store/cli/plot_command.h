@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "analyze/allan/composite_model.h"
 #include "analyze/allan/curve.h"
 #include "common/status.h"
 #include "imuqual/plan.pb.h"
@@ -66,6 +67,16 @@ struct AxisPlotData {
   std::vector<pb::Measurement> measurements;  // the axis's stored measurements
   std::string verdict;  // worst outcome of those: "FAIL", "MARGINAL", "PASS", "" (none judged)
 };
+
+// The axis's noise model, rebuilt from the stored model_* parameters
+// (judge/measure.h), and whether it passed its J test. nullopt without a
+// model or when a stored parameter does not make one (the model would be
+// wrong).
+struct ArchivedModel {
+  allan::CompositeModel model;
+  bool adequate = true;
+};
+std::optional<ArchivedModel> LoadArchivedModel(const AxisPlotData& a);
 
 // A run with its plan, verdict and per-axis curves and measurements.
 struct RunPlotData {
