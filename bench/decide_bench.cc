@@ -216,6 +216,7 @@ int main(int argc, char** argv) {
         for (const judge::LookEntry& entry : e.early->looks.back().entries) {
           if (entry.decision == judge::Decision::kPending) r.pending += "\n    " + entry.why;
         }
+        if (!e.early->looks.back().note.empty()) r.pending += "\n    " + e.early->looks.back().note;
       }
       if (verbose) {
         std::lock_guard<std::mutex> lock(log);

@@ -11,6 +11,9 @@ namespace imuqual::judge {
 namespace {
 
 constexpr double kDefaultLookPeriodS = 60.0;
+// A decided PASS must keep the marginal flag the full-length record would
+// read with this probability (one-sided normal quantile of 0.99).
+constexpr double kFlagZ = 2.3263478740408408;
 // Grid of the recursive integration: points per standard deviation of the
 // smallest increment between looks, and its extent in standard deviations
 // of the last look.
@@ -119,6 +122,30 @@ std::string Who(const pb::Measurement& m) {
 
 std::string UnitSuffix(const pb::Measurement& m) {
   return m.unit() == "1" ? "" : " " + m.unit();
+}
+
+// Where a measurement stands against its marginal band, read as the
+// full-length record would read it: settled when its value is at least
+// kFlagZ sds from each marginal bound, the sd being what the full record's
+// value can still differ from this one's, u sqrt(1 - f).
+enum class Flag { kNone, kClear, kMarginal, kUnsettled };
+Flag FlagOf(const pb::Measurement& m, double fraction) {
+  if (!m.has_marginal_low() && !m.has_marginal_high()) return Flag::kNone;
+  const double v = m.value();
+  const double u = m.has_uncertainty() ? m.uncertainty() : std::nan("");
+  const double sd = u * std::sqrt(std::max(0.0, 1.0 - fraction));
+  bool marginal = false, unsettled = false;
+  auto check = [&](double b, bool outside) {
+    const bool settled = std::abs(v - b) >= kFlagZ * sd;  // false for a NaN sd
+    if (outside && settled) {
+      marginal = true;
+    } else if (!settled) {
+      unsettled = true;
+    }
+  };
+  if (m.has_marginal_low()) check(m.marginal_low(), v < m.marginal_low());
+  if (m.has_marginal_high()) check(m.marginal_high(), v > m.marginal_high());
+  return marginal ? Flag::kMarginal : unsettled ? Flag::kUnsettled : Flag::kClear;
 }
 
 Decision Worse(Decision a, Decision b) {
@@ -270,9 +297,22 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
 
   Decision unit = Decision::kPass;
   bool any = false;
+  // The marginal flags (without decide_marginal): the unit is MARGINAL once
+  // one flag is settled so, PASS once every flag is settled clear.
+  bool flag_marginal = false;
+  std::string flag_unsettled;
   for (const pb::Measurement& m : measurements) {
     if (!Decides(m)) continue;
     any = true;
+    if (!decide_marginal_) {
+      switch (FlagOf(m, look.fraction)) {
+        case Flag::kMarginal: flag_marginal = true; break;
+        case Flag::kUnsettled:
+          if (flag_unsettled.empty()) flag_unsettled = Who(m);
+          break;
+        default: break;
+      }
+    }
     LookEntry e;
     e.axis = m.axis();
     e.name = m.name();
@@ -387,6 +427,11 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
     look.entries.push_back(std::move(e));
   }
   if (!any) unit = Decision::kPending;
+  if (unit == Decision::kPass && !flag_marginal && !flag_unsettled.empty()) {
+    unit = Decision::kPending;
+    look.note = "every limit decided; the marginal flag of " + flag_unsettled +
+                " could still read otherwise at full length";
+  }
   look.unit = unit;
   if (unit != Decision::kPending) {
     unit_ = unit;

@@ -28,10 +28,15 @@
 //
 // The decisions are on the pass/fail limits (low, high) of each judged
 // measurement; a marginal band stays a flag read simply (as judge.h always
-// reads it) on the record analysed when the unit is decided, unless the plan
-// sets early_decision.decide_marginal: then each marginal bound is decided
-// like a limit (and counted in the Bonferroni split) and a measurement is
-// decided only once its flag is too. A bound B of a
+// reads it) on the record analysed when the unit is decided, and the unit
+// waits until its flags would read the same on the full-length record with
+// 99 % probability each: |v - M| >= 2.326 u sqrt(1 - f_k) at each marginal
+// bound M (what the full record's value can still differ from this one's,
+// under the same Brownian model), so early and full-length verdicts agree on
+// MARGINAL too. The unit is MARGINAL as soon as one flag is settled so (the
+// others cannot change its verdict), PASS once every flag is settled clear. With early_decision.decide_marginal each marginal bound is
+// instead decided like a limit, at the plan's risk against the truth (and
+// counted in the Bonferroni split). A bound B of a
 // measurement with value v and 1-sigma uncertainty u is confirmed at look k
 // with the truth above it when (v - B) / u >= z_k, below it when
 // (B - v) / u >= z_k. What more data can still change is respected:
@@ -132,6 +137,7 @@ struct Look {
   double z = 0;            // the boundary of this look
   Decision unit = Decision::kPending;
   std::vector<LookEntry> entries;  // the measurements that decide, in order
+  std::string note;  // why a unit whose limits are all decided still waits
 };
 
 // Whether the curve minimum of `axis` is settled (see above): asked only

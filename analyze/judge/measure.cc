@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include <boost/math/distributions/normal.hpp>
+
 #include "analyze/allan/gmwm.h"
 #include "analyze/allan/model_quantities.h"
 #include "analyze/allan/noise_model.h"
@@ -392,19 +394,34 @@ double MinimumSideEvidence(const allan::Curve& curve, double bound_s) {
   return above ? best : -best;
 }
 
-Ceiling WhiteNoiseCeiling(const allan::Curve& curve, pb::AxisKind kind) {
-  Ceiling c;
-  const allan::CurvePoint* best = nullptr;
+double WhiteNoiseBelowEvidence(const allan::Curve& curve, pb::AxisKind kind, double bound,
+                               std::string* source) {
+  const double lo_tau = std::max(0.1, 8 * curve.tau0_s), hi_tau = 1.5;
+  double best = -INFINITY;
+  int count = 0;
   for (const allan::CurvePoint& p : curve.points) {
+    const bool octave = p.m > 0 && (p.m & (p.m - 1)) == 0;
+    if (!octave || p.tau_s < lo_tau || p.tau_s > hi_tau) continue;
     if (!std::isfinite(p.dev) || !std::isfinite(p.lo) || !std::isfinite(p.hi)) continue;
-    if (!best || std::abs(std::log(p.tau_s)) < std::abs(std::log(best->tau_s))) best = &p;
+    ++count;
+    const double root = std::sqrt(p.tau_s);
+    const double ceiling = Datasheet(NoiseTerm::kAngleRandomWalk, kind, p.dev * root);
+    const double sigma = Datasheet(NoiseTerm::kAngleRandomWalk, kind, 0.5 * (p.hi - p.lo) * root);
+    if (!(sigma > 0)) continue;
+    const double z = (bound - ceiling) / sigma;
+    if (z > best) {
+      best = z;
+      if (source) {
+        *source = "ceiling sigma(" + Num(p.tau_s) + " s) sqrt(tau) = " + Num(ceiling) + " ± " +
+                  Num(sigma);
+      }
+    }
   }
-  if (!best) return c;
-  const double root = std::sqrt(best->tau_s);
-  c.value = Datasheet(NoiseTerm::kAngleRandomWalk, kind, best->dev * root);
-  c.sigma = Datasheet(NoiseTerm::kAngleRandomWalk, kind, 0.5 * (best->hi - best->lo) * root);
-  c.tau_s = best->tau_s;
-  return c;
+  if (count == 0 || !std::isfinite(best)) return allan::kNaN;
+  // Bonferroni over the points: p = count * P(Z >= best).
+  const double p = std::min(0.5, count * 0.5 * std::erfc(best / std::sqrt(2.0)));
+  if (!(p > 1e-300)) return best;  // beyond any level in use
+  return boost::math::quantile(boost::math::complement(boost::math::normal(), p));
 }
 
 }  // namespace imuqual::judge

@@ -74,18 +74,16 @@ bool MinimumSettled(const allan::Curve& curve, double horizon_m, std::string* wh
 // carries an interval.
 double MinimumSideEvidence(const allan::Curve& curve, double bound_s);
 
-// A ceiling on the white-noise term (ARW / VRW, datasheet units) with its
-// 1-sigma error: sigma(tau) sqrt(tau) >= N at every tau (every other term
-// adds to the Allan variance), read at the point of `curve` (OADEV with
-// 1-sigma chi-square intervals) nearest 1 s, where its chi-square error is
-// small and no point is selected for being low (unlike a read-off along the
-// -1/2 line). NaN when no point carries an interval.
-struct Ceiling {
-  double value = allan::kNaN;
-  double sigma = allan::kNaN;
-  double tau_s = allan::kNaN;
-};
-Ceiling WhiteNoiseCeiling(const allan::Curve& curve, pb::AxisKind kind);
+// The evidence, as a z, that the white-noise term (ARW / VRW) lies below
+// `bound` (datasheet units): sigma(tau) sqrt(tau) >= N at every tau where the
+// white noise is not band-limited (every other term adds to the Allan
+// variance), so each octave point of `curve` (OADEV with 1-sigma chi-square
+// intervals) with tau in [max(0.1 s, 8 tau0), 1.5 s] is a ceiling on N; the
+// best of them, its p-value multiplied by their number (Bonferroni: no point
+// is trusted for being low, unlike a read-off along the -1/2 line). NaN when
+// no point qualifies; `source` names the point used.
+double WhiteNoiseBelowEvidence(const allan::Curve& curve, pb::AxisKind kind, double bound,
+                               std::string* source = nullptr);
 
 }  // namespace imuqual::judge
 

@@ -145,8 +145,9 @@ void RunAnalyzer::LookIfDue() {
   // Evidence read off each axis's curve with its chi-square intervals
   // (computed once per axis and look, when asked): tau_at_minimum from the
   // curve's shape and its spread, whichever says more; the white-noise
-  // read-offs' "below" from the ceiling sigma(tau) sqrt(tau) >= N (the read-off
-  // along the -1/2 line is biased low, which is conservative only for "above").
+  // read-offs' "below" from the ceilings sigma(tau) sqrt(tau) >= N (measure.h;
+  // the read-off along the -1/2 line is biased low, which is conservative
+  // only for "above").
   std::vector<std::optional<allan::Curve>> with_intervals(desc_.axes.size());
   const auto curve_of = [&](const std::string& axis) -> const allan::Curve* {
     for (size_t a = 0; a < desc_.axes.size(); ++a) {
@@ -178,16 +179,11 @@ void RunAnalyzer::LookIfDue() {
       ev.below = std::max(-c, -v);
       ev.below_source = -c >= -v ? "curve evidence" : "tau spread";
     } else if (m.name() == judge::kAngleRandomWalk || m.name() == judge::kVelocityRandomWalk) {
-      const judge::Ceiling c = judge::WhiteNoiseCeiling(*curve, kind_of(m.axis()));
-      if (std::isfinite(c.value) && c.sigma > 0) {
-        ev.below = (bound - c.value) / c.sigma;
-        char buf[96];
-        std::snprintf(buf, sizeof buf, "ceiling sigma(%.3g s) sqrt(tau) = %.4g ± %.3g", c.tau_s,
-                      c.value, c.sigma);
-        ev.below_source = buf;
-      } else {
-        ev.below = -INFINITY;  // never from the biased read-off
-      }
+      std::string source;
+      const double z = judge::WhiteNoiseBelowEvidence(*curve, kind_of(m.axis()), bound, &source);
+      // Never from the read-off along the -1/2 line (biased low).
+      ev.below = std::isfinite(z) ? z : -INFINITY;
+      ev.below_source = source;
     }
     return ev;
   };
