@@ -174,10 +174,11 @@ int64_t MaxAveragingFactor(Deviation dev, int64_t n_phase) {
     case Deviation::kTotdev:  // N - 2 > 1 for every m < N
       return n - 1;
     case Deviation::kTheo1:  // (N - m) m/2 > 1 for every even m < N
-    case Deviation::kTheoH:
       return n - 1;
     case Deviation::kTheoBr:  // and TheoBR's ratio needs N >= 90
       return n >= 90 ? n - 1 : 0;
+    case Deviation::kTheoH:  // below 90 points only the Allan part, m < floor((N-1)/5)
+      return n >= 90 ? n - 1 : std::max<int64_t>(TheoHSwitchFactor(n) - 1, 0);
     case Deviation::kMtotdev:  // N - 3m + 1 > 1
     case Deviation::kTtotdev:
       return (n - 1) / 3;

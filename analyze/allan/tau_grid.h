@@ -43,8 +43,9 @@ std::string TauGridName(const TauGridSpec& grid);
 // n_phase points (the reference implementation drops rows with n <= 1):
 //   adev floor((N-1)/3), oadev floor((N-2)/2), mdev/tdev floor((N-1)/3),
 //   hdev floor((N-1)/4), ohdev floor((N-2)/3), totdev N-1 (needs N >= 4),
-//   theo1/theoh N-1, theobr N-1 (needs N >= 90), mtotdev/ttotdev
-//   floor((N-1)/3), htotdev floor((N-2)/3).
+//   theo1 N-1, theobr N-1 (needs N >= 90), theoh N-1 (below 90 points only
+//   its Allan part, floor((N-1)/5) - 1), mtotdev/ttotdev floor((N-1)/3),
+//   htotdev floor((N-2)/3); theo1, theobr and theoh's Theo part only at even m.
 // Returns 0 when no m qualifies.
 int64_t MaxAveragingFactor(Deviation dev, int64_t n_phase);
 
