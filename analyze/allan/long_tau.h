@@ -7,32 +7,35 @@
 //
 // Phase x_0..x_{N-1}, tau0, 0-based sums (ALGORITHMS.md conventions).
 //
-// Theo1 (Howe & Tasset, EFTF 2004; NIST SP1065 eq. 30), m even, 2 <= m <= N-1:
+// Theo1 (Howe & Peppler 2003, Howe & Tasset 2004; NIST SP1065 eq. 30), m even,
+// 2 <= m <= N-1:
 //   Theo1(m) = 1/(0.75 (N-m) (m tau0)^2) sum_{a=0}^{N-m-1} sum_{k=1}^{m/2} (1/k) u_k(a)^2,
 //   u_k(a) = (x_{a+m} - x_{a+m-k}) - (x_{a+k} - x_a),
 // i.e. the phase increment over the last k samples of [a, a+m] against the
 // one over the first k samples, for every k up to half the span (SP1065's
 // delta = m/2 - k). n = (N-m) m/2 inner terms, as the reference counts them.
 // SP1065 reports a Theo1 point at the *effective* averaging time
-// tau = 0.75 m tau0, where Theo1 has the response of the Allan variance at
-// that tau for white FM; its other noises leave a bias (SP1065 Theo1 bias
-// table, Howe & Tasset 2004: E[Theo1]/AVAR = 0.4, 0.6, 1.0, 1.71, 2.24 in the
-// large-m limit for alpha = 2, 1, 0, -1, -2). It recommends m >= 10.
-// allantools 2024.06, the reference in tests/reference/ (NOTES.md), computes
-// the same value with no bias correction but labels it tau = m tau0.
+// tau = 0.75 m tau0, where Theo1 has the Allan variance's response for white
+// FM. The other noises leave a bias that depends on r = 0.75 m (Howe & Tasset
+// 2004, Table 1): E[AVAR(r tau0)] / E[Theo1(m)] = a + b r^-c with
+// (a, b, c) = (0.09, 0.74, 0.40) WPM, (0.14, 0.82, 0.30) FPM, (1, 0, 0) WFM,
+// (1.87, -1.05, 0.79) FFM, (2.70, -1.53, 0.85) RWFM; SP1065 recommends
+// m >= 10. allantools 2024.06, the reference in tests/reference/ (NOTES.md),
+// computes the same value with no bias correction but labels it tau = m tau0.
 //
 // **This library reports the effective tau 0.75 m tau0** for Theo1, TheoBR
-// and the Theo part of TheoH (CurvePoint::m keeps Theo1's m), so the curves
+// and the Theo part of TheoH (CurvePoint::m keeps Theo1's m), so these curves
 // share one tau axis with OADEV. TheoTau::kNominal gives allantools' label.
 //
-// TheoBR, bias-removed Theo1 (Howe, Taylor & Tassett, FCS 2006; SP1065 eq. 31):
+// TheoBR, bias-removed Theo1 (Howe, Taylor & Tasset, FCS 2006; SP1065):
 //   TheoBR(m) = [1/(n'+1) sum_{i=0}^{n'} OAVAR(9+3i) / Theo1(12+4i)] Theo1(m),
 //   n' = floor(0.1 N/3 - 3),
 // the mean ratio of OAVAR to Theo1 at the same effective tau ((9+3i) tau0 =
 // 0.75 (12+4i) tau0) over the long-tau half of the Allan range, which
 // removes Theo1's bias without knowing the noise type. Needs N >= 90.
 //
-// TheoH, the hybrid (SP1065 eq. 32): OADEV at short tau, TheoBR at long tau,
+// TheoH, the hybrid (same paper; SP1065): OADEV at short tau, TheoBR at long
+// tau,
 //   TheoH(m) = OAVAR(m)    for m tau0 < k,
 //            = TheoBR(m)   for 0.75 m tau0 >= k, m even, m <= N-1,
 // k = floor(0.2 (N-1)) tau0, the largest multiple of tau0 not above 20 % of the
@@ -48,10 +51,10 @@
 //   MTOT(m) = 1/(2 (m tau0)^2 n) sum_i [1/(6m) sum_j ((s_j - 2 s_{j+m} + s_{j+2m})/m)^2].
 // TTOT (SP1065 eq. 28) = tau/sqrt(3) MTOT (phase units, rate unit * s; SP1065
 // prints tau^3 there by mistake).
-// HTOT (Howe et al., PTTI 2000; SP1065 eq. 29), m <= (N-2)/3, n = N - 3m: the
-// same construction on runs of 3m rate samples y_i = (x_{i+1} - x_i)/tau0,
-// with the line through the half means removed, and the Hadamard second
-// difference of m-sample means averaged with weight 1/6:
+// HTOT (Howe et al., PTTI 2000; SP1065), m <= (N-2)/3, n = N - 3m: the same
+// construction on runs of 3m rate samples y_i = (x_{i+1} - x_i)/tau0, with the
+// line through the half means removed, and the Hadamard second difference of
+// m-sample means averaged with weight 1/6:
 //   HTOT(m) = 1/n sum_i [1/(6 * 6m) sum_j ((s_j - 2 s_{j+m} + s_{j+2m})/m)^2];
 // at m = 1 it is OHDEV (Stable32 and the reference do this for consistency).
 // No bias correction is applied to any of them (as the reference and Stable32
@@ -64,15 +67,20 @@
 // (LongestValidSpan), as TOTDEV is; n and the curve's reach are that span's.
 // TheoH takes both parts from that span, so its two halves stay consistent.
 //
-// Cost and exactness: MTOT, TTOT and HTOT cost O(m) per run, O((N - 3m) m) per
-// m, as the reference does (a 1e4-point octave curve takes well under a
-// second; a 1e6-point one up to m ~ 1e5 takes minutes). Theo1 costs
-// (N - m) m/2 terms per m when summed directly; above kTheo1DirectTermBudget
-// terms it is computed exactly by an O(N log N + m log^2 m) reformulation (see
-// long_tau.cc) whose result agrees with the direct sum to ~1e-12 relative.
-// TheoBR needs Theo1 at every m = 12 + 4i (~N/30 of them) and OADEV at every
-// m = 9 + 3i: about N^2/30 + (0.14 N)^2 operations (a 1e5-point record takes
-// about a second). All functions are pure and thread-safe.
+// Cost and exactness (one core of the machine in tests/reference/NOTES.md):
+//   - MTOT, TTOT and HTOT cost O(m) per run, O((N - 3m) m) per m, as the
+//     reference does: a 1e4-point octave curve takes about a second, a
+//     1e5-point one to m = 8192 (the bins9 limit) about 35 s; the cost grows
+//     as N m.
+//   - Theo1 costs (N - m) m/2 terms per m when summed directly. Above
+//     kTheo1DirectTermBudget terms it is computed exactly by an
+//     O(N log N + m log^2 m) reformulation (long_tau.cc) that agrees with the
+//     direct sum to ~1e-12 relative: the octave curve of 1e6 points
+//     (m = 2..2^19) takes about 1.2 s.
+//   - TheoBR and TheoH's Theo part need Theo1 at every m = 12 + 4i (~N/30 of
+//     them, one O((0.14 N)^2) sweep) and OADEV at every m = 9 + 3i (~N^2/30
+//     terms): 0.3 s for 1e5 points, about 35 s for 1e6.
+// All functions are pure and thread-safe.
 #ifndef IMUQUAL_ANALYZE_ALLAN_LONG_TAU_H_
 #define IMUQUAL_ANALYZE_ALLAN_LONG_TAU_H_
 
