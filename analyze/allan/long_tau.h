@@ -49,8 +49,8 @@
 // x* = [reverse, run, reverse], and average the 6m squared second differences
 // of m-point sums s_j = sum_{t=j}^{j+m-1} x*_t over j = 0..6m-1:
 //   MTOT(m) = 1/(2 (m tau0)^2 n) sum_i [1/(6m) sum_j ((s_j - 2 s_{j+m} + s_{j+2m})/m)^2].
-// TTOT (SP1065 eq. 28) = tau/sqrt(3) MTOT (phase units, rate unit * s; SP1065
-// prints tau^3 there by mistake).
+// TTOT (SP1065 eq. 28) = tau/sqrt(3) MTOT (phase units, rate unit * s; the
+// reference notes that SP1065 prints tau^3 there by mistake).
 // HTOT (Howe et al., PTTI 2000; SP1065), m <= (N-2)/3, n = N - 3m: the same
 // construction on runs of 3m rate samples y_i = (x_{i+1} - x_i)/tau0, with the
 // line through the half means removed, and the Hadamard second difference of
@@ -58,8 +58,8 @@
 //   HTOT(m) = 1/n sum_i [1/(6 * 6m) sum_j ((s_j - 2 s_{j+m} + s_{j+2m})/m)^2];
 // at m = 1 it is OHDEV (Stable32 and the reference do this for consistency).
 // No bias correction is applied to any of them (as the reference and Stable32
-// print them): MTOT reads high and HTOT low against MVAR/HVAR for the
-// divergent noises (SP1065 bias tables).
+// print them): they keep the noise-dependent bias against MVAR/HVAR that
+// SP1065's bias tables describe.
 //
 // Gaps: these estimators need a continuous record (the reflections, the
 // detrending and Theo1's nested intervals span up to the whole record), so
@@ -151,8 +151,9 @@ std::vector<double> Theo1Sums(std::span<const double> x, std::span<const int64_t
 
 // TheoBR's bias-removal ratio 1/(n'+1) sum_{i=0}^{n'} OAVAR(9+3i)/Theo1(12+4i)
 // of a gap-free phase series (the ratio is independent of tau0); nullopt for
-// fewer than 90 points. kDirect sums every Theo1 directly; kFast and kAuto use
-// the batch form of the reformulation for all 12 + 4i at once.
+// fewer than 90 points. kDirect sums every Theo1 directly, kFast uses the batch
+// form of the reformulation for all 12 + 4i at once, kAuto the direct sums while
+// they stay within kTheo1DirectTermBudget terms in total.
 std::optional<double> TheoBrRatio(std::span<const double> x,
                                   Theo1Method method = Theo1Method::kAuto);
 
