@@ -1,6 +1,7 @@
 // Exact batch Allan estimators: wall time of whole curves on one thread.
 // Figures: exact_oadev_octave_1e7_s (the target: <= 0.1 s), and the same for
-// 1e6 samples, MDEV, TOTDEV, a record with gaps, and the rate -> phase step.
+// 1e6 samples, MDEV, TOTDEV, Theo1 (octave m = 2..2^19, long_tau.h), a record
+// with gaps, and the rate -> phase step.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -69,6 +70,9 @@ void BM_ExactOhdevOctave(benchmark::State& state) {
 void BM_ExactTotdevOctave(benchmark::State& state) {
   RunOctaveCurve(state, Deviation::kTotdev, false);
 }
+void BM_ExactTheo1Octave(benchmark::State& state) {
+  RunOctaveCurve(state, Deviation::kTheo1, false);
+}
 
 void BM_PhaseFromRate(benchmark::State& state) {
   const std::vector<double>& rate = WhiteRate(state.range(0));
@@ -107,6 +111,11 @@ BENCHMARK(BM_ExactTotdevOctave)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1)
     ->Repetitions(kRepetitions);
+BENCHMARK(BM_ExactTheo1Octave)
+    ->Arg(1000000)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3);
 BENCHMARK(BM_PhaseFromRate)
     ->Arg(10000000)
     ->Unit(benchmark::kMillisecond)
@@ -133,6 +142,7 @@ int main(int argc, char** argv) {
   figure("exact_mdev_octave_1e6_s", "BM_ExactMdevOctave/1000000" + suffix);
   figure("exact_ohdev_octave_1e6_s", "BM_ExactOhdevOctave/1000000" + suffix);
   figure("exact_totdev_octave_1e6_s", "BM_ExactTotdevOctave/1000000" + suffix);
+  figure("exact_theo1_octave_1e6_s", "BM_ExactTheo1Octave/1000000/iterations:1/repeats:3");
   figure("phase_from_rate_1e7_s", "BM_PhaseFromRate/10000000" + suffix);
   return 0;
 }

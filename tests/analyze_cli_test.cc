@@ -100,6 +100,34 @@ TEST(AnalyzeCliTest, ReproducesEveryReferenceResultFile) {
   EXPECT_EQ(files, 8 * (7 * 2 + 1));
 }
 
+TEST(AnalyzeCliTest, ReproducesTheLongTauReferenceFiles) {
+  // tests/reference/compute_theo_refs.py: octave grid, four datasets. Theo1 is
+  // printed at the effective tau 0.75 m tau0; the reference's tau is m tau0.
+  int files = 0;
+  for (const auto& d : ReadDatasets()) {
+    for (const char* dev : {"theo1", "mtotdev", "htotdev", "ttotdev"}) {
+      const std::string ref_path =
+          ReferencePath("results/" + d.name + "/" + d.name + "_" + dev + "_octave.csv");
+      const CsvTable ref = ReadCsv(ref_path);
+      if (!ref.ok) continue;  // only the datasets the reference computed
+      ++files;
+      const Output out = Parse(Analyze(d, std::string("--dev ") + dev + " --grid octave"));
+      ASSERT_EQ(out.rows.size(), ref.rows.size()) << ref_path;
+      const bool theo = std::string(dev) == "theo1";
+      const double tau0 = 1.0 / d.rate_hz;
+      for (size_t i = 0; i < ref.rows.size(); ++i) {
+        const double ref_tau = ref.rows[i][ref.Column("tau")];
+        EXPECT_EQ(out.Num(i, "m") * tau0, ref_tau) << ref_path << " row " << i;
+        EXPECT_EQ(out.Num(i, "tau"), theo ? 0.75 * ref_tau : ref_tau) << ref_path << " row " << i;
+        EXPECT_EQ(out.Num(i, "n"), ref.rows[i][ref.Column("n")]) << ref_path << " row " << i;
+        EXPECT_LT(Rel(out.Num(i, "dev"), ref.rows[i][ref.Column("dev")]), kDevRelTol)
+            << ref_path << " row " << i;
+      }
+    }
+  }
+  EXPECT_EQ(files, 4 * 4);
+}
+
 TEST(AnalyzeCliTest, ReproducesTheChiSquareIntervals) {
   int compared = 0, absent = 0, inherited = 0;
   for (const auto& d : ReadDatasets()) {

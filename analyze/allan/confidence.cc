@@ -6,6 +6,7 @@
 #include <limits>
 #include <vector>
 
+#include "analyze/allan/long_tau.h"
 #include "analyze/allan/noise_id.h"
 
 namespace imuqual::allan {
@@ -317,6 +318,74 @@ std::optional<double> TotalDeviationEdf(int alpha, int64_t m, int64_t n_phase) {
   return edf;
 }
 
+std::optional<double> Theo1Edf(int alpha, int64_t m, int64_t n_phase) {
+  if (m < 2 || m > n_phase - 1) return std::nullopt;
+  const double n = static_cast<double>(n_phase);
+  const double r = 0.75 * static_cast<double>(m);
+  double edf = 0.0;
+  switch (alpha) {
+    case 2:
+      edf = 0.86 * (n + 1.0) * (n - 4.0 * r / 3.0) / (n - r) * (r / (r + 1.14));
+      break;
+    case 1:
+      edf = (4.798 * n * n - 6.374 * n * r + 12.387 * r) / (std::sqrt(r + 36.6) * (n - r)) *
+            (r / (r + 0.3));
+      break;
+    case 0: {
+      const double r15 = r * std::sqrt(r);
+      edf = ((4.1 * n + 0.8) / r - (3.1 * n + 6.5) / n) * (r15 / (r15 + 5.2));
+      break;
+    }
+    case -1:
+      edf = (2.0 * n * n - 1.3 * n * r - 3.5 * r) / (n * r) * (r * r * r / (r * r * r + 2.3));
+      break;
+    case -2: {
+      const double a = 4.4 * n - 1.0;
+      edf = (4.4 * n - 2.0) / (2.9 * r) *
+            ((a * a - 8.6 * r * a + 11.4 * r * r) / ((4.4 * n - 3.0) * (4.4 * n - 3.0)));
+      break;
+    }
+    default:
+      return std::nullopt;
+  }
+  if (!(edf > 0.0) || !std::isfinite(edf)) return std::nullopt;
+  return edf;
+}
+
+std::optional<double> ModifiedTotalEdf(int alpha, int64_t m, int64_t n_phase) {
+  if (m < 1) return std::nullopt;
+  static constexpr std::array<std::array<double, 2>, 5> kBc = {{
+      {0.75, 0.31},  // alpha -2
+      {0.85, 0.50},  // alpha -1
+      {1.10, 1.20},  // alpha 0
+      {1.20, 1.40},  // alpha 1
+      {1.90, 2.10},  // alpha 2
+  }};
+  if (alpha < -2 || alpha > 2) return std::nullopt;
+  const auto [b, c] = kBc[alpha + 2];
+  const double edf = b * static_cast<double>(n_phase) / static_cast<double>(m) - c;
+  if (!(edf > 0.0)) return std::nullopt;
+  return edf;
+}
+
+std::optional<double> HadamardTotalEdf(int alpha, int64_t m, int64_t n_phase) {
+  if (m < 1) return std::nullopt;
+  static constexpr std::array<std::array<double, 2>, 5> kB01 = {{
+      {1.276, 3.149},  // alpha -4
+      {0.974, 2.554},  // alpha -3
+      {0.938, 1.696},  // alpha -2
+      {0.868, 1.140},  // alpha -1
+      {0.559, 1.004},  // alpha 0
+  }};
+  const double md = static_cast<double>(m);
+  if (m < 16 || alpha < -4 || alpha > 0) return GreenhallEdf(alpha, 3, m, n_phase, md, md);
+  const auto [b0, b1] = kB01[alpha + 4];
+  const double ratio = static_cast<double>(n_phase) / md;  // T/tau
+  const double edf = ratio / (b0 + b1 / ratio);
+  if (!(edf > 0.0) || !std::isfinite(edf)) return std::nullopt;
+  return edf;
+}
+
 std::optional<double> DeviationEdf(Deviation dev, int alpha, int64_t m, int64_t n_phase) {
   const double md = static_cast<double>(m);
   switch (dev) {
@@ -333,6 +402,17 @@ std::optional<double> DeviationEdf(Deviation dev, int alpha, int64_t m, int64_t 
       return GreenhallEdf(alpha, 3, m, n_phase, md, md);
     case Deviation::kTotdev:
       return TotalDeviationEdf(alpha, m, n_phase);
+    case Deviation::kTheo1:
+    case Deviation::kTheoBr:
+      return Theo1Edf(alpha, m, n_phase);
+    case Deviation::kTheoH:
+      return TheoHIsAllanPoint(m, n_phase) ? GreenhallEdf(alpha, 2, m, n_phase, md, md)
+                                           : Theo1Edf(alpha, m, n_phase);
+    case Deviation::kMtotdev:
+    case Deviation::kTtotdev:
+      return ModifiedTotalEdf(alpha, m, n_phase);
+    case Deviation::kHtotdev:
+      return HadamardTotalEdf(alpha, m, n_phase);
   }
   return std::nullopt;
 }
@@ -375,6 +455,8 @@ int64_t EquivalentPhaseLength(Deviation dev, int64_t m, int64_t n, int64_t n_pha
     case Deviation::kTotdev:
       length = n + 2;
       break;
+    default:  // the long-tau estimators use the longest gap-free span (AttachConfidence)
+      break;
   }
   return std::min(length, n_phase);
 }
@@ -401,10 +483,19 @@ std::optional<int> NearestIdentifiedAlpha(const std::vector<std::optional<int>>&
 void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confidence, Curve* curve) {
   curve->ci = method;
   curve->confidence = method == CiMethod::kSimple ? kOneSigmaConfidence : confidence;
-  const int64_t valid_rate_samples = std::max<int64_t>(phase.size() - 1, 0) - phase.invalid_count();
+  const Deviation dev = curve->deviation;
+  // The long-tau estimators use the longest gap-free span (long_tau.h).
+  const bool long_tau = IsLongTauDeviation(dev);
+  const int64_t span_phase = LongestValidSpan(phase).size();
+  const int64_t valid_rate_samples =
+      long_tau ? std::max<int64_t>(span_phase - 1, 0)
+               : std::max<int64_t>(phase.size() - 1, 0) - phase.invalid_count();
   const bool has_gaps = phase.invalid_count() > 0;
   const int dmax =
-      (curve->deviation == Deviation::kHdev || curve->deviation == Deviation::kOhdev) ? 3 : 2;
+      (dev == Deviation::kHdev || dev == Deviation::kOhdev || dev == Deviation::kHtotdev) ? 3 : 2;
+  const auto cluster_factor = [&](const CurvePoint& point) {
+    return EffectiveAveragingFactor(dev, point.m, long_tau ? span_phase : phase.size());
+  };
   for (CurvePoint& point : curve->points) ClearInterval(&point);
   if (method == CiMethod::kChi2) {
     // Each point's own lag-1 identification, then the long-tau rule (a point
@@ -413,8 +504,9 @@ void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confiden
     // type to the end of a curve).
     std::vector<std::optional<int>> own;
     for (const CurvePoint& point : curve->points) {
+      const int64_t id_m = std::max<int64_t>(1, std::llround(cluster_factor(point)));
       const std::optional<NoiseId> id =
-          point.m < 1 ? std::nullopt : IdentifyNoiseLag1(phase, point.m, dmax);
+          point.m < 1 ? std::nullopt : IdentifyNoiseLag1(phase, id_m, dmax);
       own.push_back(id ? std::optional<int>(id->alpha) : std::nullopt);
     }
     for (size_t i = 0; i < curve->points.size(); ++i) {
@@ -430,7 +522,12 @@ void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confiden
       case CiMethod::kNone:
         break;
       case CiMethod::kSimple: {
-        const int64_t clusters = valid_rate_samples / point.m;
+        // K clusters of the point's tau: of 0.75 m samples for the Theo points.
+        const double factor = cluster_factor(point);
+        const int64_t clusters = factor == static_cast<double>(point.m)
+                                     ? valid_rate_samples / point.m
+                                     : static_cast<int64_t>(std::floor(
+                                           static_cast<double>(valid_rate_samples) / factor));
         if (clusters < 2) break;
         const double fraction = SimpleErrorFraction(clusters);
         point.lo = point.dev * (1.0 - fraction);
@@ -440,11 +537,11 @@ void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confiden
       }
       case CiMethod::kChi2: {
         if (!point.alpha) break;
-        const int64_t n_phase =
-            has_gaps ? EquivalentPhaseLength(curve->deviation, point.m, point.n, phase.size())
-                     : phase.size();
-        const std::optional<double> edf =
-            DeviationEdf(curve->deviation, *point.alpha, point.m, n_phase);
+        const int64_t n_phase = long_tau ? span_phase
+                                : has_gaps
+                                    ? EquivalentPhaseLength(dev, point.m, point.n, phase.size())
+                                    : phase.size();
+        const std::optional<double> edf = DeviationEdf(dev, *point.alpha, point.m, n_phase);
         if (!edf) break;
         const auto [lo, hi] = Chi2Interval(point.dev, *edf, confidence);
         if (std::isnan(lo) || std::isnan(hi)) break;

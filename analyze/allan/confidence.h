@@ -59,9 +59,38 @@ std::optional<double> GreenhallEdf(int alpha, int d, int64_t m, int64_t n_phase,
 // because TOTVAR has at least the edf of OAVAR. nullopt when undefined.
 std::optional<double> TotalDeviationEdf(int alpha, int64_t m, int64_t n_phase);
 
+// Theo1 edf (Howe & Peppler, EFTF/FCS 2003, as tabulated in NIST SP1065) for
+// even m on N = n_phase points, with r = 0.75 m the effective averaging factor:
+//   alpha  2 (WPM)  0.86 (N+1)(N - 4r/3)/(N - r) * r/(r + 1.14)
+//   alpha  1 (FPM)  (4.798 N^2 - 6.374 N r + 12.387 r)/(sqrt(r + 36.6) (N - r)) * r/(r + 0.3)
+//   alpha  0 (WFM)  [(4.1 N + 0.8)/r - (3.1 N + 6.5)/N] * r^1.5/(r^1.5 + 5.2)
+//   alpha -1 (FFM)  (2 N^2 - 1.3 N r - 3.5 r)/(N r) * r^3/(r^3 + 2.3)
+//   alpha -2 (RWFM) (4.4 N - 2)/(2.9 r) * [a^2 - 8.6 r a + 11.4 r^2]/(4.4 N - 3)^2, a = 4.4 N - 1
+// TheoBR and TheoH's Theo points use it too: the bias removal is one scale
+// factor for the whole curve, which leaves the chi-square shape unchanged.
+// nullopt for other alphas, m outside [2, N-1], or a non-positive value.
+std::optional<double> Theo1Edf(int alpha, int64_t m, int64_t n_phase);
+
+// MTOT edf nu = b N/m - c (SP1065 MTOT edf table): (b, c) = (1.90, 2.10) WPM,
+// (1.20, 1.40) FPM, (1.10, 1.20) WFM, (0.85, 0.50) FFM, (0.75, 0.31) RWFM.
+// TTOT is tau/sqrt(3) MTOT, a fixed scale, so it has the same edf. nullopt for
+// alpha outside [-2, 2] or a non-positive value.
+std::optional<double> ModifiedTotalEdf(int alpha, int64_t m, int64_t n_phase);
+
+// HTOT edf nu = (N/m) / (b0 + b1 m/N) for m >= 16 (Howe et al., PTTI 2000 and
+// SP1065 HTOT edf table): (b0, b1) = (0.559, 1.004) WFM, (0.868, 1.140) FFM,
+// (0.938, 1.696) RWFM, (0.974, 2.554) FWFM, (1.276, 3.149) RRFM. Below m = 16
+// (where HTOT starts as OHDEV at m = 1) and for the phase noises, which the
+// table does not cover, the OHVAR Greenhall edf (d = 3, F = S = m), as
+// Stable32 falls back to the Hadamard edf there. nullopt when undefined.
+std::optional<double> HadamardTotalEdf(int alpha, int64_t m, int64_t n_phase);
+
 // The edf behind a point of `dev` at averaging factor m for noise alpha:
 // Greenhall with d = 2 (3 for hdev/ohdev), F = m (1 for mdev/tdev), S = m for
-// the overlapped estimators (1 for adev/hdev); TotalDeviationEdf for totdev.
+// the overlapped estimators (1 for adev/hdev); TotalDeviationEdf for totdev;
+// Theo1Edf for theo1, theobr and theoh's Theo points (the OADEV Greenhall edf
+// at its Allan points, TheoHIsAllanPoint with N = n_phase);
+// ModifiedTotalEdf for mtotdev and ttotdev; HadamardTotalEdf for htotdev.
 std::optional<double> DeviationEdf(Deviation dev, int alpha, int64_t m, int64_t n_phase);
 
 // (lo, hi) bounds on dev for the given edf and two-sided confidence level in
@@ -96,6 +125,11 @@ std::optional<int> NearestIdentifiedAlpha(const std::vector<std::optional<int>>&
 // (oadev n + 2m, ohdev n + 3m, mdev/tdev n + 3m - 1, adev (n+1)m + 1, hdev
 // (n+2)m + 1), capped at the record length; totdev uses its longest gap-free
 // span. Without gaps N = curve->n_phase, as the reference does.
+// The long-tau estimators (long_tau.h): N is their longest gap-free span (the
+// record itself when gap-free), K counts that span's rate samples, and both K
+// and the noise identification use the point's tau in samples,
+// EffectiveAveragingFactor (0.75 m, rounded for the lag-1 method, at the Theo
+// points); htotdev identifies with dmax 3 like the Hadamard family.
 void AttachConfidence(const PhaseRecord& phase, CiMethod method, double confidence, Curve* curve);
 
 }  // namespace imuqual::allan

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "analyze/allan/estimators.h"
+#include "analyze/allan/long_tau.h"
 #include "analyze/allan/noise_id.h"
 #include "analyze/allan/reference_testing.h"
 #include "analyze/allan/tau_grid.h"
@@ -491,6 +492,133 @@ TEST(AttachConfidence, GapsGiveAConservativeEdf) {
               *DeviationEdf(Deviation::kOadev, *point.alpha, point.m, point.n + 2 * point.m));
     EXPECT_LT(point.edf, without.points[k].edf);
   }
+}
+
+// ---------------------------------------------------------------------------
+// Long-tau edf (long_tau.h estimators).
+
+// The closed forms in double against the same formulas evaluated by hand (in
+// Python, printed to 17 digits): a few ulps.
+constexpr double kClosedFormRelTol = 1e-13;
+
+TEST(LongTauEdf, Theo1FormulasAtHandComputedPoints) {
+  // r = 0.75 m. N = 1001, m = 100 (r = 75), e.g. white FM:
+  //   [(4.1*1001 + 0.8)/75 - (3.1*1001 + 6.5)/1001] * 75^1.5/(75^1.5 + 5.2).
+  struct Case {
+    int alpha;
+    int64_t m;
+    int64_t n_phase;
+    double expected;
+  };
+  const Case cases[] = {
+      {2, 100, 1001, 825.9017150968348},    {1, 100, 1001, 440.87074116889585},
+      {0, 100, 1001, 51.21547927251384},    {-1, 100, 1001, 25.38969840896254},
+      {-2, 100, 1001, 17.358780029811015},  {2, 512, 10001, 8462.111244396157},
+      {1, 512, 10001, 2307.2821401850088},  {0, 512, 10001, 103.61134368464},
+      {-1, 512, 10001, 50.788189638674254}, {-2, 512, 10001, 36.58582900834361},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE("alpha " + std::to_string(c.alpha) + " m " + std::to_string(c.m));
+    const std::optional<double> edf = Theo1Edf(c.alpha, c.m, c.n_phase);
+    ASSERT_TRUE(edf.has_value());
+    EXPECT_LE(RelativeError(*edf, c.expected), kClosedFormRelTol) << *edf;
+    // TheoBR shares Theo1's edf (one scale factor for the whole curve).
+    EXPECT_EQ(DeviationEdf(Deviation::kTheoBr, c.alpha, c.m, c.n_phase), edf);
+    EXPECT_EQ(DeviationEdf(Deviation::kTheo1, c.alpha, c.m, c.n_phase), edf);
+  }
+  EXPECT_FALSE(Theo1Edf(-3, 100, 1001).has_value());
+  EXPECT_FALSE(Theo1Edf(0, 1001, 1001).has_value());  // m > N - 1
+  EXPECT_FALSE(Theo1Edf(0, 0, 1001).has_value());
+}
+
+TEST(LongTauEdf, TotalFamilyTablesAtHandComputedPoints) {
+  // MTOT: b N/m - c at N = 1001, m = 100.
+  const double mtot[] = {7.1975, 8.0085, 9.811, 10.612, 16.919};  // alpha -2..2
+  for (int alpha = -2; alpha <= 2; ++alpha) {
+    SCOPED_TRACE("alpha " + std::to_string(alpha));
+    const std::optional<double> edf = ModifiedTotalEdf(alpha, 100, 1001);
+    ASSERT_TRUE(edf.has_value());
+    EXPECT_LE(RelativeError(*edf, mtot[alpha + 2]), kClosedFormRelTol);
+    EXPECT_EQ(DeviationEdf(Deviation::kMtotdev, alpha, 100, 1001), edf);
+    EXPECT_EQ(DeviationEdf(Deviation::kTtotdev, alpha, 100, 1001), edf);
+  }
+  EXPECT_FALSE(ModifiedTotalEdf(-3, 100, 1001).has_value());
+  // HTOT: (N/m)/(b0 + b1 m/N) at N = 1001, m = 100 (>= 16).
+  const double htot[] = {6.29328039111254, 8.143873326321915, 9.038941380448845, 10.194665000793595,
+                         15.182776505813239};  // alpha -4..0
+  for (int alpha = -4; alpha <= 0; ++alpha) {
+    SCOPED_TRACE("alpha " + std::to_string(alpha));
+    const std::optional<double> edf = HadamardTotalEdf(alpha, 100, 1001);
+    ASSERT_TRUE(edf.has_value());
+    EXPECT_LE(RelativeError(*edf, htot[alpha + 4]), kClosedFormRelTol);
+    EXPECT_EQ(DeviationEdf(Deviation::kHtotdev, alpha, 100, 1001), edf);
+  }
+  // Below m = 16, and for the phase noises, the OHVAR Greenhall edf.
+  for (int alpha : {-2, 0, 2}) {
+    EXPECT_EQ(HadamardTotalEdf(alpha, 8, 1001), GreenhallEdf(alpha, 3, 8, 1001, 8.0, 8.0));
+  }
+  EXPECT_EQ(HadamardTotalEdf(1, 100, 1001), GreenhallEdf(1, 3, 100, 1001, 100.0, 100.0));
+}
+
+TEST(LongTauEdf, TheoHUsesTheAllanEdfOnItsAllanPart) {
+  // N = 1001: Allan part m < 200.
+  EXPECT_EQ(DeviationEdf(Deviation::kTheoH, 0, 128, 1001),
+            GreenhallEdf(0, 2, 128, 1001, 128.0, 128.0));
+  EXPECT_EQ(DeviationEdf(Deviation::kTheoH, 0, 512, 1001), Theo1Edf(0, 512, 1001));
+}
+
+TEST(LongTauEdf, Theo1HasMoreEdfThanOadevAtTheSameTau) {
+  // Theo1's purpose: at tau = 0.75 m tau0 it averages over every frequency
+  // difference of the record, so its edf beats OADEV's at that tau for the
+  // FM noises.
+  for (int alpha : {0, -1, -2}) {
+    for (int64_t m : {16, 64, 256, 1024}) {
+      SCOPED_TRACE("alpha " + std::to_string(alpha) + " m " + std::to_string(m));
+      const int64_t tau_m = 3 * m / 4;
+      const double oadev = *GreenhallEdf(alpha, 2, tau_m, 4097, static_cast<double>(tau_m),
+                                         static_cast<double>(tau_m));
+      EXPECT_GT(*Theo1Edf(alpha, m, 4097), oadev);
+    }
+  }
+}
+
+TEST(AttachConfidence, LongTauCurvesGetIntervalsFromTheirOwnEdf) {
+  // GIVEN white FM, WHEN chi-square intervals are attached to every long-tau
+  // curve, THEN each point's alpha is identified at its effective averaging
+  // factor (0.75 m for the Theo points), its edf is the estimator's own and
+  // the interval brackets the deviation.
+  const PhaseRecord phase = PhaseFromRate(WhiteRate(8192, 6), 1.0);
+  for (Deviation dev : {Deviation::kTheo1, Deviation::kTheoBr, Deviation::kTheoH,
+                        Deviation::kMtotdev, Deviation::kTtotdev, Deviation::kHtotdev}) {
+    Curve curve = ComputeDeviation(
+        phase, dev, AveragingFactors(TauGridSpec{}, 1.0, phase.size(), dev, StopRule::kNone));
+    ASSERT_GE(curve.points.size(), 8u) << DeviationName(dev);
+    AttachConfidence(phase, CiMethod::kChi2, kOneSigmaConfidence, &curve);
+    for (const CurvePoint& point : curve.points) {
+      SCOPED_TRACE(std::string(DeviationName(dev)) + " m=" + std::to_string(point.m));
+      ASSERT_TRUE(point.alpha.has_value());
+      const int64_t id_m = std::llround(EffectiveAveragingFactor(dev, point.m, phase.size()));
+      const int dmax = dev == Deviation::kHtotdev ? 3 : 2;
+      const std::optional<NoiseId> id = IdentifyNoiseLag1(phase, std::max<int64_t>(id_m, 1), dmax);
+      EXPECT_EQ(point.alpha_inherited, !id.has_value());
+      if (id) {
+        EXPECT_EQ(*point.alpha, id->alpha);
+      }
+      const std::optional<double> edf = DeviationEdf(dev, *point.alpha, point.m, phase.size());
+      ASSERT_TRUE(edf.has_value());  // white FM: alpha 0 or a neighbour, all tabulated
+      EXPECT_EQ(point.edf, *edf);
+      EXPECT_LT(point.lo, point.dev);
+      EXPECT_GT(point.hi, point.dev);
+    }
+  }
+}
+
+TEST(AttachConfidence, LongTauSimpleIntervalsCountClustersOfTheEffectiveTau) {
+  const PhaseRecord phase = PhaseFromRate(WhiteRate(999, 7), 1.0);
+  Curve curve = ComputeDeviation(phase, Deviation::kTheo1, std::vector<int64_t>{40});
+  AttachConfidence(phase, CiMethod::kSimple, kOneSigmaConfidence, &curve);
+  ASSERT_EQ(curve.points.size(), 1u);
+  EXPECT_EQ(curve.points[0].edf, 999 / 30 - 1);  // tau = 30 samples
 }
 
 }  // namespace

@@ -7,7 +7,7 @@ namespace imuqual::allan {
 namespace {
 
 // One table per enum keeps each name and its parser in step.
-constexpr std::array<std::pair<Deviation, std::string_view>, 7> kDeviationNames = {{
+constexpr std::array<std::pair<Deviation, std::string_view>, 13> kDeviationNames = {{
     {Deviation::kAdev, "adev"},
     {Deviation::kOadev, "oadev"},
     {Deviation::kMdev, "mdev"},
@@ -15,6 +15,12 @@ constexpr std::array<std::pair<Deviation, std::string_view>, 7> kDeviationNames 
     {Deviation::kHdev, "hdev"},
     {Deviation::kOhdev, "ohdev"},
     {Deviation::kTotdev, "totdev"},
+    {Deviation::kTheo1, "theo1"},
+    {Deviation::kTheoBr, "theobr"},
+    {Deviation::kTheoH, "theoh"},
+    {Deviation::kMtotdev, "mtotdev"},
+    {Deviation::kTtotdev, "ttotdev"},
+    {Deviation::kHtotdev, "htotdev"},
 }};
 
 constexpr std::array<std::pair<StopRule, std::string_view>, 3> kStopRuleNames = {{

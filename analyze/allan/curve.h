@@ -29,6 +29,13 @@ enum class Deviation {
   kHdev,    // Hadamard deviation (stride m)
   kOhdev,   // overlapping Hadamard deviation
   kTotdev,  // total deviation (reflected extension)
+  // Long-tau estimators (long_tau.h):
+  kTheo1,    // Theo1 (Howe), reported at the effective tau 0.75 m tau0
+  kTheoBr,   // bias-removed Theo1
+  kTheoH,    // hybrid: OADEV at short tau, TheoBR at long tau
+  kMtotdev,  // modified total deviation
+  kTtotdev,  // time total deviation, tau/sqrt(3) * MTOTDEV (units of phase)
+  kHtotdev,  // Hadamard total deviation
 };
 
 // "adev", "oadev", ... and back. Parse returns nullopt for unknown names.
@@ -55,9 +62,10 @@ std::optional<CiMethod> ParseCiMethod(std::string_view name);
 
 // One point of a deviation curve.
 struct CurvePoint {
-  int64_t m = 0;          // averaging factor, tau = m * tau0
+  int64_t m = 0;          // averaging factor, tau = m * tau0 (Theo1/TheoBR and TheoH's
+                          // Theo points: tau = 0.75 m tau0, long_tau.h)
   double tau_s = 0;       // averaging time, s
-  double dev = kNaN;      // deviation, in the input's rate unit (TDEV: rate unit * s)
+  double dev = kNaN;      // deviation, in the input's rate unit (TDEV, TTOTDEV: rate unit * s)
   int64_t n = 0;          // terms in the estimator's outer sum (valid terms only)
   int64_t stride = 0;     // terms are taken every `stride` samples: 1 fully overlapped,
                           // m non-overlapped, m/c in the streaming cascade; 0 unknown

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <vector>
 
+#include "analyze/allan/long_tau.h"
+
 // The summation kernels are compiled for AVX2 and for the baseline ISA; the
 // dynamic loader picks one per machine (function multi-versioning). FMA is
 // deliberately not enabled, so both versions round every operation the same
@@ -436,8 +438,9 @@ TermSum TermsAt(const RecordView& view, Deviation dev, int64_t m) {
       return DifferenceTerms(view, 3, m, 1);
     case Deviation::kTotdev:
       return TotalTerms(view, m);
+    default:  // the long-tau estimators (long_tau.h)
+      return {};
   }
-  return {};
 }
 
 // Samples between consecutive terms: m for the non-overlapped estimators,
@@ -483,6 +486,12 @@ Curve ComputeDeviation(const PhaseRecord& phase, Deviation dev, std::span<const 
   curve.tau0_s = phase.tau0_s;
   curve.n_phase = phase.size();
   curve.invalid_rate_samples = phase.invalid_count();
+  if (IsLongTauDeviation(dev)) {
+    for (const CurvePoint& point : LongTauPoints(phase, dev, m_list)) {
+      if (point.n > 1) curve.points.push_back(point);
+    }
+    return curve;
+  }
   const RecordView view = MakeView(phase);
 
   std::vector<TermSum> terms(m_list.size());
@@ -512,6 +521,7 @@ Curve ComputeDeviation(const PhaseRecord& phase, Deviation dev, std::span<const 
 }
 
 CurvePoint ComputeDeviationAt(const PhaseRecord& phase, Deviation dev, int64_t m) {
+  if (IsLongTauDeviation(dev)) return LongTauPoints(phase, dev, std::span<const int64_t>(&m, 1))[0];
   return MakePoint(dev, m, phase.tau0_s, TermsAt(MakeView(phase), dev, m), Stride(dev, m));
 }
 

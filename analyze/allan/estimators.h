@@ -15,6 +15,9 @@
 //          x*_{-j} = 2x_0 - x_j, x*_{N-1+j} = 2x_{N-1} - x_{N-1-j}, n = N - 2
 // and dev = sqrt(var). These are the reference implementation's conventions
 // (tests/reference/NOTES.md), which match NIST SP1065 and Stable32.
+// ComputeDeviation also computes the long-tau estimators Theo1, TheoBR, TheoH,
+// MTOTDEV, TTOTDEV and HTOTDEV (long_tau.h: formulas, the effective tau
+// 0.75 m tau0 of the Theo family, gaps and cost).
 //
 // Gaps: a term is skipped when any rate sample inside its window is invalid
 // (OAVAR/AVAR term i: y_i..y_{i+2m-1}; OHVAR/HVAR: y_i..y_{i+3m-1}; MVAR term

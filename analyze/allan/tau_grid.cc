@@ -6,6 +6,8 @@
 #include <limits>
 #include <system_error>
 
+#include "analyze/allan/long_tau.h"
+
 namespace imuqual::allan {
 namespace {
 
@@ -171,9 +173,32 @@ int64_t MaxAveragingFactor(Deviation dev, int64_t n_phase) {
       return (n - 2) / 3;
     case Deviation::kTotdev:  // N - 2 > 1 for every m < N
       return n - 1;
+    case Deviation::kTheo1:  // (N - m) m/2 > 1 for every even m < N
+      return n - 1;
+    case Deviation::kTheoBr:  // and TheoBR's ratio needs N >= 90
+      return n >= 90 ? n - 1 : 0;
+    case Deviation::kTheoH:  // below 90 points only the Allan part, m < floor((N-1)/5)
+      return n >= 90 ? n - 1 : std::max<int64_t>(TheoHSwitchFactor(n) - 1, 0);
+    case Deviation::kMtotdev:  // N - 3m + 1 > 1
+    case Deviation::kTtotdev:
+      return (n - 1) / 3;
+    case Deviation::kHtotdev:  // N - 3m > 1
+      return (n - 2) / 3;
   }
   return 0;
 }
+
+namespace {
+
+// Whether the estimator has a point at m at all (Theo1 and TheoBR only at even
+// m, TheoH not between its Allan and its Theo part).
+bool HasPointAt(Deviation dev, int64_t m, int64_t n_phase) {
+  if (dev == Deviation::kTheo1 || dev == Deviation::kTheoBr) return m % 2 == 0;
+  if (dev == Deviation::kTheoH) return TheoHHasPoint(m, n_phase);
+  return true;
+}
+
+}  // namespace
 
 int64_t StopRuleMaxAveragingFactor(StopRule stop, Deviation dev, int64_t n_phase) {
   switch (stop) {
@@ -183,6 +208,10 @@ int64_t StopRuleMaxAveragingFactor(StopRule stop, Deviation dev, int64_t n_phase
       int64_t ratio = 4;
       if (dev == Deviation::kAdev || dev == Deviation::kHdev) ratio = 5;
       if (dev == Deviation::kTotdev) ratio = 2;
+      if (dev == Deviation::kMtotdev || dev == Deviation::kTtotdev || dev == Deviation::kHtotdev) {
+        ratio = 3;
+      }
+      if (IsTheoDeviation(dev)) ratio = 1;
       return std::max<int64_t>(n_phase, 0) / ratio;
     }
     case StopRule::kNone:
@@ -194,10 +223,18 @@ int64_t StopRuleMaxAveragingFactor(StopRule stop, Deviation dev, int64_t n_phase
 std::vector<int64_t> AveragingFactors(const TauGridSpec& grid, double tau0_s, int64_t n_phase,
                                       Deviation dev, StopRule stop) {
   if (n_phase < 2 || !(tau0_s > 0)) return {};
-  const int64_t m_max =
-      std::min(MaxAveragingFactor(dev, n_phase), StopRuleMaxAveragingFactor(stop, dev, n_phase));
-  std::vector<int64_t> m_list = RawGrid(grid, tau0_s, n_phase, m_max);
-  std::erase_if(m_list, [&](int64_t m) { return m < 1 || m >= n_phase || m > m_max; });
+  const int64_t dev_max = MaxAveragingFactor(dev, n_phase);
+  const int64_t stop_max = StopRuleMaxAveragingFactor(stop, dev, n_phase);
+  // The stop rule bounds the point's tau: m for most estimators, 0.75 m for
+  // the Theo family (long_tau.h).
+  const int64_t raw_max =
+      std::min(dev_max, IsTheoDeviation(dev) ? stop_max + stop_max / 3 + 1 : stop_max);
+  std::vector<int64_t> m_list = RawGrid(grid, tau0_s, n_phase, raw_max);
+  std::erase_if(m_list, [&](int64_t m) {
+    return m < 1 || m >= n_phase || m > dev_max ||
+           EffectiveAveragingFactor(dev, m, n_phase) > static_cast<double>(stop_max) ||
+           !HasPointAt(dev, m, n_phase);
+  });
   std::sort(m_list.begin(), m_list.end());
   m_list.erase(std::unique(m_list.begin(), m_list.end()), m_list.end());
   return m_list;

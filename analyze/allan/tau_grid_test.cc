@@ -2,12 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "analyze/allan/estimators.h"
+#include "analyze/allan/long_tau.h"
 #include "analyze/allan/phase.h"
 
 namespace imuqual::allan {
@@ -16,9 +18,19 @@ namespace {
 using Kind = TauGridSpec::Kind;
 using M = std::vector<int64_t>;
 
-constexpr Deviation kAllDeviations[] = {Deviation::kAdev,  Deviation::kOadev, Deviation::kMdev,
-                                        Deviation::kTdev,  Deviation::kHdev,  Deviation::kOhdev,
-                                        Deviation::kTotdev};
+constexpr Deviation kAllDeviations[] = {
+    Deviation::kAdev,   Deviation::kOadev, Deviation::kMdev,    Deviation::kTdev,
+    Deviation::kHdev,   Deviation::kOhdev, Deviation::kTotdev,  Deviation::kTheo1,
+    Deviation::kTheoBr, Deviation::kTheoH, Deviation::kMtotdev, Deviation::kTtotdev,
+    Deviation::kHtotdev};
+
+// Whether the estimator has a point at m at all (long_tau.h: Theo1 and TheoBR
+// at even m, TheoH's Allan part below floor((N-1)/5) and its even Theo part).
+bool HasPoint(Deviation dev, int64_t m, int64_t n_phase) {
+  if (dev == Deviation::kTheo1 || dev == Deviation::kTheoBr) return m % 2 == 0;
+  if (dev == Deviation::kTheoH) return TheoHHasPoint(m, n_phase);
+  return true;
+}
 
 TauGridSpec Grid(std::string_view text) {
   Result<TauGridSpec> grid = ParseTauGrid(text);
@@ -104,18 +116,22 @@ TEST(AveragingFactors, ExplicitTausRoundToTheNearestM) {
 }
 
 TEST(AveragingFactors, PerEstimatorLimitsAreExactlyWhereNDropsToOne) {
-  // GIVEN records of every small length, WHEN every m is evaluated, THEN a
-  // point survives (n > 1) exactly when m <= MaxAveragingFactor.
+  // GIVEN records of every small length (and a few past TheoBR's 90 points),
+  // WHEN every m is evaluated, THEN a point survives (n > 1) exactly when
+  // m <= MaxAveragingFactor and the estimator has a point at m.
   std::mt19937_64 rng(3);
   std::normal_distribution<double> normal;
-  for (int64_t n_phase = 2; n_phase <= 40; ++n_phase) {
+  std::vector<int64_t> lengths;
+  for (int64_t n_phase = 2; n_phase <= 40; ++n_phase) lengths.push_back(n_phase);
+  for (int64_t n_phase : {89, 90, 91, 120}) lengths.push_back(n_phase);
+  for (int64_t n_phase : lengths) {
     std::vector<double> x(static_cast<size_t>(n_phase));
     for (double& v : x) v = normal(rng);
     const PhaseRecord phase = PhaseFromPhase(x, 1.0);
     for (Deviation dev : kAllDeviations) {
       for (int64_t m = 1; m < n_phase; ++m) {
         const bool kept = ComputeDeviationAt(phase, dev, m).n > 1;
-        EXPECT_EQ(kept, m <= MaxAveragingFactor(dev, n_phase))
+        EXPECT_EQ(kept, m <= MaxAveragingFactor(dev, n_phase) && HasPoint(dev, m, n_phase))
             << DeviationName(dev) << " N=" << n_phase << " m=" << m;
       }
     }
@@ -164,6 +180,42 @@ TEST(AveragingFactors, StopRules) {
   EXPECT_EQ(AveragingFactors(octave, 1.0, 10001, Deviation::kOadev, StopRule::kNone).back(), 4096);
 }
 
+TEST(AveragingFactors, LongTauOctaveGridsMatchTheReferenceFiles) {
+  // The last rows of tests/reference/results/*_{theo1,mtotdev,htotdev}_octave.csv.
+  const TauGridSpec octave = Grid("octave");
+  EXPECT_EQ(AveragingFactors(octave, 1.0, 10001, Deviation::kTheo1, StopRule::kNone),
+            (M{2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192}));
+  EXPECT_EQ(AveragingFactors(octave, 1.0, 1001, Deviation::kTheo1, StopRule::kNone).back(), 512);
+  for (Deviation dev : {Deviation::kMtotdev, Deviation::kTtotdev, Deviation::kHtotdev}) {
+    EXPECT_EQ(AveragingFactors(octave, 1.0, 10001, dev, StopRule::kNone).back(), 2048);
+    EXPECT_EQ(AveragingFactors(octave, 1.0, 1001, dev, StopRule::kNone).back(), 256);
+  }
+}
+
+TEST(AveragingFactors, TheoFamilyHasEvenFactorsAndStopsOnItsEffectiveTau) {
+  const TauGridSpec all = Grid("all");
+  const M theo1 = AveragingFactors(all, 1.0, 1001, Deviation::kTheo1, StopRule::kNone);
+  ASSERT_EQ(theo1.size(), 500u);  // 2, 4, ..., 1000
+  for (int64_t m : theo1) EXPECT_EQ(m % 2, 0);
+  // bins9 bounds the effective tau 0.75 m tau0 by floor((N-1)/9) tau0 = 1111 tau0.
+  EXPECT_EQ(AveragingFactors(all, 1.0, 10001, Deviation::kTheo1, StopRule::kBins9).back(), 1480);
+  EXPECT_EQ(
+      AveragingFactors(Grid("octave"), 1.0, 10001, Deviation::kTheoBr, StopRule::kBins9).back(),
+      1024);
+  // TheoH: the Allan part m < floor(0.2 (N-1)) = 200, then even m with
+  // 0.75 m >= 200, i.e. from 268; nothing in between.
+  const M theoh = AveragingFactors(all, 1.0, 1001, Deviation::kTheoH, StopRule::kNone);
+  const auto first_theo = std::find(theoh.begin(), theoh.end(), 268);
+  ASSERT_NE(first_theo, theoh.end());
+  EXPECT_EQ(*(first_theo - 1), 199);
+  EXPECT_EQ(first_theo - theoh.begin(), 199);
+  EXPECT_EQ(theoh.end() - first_theo, (1000 - 268) / 2 + 1);
+  // Stable32 stop ratios: 1 for the Theo family, 3 for the TOT family.
+  EXPECT_EQ(StopRuleMaxAveragingFactor(StopRule::kStable32, Deviation::kTheoH, 1001), 1001);
+  EXPECT_EQ(StopRuleMaxAveragingFactor(StopRule::kStable32, Deviation::kMtotdev, 1001), 333);
+  EXPECT_EQ(StopRuleMaxAveragingFactor(StopRule::kStable32, Deviation::kHtotdev, 1001), 333);
+}
+
 TEST(AveragingFactors, DegenerateRecords) {
   EXPECT_TRUE(AveragingFactors(Grid("octave"), 1.0, 0, Deviation::kOadev, StopRule::kNone).empty());
   EXPECT_TRUE(AveragingFactors(Grid("octave"), 1.0, 3, Deviation::kOadev, StopRule::kNone).empty());
@@ -184,6 +236,12 @@ TEST(Names, RoundTripAndRejectUnknown) {
   }
   EXPECT_EQ(DeviationName(Deviation::kOadev), "oadev");
   EXPECT_EQ(DeviationName(Deviation::kTotdev), "totdev");
+  EXPECT_EQ(DeviationName(Deviation::kTheo1), "theo1");
+  EXPECT_EQ(DeviationName(Deviation::kTheoBr), "theobr");
+  EXPECT_EQ(DeviationName(Deviation::kTheoH), "theoh");
+  EXPECT_EQ(DeviationName(Deviation::kMtotdev), "mtotdev");
+  EXPECT_EQ(DeviationName(Deviation::kTtotdev), "ttotdev");
+  EXPECT_EQ(DeviationName(Deviation::kHtotdev), "htotdev");
   EXPECT_EQ(StopRuleName(StopRule::kBins9), "bins9");
   EXPECT_EQ(CiMethodName(CiMethod::kChi2), "chi2");
   EXPECT_FALSE(ParseDeviation("allan").has_value());

@@ -15,8 +15,10 @@ Result<CurveRequest> ParseCurveRequest(const std::string& devs, const std::strin
   for (const std::string& name : Split(devs, ',')) {
     auto d = allan::ParseDeviation(name);
     if (!d) {
-      return Status::InvalidArgument("--dev: unknown estimator '" + name +
-                                     "' (adev, oadev, mdev, tdev, hdev, ohdev, totdev)");
+      return Status::InvalidArgument(
+          "--dev: unknown estimator '" + name +
+          "' (adev, oadev, mdev, tdev, hdev, ohdev, totdev, theo1, theobr, theoh, mtotdev, "
+          "ttotdev, htotdev)");
     }
     r.devs.push_back(*d);
   }

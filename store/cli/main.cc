@@ -146,7 +146,13 @@ int main(int argc, char** argv) {
   analyze_cmd->add_option("--column", an.column, "CSV column to analyse");
   analyze_cmd->add_option("--rate", an.rate_hz, "sample rate in Hz")->capture_default_str();
   analyze_cmd->add_option("--type", an.type, "rate or phase")->capture_default_str();
-  analyze_cmd->add_option("--dev", an.devs, "estimators: adev,oadev,mdev,tdev,hdev,ohdev,totdev")
+  analyze_cmd
+      ->add_option("--dev", an.devs,
+                   "estimators: adev,oadev,mdev,tdev,hdev,ohdev,totdev; long tau: theo1, "
+                   "theobr (bias-removed), theoh (oadev then theobr), mtotdev, ttotdev, htotdev. "
+                   "theo1/theobr/theoh report tau = 0.75 m tau0 (m even); the long-tau "
+                   "estimators reach past T/9 only with --stop stable32 or none; with gaps they "
+                   "use the longest gap-free span")
       ->capture_default_str();
   analyze_cmd
       ->add_option("--grid", an.grid, "octave, decade, all, logN (N per decade), or taus 1,2,5")
@@ -176,7 +182,11 @@ int main(int argc, char** argv) {
                  "(every curve point, measurement and the verdict)")
       ->excludes(exact_flag);
   // Options only the exact mode honours are refused without it, never ignored.
-  reanalyze_cmd->add_option("--dev", re.devs, "--exact: estimators")->capture_default_str()->needs(exact_flag);
+  reanalyze_cmd
+      ->add_option("--dev", re.devs,
+                   "--exact: estimators (as for analyze, the long-tau ones included)")
+      ->capture_default_str()
+      ->needs(exact_flag);
   reanalyze_cmd->add_option("--grid", re.grid, "--exact: tau grid")->capture_default_str()->needs(exact_flag);
   reanalyze_cmd->add_option("--stop", re.stop, "--exact: bins9, stable32 or none")
       ->capture_default_str()
