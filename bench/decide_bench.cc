@@ -15,6 +15,7 @@
 // that minimum and N, judged against the plan's limits. Never asserts.
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <mutex>
@@ -120,7 +121,7 @@ int main(int argc, char** argv) {
   int threads = 2;
   std::string lot = "DECIDE-BENCH";
   bool verbose = false;
-  bool decide_marginal = false;
+  std::string flags = "at_decision";
   app.add_option("--units", units, "units in the lot")->capture_default_str();
   app.add_option("--spread", spread, "lognormal unit-to-unit spread of the noise terms")
       ->capture_default_str();
@@ -132,7 +133,9 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads")->capture_default_str();
   app.add_option("--lot", lot, "lot name (seeds the truths)")->capture_default_str();
   app.add_flag("--verbose", verbose, "one line per unit on stderr");
-  app.add_flag("--decide-marginal", decide_marginal, "early_decision.decide_marginal");
+  app.add_option("--marginal-flags", flags,
+                 "early_decision.marginal_flags: at_decision, agree_full_length or decided")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   auto profile = sim::LotProfileByName("vg700");
@@ -146,7 +149,14 @@ int main(int argc, char** argv) {
   early_plan.mutable_early_decision()->set_risk(risk);
   early_plan.mutable_early_decision()->set_min_duration_s(min_duration_s);
   early_plan.mutable_early_decision()->set_look_period_s(look_period_s);
-  early_plan.mutable_early_decision()->set_decide_marginal(decide_marginal);
+  std::string mode_name = "FLAGS_" + flags;
+  for (char& c : mode_name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  pb::EarlyDecision::MarginalFlags mode;
+  if (!pb::EarlyDecision::MarginalFlags_Parse(mode_name, &mode)) {
+    std::fprintf(stderr, "decide_bench: --marginal-flags: unknown mode '%s'\n", flags.c_str());
+    return 2;
+  }
+  early_plan.mutable_early_decision()->set_marginal_flags(mode);
   if (Status st = judge::ValidatePlan(early_plan); !st.ok()) {
     std::fprintf(stderr, "decide_bench: %s\n", st.message().c_str());
     return 1;
@@ -212,6 +222,16 @@ int main(int argc, char** argv) {
       r.early = e.judgement.verdict;
       r.decided = e.early && e.early->unit != judge::Decision::kPending;
       r.decided_at_s = r.decided ? e.early->decided_at_s : soak_s;
+      if (getenv("DECIDE_TRACE") && e.early) {
+        std::lock_guard<std::mutex> lock(log);
+        for (const judge::Look& look : e.early->looks) {
+          if (look.index % 10 != 0) continue;
+          std::fprintf(stderr, "  unit %d look %d: %s\n", i, look.index, look.note.c_str());
+          for (const judge::LookEntry& entry : look.entries) {
+            if (entry.decision == judge::Decision::kPending || entry.name == "tau_at_minimum") std::fprintf(stderr, "     %s %s %g +- %g\n", entry.axis.c_str(), entry.name.c_str(), entry.value, entry.uncertainty);
+          }
+        }
+      }
       if (e.early && !e.early->looks.empty()) {
         for (const judge::LookEntry& entry : e.early->looks.back().entries) {
           if (entry.decision == judge::Decision::kPending) r.pending += "\n    " + entry.why;
@@ -257,6 +277,7 @@ int main(int argc, char** argv) {
   std::printf("decide_units %d units\n", units);
   std::printf("decide_truth_fail_units %d units\n", truth_fail);
   std::printf("decide_risk %g 1\n", risk);
+  std::printf("decide_marginal_flags_%s 1 mode\n", flags.c_str());
   std::printf("soak_time_ratio_median %.4f 1\n", Median(ratios));
   std::printf("soak_time_saved_fraction %.4f 1\n",
               1.0 - [&] {

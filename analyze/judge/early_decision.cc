@@ -125,26 +125,37 @@ std::string UnitSuffix(const pb::Measurement& m) {
 }
 
 // Where a measurement stands against its marginal band, read as the
-// full-length record would read it: settled when its value is at least
-// kFlagZ sds from each marginal bound, the sd being what the full record's
-// value can still differ from this one's, u sqrt(1 - f).
+// full-length record would read it. A marginal bound is settled when the
+// value is at least kFlagZ sds from it, the sd being what the full record's
+// value can still differ from this one's, u sqrt(1 - f); or when the curve's
+// own evidence (tau_at_minimum: measure.h MinimumSideEvidence) puts the truth
+// on the value's side of it by kFlagZ.
 enum class Flag { kNone, kClear, kMarginal, kUnsettled };
-Flag FlagOf(const pb::Measurement& m, double fraction) {
+Flag FlagOf(const pb::Measurement& m, double fraction, const BoundEvidence& evidence) {
   if (!m.has_marginal_low() && !m.has_marginal_high()) return Flag::kNone;
   const double v = m.value();
   const double u = m.has_uncertainty() ? m.uncertainty() : std::nan("");
   const double sd = u * std::sqrt(std::max(0.0, 1.0 - fraction));
   bool marginal = false, unsettled = false;
-  auto check = [&](double b, bool outside) {
-    const bool settled = std::abs(v - b) >= kFlagZ * sd;  // false for a NaN sd
-    if (outside && settled) {
-      marginal = true;
-    } else if (!settled) {
-      unsettled = true;
+  auto check = [&](double b) {
+    const bool above = v > b;
+    bool settled = std::abs(v - b) >= kFlagZ * sd;  // false for a NaN sd
+    if (!settled && evidence && m.name() == kTauAtMinimum) {
+      const SideEvidence ev = evidence(m, b);
+      settled = (above ? ev.above : ev.below) >= kFlagZ;
     }
+    return std::pair<bool, bool>(above, settled);
   };
-  if (m.has_marginal_low()) check(m.marginal_low(), v < m.marginal_low());
-  if (m.has_marginal_high()) check(m.marginal_high(), v > m.marginal_high());
+  if (m.has_marginal_low()) {
+    const auto [above, settled] = check(m.marginal_low());
+    if (!settled) unsettled = true;
+    else if (!above) marginal = true;
+  }
+  if (m.has_marginal_high()) {
+    const auto [above, settled] = check(m.marginal_high());
+    if (!settled) unsettled = true;
+    else if (above) marginal = true;
+  }
   return marginal ? Flag::kMarginal : unsettled ? Flag::kUnsettled : Flag::kClear;
 }
 
@@ -246,7 +257,7 @@ Result<EarlyDecider> EarlyDecider::Create(const pb::TestPlan& plan) {
   }
   if (!(s.risk > 0 && s.risk <= 0.2)) return Status::InvalidArgument("early_decision.risk");
   EarlyDecider d(std::move(s));
-  d.decide_marginal_ = plan.early_decision().decide_marginal();
+  d.flags_ = plan.early_decision().marginal_flags();
   return d;
 }
 
@@ -276,7 +287,9 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
     for (const pb::Measurement& m : measurements) {
       if (!Decides(m)) continue;
       count += m.has_low() + m.has_high();
-      if (decide_marginal_) count += m.has_marginal_low() + m.has_marginal_high();
+      if (flags_ == pb::EarlyDecision::FLAGS_DECIDED) {
+        count += m.has_marginal_low() + m.has_marginal_high();
+      }
     }
     alpha_per_bound_ = schedule_.risk / std::max(count, 1);
     auto b = SequentialBounds(schedule_.fractions, std::min(alpha_per_bound_, 0.49));
@@ -297,15 +310,15 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
 
   Decision unit = Decision::kPass;
   bool any = false;
-  // The marginal flags (without decide_marginal): the unit is MARGINAL once
+  // The marginal flags (FLAGS_AGREE_FULL_LENGTH): the unit is MARGINAL once
   // one flag is settled so, PASS once every flag is settled clear.
   bool flag_marginal = false;
   std::string flag_unsettled;
   for (const pb::Measurement& m : measurements) {
     if (!Decides(m)) continue;
     any = true;
-    if (!decide_marginal_) {
-      switch (FlagOf(m, look.fraction)) {
+    if (flags_ == pb::EarlyDecision::FLAGS_AGREE_FULL_LENGTH) {
+      switch (FlagOf(m, look.fraction, evidence)) {
         case Flag::kMarginal: flag_marginal = true; break;
         case Flag::kUnsettled:
           if (flag_unsettled.empty()) flag_unsettled = Who(m);
@@ -400,7 +413,7 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
       if (m.has_low()) why += " " + Num(m.low()) + zs(m.low(), true);
       if (m.has_high()) why += (m.has_low() ? " and " : " ") + Num(m.high()) + zs(m.high(), false);
       d = Decision::kPass;
-      if (decide_marginal_) {
+      if (flags_ == pb::EarlyDecision::FLAGS_DECIDED) {
         // The marginal flag decided too: each marginal bound on a confirmed side.
         const Side mh = m.has_marginal_high() ? high_side(m.marginal_high()) : Side::kInside;
         const Side ml = m.has_marginal_low() ? low_side(m.marginal_low()) : Side::kInside;
@@ -455,7 +468,8 @@ void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
     }
     // A decided PASS keeps the marginal flag the record analysed shows
     // (marginal bands are read simply, as always).
-    const bool flag = decide_marginal_ ? it->marginal : m.outcome() == pb::MARGINAL;
+    const bool flag =
+        flags_ == pb::EarlyDecision::FLAGS_DECIDED ? it->marginal : m.outcome() == pb::MARGINAL;
     m.set_outcome(it->decision == Decision::kFail ? pb::FAIL
                   : flag                          ? pb::MARGINAL
                                                   : pb::PASS);

@@ -27,16 +27,20 @@
 // there gets the full-length verdict of the plan's decision rule.
 //
 // The decisions are on the pass/fail limits (low, high) of each judged
-// measurement; a marginal band stays a flag read simply (as judge.h always
-// reads it) on the record analysed when the unit is decided, and the unit
-// waits until its flags would read the same on the full-length record with
-// 99 % probability each: |v - M| >= 2.326 u sqrt(1 - f_k) at each marginal
-// bound M (what the full record's value can still differ from this one's,
-// under the same Brownian model), so early and full-length verdicts agree on
-// MARGINAL too. The unit is MARGINAL as soon as one flag is settled so (the
-// others cannot change its verdict), PASS once every flag is settled clear. With early_decision.decide_marginal each marginal bound is
-// instead decided like a limit, at the plan's risk against the truth (and
-// counted in the Bonferroni split). A bound B of a
+// measurement. A marginal band is a flag (judge.h reads it simply); the
+// plan's early_decision.marginal_flags says how a decided unit gets it:
+//   FLAGS_AT_DECISION        read on the record analysed at the decision;
+//   FLAGS_AGREE_FULL_LENGTH  the unit also waits until each flag would read
+//     the same on the full-length record with 99 % probability: |v - M| >=
+//     2.326 u sqrt(1 - f_k) at each marginal bound M (what the full record's
+//     value can still differ from this one's, under the same Brownian
+//     model), or, for tau_at_minimum, the curve's evidence puts the truth on
+//     the value's side of M by 2.326; MARGINAL as soon as one flag is
+//     settled so (the others cannot change the verdict), PASS once every
+//     flag is settled clear;
+//   FLAGS_DECIDED            each marginal bound decided like a limit at the
+//     plan's risk (counted in the Bonferroni split).
+// A bound B of a
 // measurement with value v and 1-sigma uncertainty u is confirmed at look k
 // with the truth above it when (v - B) / u >= z_k, below it when
 // (B - v) / u >= z_k. What more data can still change is respected:
@@ -198,10 +202,10 @@ class EarlyDecider {
     Decision decision;
     std::string why;
     int look;
-    bool marginal = false;  // decided in the marginal band (decide_marginal)
+    bool marginal = false;  // decided in the marginal band (FLAGS_DECIDED)
   };
   std::vector<Decided> decided_;
-  bool decide_marginal_ = false;
+  pb::EarlyDecision::MarginalFlags flags_ = pb::EarlyDecision::FLAGS_AT_DECISION;
 };
 
 // The final judgement of a run with early decisions, on the record analysed

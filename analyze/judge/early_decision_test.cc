@@ -229,6 +229,24 @@ TEST(EarlyDecider, MarginalBandIsAFlagNotADecision) {
             Decision::kPass);
 }
 
+TEST(EarlyDecider, FlagsAgreeingWithTheFullLengthReadingCanMakeAUnitWait) {
+  pb::TestPlan plan = Plan();
+  plan.mutable_early_decision()->set_marginal_flags(pb::EarlyDecision::FLAGS_AGREE_FULL_LENGTH);
+  const auto settled = [](const std::string&) { return true; };
+  // 17.5 +- 0.8 at f = 1/6: 1.5 from 16, less than 2.33 x 0.8 x sqrt(5/6) = 1.70.
+  auto near = EarlyDecider::Create(plan);
+  const Look wait = near->Evaluate(0, {M("bias_instability", 17.5, 0.8, plan)}, settled);
+  EXPECT_EQ(wait.unit, Decision::kPending);
+  EXPECT_NE(wait.note.find("marginal flag of x: bias_instability"), std::string::npos) << wait.note;
+  // Half-way through the soak the same reading is settled (1.5 >= 2.33 x 0.8 x 0.71 = 1.32 at f ~ 0.5).
+  const Look later = near->Evaluate(20, {M("bias_instability", 17.5, 0.8, plan)}, settled);
+  EXPECT_EQ(later.unit, Decision::kPass);  // MARGINAL by its flag, read on the record
+  // Clearly in the band: decided at once.
+  auto clear = EarlyDecider::Create(plan);
+  EXPECT_EQ(clear->Evaluate(0, {M("bias_instability", 17.5, 0.3, plan)}, settled).unit,
+            Decision::kPass);
+}
+
 // tau_at_minimum is decided by the curve's evidence; "below" a bound needs a
 // settled minimum (more data can only move it to longer taus), "above" not.
 TEST(EarlyDecider, TauAtMinimumFollowsTheCurveEvidence) {

@@ -357,7 +357,11 @@ int PlanSoakCommand(const PlanSoakOptions& o) {
   std::printf("plan       %s (%s)\n", plan->name().c_str(), o.plan.c_str());
   std::printf("decisions  risk %g per unit%s; looks every %g s from %g s to %g s (%zu looks), "
               "horizon %g s + %g s warm-up\n",
-              e.risk(), e.decide_marginal() ? ", marginal bands decided too" : "",
+              e.risk(),
+              e.marginal_flags() == pb::EarlyDecision::FLAGS_DECIDED ? ", marginal bands decided too"
+              : e.marginal_flags() == pb::EarlyDecision::FLAGS_AGREE_FULL_LENGTH
+                  ? ", marginal flags as at full length"
+                  : "",
               s.times_s.size() > 1 ? s.times_s[1] - s.times_s[0] : 0.0,
               s.times_s.empty() ? 0.0 : s.times_s.front(),
               s.times_s.empty() ? 0.0 : s.times_s.back(), s.times_s.size(), s.horizon_s,
