@@ -13,6 +13,7 @@
 // of a unit is its simulated noise model (acquire/lot_profile.h): its Allan
 // deviation minimum over the taus the full-length curve shows, the tau of
 // that minimum and N, judged against the plan's limits. Never asserts.
+// DECIDE_TRACE=1 prints every 10th look of every unit (what is pending).
 #include <algorithm>
 #include <atomic>
 #include <cctype>
