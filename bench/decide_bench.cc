@@ -34,6 +34,7 @@
 #include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
 #include "analyze/service/run_analyzer.h"
+#include "store/cli/plan_soak_command.h"
 
 namespace imuqual {
 namespace {
@@ -195,26 +196,18 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "decide_bench: unit %d could not be set up\n", i);
         continue;
       }
-      std::vector<std::vector<float>> samples(desc.axes.size());
-      int64_t counter = 0, early_end = -1;
-      const int batch = static_cast<int>(rate);  // 1 s batches
-      for (int64_t seq = 0; counter < total; ++seq) {
-        const int n = static_cast<int>(std::min<int64_t>(batch, total - counter));
-        for (auto& s : samples) s.clear();
-        simulator->Generate(n, samples);
-        analyze::BatchView view;
-        view.seq = seq;
-        view.first_sample = counter;
-        view.nominal_rate_hz = rate;
-        for (const auto& s : samples) view.samples.emplace_back(s);
+      int64_t early_end = -1;
+      cli::FeedSimulatedRecord(*simulator, rate, total, [&](const analyze::BatchView& view) {
         (void)full->AddBatch(view);
         if (early_end < 0) {
           (void)early->AddBatch(view);
           // The station stops the source once the unit is decided.
-          if (early->decided()) early_end = counter + n;
+          if (early->decided()) {
+            early_end = view.first_sample + static_cast<int64_t>(view.samples[0].size());
+          }
         }
-        counter += n;
-      }
+        return true;
+      });
       full->Finish(0, total);
       early->Finish(0, early_end < 0 ? total : early_end);
       const analyze::RunOutcome f = full->Outcome(true);

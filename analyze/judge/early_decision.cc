@@ -497,16 +497,10 @@ Judgement JudgeDecided(const pb::TestPlan& plan, const std::vector<AxisDesc>& ax
   }
   decider.ApplyTo(measurements);
   Judgement j;
-  bool any = false, fail = false, inconclusive = false, marginal = false;
   for (size_t i = 0; i < measurements->size(); ++i) {
     const pb::Measurement& m = (*measurements)[i];
     const pb::Outcome o = m.outcome();
-    if (o == pb::OUTCOME_UNSET) continue;
-    any = true;
-    fail |= o == pb::FAIL;
-    inconclusive |= o == pb::INCONCLUSIVE;
-    marginal |= o == pb::MARGINAL;
-    if (o == pb::PASS) continue;
+    if (o == pb::OUTCOME_UNSET || o == pb::PASS) continue;
     const Decision d = decider.MeasurementDecision(m.axis(), m.name());
     if (d == Decision::kPending || o == pb::MARGINAL) {
       if (!reasons[i].empty()) j.reasons.push_back(reasons[i]);
@@ -516,11 +510,7 @@ Judgement JudgeDecided(const pb::TestPlan& plan, const std::vector<AxisDesc>& ax
       j.reasons.push_back(Who(m) + ": " + (at == std::string::npos ? note : note.substr(at)));
     }
   }
-  j.verdict = !any ? pb::OUTCOME_UNSET
-              : fail         ? pb::FAIL
-              : inconclusive ? pb::INCONCLUSIVE
-              : marginal     ? pb::MARGINAL
-                             : pb::PASS;
+  j.verdict = VerdictOf(*measurements);
   return j;
 }
 

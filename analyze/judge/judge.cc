@@ -325,7 +325,6 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
   }
 
   Judgement j;
-  bool any_judged = false, any_fail = false, any_inconclusive = false, any_marginal = false;
   for (pb::Measurement& m : *measurements) {
     const AxisDesc* axis = m.axis().empty() ? nullptr : FindAxis(axes, m.axis());
     const pb::Limit* limit = FindLimit(effective, m.name(), axis);
@@ -337,18 +336,27 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
     }
     std::string reason;
     JudgeMeasurement(effective, *limit, &m, &reason);
-    any_judged = true;
-    any_fail |= m.outcome() == pb::FAIL;
-    any_inconclusive |= m.outcome() == pb::INCONCLUSIVE;
-    any_marginal |= m.outcome() == pb::MARGINAL;
     if (!reason.empty()) j.reasons.push_back(reason);
   }
-  j.verdict = !any_judged        ? pb::OUTCOME_UNSET
-              : any_fail         ? pb::FAIL
-              : any_inconclusive ? pb::INCONCLUSIVE
-              : any_marginal     ? pb::MARGINAL
-                                 : pb::PASS;
+  j.verdict = VerdictOf(*measurements);
   return j;
+}
+
+pb::Outcome VerdictOf(const std::vector<pb::Measurement>& measurements) {
+  bool any = false, fail = false, inconclusive = false, marginal = false;
+  for (const pb::Measurement& m : measurements) {
+    const pb::Outcome o = m.outcome();
+    if (o == pb::OUTCOME_UNSET) continue;
+    any = true;
+    fail |= o == pb::FAIL;
+    inconclusive |= o == pb::INCONCLUSIVE;
+    marginal |= o == pb::MARGINAL;
+  }
+  return !any           ? pb::OUTCOME_UNSET
+         : fail         ? pb::FAIL
+         : inconclusive ? pb::INCONCLUSIVE
+         : marginal     ? pb::MARGINAL
+                        : pb::PASS;
 }
 
 }  // namespace imuqual::judge

@@ -78,6 +78,11 @@ const pb::Limit* FindLimit(const pb::TestPlan& plan, const std::string& name, co
 Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
                 std::vector<pb::Measurement>* measurements);
 
+// The verdict of judged measurements: FAIL if any FAILs, else INCONCLUSIVE if
+// any is, else MARGINAL if any is, else PASS; UNSET when none was judged
+// (every outcome OUTCOME_UNSET).
+pb::Outcome VerdictOf(const std::vector<pb::Measurement>& measurements);
+
 // "PASS", "MARGINAL", "FAIL", "INCONCLUSIVE", "ABORTED", "ERROR", "-".
 const char* OutcomeName(pb::Outcome outcome);
 

@@ -181,6 +181,26 @@ double Percentile(std::vector<double> v, double p) {
 
 }  // namespace
 
+int64_t FeedSimulatedRecord(sim::ImuSimulator& simulator, double rate_hz, int64_t total,
+                            const std::function<bool(const analyze::BatchView&)>& consume) {
+  std::vector<std::vector<float>> samples(simulator.num_axes());
+  const int batch = std::max(1, static_cast<int>(rate_hz));
+  int64_t counter = 0;
+  for (int64_t seq = 0; counter < total; ++seq) {
+    const int n = static_cast<int>(std::min<int64_t>(batch, total - counter));
+    for (auto& s : samples) s.clear();
+    simulator.Generate(n, samples);
+    analyze::BatchView view;
+    view.seq = seq;
+    view.first_sample = counter;
+    view.nominal_rate_hz = rate_hz;
+    for (const auto& s : samples) view.samples.emplace_back(s);
+    counter += n;
+    if (!consume(view)) break;
+  }
+  return counter;
+}
+
 Result<std::vector<SoakRecord>> SimulateSoaks(const pb::TestPlan& plan,
                                               const std::vector<pb::SimTruth>& truths,
                                               const std::vector<std::string>& names, int records,
@@ -223,21 +243,10 @@ Result<std::vector<SoakRecord>> SimulateSoaks(const pb::TestPlan& plan,
         failed = true;
         return;
       }
-      std::vector<std::vector<float>> samples(desc.axes.size());
-      int64_t counter = 0;
-      const int batch = std::max(1, static_cast<int>(rate));
-      for (int64_t seq = 0; counter < total && !analyzer->decided(); ++seq) {
-        const int n = static_cast<int>(std::min<int64_t>(batch, total - counter));
-        for (auto& s : samples) s.clear();
-        simulator->Generate(n, samples);
-        analyze::BatchView view;
-        view.seq = seq;
-        view.first_sample = counter;
-        view.nominal_rate_hz = rate;
-        for (const auto& s : samples) view.samples.emplace_back(s);
+      FeedSimulatedRecord(*simulator, rate, total, [&](const analyze::BatchView& view) {
         (void)analyzer->AddBatch(view);
-        counter += n;
-      }
+        return !analyzer->decided();
+      });
       const analyze::RunOutcome o = analyzer->Outcome(false);
       SoakRecord& r = out[i];
       r.unit = names[u];

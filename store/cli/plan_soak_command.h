@@ -23,8 +23,12 @@
 #define IMUQUAL_STORE_CLI_PLAN_SOAK_COMMAND_H_
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
+
+#include "acquire/imu_simulator.h"
+#include "analyze/service/run_analyzer.h"
 
 #include "common/status.h"
 #include "imuqual/plan.pb.h"
@@ -58,6 +62,12 @@ Result<std::vector<SoakRecord>> SimulateSoaks(const pb::TestPlan& plan,
                                               const std::vector<pb::SimTruth>& truths,
                                               const std::vector<std::string>& names, int records,
                                               uint64_t seed, int threads);
+
+// Feeds up to `total` samples of `simulator` in batches of one second at
+// `rate_hz` (device counter from 0) to `consume`, which returns false to
+// stop (e.g. once its analysis is decided). Returns the samples fed.
+int64_t FeedSimulatedRecord(sim::ImuSimulator& simulator, double rate_hz, int64_t total,
+                            const std::function<bool(const analyze::BatchView&)>& consume);
 
 int PlanSoakCommand(const PlanSoakOptions& options);
 
