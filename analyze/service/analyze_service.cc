@@ -218,7 +218,8 @@ struct AnalyzeService::Impl {
   void Tick(double now);
   void TickRun(const std::string& run_id, RunEntry& e, double now);
   void StartAnalyzer(RunEntry& e);
-  void ProcessHeld(RunEntry& e);
+  // `now`: when the early decisions a batch completes are announced.
+  void ProcessHeld(RunEntry& e, double now);
   // Early decisions: the run's state on decision_t after each new look, at
   // once when the unit is decided, and the decided state again every
   // interim period until the run ends.
@@ -383,7 +384,7 @@ void AnalyzeService::Impl::OnBatch(imuqual::rate_batch_t&& batch, double now) {
 
 // Processes held batches that are now in order (everything below the
 // tracker's frontier has arrived or was given up).
-void AnalyzeService::Impl::ProcessHeld(RunEntry& e) {
+void AnalyzeService::Impl::ProcessHeld(RunEntry& e, double now) {
   if (!e.analyzer) {
     // A run that cannot be analysed (its description is unusable): its
     // batches are counted and let go, so its acks move and it can finish
@@ -414,6 +415,7 @@ void AnalyzeService::Impl::ProcessHeld(RunEntry& e) {
     } else {
       ++batches_processed;
       ++e.processed_since_interim;
+      AnnounceDecision(e, now);  // a look this batch completed, before the next
     }
     e.held.erase(e.held.begin());
   }
@@ -635,8 +637,8 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
     LogWarning("run " + run_id + ": batches " + std::to_string(r.first) + ".." +
                std::to_string(r.last) + " were not resent; analysing them as a gap");
   }
-  ProcessHeld(e);
-  AnnounceDecision(e, now);
+  ProcessHeld(e, now);
+  AnnounceDecision(e, now);  // the decided state again, every interim period
   if (e.tracker.complete() && e.held.empty()) {
     Finish(run_id, e, now);
     return;
