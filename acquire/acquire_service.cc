@@ -149,7 +149,7 @@ struct AcquireService::Impl {
   // Counters.
   int64_t published = 0, resent = 0, resend_misses = 0, injected_drops = 0, injected_bitflips = 0,
           acks = 0, resend_requests = 0, publish_errors = 0, evicted_unacknowledged = 0,
-          runs_decided = 0, stale_decisions = 0;
+          runs_decided = 0, stale_decisions = 0, decisions_dropped = 0;
   double last_resend_request_s = 0;
   ThrottledLog publish_log;
   ThrottledLog retention_log;
@@ -609,6 +609,7 @@ Counters AcquireService::Impl::StatusCounters() const {
                   {"evicted_unacknowledged", evicted_unacknowledged},
                   {"runs_decided", runs_decided},
                   {"stale_decisions", stale_decisions},
+                  {"decisions_dropped", decisions_dropped},
                   {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
                   {"messages_damaged", static_cast<int64_t>(bus->damaged())}};
   for (const auto& [name, value] : sources) out.emplace_back(name, value);
@@ -635,7 +636,12 @@ Status AcquireService::Run() {
       channels::kDecisionAll, 1000, [&s](const std::string&, imuqual::decision_t&& d, int64_t) {
         const bool decided = d.state == imuqual::decision_t::STATE_PASS ||
                              d.state == imuqual::decision_t::STATE_FAIL;
-        if (decided && s.decision_queue.size() < 10000) s.decision_queue.push_back(std::move(d));
+        if (!decided) return;
+        if (s.decision_queue.size() >= 10000) {
+          ++s.decisions_dropped;  // analyze says it again every interim period
+          return;
+        }
+        s.decision_queue.push_back(std::move(d));
       });
   // The store's announcements carry each run's judgement round.
   s.bus->Subscribe<imuqual::run_t>(

@@ -46,6 +46,11 @@ constexpr double kFirstRepublishS = 2.0;
 constexpr double kMaxRepublishPeriodS = 30.0;
 constexpr double kResultRetentionS = 1800.0;
 constexpr size_t kMaxHeldBeforeRunInfo = 4096;
+// decision_t's pending reasons: at most this many, each at most this long,
+// so that the message stays well within one 64 KB datagram (a plan judges a
+// few measurements per axis).
+constexpr size_t kMaxPendingReasons = 64;
+constexpr size_t kMaxPendingReasonBytes = 400;
 
 // measurement_t's OUTCOME_*, QUALIFIER_* and RULE_* codes are the numbers
 // of pb::Outcome, pb::Qualifier and pb::Limit::DecisionRule.
@@ -149,10 +154,18 @@ imuqual::decision_t DecisionMessage(const imuqual::run_t& run, int revision,
   msg.z = d.looks().empty() ? allan::kNaN : d.looks().back().z;
   if (!d.looks().empty()) {
     for (const judge::LookEntry& entry : d.looks().back().entries) {
-      if (entry.decision == judge::Decision::kPending) msg.pending.push_back(PendingReason(entry));
+      if (entry.decision != judge::Decision::kPending) continue;
+      if (msg.pending.size() == kMaxPendingReasons) break;
+      std::string reason = PendingReason(entry);
+      if (reason.size() > kMaxPendingReasonBytes) {
+        // Cut on a UTF-8 character boundary (the reasons carry '±').
+        size_t cut = kMaxPendingReasonBytes - 3;
+        while (cut > 0 && (static_cast<unsigned char>(reason[cut]) & 0xC0) == 0x80) --cut;
+        reason = reason.substr(0, cut) + "...";
+      }
+      msg.pending.push_back(std::move(reason));
     }
   }
-  msg.pending.resize(std::min<size_t>(msg.pending.size(), 1000));  // well within a datagram's worth
   msg.num_pending = static_cast<int16_t>(msg.pending.size());
   return msg;
 }

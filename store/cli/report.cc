@@ -190,6 +190,7 @@ constexpr Label kLabels[] = {
     {judge::kGapFraction, "Gap fraction"},
     {judge::kInvalidFraction, "Invalid fraction"},
     {judge::kDuration, "Analysed duration"},
+    {judge::kDecisionTime, "Decision time (early decisions)"},
 };
 
 size_t LabelIndex(std::string_view name) {
