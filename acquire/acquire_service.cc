@@ -149,10 +149,11 @@ struct AcquireService::Impl {
   // Counters.
   int64_t published = 0, resent = 0, resend_misses = 0, injected_drops = 0, injected_bitflips = 0,
           acks = 0, resend_requests = 0, publish_errors = 0, evicted_unacknowledged = 0,
-          runs_decided = 0, stale_decisions = 0, decisions_dropped = 0;
+          runs_decided = 0, decisions_ignored = 0, decisions_dropped = 0;
   double last_resend_request_s = 0;
   ThrottledLog publish_log;
   ThrottledLog retention_log;
+  ThrottledLog decision_log;
   std::string retention_warning;  // the last batches dropped unacknowledged
   double retention_warning_s = -1e300;
   std::vector<std::string> failures;  // runs whose source failed, with why
@@ -361,7 +362,8 @@ void AcquireService::Impl::OnStoreRun(const imuqual::run_t& r) {
 // ends complete, with every batch published so far kept for resends as
 // usual (the analysis used those up to decision_t.end_sample; the rest is
 // archived, not analysed). Only a decision of the run's current judgement
-// round counts.
+// round counts, and only for a plan with early decisions (the analysis
+// sends none otherwise: one that says so is not about this run's plan).
 void AcquireService::Impl::EndDecidedRuns() {
   while (!decision_queue.empty()) {
     const imuqual::decision_t d = std::move(decision_queue.front());
@@ -370,8 +372,13 @@ void AcquireService::Impl::EndDecidedRuns() {
       if (run.run_id != d.run_id || run.state != imuqual::run_t::STATE_RUNNING || run.source_done) {
         continue;
       }
-      if (d.revision < run.revision_heard) {
-        ++stale_decisions;
+      if (d.revision < run.revision_heard || !options.plan.has_early_decision()) {
+        ++decisions_ignored;
+        const std::string why = options.plan.has_early_decision()
+                                    ? "judgement round " + std::to_string(d.revision) +
+                                          ", the run is at " + std::to_string(run.revision_heard)
+                                    : std::string("the run's plan has no early_decision");
+        decision_log.Warning("run " + run.run_id + ": decision ignored (" + why + ")");
         continue;
       }
       run.unit.source->Stop();
@@ -608,7 +615,7 @@ Counters AcquireService::Impl::StatusCounters() const {
                   {"publish_errors", publish_errors},
                   {"evicted_unacknowledged", evicted_unacknowledged},
                   {"runs_decided", runs_decided},
-                  {"stale_decisions", stale_decisions},
+                  {"decisions_ignored", decisions_ignored},
                   {"decisions_dropped", decisions_dropped},
                   {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
                   {"messages_damaged", static_cast<int64_t>(bus->damaged())}};

@@ -18,10 +18,14 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "acquire/imu_simulator.h"
+#include "common/channels.h"
+#include "common/clock.h"
 #include "common/text_util.h"
+#include "imuqual/decision_t.hpp"
 #include "store/archive.h"
 #include "tests/archive_checks.h"
 #include "tests/csv_table.h"
@@ -167,6 +171,12 @@ TEST(EarlyDecisionTest, DecidedUnitsEndAtTheirDecisionAndArchiveCleanly) {
   std::ofstream(plan) << kSimPlan;
   Subprocess store = h.StartStore();
   Subprocess analyze = h.StartAnalyze();
+  std::map<std::string, std::vector<imuqual::decision_t>> heard;  // run id -> decision_t
+  h.bus().Subscribe<imuqual::decision_t>(
+      channels::kDecisionAll, 10000,
+      [&heard](const std::string&, imuqual::decision_t&& d, int64_t) {
+        heard[d.run_id].push_back(std::move(d));
+      });
   std::vector<std::string> args = AcquireArgs("EARLY", "SIM", plan);
   // Lot seed 2: unit 1 is a good one, unit 7 the planted failure; under the
   // lot's own seed (from "EARLY") the planted unit lies near 20 deg/h.
@@ -198,6 +208,41 @@ TEST(EarlyDecisionTest, DecidedUnitsEndAtTheirDecisionAndArchiveCleanly) {
             0u)
       << slow.decision_note;
   EXPECT_EQ(slow.verdict, "FAIL");  // the full-length verdict
+  // AND the analysis said so on the bus: a PENDING state after every look
+  // before the decision, then the decision, with the device counter where
+  // its analysis stopped (a simulated unit counts from 0).
+  for (const ArchivedRun* r : {&good, &bad}) {
+    SCOPED_TRACE(r->run_id);
+    const auto& messages = heard[r->run_id];
+    ASSERT_FALSE(messages.empty());
+    const imuqual::decision_t& last = messages.back();
+    EXPECT_EQ(last.state, r == &good ? imuqual::decision_t::STATE_PASS
+                                     : imuqual::decision_t::STATE_FAIL);
+    EXPECT_EQ(last.decided_at_s, r->decision_time_s);
+    EXPECT_EQ(last.end_sample, std::llround((kWarmupS + r->decision_time_s) * kRateHz));
+    EXPECT_EQ(last.looks_planned, kSimLooks);
+    const int deciding_look = static_cast<int>(std::lround((r->decision_time_s - 60) / 20)) + 1;
+    EXPECT_EQ(last.looks_done, deciding_look);
+    EXPECT_TRUE(std::isfinite(last.z) && last.z > 0) << last.z;
+    EXPECT_EQ(last.revision, 0);
+    std::set<int> pending_looks;
+    for (const imuqual::decision_t& d : messages) {
+      if (d.state == imuqual::decision_t::STATE_PENDING) pending_looks.insert(d.looks_done);
+    }
+    EXPECT_EQ(pending_looks.size(), static_cast<size_t>(deciding_look - 1));
+  }
+  {
+    const auto& messages = heard["SIM-SLOW"];
+    ASSERT_FALSE(messages.empty());
+    const imuqual::decision_t& last = messages.back();
+    EXPECT_EQ(last.state, imuqual::decision_t::STATE_PENDING);
+    EXPECT_EQ(last.looks_done, kSimLooks);
+    ASSERT_GT(last.num_pending, 0);
+    for (const std::string& why : last.pending) {
+      EXPECT_TRUE(why.starts_with("x: ") || why.starts_with("y: ") || why.starts_with("z: "))
+          << why;
+    }
+  }
   // AND both sides counted it: not vacuous.
   EXPECT_EQ(h.WaitCounter("acquire", "runs_decided", 2, 10), 2);
   EXPECT_EQ(h.WaitCounter("analyze", "runs_decided", 2, 10), 2);
@@ -307,14 +352,35 @@ TEST(EarlyDecisionTest, ReplayedRecordingGetsTheSameVerdictAndSaysWhenItWasDecid
   Subprocess store = h.StartStore();
   Subprocess analyze = h.StartAnalyze();
   const std::string source = "R1=csv:" + csv + ",rate=100,counter=count,axes=gx:gyro/gy:gyro/gz:gyro";
+  int64_t forged_ignored = -1;
   for (const auto& [prefix, plan] : {std::pair<std::string, std::string>{"FULL", full_plan},
                                      {"EARLY", early_plan}}) {
     std::vector<std::string> args = AcquireArgs("CSV", prefix, plan);
     args.insert(args.end(), {"--unit", source});
     Subprocess acquire = h.Start("imuqual-acquire", args);
-    ASSERT_TRUE(h.WaitRunsDone(prefix == "FULL" ? 1 : 2, kRunTimeoutS)) << h.Logs();
+    const size_t done = prefix == "FULL" ? 1 : 2;
+    if (prefix == "FULL") {
+      // A decision for a run whose plan has no early_decision (none is ever
+      // sent; here forged) stops nothing.
+      imuqual::decision_t forged{};
+      forged.run_id = "FULL-R1";
+      forged.unit_serial = "R1";
+      forged.state = imuqual::decision_t::STATE_PASS;
+      forged.decided_at_s = 60;
+      const double end = MonotonicSeconds() + kRunTimeoutS;
+      while (!h.WaitRunsDone(done, 0.2) && MonotonicSeconds() < end) {
+        forged.host_utime = NowUtime();
+        ASSERT_TRUE(h.bus().Publish(channels::Decision("R1"), forged).ok());
+      }
+    }
+    ASSERT_TRUE(h.WaitRunsDone(done, kRunTimeoutS)) << h.Logs();
     EXPECT_EQ(acquire.Wait(30), 0) << h.Logs();
+    if (prefix == "FULL") {
+      h.Pump(300);  // acquire's last status
+      forged_ignored = h.CounterOf(acquire.pid(), "decisions_ignored");
+    }
   }
+  EXPECT_GT(forged_ignored, 0) << "the forged decisions never reached acquire: the test is vacuous";
   const auto runs = ReadRuns(h.db());
   ASSERT_EQ(runs.size(), 2u);
   const ArchivedRun& full = runs.at("FULL-R1");
