@@ -46,6 +46,7 @@ constexpr double kRunTimeoutS = 240;  // bound on a soak (each takes a few secon
 // The station test's short-soak limits (no tau_at_minimum limit: resolving
 // a 10-20 s minimum takes most of a 600 s record), decided at looks every
 // 20 s from 60 s over the 600 s soak.
+// clang-format off
 constexpr char kSimPlan[] = R"pb(
 name: "early-itest"
 axes { name: "x" kind: GYRO }
@@ -60,6 +61,7 @@ limits { measurement: "angle_random_walk" axis_kind: GYRO high: 0.6 marginal_hig
 limits { measurement: "gap_fraction" high: 0.001 unit: "1" }
 early_decision { risk: 0.01 min_duration_s: 60 look_period_s: 20 horizon_s: 600 }
 )pb";
+// clang-format on
 constexpr double kSimHorizonS = 600;
 constexpr int kSimLooks = 27;  // 60, 80, ..., 580 s
 
@@ -67,9 +69,9 @@ constexpr int kSimLooks = 27;  // 60, 80, ..., 580 s
 // of the analysis, so a decided unit's source stops long before its end.
 std::vector<std::string> AcquireArgs(const std::string& lot, const std::string& prefix,
                                      const std::string& plan) {
-  return {"--lot",   lot,       "--run-prefix",    prefix, "--plan",   plan,
-          "--await", "store,analyze", "--batch-samples", "100",  "--window", "8",
-          "--rate",  "100"};
+  return {
+      "--lot",           lot,   "--run-prefix", prefix, "--plan", plan, "--await", "store,analyze",
+      "--batch-samples", "100", "--window",     "8",    "--rate", "100"};
 }
 
 // As acquire and the analysis write times: %g.
@@ -141,8 +143,8 @@ void ExpectDecided(const ArchivedRun& r, const std::string& word, double full_s)
   EXPECT_EQ(r.state, "complete") << r.reasons;
   ASSERT_TRUE(r.has_decision_time);
   ASSERT_TRUE(std::isfinite(r.decision_time_s)) << r.decision_note;
-  EXPECT_EQ(r.end_reason, "decided " + word + " at " + FormatG(r.decision_time_s) +
-                              " s (early decision)");
+  EXPECT_EQ(r.end_reason,
+            "decided " + word + " at " + FormatG(r.decision_time_s) + " s (early decision)");
   EXPECT_EQ(r.decision_note.rfind("decided " + word + " at look ", 0), 0u) << r.decision_note;
   EXPECT_EQ(r.samples, std::llround(r.decision_time_s * kRateHz));
   EXPECT_LT(r.samples_announced, std::llround((kWarmupS + full_s) * kRateHz))
@@ -160,7 +162,6 @@ void ExpectDecided(const ArchivedRun& r, const std::string& word, double full_s)
     EXPECT_TRUE(r.verdict == "PASS" || r.verdict == "MARGINAL") << r.verdict;
   }
 }
-
 
 // GIVEN a clearly good unit, the lot's planted failure and a planted failure
 // too near its limit for any look to decide, soaked together under a plan
@@ -202,9 +203,8 @@ TEST(EarlyDecisionTest, DecidedUnitsEndAtTheirDecisionAndArchiveCleanly) {
   EXPECT_EQ(slow.samples, std::llround(kSimHorizonS * kRateHz));
   ASSERT_TRUE(slow.has_decision_time);
   EXPECT_TRUE(std::isnan(slow.decision_time_s));
-  EXPECT_EQ(slow.decision_note.rfind("pending at every one of " + std::to_string(kSimLooks) +
-                                         " looks",
-                                     0),
+  EXPECT_EQ(slow.decision_note.rfind(
+                "pending at every one of " + std::to_string(kSimLooks) + " looks", 0),
             0u)
       << slow.decision_note;
   EXPECT_EQ(slow.verdict, "FAIL");  // the full-length verdict
@@ -216,8 +216,8 @@ TEST(EarlyDecisionTest, DecidedUnitsEndAtTheirDecisionAndArchiveCleanly) {
     const auto& messages = heard[r->run_id];
     ASSERT_FALSE(messages.empty());
     const imuqual::decision_t& last = messages.back();
-    EXPECT_EQ(last.state, r == &good ? imuqual::decision_t::STATE_PASS
-                                     : imuqual::decision_t::STATE_FAIL);
+    EXPECT_EQ(last.state,
+              r == &good ? imuqual::decision_t::STATE_PASS : imuqual::decision_t::STATE_FAIL);
     EXPECT_EQ(last.decided_at_s, r->decision_time_s);
     EXPECT_EQ(last.end_sample, std::llround((kWarmupS + r->decision_time_s) * kRateHz));
     EXPECT_EQ(last.looks_planned, kSimLooks);
@@ -258,7 +258,8 @@ TEST(EarlyDecisionTest, DecidedUnitsEndAtTheirDecisionAndArchiveCleanly) {
 
   // AND the lot's table says when each unit was decided, and the soak time
   // the decisions saved: horizon - decision time over the decided runs.
-  const double saved_s = (kSimHorizonS - good.decision_time_s) + (kSimHorizonS - bad.decision_time_s);
+  const double saved_s =
+      (kSimHorizonS - good.decision_time_s) + (kSimHorizonS - bad.decision_time_s);
   const auto table = RunCommand(Bin("imuqual") + " lot EARLY --db " + h.db());
   ASSERT_EQ(table.exit_code, 0) << table.output;
   EXPECT_NE(table.output.find("decided at"), std::string::npos) << table.output;
@@ -284,14 +285,17 @@ TEST(EarlyDecisionTest, DecidedUnitsEndAtTheirDecisionAndArchiveCleanly) {
   EXPECT_EQ(checked, 6);  // 3 axes each
   // AND so does the report, per unit and for the lot.
   const std::string html = h.path("report.html");
-  ASSERT_EQ(RunCommand(Bin("imuqual") + " report --db " + h.db() + " --lot EARLY -o " + html).exit_code, 0);
+  ASSERT_EQ(
+      RunCommand(Bin("imuqual") + " report --db " + h.db() + " --lot EARLY -o " + html).exit_code,
+      0);
   auto page = ReadFileToString(html);
   ASSERT_TRUE(page.ok());
   EXPECT_NE(page->find("<section id=\"early-decisions\""), std::string::npos);
   EXPECT_NE(page->find("data-field=\"soak_saved_s\" data-v=\"" + Exact(saved_s) + "\""),
             std::string::npos);
-  EXPECT_NE(page->find("data-run=\"SIM-BAD\" data-decision-time=\"" + Exact(bad.decision_time_s) + "\""),
-            std::string::npos);
+  EXPECT_NE(
+      page->find("data-run=\"SIM-BAD\" data-decision-time=\"" + Exact(bad.decision_time_s) + "\""),
+      std::string::npos);
 }
 
 // A recorded unit: three gyro axes of a tactical part (ARW 0.36 deg/sqrt(h),
@@ -322,6 +326,7 @@ void WriteRecording(const std::string& path, int rows) {
   }
 }
 
+// clang-format off
 constexpr char kCsvPlan[] = R"pb(
 name: "csv-itest"
 axes { name: "gx" kind: GYRO }
@@ -335,6 +340,7 @@ limits { measurement: "bias_instability" axis_kind: GYRO high: 20 marginal_high:
 limits { measurement: "angle_random_walk" axis_kind: GYRO high: 0.6 marginal_high: 0.5 unit: "deg/sqrt(h)" }
 limits { measurement: "gap_fraction" high: 0.001 unit: "1" }
 )pb";
+// clang-format on
 constexpr double kCsvSoakS = 1200;
 // Looks every 30 s from 60 s; the horizon is the plan's 1200 s soak.
 constexpr char kCsvEarly[] = "early_decision { risk: 0.01 min_duration_s: 60 look_period_s: 30 }\n";
@@ -351,10 +357,11 @@ TEST(EarlyDecisionTest, ReplayedRecordingGetsTheSameVerdictAndSaysWhenItWasDecid
   std::ofstream(early_plan) << kCsvPlan << kCsvEarly;
   Subprocess store = h.StartStore();
   Subprocess analyze = h.StartAnalyze();
-  const std::string source = "R1=csv:" + csv + ",rate=100,counter=count,axes=gx:gyro/gy:gyro/gz:gyro";
+  const std::string source =
+      "R1=csv:" + csv + ",rate=100,counter=count,axes=gx:gyro/gy:gyro/gz:gyro";
   int64_t forged_ignored = -1;
-  for (const auto& [prefix, plan] : {std::pair<std::string, std::string>{"FULL", full_plan},
-                                     {"EARLY", early_plan}}) {
+  for (const auto& [prefix, plan] :
+       {std::pair<std::string, std::string>{"FULL", full_plan}, {"EARLY", early_plan}}) {
     std::vector<std::string> args = AcquireArgs("CSV", prefix, plan);
     args.insert(args.end(), {"--unit", source});
     Subprocess acquire = h.Start("imuqual-acquire", args);
@@ -394,7 +401,8 @@ TEST(EarlyDecisionTest, ReplayedRecordingGetsTheSameVerdictAndSaysWhenItWasDecid
   // verdict as the full-length soak.
   ASSERT_TRUE(full.verdict == "PASS" || full.verdict == "MARGINAL") << full.reasons;
   ExpectDecided(early, "PASS", kCsvSoakS);
-  EXPECT_EQ(early.verdict, full.verdict) << "early: " << early.reasons << "\nfull: " << full.reasons;
+  EXPECT_EQ(early.verdict, full.verdict)
+      << "early: " << early.reasons << "\nfull: " << full.reasons;
   // AND both are archived whole and re-analyse bit for bit.
   ExpectSoakArchivedWhole(h.db(), 2, 3);
   // AND the unit's history says when the early run was decided, and that

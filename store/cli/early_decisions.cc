@@ -35,8 +35,8 @@ ORDER BY r.start_utime, r.run_id)sql");
     const std::vector<uint8_t> bytes = s->Blob(4);
     if (!plan.ParseFromArray(bytes.data(), static_cast<int>(bytes.size())) ||
         !plan.has_early_decision()) {
-      return Status::Corruption("run " + r.run_id +
-                                ": has a decision time, but its archived plan has no early_decision");
+      return Status::Corruption(
+          "run " + r.run_id + ": has a decision time, but its archived plan has no early_decision");
     }
     r.horizon_s = judge::MakeLookSchedule(plan).horizon_s;
     r.decision_time_s = s->Real(5);
@@ -78,13 +78,12 @@ std::string DecisionTimeText(double seconds) {
 std::string EarlyDecisionLine(const EarlyDecisionSummary& s) {
   if (s.runs.empty()) return "";
   char buf[256];
-  std::snprintf(buf, sizeof buf,
-                "early decisions: %d of %zu runs decided; soak time saved %g s (%s) of %g s "
-                "(%.0f %%); median decided / full soak %.2f",
-                s.decided, s.runs.size(), s.saved_s, DecisionTimeText(s.saved_s).c_str(),
-                s.horizon_total_s,
-                s.horizon_total_s > 0 ? 100.0 * s.saved_s / s.horizon_total_s : 0.0,
-                s.median_ratio);
+  std::snprintf(
+      buf, sizeof buf,
+      "early decisions: %d of %zu runs decided; soak time saved %g s (%s) of %g s "
+      "(%.0f %%); median decided / full soak %.2f",
+      s.decided, s.runs.size(), s.saved_s, DecisionTimeText(s.saved_s).c_str(), s.horizon_total_s,
+      s.horizon_total_s > 0 ? 100.0 * s.saved_s / s.horizon_total_s : 0.0, s.median_ratio);
   return buf;
 }
 
