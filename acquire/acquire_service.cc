@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <deque>
 #include <limits>
@@ -20,6 +21,7 @@
 #include "common/text_util.h"
 #include "common/version.h"
 #include "imuqual/ack_t.hpp"
+#include "imuqual/decision_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
 #include "imuqual/run_t.hpp"
@@ -85,7 +87,19 @@ struct RunState {
   double last_ack_progress_s = 0;
   Retention retained;
   imuqual::run_t announcement;
+  // The run's judgement round as the store announces it (run_t.revision of
+  // its announcements): a decision of an older round is stale.
+  int revision_heard = 0;
 };
+
+// "decided PASS at 740 s (early decision)": run_t.end_reason of a run ended
+// by its unit's early decision.
+std::string DecidedEndReason(const imuqual::decision_t& d) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "decided %s at %g s (early decision)",
+                d.state == imuqual::decision_t::STATE_FAIL ? "FAIL" : "PASS", d.decided_at_s);
+  return buf;
+}
 
 }  // namespace
 
@@ -131,12 +145,15 @@ struct AcquireService::Impl {
   sim::Random drop_rng{1};
   sim::Random bitflip_rng{2};
   std::deque<imuqual::resend_t> resend_queue;
+  std::deque<imuqual::decision_t> decision_queue;  // PASS/FAIL decisions for the loop
   // Counters.
   int64_t published = 0, resent = 0, resend_misses = 0, injected_drops = 0, injected_bitflips = 0,
-          acks = 0, resend_requests = 0, publish_errors = 0, evicted_unacknowledged = 0;
+          acks = 0, resend_requests = 0, publish_errors = 0, evicted_unacknowledged = 0,
+          runs_decided = 0, decisions_ignored = 0, decisions_dropped = 0;
   double last_resend_request_s = 0;
   ThrottledLog publish_log;
   ThrottledLog retention_log;
+  ThrottledLog decision_log;
   std::string retention_warning;  // the last batches dropped unacknowledged
   double retention_warning_s = -1e300;
   std::vector<std::string> failures;  // runs whose source failed, with why
@@ -154,7 +171,11 @@ struct AcquireService::Impl {
   // Publishes the run's announcement `times` times; failures are counted.
   void Announce(RunState& run, int times = 1);
   void OnAck(const imuqual::ack_t& ack);
+  // A store's announcement: the judgement round of one of our runs.
+  void OnStoreRun(const imuqual::run_t& run);
   Status ServeResends();
+  // Ends every running run whose unit a queued decision decided.
+  void EndDecidedRuns();
   void Prune(double now_s);
   bool GateOpen(const RunState& run) const;
   bool AllAcknowledged() const;
@@ -327,6 +348,49 @@ void AcquireService::Impl::OnAck(const imuqual::ack_t& ack) {
       run.last_ack_progress_s = MonotonicSeconds();
     }
     return;
+  }
+}
+
+void AcquireService::Impl::OnStoreRun(const imuqual::run_t& r) {
+  if (r.announcer != "store") return;
+  for (RunState& run : runs) {
+    if (run.run_id == r.run_id) run.revision_heard = std::max<int>(run.revision_heard, r.revision);
+  }
+}
+
+// A decided unit needs no more samples: its source is stopped and its run
+// ends complete, with every batch published so far kept for resends as
+// usual (the analysis used those up to decision_t.end_sample; the rest is
+// archived, not analysed). Only a decision of the run's current judgement
+// round counts, and only for a plan with early decisions (the analysis
+// sends none otherwise: one that says so is not about this run's plan).
+void AcquireService::Impl::EndDecidedRuns() {
+  while (!decision_queue.empty()) {
+    const imuqual::decision_t d = std::move(decision_queue.front());
+    decision_queue.pop_front();
+    for (RunState& run : runs) {
+      if (run.run_id != d.run_id || run.state != imuqual::run_t::STATE_RUNNING || run.source_done) {
+        continue;
+      }
+      if (d.revision < run.revision_heard || !options.plan.has_early_decision()) {
+        ++decisions_ignored;
+        const std::string why = options.plan.has_early_decision()
+                                    ? "judgement round " + std::to_string(d.revision) +
+                                          ", the run is at " + std::to_string(run.revision_heard)
+                                    : std::string("the run's plan has no early_decision");
+        decision_log.Warning("run " + run.run_id + ": decision ignored (" + why + ")");
+        continue;
+      }
+      run.unit.source->Stop();
+      run.source_done = true;
+      run.state = imuqual::run_t::STATE_COMPLETE;
+      run.announcement.end_reason = DecidedEndReason(d);
+      ++runs_decided;
+      LogInfo("run " + run.run_id + " " + run.announcement.end_reason + ": source stopped after " +
+              std::to_string(run.next_seq) + " batches, " + std::to_string(run.samples_published) +
+              " samples (analysed up to device counter " + std::to_string(d.end_sample) + ")");
+      Announce(run, kFinalAnnouncements);
+    }
   }
 }
 
@@ -550,6 +614,9 @@ Counters AcquireService::Impl::StatusCounters() const {
                   {"retained_bytes", retained_bytes},
                   {"publish_errors", publish_errors},
                   {"evicted_unacknowledged", evicted_unacknowledged},
+                  {"runs_decided", runs_decided},
+                  {"decisions_ignored", decisions_ignored},
+                  {"decisions_dropped", decisions_dropped},
                   {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
                   {"messages_damaged", static_cast<int64_t>(bus->damaged())}};
   for (const auto& [name, value] : sources) out.emplace_back(name, value);
@@ -571,6 +638,22 @@ Status AcquireService::Run() {
         s.last_resend_request_s = MonotonicSeconds();
         if (s.resend_queue.size() < 10000) s.resend_queue.push_back(std::move(req));
       });
+  // Early decisions (plans with early_decision): a decided unit's source stops.
+  s.bus->Subscribe<imuqual::decision_t>(
+      channels::kDecisionAll, 1000, [&s](const std::string&, imuqual::decision_t&& d, int64_t) {
+        const bool decided = d.state == imuqual::decision_t::STATE_PASS ||
+                             d.state == imuqual::decision_t::STATE_FAIL;
+        if (!decided) return;
+        if (s.decision_queue.size() >= 10000) {
+          ++s.decisions_dropped;  // analyze says it again every interim period
+          return;
+        }
+        s.decision_queue.push_back(std::move(d));
+      });
+  // The store's announcements carry each run's judgement round.
+  s.bus->Subscribe<imuqual::run_t>(
+      channels::kRun, 1000,
+      [&s](const std::string&, imuqual::run_t&& r, int64_t) { s.OnStoreRun(r); });
 
   double now = MonotonicSeconds();
   for (RunState& run : s.runs) {
@@ -607,6 +690,7 @@ Status AcquireService::Run() {
       if (!any) break;
     }
     IMUQUAL_RETURN_IF_ERROR(s.ServeResends());
+    s.EndDecidedRuns();
     s.Prune(now);
 
     if (now >= next_heartbeat) {

@@ -13,8 +13,15 @@
 // unacknowledged ones until the awaited consumers acknowledge them, within
 // retention_mb (acquire/retention.h).
 //
-// Threading: Run() is single-threaded; handlers only record acks and queue
-// resend requests for the loop.
+// Early decisions: a run whose unit the analysis decided PASS or FAIL
+// (decision_t on IMUQUAL4_DECISION.<serial>, of the run's current judgement
+// round as the store announces it) needs no more samples: its source is
+// stopped and the run ends COMPLETE with end_reason "decided PASS at T s
+// (early decision)". Every batch published up to then stays published and
+// retained as usual; the other units go on.
+//
+// Threading: Run() is single-threaded; handlers only record acks and
+// store announcements and queue resend requests and decisions for the loop.
 #ifndef IMUQUAL_ACQUIRE_ACQUIRE_SERVICE_H_
 #define IMUQUAL_ACQUIRE_ACQUIRE_SERVICE_H_
 

@@ -110,4 +110,10 @@ Result<int> ArchiveSource::Read(int max_samples, SampleBlock* block) {
   return n;
 }
 
+void ArchiveSource::Stop() {
+  pending_.clear();
+  next_seq_ = last_seq_ + 1;  // a Read() after all would find the end
+  archive_.reset();
+}
+
 }  // namespace imuqual::acquire

@@ -24,6 +24,8 @@ class ArchiveSource : public SampleSource {
                                                      const std::string& run_id);
   const SourceInfo& info() const override { return info_; }
   Result<int> Read(int max_samples, SampleBlock* block) override;
+  // Closes the archive.
+  void Stop() override;
 
  private:
   struct Pending {

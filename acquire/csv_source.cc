@@ -50,6 +50,13 @@ Result<std::unique_ptr<CsvSource>> CsvSource::Open(const CsvSourceOptions& optio
   return s;
 }
 
+void CsvSource::Stop() {
+  done_ = true;  // a Read() after all would find the end
+  have_row_ = row_pending_ = false;
+  reader_.reset();  // it reads from file_
+  file_.reset();
+}
+
 Result<int> CsvSource::Read(int max_samples, SampleBlock* block) {
   const size_t axes = options_.axes.size();
   block->samples.assign(axes, {});

@@ -35,6 +35,8 @@ class CsvSource : public SampleSource {
   static Result<std::unique_ptr<CsvSource>> Open(const CsvSourceOptions& options);
   const SourceInfo& info() const override { return info_; }
   Result<int> Read(int max_samples, SampleBlock* block) override;
+  // Closes the file.
+  void Stop() override;
 
  private:
   CsvSource(CsvSourceOptions options, std::unique_ptr<std::ifstream> file);

@@ -65,13 +65,16 @@ Result<std::unique_ptr<SerialSource>> SerialSource::Open(SerialSourceOptions opt
   return s;
 }
 
-SerialSource::~SerialSource() {
+SerialSource::~SerialSource() { Stop(); }
+
+void SerialSource::Stop() {
   {
     std::lock_guard<std::mutex> lock(mu_);
     stop_ = true;
   }
   stop_cv_.notify_all();
   if (reader_.joinable()) reader_.join();
+  port_.reset();  // the reader's, and the reader has ended
 }
 
 // Wall-clock microseconds on the monotonic clock's scale: arrival times keep

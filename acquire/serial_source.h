@@ -65,6 +65,8 @@ class SerialSource : public SampleSource {
   static Result<std::unique_ptr<SerialSource>> Open(SerialSourceOptions options,
                                                     std::unique_ptr<FrameDecoder> decoder);
   ~SerialSource() override;
+  // Ends the reader thread (joined) and closes the port.
+  void Stop() override;
 
   const SourceInfo& info() const override { return info_; }
   Result<int> Read(int max_samples, SampleBlock* block) override;

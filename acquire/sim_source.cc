@@ -47,13 +47,17 @@ Result<std::unique_ptr<SimSource>> SimSource::Create(const sim::LotProfile& prof
       new SimSource(std::move(*simulator), std::move(info), total, /*start_utime=*/0, actual, output));
 }
 
-SimSource::~SimSource() {
+SimSource::~SimSource() { Stop(); }
+
+void SimSource::Stop() {
   {
     std::lock_guard<std::mutex> lock(mu_);
     stop_ = true;
   }
   cv_.notify_all();
   if (generator_.joinable()) generator_.join();
+  std::lock_guard<std::mutex> lock(mu_);
+  ready_.clear();
 }
 
 void SimSource::Generate(int max_samples, SampleBlock* block) {

@@ -44,6 +44,8 @@ class SimSource : public SampleSource {
   ~SimSource() override;
   const SourceInfo& info() const override { return info_; }
   Result<int> Read(int max_samples, SampleBlock* block) override;
+  // Ends the generating thread (joined) and drops the blocks it made ahead.
+  void Stop() override;
 
  private:
   SimSource(sim::ImuSimulator sim, SourceInfo info, int64_t total, int64_t start_utime,

@@ -13,18 +13,21 @@ inline constexpr char kAck[] = "IMUQUAL4_ACK";        // ack_t flow control
 inline constexpr char kResend[] = "IMUQUAL4_RESEND";  // resend_t requests
 inline constexpr char kStatus[] = "IMUQUAL4_STATUS";  // status_t per process
 
-inline constexpr char kRawPrefix[] = "IMUQUAL4_RAW.";        // + unit serial: rate_batch_t
-inline constexpr char kCurvePrefix[] = "IMUQUAL4_CURVE.";    // + unit serial: allan_curve_t
-inline constexpr char kResultPrefix[] = "IMUQUAL4_RESULT.";  // + unit serial: unit_result_t
+inline constexpr char kRawPrefix[] = "IMUQUAL4_RAW.";            // + unit serial: rate_batch_t
+inline constexpr char kCurvePrefix[] = "IMUQUAL4_CURVE.";        // + unit serial: allan_curve_t
+inline constexpr char kResultPrefix[] = "IMUQUAL4_RESULT.";      // + unit serial: unit_result_t
+inline constexpr char kDecisionPrefix[] = "IMUQUAL4_DECISION.";  // + unit serial: decision_t
 
 // Regular expressions (LCM anchors them) matching every unit's channel.
 inline constexpr char kRawAll[] = "IMUQUAL4_RAW\\..*";
 inline constexpr char kCurveAll[] = "IMUQUAL4_CURVE\\..*";
 inline constexpr char kResultAll[] = "IMUQUAL4_RESULT\\..*";
+inline constexpr char kDecisionAll[] = "IMUQUAL4_DECISION\\..*";
 
 inline std::string Raw(const std::string& serial) { return kRawPrefix + serial; }
 inline std::string Curve(const std::string& serial) { return kCurvePrefix + serial; }
 inline std::string Result(const std::string& serial) { return kResultPrefix + serial; }
+inline std::string Decision(const std::string& serial) { return kDecisionPrefix + serial; }
 
 }  // namespace imuqual::channels
 

@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "common/lcm_bus.h"
+#include "imuqual/decision_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/run_t.hpp"
 
@@ -95,6 +96,34 @@ TEST(LcmDecodeTest, ArrayCountsThatLieAreRefusedBeforeAllocating) {
     imuqual::run_t out;
     EXPECT_FALSE(DecodeExactly(bad.data(), static_cast<int>(bad.size()), &out).ok()) << lie;
     EXPECT_LE(out.plan.capacity(), bytes.size()) << "allocated for the lie " << lie;
+  }
+}
+
+// decision_t's pending reasons: an array of strings, decoded in a loop; a
+// count that lies (negative, or beyond the bytes there) is refused.
+TEST(LcmDecodeTest, DecisionPendingCountsThatLieAreRefused) {
+  imuqual::decision_t d{};
+  d.run_id = "R";
+  d.unit_serial = "U";
+  d.state = imuqual::decision_t::STATE_PENDING;
+  d.num_pending = 2;
+  d.pending = {"x: bias_instability: not measured yet", "y: angle_random_walk: not measured yet"};
+  std::vector<uint8_t> bytes;
+  ASSERT_TRUE(EncodeMessage(d, &bytes).ok());
+  imuqual::decision_t out;
+  ASSERT_TRUE(DecodeExactly(bytes.data(), static_cast<int>(bytes.size()), &out).ok());
+  EXPECT_EQ(out.pending, d.pending);
+  // num_pending (int16) follows the fingerprint, host_utime, run_id "R",
+  // unit_serial "U", revision, state, the two look counts, decided_at_s,
+  // end_sample and z.
+  constexpr size_t kNumPending = 8 + 8 + (4 + 2) + (4 + 2) + 2 + 1 + 2 + 2 + 8 + 8 + 8;
+  ASSERT_EQ(bytes[kNumPending], 0);
+  ASSERT_EQ(bytes[kNumPending + 1], 2);
+  for (int16_t lie : {int16_t{-1}, int16_t{3}, int16_t{32767}}) {
+    std::vector<uint8_t> bad = bytes;
+    bad[kNumPending] = static_cast<uint8_t>(static_cast<uint16_t>(lie) >> 8);
+    bad[kNumPending + 1] = static_cast<uint8_t>(lie & 0xff);
+    EXPECT_FALSE(DecodeExactly(bad.data(), static_cast<int>(bad.size()), &out).ok()) << lie;
   }
 }
 

@@ -13,12 +13,13 @@ SELECT a.lot, a.serial, a.run_id, a.start_utime, a.state, a.axis, a.kind, a.rand
        COALESCE(a.axis_verdict, ''), COALESCE(a.run_verdict, ''), a.run_key
 FROM axis_results a)sql";
 
-// The marks of the headline values: every measurement of the rows' runs,
-// one run at a time (a range read of the primary key).
+// The marks of the headline values, and the run's decision time (early
+// decisions): every measurement of the rows' runs, one run at a time (a
+// range read of the primary key).
 Status FillMarks(Archive& archive, std::vector<AxisRow>* rows) {
   auto s = archive.db().Prepare(R"sql(
 SELECT axis, name, uncertainty, COALESCE(qualifier, ''), COALESCE(outcome, ''), COALESCE(note, ''),
-       uncertainty_method IS NULL
+       uncertainty_method IS NULL, value
 FROM measurements WHERE run_key = ?1)sql");
   if (!s.ok()) return s.status();
   auto reasons = archive.db().Prepare("SELECT COALESCE(reasons, '') FROM runs WHERE run_key = ?1");
@@ -46,6 +47,10 @@ FROM measurements WHERE run_key = ?1)sql");
       }
       for (size_t i = begin; i < end; ++i) {
         AxisRow& r = (*rows)[i];
+        if (axis.empty() && name == "decision_time") {
+          r.has_decision_time = true;
+          r.decision_time_s = s->Real(7);
+        }
         if (r.axis != axis) continue;
         if (name == "angle_random_walk" || name == "velocity_random_walk") r.random_walk_marks = m;
         if (name == "bias_instability") r.bias_instability_marks = m;

@@ -42,6 +42,11 @@ struct AxisRow {
   // Why the axis is not PASS: the run's reasons that name the axis
   // ("gx: bias_instability ..."), one per line; "" if none.
   std::string axis_notes;
+  // Early decisions (the run's plan had early_decision and the run is
+  // judged): its run-level decision_time, s of analysed device time, NaN
+  // when the unit was pending at every look (a full soak).
+  bool has_decision_time = false;
+  double decision_time_s = allan::kNaN;
 };
 
 struct AxisRowFilter {

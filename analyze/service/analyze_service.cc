@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <map>
 #include <optional>
@@ -26,6 +27,7 @@
 #include "common/seq_tracker.h"
 #include "common/shutdown.h"
 #include "imuqual/allan_curve_t.hpp"
+#include "imuqual/decision_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
 #include "imuqual/ack_t.hpp"
@@ -44,6 +46,11 @@ constexpr double kFirstRepublishS = 2.0;
 constexpr double kMaxRepublishPeriodS = 30.0;
 constexpr double kResultRetentionS = 1800.0;
 constexpr size_t kMaxHeldBeforeRunInfo = 4096;
+// decision_t's pending reasons: at most this many, each at most this long,
+// so that the message stays well within one 64 KB datagram (a plan judges a
+// few measurements per axis).
+constexpr size_t kMaxPendingReasons = 64;
+constexpr size_t kMaxPendingReasonBytes = 400;
 
 // measurement_t's OUTCOME_*, QUALIFIER_* and RULE_* codes are the numbers
 // of pb::Outcome, pb::Qualifier and pb::Limit::DecisionRule.
@@ -81,6 +88,11 @@ struct RunEntry {
   // archives only a judgement computed on what it holds.
   int revision = 0;
   int64_t gap_batches = 0;
+  // Early decisions: the looks already announced on decision_t, and when a
+  // decided state is announced again while the run goes on.
+  int looks_announced = 0;
+  bool decision_announced = false;
+  double next_decision_s = 0;
 
   explicit RunEntry(const SeqTracker::Options& o) : tracker(0, o) {}
 };
@@ -111,6 +123,51 @@ bool Reopens(const FinishedRun& f, const imuqual::run_t& run) {
   if (run.revision > f.revision) return true;
   if (run.announcer != "acquire" || f.end_by_acquire) return false;
   return run.state == imuqual::run_t::STATE_RUNNING || run.last_seq > f.last_seq;
+}
+
+// A look entry still pending, "axis: name: why" (the why names the
+// measurement itself once it has a value to show).
+std::string PendingReason(const judge::LookEntry& entry) {
+  const std::string who = (entry.axis.empty() ? "" : entry.axis + ": ") + entry.name;
+  return entry.why.starts_with(who) ? entry.why : who + ": " + entry.why;
+}
+
+// The early-decision state of a run being analysed (its plan has
+// early_decision), as of its last look.
+imuqual::decision_t DecisionMessage(const imuqual::run_t& run, int revision,
+                                    const RunAnalyzer& analyzer) {
+  const judge::EarlyDecider& d = *analyzer.decider();
+  imuqual::decision_t msg;
+  msg.host_utime = NowUtime();
+  msg.run_id = run.run_id;
+  msg.unit_serial = run.unit_serial;
+  msg.revision = static_cast<int16_t>(revision);
+  switch (d.unit_decision()) {
+    case judge::Decision::kPass: msg.state = imuqual::decision_t::STATE_PASS; break;
+    case judge::Decision::kFail: msg.state = imuqual::decision_t::STATE_FAIL; break;
+    case judge::Decision::kPending: msg.state = imuqual::decision_t::STATE_PENDING; break;
+  }
+  msg.looks_done = static_cast<int16_t>(analyzer.looks_done());
+  msg.looks_planned = static_cast<int16_t>(d.schedule().times_s.size());
+  msg.decided_at_s = d.decided_time_s();
+  msg.end_sample = analyzer.analysed_end_counter();
+  msg.z = d.looks().empty() ? allan::kNaN : d.looks().back().z;
+  if (!d.looks().empty()) {
+    for (const judge::LookEntry& entry : d.looks().back().entries) {
+      if (entry.decision != judge::Decision::kPending) continue;
+      if (msg.pending.size() == kMaxPendingReasons) break;
+      std::string reason = PendingReason(entry);
+      if (reason.size() > kMaxPendingReasonBytes) {
+        // Cut on a UTF-8 character boundary (the reasons carry '±').
+        size_t cut = kMaxPendingReasonBytes - 3;
+        while (cut > 0 && (static_cast<unsigned char>(reason[cut]) & 0xC0) == 0x80) --cut;
+        reason = reason.substr(0, cut) + "...";
+      }
+      msg.pending.push_back(std::move(reason));
+    }
+  }
+  msg.num_pending = static_cast<int16_t>(msg.pending.size());
+  return msg;
 }
 
 }  // namespace
@@ -157,7 +214,7 @@ struct AnalyzeService::Impl {
   int64_t batches_processed = 0, duplicates = 0, absurd = 0, rejected = 0, resend_requests = 0,
           batches_given_up = 0, runs_finished = 0, late_after_finish = 0, foreign_messages = 0,
           results_republished = 0, results_abandoned = 0, results_dropped_on_purpose = 0,
-          damaged = 0, runs_reopened = 0;
+          damaged = 0, runs_reopened = 0, decisions_published = 0, runs_decided = 0;
   std::set<std::string> foreign_ids;  // runs of other stations (worker thread)
   ThrottledLog damage_log;
 
@@ -174,7 +231,12 @@ struct AnalyzeService::Impl {
   void Tick(double now);
   void TickRun(const std::string& run_id, RunEntry& e, double now);
   void StartAnalyzer(RunEntry& e);
-  void ProcessHeld(RunEntry& e);
+  // `now`: when the early decisions a batch completes are announced.
+  void ProcessHeld(RunEntry& e, double now);
+  // Early decisions: the run's state on decision_t after each new look, at
+  // once when the unit is decided, and the decided state again every
+  // interim period until the run ends.
+  void AnnounceDecision(RunEntry& e, double now);
   void Finish(const std::string& run_id, RunEntry& e, double now);
   // `first`: the final outcome's first publication (the only one fault
   // injection may drop).
@@ -335,7 +397,7 @@ void AnalyzeService::Impl::OnBatch(imuqual::rate_batch_t&& batch, double now) {
 
 // Processes held batches that are now in order (everything below the
 // tracker's frontier has arrived or was given up).
-void AnalyzeService::Impl::ProcessHeld(RunEntry& e) {
+void AnalyzeService::Impl::ProcessHeld(RunEntry& e, double now) {
   if (!e.analyzer) {
     // A run that cannot be analysed (its description is unusable): its
     // batches are counted and let go, so its acks move and it can finish
@@ -366,8 +428,33 @@ void AnalyzeService::Impl::ProcessHeld(RunEntry& e) {
     } else {
       ++batches_processed;
       ++e.processed_since_interim;
+      AnnounceDecision(e, now);  // a look this batch completed, before the next
     }
     e.held.erase(e.held.begin());
+  }
+}
+
+void AnalyzeService::Impl::AnnounceDecision(RunEntry& e, double now) {
+  if (!e.analyzer || !e.analyzer->decider() || !e.info) return;
+  const bool decided = e.analyzer->decided();
+  const bool new_look = e.analyzer->looks_done() > e.looks_announced;
+  if (!new_look && !(decided && now >= e.next_decision_s)) return;
+  const imuqual::decision_t msg = DecisionMessage(*e.info, e.revision, *e.analyzer);
+  Status st = bus->Publish(channels::Decision(msg.unit_serial), msg);
+  if (!st.ok()) LogWarning(st.message());
+  ++decisions_published;
+  e.looks_announced = e.analyzer->looks_done();
+  if (decided) {
+    if (!e.decision_announced) {
+      ++runs_decided;
+      char at[64];
+      std::snprintf(at, sizeof at, " at %g s (look %d of %d)", msg.decided_at_s, msg.looks_done,
+                    msg.looks_planned);
+      LogInfo("run " + msg.run_id + " decided " +
+              judge::DecisionName(e.analyzer->decider()->unit_decision()) + at);
+    }
+    e.decision_announced = true;
+    e.next_decision_s = now + options.interim_period_s;
   }
 }
 
@@ -563,7 +650,8 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
     LogWarning("run " + run_id + ": batches " + std::to_string(r.first) + ".." +
                std::to_string(r.last) + " were not resent; analysing them as a gap");
   }
-  ProcessHeld(e);
+  ProcessHeld(e, now);
+  AnnounceDecision(e, now);  // the decided state again, every interim period
   if (e.tracker.complete() && e.held.empty()) {
     Finish(run_id, e, now);
     return;
@@ -618,6 +706,8 @@ Counters AnalyzeService::Impl::StatusCounters() {
           {"out_of_shard", out_of_shard.load()},
           {"foreign_runs", static_cast<int64_t>(foreign_ids.size())},
           {"results_republished", results_republished},
+          {"decisions_published", decisions_published},
+          {"runs_decided", runs_decided},
           {"results_abandoned", results_abandoned},
           {"results_dropped_on_purpose", results_dropped_on_purpose},
           {"stopped_ms", std::llround(ListeningPausedSeconds() * 1e3)},

@@ -3,7 +3,13 @@
 // out-of-order ones, requesting resends of holes, giving a hole up as a gap
 // after a deadline), feeds a RunAnalyzer per run, acknowledges progress for
 // flow control, publishes interim curves and provisional verdicts while the
-// run goes on and the final curves and unit_result_t when it ends.
+// run goes on and the final curves and unit_result_t when it ends. A run
+// whose plan has early_decision gets its decision_t after every look, at
+// once when its unit is decided, and the decided state again every
+// interim_period_s until the run ends (acquire stops a decided unit's
+// source on it; a lost message must not leave the unit soaking). The
+// batches that arrive after the decision are acknowledged and counted, not
+// analysed.
 //
 // Threading: the bus thread's handlers only decode, filter by shard and
 // enqueue into a bounded queue (drops counted); one worker thread does the

@@ -122,6 +122,17 @@ class RunAnalyzer {
   bool decided() const {
     return decider_ && decider_->unit_decision() != judge::Decision::kPending;
   }
+  // Early decisions as of now, without computing an Outcome: the decider
+  // (its looks, the unit's decision; nullptr for a plan without
+  // early_decision) and how many looks were evaluated.
+  const judge::EarlyDecider* decider() const { return decider_ ? &*decider_ : nullptr; }
+  int looks_done() const { return static_cast<int>(next_look_); }
+  // The device counter just after the last sample the analysis used (warm-up
+  // and gaps included; once decided, where it stopped), -1 before the first
+  // batch. Before Finish (which may place a lost start before the first batch).
+  int64_t analysed_end_counter() const {
+    return first_counter_ < 0 ? -1 : first_counter_ + warmup_seen_ + engines_.front().samples();
+  }
   int64_t batches_accepted() const { return batches_; }
 
  private:
@@ -164,7 +175,9 @@ class RunAnalyzer {
 // before completion (...)"; aborted for any other reason (its source failed,
 // the station stopped it) is ERROR, "run aborted by a failure: ..."; an
 // incomplete run (its source went silent) is ERROR, "run incomplete: ...".
-// Verdict UNSET when it ended normally.
+// Verdict UNSET when it ended normally: complete, with or without a reason
+// (a run its unit's early decision ended says "decided PASS at T s (early
+// decision)").
 RunEnding EndingForRunState(const std::string& state, const std::string& reason = "");
 // The same (the name archived re-analysis calls).
 inline RunEnding FailureForRunState(const std::string& state, const std::string& reason = "") {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 namespace imuqual::analyze {
 namespace {
@@ -260,6 +261,10 @@ TEST(RunAnalyzerTest, AbnormalEndsAreAbortedOrErrorNeverFail) {
             "run incomplete: its source went silent before ending it (acquire silent for 30 s)");
 
   EXPECT_EQ(EndingForRunState("complete").verdict, pb::OUTCOME_UNSET);
+  // A run its unit's early decision ended is complete, with a reason: a
+  // normal ending, judged as such.
+  EXPECT_EQ(EndingForRunState("complete", "decided FAIL at 340 s (early decision)").verdict,
+            pb::OUTCOME_UNSET);
   EXPECT_EQ(EndingForRunState("running").reason, "");
   // The name archived re-analysis calls gives the same.
   EXPECT_EQ(FailureForRunState("aborted", "x").verdict, pb::ERROR);
@@ -277,6 +282,62 @@ TEST(RunAnalyzerTest, AbsurdRangeOfAnAbortedRunIsAnError) {
   ASSERT_GE(out.judgement.reasons.size(), 2u);
   EXPECT_NE(out.judgement.reasons[0].find("not analysed as a gap"), std::string::npos);
   EXPECT_EQ(out.judgement.reasons[1], "run aborted before completion (shutdown requested)");
+}
+
+// What the station reads of early decisions without computing an Outcome:
+// the looks done, the decision, and the device counter where the analysis
+// stopped (acquire may stop publishing after it).
+TEST(RunAnalyzerTest, EarlyDecisionStateIsReadableBetweenBatches) {
+  // GIVEN a gyro of white noise (ARW 0.06 deg/sqrt(h)) under a plan limiting
+  // ARW to 0.6 with looks every 20 s from 60 s, after a 10 s warm-up
+  RunDescription d = Desc(10);
+  d.axes = {{"x", pb::GYRO}};
+  d.plan.set_min_duration_s(600);
+  pb::Limit* limit = d.plan.add_limits();
+  limit->set_measurement("angle_random_walk");
+  limit->set_axis_kind(pb::GYRO);
+  limit->set_high(0.6);
+  d.plan.mutable_early_decision()->set_risk(0.01);
+  d.plan.mutable_early_decision()->set_min_duration_s(60);
+  d.plan.mutable_early_decision()->set_look_period_s(20);
+  auto a = RunAnalyzer::Create(d);
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  ASSERT_NE(a->decider(), nullptr);
+  EXPECT_EQ(a->looks_done(), 0);
+  EXPECT_EQ(a->analysed_end_counter(), -1);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<float> noise(0.0f, 0.01f);
+  constexpr int64_t kFirst = 5000;
+  constexpr int kBatch = 333;  // not a divisor of the look period: looks fall inside batches
+  int64_t counter = kFirst;
+  // WHEN batches arrive past the first look (10 s warm-up + 60 s) and on
+  for (int64_t seq = 0; counter < kFirst + 100 * kRate; ++seq) {
+    std::vector<float> x(kBatch);
+    for (float& v : x) v = noise(rng);
+    BatchView view;
+    view.seq = seq;
+    view.first_sample = counter;
+    view.nominal_rate_hz = kRate;
+    view.samples = {x};
+    ASSERT_TRUE(a->AddBatch(view).ok());
+    counter += kBatch;
+    if (!a->decided()) {
+      EXPECT_EQ(a->analysed_end_counter(), counter);  // everything so far
+    }
+  }
+  // THEN the unit is decided PASS at the first look, the analysis stopped at
+  // its exact device counter, and later samples are counted, not analysed.
+  ASSERT_TRUE(a->decided());
+  EXPECT_EQ(a->decider()->unit_decision(), judge::Decision::kPass);
+  EXPECT_EQ(a->looks_done(), 1);
+  EXPECT_EQ(a->decider()->looks().size(), 1u);
+  EXPECT_EQ(a->decider()->decided_time_s(), 60);
+  EXPECT_EQ(a->analysed_end_counter(), kFirst + static_cast<int64_t>((10 + 60) * kRate));
+  a->Finish(kFirst, counter);
+  const RunOutcome out = a->Outcome(true);
+  EXPECT_EQ(out.samples, static_cast<int64_t>(60 * kRate));
+  EXPECT_EQ(out.samples_after_decision, counter - a->analysed_end_counter());
+  EXPECT_EQ(out.judgement.verdict, pb::PASS);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "store/cli/commands.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -7,6 +8,7 @@
 #include "common/clock.h"
 #include "common/log.h"
 #include "common/text_util.h"
+#include "store/cli/early_decisions.h"
 #include "store/cli/marks.h"
 #include "store/cli/report.h"
 #include "store/outcome.h"
@@ -34,7 +36,9 @@ TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
                  "random_walk_uncertainty", "random_walk_qualifier",
                  "bias_instability_uncertainty", "bias_instability_qualifier",
                  "tau_min_s_uncertainty", "tau_min_s_qualifier", "rate_random_walk_uncertainty",
-                 "rate_random_walk_qualifier", "axis_reasons"});
+                 "rate_random_walk_qualifier", "axis_reasons",
+                 // Early decisions: the run's decision time, s (empty: none, or a full soak).
+                 "decision_time_s"});
   for (const store::AxisRow& r : rows) {
     const bool gyro = r.kind != "accel";
     t.AddRow({Cell::Text(r.lot), Cell::Text(r.unit), Cell::Text(r.run_id), Cell::Text(r.axis),
@@ -52,17 +56,25 @@ TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
               Cell::Text(QualifierWord(r.bias_instability_marks.qualifier, r.bias_instability)),
               Cell::Real(r.tau_min_marks.uncertainty), Cell::Text(QualifierWord(r.tau_min_marks.qualifier, r.tau_min_s)),
               Cell::Real(r.rate_random_walk_marks.uncertainty),
-              Cell::Text(QualifierWord(r.rate_random_walk_marks.qualifier, r.rate_random_walk)), Cell::Text(r.axis_notes)});
+              Cell::Text(QualifierWord(r.rate_random_walk_marks.qualifier, r.rate_random_walk)),
+              Cell::Text(r.axis_notes), Cell::Real(r.decision_time_s)});
   }
   return t;
 }
 
 // The table people read.
 // Each value with its marks (marks.h); "± u" where the value has an
-// uncertainty (not on B (IEEE), the minimum / 0.664, for room).
+// uncertainty (not on B (IEEE), the minimum / 0.664, for room). When a run
+// used early decisions, when its unit was decided ("full soak": pending at
+// every look).
 std::string PeopleTable(const std::vector<store::AxisRow>& rows) {
-  TableWriter t({"unit", "axis", "ARW/VRW", "bias inst.", "BI (IEEE)", "tau min s", "RRW",
-                 "gap samples", "axis", "unit verdict"});
+  const bool early = std::any_of(rows.begin(), rows.end(),
+                                 [](const store::AxisRow& r) { return r.has_decision_time; });
+  std::vector<std::string> columns = {"unit",      "axis",      "ARW/VRW", "bias inst.",
+                                      "BI (IEEE)", "tau min s", "RRW",     "gap samples",
+                                      "axis",      "unit verdict"};
+  if (early) columns.push_back("decided at");
+  TableWriter t(columns);
   bool any_accel = false;
   MarkLegend legend;
   for (const store::AxisRow& r : rows) {
@@ -71,16 +83,20 @@ std::string PeopleTable(const std::vector<store::AxisRow>& rows) {
       legend.Add(m, r.unit, r.axis, name, v);
       return Cell::NumText(MarkedValue(v, m, 4, with_u));
     };
-    t.AddRow({Cell::Text(r.unit), Cell::Text(r.axis),
-              marked(r.random_walk, r.random_walk_marks, "random walk", true),
-              marked(r.bias_instability, r.bias_instability_marks, "bias_instability", true),
-              marked(r.bias_instability_ieee, r.bias_instability_ieee_marks,
-                     "bias_instability_ieee", false),
-              marked(r.tau_min_s, r.tau_min_marks, "tau_at_minimum", true),
-              marked(r.rate_random_walk, r.rate_random_walk_marks, "rate_random_walk", true),
-              Cell::Int(r.gap_samples),
-              Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
-              Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)});
+    std::vector<Cell> row = {
+        Cell::Text(r.unit), Cell::Text(r.axis),
+        marked(r.random_walk, r.random_walk_marks, "random walk", true),
+        marked(r.bias_instability, r.bias_instability_marks, "bias_instability", true),
+        marked(r.bias_instability_ieee, r.bias_instability_ieee_marks, "bias_instability_ieee",
+               false),
+        marked(r.tau_min_s, r.tau_min_marks, "tau_at_minimum", true),
+        marked(r.rate_random_walk, r.rate_random_walk_marks, "rate_random_walk", true),
+        Cell::Int(r.gap_samples), Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
+        Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)};
+    if (early) {
+      row.push_back(Cell::Text(r.has_decision_time ? DecisionTimeText(r.decision_time_s) : ""));
+    }
+    t.AddRow(std::move(row));
   }
   std::string out = t.Render(Format::kTable);
   out += legend.Render();
@@ -228,6 +244,8 @@ int RunCommand(const StationRunOptions& options) {
                              " units judged PASS, MARGINAL or FAIL)")
                                 .c_str()
                           : "");
+  auto early = QueryEarlyDecisions(**archive, options.lot, run->run_prefix + "-");
+  if (early.ok() && !early->runs.empty()) std::printf("%s\n", EarlyDecisionLine(*early).c_str());
   std::printf("lot %s archived in %s (runs %s-*; process log %s)\n", options.lot.c_str(),
               options.db_path.c_str(), run->run_prefix.c_str(), run->log_path.c_str());
   if (run->restarts > 0) {
@@ -337,6 +355,12 @@ int LotCommand(const std::string& db_path, const std::string& lot, Format format
     std::printf("%s", PeopleTable(*rows).c_str());
     std::printf("%s", ReasonLines(**archive, *rows, {}).c_str());
     if (!all_runs) std::printf("%s", LotYieldLines(**archive, lot).c_str());
+    auto early = QueryEarlyDecisions(**archive, lot);
+    if (!early.ok()) {
+      LogError(early.status().message());
+      return kExitError;
+    }
+    if (!early->runs.empty()) std::printf("%s\n", EarlyDecisionLine(*early).c_str());
   } else {
     std::printf("%s", MachineTable(*rows).Render(format).c_str());
   }

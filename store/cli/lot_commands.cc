@@ -1,5 +1,6 @@
 #include "store/cli/lot_commands.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -7,6 +8,7 @@
 #include "common/clock.h"
 #include "common/log.h"
 #include "store/cli/commands.h"
+#include "store/cli/early_decisions.h"
 #include "store/cli/lot_model_view.h"
 #include "store/cli/lot_statistics.h"
 #include "store/cli/marks.h"
@@ -205,6 +207,15 @@ int UnitCommand(const std::string& db_path, const std::string& serial, Format fo
     }
     columns.push_back("axis_reasons");
   }
+  // Early decisions: when the run's unit was decided (people: only when a
+  // run used them; "full soak" when it was pending at every look).
+  const bool early = std::any_of(rows->begin(), rows->end(),
+                                 [](const store::AxisRow& r) { return r.has_decision_time; });
+  if (!people) {
+    columns.push_back("decision_time_s");
+  } else if (early) {
+    columns.push_back("decided at");
+  }
   TableWriter t(columns);
   MarkLegend legend;
   for (const store::AxisRow& r : *rows) {
@@ -233,6 +244,9 @@ int UnitCommand(const std::string& db_path, const std::string& serial, Format fo
         row.push_back(Cell::Text(QualifierWord(m->qualifier, v)));
       }
       row.push_back(Cell::Text(r.axis_notes));
+      row.push_back(Cell::Real(r.decision_time_s));
+    } else if (early) {
+      row.push_back(Cell::Text(r.has_decision_time ? DecisionTimeText(r.decision_time_s) : ""));
     }
     t.AddRow(std::move(row));
   }

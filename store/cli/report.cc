@@ -16,6 +16,7 @@
 #include "common/log.h"
 #include "common/text_util.h"
 #include "common/version.h"
+#include "store/cli/early_decisions.h"
 #include "store/cli/lot_model_view.h"
 #include "store/cli/lot_statistics.h"
 #include "store/cli/marks.h"
@@ -189,6 +190,7 @@ constexpr Label kLabels[] = {
     {judge::kGapFraction, "Gap fraction"},
     {judge::kInvalidFraction, "Invalid fraction"},
     {judge::kDuration, "Analysed duration"},
+    {judge::kDecisionTime, "Decision time (early decisions)"},
 };
 
 size_t LabelIndex(std::string_view name) {
@@ -286,6 +288,7 @@ struct ReportData {
   std::vector<MeasurementStats> stats;
   std::vector<RunPlotData> runs;  // one per unit, in the rows' order
   std::vector<store::RetestRow> retests;
+  EarlyDecisionSummary early;     // every judged run with early decisions
 };
 
 // ---- sections -------------------------------------------------------------
@@ -422,6 +425,55 @@ void Yields(const ReportData& d, std::string* out) {
       "run is PASS or MARGINAL among all units with a judged run. An INCONCLUSIVE unit (a value within the guard band of a limit) is a "
       "retest candidate, neither a pass nor a loss; ABORTED and ERROR runs say nothing about "
       "the unit and never count. Retests: runs beyond each unit's first.</p>\n</section>\n";
+}
+
+// Lots whose runs used early decisions: when each run's unit was decided
+// and the soak time that saved (horizon - decision time over the runs).
+void EarlyDecisions(const ReportData& d, std::string* out) {
+  const EarlyDecisionSummary& e = d.early;
+  if (e.runs.empty()) return;
+  auto fact = [out](std::string_view title, std::string_view field, const std::string& v,
+                    const std::string& html) {
+    Add(out, "<div class=\"fact\"><dt>", title, "</dt><dd", Attr("data-field", field),
+        Attr("data-v", v), ">", html, "</dd></div>\n");
+  };
+  *out += "<section id=\"early-decisions\">\n<h2>Early decisions</h2>\n<dl class=\"facts\">\n";
+  fact("Runs decided early", "runs_decided", std::to_string(e.decided),
+       std::to_string(e.decided) + " of " + std::to_string(e.runs.size()));
+  fact("Soak time saved", "soak_saved_s", Exact(e.saved_s),
+       Esc(DecisionTimeText(e.saved_s)) + " <small>of " + Esc(DecisionTimeText(e.horizon_total_s)) +
+           " (" + Percent(e.horizon_total_s > 0 ? e.saved_s / e.horizon_total_s : 0.0) +
+           ")</small>");
+  fact("Median decided / full soak", "median_decision_ratio", Exact(e.median_ratio),
+       Human(e.median_ratio));
+  *out +=
+      "</dl>\n<div class=\"scroll\"><table class=\"sortable early\">\n<caption>Runs with early "
+      "decisions</caption>\n<thead><tr><th scope=\"col\">Unit</th><th scope=\"col\">Run</th>"
+      "<th scope=\"col\">Verdict</th><th scope=\"col\" class=\"num\">Decided at "
+      "<span class=\"u\">[s]</span></th><th scope=\"col\" class=\"num\">Full soak "
+      "<span class=\"u\">[s]</span></th><th scope=\"col\" class=\"num\">Decided / full</th>"
+      "<th scope=\"col\">Decision</th></tr></thead>\n<tbody>\n";
+  for (const DecidedRun& r : e.runs) {
+    const bool decided = std::isfinite(r.decision_time_s);
+    const double ratio = decided && r.horizon_s > 0 ? r.decision_time_s / r.horizon_s : 1.0;
+    Add(out, "<tr", Attr("data-run", r.run_id),
+        Attr("data-decision-time", Exact(r.decision_time_s)), Attr("data-unit", r.unit),
+        "><td class=\"unit\">", Esc(r.unit), "</td><td>", Esc(r.run_id), "</td>",
+        VerdictCell(r.verdict, "run_verdict"), "<td class=\"num\"",
+        Attr("data-v", Exact(r.decision_time_s)), ">",
+        decided ? Human(r.decision_time_s) : std::string("full soak"), "</td>",
+        NumCell(r.horizon_s, "data-field", "horizon_s"),
+        NumCell(ratio, "data-field", "decided_ratio"), "<td>", Esc(r.note), "</td></tr>\n");
+  }
+  *out +=
+      "</tbody></table></div>\n<p class=\"note\">A plan's early_decision looks at the unit "
+      "every look period of analysed device time and decides each judged measurement as soon as "
+      "its data confirm the side of each limit, at the plan's risk over all looks "
+      "(group-sequential bounds); the run then ends, each decided measurement judged by its "
+      "decision. A unit "
+      "still pending at the last look soaks its full length (its horizon) and gets the "
+      "full-length verdict. Soak time saved: the sum over the runs of the horizon less the "
+      "decision time (retests included; the warm-up is not counted).</p>\n</section>\n";
 }
 
 void Attention(const ReportData& d, const std::map<std::string, std::string>& plot_anchor,
@@ -901,6 +953,9 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
   auto retests = store::QueryRetestReasons(archive, lot);
   if (!retests.ok()) return retests.status();
   d.retests = std::move(*retests);
+  auto early = QueryEarlyDecisions(archive, lot);
+  if (!early.ok()) return early.status();
+  d.early = std::move(*early);
   for (const store::AxisRow& r : d.rows) {
     if (!d.runs.empty() && d.runs.back().info.run_id == r.run_id) continue;
     auto run = LoadRunPlotData(archive, r.run_id);
@@ -937,8 +992,10 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
       kStyle, "</style>\n</head>\n<body>\n<main>\n");
   Header(d, archive_label, &html);
   Yields(d, &html);
+  EarlyDecisions(d, &html);
+  html += "<nav aria-label=\"Contents\"><a href=\"#yield\">Yield and retests</a>";
+  if (!d.early.runs.empty()) html += "<a href=\"#early-decisions\">Early decisions</a>";
   html +=
-      "<nav aria-label=\"Contents\"><a href=\"#yield\">Yield and retests</a>"
       "<a href=\"#attention\">Units to look at</a>"
       "<a href=\"#results\">Results per unit</a><a href=\"#statistics\">Lot statistics</a>"
       "<a href=\"#lot-model\">Lot noise model</a>"

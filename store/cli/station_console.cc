@@ -5,8 +5,10 @@
 #include <cstdio>
 #include <set>
 
+#include "imuqual/decision_t.hpp"
 #include "imuqual/measurement_t.hpp"
 #include "imuqual/run_t.hpp"
+#include "store/cli/early_decisions.h"
 #include "store/cli/table_writer.h"
 #include "store/cli/marks.h"
 #include "store/outcome.h"
@@ -14,6 +16,7 @@
 namespace imuqual::cli {
 namespace {
 
+using imuqual::decision_t;
 using imuqual::measurement_t;
 using imuqual::run_t;
 
@@ -57,9 +60,52 @@ const char* OutcomeMark(int8_t outcome) {
   }
 }
 
+// Early decisions: the plan has them, and the unit is decided (PASS or FAIL).
+bool Early(const ConsoleUnit& u) { return u.looks_planned > 0; }
+bool Decided(const ConsoleUnit& u) {
+  return u.decision == decision_t::STATE_PASS || u.decision == decision_t::STATE_FAIL;
+}
+// Provisional outcomes are shown unless a look may still overturn them: an
+// early-decision unit not decided yet shows its decisions instead.
+bool ShowsProvisional(const ConsoleUnit& u) { return !Early(u) || Decided(u); }
+
+// The unit's verdict as shown: final, provisional, or (early decisions)
+// "PENDING look k/K", "decided PASS at 14m".
+std::string UnitVerdictText(const ConsoleUnit& u) {
+  if (u.final_result || !Early(u)) return VerdictText(u.verdict, u.final_result);
+  if (Decided(u)) {
+    return std::string("decided ") + (u.decision == decision_t::STATE_FAIL ? "FAIL" : "PASS") +
+           " at " + DecisionTimeText(u.decided_at_s);
+  }
+  return "PENDING look " + std::to_string(u.looks_done) + "/" + std::to_string(u.looks_planned);
+}
+
+// An axis's verdict as shown; an early-decision unit not decided yet: the
+// axis "pending" while a measurement of it is pending at the last look,
+// "pass" once every one is decided (none is decided FAIL before the unit
+// is), nothing before the first look or without a judged measurement.
+std::string AxisVerdictText(const ConsoleUnit& u, const ConsoleAxis& x) {
+  if (u.final_result || ShowsProvisional(u)) return VerdictText(x.outcome, u.final_result);
+  const std::string prefix = x.name + ": ";
+  for (const std::string& p : u.pending) {
+    if (p.starts_with(prefix)) return "pending";
+  }
+  return u.looks_done > 0 && x.outcome != 0 ? "pass" : "";
+}
+
+// The verdict the unit ranks by: an early-decision unit's decision, not its
+// provisional outcome.
+int8_t RankedVerdict(const ConsoleUnit& u) {
+  if (u.final_result || !Early(u)) return u.verdict;
+  if (u.decision == decision_t::STATE_FAIL) return measurement_t::OUTCOME_FAIL;
+  if (u.decision == decision_t::STATE_PASS) return measurement_t::OUTCOME_PASS;
+  return measurement_t::OUTCOME_UNSET;
+}
+
 std::string StateText(const ConsoleUnit& u) {
   if (u.state == 0) return "waiting";
   if (u.archived && u.final_result) return "done";
+  if (Early(u) && Decided(u)) return "slot free";
   switch (u.state) {
     case run_t::STATE_RUNNING: return "running";
     case run_t::STATE_COMPLETE: return "finishing";
@@ -88,7 +134,7 @@ std::string Bar(double fraction, int width) {
 // FAIL first, then ERROR, ABORTED, INCONCLUSIVE, MARGINAL, then the rest
 // (store::AttentionRank); slot order within each.
 int AttentionRank(const ConsoleUnit& u) {
-  return store::AttentionRank(store::OutcomeFromNumber(u.verdict));
+  return store::AttentionRank(store::OutcomeFromNumber(RankedVerdict(u)));
 }
 
 std::vector<std::string> Lines(const std::string& text) {
@@ -162,8 +208,8 @@ std::vector<std::string> AxisRows(const ConsoleModel& m) {
                 Cell::Text(LiveValue(x, 3, true, u.final_result).empty()
                                ? "-"
                                : LiveValue(x, 3, true, u.final_result) + " " + x.unit),
-                Cell::Text(VerdictText(x.outcome, u.final_result)),
-                Cell::Text(first ? VerdictText(u.verdict, u.final_result) : "")});
+                Cell::Text(AxisVerdictText(u, x)),
+                Cell::Text(first ? UnitVerdictText(u) : "")});
     }
   }
   std::vector<std::string> lines = Lines(t.Render(Format::kTable));
@@ -205,11 +251,12 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
       std::string text;
       for (const ConsoleAxis& x : u->axes) {
         if (x.name != name || LiveValue(x, 3, false, u->final_result).empty()) continue;
-        text = LiveValue(x, 3, false, u->final_result) + OutcomeMark(x.outcome);
+        text = LiveValue(x, 3, false, u->final_result) +
+               (u->final_result || ShowsProvisional(*u) ? OutcomeMark(x.outcome) : "");
       }
       row.push_back(Cell::Text(text));
     }
-    row.push_back(Cell::Text(VerdictText(u->verdict, u->final_result)));
+    row.push_back(Cell::Text(UnitVerdictText(*u)));
     t.AddRow(std::move(row));
   }
   std::vector<std::string> lines = Lines(t.Render(Format::kTable));
@@ -218,9 +265,10 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
     int pass = 0, pending = 0, other = 0;
     for (const ConsoleUnit& u : m.units) {
       if (std::find(shown.begin(), shown.end(), &u) != shown.end()) continue;
-      if (u.verdict == measurement_t::OUTCOME_PASS) {
+      const int8_t verdict = RankedVerdict(u);
+      if (verdict == measurement_t::OUTCOME_PASS) {
         ++pass;
-      } else if (u.verdict == measurement_t::OUTCOME_UNSET) {
+      } else if (verdict == measurement_t::OUTCOME_UNSET) {
         ++pending;
       } else {
         ++other;
@@ -273,7 +321,7 @@ double ConsoleProgress(const ConsoleModel& m) {
   if (m.units.empty()) return 0;
   double done = 0;
   for (const ConsoleUnit& u : m.units) {
-    if (u.archived) {
+    if (u.archived || (Early(u) && Decided(u))) {
       done += 1;
     } else if (m.planned_s > 0) {
       done += std::min(u.elapsed_s / m.planned_s, 0.999);

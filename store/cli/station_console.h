@@ -11,6 +11,13 @@
 // '?', final ones upper case) and a notice line. When the rows do not fit
 // the screen, one row per unit with the axes side by side; when even those
 // do not fit, the units needing attention first and a count of the rest.
+//
+// A unit whose plan has early decisions shows no provisional verdict that a
+// look may overturn: until it is decided its verdict reads "PENDING look
+// k/K" and each axis "pending" (a measurement of it still pending at the
+// last look) or "pass" (every one decided); once decided, "decided PASS at
+// 14m" (analysed device time) and its slot "slot free" (the run ends there:
+// the unit can come out); its final verdict in capitals once judged.
 #ifndef IMUQUAL_STORE_CLI_STATION_CONSOLE_H_
 #define IMUQUAL_STORE_CLI_STATION_CONSOLE_H_
 
@@ -45,6 +52,15 @@ struct ConsoleUnit {
   bool final_result = false;         // the verdict is final
   int8_t verdict = 0;                // measurement_t.OUTCOME_*
   std::vector<ConsoleAxis> axes;
+  // Early decisions (its plan's early_decision; looks_planned 0 without):
+  // the looks done so far, the unit's decision (decision_t.STATE_*; 0
+  // before the first look), when it was decided (s of analysed device
+  // time), and what is still pending at the last look ("axis: name: why").
+  int looks_planned = 0;
+  int looks_done = 0;
+  int8_t decision = 0;
+  double decided_at_s = 0;
+  std::vector<std::string> pending;
 };
 
 struct ConsoleProcess {
@@ -65,7 +81,8 @@ struct ConsoleModel {
 };
 
 // Fraction of the soak done, 0..1: device time over planned time of every
-// unit (archived runs count as done), or archived runs when unplanned.
+// unit (archived runs and decided units count as done), or archived runs
+// when unplanned.
 double ConsoleProgress(const ConsoleModel& model);
 
 // The screen, one string per line, each at most `width` columns, at most

@@ -5,12 +5,15 @@
 #include <algorithm>
 #include <limits>
 
+#include "imuqual/decision_t.hpp"
 #include "imuqual/measurement_t.hpp"
 #include "imuqual/run_t.hpp"
+#include "store/cli/table_writer.h"
 
 namespace imuqual::cli {
 namespace {
 
+using imuqual::decision_t;
 using imuqual::measurement_t;
 using imuqual::run_t;
 
@@ -196,6 +199,79 @@ TEST(StationConsoleTest, LiveValuesCarryTheirMarksAndALegend) {
     EXPECT_LE(columns, 23u) << line;
     if (!line.empty()) EXPECT_NE(static_cast<unsigned char>(line.back()) & 0xC0, 0xC0) << line;
   }
+}
+
+// Early decisions: no provisional verdict a later look may overturn.
+TEST(StationConsoleTest, EarlyDecisionUnitsShowPendingLooksThenTheirDecision) {
+  // GIVEN a plan with 27 looks: SN-1 pending at look 5 on axis y, SN-2
+  // decided FAIL at 14 min, both with a provisional FAIL on axis x
+  ConsoleModel m = Model();
+  m.units.pop_back();
+  for (ConsoleUnit& u : m.units) {
+    u.looks_planned = 27;
+    u.verdict = measurement_t::OUTCOME_FAIL;
+    u.axes[0].outcome = measurement_t::OUTCOME_FAIL;
+    u.axes[1].outcome = measurement_t::OUTCOME_PASS;
+    u.axes[2].outcome = measurement_t::OUTCOME_PASS;
+  }
+  m.units[0].looks_done = 5;
+  m.units[0].decision = decision_t::STATE_PENDING;
+  m.units[0].pending = {"y: bias_instability 12 ± 3 deg/h: not yet on one side of a limit (z 3.7)"};
+  m.units[1].looks_done = 12;
+  m.units[1].decision = decision_t::STATE_FAIL;
+  m.units[1].decided_at_s = 840;
+  const std::vector<std::string> lines = RenderConsole(m, 160, 50);
+  const std::string screen = Screen(lines);
+  // THEN the pending unit reads PENDING with its looks, its axes pending or
+  // passed, and no "fail?" that a later look could overturn
+  auto row_of = [&](const std::string& serial, const std::string& axis) {
+    for (size_t i = 0; i < lines.size(); ++i) {
+      if (lines[i].find(serial) == std::string::npos) continue;
+      for (size_t k = i; k < lines.size() && k < i + 3; ++k) {
+        if (lines[k].find("  " + axis + "  ") != std::string::npos) return lines[k];
+      }
+    }
+    return std::string();
+  };
+  EXPECT_NE(row_of("SN-1", "x").find("PENDING look 5/27"), std::string::npos) << screen;
+  EXPECT_EQ(row_of("SN-1", "x").find("fail"), std::string::npos) << screen;
+  EXPECT_NE(row_of("SN-1", "y").find("pending"), std::string::npos) << screen;
+  EXPECT_NE(row_of("SN-1", "z").find("pass"), std::string::npos) << screen;
+  // AND the decided one says so, with its time, and frees its slot
+  EXPECT_NE(screen.find("decided FAIL at 14m"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("slot free"), std::string::npos) << screen;
+  EXPECT_NEAR(ConsoleProgress(m), (0.5 + 1.0) / 2, 1e-12);
+  // AND a unit per row, more units than fit: the same words, the decided
+  // failure first (pending units rank by their decision, not by their
+  // provisional FAIL), no mark on a pending unit's values
+  for (const char* serial : {"SN-3", "SN-4", "SN-5"}) {
+    ConsoleUnit u = m.units[0];
+    u.serial = serial;
+    m.units.insert(m.units.begin(), u);
+  }
+  const std::vector<std::string> small_lines = RenderConsole(m, 120, 12);
+  const std::string small = Screen(small_lines);
+  ASSERT_NE(small.find("SN-2"), std::string::npos) << small;
+  EXPECT_NE(small.find("3 not judged yet)"), std::string::npos) << small;
+  EXPECT_NE(small.find("PENDING look 5/27"), std::string::npos) << small;
+  EXPECT_NE(small.find("decided FAIL at 14m"), std::string::npos) << small;
+  for (const std::string& line : small_lines) {
+    EXPECT_LE(DisplayWidth(line), 120u) << line;
+    if (line.find("PENDING") != std::string::npos) {
+      EXPECT_EQ(line.find('!'), std::string::npos) << line;
+    }
+  }
+  m.units.erase(m.units.begin(), m.units.begin() + 3);
+  // AND once judged, the final verdict in capitals
+  m.units[1].final_result = true;
+  m.units[1].archived = true;
+  const std::string done = Screen(RenderConsole(m, 160, 50));
+  EXPECT_NE(done.find("FAIL"), std::string::npos) << done;
+  EXPECT_EQ(done.find("decided FAIL"), std::string::npos) << done;
+  EXPECT_NE(done.find("done"), std::string::npos) << done;
+  // AND without early decisions nothing changes: provisional verdicts.
+  for (ConsoleUnit& u : m.units) u.looks_planned = 0;
+  EXPECT_NE(Screen(RenderConsole(m, 160, 50)).find("fail?"), std::string::npos);
 }
 
 TEST(StationConsoleTest, ProgressCountsArchivedRunsAsDone) {

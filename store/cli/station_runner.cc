@@ -14,6 +14,7 @@
 
 #include "acquire/lot_profile.h"
 #include "acquire/units.h"
+#include "analyze/judge/early_decision.h"
 #include "analyze/judge/plan_file.h"
 #include "common/channels.h"
 #include "common/clock.h"
@@ -24,6 +25,7 @@
 #include "common/subprocess.h"
 #include "common/text_util.h"
 #include "imuqual/ack_t.hpp"
+#include "imuqual/decision_t.hpp"
 #include "imuqual/run_t.hpp"
 #include "imuqual/status_t.hpp"
 #include "imuqual/unit_result_t.hpp"
@@ -292,7 +294,30 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
             x.name = name;
             u->axes.push_back(std::move(x));
           }
+          // Early decisions: the looks its plan schedules.
+          pb::TestPlan plan;
+          if (plan.ParseFromArray(r.plan.data(), static_cast<int>(r.plan.size())) &&
+              plan.has_early_decision()) {
+            u->looks_planned = static_cast<int>(judge::MakeLookSchedule(plan).times_s.size());
+          }
         }
+      });
+  // Early decisions: the looks so far and, once decided, the decision (final:
+  // a later message of the same run changes nothing).
+  bus.Subscribe<imuqual::decision_t>(
+      channels::kDecisionAll, 1000, [&](const std::string&, imuqual::decision_t&& d, int64_t) {
+        ConsoleUnit* u = unit_of_run(d.run_id, d.unit_serial);
+        if (u == nullptr) return;
+        const bool decided = u->decision == imuqual::decision_t::STATE_PASS ||
+                             u->decision == imuqual::decision_t::STATE_FAIL;
+        const bool older = d.state == imuqual::decision_t::STATE_PENDING &&
+                           d.looks_done < u->looks_done;
+        if (decided || older) return;
+        u->looks_planned = std::max<int>(u->looks_planned, d.looks_planned);
+        u->looks_done = d.looks_done;
+        u->decision = d.state;
+        u->decided_at_s = d.decided_at_s;
+        u->pending = std::move(d.pending);
       });
   bus.Subscribe<imuqual::ack_t>(channels::kAck, 20000,
                                 [&](const std::string&, imuqual::ack_t&& a, int64_t) {

@@ -6,6 +6,7 @@
 
 #include "common/lcm_bus.h"
 #include "imuqual/ack_t.hpp"
+#include "imuqual/decision_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
 #include "imuqual/run_t.hpp"
@@ -60,5 +61,16 @@ int main(int argc, char** argv) {
   s.first_seq = 1;
   s.last_seq = 5;
   Write(dir, "resend", 3, s);
+  imuqual::decision_t d{};
+  d.run_id = "R";
+  d.unit_serial = "U";
+  d.state = imuqual::decision_t::STATE_PENDING;
+  d.looks_done = 3;
+  d.looks_planned = 27;
+  d.end_sample = 14000;
+  d.z = 3.7;
+  d.num_pending = 1;
+  d.pending = {"x: tau_at_minimum: not yet on one side of a limit (z 3.7)"};
+  Write(dir, "decision", 7, d);
   return 0;
 }

@@ -12,6 +12,7 @@
 #include "common/lcm_bus.h"
 #include "imuqual/ack_t.hpp"
 #include "imuqual/allan_curve_t.hpp"
+#include "imuqual/decision_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
 #include "imuqual/run_t.hpp"
@@ -95,7 +96,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1 || size > (1 << 16)) return 0;
   const uint8_t* body = data + 1;
   const size_t n = size - 1;
-  switch (data[0] % 7) {
+  switch (data[0] % 8) {
     case 0: Decode<imuqual::rate_batch_t>(body, n); break;
     case 1: Decode<imuqual::run_t>(body, n); break;
     case 2: Decode<imuqual::ack_t>(body, n); break;
@@ -110,6 +111,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       Decode<imuqual::status_t>(body, n);
       break;
     }
+    case 7: Decode<imuqual::decision_t>(body, n); break;
   }
   return 0;
 }
