@@ -106,7 +106,9 @@ TEST(RunAnalyzerTest, EveryPointOfLiveAndFinalCurvesHasAChiSquareInterval) {
           << p.m;
     }
     for (const allan::CurvePoint& p : f.points) {
-      if (p.m <= 64) EXPECT_EQ(p.alpha.value_or(99), 0) << "white noise at m=" << p.m;
+      if (p.m <= 64) {
+        EXPECT_EQ(p.alpha.value_or(99), 0) << "white noise at m=" << p.m;
+      }
     }
   }
 }

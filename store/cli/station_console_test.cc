@@ -197,7 +197,9 @@ TEST(StationConsoleTest, LiveValuesCarryTheirMarksAndALegend) {
     size_t columns = 0;
     for (unsigned char c : line) columns += (c & 0xC0) != 0x80;
     EXPECT_LE(columns, 23u) << line;
-    if (!line.empty()) EXPECT_NE(static_cast<unsigned char>(line.back()) & 0xC0, 0xC0) << line;
+    if (!line.empty()) {
+      EXPECT_NE(static_cast<unsigned char>(line.back()) & 0xC0, 0xC0) << line;
+    }
   }
 }
 
