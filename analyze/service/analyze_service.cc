@@ -153,10 +153,15 @@ imuqual::decision_t DecisionMessage(const imuqual::run_t& run, int revision,
   msg.end_sample = analyzer.analysed_end_counter();
   msg.z = d.looks().empty() ? allan::kNaN : d.looks().back().z;
   if (!d.looks().empty()) {
+    // What is pending; or, every limit decided, why the unit still waits
+    // (its marginal flags, FLAGS_AGREE_FULL_LENGTH).
+    std::vector<std::string> reasons;
     for (const judge::LookEntry& entry : d.looks().back().entries) {
-      if (entry.decision != judge::Decision::kPending) continue;
+      if (entry.decision == judge::Decision::kPending) reasons.push_back(PendingReason(entry));
+    }
+    if (!d.looks().back().note.empty()) reasons.push_back(d.looks().back().note);
+    for (std::string& reason : reasons) {
       if (msg.pending.size() == kMaxPendingReasons) break;
-      std::string reason = PendingReason(entry);
       if (reason.size() > kMaxPendingReasonBytes) {
         // Cut on a UTF-8 character boundary (the reasons carry '±').
         size_t cut = kMaxPendingReasonBytes - 3;

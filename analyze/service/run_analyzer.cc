@@ -222,6 +222,7 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
     return Status::InvalidArgument("device counter jumped by " +
                                    std::to_string(batch.first_sample - next_counter_) + " samples");
   }
+  const bool decided_at_start = decided();
   if (first_counter_ < 0) {
     first_counter_ = batch.first_sample;
     next_counter_ = batch.first_sample;
@@ -268,7 +269,8 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
     LookIfDue();
   }
   next_counter_ = batch.first_sample + static_cast<int64_t>(n);
-  if (batch.sample_utime > 0) clock_.Add(batch.first_sample, batch.sample_utime);
+  // The device clock from the batches analysed (none after the decision).
+  if (batch.sample_utime > 0 && !decided_at_start) clock_.Add(batch.first_sample, batch.sample_utime);
   ++batches_;
   return Status::Ok();
 }
