@@ -19,6 +19,8 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
+#include <map>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -49,7 +51,59 @@ struct UnitResult {
   double decided_at_s = 0;
   double truth_bi = 0;  // worst axis, deg/h
   std::string pending;  // what the last look left pending
+  std::string differs;  // --verbose: measurements judged differently early
+  // --calibration: (fraction, measurements) at a few times, and at the end.
+  std::vector<std::pair<double, std::vector<pb::Measurement>>> snapshots;
+  std::vector<pb::Measurement> final_measurements;
 };
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n == 0 ? NAN : n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// How well a reading and its uncertainty at fraction f predict the
+// full-length reading: z = (full - now) / (u sqrt(1 - f)) should be about
+// N(0, 1) for an efficient estimator; the flag rule FLAGS_AGREE_FULL_LENGTH
+// relies on |z| < 2.33 in 99 % of units.
+void PrintCalibration(const std::vector<UnitResult>& results) {
+  const std::string_view names[] = {judge::kBiasInstability, judge::kTauAtMinimum,
+                                     judge::kAngleRandomWalk};
+  for (std::string_view name : names) {
+    std::map<int, std::vector<double>> zs;  // by fraction in percent
+    for (const UnitResult& r : results) {
+      for (const auto& [f, ms] : r.snapshots) {
+        for (const pb::Measurement& m : ms) {
+          if (m.name() != name || !m.has_uncertainty() || !(m.uncertainty() > 0)) continue;
+          for (const pb::Measurement& g : r.final_measurements) {
+            if (g.name() != name || g.axis() != m.axis() || !std::isfinite(g.value())) continue;
+            zs[static_cast<int>(std::lround(f * 100))].push_back(
+                (g.value() - m.value()) / (m.uncertainty() * std::sqrt(1 - f)));
+          }
+        }
+      }
+    }
+    for (auto& [pct, z] : zs) {
+      double ss = 0;
+      int beyond = 0;
+      for (double x : z) {
+        ss += x * x;
+        beyond += std::abs(x) > 2.33;
+      }
+      std::sort(z.begin(), z.end());
+      std::printf("calibration_%s_f%02d rms_z %.3f beyond_2.33 %.4f p50_abs_z %.3f n %zu\n",
+                  std::string(name).c_str(), pct, std::sqrt(ss / z.size()),
+                  static_cast<double>(beyond) / z.size(),
+                  [&] {
+                    std::vector<double> a;
+                    for (double x : z) a.push_back(std::abs(x));
+                    return Median(a);
+                  }(),
+                  z.size());
+    }
+  }
+}
 
 allan::CompositeModel TruthModel(const pb::AxisTruth& t) {
   allan::CompositeModel m;
@@ -103,12 +157,6 @@ pb::Outcome TruthVerdict(const pb::TestPlan& plan, const pb::SimTruth& truth, do
 
 bool Accepts(pb::Outcome o) { return o == pb::PASS || o == pb::MARGINAL; }
 
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n == 0 ? NAN : n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 }  // namespace
 }  // namespace imuqual
 
@@ -135,6 +183,9 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads")->capture_default_str();
   app.add_option("--lot", lot, "lot name (seeds the truths)")->capture_default_str();
   app.add_flag("--verbose", verbose, "one line per unit on stderr");
+  bool calibration = false;
+  app.add_flag("--calibration", calibration,
+               "how well each reading and its uncertainty predict the full-length reading");
   app.add_option("--marginal-flags", flags,
                  "early_decision.marginal_flags: at_decision, agree_full_length or decided")
       ->capture_default_str();
@@ -197,8 +248,15 @@ int main(int argc, char** argv) {
         continue;
       }
       int64_t early_end = -1;
+      const double snap_s[] = {600, 900, 1200, 1800, 2400};
+      size_t next_snap = 0;
       cli::FeedSimulatedRecord(*simulator, rate, total, [&](const analyze::BatchView& view) {
         (void)full->AddBatch(view);
+        const double analysed_s = static_cast<double>(full->analysed_end_counter()) * tau0 - warmup_s;
+        if (calibration && next_snap < std::size(snap_s) && analysed_s >= snap_s[next_snap]) {
+          r.snapshots.emplace_back(analysed_s / soak_s, full->Outcome(false).measurements);
+          ++next_snap;
+        }
         if (early_end < 0) {
           (void)early->AddBatch(view);
           // The station stops the source once the unit is decided.
@@ -213,6 +271,20 @@ int main(int argc, char** argv) {
       const analyze::RunOutcome f = full->Outcome(true);
       const analyze::RunOutcome e = early->Outcome(true);
       r.full = f.judgement.verdict;
+      if (calibration) r.final_measurements = f.measurements;
+      if (verbose && r.full != r.early) {
+        // Which judged measurements read differently, early and full length.
+        for (const pb::Measurement& g : f.measurements) {
+          for (const pb::Measurement& m : e.measurements) {
+            if (m.axis() != g.axis() || m.name() != g.name() || m.outcome() == g.outcome()) continue;
+            r.differs += "\n    " + m.axis() + " " + m.name() + " early " +
+                         judge::OutcomeName(m.outcome()) + " " + std::to_string(m.value()) +
+                         " +- " + std::to_string(m.uncertainty()) + ", full " +
+                         judge::OutcomeName(g.outcome()) + " " + std::to_string(g.value()) +
+                         " +- " + std::to_string(g.uncertainty());
+          }
+        }
+      }
       r.early = e.judgement.verdict;
       r.decided = e.early && e.early->unit != judge::Decision::kPending;
       r.decided_at_s = r.decided ? e.early->decided_at_s : soak_s;
@@ -242,6 +314,7 @@ int main(int argc, char** argv) {
                                : "pending to the end",
                      r.truth_bi);
         if (!r.decided) std::fprintf(stderr, "  pending:%s\n", r.pending.c_str());
+        if (!r.differs.empty()) std::fprintf(stderr, "  judged differently:%s\n", r.differs.c_str());
       }
     }
   };
@@ -288,5 +361,6 @@ int main(int argc, char** argv) {
   std::printf("decision_error_rate_vs_truth_full %.4f 1\n", full_wrong / n);
   std::printf("verdict_category_error_rate_vs_truth_early %.4f 1\n", early_cat / n);
   std::printf("verdict_category_error_rate_vs_truth_full %.4f 1\n", full_cat / n);
+  if (calibration) PrintCalibration(results);
   return 0;
 }

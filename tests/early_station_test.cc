@@ -263,6 +263,42 @@ TEST(EarlyDecisionTest, DecidedUnitsEndAtTheirDecisionAndArchiveCleanly) {
   // archive reaches the same judgement, decision and decision time bit for
   // bit.
   ExpectSoakArchivedWhole(h.db(), 3, 3);
+  // AND every look's evidence comes back from the archive: `reanalyze
+  // --looks` lists each look up to the decision (the good unit's) or to the
+  // end (the slow one's), every judged measurement's value and decision, and
+  // the unit's state after each look, agreeing with the decision archived.
+  for (const ArchivedRun* r : {&good, &slow}) {
+    SCOPED_TRACE(r->run_id);
+    const auto looks = RunCommand(Bin("imuqual") + " reanalyze " + r->run_id + " --db " +
+                                  h.db() + " --looks --format csv");
+    ASSERT_EQ(looks.exit_code, 0) << looks.output;
+    const testing::Csv t = testing::ParseCsv(looks.output);
+    const int expected_looks =
+        r == &good ? static_cast<int>(std::lround((r->decision_time_s - 60) / 20)) + 1 : kSimLooks;
+    int unit_rows = 0, measurement_rows = 0;
+    std::string last_unit;
+    for (const auto& row : t.rows) {
+      if (row[t.Col("axis")] == "*") {
+        ++unit_rows;
+        EXPECT_EQ(std::stoi(row[t.Col("look")]), unit_rows);
+        last_unit = row[t.Col("decision")];
+      } else {
+        ++measurement_rows;
+        const std::string d = row[t.Col("decision")];
+        EXPECT_TRUE(d == "PASS" || d == "FAIL" || d == "PENDING") << d;
+        EXPECT_FALSE(row[t.Col("why")].empty()) << row[t.Col("measurement")];
+      }
+    }
+    EXPECT_EQ(unit_rows, expected_looks);
+    EXPECT_EQ(measurement_rows, 3 * 2 * expected_looks);  // BI and ARW per axis and look
+    EXPECT_EQ(last_unit, r == &good ? "PASS" : "PENDING");
+  }
+  // An unknown run: an error, not an empty table.
+  {
+    const auto none = RunCommand(Bin("imuqual") + " reanalyze NO-SUCH-RUN --db " + h.db() +
+                                 " --looks");
+    EXPECT_NE(none.exit_code, 0);
+  }
 
   // AND the lot's table says when each unit was decided, and the soak time
   // the decisions saved: horizon - decision time over the decided runs.

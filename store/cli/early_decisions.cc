@@ -87,4 +87,22 @@ std::string EarlyDecisionLine(const EarlyDecisionSummary& s) {
   return buf;
 }
 
+TableWriter LooksTable(const std::vector<judge::Look>& looks) {
+  TableWriter t({"look", "time_s", "z_bound", "axis", "measurement", "value", "uncertainty",
+                 "decision", "why"});
+  for (const judge::Look& look : looks) {
+    for (const judge::LookEntry& e : look.entries) {
+      t.AddRow({Cell::Int(look.index + 1), Cell::Real(look.time_s), Cell::Real(look.z),
+                Cell::Text(e.axis), Cell::Text(e.name), Cell::Real(e.value),
+                Cell::Real(e.uncertainty), Cell::Text(judge::DecisionName(e.decision)),
+                Cell::Text(e.why)});
+    }
+    t.AddRow({Cell::Int(look.index + 1), Cell::Real(look.time_s), Cell::Real(look.z),
+              Cell::Text("*"), Cell::Text("unit"), Cell::Real(allan::kNaN),
+              Cell::Real(allan::kNaN), Cell::Text(judge::DecisionName(look.unit)),
+              Cell::Text(look.note)});
+  }
+  return t;
+}
+
 }  // namespace imuqual::cli

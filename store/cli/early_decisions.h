@@ -11,8 +11,10 @@
 #include <string>
 #include <vector>
 
+#include "analyze/judge/early_decision.h"
 #include "common/status.h"
 #include "store/archive.h"
+#include "store/cli/table_writer.h"
 
 namespace imuqual::cli {
 
@@ -51,6 +53,16 @@ std::string DecisionTimeText(double seconds);
 // decided; soak time saved 780 s (13m) of 1800 s (43 %); median decided /
 // full soak 0.43"; "" when no run of the lot used early decisions.
 std::string EarlyDecisionLine(const EarlyDecisionSummary& summary);
+
+// Every look of a run's early decisions, one row per look and judged
+// measurement (look, analysed time, boundary z, axis, measurement, value,
+// uncertainty, decision, why), then per look a unit row (axis "*", the
+// unit's decision and, for a unit whose limits are decided but whose
+// marginal flags are not, why it still waits). For `imuqual reanalyze
+// --looks`: the archive keeps the raw samples and the deciding evidence
+// (each decided measurement's note, decision_time); the looks that did not
+// decide are recomputed from the samples, bit for bit (--check).
+TableWriter LooksTable(const std::vector<judge::Look>& looks);
 
 }  // namespace imuqual::cli
 

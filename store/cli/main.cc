@@ -194,6 +194,11 @@ int main(int argc, char** argv) {
   reanalyze_cmd->add_option("--ci", re.ci, "--exact: none, simple or chi2")
       ->capture_default_str()
       ->needs(exact_flag);
+  reanalyze_cmd
+      ->add_flag("--looks", re.looks,
+                 "live mode: every look of the run's early decisions (evidence, decisions, what "
+                 "was pending) instead of the curves")
+      ->excludes(exact_flag);
   reanalyze_cmd->add_option("--format", re.format, "table, csv or json")->capture_default_str();
 
   std::string verify_db;

@@ -12,6 +12,7 @@
 #include "store/archive.h"
 #include "store/checksums.h"
 #include "store/cli/curve_request.h"
+#include "store/cli/early_decisions.h"
 #include "store/outcome.h"
 #include "store/reanalysis.h"
 
@@ -216,11 +217,24 @@ int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
     return outcome.status().code() == Status::Code::kNotFound ? 2 : 1;
   }
   std::vector<LabeledCurve> curves(outcome->curves.begin(), outcome->curves.end());
+  if (o.looks && !outcome->early) {
+    LogError("run " + o.run_id + ": its plan has no early_decision, so it has no looks");
+    return 1;
+  }
   if (format == Format::kTable) {
     std::printf("run %s re-analysed as live: verdict %s\n", o.run_id.c_str(),
                 Shown(outcome->judgement.verdict).c_str());
+    if (o.looks) {
+      const analyze::RunOutcome::Early& e = *outcome->early;
+      std::printf("early decisions: %s after %d of %d looks%s\n",
+                  judge::DecisionName(e.unit), e.looks_done, e.looks_planned,
+                  e.unit == judge::Decision::kPending
+                      ? " (full-length verdict)"
+                      : (" at " + DecisionTimeText(e.decided_at_s)).c_str());
+    }
   }
-  std::printf("%s", CurveTable(curves, true, true, true).Render(format).c_str());
+  std::printf("%s", o.looks ? LooksTable(outcome->early->looks).Render(format).c_str()
+                            : CurveTable(curves, true, true, true).Render(format).c_str());
   if (!o.check) return 0;
   // Complete in the archive (a judgement and a final curve of every axis),
   // and bit for bit what the live analysis archived, axis by axis.

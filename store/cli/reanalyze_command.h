@@ -6,7 +6,9 @@
 //  - with --exact, the exact batch estimators on any grid, stop rule and
 //    confidence interval, over every archived sample (no warm-up skipped;
 //    missing and flagged samples are gaps): what `imuqual analyze` gives for
-//    the same samples.
+//    the same samples;
+//  - with --looks (live mode), every look of the run's early decisions: the
+//    evidence of each look, what was decided and what was still pending.
 #ifndef IMUQUAL_STORE_CLI_REANALYZE_COMMAND_H_
 #define IMUQUAL_STORE_CLI_REANALYZE_COMMAND_H_
 
@@ -25,6 +27,8 @@ struct ReanalyzeOptions {
   std::string ci = "none";
   double confidence = 0.682689492137086;
   std::string format = "table";
+  // live mode: every look of the run's early decisions instead of the curves
+  bool looks = false;
 };
 
 int ReanalyzeCommand(const ReanalyzeOptions& options);
