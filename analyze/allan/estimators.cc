@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include "analyze/allan/lane_sum.h"
 #include "analyze/allan/long_tau.h"
 
 // The summation kernels are compiled for AVX2 and for the baseline ISA; the
@@ -24,8 +25,9 @@ namespace {
 // (the compiler maps the lanes onto SIMD registers); each chunk's sum is then
 // added to the total. Rounding error grows with the number of chunks, not of
 // terms, and the order of summation is fixed, so results are reproducible.
-constexpr int64_t kChunk = 2048;
-constexpr int kLanes = 8;
+using lanes::kChunk;
+using lanes::kLanes;
+using lanes::SumLanes;
 
 // MVAR's inner sum is updated by a running recurrence; it is recomputed
 // exactly at the start of every block of max(kMvarMinBlock, 8m) terms to bound
@@ -36,16 +38,6 @@ constexpr int64_t kMvarMinBlock = 4096;
 // steps computed kMvarTile at a time.
 constexpr int kMvarChains = 4;
 constexpr int64_t kMvarTile = 256;
-
-double SumLanes(const double (&acc)[kLanes]) {
-  double a = 0.0;
-  double b = 0.0;
-  for (int k = 0; k < kLanes; k += 2) {
-    a += acc[k];
-    b += acc[k + 1];
-  }
-  return a + b;
-}
 
 // sum_{i=begin}^{end-1} d_i^2 over one piece (at most kChunk terms), with
 //   d_i = (x_{i+2m} - x_{i+m}) - (x_{i+m} - x_i),

@@ -7,25 +7,15 @@
 #include <unsupported/Eigen/FFT>
 
 #include "analyze/allan/estimators.h"
+#include "analyze/allan/lane_sum.h"
 
 namespace imuqual::allan {
 namespace {
 
-// Sums of squared terms are accumulated kChunk at a time into kLanes
-// independent accumulators (as in estimators.cc), so rounding grows with the
-// number of chunks rather than of terms.
-constexpr int64_t kChunk = 2048;
-constexpr int kLanes = 8;
-
-double SumLanes(const double (&acc)[kLanes]) {
-  double a = 0.0;
-  double b = 0.0;
-  for (int k = 0; k < kLanes; k += 2) {
-    a += acc[k];
-    b += acc[k + 1];
-  }
-  return a + b;
-}
+// Sums of squared terms: kChunk at a time into kLanes accumulators (lane_sum.h).
+using lanes::kChunk;
+using lanes::kLanes;
+using lanes::SumLanes;
 
 // ---------------------------------------------------------------------------
 // FFT helpers (Eigen's FFT module, real transforms of power-of-two length).

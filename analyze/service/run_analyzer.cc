@@ -125,7 +125,8 @@ int64_t RunAnalyzer::UntilLook() const {
 void RunAnalyzer::LookIfDue() {
   if (!decider_ || decided() || next_look_ >= look_samples_.size()) return;
   if (engines_.front().samples() < look_samples_[next_look_]) return;
-  std::vector<pb::Measurement> measurements = MeasureNow(false, nullptr);
+  std::vector<allan::Curve> dense;  // per axis, no intervals: what was measured
+  std::vector<pb::Measurement> measurements = MeasureNow(false, nullptr, &dense);
   judge::Judge(ProvisionalPlan(desc_.plan), desc_.axes, &measurements);
   // The longest tau the full-length record would show.
   const double horizon_samples = decider_->schedule().horizon_s * desc_.nominal_rate_hz;
@@ -135,10 +136,7 @@ void RunAnalyzer::LookIfDue() {
       stop, allan::Deviation::kOadev, static_cast<int64_t>(horizon_samples) + 1));
   const auto settled = [&](const std::string& axis) {
     for (size_t a = 0; a < desc_.axes.size(); ++a) {
-      if (desc_.axes[a].name != axis) continue;
-      const allan::Curve dense =
-          engines_[a].Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
-      return judge::MinimumSettled(dense, horizon_m);
+      if (desc_.axes[a].name == axis) return judge::MinimumSettled(dense[a], horizon_m);
     }
     return false;
   };
@@ -311,7 +309,8 @@ RunEnding EndingForRunState(const std::string& state, const std::string& reason)
 }
 
 std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
-    bool final, std::vector<std::pair<std::string, allan::Curve>>* curves) const {
+    bool final, std::vector<std::pair<std::string, allan::Curve>>* curves,
+    std::vector<allan::Curve>* dense_curves) const {
   std::vector<pb::Measurement> out;
   const pb::TestPlan& plan = desc_.plan;
   const allan::StopRule stop =
@@ -330,7 +329,7 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
     // The measurements read the dense points without intervals (the noise
     // model weighs them by its own edf, gmwm.h); the intervals are computed
     // only for the curve published.
-    const allan::Curve dense = e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
+    allan::Curve dense = e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
     if (curves) {
       curves->emplace_back(desc_.axes[a].name,
                            e.Oadev(final ? allan::StreamGrid::kDense : grid, stop,
@@ -352,6 +351,7 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
         out.push_back(std::move(m));
       }
     }
+    if (dense_curves) dense_curves->push_back(std::move(dense));
   }
   const int64_t samples = engines_.front().samples();
   int64_t invalid = 0;

@@ -143,9 +143,12 @@ class RunAnalyzer {
   // Runs the look due now (early decisions), if one is.
   void LookIfDue();
   // Every measurement of the record as analysed so far (the noise model
-  // only when `final`); the judged curves into `curves` if given.
+  // only when `final`); the judged curves into `curves` if given, and the
+  // dense curves the measurements were read from (no intervals), one per
+  // axis in order, into `dense_curves` if given.
   std::vector<pb::Measurement> MeasureNow(
-      bool final, std::vector<std::pair<std::string, allan::Curve>>* curves) const;
+      bool final, std::vector<std::pair<std::string, allan::Curve>>* curves,
+      std::vector<allan::Curve>* dense_curves = nullptr) const;
 
   RunDescription desc_;
   AnalyzerOptions options_;
