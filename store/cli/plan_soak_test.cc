@@ -3,11 +3,14 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <string>
 
+#include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
+#include "store/archive.h"
 
 namespace imuqual::cli {
 namespace {
@@ -89,6 +92,81 @@ TEST(PlanSoak, ModelFileRunsAndBadFilesNameTheirProblem) {
   EXPECT_EQ(PlanSoakCommand(o), 1);
   o.profile = "vg700";  // two sources
   EXPECT_EQ(PlanSoakCommand(o), 2);
+}
+
+// A past lot's archived noise models: each unit's latest run, units without
+// an adequate model on every plan axis left out and counted.
+TEST(PlanSoak, LotUsesEachUnitsLatestAdequateModel) {
+  const std::string db = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "-lot.db";
+  std::remove(db.c_str());
+  {
+    auto archive = store::Archive::Open(db, store::Archive::Mode::kWrite);
+    ASSERT_TRUE(archive.ok()) << archive.status().ToString();
+    // serial, start, white noise (deg/sqrt(h); NaN: no model), adequate.
+    struct Run {
+      const char* serial;
+      int64_t start;
+      double arw;
+      bool adequate;
+    };
+    for (const Run& r : {Run{"GOOD", 1000, 0.9, true},  // its first run: superseded by the retest
+                         Run{"GOOD", 2000, 0.2, true}, Run{"NOFIT", 1500, NAN, true},
+                         Run{"BADFIT", 1600, 0.2, false}}) {
+      store::RunInfo info;
+      info.run_id = std::string(r.serial) + "-" + std::to_string(r.start);
+      info.serial = r.serial;
+      info.lot = "PAST";
+      info.start_utime = r.start;
+      info.nominal_rate_hz = 50;
+      info.axes = {{"x", pb::GYRO}};
+      info.state = "complete";
+      auto key = (*archive)->UpsertRun(info);
+      ASSERT_TRUE(key.ok()) << key.status().ToString();
+      store::ResultRecord result;
+      result.verdict = "PASS";
+      result.result_utime = r.start + 1;
+      if (!std::isnan(r.arw)) {
+        pb::Measurement white;
+        white.set_axis("x");
+        white.set_name(std::string(judge::kModelParameterPrefix) + "white_noise");
+        white.set_value(r.arw);
+        white.set_unit("deg/sqrt(h)");
+        result.measurements.push_back(white);
+        pb::Measurement p;
+        p.set_axis("x");
+        p.set_name(std::string(judge::kNoiseModelPValue));
+        p.set_value(r.adequate ? 0.4 : 1e-6);
+        if (!r.adequate) p.set_note(std::string(judge::kInadequateModelMark) + ": J test");
+        result.measurements.push_back(p);
+      }
+      ASSERT_TRUE((*archive)->PutResult(*key, result).ok());
+    }
+  }
+  PlanSoakOptions o;
+  o.plan = Write("lot-plan.textproto", kPlan);
+  o.lot = "PAST";
+  o.db = db;
+  o.records = 4;
+  ::testing::internal::CaptureStdout();
+  const int code = PlanSoakCommand(o);
+  const std::string out = ::testing::internal::GetCapturedStdout();
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("lot PAST: noise models of 1 units (2 without an adequate model on every "
+                     "axis: not used)"),
+            std::string::npos)
+      << out;
+  // GOOD's latest model (0.2 deg/sqrt(h), a third of the limit) is decided
+  // PASS in every record; its superseded first run (0.9) would have failed.
+  EXPECT_NE(out.find("decided    4 of 4 by the horizon (100.0 %): 4 PASS, 0 FAIL"),
+            std::string::npos)
+      << out;
+  // A lot the archive does not hold: one line naming it.
+  o.lot = "NO-SUCH-LOT";
+  ::testing::internal::CaptureStderr();
+  EXPECT_EQ(PlanSoakCommand(o), 1);
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("NO-SUCH-LOT"), std::string::npos) << err;
+  std::remove(db.c_str());
 }
 
 }  // namespace
