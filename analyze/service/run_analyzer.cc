@@ -387,7 +387,9 @@ RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {
     early.decided_at_s = decider_->decided_time_s();
     early.looks_done = static_cast<int>(next_look_);
     early.looks_planned = static_cast<int>(look_samples_.size());
-    early.looks = decider_->looks();
+    // Every look's evidence with the final outcome only (an interim one is
+    // computed every interim period: the decider() accessor has them).
+    if (final) early.looks = decider_->looks();
     out.early = std::move(early);
     if (final) out.measurements.push_back(DecisionTime(*decider_, desc_.plan));
   }

@@ -81,7 +81,7 @@ struct RunOutcome {
     double decided_at_s = 0;  // analysed device time (when decided)
     int looks_done = 0;
     int looks_planned = 0;
-    std::vector<judge::Look> looks;
+    std::vector<judge::Look> looks;  // every look so far; in the final outcome only
   };
   std::optional<Early> early;
   // Samples per axis that arrived after the decision (archived, not analysed).

@@ -247,14 +247,15 @@ Result<std::vector<SoakRecord>> SimulateSoaks(const pb::TestPlan& plan,
         (void)analyzer->AddBatch(view);
         return !analyzer->decided();
       });
-      const analyze::RunOutcome o = analyzer->Outcome(false);
+      // The decider says all (no Outcome: its curves and measurements unused).
+      const judge::EarlyDecider& d = *analyzer->decider();
       SoakRecord& r = out[i];
       r.unit = names[u];
-      r.decided = o.early && o.early->unit != judge::Decision::kPending;
-      r.fail = o.early && o.early->unit == judge::Decision::kFail;
-      r.decided_at_s = r.decided ? o.early->decided_at_s : schedule.horizon_s;
-      if (o.early && !o.early->looks.empty() && !r.decided) {
-        for (const judge::LookEntry& e : o.early->looks.back().entries) {
+      r.decided = d.unit_decision() != judge::Decision::kPending;
+      r.fail = d.unit_decision() == judge::Decision::kFail;
+      r.decided_at_s = r.decided ? d.decided_time_s() : schedule.horizon_s;
+      if (!d.looks().empty() && !r.decided) {
+        for (const judge::LookEntry& e : d.looks().back().entries) {
           if (e.decision == judge::Decision::kPending) r.pending.push_back(e.axis + " " + e.name);
         }
       }
