@@ -9,6 +9,7 @@
 #include "common/log.h"
 #include "common/shutdown.h"
 #include "common/text_util.h"
+#include "common/version.h"
 
 int main(int argc, char** argv) {
   using namespace imuqual;
@@ -16,6 +17,7 @@ int main(int argc, char** argv) {
   acquire::SimLotSpec sim;
   std::string plan_spec, await;
   CLI::App app{"imuqual-acquire: publish IMU samples of units under test on a station LCM bus"};
+  app.set_version_flag("--version", kSoftwareVersion);
   app.add_option("--lcm-url", opt.lcm_url, "station bus, e.g. udpm://239.255.76.67:7701?ttl=0")
       ->required();
   app.add_option("--lot", opt.lot, "production lot of the units")->required();

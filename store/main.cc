@@ -6,12 +6,14 @@
 
 #include "common/log.h"
 #include "common/shutdown.h"
+#include "common/version.h"
 #include "store/store_service.h"
 
 int main(int argc, char** argv) {
   using namespace imuqual;
   store::StoreOptions opt;
   CLI::App app{"imuqual-store: archive raw samples, curves and results of a station in SQLite"};
+  app.set_version_flag("--version", kSoftwareVersion);
   app.add_option("--station", opt.station,
                  "serve only this station's runs (run_t.station); others on the bus are ignored")
       ->capture_default_str();

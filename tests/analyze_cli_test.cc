@@ -12,6 +12,7 @@
 
 #include "analyze/allan/reference_testing.h"
 #include "common/text_util.h"
+#include "common/version.h"
 #include "tests/test_util.h"
 
 namespace imuqual {
@@ -202,6 +203,16 @@ TEST(AnalyzeCliTest, FitAndPlot) {
   ASSERT_TRUE(text.ok());
   EXPECT_EQ(text->rfind("<svg", 0), 0u);
   EXPECT_NE(text->find("model "), std::string::npos);  // the dashed model
+}
+
+// Every binary says which software it is (an auditor's first question
+// about a record) and exits 0.
+TEST(AnalyzeCliTest, EveryBinaryTellsItsVersion) {
+  for (const char* binary : {"imuqual", "imuqual-acquire", "imuqual-analyze", "imuqual-store"}) {
+    const auto r = RunCommand(Bin(binary) + " --version");
+    EXPECT_EQ(r.exit_code, 0) << binary << ": " << r.output;
+    EXPECT_EQ(r.output, std::string(kSoftwareVersion) + "\n") << binary;
+  }
 }
 
 }  // namespace

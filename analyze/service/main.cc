@@ -7,12 +7,14 @@
 #include "analyze/service/analyze_service.h"
 #include "common/log.h"
 #include "common/shutdown.h"
+#include "common/version.h"
 
 int main(int argc, char** argv) {
   using namespace imuqual;
   analyze::AnalyzeOptions opt;
   std::string shard = "0/1";
   CLI::App app{"imuqual-analyze: Allan curves, noise terms and verdicts for every run on a bus"};
+  app.set_version_flag("--version", kSoftwareVersion);
   app.add_option("--inject-result-drop", opt.inject_result_drop,
                  "fault injection: drop this fraction of final curves and results when first published")
       ->capture_default_str();

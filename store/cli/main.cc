@@ -4,6 +4,7 @@
 
 #include "common/log.h"
 #include "common/shutdown.h"
+#include "common/version.h"
 #include "store/cli/analyze_command.h"
 #include "store/cli/commands.h"
 #include "store/cli/export_command.h"
@@ -19,6 +20,7 @@ int main(int argc, char** argv) {
   using namespace imuqual;
   SetLogProgramName("imuqual");
   CLI::App app{"imuqual: IMU end-of-line qualification station (Allan deviation, IEEE 952)"};
+  app.set_version_flag("--version", kSoftwareVersion);
   app.require_subcommand(1);
 
   cli::StationRunOptions run;
