@@ -23,7 +23,10 @@ std::string Sha256Hex(std::string_view data);
 // file names: 1-48 of [A-Za-z0-9._-]. The error names `what`.
 Status ValidateIdentifier(std::string_view what, std::string_view value);
 
-
+// The name of `known` closest to a mistyped `given` (edit distance, ties to
+// the first), "" when none is close: at most 2 edits, and fewer than half
+// the letters of `given`. For "unknown command 'lotz' (did you mean 'lot'?)".
+std::string ClosestName(std::string_view given, const std::vector<std::string>& known);
 
 }  // namespace imuqual
 

@@ -127,6 +127,33 @@ TEST_F(LotToolsTest, UnitHistoryAndRunListings) {
   EXPECT_EQ(Csv(ParseCsv(Imuqual("runs --since 2999-01-01 --format csv"))).rows.size(), 0u);
 }
 
+// "-o -" is standard output (never a file named "-"), and a mistyped
+// command is named with the closest one.
+TEST_F(LotToolsTest, DashIsStandardOutputAndMistypedCommandsAreNamed) {
+  const std::string in_dir = "cd " + dir_->path("") + " && ";
+  const auto html = RunCommand(in_dir + Bin("imuqual") + " report --lot T-L001 -o - --db " + db_);
+  EXPECT_EQ(html.exit_code, 0);
+  EXPECT_EQ(html.output.rfind("<!DOCTYPE html>", 0), 0u) << html.output.substr(0, 80);
+  const auto svg =
+      RunCommand(in_dir + Bin("imuqual") + " plot --lot T-L001 --axis gx -o - --db " + db_);
+  EXPECT_EQ(svg.exit_code, 0);
+  EXPECT_EQ(svg.output.rfind("<svg ", 0), 0u) << svg.output.substr(0, 80);
+  // Several plots cannot share standard output: a usage error, nothing written.
+  const auto several = RunCommand(in_dir + Bin("imuqual") + " plot --lot T-L001 -o - --db " +
+                                  db_ + " 2>&1");
+  EXPECT_EQ(several.exit_code, 2);
+  EXPECT_NE(several.output.find("give --axis"), std::string::npos) << several.output;
+  EXPECT_FALSE(std::filesystem::exists(dir_->path("-")));
+  const auto typo = RunCommand(Bin("imuqual") + " reanalyse R --db " + db_ + " 2>&1");
+  EXPECT_EQ(typo.exit_code, 2);
+  EXPECT_NE(typo.output.find("unknown command 'reanalyse' (did you mean 'reanalyze'?)"),
+            std::string::npos)
+      << typo.output;
+  const auto nothing_close = RunCommand(Bin("imuqual") + " frobnicate 2>&1");
+  EXPECT_EQ(nothing_close.exit_code, 2);
+  EXPECT_EQ(nothing_close.output.find("did you mean"), std::string::npos) << nothing_close.output;
+}
+
 TEST_F(LotToolsTest, JsonRecordsParseBackToTheArchivedRecords) {
   const std::string json = Imuqual("export --lot T-L001 --as json");
   pb::RunRecords records;
@@ -217,7 +244,9 @@ TEST_F(LotToolsTest, ExportsSayWhatEveryValueIs) {
     // Without a limit nothing is judged, and the export says so.
     const bool limited = !r[csv.Col("low")].empty() || !r[csv.Col("high")].empty() ||
                          !r[csv.Col("marginal_low")].empty() || !r[csv.Col("marginal_high")].empty();
-    if (!limited) EXPECT_EQ(outcome, "not_judged") << what;
+    if (!limited) {
+      EXPECT_EQ(outcome, "not_judged") << what;
+    }
     outcomes.insert(outcome);
     qualifiers.insert(qualifier);
   }
@@ -859,7 +888,9 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
       EXPECT_EQ(out.rows[i][out.Col("run_id")], expected[i][1]);
       EXPECT_EQ(out.rows[i][out.Col("verdict")], expected[i][2]);
       EXPECT_EQ(out.rows[i][out.Col("next_run_id")], expected[i][3]);
-      if (expected[i][2] == "FAIL") EXPECT_FALSE(out.rows[i][out.Col("reasons")].empty());
+      if (expected[i][2] == "FAIL") {
+        EXPECT_FALSE(out.rows[i][out.Col("reasons")].empty());
+      }
     }
   };
 

@@ -1,9 +1,12 @@
 // imuqual: the operator's and engineer's tool. Runs a station, answers lot
 // queries. Subcommand flags -> command functions -> exit code.
+#include <algorithm>
+
 #include <CLI/CLI.hpp>
 
 #include "common/log.h"
 #include "common/shutdown.h"
+#include "common/text_util.h"
 #include "common/version.h"
 #include "store/cli/analyze_command.h"
 #include "store/cli/commands.h"
@@ -236,15 +239,36 @@ int main(int argc, char** argv) {
   plot_cmd->add_option("--axis", plot.axis, "only this axis");
   plot_cmd
       ->add_option("-o,--output", plot.output,
-                   "SVG file; several plots go to FILE-<kind or axis>.svg beside it")
+                   "SVG file; several plots go to FILE-<kind or axis>.svg beside it; - for "
+                   "standard output (one plot)")
       ->required();
 
   cli::ReportOptions report;
   CLI::App* report_cmd = app.add_subcommand("report", "self-contained HTML report of a lot");
   report_cmd->add_option("--db", report.db_path, "archive file")->required();
   report_cmd->add_option("--lot", report.lot, "lot name")->required();
-  report_cmd->add_option("-o,--output", report.output, "HTML file to write")->required();
+  report_cmd->add_option("-o,--output", report.output, "HTML file to write; - for standard output")
+      ->required();
 
+  // A mistyped command is named, with the closest one, not "A subcommand is
+  // required".
+  if (argc > 1 && argv[1][0] != '-') {
+    std::vector<std::string> names;
+    for (const CLI::App* sub : app.get_subcommands({})) names.push_back(sub->get_name());
+    if (std::find(names.begin(), names.end(), argv[1]) == names.end()) {
+      std::string message = "unknown command '";
+      message += argv[1];
+      message += "'";
+      if (const std::string close = ClosestName(argv[1], names); !close.empty()) {
+        message += " (did you mean '";
+        message += close;
+        message += "'?)";
+      }
+      message += "; imuqual --help lists them";
+      LogError(message);
+      return 2;
+    }
+  }
   CLI11_PARSE(app, argc, argv);
   if (plot_cmd->parsed()) return cli::PlotCommand(plot);
   if (soak_cmd->parsed()) return cli::PlanSoakCommand(soak);

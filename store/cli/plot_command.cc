@@ -601,6 +601,17 @@ int PlotCommand(const PlotOptions& options) {
       return kExitError;
     }
   }
+  if (options.output == "-") {  // standard output: one plot only
+    if (plots.size() != 1) {
+      LogError("plot: -o - writes one plot to standard output; this gives " +
+               std::to_string(plots.size()) + " (one per axis kind or axis): give --axis, or -o FILE.svg");
+      return kExitUsage;
+    }
+    const std::string& svg = plots.front().svg;
+    return std::fwrite(svg.data(), 1, svg.size(), stdout) == svg.size() && std::fflush(stdout) == 0
+               ? 0
+               : kExitError;
+  }
   for (const AllanPlot& plot : plots) {
     const std::string path =
         plots.size() == 1 ? options.output : DerivedPath(options.output, plot.key);

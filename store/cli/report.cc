@@ -1052,6 +1052,12 @@ int ReportCommand(const ReportOptions& options) {
     LogError(html.status().message());
     return kExitError;
   }
+  if (options.output == "-") {  // standard output
+    return std::fwrite(html->data(), 1, html->size(), stdout) == html->size() &&
+                   std::fflush(stdout) == 0
+               ? 0
+               : kExitError;
+  }
   const Status st = WriteStringToFile(options.output, *html);
   if (!st.ok()) {
     LogError(st.message());
