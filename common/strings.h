@@ -3,8 +3,10 @@
 #ifndef IMUQUAL_COMMON_STRINGS_H_
 #define IMUQUAL_COMMON_STRINGS_H_
 
+#include <charconv>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <vector>
 
 namespace imuqual {
@@ -29,6 +31,16 @@ inline std::string Join(const std::vector<std::string>& parts, std::string_view 
     out += parts[i];
   }
   return out;
+}
+
+// The shortest decimal text that reads back as exactly `v` (0.04, not
+// %.17g's 0.040000000000000001): for CSV, JSON and every value written for
+// programs. "nan", "inf", "-inf" for those (callers say what they want
+// instead: an empty cell, null).
+inline std::string ShortestReal(double v) {
+  char buf[32];
+  const std::to_chars_result r = std::to_chars(buf, buf + sizeof buf, v);
+  return r.ec == std::errc() ? std::string(buf, r.ptr) : std::string();
 }
 
 }  // namespace imuqual

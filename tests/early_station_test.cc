@@ -24,6 +24,7 @@
 #include "acquire/imu_simulator.h"
 #include "common/channels.h"
 #include "common/clock.h"
+#include "common/strings.h"
 #include "common/text_util.h"
 #include "imuqual/decision_t.hpp"
 #include "store/archive.h"
@@ -81,11 +82,9 @@ std::string FormatG(double v) {
   return buf;
 }
 
-// As the exports and the report's data-v write values: %.17g.
+// As the exports and the report's data-v write values: shortest round-trip.
 std::string Exact(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
+  return ShortestReal(v);
 }
 
 // One run as archived, with its early decision.

@@ -16,6 +16,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "common/strings.h"
 #include "common/text_util.h"
 #include "imuqual/record.pb.h"
 #include "store/archive.h"
@@ -47,9 +48,7 @@ limits { measurement: "gap_fraction" high: 0.001 unit: "1" }
 )pb";
 
 std::string Exact(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
+  return ShortestReal(v);
 }
 
 using testing::Csv;

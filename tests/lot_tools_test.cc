@@ -211,7 +211,7 @@ TEST_F(LotToolsTest, KalibrYamlEqualsTheFit) {
 }
 
 TEST_F(LotToolsTest, CsvExportsHaveEveryRow) {
-  const Csv curves = ParseCsv(Imuqual("export --run T-L001-U001-R1 --as curves"));
+  const Csv curves = ParseCsv(Imuqual("export --run T-L001-U001-R1 --format curves"));
   auto a = store::Archive::Open(db_, store::Archive::Mode::kRead);
   auto archived = (*a)->LoadCurves(**(*a)->FindRunKey("T-L001-U001-R1"));
   size_t points = 0;

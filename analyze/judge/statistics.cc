@@ -55,18 +55,17 @@ Summary Summarize(std::span<const double> values, std::span<const pb::Outcome> o
     }
     s.sd = std::sqrt(ss / static_cast<double>(s.n - 1));
   }
-  if (std::isfinite(s.sd) && s.sd > 0) {
+  s.capability_kind = high && low ? "Cpk" : high ? "Cpu" : low ? "Cpl" : "";
+  if (std::isfinite(s.sd) && s.sd > 0 && s.n >= kMinCapabilityN) {
     const double upper = high ? (*high - s.mean) / (3 * s.sd) : kNaN;
     const double lower = low ? (s.mean - *low) / (3 * s.sd) : kNaN;
-    if (high && low) {
-      s.capability = std::min(upper, lower);
-      s.capability_kind = "Cpk";
-    } else if (high) {
-      s.capability = upper;
-      s.capability_kind = "Cpu";
-    } else if (low) {
-      s.capability = lower;
-      s.capability_kind = "Cpl";
+    s.capability = high && low ? std::min(upper, lower) : high ? upper : lower;
+    if (std::isfinite(s.capability)) {
+      const double n = static_cast<double>(s.n);
+      const double half = 1.959963984540054 *
+                          std::sqrt(1 / (9 * n) + s.capability * s.capability / (2 * (n - 1)));
+      s.capability_low = s.capability - half;
+      s.capability_high = s.capability + half;
     }
   }
   return s;

@@ -30,10 +30,20 @@ struct Summary {
   double yield = std::numeric_limits<double>::quiet_NaN();  // passed / judged
   // Process capability against the limits: Cpk = min(USL - mean, mean - LSL) / 3 sd
   // with both limits, Cpu = (USL - mean) / 3 sd with an upper one only,
-  // Cpl = (mean - LSL) / 3 sd with a lower one only. NaN without limits or sd.
+  // Cpl = (mean - LSL) / 3 sd with a lower one only; with its 95 % confidence
+  // interval (Bissell's normal approximation, for normally distributed
+  // values: Cpk -+ 1.96 sqrt(1 / (9 n) + Cpk^2 / (2 (n - 1)))). NaN without
+  // limits or sd, and below kMinCapabilityN values (capability_kind then
+  // still says which index the limits call for).
   double capability = std::numeric_limits<double>::quiet_NaN();
+  double capability_low = std::numeric_limits<double>::quiet_NaN();
+  double capability_high = std::numeric_limits<double>::quiet_NaN();
   std::string capability_kind;  // "Cpk", "Cpu", "Cpl" or ""
 };
+
+// Fewer values give no capability index: at n = 10 a Cpk of 1.33 is already
+// only known to within [0.68, 1.98] (95 %); at n = 2 it says nothing.
+inline constexpr int64_t kMinCapabilityN = 10;
 
 // `outcomes` parallel to `values` (or empty); NaN values are not counted.
 Summary Summarize(std::span<const double> values, std::span<const pb::Outcome> outcomes,

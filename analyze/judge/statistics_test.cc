@@ -24,16 +24,40 @@ TEST(StatisticsTest, SummaryAndCapability) {
   EXPECT_EQ(s.passed, 2);
   EXPECT_EQ(s.marginal, 1);
   EXPECT_DOUBLE_EQ(s.yield, 0.5);
+  // Three values give no capability index, only which one the limits call for.
   EXPECT_EQ(s.capability_kind, "Cpu");
-  EXPECT_DOUBLE_EQ(s.capability, 2.0);
-  s = Summarize(v, o, 7.0, 16.0);
-  EXPECT_EQ(s.capability_kind, "Cpk");
-  EXPECT_DOUBLE_EQ(s.capability, 1.0);
+  EXPECT_TRUE(std::isnan(s.capability));
+  EXPECT_TRUE(std::isnan(s.capability_low));
+  EXPECT_TRUE(std::isnan(Summarize(std::vector<double>{5}, {}, 0.0, 9.0).capability));
   s = Summarize(v, {}, 7.0, std::nullopt);
   EXPECT_EQ(s.capability_kind, "Cpl");
-  EXPECT_DOUBLE_EQ(s.capability, 1.0);
   EXPECT_TRUE(std::isnan(s.yield));
-  EXPECT_TRUE(std::isnan(Summarize(std::vector<double>{5}, {}, 0.0, 9.0).capability));
+}
+
+// Capability from kMinCapabilityN values on, with its 95 % interval.
+TEST(StatisticsTest, CapabilityFromTenValuesWithItsInterval) {
+  // 10 values: mean 10, sd 1 (five at 10 - a, five at 10 + a, a = sqrt(9/10)).
+  const double a = std::sqrt(0.9);
+  std::vector<double> v;
+  for (int i = 0; i < 5; ++i) {
+    v.push_back(10 - a);
+    v.push_back(10 + a);
+  }
+  Summary s = Summarize(v, {}, std::nullopt, 16.0);
+  EXPECT_EQ(s.capability_kind, "Cpu");
+  EXPECT_NEAR(s.capability, 2.0, 1e-12);  // (16 - 10) / 3
+  const double half = 1.959963984540054 * std::sqrt(1.0 / 90 + 4.0 / 18);
+  EXPECT_NEAR(s.capability_low, 2.0 - half, 1e-12);
+  EXPECT_NEAR(s.capability_high, 2.0 + half, 1e-12);
+  s = Summarize(v, {}, 7.0, 16.0);
+  EXPECT_EQ(s.capability_kind, "Cpk");
+  EXPECT_NEAR(s.capability, 1.0, 1e-12);  // min(6, 3) / 3
+  s = Summarize(v, {}, 7.0, std::nullopt);
+  EXPECT_EQ(s.capability_kind, "Cpl");
+  EXPECT_NEAR(s.capability, 1.0, 1e-12);
+  // One value fewer: none.
+  v.pop_back();
+  EXPECT_TRUE(std::isnan(Summarize(v, {}, 7.0, 16.0).capability));
 }
 
 // An INCONCLUSIVE value (a retest candidate) is neither a pass nor a loss.

@@ -14,6 +14,7 @@
 #include "analyze/allan/units.h"
 #include "common/log.h"
 #include "common/numeric_text.h"
+#include "common/strings.h"
 #include "common/text_util.h"
 #include "store/cli/curve_request.h"
 #include "store/cli/model_plot.h"
@@ -138,9 +139,7 @@ std::string FitSummary(const allan::CompositeFit& fit) {
 // A JSON number, null when not finite (JSON has no NaN).
 std::string JsonNumber(double v) {
   if (!std::isfinite(v)) return "null";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
+  return ShortestReal(v);
 }
 
 std::string FitJson(const allan::CompositeFit& fit, const Curve& curve,

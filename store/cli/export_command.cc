@@ -9,6 +9,7 @@
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
 #include "common/log.h"
+#include "common/strings.h"
 #include "common/text_util.h"
 #include "store/archive.h"
 #include "store/cli/marks.h"
@@ -149,11 +150,7 @@ bool ModelAdequate(const pb::Measurement& p_value) {
   return p_value.qualifier() != pb::MODEL_INADEQUATE && std::isfinite(p_value.value());
 }
 
-std::string Num(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
-}
+std::string Num(double v) { return ShortestReal(v); }
 
 // Kalibr's noise density is the continuous-time white-noise density (IEEE
 // 952's N) and its random walk the bias random walk (IEEE 952's K), in rad
@@ -258,7 +255,7 @@ int ExportCommand(const ExportOptions& o) {
     return runs.status().code() == Status::Code::kNotFound ? 2 : 1;
   }
   Result<std::string> text =
-      Status::InvalidArgument("--as must be json, measurements, curves or kalibr");
+      Status::InvalidArgument("--format must be json, measurements, curves or kalibr");
   if (o.as == "json") text = ExportJson(**archive, *runs);
   if (o.as == "measurements") text = ExportMeasurements(**archive, *runs);
   if (o.as == "curves") text = ExportCurves(**archive, *runs);

@@ -63,13 +63,15 @@ int LotStatsCommand(const std::string& db_path, const std::string& lot, Format f
     return stats.status().code() == Status::Code::kNotFound ? kExitUsage : kExitError;
   }
   TableWriter t({"axis", "measurement", "unit", "n", "mean", "sd", "min", "max", "judged", "yield",
-                 "capability", "capability_kind", "low", "high"});
+                 "capability", "capability_kind", "low", "high", "capability_low_95",
+                 "capability_high_95"});
   for (const MeasurementStats& s : *stats) {
     const judge::Summary& m = s.summary;
     t.AddRow({Cell::Text(s.axis.empty() ? "(run)" : s.axis), Cell::Text(s.name), Cell::Text(s.unit),
               Cell::Int(m.n), Cell::Real(m.mean), Cell::Real(m.sd), Cell::Real(m.min),
               Cell::Real(m.max), Cell::Int(m.judged), Cell::Real(m.yield), Cell::Real(m.capability),
-              Cell::Text(m.capability_kind), Opt(s.low), Opt(s.high)});
+              Cell::Text(m.capability_kind), Opt(s.low), Opt(s.high),
+              Cell::Real(m.capability_low), Cell::Real(m.capability_high)});
   }
   if (format == Format::kTable) {
     std::printf(

@@ -139,8 +139,9 @@ int main(int argc, char** argv) {
   export_cmd->add_option("--lot", ex.lot, "every run of this lot");
   export_cmd->add_option("--run", ex.run_id, "this run");
   export_cmd
-      ->add_option("--as", ex.as,
-                   "json (run records), measurements (CSV), curves (CSV), kalibr (YAML)")
+      ->add_option("--format,--as", ex.as,
+                   "json (run records), measurements (CSV), curves (CSV), kalibr (YAML); "
+                   "--as is the former name")
       ->capture_default_str();
   export_cmd->add_option("-o,--output", ex.output, "file (default: standard output)");
 

@@ -14,6 +14,7 @@
 #include "analyze/judge/measurements.h"
 #include "common/clock.h"
 #include "common/log.h"
+#include "common/strings.h"
 #include "common/text_util.h"
 #include "common/version.h"
 #include "store/cli/early_decisions.h"
@@ -70,13 +71,9 @@ std::string Attr(std::string_view name, std::string_view value) {
   return out;
 }
 
-// Full precision for programs: %.17g round-trips a double; "" for none.
-std::string Exact(double v) {
-  if (!std::isfinite(v)) return "";
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
-}
+// Full precision for programs: the shortest text that reads back exactly;
+// "" for none.
+std::string Exact(double v) { return std::isfinite(v) ? ShortestReal(v) : ""; }
 
 // Four significant digits for people, as HTML: 1.234&times;10<sup>-5</sup>,
 // a real minus sign, an en dash for none.
@@ -668,9 +665,19 @@ void StatisticsTable(const std::vector<const MeasurementStats*>& rows, const cha
                             : m.capability < 1.33        ? " cap-warn"
                                                          : " cap-ok";
     Add(out, "<td class=\"num", cap_class, "\" data-stat=\"capability\"",
-        Attr("data-v", Exact(m.capability)), Attr("data-kind", m.capability_kind), ">");
-    if (std::isfinite(m.capability)) Add(out, "<small>", m.capability_kind, "</small> ");
-    Add(out, Human(m.capability), "</td></tr>\n");
+        Attr("data-v", Exact(m.capability)), Attr("data-kind", m.capability_kind),
+        Attr("data-lo", Exact(m.capability_low)), Attr("data-hi", Exact(m.capability_high)));
+    if (std::isfinite(m.capability)) {
+      Add(out, "><small>", m.capability_kind, "</small> ", Human(m.capability), " <small>[",
+          Human(m.capability_low), ", ", Human(m.capability_high), "]</small>");
+    } else if (!m.capability_kind.empty() && m.n < judge::kMinCapabilityN) {
+      Add(out, Attr("title", "not measurable: " + std::to_string(m.n) + " values, fewer than " +
+                                 std::to_string(judge::kMinCapabilityN)),
+          "><small>n&nbsp;&lt;&nbsp;", std::to_string(judge::kMinCapabilityN), "</small>");
+    } else {
+      Add(out, ">", Human(m.capability));
+    }
+    *out += "</td></tr>\n";
   }
   *out += "</tbody></table></div>\n";
 }
@@ -691,7 +698,10 @@ void Statistics(const ReportData& d, std::string* out) {
       "<p class=\"note\">SD: sample standard deviation (n&nbsp;&minus;&nbsp;1). Yield: PASS or "
       "MARGINAL among the judged values. Capability: Cpk&nbsp;=&nbsp;min(USL&nbsp;&minus;&nbsp;"
       "mean, mean&nbsp;&minus;&nbsp;LSL)&nbsp;/&nbsp;3&nbsp;SD with both limits, Cpu or Cpl with "
-      "one; green from 1.33, amber from 1.0, red below.</p>\n</section>\n";
+      "one, with its 95&nbsp;% interval in brackets (Bissell's approximation, for normally "
+      "distributed values); none from fewer than " +
+      std::to_string(judge::kMinCapabilityN) +
+      " values; green from 1.33, amber from 1.0, red below.</p>\n</section>\n";
 }
 
 // A plot; `attributes` (already escaped) on the figure, `caption_html`

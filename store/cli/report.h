@@ -17,7 +17,7 @@
 //    unit's own plot (see plot_command.h).
 //
 // For programs reading the page: visible numbers are rounded for people,
-// and every numeric cell carries its full-precision value in data-v (%.17g,
+// and every numeric cell carries its full-precision value in data-v (the shortest text that reads back exactly,
 // empty for none). Rows are identified by data-run/data-unit/data-axis
 // (results) and data-axis/data-name (statistics; axis "" = run level),
 // cells by data-m (measurement) or data-stat. Every text from the archive is

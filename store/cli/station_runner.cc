@@ -57,11 +57,7 @@ std::string CompactUtc(int64_t utime) {
 }
 
 // A rate as text, exactly (it is passed on to imuqual-acquire).
-std::string FormatRate(double hz) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.17g", hz);
-  return text;
-}
+std::string FormatRate(double hz) { return ShortestReal(hz); }
 
 // A port of its own for this station run (20000..59999).
 int PickPort() {

@@ -4,11 +4,15 @@
 #include <cmath>
 #include <cstdio>
 
+#include "common/strings.h"
+
 namespace imuqual::cli {
 namespace {
 
+// digits 17: for programs, the shortest text that reads back exactly.
 std::string FormatReal(double v, int digits) {
   if (std::isnan(v)) return "";
+  if (digits >= 17) return ShortestReal(v);
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.*g", digits, v);
   return buf;

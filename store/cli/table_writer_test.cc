@@ -16,12 +16,12 @@ TableWriter Sample() {
 
 TEST(TableWriterTest, CsvQuotesAndKeepsFullPrecision) {
   EXPECT_EQ(Sample().Render(Format::kCsv),
-            "name,value,count\n\"a,b\",0.10000000000000001,3\n\"say \"\"hi\"\"\",,-1\n");
+            "name,value,count\n\"a,b\",0.1,3\n\"say \"\"hi\"\"\",,-1\n");
 }
 
 TEST(TableWriterTest, JsonHasNullForNaN) {
   EXPECT_EQ(Sample().Render(Format::kJson),
-            "[\n {\"name\": \"a,b\", \"value\": 0.10000000000000001, \"count\": 3},\n"
+            "[\n {\"name\": \"a,b\", \"value\": 0.1, \"count\": 3},\n"
             " {\"name\": \"say \\\"hi\\\"\", \"value\": null, \"count\": -1}\n]\n");
   EXPECT_EQ(TableWriter({"x"}).Render(Format::kJson), "[]\n");
 }

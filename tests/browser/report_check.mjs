@@ -126,12 +126,21 @@ function summarize(group) {
   if (s.n >= 2) {
     s.sd = Math.sqrt(values.reduce((a, v) => a + (v - s.mean) ** 2, 0) / (s.n - 1));
   }
-  if (s.sd !== null && s.sd > 0) {
+  // The index the limits call for; its value only from 10 values on
+  // (judge::kMinCapabilityN), with Bissell's 95 % interval.
+  s.kind = group.high !== null && group.low !== null ? 'Cpk'
+         : group.high !== null ? 'Cpu' : group.low !== null ? 'Cpl' : '';
+  if (s.sd !== null && s.sd > 0 && s.n >= 10) {
     const upper = group.high !== null ? (group.high - s.mean) / (3 * s.sd) : null;
     const lower = group.low !== null ? (s.mean - group.low) / (3 * s.sd) : null;
-    if (upper !== null && lower !== null) [s.capability, s.kind] = [Math.min(upper, lower), 'Cpk'];
-    else if (upper !== null) [s.capability, s.kind] = [upper, 'Cpu'];
-    else if (lower !== null) [s.capability, s.kind] = [lower, 'Cpl'];
+    if (upper !== null && lower !== null) s.capability = Math.min(upper, lower);
+    else if (upper !== null) s.capability = upper;
+    else if (lower !== null) s.capability = lower;
+    if (s.capability !== null) {
+      const half = 1.959963984540054 *
+                   Math.sqrt(1 / (9 * s.n) + s.capability ** 2 / (2 * (s.n - 1)));
+      [s.capabilityLow, s.capabilityHigh] = [s.capability - half, s.capability + half];
+    }
   }
   return s;
 }
@@ -175,6 +184,7 @@ async function renderAndRead(htmlPath, chromiumPath, profileDir) {
             outcome: td.getAttribute('data-outcome'), u: td.getAttribute('data-u'),
             q: td.getAttribute('data-q'), whole: td.textContent,
             kind: td.getAttribute('data-kind'), sort: td.getAttribute('data-sort'),
+            lo: td.getAttribute('data-lo'), hi: td.getAttribute('data-hi'),
           };
         }
         return out;
@@ -424,6 +434,12 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
     }
     if (p.s.capability && (p.s.capability.kind || '') !== s.kind) {
       fail(`${what}: capability kind '${p.s.capability.kind}', expected '${s.kind}'`);
+    }
+    if (p.s.capability && s.capability !== null &&
+        !(sameClose(p.s.capability.lo, s.capabilityLow) &&
+          sameClose(p.s.capability.hi, s.capabilityHigh))) {
+      fail(`${what}: capability interval [${p.s.capability.lo}, ${p.s.capability.hi}], ` +
+           `expected [${s.capabilityLow}, ${s.capabilityHigh}]`);
     }
   }
 
