@@ -6,6 +6,7 @@
 #include "acquire/acquire_service.h"
 #include "acquire/units.h"
 #include "analyze/judge/plan_file.h"
+#include "common/command_line.h"
 #include "common/log.h"
 #include "common/shutdown.h"
 #include "common/text_util.h"
@@ -72,7 +73,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--inject-seed", opt.inject_seed, "seed of the injected drops and bit flips")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
 
   SetLogProgramName("imuqual-acquire");
   // sim.rate_hz = 0 means "the profile's": a given --rate must be a rate.

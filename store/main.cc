@@ -4,6 +4,7 @@
 // acknowledged).
 #include <CLI/CLI.hpp>
 
+#include "common/command_line.h"
 #include "common/log.h"
 #include "common/shutdown.h"
 #include "common/version.h"
@@ -34,7 +35,7 @@ int main(int argc, char** argv) {
   app.add_option("--write-give-up", opt.write_give_up_s,
                  "seconds of failing writes after which the store stops (exit 4)")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
 
   SetLogProgramName("imuqual-store");
   InstallShutdownHandlers();

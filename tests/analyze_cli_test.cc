@@ -206,12 +206,14 @@ TEST(AnalyzeCliTest, FitAndPlot) {
 }
 
 // Every binary says which software it is (an auditor's first question
-// about a record) and exits 0.
-TEST(AnalyzeCliTest, EveryBinaryTellsItsVersion) {
+// about a record) and exits 0; a bad flag exits 2 (README, "Exit codes").
+TEST(AnalyzeCliTest, EveryBinaryTellsItsVersionAndExitsTwoOnABadFlag) {
   for (const char* binary : {"imuqual", "imuqual-acquire", "imuqual-analyze", "imuqual-store"}) {
     const auto r = RunCommand(Bin(binary) + " --version");
     EXPECT_EQ(r.exit_code, 0) << binary << ": " << r.output;
     EXPECT_EQ(r.output, std::string(kSoftwareVersion) + "\n") << binary;
+    // A flag it does not know is a usage error: exit 2, like every usage error.
+    EXPECT_EQ(RunCommand(Bin(binary) + " --no-such-flag 2>/dev/null").exit_code, 2) << binary;
   }
 }
 

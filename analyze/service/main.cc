@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "analyze/service/analyze_service.h"
+#include "common/command_line.h"
 #include "common/log.h"
 #include "common/shutdown.h"
 #include "common/version.h"
@@ -36,7 +37,7 @@ int main(int argc, char** argv) {
   app.add_option("--stale-after", opt.stale_after_s,
                  "seconds without any announcement before a running run is ended as incomplete")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
 
   SetLogProgramName("imuqual-analyze");
   InstallShutdownHandlers();

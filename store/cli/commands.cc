@@ -6,6 +6,7 @@
 #include <map>
 
 #include "common/clock.h"
+#include "common/command_line.h"
 #include "common/log.h"
 #include "common/text_util.h"
 #include "store/cli/early_decisions.h"
@@ -16,9 +17,6 @@
 
 namespace imuqual::cli {
 namespace {
-
-constexpr int kExitError = 1;
-constexpr int kExitUsage = 2;
 
 double Pick(bool take, double v) { return take ? v : allan::kNaN; }
 

@@ -6,6 +6,7 @@
 #include <ctime>
 
 #include "common/clock.h"
+#include "common/command_line.h"
 #include "common/log.h"
 #include "store/cli/commands.h"
 #include "store/cli/early_decisions.h"
@@ -16,9 +17,6 @@
 
 namespace imuqual::cli {
 namespace {
-
-constexpr int kExitError = 1;
-constexpr int kExitUsage = 2;
 
 Result<std::unique_ptr<store::Archive>> OpenArchive(const std::string& db_path) {
   return store::Archive::Open(db_path, store::Archive::Mode::kRead);

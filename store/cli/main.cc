@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/command_line.h"
 #include "common/log.h"
 #include "common/shutdown.h"
 #include "common/text_util.h"
@@ -270,7 +271,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  CLI11_PARSE(app, argc, argv);
+  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
   if (plot_cmd->parsed()) return cli::PlotCommand(plot);
   if (soak_cmd->parsed()) return cli::PlanSoakCommand(soak);
   if (report_cmd->parsed()) return cli::ReportCommand(report);

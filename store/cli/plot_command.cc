@@ -10,6 +10,7 @@
 #include "analyze/allan/noise_model.h"
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
+#include "common/command_line.h"
 #include "common/log.h"
 #include "common/text_util.h"
 #include "store/cli/model_plot.h"
@@ -21,9 +22,6 @@ namespace imuqual::cli {
 namespace {
 
 using allan::NoiseTerm;
-
-constexpr int kExitError = 1;
-constexpr int kExitUsage = 2;
 
 constexpr char kLimitColor[] = "#d62728";     // red: the limit
 constexpr char kMarginalColor[] = "#e69f00";  // amber: the marginal band's edge

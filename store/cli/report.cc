@@ -13,6 +13,7 @@
 #include "analyze/allan/model_quantities.h"
 #include "analyze/judge/measurements.h"
 #include "common/clock.h"
+#include "common/command_line.h"
 #include "common/log.h"
 #include "common/strings.h"
 #include "common/text_util.h"
@@ -27,9 +28,6 @@
 
 namespace imuqual::cli {
 namespace {
-
-constexpr int kExitError = 1;
-constexpr int kExitUsage = 2;
 
 // Appends every part to *out (no temporaries of "literal" + std::string).
 template <typename... Parts>
