@@ -101,7 +101,10 @@ TEST_F(LotToolsTest, ComparisonFindsThePlantedDriftAndNothingBetweenALotAndItsel
     EXPECT_GT(std::stod(r[diff.Col("mean_change")]), 0.15);  // ~30 % worse
   }
   EXPECT_EQ(arw_rows, 3);  // the three gyros
-  for (const auto& r : same.rows) EXPECT_EQ(r[same.Col("significant")], "-") << r[1];
+  for (const auto& r : same.rows) {
+    EXPECT_EQ(r[same.Col("significant")], "none") << r[1];
+    EXPECT_EQ(r[same.Col("mean_differs")], "false") << r[1];
+  }
   // Bad input: an unknown lot, a bad alpha.
   EXPECT_EQ(RunCommand(Bin("imuqual") + " compare T-L001 NOPE --db " + db_ + " 2>/dev/null").exit_code, 2);
   EXPECT_EQ(RunCommand(Bin("imuqual") + " compare T-L001 T-L002 --alpha 2 --db " + db_ + " 2>/dev/null")

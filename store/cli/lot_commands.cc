@@ -136,7 +136,8 @@ int CompareCommand(const std::string& db_path, const std::string& lot_a, const s
   }
   const std::vector<Comparison> rows = CompareLots(*a, *b, alpha);
   TableWriter t({"axis", "measurement", "unit", "n_a", "mean_a", "sd_a", "yield_a", "n_b", "mean_b",
-                 "sd_b", "yield_b", "mean_change", "p_mean", "p_sd", "p_yield", "significant"});
+                 "sd_b", "yield_b", "mean_change", "p_mean", "p_sd", "p_yield", "significant",
+                 "mean_differs", "sd_differs", "yield_differs"});
   for (const Comparison& c : rows) {
     std::string sig;
     for (auto [flag, what] : {std::pair{c.mean_significant, "mean"},
@@ -153,7 +154,8 @@ int CompareCommand(const std::string& db_path, const std::string& lot_a, const s
               Cell::Real(x.yield), Cell::Int(y.n), Cell::Real(y.mean), Cell::Real(y.sd),
               Cell::Real(y.yield), Cell::Real(c.mean_change), Cell::Real(c.mean.p_value),
               Cell::Real(c.spread.p_value), Cell::Real(c.yield.p_value),
-              Cell::Text(sig.empty() ? "-" : sig)});
+              Cell::Text(sig.empty() ? "none" : sig), Cell::Bool(c.mean_significant),
+              Cell::Bool(c.spread_significant), Cell::Bool(c.yield_significant)});
   }
   if (format == Format::kTable) {
     std::printf(

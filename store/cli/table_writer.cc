@@ -24,6 +24,7 @@ std::string CellText(const Cell& c, int digits) {
     case Cell::Kind::kNumText: return c.text;
     case Cell::Kind::kReal: return FormatReal(c.real, digits);
     case Cell::Kind::kInt: return std::to_string(c.integer);
+    case Cell::Kind::kBool: return c.integer ? "true" : "false";
   }
   return "";
 }
@@ -92,6 +93,7 @@ std::string TableWriter::RenderTable() const {
     std::vector<std::string> texts;
     for (size_t c = 0; c < columns_.size(); ++c) {
       std::string text = c < row.size() ? CellText(row[c], digits_) : std::string();
+      if (c < row.size() && row[c].kind == Cell::Kind::kBool) text = row[c].integer ? "yes" : "no";
       // A missing number shows as "-" for people.
       if (text.empty() && c < row.size() && row[c].kind == Cell::Kind::kReal) text.push_back('-');
       texts.push_back(std::move(text));
@@ -102,7 +104,8 @@ std::string TableWriter::RenderTable() const {
   std::string out;
   auto line = [&](const std::vector<std::string>& texts, const std::vector<Cell>* row) {
     for (size_t c = 0; c < texts.size(); ++c) {
-      const bool numeric = row && c < row->size() && (*row)[c].kind != Cell::Kind::kText;
+      const bool numeric = row && c < row->size() && (*row)[c].kind != Cell::Kind::kText &&
+                           (*row)[c].kind != Cell::Kind::kBool;
       const std::string pad(width[c] - DisplayWidth(texts[c]), ' ');
       if (numeric) {
         out += pad;
@@ -154,6 +157,8 @@ std::string TableWriter::RenderJson() const {
         out += JsonString(cell.text);
       } else if (cell.kind == Cell::Kind::kInt) {
         out += std::to_string(cell.integer);
+      } else if (cell.kind == Cell::Kind::kBool) {
+        out += cell.integer ? "true" : "false";
       } else {
         out += std::isfinite(cell.real) ? FormatReal(cell.real, 17) : "null";
       }

@@ -19,7 +19,8 @@ Result<Format> ParseFormat(const std::string& name);  // "table", "csv", "json"
 struct Cell {
   // kNumText: a number already written as text with its marks ("≤ 0.68",
   // "22.1† ± 1.3", "n/m"), right-aligned like numbers, a string in JSON.
-  enum class Kind { kText, kReal, kInt, kNumText } kind = Kind::kText;
+  // kBool: true/false in CSV and JSON (a JSON boolean), yes/no in the table.
+  enum class Kind { kText, kReal, kInt, kNumText, kBool } kind = Kind::kText;
   std::string text;
   double real = 0;
   int64_t integer = 0;
@@ -27,6 +28,7 @@ struct Cell {
   static Cell Real(double v) { return {Kind::kReal, "", v, 0}; }
   static Cell Int(int64_t v) { return {Kind::kInt, "", 0, v}; }
   static Cell NumText(std::string t) { return {Kind::kNumText, std::move(t), 0, 0}; }
+  static Cell Bool(bool b) { return {Kind::kBool, "", 0, b ? 1 : 0}; }
 };
 
 // Columns a UTF-8 string takes on a terminal: its code points ("±", "≤",

@@ -34,6 +34,17 @@ TEST(TableWriterTest, TableAlignsNumbersRight) {
             "say \"hi\"      -     -1\n");
 }
 
+// A yes/no fact is a JSON boolean, true/false in CSV, yes/no for people.
+TEST(TableWriterTest, BooleansAreBooleans) {
+  TableWriter t({"name", "differs"});
+  t.AddRow({Cell::Text("a"), Cell::Bool(true)});
+  t.AddRow({Cell::Text("b"), Cell::Bool(false)});
+  EXPECT_EQ(t.Render(Format::kJson),
+            "[\n {\"name\": \"a\", \"differs\": true},\n {\"name\": \"b\", \"differs\": false}\n]\n");
+  EXPECT_EQ(t.Render(Format::kCsv), "name,differs\na,true\nb,false\n");
+  EXPECT_EQ(t.Render(Format::kTable), "name  differs\n----  -------\na     yes\nb     no\n");
+}
+
 // Marked values ("≤ 0.68", "22.1† ± 1.3") align right by the columns they
 // take, not their bytes.
 TEST(TableWriterTest, MarkedNumbersAlignByTheirColumns) {
