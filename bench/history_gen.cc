@@ -151,6 +151,7 @@ int main(int argc, char** argv) {
       run.lot = lot;
       run.station = "station-" + std::to_string(1 + u % 4);
       run.slot = std::to_string(1 + u % 16);
+      run.operator_name = u % 2 ? "ana" : "ben";  // two shifts
       run.source = "history-gen:" + truth.profile();
       run.software_version = "history-gen";
       run.start_utime = base_utime + static_cast<int64_t>(l * 3 * kDay + u * kUnitGap);

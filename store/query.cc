@@ -22,7 +22,8 @@ SELECT axis, name, uncertainty, COALESCE(qualifier, ''), COALESCE(outcome, ''), 
        uncertainty_method IS NULL, value
 FROM measurements WHERE run_key = ?1)sql");
   if (!s.ok()) return s.status();
-  auto reasons = archive.db().Prepare("SELECT COALESCE(reasons, '') FROM runs WHERE run_key = ?1");
+  auto reasons = archive.db().Prepare(
+      "SELECT COALESCE(reasons, ''), station, slot, operator FROM runs WHERE run_key = ?1");
   if (!reasons.ok()) return reasons.status();
   size_t begin = 0;
   while (begin < rows->size()) {
@@ -65,9 +66,15 @@ FROM measurements WHERE run_key = ?1)sql");
     auto found = reasons->Step();
     if (!found.ok()) return found.status();
     const std::string text = *found ? reasons->Text(0) : "";
+    const std::string station = *found ? reasons->Text(1) : "";
+    const std::string slot = *found ? reasons->Text(2) : "";
+    const std::string operator_name = *found ? reasons->Text(3) : "";
     reasons->Reset();
     for (size_t i = begin; i < end; ++i) {
       AxisRow& r = (*rows)[i];
+      r.station = station;
+      r.slot = slot;
+      r.operator_name = operator_name;
       const std::string prefix = r.axis + ": ";
       size_t start = 0;
       while (start < text.size()) {
@@ -207,7 +214,7 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name)sql");
 Result<std::vector<RunRow>> QueryRuns(Archive& archive, const RunFilter& f) {
   auto s = archive.db().Prepare(R"sql(
 SELECT run_id, serial, lot, station, slot, state, COALESCE(verdict, ''), COALESCE(reasons, ''),
-       start_utime
+       start_utime, operator
 FROM runs
 WHERE (?1 = '' OR lot = ?1) AND (?2 = '' OR station = ?2) AND (?3 = '' OR serial = ?3)
   AND start_utime >= ?4
@@ -232,6 +239,7 @@ LIMIT ?6)sql");
     r.verdict = s->Text(6);
     r.reasons = s->Text(7);
     r.start_utime = s->Int(8);
+    r.operator_name = s->Text(9);
     rows.push_back(std::move(r));
   }
 }

@@ -47,6 +47,8 @@ struct AxisRow {
   // when the unit was pending at every look (a full soak).
   bool has_decision_time = false;
   double decision_time_s = allan::kNaN;
+  // Who and where: the run's station, slot and operator ("" if not recorded).
+  std::string station, slot, operator_name;
 };
 
 struct AxisRowFilter {
@@ -99,7 +101,7 @@ Result<std::vector<MeasurementRow>> QueryLotMeasurements(Archive& archive, const
 
 // A run's identity and outcome (table runs).
 struct RunRow {
-  std::string run_id, unit, lot, station, slot, state, verdict, reasons;
+  std::string run_id, unit, lot, station, slot, state, verdict, reasons, operator_name;
   int64_t start_utime = 0;
 };
 struct RunFilter {

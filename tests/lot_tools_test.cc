@@ -126,6 +126,21 @@ TEST_F(LotToolsTest, UnitHistoryAndRunListings) {
       EXPECT_EQ(std::to_string(failed.rows.size()), r[overview.Col("fail")]);
     }
   }
+  // Who soaked each unit, and where: in the run listing, the lot's CSV and
+  // the tables people read.
+  for (const auto& r : all.rows) {
+    EXPECT_TRUE(r[all.Col("operator")] == "ana" || r[all.Col("operator")] == "ben")
+        << r[all.Col("run_id")];
+    EXPECT_EQ(r[all.Col("station")].rfind("station-", 0), 0u);
+  }
+  const Csv lot = ParseCsv(Imuqual("lot T-L002 --format csv"));
+  for (const auto& r : lot.rows) {
+    EXPECT_FALSE(r[lot.Col("operator")].empty()) << r[lot.Col("run_id")];
+    EXPECT_FALSE(r[lot.Col("slot")].empty());
+  }
+  const std::string table = Imuqual("lot T-L002");
+  EXPECT_NE(table.find("station station-2, operator ana: 10 runs"), std::string::npos) << table;
+  EXPECT_NE(Imuqual("unit T-L002-U007").find("operator ben: 1 run"), std::string::npos);
   EXPECT_EQ(RunCommand(Bin("imuqual") + " runs --since yesterday --db " + db_ + " 2>/dev/null").exit_code, 2);
   EXPECT_EQ(Csv(ParseCsv(Imuqual("runs --since 2999-01-01 --format csv"))).rows.size(), 0u);
 }
@@ -137,6 +152,8 @@ TEST_F(LotToolsTest, DashIsStandardOutputAndMistypedCommandsAreNamed) {
   const auto html = RunCommand(in_dir + Bin("imuqual") + " report --lot T-L001 -o - --db " + db_);
   EXPECT_EQ(html.exit_code, 0);
   EXPECT_EQ(html.output.rfind("<!DOCTYPE html>", 0), 0u) << html.output.substr(0, 80);
+  // The report names the lot's operators (each once, in order of appearance).
+  EXPECT_NE(html.output.find("data-field=\"operators\" data-v=\"ben, ana\""), std::string::npos);
   const auto svg =
       RunCommand(in_dir + Bin("imuqual") + " plot --lot T-L001 --axis gx -o - --db " + db_);
   EXPECT_EQ(svg.exit_code, 0);

@@ -36,7 +36,9 @@ TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
                  "tau_min_s_uncertainty", "tau_min_s_qualifier", "rate_random_walk_uncertainty",
                  "rate_random_walk_qualifier", "axis_reasons",
                  // Early decisions: the run's decision time, s (empty: none, or a full soak).
-                 "decision_time_s"});
+                 "decision_time_s",
+                 // Who and where ("" if not recorded).
+                 "station", "slot", "operator"});
   for (const store::AxisRow& r : rows) {
     const bool gyro = r.kind != "accel";
     t.AddRow({Cell::Text(r.lot), Cell::Text(r.unit), Cell::Text(r.run_id), Cell::Text(r.axis),
@@ -55,7 +57,8 @@ TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
               Cell::Real(r.tau_min_marks.uncertainty), Cell::Text(QualifierWord(r.tau_min_marks.qualifier, r.tau_min_s)),
               Cell::Real(r.rate_random_walk_marks.uncertainty),
               Cell::Text(QualifierWord(r.rate_random_walk_marks.qualifier, r.rate_random_walk)),
-              Cell::Text(r.axis_notes), Cell::Real(r.decision_time_s)});
+              Cell::Text(r.axis_notes), Cell::Real(r.decision_time_s), Cell::Text(r.station),
+              Cell::Text(r.slot), Cell::Text(r.operator_name)});
   }
   return t;
 }
@@ -97,6 +100,7 @@ std::string PeopleTable(const std::vector<store::AxisRow>& rows) {
     t.AddRow(std::move(row));
   }
   std::string out = t.Render(Format::kTable);
+  out += StationOperatorLines(rows);
   out += legend.Render();
   out += "gyro units: ARW deg/sqrt(h), bias instability deg/h (curve minimum; IEEE B = minimum/0.664), "
          "RRW deg/h/sqrt(h)\n";

@@ -215,6 +215,7 @@ int UnitCommand(const std::string& db_path, const std::string& serial, Format fo
                                  [](const store::AxisRow& r) { return r.has_decision_time; });
   if (!people) {
     columns.push_back("decision_time_s");
+    for (const char* c : {"station", "slot", "operator"}) columns.push_back(c);
   } else if (early) {
     columns.push_back("decided at");
   }
@@ -247,6 +248,9 @@ int UnitCommand(const std::string& db_path, const std::string& serial, Format fo
       }
       row.push_back(Cell::Text(r.axis_notes));
       row.push_back(Cell::Real(r.decision_time_s));
+      for (const std::string* c : {&r.station, &r.slot, &r.operator_name}) {
+        row.push_back(Cell::Text(*c));
+      }
     } else if (early) {
       row.push_back(Cell::Text(r.has_decision_time ? DecisionTimeText(r.decision_time_s) : ""));
     }
@@ -254,7 +258,7 @@ int UnitCommand(const std::string& db_path, const std::string& serial, Format fo
   }
   std::printf("%s", t.Render(format).c_str());
   if (people) {
-    std::printf("%s", legend.Render().c_str());
+    std::printf("%s%s", StationOperatorLines(*rows).c_str(), legend.Render().c_str());
     // Why an axis is not PASS (INCONCLUSIVE: a retest candidate).
     std::string why;
     for (const store::AxisRow& r : *rows) {
@@ -300,11 +304,12 @@ int RunsCommand(const std::string& db_path, store::RunFilter filter, const std::
     LogError(rows.status().message());
     return kExitError;
   }
-  TableWriter t(
-      {"run_id", "unit", "lot", "station", "slot", "start", "state", "verdict", "reason"});
+  TableWriter t({"run_id", "unit", "lot", "station", "slot", "operator", "start", "state",
+                 "verdict", "reason"});
   for (const store::RunRow& r : *rows) {
     t.AddRow({Cell::Text(r.run_id), Cell::Text(r.unit), Cell::Text(r.lot), Cell::Text(r.station),
-              Cell::Text(r.slot), Cell::Text(FormatUtimeIso(r.start_utime)), Cell::Text(r.state),
+              Cell::Text(r.slot), Cell::Text(r.operator_name),
+              Cell::Text(FormatUtimeIso(r.start_utime)), Cell::Text(r.state),
               Cell::Text(r.verdict.empty() ? "-" : r.verdict),
               Cell::Text(r.reasons.substr(0, r.reasons.find('\n')))});
   }

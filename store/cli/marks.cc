@@ -1,5 +1,6 @@
 #include "store/cli/marks.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -119,6 +120,31 @@ std::string MarkLegend::Render() const {
       }
       out += line + " of " + where + "\n";
     }
+  }
+  return out;
+}
+
+std::string StationOperatorLines(const std::vector<store::AxisRow>& rows) {
+  std::vector<std::pair<std::string, std::string>> who;
+  std::vector<int> runs;
+  std::string last_run;
+  for (const store::AxisRow& r : rows) {
+    if (r.run_id == last_run) continue;  // a run's axes are adjacent
+    last_run = r.run_id;
+    const std::pair<std::string, std::string> key{r.station, r.operator_name};
+    const auto it = std::find(who.begin(), who.end(), key);
+    if (it == who.end()) {
+      who.push_back(key);
+      runs.push_back(1);
+    } else {
+      ++runs[it - who.begin()];
+    }
+  }
+  auto shown = [](const std::string& s) { return s.empty() ? std::string("(not recorded)") : s; };
+  std::string out;
+  for (size_t i = 0; i < who.size(); ++i) {
+    out += "station " + shown(who[i].first) + ", operator " + shown(who[i].second) + ": " +
+           std::to_string(runs[i]) + (runs[i] == 1 ? " run\n" : " runs\n");
   }
   return out;
 }

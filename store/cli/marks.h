@@ -66,6 +66,11 @@ class MarkLegend {
 // last point: the curve has not turned up; the true minimum may lie lower".
 const char* QualifierExplanation(pb::Qualifier qualifier);
 
+// Who soaked the units of `rows`, and where, for under a table people
+// read: one line per station and operator, "station bench-A, operator ana:
+// 12 runs" ("(not recorded)" for an empty one), in order of appearance.
+std::string StationOperatorLines(const std::vector<store::AxisRow>& rows);
+
 }  // namespace imuqual::cli
 
 #endif  // IMUQUAL_STORE_CLI_MARKS_H_

@@ -290,7 +290,7 @@ struct ReportData {
 
 void Header(const ReportData& d, const std::string& archive_label, std::string* out) {
   const store::LotRow& l = d.lot;
-  std::vector<std::string> plans, stations, versions;
+  std::vector<std::string> plans, stations, operators, versions;
   std::string description;
   auto add_unique = [](std::vector<std::string>* v, const std::string& s) {
     if (!s.empty() && std::find(v->begin(), v->end(), s) == v->end()) v->push_back(s);
@@ -298,6 +298,7 @@ void Header(const ReportData& d, const std::string& archive_label, std::string* 
   for (const RunPlotData& r : d.runs) {
     add_unique(&plans, r.plan.name());
     add_unique(&stations, r.info.station);
+    add_unique(&operators, r.info.operator_name);
     add_unique(&versions, r.info.software_version);
     if (description.empty()) description = r.plan.description();
   }
@@ -353,6 +354,8 @@ void Header(const ReportData& d, const std::string& archive_label, std::string* 
   fact("Last start", "last_start", std::to_string(l.last_start_utime),
        Esc(IsoTime(l.last_start_utime)));
   fact("Station", "stations", Join(stations, ", "), joined(stations));
+  fact("Operator", "operators", Join(operators, ", "),
+       operators.empty() ? std::string("not recorded") : joined(operators));
   fact("Software", "software", Join(versions, ", "), joined(versions));
   *out += "</dl>\n";
 
