@@ -89,6 +89,10 @@ int main(int argc, char** argv) {
       return 2;
     }
     opt.plan = *plan;
+    if (plan->require_operator() && opt.operator_name.empty()) {
+      LogError("plan " + plan->name() + " requires an operator: give --operator NAME");
+      return 2;
+    }
   } else if (sim.profile == "vg700" && sim.count > 0 && unit_args.empty()) {
     opt.plan = *judge::LoadPlan("builtin:vg700ca");  // the simulated lot's own plan
   }

@@ -471,6 +471,30 @@ TEST(BadInputTest, ARateThatIsNoRateIsRefusedByEveryCommandThatTakesIt) {
   EXPECT_FALSE(std::filesystem::exists(db));  // refused before anything was created
 }
 
+// A plan that requires an operator refuses a soak without one, on every
+// command that starts one, before anything is created.
+TEST(BadInputTest, APlanThatRequiresAnOperatorRefusesASoakWithoutOne) {
+  testing::TempDir dir("no_operator");
+  const std::string db = dir.path("op.db");
+  const std::string plan = dir.path("signed.textproto");
+  std::ofstream(plan) << "name: \"signed\" axes { name: \"x\" kind: GYRO } nominal_rate_hz: 100 "
+                         "min_duration_s: 10 require_operator: true\n";
+  const std::string bus = "'udpm://239.255.76.67:7996?ttl=0'";
+  for (const std::string& cmd :
+       {Bin("imuqual") + " run --unit U1=sim:vg700 --duration 10 --lot L --db " + db +
+            " --plan " + plan,
+        Bin("imuqual-acquire") + " --lcm-url " + bus + " --lot L --unit U1=sim:vg700 --duration 10 --plan " +
+            plan}) {
+    const auto r = RunCommand(cmd + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << cmd << ":\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    EXPECT_NE(r.output.find("plan signed requires an operator: give --operator NAME"),
+              std::string::npos)
+        << r.output;
+  }
+  EXPECT_FALSE(std::filesystem::exists(db));
+}
+
 TEST(BadInputTest, ACsvWithoutSamplesIsRefusedNamingTheFile) {
   testing::TempDir dir("bad_csv_empty");
   const std::string empty = dir.path("empty.csv"), header = dir.path("header.csv");

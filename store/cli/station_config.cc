@@ -47,8 +47,14 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
   IMUQUAL_RETURN_IF_ERROR(identifier("lot", c.lot()));
   if (c.plan().empty()) return fail("plan", 0, "plan: required (a .textproto file or builtin:NAME)");
   if (c.plan().rfind("builtin:", 0) != 0) c.set_plan(Resolve(DirOf(path), c.plan()));
-  if (auto plan = judge::LoadPlan(c.plan()); !plan.ok()) {
-    return fail("plan", 0, "plan: " + plan.status().message());
+  auto plan = judge::LoadPlan(c.plan());
+  if (!plan.ok()) return fail("plan", 0, "plan: " + plan.status().message());
+  if (c.operator_name().empty() && (c.require_operator() || plan->require_operator())) {
+    return fail(c.require_operator() ? "require_operator" : "plan", 0,
+                std::string("operator_name: required (") +
+                    (c.require_operator() ? "require_operator is set"
+                                          : "plan " + plan->name() + " has require_operator") +
+                    "): the operator who runs the station");
   }
   if (!(c.duration_s() > 0) || !std::isfinite(c.duration_s())) {
     return fail("duration_s", 0, "duration_s: must be > 0 seconds");

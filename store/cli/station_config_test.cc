@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <string>
 
 namespace imuqual::cli {
@@ -97,6 +98,29 @@ TEST(StationConfigTest, ErrorsNameTheFileLineAndField) {
   const std::string no_slots = kGood;
   EXPECT_EQ(ErrorOf(no_slots.substr(0, no_slots.find("slot {"))),
             file + ": no slot: give at least one slot { ... }");
+}
+
+// A station or a plan may require an operator: a file without one is
+// refused at the line that asks for it.
+TEST(StationConfigTest, RequiredOperatorIsNamed) {
+  const std::string file = "/etc/imuqual/bench-a.textproto";
+  const std::string no_operator = Replace(kGood, "operator_name: \"ana\"\n", "");
+  EXPECT_EQ(ErrorOf(no_operator), "(no error)");  // not required: fine
+  EXPECT_EQ(ErrorOf(Replace(no_operator, "pace: 1", "pace: 1\nrequire_operator: true")),
+            file + ":9: operator_name: required (require_operator is set): the operator who "
+                   "runs the station");
+  EXPECT_EQ(ErrorOf(Replace(kGood, "pace: 1", "pace: 1\nrequire_operator: true")), "(no error)");
+  // A plan that requires one.
+  const std::string plan = ::testing::TempDir() + "/require-operator.textproto";
+  {
+    std::ofstream out(plan);
+    out << "name: \"signed\" axes { name: \"gx\" kind: GYRO } nominal_rate_hz: 100 "
+           "min_duration_s: 60 require_operator: true\n";
+  }
+  const std::string with_plan = Replace(no_operator, "builtin:tactical", plan);
+  EXPECT_EQ(ErrorOf(with_plan), file + ":4: operator_name: required (plan signed has "
+                                       "require_operator): the operator who runs the station");
+  EXPECT_EQ(ErrorOf(Replace(kGood, "builtin:tactical", plan)), "(no error)");
 }
 
 TEST(StationConfigTest, MissingFileIsOneLine) {

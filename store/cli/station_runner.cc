@@ -182,6 +182,11 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     auto plan = judge::LoadPlan(plan_spec);  // fail here, not in a child
     if (!plan.ok()) return plan.status();
     plan_name = plan->name().empty() ? plan_spec : plan->name();
+    if (plan->require_operator() && o.operator_name.empty()) {
+      return Status::InvalidArgument("plan " + plan_name +
+                                     " requires an operator: give --operator NAME (or "
+                                     "operator_name in the station file)");
+    }
   }
   StationRunResult result;
   // Runs of this station that an earlier station process left open (killed
