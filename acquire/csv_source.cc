@@ -27,6 +27,10 @@ Result<std::unique_ptr<CsvSource>> CsvSource::Open(const CsvSourceOptions& optio
     s->time_index_ = static_cast<int>(wanted.size());
     wanted.push_back(options.time_column);
   }
+  if (!options.temperature_column.empty()) {
+    s->temperature_index_ = static_cast<int>(wanted.size());
+    wanted.push_back(options.temperature_column);
+  }
   s->start_utime_ = NowUtime();
   std::ifstream* in = s->file_.get();
   s->reader_ = std::make_unique<NumericRowReader>(
@@ -62,6 +66,8 @@ Result<int> CsvSource::Read(int max_samples, SampleBlock* block) {
   block->samples.assign(axes, {});
   block->flags.clear();
   block->temperature_c.reset();
+  double temperature_sum = 0;
+  int temperatures = 0;
   int n = 0;
   while (n < max_samples && !done_) {
     if (!have_row_) {
@@ -109,10 +115,15 @@ Result<int> CsvSource::Read(int max_samples, SampleBlock* block) {
     for (size_t a = 0; a < axes; ++a) {
       block->samples[a].push_back(static_cast<float>(row_[a] * options_.scale));
     }
+    if (temperature_index_ >= 0 && std::isfinite(row_[temperature_index_])) {
+      temperature_sum += row_[temperature_index_];
+      ++temperatures;
+    }
     last_counter_ = row_counter_;
     have_row_ = false;
     ++n;
   }
+  if (temperatures > 0) block->temperature_c = static_cast<float>(temperature_sum / temperatures);
   return n;
 }
 

@@ -2,7 +2,8 @@
 // are the axes, optionally a column holds the device sample counter (rows
 // then carry their own timeline and a jump is a gap); otherwise row k is
 // sample k. Optionally a column holds each row's recording time in seconds
-// (any origin): the blocks then carry arrival times. Values are in the axes' units (deg/s, m/s^2) after `scale`.
+// (any origin): the blocks then carry arrival times; and one the unit's
+// temperature (deg C). Values are in the axes' units (deg/s, m/s^2) after `scale`.
 // Streams the file: any length. Not thread-safe.
 #ifndef IMUQUAL_ACQUIRE_CSV_SOURCE_H_
 #define IMUQUAL_ACQUIRE_CSV_SOURCE_H_
@@ -25,6 +26,8 @@ struct CsvSourceOptions {
   std::string time_column;        // seconds: when the row was recorded ("" = none); gives
                                   // the device's measured rate and jitter
   double scale = 1.0;             // applied to every axis value
+  std::string temperature_column; // deg C per row ("" = none); each block carries the mean
+                                  // of its rows' finite values (an empty cell: none)
 };
 
 class CsvSource : public SampleSource {
@@ -52,6 +55,7 @@ class CsvSource : public SampleSource {
   int64_t last_counter_ = -1;
   bool done_ = false;
   int time_index_ = -1;         // index of the time column in row_, -1: none
+  int temperature_index_ = -1;  // index of the temperature column in row_, -1: none
   int64_t start_utime_ = 0;     // row times are placed after this
 };
 

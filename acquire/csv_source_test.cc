@@ -75,6 +75,38 @@ TEST(CsvSourceTest, TheFirstRowReadAtOpenIsDeliveredOnce) {
   EXPECT_EQ(*n, 0);
 }
 
+// A temperature column (deg C): each block carries the mean of its rows'
+// values, an empty cell being none; the column is not an axis.
+TEST(CsvSourceTest, ATemperatureColumnGivesEachBlockItsMeanTemperature) {
+  TempDir dir("csv_source_temperature");
+  const std::string path =
+      Write(dir, "temp.csv", "gx,temp_c,gy\n1,25.0,2\n3,25.5,4\n5,,6\n7,,8\n");
+  CsvSourceOptions o = Options(path);
+  o.temperature_column = "temp_c";
+  auto source = CsvSource::Open(o);
+  ASSERT_TRUE(source.ok()) << source.status().message();
+  SampleBlock block;
+  auto n = (*source)->Read(3, &block);
+  ASSERT_TRUE(n.ok());
+  ASSERT_EQ(*n, 3);
+  EXPECT_EQ(block.samples[1], (std::vector<float>{2, 4, 6}));
+  ASSERT_TRUE(block.temperature_c.has_value());
+  EXPECT_FLOAT_EQ(*block.temperature_c, 25.25f);  // the third row has none
+  n = (*source)->Read(3, &block);
+  ASSERT_TRUE(n.ok());
+  ASSERT_EQ(*n, 1);
+  EXPECT_FALSE(block.temperature_c.has_value());
+  // Through a source spec, and a column the file does not have is named.
+  SourceDefaults d;
+  for (const pb::Axis& a : Options(path).axes) *d.plan.add_axes() = a;
+  d.plan.set_nominal_rate_hz(100);
+  EXPECT_TRUE(MakeSource(*ParseSourceSpec("csv:" + path + ",temperature=temp_c"), d).ok());
+  auto missing = MakeSource(*ParseSourceSpec("csv:" + path + ",temperature=celsius"), d);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.status().message().find("celsius"), std::string::npos)
+      << missing.status().message();
+}
+
 TEST(CsvSourceTest, TheFirstRowsCounterIsCheckedAndNamesItsLine) {
   TempDir dir("csv_source_counter");
   const std::string path = Write(dir, "counter.csv", "n,gx,gy\n-3,1,2\n");

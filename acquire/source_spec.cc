@@ -111,7 +111,8 @@ Result<std::unique_ptr<SampleSource>> MakeSim(const SourceSpec& spec, const Sour
 }
 
 Result<std::unique_ptr<SampleSource>> MakeCsv(const SourceSpec& spec, const SourceDefaults& d) {
-  IMUQUAL_RETURN_IF_ERROR(CheckKeys(spec, {"rate", "axes", "counter", "scale", "time"}));
+  IMUQUAL_RETURN_IF_ERROR(
+      CheckKeys(spec, {"rate", "axes", "counter", "scale", "time", "temperature"}));
   CsvSourceOptions o;
   o.path = spec.location;
   auto rate = Number(spec, "rate", d.plan.nominal_rate_hz());
@@ -122,6 +123,9 @@ Result<std::unique_ptr<SampleSource>> MakeCsv(const SourceSpec& spec, const Sour
   o.scale = *scale;
   if (auto it = spec.options.find("counter"); it != spec.options.end()) o.counter_column = it->second;
   if (auto it = spec.options.find("time"); it != spec.options.end()) o.time_column = it->second;
+  if (auto it = spec.options.find("temperature"); it != spec.options.end()) {
+    o.temperature_column = it->second;
+  }
   if (auto it = spec.options.find("axes"); it != spec.options.end()) {
     auto axes = ParseAxes(spec, it->second);
     if (!axes.ok()) return axes.status();
