@@ -91,6 +91,8 @@ TEST_F(StationTest, RunEndsCleanlyWithATable) {
   ASSERT_EQ(run_->exit_code, 0) << run_->output;
   EXPECT_NE(run_->output.find("8 units:"), std::string::npos) << run_->output;
   EXPECT_NE(run_->output.find("bias inst."), std::string::npos);
+  // The final table is in fixture order, the slot first.
+  EXPECT_NE(run_->output.find("slot  unit"), std::string::npos) << run_->output;
 }
 
 TEST_F(StationTest, EveryBatchIsArchivedWithoutGaps) {
@@ -243,6 +245,22 @@ TEST_F(StationTest, LotQueryAsCsv) {
   EXPECT_EQ(rows, kUnits * 3);
   // Unknown lot: a clear error and a non-zero exit.
   EXPECT_NE(RunCommand(Bin("imuqual") + " lot NOPE --db " + db_ + " 2>/dev/null").exit_code, 0);
+}
+
+// The station's final table lists the units in slot order (the order of
+// --unit), not by serial, with the slot first, so that the operator finds
+// each unit's fixture.
+TEST(StationTableTest, FinalTableIsInSlotOrder) {
+  testing::TempDir dir("station_slots");
+  const auto run = RunCommand(Bin("imuqual") +
+                              " run --unit ZED=sim:vg700,index=0 --unit ALF=sim:vg700,index=1 "
+                              "--duration 30 --lot SLOTS --db " + dir.path("s.db") + " --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const size_t zed = run.output.find("\n1     ZED");
+  const size_t alf = run.output.find("\n2     ALF");
+  ASSERT_NE(zed, std::string::npos) << run.output;
+  ASSERT_NE(alf, std::string::npos) << run.output;
+  EXPECT_LT(zed, alf);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "store/cli/commands.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -63,17 +64,53 @@ TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
   return t;
 }
 
-// The table people read.
+// The table people read; `by_slot` (a station's final table): in slot
+// order, the slot first.
 // Each value with its marks (marks.h); "± u" where the value has an
 // uncertainty (not on B (IEEE), the minimum / 0.664, for room). When a run
 // used early decisions, when its unit was decided ("full soak": pending at
 // every look).
-std::string PeopleTable(const std::vector<store::AxisRow>& rows) {
+// "A2" before "A10", "2" before "10": digit runs compare as numbers.
+bool NaturalLess(const std::string& a, const std::string& b) {
+  size_t i = 0, j = 0;
+  while (i < a.size() && j < b.size()) {
+    if (std::isdigit(static_cast<unsigned char>(a[i])) &&
+        std::isdigit(static_cast<unsigned char>(b[j]))) {
+      size_t ie = i, je = j;
+      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
+      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
+      // Without leading zeros, a longer run is a larger number.
+      const std::string_view x = std::string_view(a).substr(i, ie - i);
+      const std::string_view y = std::string_view(b).substr(j, je - j);
+      const std::string_view xs = x.substr(std::min(x.find_first_not_of('0'), x.size()));
+      const std::string_view ys = y.substr(std::min(y.find_first_not_of('0'), y.size()));
+      if (xs.size() != ys.size()) return xs.size() < ys.size();
+      if (xs != ys) return xs < ys;
+      i = ie;
+      j = je;
+    } else {
+      if (a[i] != b[j]) return a[i] < b[j];
+      ++i;
+      ++j;
+    }
+  }
+  return a.size() - i < b.size() - j;
+}
+
+std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slot) {
+  // A station's table in fixture order, with the slot first.
+  std::vector<store::AxisRow> rows = unsorted;
+  if (by_slot) {
+    std::stable_sort(rows.begin(), rows.end(), [](const store::AxisRow& a, const store::AxisRow& b) {
+      return NaturalLess(a.slot, b.slot);
+    });
+  }
   const bool early = std::any_of(rows.begin(), rows.end(),
                                  [](const store::AxisRow& r) { return r.has_decision_time; });
   std::vector<std::string> columns = {"unit",      "axis",      "ARW/VRW", "bias inst.",
                                       "BI (IEEE)", "tau min s", "RRW",     "gap samples",
                                       "axis",      "unit verdict"};
+  if (by_slot) columns.insert(columns.begin(), "slot");
   if (early) columns.push_back("decided at");
   TableWriter t(columns);
   bool any_accel = false;
@@ -97,6 +134,7 @@ std::string PeopleTable(const std::vector<store::AxisRow>& rows) {
     if (early) {
       row.push_back(Cell::Text(r.has_decision_time ? DecisionTimeText(r.decision_time_s) : ""));
     }
+    if (by_slot) row.insert(row.begin(), Cell::Text(r.slot));
     t.AddRow(std::move(row));
   }
   std::string out = t.Render(Format::kTable);
@@ -227,7 +265,7 @@ int RunCommand(const StationRunOptions& options) {
     LogError(rows.status().message());
     return kRunExitError;
   }
-  std::printf("%s", PeopleTable(*rows).c_str());
+  std::printf("%s", PeopleTable(*rows, /*by_slot=*/true).c_str());
   std::map<std::string, std::string> unit_of;
   std::map<std::string, int> verdicts;
   int passed = 0, counted = 0;  // the yield: judged units only
@@ -354,7 +392,7 @@ int LotCommand(const std::string& db_path, const std::string& lot, Format format
     return kExitUsage;
   }
   if (format == Format::kTable) {
-    std::printf("%s", PeopleTable(*rows).c_str());
+    std::printf("%s", PeopleTable(*rows, /*by_slot=*/false).c_str());
     std::printf("%s", ReasonLines(**archive, *rows, {}).c_str());
     if (!all_runs) std::printf("%s", LotYieldLines(**archive, lot).c_str());
     auto early = QueryEarlyDecisions(**archive, lot);
