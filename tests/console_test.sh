@@ -106,7 +106,7 @@ wait_screen "analyze 2/2 \(restarted 1x\)" 30
 code="$(wait_exit 240)"
 [ "$code" = 0 ] || fail "soak 1: imuqual run exit $code"
 final="$(screen)"
-for want in "^4 units: [0-9]+ PASS, [0-9]+ MARGINAL, [0-9]+ FAIL$" "^SN-101 +x " "^SN-104 +z " \
+for want in "^4 units: [0-9]+ PASS, [0-9]+ MARGINAL, [0-9]+ FAIL$" "^A1 +SN-101 +x " "^B2 +SN-104 +z " \
     "^report: $work/lot-CONSOLE-LOT.html$" "restarted 2 time"; do
   printf '%s\n' "$final" | grep -Eq -- "$want" || fail "final screen lacks '$want'"
 done

@@ -20,6 +20,7 @@
 #include <tuple>
 
 #include "analyze/judge/judge.h"
+#include "common/clock.h"
 #include "common/text_util.h"
 #include "imuqual/record.pb.h"
 #include "store/archive.h"
@@ -181,7 +182,15 @@ TEST_F(LotToolsTest, JsonRecordsParseBackToTheArchivedRecords) {
   ASSERT_EQ(records.records_size(), 40);
   auto a = store::Archive::Open(db_, store::Archive::Mode::kRead);
   ASSERT_TRUE(a.ok());
-  for (const pb::RunRecord& r : records.records()) {
+  for (pb::RunRecord& r : *records.mutable_records()) {
+    // The export adds ISO-8601 times beside the archived microseconds.
+    EXPECT_EQ(r.start_time(), FormatUtimeIso(r.start_utime())) << r.run_id();
+    EXPECT_EQ(r.start_time().back(), 'Z');
+    if (r.end_utime() > 0) {
+      EXPECT_EQ(r.end_time(), FormatUtimeIso(r.end_utime()));
+    }
+    r.clear_start_time();
+    r.clear_end_time();
     auto result = (*a)->LoadResult(**(*a)->FindRunKey(r.run_id()));
     ASSERT_TRUE(result.ok() && result->has_value());
     pb::RunRecord archived;

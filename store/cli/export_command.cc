@@ -8,6 +8,7 @@
 
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
+#include "common/clock.h"
 #include "common/log.h"
 #include "common/strings.h"
 #include "common/text_util.h"
@@ -62,9 +63,13 @@ Result<std::string> ExportJson(store::Archive& archive, const std::vector<RunRef
       LogWarning("run " + r.run_id + " has no final result yet; not exported");
       continue;
     }
-    if (!records.add_records()->ParseFromString((*result)->record)) {
+    pb::RunRecord* record = records.add_records();
+    if (!record->ParseFromString((*result)->record)) {
       return Status::Corruption("run " + r.run_id + ": the archived record does not decode");
     }
+    // Times people can read beside the microseconds (JSON carries int64 as strings).
+    if (record->start_utime() > 0) record->set_start_time(FormatUtimeIso(record->start_utime()));
+    if (record->end_utime() > 0) record->set_end_time(FormatUtimeIso(record->end_utime()));
   }
   std::string json;
   // Default values printed too, so every measurement shows its qualifier and
