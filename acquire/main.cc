@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
       return 2;
     }
     opt.plan = *plan;
-    if (plan->require_operator() && opt.operator_name.empty()) {
+    if (plan->require_operator() && opt.operator_name.find_first_not_of(" \t") == std::string::npos) {
       LogError("plan " + plan->name() + " requires an operator: give --operator NAME");
       return 2;
     }

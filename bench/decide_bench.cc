@@ -271,6 +271,7 @@ int main(int argc, char** argv) {
       const analyze::RunOutcome f = full->Outcome(true);
       const analyze::RunOutcome e = early->Outcome(true);
       r.full = f.judgement.verdict;
+      r.early = e.judgement.verdict;
       if (calibration) r.final_measurements = f.measurements;
       if (verbose && r.full != r.early) {
         // Which judged measurements read differently, early and full length.
@@ -285,7 +286,6 @@ int main(int argc, char** argv) {
           }
         }
       }
-      r.early = e.judgement.verdict;
       r.decided = e.early && e.early->unit != judge::Decision::kPending;
       r.decided_at_s = r.decided ? e.early->decided_at_s : soak_s;
       if (getenv("DECIDE_TRACE") && e.early) {

@@ -86,7 +86,12 @@ TEST_F(LotToolsTest, StatisticsSummarizeThePerUnitValues) {
     EXPECT_EQ(r[stats.Col("n")], "40");
     EXPECT_EQ(r[stats.Col("capability_kind")], "Cpu");  // the tactical plan has a high limit only
     const double high = std::stod(r[stats.Col("high")]);
-    EXPECT_NEAR(std::stod(r[stats.Col("capability")]), (high - mean) / (3 * sd), 1e-9);
+    const double cpu = (high - mean) / (3 * sd);
+    EXPECT_NEAR(std::stod(r[stats.Col("capability")]), cpu, 1e-9);
+    // Its 95 % interval (Bissell): cpu -+ 1.96 sqrt(1 / (9 n) + cpu^2 / (2 (n - 1))).
+    const double half = 1.959963984540054 * std::sqrt(1.0 / (9 * 40) + cpu * cpu / (2 * 39));
+    EXPECT_NEAR(std::stod(r[stats.Col("capability_low_95")]), cpu - half, 1e-9);
+    EXPECT_NEAR(std::stod(r[stats.Col("capability_high_95")]), cpu + half, 1e-9);
   }
   EXPECT_TRUE(found);
 }
@@ -99,12 +104,15 @@ TEST_F(LotToolsTest, ComparisonFindsThePlantedDriftAndNothingBetweenALotAndItsel
     if (r[diff.Col("measurement")] != "angle_random_walk") continue;
     ++arw_rows;
     EXPECT_NE(r[diff.Col("significant")].find("mean"), std::string::npos) << r[0];
+    EXPECT_EQ(r[diff.Col("mean_differs")], "true") << r[0];
     EXPECT_GT(std::stod(r[diff.Col("mean_change")]), 0.15);  // ~30 % worse
   }
   EXPECT_EQ(arw_rows, 3);  // the three gyros
   for (const auto& r : same.rows) {
     EXPECT_EQ(r[same.Col("significant")], "none") << r[1];
-    EXPECT_EQ(r[same.Col("mean_differs")], "false") << r[1];
+    for (const char* c : {"mean_differs", "sd_differs", "yield_differs"}) {
+      EXPECT_EQ(r[same.Col(c)], "false") << r[1] << " " << c;
+    }
   }
   // Bad input: an unknown lot, a bad alpha.
   EXPECT_EQ(RunCommand(Bin("imuqual") + " compare T-L001 NOPE --db " + db_ + " 2>/dev/null").exit_code, 2);
@@ -184,7 +192,11 @@ TEST_F(LotToolsTest, JsonRecordsParseBackToTheArchivedRecords) {
   ASSERT_TRUE(a.ok());
   for (pb::RunRecord& r : *records.mutable_records()) {
     // The export adds ISO-8601 times beside the archived microseconds.
+    ASSERT_FALSE(r.start_time().empty()) << r.run_id();
     EXPECT_EQ(r.start_time(), FormatUtimeIso(r.start_utime())) << r.run_id();
+    // ISO-8601 UTC to the second: 2026-11-21T08:00:00Z.
+    EXPECT_EQ(r.start_time().size(), 20u) << r.start_time();
+    EXPECT_EQ(r.start_time()[10], 'T');
     EXPECT_EQ(r.start_time().back(), 'Z');
     if (r.end_utime() > 0) {
       EXPECT_EQ(r.end_time(), FormatUtimeIso(r.end_utime()));

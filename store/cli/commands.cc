@@ -1,7 +1,6 @@
 #include "store/cli/commands.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -70,33 +69,6 @@ TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
 // uncertainty (not on B (IEEE), the minimum / 0.664, for room). When a run
 // used early decisions, when its unit was decided ("full soak": pending at
 // every look).
-// "A2" before "A10", "2" before "10": digit runs compare as numbers.
-bool NaturalLess(const std::string& a, const std::string& b) {
-  size_t i = 0, j = 0;
-  while (i < a.size() && j < b.size()) {
-    if (std::isdigit(static_cast<unsigned char>(a[i])) &&
-        std::isdigit(static_cast<unsigned char>(b[j]))) {
-      size_t ie = i, je = j;
-      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
-      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
-      // Without leading zeros, a longer run is a larger number.
-      const std::string_view x = std::string_view(a).substr(i, ie - i);
-      const std::string_view y = std::string_view(b).substr(j, je - j);
-      const std::string_view xs = x.substr(std::min(x.find_first_not_of('0'), x.size()));
-      const std::string_view ys = y.substr(std::min(y.find_first_not_of('0'), y.size()));
-      if (xs.size() != ys.size()) return xs.size() < ys.size();
-      if (xs != ys) return xs < ys;
-      i = ie;
-      j = je;
-    } else {
-      if (a[i] != b[j]) return a[i] < b[j];
-      ++i;
-      ++j;
-    }
-  }
-  return a.size() - i < b.size() - j;
-}
-
 std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slot) {
   // A station's table in fixture order, with the slot first.
   std::vector<store::AxisRow> rows = unsorted;

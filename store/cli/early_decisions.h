@@ -60,8 +60,10 @@ std::string EarlyDecisionLine(const EarlyDecisionSummary& summary);
 // unit's decision and, for a unit whose limits are decided but whose
 // marginal flags are not, why it still waits). For `imuqual reanalyze
 // --looks`: the archive keeps the raw samples and the deciding evidence
-// (each decided measurement's note, decision_time); the looks that did not
-// decide are recomputed from the samples, bit for bit (--check).
+// (each decided measurement's note, decision_time); every look is
+// recomputed from the samples by the same analysis (`reanalyze --check`
+// proves that analysis reproduces the archived measurements, notes and
+// verdict bit for bit; the looks themselves are not archived).
 TableWriter LooksTable(const std::vector<judge::Look>& looks);
 
 }  // namespace imuqual::cli

@@ -304,14 +304,15 @@ int RunsCommand(const std::string& db_path, store::RunFilter filter, const std::
     LogError(rows.status().message());
     return kExitError;
   }
-  TableWriter t({"run_id", "unit", "lot", "station", "slot", "operator", "start", "state",
-                 "verdict", "reason"});
+  // New columns go last: programs may read the earlier ones by position.
+  TableWriter t({"run_id", "unit", "lot", "station", "slot", "start", "state", "verdict", "reason",
+                 "operator"});
   for (const store::RunRow& r : *rows) {
     t.AddRow({Cell::Text(r.run_id), Cell::Text(r.unit), Cell::Text(r.lot), Cell::Text(r.station),
-              Cell::Text(r.slot), Cell::Text(r.operator_name),
-              Cell::Text(FormatUtimeIso(r.start_utime)), Cell::Text(r.state),
+              Cell::Text(r.slot), Cell::Text(FormatUtimeIso(r.start_utime)), Cell::Text(r.state),
               Cell::Text(r.verdict.empty() ? "-" : r.verdict),
-              Cell::Text(r.reasons.substr(0, r.reasons.find('\n')))});
+              Cell::Text(r.reasons.substr(0, r.reasons.find('\n'))),
+              Cell::Text(r.operator_name)});
   }
   std::printf("%s", t.Render(format).c_str());
   return 0;

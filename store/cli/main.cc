@@ -268,7 +268,7 @@ int main(int argc, char** argv) {
       }
       message += "; imuqual --help lists them";
       LogError(message);
-      return 2;
+      return kExitUsage;
     }
   }
   if (const auto code = ParseCommandLine(app, argc, argv)) return *code;

@@ -110,6 +110,11 @@ TEST(StationConfigTest, RequiredOperatorIsNamed) {
             file + ":9: operator_name: required (require_operator is set): the operator who "
                    "runs the station");
   EXPECT_EQ(ErrorOf(Replace(kGood, "pace: 1", "pace: 1\nrequire_operator: true")), "(no error)");
+  // A name of blanks is no name.
+  EXPECT_NE(ErrorOf(Replace(Replace(kGood, "\"ana\"", "\"  \""), "pace: 1",
+                            "pace: 1\nrequire_operator: true"))
+                .find("operator_name: required"),
+            std::string::npos);
   // A plan that requires one.
   const std::string plan = ::testing::TempDir() + "/require-operator.textproto";
   {

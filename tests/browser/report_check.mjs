@@ -78,7 +78,7 @@ const failures = [];
 function fail(message) { failures.push(message); }
 
 // Exact equality of a page value (data-v text) with an archive value (number
-// or null): the page writes %.17g, which parses back to the same double.
+// or null): the page writes the shortest text that parses back to the same double.
 function sameExact(pageText, dbValue) {
   if (dbValue === null || dbValue === undefined || Number.isNaN(dbValue)) return pageText === '';
   return pageText !== '' && Number(pageText) === dbValue;
