@@ -89,9 +89,9 @@ int main(int argc, char** argv) {
       return 2;
     }
     opt.plan = *plan;
-    if (plan->require_operator() && opt.operator_name.find_first_not_of(" \t") == std::string::npos) {
+    if (plan->require_operator() && IsBlank(opt.operator_name)) {
       LogError("plan " + plan->name() + " requires an operator: give --operator NAME");
-      return 2;
+      return kExitUsage;
     }
   } else if (sim.profile == "vg700" && sim.count > 0 && unit_args.empty()) {
     opt.plan = *judge::LoadPlan("builtin:vg700ca");  // the simulated lot's own plan

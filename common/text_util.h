@@ -28,6 +28,11 @@ Status ValidateIdentifier(std::string_view what, std::string_view value);
 // the letters of `given`. For "unknown command 'lotz' (did you mean 'lot'?)".
 std::string ClosestName(std::string_view given, const std::vector<std::string>& known);
 
+// Whether a name is missing: empty or only blanks (an operator "  " is none).
+inline bool IsBlank(std::string_view name) {
+  return name.find_first_not_of(" \t") == std::string_view::npos;
+}
+
 // Natural order of names such as fixture slots: runs of digits compare as
 // numbers ("2" before "10", "A2" before "A10"; "A02" and "A2" are equal),
 // the rest byte by byte. A strict weak order.

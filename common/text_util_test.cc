@@ -36,6 +36,12 @@ TEST(TextUtilTest, NaturalLessOrdersSlotsAsNumbers) {
   EXPECT_TRUE(NaturalLess("", "1"));
 }
 
+TEST(TextUtilTest, ABlankNameIsNone) {
+  EXPECT_TRUE(IsBlank(""));
+  EXPECT_TRUE(IsBlank(" \t "));
+  EXPECT_FALSE(IsBlank(" ana "));
+}
+
 TEST(TextUtilTest, ShortestRealReadsBackExactly) {
   EXPECT_EQ(ShortestReal(0.04), "0.04");
   EXPECT_EQ(ShortestReal(0.1 + 0.2), "0.30000000000000004");

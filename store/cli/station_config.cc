@@ -49,8 +49,7 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
   if (c.plan().rfind("builtin:", 0) != 0) c.set_plan(Resolve(DirOf(path), c.plan()));
   auto plan = judge::LoadPlan(c.plan());
   if (!plan.ok()) return fail("plan", 0, "plan: " + plan.status().message());
-  // A name of blanks is no name.
-  if (c.operator_name().find_first_not_of(" \t") == std::string::npos &&
+  if (IsBlank(c.operator_name()) &&
       (c.require_operator() || plan->require_operator())) {
     return fail(c.require_operator() ? "require_operator" : "plan", 0,
                 std::string("operator_name: required (") +

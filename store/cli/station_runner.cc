@@ -182,7 +182,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     auto plan = judge::LoadPlan(plan_spec);  // fail here, not in a child
     if (!plan.ok()) return plan.status();
     plan_name = plan->name().empty() ? plan_spec : plan->name();
-    if (plan->require_operator() && o.operator_name.find_first_not_of(" \t") == std::string::npos) {
+    if (plan->require_operator() && IsBlank(o.operator_name)) {
       return Status::InvalidArgument("plan " + plan_name +
                                      " requires an operator: give --operator NAME (or "
                                      "operator_name in the station file)");
