@@ -352,21 +352,6 @@ std::optional<double> Theo1Edf(int alpha, int64_t m, int64_t n_phase) {
   return edf;
 }
 
-bool IsTheoPoint(const Curve& curve, const CurvePoint& point) {
-  if (!IsTheoDeviation(curve.deviation)) return false;
-  return curve.deviation != Deviation::kTheoH || !TheoHIsAllanPoint(point.m, curve.n_phase);
-}
-
-double TheoPointEdf(const CurvePoint& point, int alpha) {
-  const int64_t stride = std::max<int64_t>(point.stride, 1);
-  if (point.m < 2 || point.m % stride != 0 || point.n < 1) return kNaN;
-  const int64_t m = point.m / stride;
-  if (m < 2 || m % 2 != 0) return kNaN;
-  const int64_t n_phase = point.n / (m / 2) + m;
-  const std::optional<double> edf = Theo1Edf(alpha, m, n_phase);
-  return edf ? *edf : kNaN;
-}
-
 std::optional<double> ModifiedTotalEdf(int alpha, int64_t m, int64_t n_phase) {
   if (m < 1) return std::nullopt;
   static constexpr std::array<std::array<double, 2>, 5> kBc = {{

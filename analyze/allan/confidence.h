@@ -71,17 +71,6 @@ std::optional<double> TotalDeviationEdf(int alpha, int64_t m, int64_t n_phase);
 // nullopt for other alphas, m outside [2, N-1], or a non-positive value.
 std::optional<double> Theo1Edf(int alpha, int64_t m, int64_t n_phase);
 
-// Whether `point` of `curve` is a Theo point (a point of a Theo1 or TheoBR
-// curve, or of TheoH's Theo part: tau = 0.75 m tau0, Theo1Edf).
-bool IsTheoPoint(const Curve& curve, const CurvePoint& point);
-
-// Theo1Edf of a Theo point from what the point carries: its terms were taken
-// every `stride` samples (1 on the record itself, B on block means,
-// block_means.h), so it was computed at m' = m / stride on the
-// N' = n / (m'/2) + m' phase points that give its n = (N' - m') m'/2 terms
-// (long_tau.h). NaN when undefined.
-double TheoPointEdf(const CurvePoint& point, int alpha);
-
 // MTOT edf nu = b N/m - c (SP1065 MTOT edf table): (b, c) = (1.90, 2.10) WPM,
 // (1.20, 1.40) FPM, (1.10, 1.20) WFM, (0.85, 0.50) FFM, (0.75, 0.31) RWFM.
 // TTOT is tau/sqrt(3) MTOT, a fixed scale, so it has the same edf. nullopt for

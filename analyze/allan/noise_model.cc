@@ -323,7 +323,7 @@ SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
     if (std::fabs(local[i] - slope) <= 0.1) {
       ++out.points_on_slope;
       intercept_sum += std::log(dev[i]) - slope * std::log(tau[i]);
-      const double edf = PointEdf(curve, *used[i], NoiseTermAlpha(term));
+      const double edf = PointEdf(*used[i], curve.n_phase, NoiseTermAlpha(term));
       if (std::isfinite(edf)) {
         rel_error_sum += 1 / std::sqrt(2 * edf);
         ++rel_error_points;
@@ -352,9 +352,7 @@ SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
   return out;
 }
 
-double PointEdf(const Curve& curve, const CurvePoint& p, int alpha) {
-  if (IsTheoPoint(curve, p)) return TheoPointEdf(p, alpha);
-  const int64_t curve_n_phase = curve.n_phase;
+double PointEdf(const CurvePoint& p, int64_t curve_n_phase, int alpha) {
   if (p.n < 1 || p.stride < 1 || p.m < 1) return kNaN;
   // The gap-free record that gives the point's valid terms, capped at the record.
   int64_t n_phase = (p.n - 1) * p.stride + 2 * p.m + 1;
@@ -385,7 +383,7 @@ double MinimumUncertainty(const Curve& curve, const CurveMinimum& min) {
     if (p.m == min.m) at = &p;
   }
   if (at == nullptr) return kNaN;
-  const double edf = PointEdf(curve, *at, /*alpha=*/-1);
+  const double edf = PointEdf(*at, curve.n_phase, /*alpha=*/-1);
   if (!std::isfinite(edf)) return kNaN;
   const double statistical = min.dev / std::sqrt(2 * edf);
   // The minimum of a noisy curve lies low: the points within an octave of it

@@ -162,12 +162,10 @@ struct SlopeReadoff {
 };
 SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term);
 
-// The edf of a point of `curve` for noise alpha: for an overlapping Allan
-// point the Greenhall edf (d = 2, F = m, S = m/stride), with N the gap-free
-// record that gives its valid terms (capped at curve.n_phase when > 0); for a
-// Theo point (TheoH's long-tau part) TheoPointEdf (confidence.h). NaN when
-// undefined.
-double PointEdf(const Curve& curve, const CurvePoint& point, int alpha);
+// The Greenhall edf (d = 2, F = m, S = m/stride) of an overlapping Allan
+// point for noise alpha, with N the gap-free record that gives its valid
+// terms (capped at curve_n_phase when > 0). NaN when undefined.
+double PointEdf(const CurvePoint& point, int64_t curve_n_phase, int alpha);
 
 // The curve's minimum (the convention of many datasheets, and of the seed's
 // "bias instability") and min/0.664 (IEEE 952's B), both in the rate unit.

@@ -330,7 +330,7 @@ TEST(NoiseModelTest, SlopeReadoffUncertaintyIsTheMeanChiSquareErrorOfItsPoints) 
   const SlopeReadoff n = ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk);
   ASSERT_FALSE(n.upper_bound_only);
   double sum = 0;
-  for (const CurvePoint& p : curve.points) sum += 1 / std::sqrt(2 * PointEdf(curve, p, 0));
+  for (const CurvePoint& p : curve.points) sum += 1 / std::sqrt(2 * PointEdf(p, curve.n_phase, 0));
   EXPECT_NEAR(n.value, 0.1, 1e-12);
   EXPECT_NEAR(n.uncertainty, 0.1 * sum / curve.points.size(), 1e-15);
   EXPECT_GT(n.uncertainty, 0);
