@@ -33,6 +33,15 @@
 // the mean ratio of OAVAR to Theo1 at the same effective tau ((9+3i) tau0 =
 // 0.75 (12+4i) tau0) over the long-tau half of the Allan range, which
 // removes Theo1's bias without knowing the noise type. Needs N >= 90.
+// The ratio is one number for the whole curve: on a curve whose noise type
+// changes it removes the bias of the noise that dominates its range and
+// leaves the rest. A gyro's long-tau end is such a curve (white or flicker
+// noise turning into rate random walk, whose Theo1 bias is 2.7 where white
+// FM's is 1): on white + random-walk FM with the minimum at N/4, TheoBR^2
+// averaged 0.57 of OAVAR at the same tau at 0.375 N (long_tau_test), i.e. it
+// reads the deviation 25 % low exactly where a minimum is judged. This is why
+// plans judge OADEV (whose estimates are unbiased for every noise type) and
+// extrapolate with the noise model rather than read a minimum off TheoH.
 //
 // TheoH, the hybrid (same paper; SP1065): OADEV at short tau, TheoBR at long
 // tau,
