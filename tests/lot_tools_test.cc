@@ -17,6 +17,7 @@
 #include <numbers>
 #include <set>
 #include <sstream>
+#include <optional>
 #include <tuple>
 
 #include "analyze/judge/judge.h"
@@ -320,6 +321,90 @@ TEST_F(LotToolsTest, ExportsSayWhatEveryValueIs) {
   EXPECT_EQ(count("\"outcome\": "), measurements);
   EXPECT_GT(count("\"outcome\": \"NOT_JUDGED\""), 0u);
   EXPECT_GT(count("\"qualifier\": \"MEASURED\""), 0u);
+}
+
+// `export --format samples`: every archived value back bit for bit, missing
+// counters as empty rows, flags, temperature and arrival times per sample.
+TEST(SamplesExportTest, EverySampleAsArchivedWithGapsFlagsAndTemperature) {
+  testing::TempDir dir("samples_export");
+  const std::string db = dir.path("s.db");
+  {
+    auto a = store::Archive::Open(db, store::Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok()) << a.status().ToString();
+    store::RunInfo r;
+    r.run_id = "S-R1";
+    r.serial = "S";
+    r.lot = "L";
+    r.start_utime = 1'800'000'000'000'000;
+    r.nominal_rate_hz = 50;
+    r.axes = {{"gx", pb::GYRO}, {"ax", pb::ACCEL}};
+    r.state = "complete";
+    auto key = (*a)->UpsertRun(r);
+    ASSERT_TRUE(key.ok()) << key.status().ToString();
+    // GIVEN chunks at counters 100..104 (with arrival time and temperature),
+    // 108..111 (counters 105..107 never arrived; a flag on sample 109) and
+    // one whose counter goes back (103..104: not exported, as not analysed).
+    auto chunk = [&](int64_t seq, int64_t first, int n, float base, bool timed,
+                     std::optional<double> temperature, std::vector<store::SampleFlag> flags) {
+      store::ChunkData d;
+      d.num_axes = 2;
+      d.num_samples = n;
+      for (int ax = 0; ax < 2; ++ax) {
+        for (int i = 0; i < n; ++i) d.samples.push_back(base + 0.1f * i + (ax ? 9.8f : 0.0f));
+      }
+      d.flags = std::move(flags);
+      store::ChunkRecord c;
+      c.seq = seq;
+      c.first_sample = first;
+      c.num_samples = n;
+      c.host_utime = r.start_utime;
+      c.sample_utime = timed ? r.start_utime + 1000 : 0;
+      c.temperature_c = temperature;
+      c.codec = store::kCodecRawFloat32;
+      c.data = store::EncodeChunk(d, store::kCodecRawFloat32);
+      ASSERT_TRUE((*a)->InsertChunk(*key, c, nullptr).ok());
+    };
+    chunk(0, 100, 5, 0.3f, true, 25.5, {});
+    chunk(1, 108, 4, -1.7f, false, std::nullopt, {{1, 0, 2}, {1, 1, 1}});
+    chunk(2, 103, 2, 7.0f, true, 30.0, {});
+  }
+  // WHEN the run's samples are exported
+  const auto out = testing::RunCommand(Bin("imuqual") + " export --run S-R1 --format samples --db " +
+                                       db + " 2>/dev/null");
+  ASSERT_EQ(out.exit_code, 0) << out.output;
+  const Csv csv = ParseCsv(out.output);
+  // THEN one row per counter 100..111, units in the axis columns' names
+  EXPECT_EQ(csv.header, (std::vector<std::string>{"sample", "device_time_s", "arrival_utime",
+                                                  "gx_deg_s", "ax_m_s2", "temperature_c",
+                                                  "flags"}));
+  ASSERT_EQ(csv.rows.size(), 12u);
+  for (size_t k = 0; k < csv.rows.size(); ++k) {
+    const auto& row = csv.rows[k];
+    ASSERT_EQ(row.size(), csv.header.size()) << k << "\n" << out.output;
+    EXPECT_EQ(row[0], std::to_string(100 + k));
+    EXPECT_DOUBLE_EQ(std::stod(row[1]), static_cast<double>(k) / 50);
+  }
+  // ... every value the archived float32, bit for bit
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(std::stof(csv.rows[i][3]), 0.3f + 0.1f * i);
+    EXPECT_EQ(std::stof(csv.rows[i][4]), 0.3f + 0.1f * i + 9.8f);
+    EXPECT_EQ(csv.rows[i][5], "25.5");
+    EXPECT_EQ(csv.rows[i][2], std::to_string(1'800'000'000'001'000 + i * 20'000));  // 20 ms apart
+    EXPECT_EQ(csv.rows[i][6], "");
+  }
+  for (int k = 5; k < 8; ++k) {
+    EXPECT_EQ(csv.rows[k][3], "");
+    EXPECT_EQ(csv.rows[k][6], "missing");
+  }
+  EXPECT_EQ(std::stof(csv.rows[9][3]), -1.7f + 0.1f);
+  EXPECT_EQ(csv.rows[9][6], "gx:invalid ax:saturated");
+  EXPECT_EQ(csv.rows[9][2], "");  // that chunk's arrival was not recorded
+  EXPECT_EQ(csv.rows[9][5], "");
+  // A lot is refused with a usage error naming why.
+  const auto lot = testing::RunCommand(Bin("imuqual") + " export --lot L --format samples --db " +
+                                       db + " 2>&1");
+  EXPECT_EQ(lot.exit_code, 2);
+  EXPECT_NE(lot.output.find("one run"), std::string::npos) << lot.output;
 }
 
 // ---------------------------------------------------------------------------

@@ -2,8 +2,11 @@
 
 #include <google/protobuf/util/json_util.h>
 
+#include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <numbers>
 
 #include "analyze/allan/units.h"
@@ -13,6 +16,7 @@
 #include "common/strings.h"
 #include "common/text_util.h"
 #include "store/archive.h"
+#include "store/chunk_codec.h"
 #include "store/cli/marks.h"
 #include "store/cli/table_writer.h"
 #include "store/outcome.h"
@@ -107,8 +111,7 @@ Result<std::string> ExportMeasurements(store::Archive& archive, const std::vecto
                 opt(m.has_marginal_high(), m.marginal_high()), Cell::Text(outcome),
                 Cell::Text(m.note()), Cell::Text(m.uncertainty_method()),
                 Cell::Text(QualifierWord(m.qualifier(), m.value())),
-                Cell::Text(rule.empty() ? "none" : rule),
-                opt(m.has_guard_band(), m.guard_band())});
+                Cell::Text(rule.empty() ? "none" : rule), opt(m.has_guard_band(), m.guard_band())});
     }
   }
   return t.Render(Format::kCsv);
@@ -129,7 +132,9 @@ Result<std::string> ExportCurves(store::Archive& archive, const std::vector<RunR
                   Cell::Real(p.tau_s), Cell::Real(p.dev), Cell::Real(p.lo), Cell::Real(p.hi),
                   Cell::Real(p.edf), Cell::Int(p.n), Cell::Int(p.stride),
                   p.alpha ? Cell::Int(*p.alpha) : Cell::Text(""),
-                  Cell::Text(!p.alpha ? "" : p.alpha_inherited ? "nearest" : "identified")});
+                  Cell::Text(!p.alpha            ? ""
+                             : p.alpha_inherited ? "nearest"
+                                                 : "identified")});
       }
     }
   }
@@ -218,11 +223,9 @@ Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunR
         s.n += si;
         ++s.n_count;
       }
-      s.comments += "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) +
-                    (UpperBound(m)
-                         ? " (upper bound at 95 %: the noise model has no such term)"
-                         : "") +
-                    "\n";
+      s.comments +=
+          "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) +
+          (UpperBound(m) ? " (upper bound at 95 %: the noise model has no such term)" : "") + "\n";
     }
     out += "---\n# " + r.info.serial + ", run " + r.run_id + " (lot " + r.info.lot +
            "): composite noise model, mean over the axes\n";
@@ -242,6 +245,88 @@ Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunR
   return out;
 }
 
+// The shortest text that reads back as the same float32 (the archived bits).
+std::string FloatText(float v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+// A column name's unit suffix for an axis kind: deg/s -> deg_s, m/s^2 -> m_s2.
+std::string UnitSuffix(pb::AxisKind kind) { return kind == pb::ACCEL ? "m_s2" : "deg_s"; }
+
+// A counter jump beyond this many seconds of samples is not filled with
+// empty rows (the analysis refuses such a jump as a corrupt counter).
+constexpr double kLongestFilledGapS = 86400.0;
+
+// --format samples: one run's raw samples as archived, one row per device
+// sample counter from the first archived chunk to the last; see the header.
+Status ExportSamples(store::Archive& archive, const RunRef& run, std::FILE* out) {
+  const store::RunInfo& info = run.info;
+  const double rate = info.nominal_rate_hz;
+  std::string header = "sample,device_time_s,arrival_utime";
+  for (const store::AxisInfo& a : info.axes) header += "," + a.name + "_" + UnitSuffix(a.kind);
+  header += ",temperature_c,flags\n";
+  std::fputs(header.c_str(), out);
+  const size_t axes = info.axes.size();
+  int64_t first = -1, next = -1, skipped = 0;
+  std::string row;
+  Status st = archive.ForEachChunk(run.key, [&](const store::ChunkRecord& c) -> Status {
+    auto chunk = store::DecodeChunk(c.data, c.codec);
+    if (!chunk.ok())
+      return chunk.status().WithContext("run " + run.run_id + " seq " + std::to_string(c.seq));
+    if (static_cast<size_t>(chunk->num_axes) != axes || (next >= 0 && c.first_sample < next)) {
+      ++skipped;  // as the analysis rejects it: wrong axes or the counter went back
+      return Status::Ok();
+    }
+    if (first < 0) first = next = c.first_sample;
+    const auto time_of = [&](int64_t counter) {
+      return ShortestReal(static_cast<double>(counter - first) / rate);
+    };
+    // Samples that never arrived: rows with empty values, flagged "missing".
+    if (static_cast<double>(c.first_sample - next) / rate <= kLongestFilledGapS) {
+      for (int64_t k = next; k < c.first_sample; ++k) {
+        row = std::to_string(k) + "," + time_of(k) + ",";
+        for (size_t a = 0; a < axes; ++a) row += ",";
+        row += ",,missing\n";  // no temperature either
+        std::fputs(row.c_str(), out);
+      }
+    }
+    const std::string temperature = c.temperature_c ? ShortestReal(*c.temperature_c) : "";
+    for (int i = 0; i < chunk->num_samples; ++i) {
+      const int64_t k = c.first_sample + i;
+      row = std::to_string(k) + "," + time_of(k) + ",";
+      if (c.sample_utime > 0) row += std::to_string(c.sample_utime + std::llround(i * 1e6 / rate));
+      std::string flags;
+      for (size_t a = 0; a < axes; ++a) {
+        row += "," + FloatText(chunk->at(static_cast<int>(a), i));
+      }
+      for (const store::SampleFlag& f : chunk->flags) {
+        if (f.sample != i) continue;
+        if (!flags.empty()) flags += " ";
+        flags += info.axes[f.axis].name + ":" +
+                 ((f.bits & 1) && (f.bits & 2) ? "saturated+invalid"
+                  : (f.bits & 1)               ? "saturated"
+                  : (f.bits & 2)               ? "invalid"
+                                               : std::to_string(f.bits));
+      }
+      row += "," + temperature + "," + flags + "\n";
+      std::fputs(row.c_str(), out);
+    }
+    next = c.first_sample + chunk->num_samples;
+    return Status::Ok();
+  });
+  if (!st.ok()) return st;
+  if (skipped > 0) {
+    LogWarning("run " + run.run_id + ": " + std::to_string(skipped) +
+               " archived chunks not exported (counter went backwards or axes differ), as the "
+               "analysis rejected them");
+  }
+  if (std::fflush(out) != 0 || std::ferror(out))
+    return Status::IoError("writing the samples failed");
+  return Status::Ok();
+}
+
 }  // namespace
 
 int ExportCommand(const ExportOptions& o) {
@@ -259,8 +344,31 @@ int ExportCommand(const ExportOptions& o) {
     LogError(runs.status().message());
     return runs.status().code() == Status::Code::kNotFound ? 2 : 1;
   }
+  if (o.as == "samples") {
+    // Streamed: a long run's samples do not fit in one string.
+    if (!o.lot.empty()) {
+      LogError("--format samples exports one run: give --run, not --lot");
+      return 2;
+    }
+    const bool to_stdout = o.output.empty() || o.output == "-";
+    std::FILE* out = to_stdout ? stdout : std::fopen(o.output.c_str(), "w");
+    if (out == nullptr) {
+      LogError("cannot write " + o.output + ": " + std::strerror(errno));
+      return 1;
+    }
+    const Status st = ExportSamples(**archive, runs->front(), out);
+    if (!to_stdout && std::fclose(out) != 0 && st.ok()) {
+      LogError("cannot write " + o.output + ": " + std::strerror(errno));
+      return 1;
+    }
+    if (!st.ok()) {
+      LogError(st.message());
+      return 1;
+    }
+    return 0;
+  }
   Result<std::string> text =
-      Status::InvalidArgument("--format must be json, measurements, curves or kalibr");
+      Status::InvalidArgument("--format must be json, measurements, curves, kalibr or samples");
   if (o.as == "json") text = ExportJson(**archive, *runs);
   if (o.as == "measurements") text = ExportMeasurements(**archive, *runs);
   if (o.as == "curves") text = ExportCurves(**archive, *runs);

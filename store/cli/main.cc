@@ -1,8 +1,7 @@
 // imuqual: the operator's and engineer's tool. Runs a station, answers lot
 // queries. Subcommand flags -> command functions -> exit code.
-#include <algorithm>
-
 #include <CLI/CLI.hpp>
+#include <algorithm>
 
 #include "common/command_line.h"
 #include "common/log.h"
@@ -13,11 +12,11 @@
 #include "store/cli/commands.h"
 #include "store/cli/export_command.h"
 #include "store/cli/lot_commands.h"
+#include "store/cli/plan_soak_command.h"
 #include "store/cli/plot_command.h"
 #include "store/cli/reanalyze_command.h"
 #include "store/cli/report.h"
 #include "store/cli/station_config.h"
-#include "store/cli/plan_soak_command.h"
 #include "store/cli/verify_command.h"
 
 int main(int argc, char** argv) {
@@ -95,7 +94,9 @@ int main(int argc, char** argv) {
   lot_cmd->add_option("lot", lot, "lot name")->required();
   lot_cmd->add_option("--db", db, "archive file")->required();
   lot_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
-  lot_cmd->add_flag("--all-runs", all_runs, "every run, not only each unit's final one (its latest judged run, else its latest)");
+  lot_cmd->add_flag(
+      "--all-runs", all_runs,
+      "every run, not only each unit's final one (its latest judged run, else its latest)");
   lot_cmd->add_flag("--stats", stats,
                     "per axis and measurement: n, mean, sd, min, max, yield, Cpk/Cpu/Cpl (and, as "
                     "a table, the lot noise model)");
@@ -135,14 +136,16 @@ int main(int argc, char** argv) {
 
   cli::ExportOptions ex;
   CLI::App* export_cmd =
-      app.add_subcommand("export", "run records, measurements, curves or Kalibr YAML");
+      app.add_subcommand("export", "run records, measurements, curves, Kalibr YAML or raw samples");
   export_cmd->add_option("--db", ex.db_path, "archive file")->required();
   export_cmd->add_option("--lot", ex.lot, "every run of this lot");
   export_cmd->add_option("--run", ex.run_id, "this run");
   export_cmd
       ->add_option("--format,--as", ex.as,
-                   "json (run records), measurements (CSV), curves (CSV), kalibr (YAML); "
-                   "--as is the former name")
+                   "json (run records), measurements (CSV), curves (CSV), kalibr (YAML), "
+                   "samples (CSV of one --run's raw samples: sample, device_time_s, "
+                   "arrival_utime, <axis>_deg_s|_m_s2, temperature_c, flags); --as is the "
+                   "former name")
       ->capture_default_str();
   export_cmd->add_option("-o,--output", ex.output, "file (default: standard output)");
 
@@ -182,7 +185,8 @@ int main(int argc, char** argv) {
   reanalyze_cmd->add_option("run", re.run_id, "run id")->required();
   reanalyze_cmd->add_option("--db", re.db_path, "archive file")->required();
   CLI::Option* exact_flag = reanalyze_cmd->add_flag(
-      "--exact", re.exact, "exact batch estimators over every archived sample (any grid, stop, CI)");
+      "--exact", re.exact,
+      "exact batch estimators over every archived sample (any grid, stop, CI)");
   reanalyze_cmd
       ->add_flag("--check", re.check,
                  "live mode: verify the run's checksums and that it equals the archived result "
@@ -194,7 +198,9 @@ int main(int argc, char** argv) {
                    "--exact: estimators (as for analyze, the long-tau ones included)")
       ->capture_default_str()
       ->needs(exact_flag);
-  reanalyze_cmd->add_option("--grid", re.grid, "--exact: tau grid")->capture_default_str()->needs(exact_flag);
+  reanalyze_cmd->add_option("--grid", re.grid, "--exact: tau grid")
+      ->capture_default_str()
+      ->needs(exact_flag);
   reanalyze_cmd->add_option("--stop", re.stop, "--exact: bins9, stable32 or none")
       ->capture_default_str()
       ->needs(exact_flag);
@@ -223,7 +229,8 @@ int main(int argc, char** argv) {
   soak_cmd->add_option("--model", soak.model,
                        "a typical unit's noise model: CSV axis,name,value,unit (model term "
                        "names and datasheet units, as the archive's model_* rows)");
-  soak_cmd->add_option("--lot", soak.lot, "a past lot whose units' noise models to use (with --db)");
+  soak_cmd->add_option("--lot", soak.lot,
+                       "a past lot whose units' noise models to use (with --db)");
   soak_cmd->add_option("--db", soak.db, "archive file of --lot");
   soak_cmd->add_option("--profile", soak.profile, "a simulator lot profile (e.g. vg700)");
   soak_cmd->add_option("--records", soak.records, "records to simulate")->capture_default_str();
