@@ -1,8 +1,8 @@
 #include "store/reanalysis.h"
 
-#include "analyze/judge/plan.h"
 #include <cmath>
 
+#include "analyze/judge/plan.h"
 #include "store/chunk_codec.h"
 
 namespace imuqual::store {
@@ -32,12 +32,14 @@ Result<analyze::RunOutcome> ReanalyzeRun(Archive& archive, const std::string& ru
   if (!analyzer.ok()) return analyzer.status();
   Status st = archive.ForEachChunk(**key, [&](const ChunkRecord& c) -> Status {
     auto chunk = DecodeChunk(c.data, c.codec);
-    if (!chunk.ok()) return chunk.status().WithContext("run " + run_id + " seq " + std::to_string(c.seq));
+    if (!chunk.ok())
+      return chunk.status().WithContext("run " + run_id + " seq " + std::to_string(c.seq));
     analyze::BatchView view;
     view.seq = c.seq;
     view.first_sample = c.first_sample;
     view.sample_utime = c.sample_utime;
     view.nominal_rate_hz = run->nominal_rate_hz;
+    view.temperature_c = c.temperature_c;
     for (int a = 0; a < chunk->num_axes; ++a) {
       view.samples.emplace_back(chunk->samples.data() + static_cast<size_t>(a) * chunk->num_samples,
                                 static_cast<size_t>(chunk->num_samples));
@@ -65,7 +67,8 @@ Result<RunSamples> LoadRunSamples(Archive& archive, const std::string& run_id) {
   int64_t next = -1;
   Status st = archive.ForEachChunk(**key, [&](const ChunkRecord& c) -> Status {
     auto chunk = DecodeChunk(c.data, c.codec);
-    if (!chunk.ok()) return chunk.status().WithContext("run " + run_id + " seq " + std::to_string(c.seq));
+    if (!chunk.ok())
+      return chunk.status().WithContext("run " + run_id + " seq " + std::to_string(c.seq));
     if (static_cast<size_t>(chunk->num_axes) != axes || (next >= 0 && c.first_sample < next)) {
       ++out.skipped_chunks;
       return Status::Ok();
@@ -79,7 +82,8 @@ Result<RunSamples> LoadRunSamples(Archive& archive, const std::string& run_id) {
       out.samples[a].insert(out.samples[a].end(), static_cast<size_t>(missing), std::nanf(""));
       out.invalid[a].insert(out.invalid[a].end(), static_cast<size_t>(missing), 1);
       const size_t at = out.samples[a].size();
-      for (int i = 0; i < chunk->num_samples; ++i) out.samples[a].push_back(chunk->at(static_cast<int>(a), i));
+      for (int i = 0; i < chunk->num_samples; ++i)
+        out.samples[a].push_back(chunk->at(static_cast<int>(a), i));
       out.invalid[a].resize(at + chunk->num_samples, 0);
     }
     for (const SampleFlag& f : chunk->flags) {

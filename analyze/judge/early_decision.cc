@@ -120,9 +120,7 @@ std::string Who(const pb::Measurement& m) {
   return (m.axis().empty() ? "" : m.axis() + ": ") + m.name();
 }
 
-std::string UnitSuffix(const pb::Measurement& m) {
-  return m.unit() == "1" ? "" : " " + m.unit();
-}
+std::string UnitSuffix(const pb::Measurement& m) { return m.unit() == "1" ? "" : " " + m.unit(); }
 
 // Where a measurement stands against its marginal band, read as the
 // full-length record would read it. A marginal bound is settled when the
@@ -148,13 +146,17 @@ Flag FlagOf(const pb::Measurement& m, double fraction, const BoundEvidence& evid
   };
   if (m.has_marginal_low()) {
     const auto [above, settled] = check(m.marginal_low());
-    if (!settled) unsettled = true;
-    else if (!above) marginal = true;
+    if (!settled)
+      unsettled = true;
+    else if (!above)
+      marginal = true;
   }
   if (m.has_marginal_high()) {
     const auto [above, settled] = check(m.marginal_high());
-    if (!settled) unsettled = true;
-    else if (above) marginal = true;
+    if (!settled)
+      unsettled = true;
+    else if (above)
+      marginal = true;
   }
   return marginal ? Flag::kMarginal : unsettled ? Flag::kUnsettled : Flag::kClear;
 }
@@ -162,9 +164,12 @@ Flag FlagOf(const pb::Measurement& m, double fraction, const BoundEvidence& evid
 Decision Worse(Decision a, Decision b) {
   auto rank = [](Decision d) {
     switch (d) {
-      case Decision::kFail: return 3;
-      case Decision::kPending: return 2;
-      case Decision::kPass: return 0;
+      case Decision::kFail:
+        return 3;
+      case Decision::kPending:
+        return 2;
+      case Decision::kPass:
+        return 0;
     }
     return 2;
   };
@@ -235,17 +240,23 @@ LookSchedule MakeLookSchedule(const pb::TestPlan& plan) {
 
 const char* DecisionName(Decision d) {
   switch (d) {
-    case Decision::kPending: return "PENDING";
-    case Decision::kPass: return "PASS";
-    case Decision::kFail: return "FAIL";
+    case Decision::kPending:
+      return "PENDING";
+    case Decision::kPass:
+      return "PASS";
+    case Decision::kFail:
+      return "FAIL";
   }
   return "PENDING";
 }
 
 bool EarlyDecider::Decides(const pb::Measurement& m) {
   const bool judged = m.has_low() || m.has_high();
+  // Record properties, not estimates that converge: judged on the record as
+  // analysed when the unit is decided (a temperature range only grows).
   return judged && m.name() != kGapFraction && m.name() != kInvalidFraction &&
-         m.name() != kDuration;
+         m.name() != kDuration && m.name() != kTemperatureMean && m.name() != kTemperatureRange &&
+         m.name() != kTemperatureSlope;
 }
 
 Result<EarlyDecider> EarlyDecider::Create(const pb::TestPlan& plan) {
@@ -261,8 +272,7 @@ Result<EarlyDecider> EarlyDecider::Create(const pb::TestPlan& plan) {
   return d;
 }
 
-Decision EarlyDecider::MeasurementDecision(const std::string& axis,
-                                           const std::string& name) const {
+Decision EarlyDecider::MeasurementDecision(const std::string& axis, const std::string& name) const {
   const std::string key = Key(axis, name);
   for (const Decided& d : decided_) {
     if (d.key == key) return d.decision;
@@ -319,11 +329,14 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
     any = true;
     if (flags_ == pb::EarlyDecision::FLAGS_AGREE_FULL_LENGTH) {
       switch (FlagOf(m, look.fraction, evidence)) {
-        case Flag::kMarginal: flag_marginal = true; break;
+        case Flag::kMarginal:
+          flag_marginal = true;
+          break;
         case Flag::kUnsettled:
           if (flag_unsettled.empty()) flag_unsettled = Who(m);
           break;
-        default: break;
+        default:
+          break;
       }
     }
     LookEntry e;
@@ -422,7 +435,8 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
           why += ", not yet on one side of the marginal band (z " + Num(z) + ")";
         } else {
           marginal = mh == Side::kOutside || ml == Side::kOutside;
-          why += marginal ? ", confirmed in the marginal band" : ", confirmed clear of the marginal band";
+          why += marginal ? ", confirmed in the marginal band"
+                          : ", confirmed clear of the marginal band";
         }
       }
     } else {
@@ -470,13 +484,11 @@ void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
     // (marginal bands are read simply, as always).
     const bool flag =
         flags_ == pb::EarlyDecision::FLAGS_DECIDED ? it->marginal : m.outcome() == pb::MARGINAL;
-    m.set_outcome(it->decision == Decision::kFail ? pb::FAIL
-                  : flag                          ? pb::MARGINAL
-                                                  : pb::PASS);
+    m.set_outcome(it->decision == Decision::kFail ? pb::FAIL : flag ? pb::MARGINAL : pb::PASS);
     m.clear_guard_band();
-    m.set_note((m.note().empty() ? "" : m.note() + "; ") + "decided " +
-               DecisionName(it->decision) + " at " + Num(schedule_.times_s[it->look]) +
-               " s (look " + std::to_string(it->look + 1) + "): " + it->why);
+    m.set_note((m.note().empty() ? "" : m.note() + "; ") + "decided " + DecisionName(it->decision) +
+               " at " + Num(schedule_.times_s[it->look]) + " s (look " +
+               std::to_string(it->look + 1) + "): " + it->why);
   }
 }
 

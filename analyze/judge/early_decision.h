@@ -185,7 +185,8 @@ class EarlyDecider {
   // outcome with a note saying when and by which bound; returns the reasons.
   void ApplyTo(std::vector<pb::Measurement>* measurements) const;
 
-  // True for the measurements that decide (not record quality, duration).
+  // True for the measurements that decide (not record quality, duration or
+  // temperature: properties of the record as analysed).
   static bool Decides(const pb::Measurement& m);
 
  private:

@@ -1,10 +1,9 @@
 #include "analyze/judge/measure.h"
 
 #include <algorithm>
+#include <boost/math/distributions/normal.hpp>
 #include <cmath>
 #include <cstdio>
-
-#include <boost/math/distributions/normal.hpp>
 
 #include "analyze/allan/gmwm.h"
 #include "analyze/allan/model_quantities.h"
@@ -128,9 +127,9 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
     if (unresolved) m.set_qualifier(pb::MINIMUM_NOT_RESOLVED);
     if (m.has_uncertainty()) {
       m.set_uncertainty_method(m.name() == kTauAtMinimum ? std::string(kTauMethod)
-                               : i + 2 == out.size()
-                                   ? std::string(kMinimumMethod) + "; divided by 0.664 like the value"
-                                   : kMinimumMethod);
+                               : i + 2 == out.size()     ? std::string(kMinimumMethod) +
+                                                           "; divided by 0.664 like the value"
+                                                     : kMinimumMethod);
     } else {
       m.set_uncertainty_method("none: no Greenhall edf at the minimum's point");
     }
@@ -338,6 +337,54 @@ std::vector<pb::Measurement> MeasureTiming(double nominal_rate_hz, double measur
   return out;
 }
 
+void TemperatureReadings::Add(double temperature_c, double t_s, double w) {
+  if (count == 0) lowest_c = highest_c = temperature_c;
+  lowest_c = std::min(lowest_c, temperature_c);
+  highest_c = std::max(highest_c, temperature_c);
+  ++count;
+  weight += w;
+  const double dt = t_s - mean_t_s;
+  const double dc = temperature_c - mean_c;
+  mean_t_s += dt * w / weight;
+  mean_c += dc * w / weight;
+  s_tt += w * dt * (t_s - mean_t_s);
+  s_tc += w * dt * (temperature_c - mean_c);
+  s_cc += w * dc * (temperature_c - mean_c);
+}
+
+std::vector<pb::Measurement> MeasureTemperature(const TemperatureReadings& r) {
+  std::vector<pb::Measurement> out;
+  if (r.count == 0) return out;
+  const std::string readings =
+      std::to_string(r.count) + " batch reading" + (r.count == 1 ? "" : "s");
+  out.push_back(Make("", kTemperatureMean, r.mean_c, pb::GYRO));
+  out.back().set_uncertainty_method("none: a summary of the unit's own readings (" + readings +
+                                    "); their accuracy is the unit's sensor's");
+  out.push_back(Make("", kTemperatureRange, r.highest_c - r.lowest_c, pb::GYRO));
+  out.back().set_uncertainty_method("none: a statistic of the readings (" + readings + ")");
+  double slope = allan::kNaN;
+  double se = allan::kNaN;
+  std::string note;
+  if (r.count >= 3 && r.s_tt > 0) {
+    slope = r.s_tc / r.s_tt;
+    const double residual = std::max(r.s_cc - r.s_tc * r.s_tc / r.s_tt, 0.0);
+    se = std::sqrt(residual / (static_cast<double>(r.count - 2) * r.s_tt));
+  } else {
+    note = "not measurable: " + readings + ", a slope needs 3";
+  }
+  out.push_back(Make("", kTemperatureSlope, slope * 3600, pb::GYRO, note));
+  if (std::isfinite(se)) {
+    out.back().set_uncertainty(se * 3600);
+    out.back().set_uncertainty_method(
+        "standard error of the weighted least-squares slope (" + readings +
+        ", residuals taken independent: drift with structure makes it optimistic)");
+  } else {
+    out.back().set_uncertainty_method("none: no slope");
+  }
+  for (pb::Measurement& m : out) QualifyMissing(&m);
+  return out;
+}
+
 bool MinimumSettled(const allan::Curve& curve, double horizon_m, std::string* why) {
   auto say = [&](std::string text) {
     if (why) *why = std::move(text);
@@ -386,8 +433,8 @@ double MinimumSideEvidence(const allan::Curve& curve, double bound_s) {
   const bool above = tau_m > bound_s;
   double best = 0;
   for (const allan::CurvePoint& q : p) {
-    const bool between = above ? (q.tau_s >= bound_s && q.tau_s < tau_m)
-                               : (q.tau_s > tau_m && q.tau_s <= bound_s);
+    const bool between =
+        above ? (q.tau_s >= bound_s && q.tau_s < tau_m) : (q.tau_s > tau_m && q.tau_s <= bound_s);
     if (!between || !std::isfinite(q.dev) || !std::isfinite(sigma(q))) continue;
     best = std::max(best, (q.dev - dev_m) / std::hypot(sigma(q), u_m));
   }

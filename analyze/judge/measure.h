@@ -52,6 +52,31 @@ std::vector<pb::Measurement> MeasureRun(double duration_s, int64_t samples, int6
 std::vector<pb::Measurement> MeasureTiming(double nominal_rate_hz, double measured_rate_hz,
                                            double rate_sigma_hz, double jitter_rms_s);
 
+// The temperature readings of a run's analysed batches: a reading in deg C
+// at device time t_s (s from the analysed start, the middle of the samples
+// it covers), weighted by those samples. Running weighted moments (West
+// 1979): bounded memory, no cancellation over long runs.
+struct TemperatureReadings {
+  int64_t count = 0;
+  double weight = 0;
+  double mean_t_s = 0;
+  double mean_c = 0;
+  double s_tt = 0;  // sum w (t - mean_t)^2
+  double s_tc = 0;  // sum w (t - mean_t)(c - mean_c)
+  double s_cc = 0;  // sum w (c - mean_c)^2
+  double lowest_c = 0;
+  double highest_c = 0;
+  // weight > 0, both values finite (the caller's precondition).
+  void Add(double temperature_c, double t_s, double weight);
+};
+
+// temperature_mean (the weighted mean), temperature_range (highest minus
+// lowest reading) and temperature_slope (weighted least-squares slope, deg
+// C/h, with its standard error: residuals taken independent, so drift with
+// structure makes it optimistic; the method says so). Nothing when no
+// batch carried a temperature; the slope is not measurable below 3 readings.
+std::vector<pb::Measurement> MeasureTemperature(const TemperatureReadings& readings);
+
 // Whether the minimum of an axis's Allan curve `curve` (OADEV, dense or
 // octave, base units) measured so far is settled: a longer record, whose
 // curve would reach `horizon_m` (averaging factor), would not find a lower

@@ -253,5 +253,45 @@ TEST(MeasureRunTest, CountsAreExactAndTimingSaysHowItsSigmaWasObtained) {
   EXPECT_TRUE(timing[0].uncertainty_method().starts_with("none:"));
 }
 
+TEST(MeasureTemperatureTest, MeanRangeAndSlopeWithItsStandardError) {
+  // GIVEN 120 one-minute batch readings of a unit warming at 0.5 deg C/h
+  // from 25 deg C, with +-0.05 deg C of alternating reading noise
+  TemperatureReadings r;
+  for (int i = 0; i < 120; ++i) {
+    const double t = 30.0 + 60.0 * i;  // the middle of each minute
+    r.Add(25.0 + 0.5 * t / 3600 + (i % 2 ? 0.05 : -0.05), t, 6000);
+  }
+  const std::vector<pb::Measurement> m = MeasureTemperature(r);
+  ASSERT_EQ(m.size(), 3u);
+  // THEN the mean is the middle of the ramp, the range its span plus the
+  // noise, the slope 0.5 deg C/h within its standard error (about 0.003)
+  EXPECT_EQ(m[0].name(), kTemperatureMean);
+  EXPECT_EQ(m[0].unit(), "deg C");
+  EXPECT_NEAR(m[0].value(), 25.0 + 0.5 * 1.0, 1e-9);
+  EXPECT_EQ(m[1].name(), kTemperatureRange);
+  EXPECT_NEAR(m[1].value(), 0.5 * 119.0 / 60 + 0.1, 1e-9);
+  EXPECT_EQ(m[2].name(), kTemperatureSlope);
+  EXPECT_EQ(m[2].unit(), "deg C/h");
+  ASSERT_TRUE(m[2].has_uncertainty());
+  EXPECT_GT(m[2].uncertainty(), 0);
+  EXPECT_LT(m[2].uncertainty(), 0.01);
+  EXPECT_NEAR(m[2].value(), 0.5, 3 * m[2].uncertainty());
+  for (const pb::Measurement& x : m) EXPECT_FALSE(x.uncertainty_method().empty()) << x.name();
+}
+
+TEST(MeasureTemperatureTest, NoReadingsNoMeasurementsAndTwoReadingsNoSlope) {
+  EXPECT_TRUE(MeasureTemperature(TemperatureReadings{}).empty());
+  TemperatureReadings r;
+  r.Add(24.0, 10, 100);
+  r.Add(26.0, 20, 300);
+  const std::vector<pb::Measurement> m = MeasureTemperature(r);
+  ASSERT_EQ(m.size(), 3u);
+  EXPECT_DOUBLE_EQ(m[0].value(), 25.5);  // weighted by samples
+  EXPECT_DOUBLE_EQ(m[1].value(), 2.0);
+  EXPECT_TRUE(std::isnan(m[2].value()));
+  EXPECT_EQ(m[2].qualifier(), pb::NOT_MEASURABLE);
+  EXPECT_NE(m[2].note().find("a slope needs 3"), std::string::npos) << m[2].note();
+}
+
 }  // namespace
 }  // namespace imuqual::judge

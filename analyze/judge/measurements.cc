@@ -42,6 +42,12 @@ const std::vector<MeasurementDef>& MeasurementCatalog() {
       {kRateError, true, "ppm", "ppm", "measured rate relative to the nominal rate"},
       {kTimingJitter, true, "ms", "ms",
        "RMS lateness of sample arrivals over the least-late of each second (host latency)"},
+      {kTemperatureMean, true, "deg C", "deg C",
+       "unit temperature over the analysed record, mean weighted by samples"},
+      {kTemperatureRange, true, "deg C", "deg C",
+       "highest minus lowest batch temperature over the analysed record"},
+      {kTemperatureSlope, true, "deg C/h", "deg C/h",
+       "least-squares slope of the batch temperatures against device time"},
   };
   return kCatalog;
 }

@@ -56,6 +56,13 @@ inline constexpr std::string_view kDuration = "duration";
 inline constexpr std::string_view kMeasuredRate = "measured_rate";
 inline constexpr std::string_view kRateError = "rate_error";
 inline constexpr std::string_view kTimingJitter = "timing_jitter";
+// The unit's temperature over the analysed record (units whose source
+// reports one): the sample-weighted mean, the range of the batch readings
+// and the least-squares slope against device time. A plan says "at constant
+// temperature" by limiting them.
+inline constexpr std::string_view kTemperatureMean = "temperature_mean";
+inline constexpr std::string_view kTemperatureRange = "temperature_range";
+inline constexpr std::string_view kTemperatureSlope = "temperature_slope";
 // Early decisions (early_decision.h): the analysed device time at which the
 // unit was decided; NaN, not measurable, when it stayed pending to the end.
 inline constexpr std::string_view kDecisionTime = "decision_time";

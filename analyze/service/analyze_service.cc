@@ -13,8 +13,6 @@
 
 #include "analyze/judge/plan.h"
 #include "analyze/service/run_analyzer.h"
-#include "common/listening_clock.h"
-#include "common/text_util.h"
 #include "common/ack.h"
 #include "common/batch_integrity.h"
 #include "common/bounded_queue.h"
@@ -22,15 +20,17 @@
 #include "common/clock.h"
 #include "common/last_heard.h"
 #include "common/lcm_bus.h"
+#include "common/listening_clock.h"
 #include "common/log.h"
 #include "common/process_status.h"
 #include "common/seq_tracker.h"
 #include "common/shutdown.h"
+#include "common/text_util.h"
+#include "imuqual/ack_t.hpp"
 #include "imuqual/allan_curve_t.hpp"
 #include "imuqual/decision_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
-#include "imuqual/ack_t.hpp"
 #include "imuqual/run_t.hpp"
 #include "imuqual/unit_result_t.hpp"
 
@@ -39,7 +39,7 @@ namespace {
 
 using Work = std::variant<imuqual::run_t, imuqual::rate_batch_t, imuqual::ack_t>;
 
-constexpr double kDoneReackForS = 60.0;     // finished runs keep saying so this long
+constexpr double kDoneReackForS = 60.0;  // finished runs keep saying so this long
 // A final result no store has confirmed is published again after 2 s, then
 // with the period doubling up to 30 s, for at most 30 min.
 constexpr double kFirstRepublishS = 2.0;
@@ -74,7 +74,7 @@ struct RunEntry {
   double last_interim_s = 0;
   bool finished = false;
   double finished_s = 0;
-  int64_t acked_after_finish = 0;  // late batches of a finished run are acknowledged too
+  int64_t acked_after_finish = 0;    // late batches of a finished run are acknowledged too
   bool inferred_incomplete = false;  // ended here for silence, not announced so
   int64_t rejected = 0;
   // The final outcome, kept and published again until a store says it has
@@ -101,7 +101,7 @@ struct RunEntry {
 // opens it again.
 struct FinishedRun {
   int revision = 0;
-  int64_t last_seq = -1;      // the last batch the analysis covered
+  int64_t last_seq = -1;        // the last batch the analysis covered
   bool end_by_acquire = false;  // acquire itself announced the end
 };
 
@@ -143,9 +143,15 @@ imuqual::decision_t DecisionMessage(const imuqual::run_t& run, int revision,
   msg.unit_serial = run.unit_serial;
   msg.revision = static_cast<int16_t>(revision);
   switch (d.unit_decision()) {
-    case judge::Decision::kPass: msg.state = imuqual::decision_t::STATE_PASS; break;
-    case judge::Decision::kFail: msg.state = imuqual::decision_t::STATE_FAIL; break;
-    case judge::Decision::kPending: msg.state = imuqual::decision_t::STATE_PENDING; break;
+    case judge::Decision::kPass:
+      msg.state = imuqual::decision_t::STATE_PASS;
+      break;
+    case judge::Decision::kFail:
+      msg.state = imuqual::decision_t::STATE_FAIL;
+      break;
+    case judge::Decision::kPending:
+      msg.state = imuqual::decision_t::STATE_PENDING;
+      break;
   }
   msg.looks_done = static_cast<int16_t>(analyzer.looks_done());
   msg.looks_planned = static_cast<int16_t>(d.schedule().times_s.size());
@@ -223,7 +229,8 @@ struct AnalyzeService::Impl {
   std::set<std::string> foreign_ids;  // runs of other stations (worker thread)
   ThrottledLog damage_log;
 
-  explicit Impl(const AnalyzeOptions& o) : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
+  explicit Impl(const AnalyzeOptions& o)
+      : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
     tracker_options.give_up_after_s = o.hole_give_up_s;
     tracker_options.max_ahead = 8192;
   }
@@ -249,8 +256,8 @@ struct AnalyzeService::Impl {
   // Fault injection: true to drop this message.
   bool InjectDrop(bool final, bool first) {
     if (!final || !first || !(options.inject_result_drop > 0)) return false;
-    const bool drop = std::uniform_real_distribution<double>(0, 1)(inject_rng) <
-                      options.inject_result_drop;
+    const bool drop =
+        std::uniform_real_distribution<double>(0, 1)(inject_rng) < options.inject_result_drop;
     results_dropped_on_purpose += drop;
     return drop;
   }
@@ -340,9 +347,8 @@ void AnalyzeService::Impl::StartAnalyzer(RunEntry& e) {
   d.serial = r.unit_serial;
   d.nominal_rate_hz = r.nominal_rate_hz;
   for (int i = 0; i < r.num_axes; ++i) {
-    d.axes.push_back({r.axis_names[i], r.axis_kinds[i] == imuqual::rate_batch_t::KIND_ACCEL
-                                           ? pb::ACCEL
-                                           : pb::GYRO});
+    d.axes.push_back({r.axis_names[i],
+                      r.axis_kinds[i] == imuqual::rate_batch_t::KIND_ACCEL ? pb::ACCEL : pb::GYRO});
   }
   if (!d.plan.ParseFromArray(r.plan.data(), static_cast<int>(r.plan.size()))) {
     e.error = "the run's plan does not decode";
@@ -393,9 +399,14 @@ void AnalyzeService::Impl::OnBatch(imuqual::rate_batch_t&& batch, double now) {
   }
   const int64_t seq = batch.seq;
   switch (e.tracker.Offer(seq)) {
-    case SeqTracker::Arrival::kDuplicate: ++duplicates; return;
-    case SeqTracker::Arrival::kAbsurd: ++absurd; return;
-    case SeqTracker::Arrival::kNew: break;
+    case SeqTracker::Arrival::kDuplicate:
+      ++duplicates;
+      return;
+    case SeqTracker::Arrival::kAbsurd:
+      ++absurd;
+      return;
+    case SeqTracker::Arrival::kNew:
+      break;
   }
   e.held.emplace(seq, std::move(batch));
 }
@@ -421,6 +432,7 @@ void AnalyzeService::Impl::ProcessHeld(RunEntry& e, double now) {
     view.first_sample = b.first_sample;
     view.sample_utime = b.sample_utime;
     view.nominal_rate_hz = b.nominal_rate_hz;
+    if (b.has_temperature) view.temperature_c = b.temperature_c;
     for (const std::vector<float>& axis : b.samples) view.samples.emplace_back(axis);
     for (int i = 0; i < b.num_flagged; ++i) {
       view.flags.push_back({b.flagged_sample[i], b.flagged_axis[i], b.flagged_bits[i]});
@@ -428,8 +440,9 @@ void AnalyzeService::Impl::ProcessHeld(RunEntry& e, double now) {
     Status st = e.analyzer->AddBatch(view);
     if (!st.ok()) {
       ++rejected;
-      if (e.rejected++ < 5) LogWarning("run " + b.run_id + " seq " + std::to_string(b.seq) +
-                                       " rejected: " + st.message());
+      if (e.rejected++ < 5)
+        LogWarning("run " + b.run_id + " seq " + std::to_string(b.seq) +
+                   " rejected: " + st.message());
     } else {
       ++batches_processed;
       ++e.processed_since_interim;
@@ -466,8 +479,8 @@ void AnalyzeService::Impl::AnnounceDecision(RunEntry& e, double now) {
 void AnalyzeService::Impl::Ack(const std::string& run_id, RunEntry& e, double now, bool force) {
   // Handled = processed: held batches (out of order, or waiting for the
   // run's description) are not acknowledged yet.
-  int64_t seq = e.held.empty() ? e.tracker.next_seq()
-                               : std::min(e.held.begin()->first, e.tracker.next_seq());
+  int64_t seq =
+      e.held.empty() ? e.tracker.next_seq() : std::min(e.held.begin()->first, e.tracker.next_seq());
   if (e.finished) seq = std::max(seq, e.acked_after_finish);
   if (!e.ack.Due(seq, e.finished, now, force)) return;
   if (PublishAck(*bus, "analyze", instance, run_id, seq, e.finished).ok()) {
@@ -506,7 +519,8 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
       msg.edf.push_back(p.edf);
       msg.n_terms.push_back(p.n);
       msg.stride.push_back(p.stride);
-      msg.alpha.push_back(p.alpha ? static_cast<int8_t>(*p.alpha) : imuqual::allan_curve_t::NO_ALPHA);
+      msg.alpha.push_back(p.alpha ? static_cast<int8_t>(*p.alpha)
+                                  : imuqual::allan_curve_t::NO_ALPHA);
       msg.alpha_inherited.push_back(p.alpha_inherited);
     }
     if (InjectDrop(final, first)) continue;
@@ -600,8 +614,8 @@ void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double
     }
     PublishOutcome(e, out, true, true);
     LogInfo("run " + run_id + " done: " + judge::OutcomeName(out.judgement.verdict) + ", " +
-            std::to_string(out.samples) + " samples per axis, " +
-            std::to_string(out.gap_samples) + " gap samples");
+            std::to_string(out.samples) + " samples per axis, " + std::to_string(out.gap_samples) +
+            " gap samples");
     e.final_outcome = std::move(out);
   } else {
     RunOutcome out;
@@ -610,7 +624,8 @@ void AnalyzeService::Impl::Finish(const std::string& run_id, RunEntry& e, double
     if (!ending.reason.empty()) out.judgement.reasons.push_back(ending.reason);
     // An empty final curve per axis: the store archives a run once it has a
     // final curve of every axis, and this run has nothing more to give.
-    for (const std::string& axis : e.info->axis_names) out.curves.emplace_back(axis, allan::Curve{});
+    for (const std::string& axis : e.info->axis_names)
+      out.curves.emplace_back(axis, allan::Curve{});
     PublishOutcome(e, out, true, true);
     e.final_outcome = std::move(out);
   }
@@ -634,9 +649,11 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
       heard.SecondsSince(run_id, now) > options.stale_after_s) {
     // Nobody announces the run any more (acquire and store both silent).
     LogWarning("run " + run_id + ": not announced for " +
-               std::to_string(static_cast<int>(options.stale_after_s)) + " s; ending it as incomplete");
+               std::to_string(static_cast<int>(options.stale_after_s)) +
+               " s; ending it as incomplete");
     e.info->state = imuqual::run_t::STATE_INCOMPLETE;
-    e.info->end_reason = "not announced for " + std::to_string(static_cast<int>(options.stale_after_s)) + " s";
+    e.info->end_reason =
+        "not announced for " + std::to_string(static_cast<int>(options.stale_after_s)) + " s";
     e.inferred_incomplete = true;
     e.tracker.SetFinal();
   }
@@ -662,7 +679,8 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
     return;
   }
   Ack(run_id, e, now, false);
-  if (e.analyzer && e.processed_since_interim > 0 && now - e.last_interim_s >= options.interim_period_s) {
+  if (e.analyzer && e.processed_since_interim > 0 &&
+      now - e.last_interim_s >= options.interim_period_s) {
     PublishOutcome(e, e.analyzer->Outcome(false), false);
     e.processed_since_interim = 0;
     e.last_interim_s = now;
@@ -725,12 +743,13 @@ Status AnalyzeService::Run() {
   if (!bus.ok()) return bus.status();
   s.bus = std::move(*bus);
   const AnalyzeOptions& o = s.options;
-  s.bus->Subscribe<imuqual::run_t>(
-      channels::kRun, 1000, [&s, &o](const std::string&, imuqual::run_t&& run, int64_t) {
-        if (!InShard(run.unit_serial, o.shard_index, o.shard_count)) return;
-        s.heard.Note(run.run_id);
-        s.queue.TryPush(std::move(run));
-      });
+  s.bus->Subscribe<imuqual::run_t>(channels::kRun, 1000,
+                                   [&s, &o](const std::string&, imuqual::run_t&& run, int64_t) {
+                                     if (!InShard(run.unit_serial, o.shard_index, o.shard_count))
+                                       return;
+                                     s.heard.Note(run.run_id);
+                                     s.queue.TryPush(std::move(run));
+                                   });
   // Other shards' batches are skipped by channel name, before decoding.
   const size_t raw_prefix = std::strlen(channels::kRawPrefix);
   std::function<bool(const char*)> in_shard = nullptr;
@@ -756,10 +775,11 @@ Status AnalyzeService::Run() {
       });
 
   // Stores' confirmations that a run is archived (its final result too).
-  s.bus->Subscribe<imuqual::ack_t>(
-      channels::kAck, 1000, [&s](const std::string&, imuqual::ack_t&& ack, int64_t) {
-        if (ack.process == "store" && ack.run_done) s.queue.TryPush(std::move(ack));
-      });
+  s.bus->Subscribe<imuqual::ack_t>(channels::kAck, 1000,
+                                   [&s](const std::string&, imuqual::ack_t&& ack, int64_t) {
+                                     if (ack.process == "store" && ack.run_done)
+                                       s.queue.TryPush(std::move(ack));
+                                   });
 
   std::atomic<bool> stop{false};
   std::thread worker([&s, &stop] {

@@ -49,7 +49,7 @@ pb::Measurement DecisionTime(const judge::EarlyDecider& d, const pb::TestPlan& p
     m.set_value(std::nan(""));
     m.set_qualifier(pb::NOT_MEASURABLE);
     std::snprintf(buf, sizeof buf,
-                  "pending at every one of %zu looks (%g..%g s): full-length verdict", 
+                  "pending at every one of %zu looks (%g..%g s): full-length verdict",
                   s.times_s.size(), s.times_s.empty() ? 0.0 : s.times_s.front(),
                   s.times_s.empty() ? 0.0 : s.times_s.back());
   } else {
@@ -58,8 +58,8 @@ pb::Measurement DecisionTime(const judge::EarlyDecider& d, const pb::TestPlan& p
     std::snprintf(buf, sizeof buf,
                   "decided %s at look %d of %zu (z %.3g; risk %g per unit, Pocock-type "
                   "spending over %g s)",
-                  judge::DecisionName(d.unit_decision()), look.index + 1, s.times_s.size(),
-                  look.z, plan.early_decision().risk(), s.horizon_s);
+                  judge::DecisionName(d.unit_decision()), look.index + 1, s.times_s.size(), look.z,
+                  plan.early_decision().risk(), s.horizon_s);
   }
   m.set_note(buf);
   return m;
@@ -241,14 +241,15 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
   }
   // The kept samples in pieces that end at the looks (early decisions), so
   // each look sees the same record whatever the batch boundaries.
+  const int64_t analysed_before = engines_.front().samples();
   size_t pos = static_cast<size_t>(skip);
   while (pos < n) {
     if (decided()) {
       after_decision_ += static_cast<int64_t>(n - pos);
       break;
     }
-    const size_t len = static_cast<size_t>(
-        std::min<int64_t>(static_cast<int64_t>(n - pos), UntilLook()));
+    const size_t len =
+        static_cast<size_t>(std::min<int64_t>(static_cast<int64_t>(n - pos), UntilLook()));
     for (size_t a = 0; a < axes; ++a) {
       const std::span<const float> values = batch.samples[a].subspan(pos, len);
       const std::span<const uint8_t> invalid =
@@ -267,8 +268,18 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
     LookIfDue();
   }
   next_counter_ = batch.first_sample + static_cast<int64_t>(n);
+  // The batch's temperature, weighted by the samples it contributed to the
+  // analysis, at their middle (device time from the analysed start).
+  const int64_t analysed = engines_.front().samples() - analysed_before;
+  if (batch.temperature_c && std::isfinite(*batch.temperature_c) && analysed > 0) {
+    temperature_.Add(
+        *batch.temperature_c,
+        (static_cast<double>(analysed_before) + 0.5 * static_cast<double>(analysed)) * tau0_s_,
+        static_cast<double>(analysed));
+  }
   // The device clock from the batches analysed (none after the decision).
-  if (batch.sample_utime > 0 && !decided_at_start) clock_.Add(batch.first_sample, batch.sample_utime);
+  if (batch.sample_utime > 0 && !decided_at_start)
+    clock_.Add(batch.first_sample, batch.sample_utime);
   ++batches_;
   return Status::Ok();
 }
@@ -361,6 +372,7 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
                          static_cast<int>(desc_.axes.size()))) {
     out.push_back(std::move(m));
   }
+  for (pb::Measurement& m : judge::MeasureTemperature(temperature_)) out.push_back(std::move(m));
   // Timing truth once the counter spans a few seconds of arrivals.
   if (clock_.Usable(kMinClockSpanS * desc_.nominal_rate_hz)) {
     for (pb::Measurement& m : judge::MeasureTiming(desc_.nominal_rate_hz, clock_.RateHz(),

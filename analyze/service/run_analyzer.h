@@ -19,9 +19,10 @@
 
 #include "analyze/allan/curve.h"
 #include "analyze/allan/streaming.h"
-#include "analyze/service/device_clock.h"
 #include "analyze/judge/early_decision.h"
 #include "analyze/judge/judge.h"
+#include "analyze/judge/measure.h"
+#include "analyze/service/device_clock.h"
 #include "common/status.h"
 #include "imuqual/plan.pb.h"
 #include "imuqual/record.pb.h"
@@ -42,6 +43,7 @@ struct BatchView {
   int64_t first_sample = 0;  // device counter of the first sample
   int64_t sample_utime = 0;  // host arrival time of the first sample, us (0: none)
   double nominal_rate_hz = 0;
+  std::optional<double> temperature_c;  // the unit's temperature during the batch, deg C
   std::vector<std::span<const float>> samples;
   struct Flag {
     int sample;
@@ -67,11 +69,11 @@ struct RunOutcome {
   // Per axis: interim, the plan's grid; final, the judged dense curve (every
   // point the measurements were read from), both with chi-square intervals.
   std::vector<std::pair<std::string, allan::Curve>> curves;
-  std::vector<pb::Measurement> measurements;                   // judged
+  std::vector<pb::Measurement> measurements;  // judged
   judge::Judgement judgement;
-  int64_t samples = 0;          // per axis, after warm-up, including gaps
-  int64_t gap_samples = 0;      // per axis
-  int64_t invalid_samples = 0;  // over all axes
+  int64_t samples = 0;                        // per axis, after warm-up, including gaps
+  int64_t gap_samples = 0;                    // per axis
+  int64_t invalid_samples = 0;                // over all axes
   std::vector<int64_t> axis_invalid_samples;  // per axis, in the description's order
   int64_t warmup_samples = 0;
   // Early decisions (plans with early_decision; nullopt otherwise): the
@@ -146,9 +148,9 @@ class RunAnalyzer {
   // only when `final`); the judged curves into `curves` if given, and the
   // dense curves the measurements were read from (no intervals), one per
   // axis in order, into `dense_curves` if given.
-  std::vector<pb::Measurement> MeasureNow(
-      bool final, std::vector<std::pair<std::string, allan::Curve>>* curves,
-      std::vector<allan::Curve>* dense_curves = nullptr) const;
+  std::vector<pb::Measurement> MeasureNow(bool final,
+                                          std::vector<std::pair<std::string, allan::Curve>>* curves,
+                                          std::vector<allan::Curve>* dense_curves = nullptr) const;
 
   RunDescription desc_;
   AnalyzerOptions options_;
@@ -162,14 +164,15 @@ class RunAnalyzer {
   std::vector<int64_t> invalid_samples_;  // per axis, after warm-up
   int64_t batches_ = 0;
   std::vector<allan::StreamingAllan> engines_;
-  std::vector<double> sum_;         // per axis, valid samples after warm-up
+  std::vector<double> sum_;  // per axis, valid samples after warm-up
   std::vector<int64_t> count_;
   std::vector<std::vector<uint8_t>> invalid_scratch_;  // per axis
   std::optional<judge::EarlyDecider> decider_;
   std::vector<int64_t> look_samples_;  // analysed samples at each look
   size_t next_look_ = 0;
   int64_t after_decision_ = 0;
-  DeviceClockFit clock_{1.0};  // reset in Create with the nominal rate
+  DeviceClockFit clock_{1.0};               // reset in Create with the nominal rate
+  judge::TemperatureReadings temperature_;  // batches analysed that carried one
 };
 
 // How a run that ended in `state` ("running", "complete", "aborted",

@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string_view>
+
+#include "analyze/judge/measurements.h"
 
 namespace imuqual::analyze {
 namespace {
@@ -340,6 +343,53 @@ TEST(RunAnalyzerTest, EarlyDecisionStateIsReadableBetweenBatches) {
   EXPECT_EQ(out.samples, static_cast<int64_t>(60 * kRate));
   EXPECT_EQ(out.samples_after_decision, counter - a->analysed_end_counter());
   EXPECT_EQ(out.judgement.verdict, pb::PASS);
+}
+
+TEST(RunAnalyzerTest, TemperatureOfTheAnalysedBatchesIsMeasuredAndLimited) {
+  // GIVEN a 10 s warm-up and 60 one-second batches whose temperature climbs
+  // 0.05 deg C per batch from 20 deg C (the warm-up's readings are 30 deg C,
+  // and every fifth batch carries none), under a plan that keeps the range
+  // within 2 deg C and the slope within 1 deg C/h
+  RunDescription d = Desc(10);
+  pb::Limit* range = d.plan.add_limits();
+  range->set_measurement("temperature_range");
+  range->set_high(2);
+  range->set_unit("deg C");
+  pb::Limit* slope = d.plan.add_limits();
+  slope->set_measurement("temperature_slope");
+  slope->set_low(-1);
+  slope->set_high(1);
+  slope->set_unit("deg C/h");
+  auto a = RunAnalyzer::Create(d);
+  ASSERT_TRUE(a.ok());
+  for (int seq = 0; seq < 70; ++seq) {
+    Batch b(seq, seq * 100, 100);
+    if (seq < 10) {
+      b.view.temperature_c = 30.0;
+    } else if (seq % 5 != 0) {
+      b.view.temperature_c = 20.0 + 0.05 * (seq - 10);
+    }
+    ASSERT_TRUE(a->AddBatch(b.view).ok());
+  }
+  a->Finish(0, 7000);
+  const RunOutcome out = a->Outcome(true);
+  auto find = [&](std::string_view name) -> const pb::Measurement* {
+    for (const pb::Measurement& m : out.measurements) {
+      if (m.name() == name) return &m;
+    }
+    return nullptr;
+  };
+  // THEN the warm-up's readings are not counted: range 2.95 deg C (batches
+  // 11..69 of the ramp), a slope of 0.05 deg C/s = 180 deg C/h, both FAIL.
+  const pb::Measurement* r = find(judge::kTemperatureRange);
+  const pb::Measurement* s = find(judge::kTemperatureSlope);
+  ASSERT_NE(r, nullptr);
+  ASSERT_NE(s, nullptr);
+  EXPECT_NEAR(r->value(), 0.05 * 58, 1e-9);
+  EXPECT_NEAR(s->value(), 180, 1e-6);
+  EXPECT_EQ(r->outcome(), pb::FAIL);
+  EXPECT_EQ(s->outcome(), pb::FAIL);
+  EXPECT_EQ(out.judgement.verdict, pb::FAIL);
 }
 
 }  // namespace
