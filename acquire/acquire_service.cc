@@ -53,10 +53,10 @@ int UrlTtl(const std::string& url) {
 }
 constexpr int kMaxResendRange = 4096;
 constexpr int kBatchesPerRunPerRound = 8;
-constexpr int kFinalAnnouncements = 3;    // an end is said more than once (datagrams get lost)
-constexpr double kResendQuietS = 2.0;     // without consumers to wait for: linger until requests stop
+constexpr int kFinalAnnouncements = 3;  // an end is said more than once (datagrams get lost)
+constexpr double kResendQuietS = 2.0;   // without consumers to wait for: linger until requests stop
 constexpr double kRetentionWarningS = 10.0;  // an unacknowledged drop stays in status this long
-constexpr double kResendDedupS = 0.05;    // a batch resent this recently already answers a request
+constexpr double kResendDedupS = 0.05;  // a batch resent this recently already answers a request
 
 std::string CompactUtc(int64_t utime) {
   std::string iso = FormatUtimeIso(utime);  // 2026-11-21T11:05:00Z
@@ -162,7 +162,8 @@ struct AcquireService::Impl {
   Status FinalStatus() const {
     if (failures.empty()) return Status::Ok();
     return Status::Unavailable(std::to_string(failures.size()) + " of " +
-                               std::to_string(runs.size()) + " runs aborted; first: " + failures[0]);
+                               std::to_string(runs.size()) +
+                               " runs aborted; first: " + failures[0]);
   }
 
   void Publish(RunState& run, bool fresh_batch_dropped, const std::vector<uint8_t>& bytes);
@@ -236,8 +237,8 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
           }
           return Join(parts, ",");
         };
-        return Status::InvalidArgument("unit " + unit.serial + ": source axes " +
-                                       names(info.axes) + " do not match the plan's axes " +
+        return Status::InvalidArgument("unit " + unit.serial + ": source axes " + names(info.axes) +
+                                       " do not match the plan's axes " +
                                        names(options.plan.axes()));
       }
     }
@@ -300,7 +301,7 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
       probe.has_temperature = 1;
       const int header = probe.getEncodedSize();
       const bool warped = options.pace == 0 && !info.paced_by_device;
-      const int message_bytes = options.batch_bytes > 0    ? options.batch_bytes
+      const int message_bytes = options.batch_bytes > 0        ? options.batch_bytes
                                 : UrlTtl(options.lcm_url) != 0 ? kDatagramPayloadBytes
                                 : warped                       ? kLocalWarpedBatchBytes
                                                                : kLocalBatchBytes;
@@ -462,8 +463,9 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
   const SourceInfo& info = run.unit.source->info();
   if (options.pace > 0 && run.first_counter >= 0 && !info.paced_by_device) {
     // As a device would: a batch leaves once its newest sample is due.
-    const double due = run.pace_origin_s + static_cast<double>(run.samples_published + run.batch_samples) /
-                                               (info.nominal_rate_hz * options.pace);
+    const double due =
+        run.pace_origin_s + static_cast<double>(run.samples_published + run.batch_samples) /
+                                (info.nominal_rate_hz * options.pace);
     if (now_s < due) return Status::Ok();
   }
   SampleBlock block;
@@ -495,7 +497,8 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
     // The first batch goes at once, as if its samples had been taken over
     // the batch period before now.
     run.pace_origin_s = MonotonicSeconds();
-    if (options.pace > 0) run.pace_origin_s -= static_cast<double>(*n) / (info.nominal_rate_hz * options.pace);
+    if (options.pace > 0)
+      run.pace_origin_s -= static_cast<double>(*n) / (info.nominal_rate_hz * options.pace);
   }
   imuqual::rate_batch_t msg;
   msg.host_utime = NowUtime();
@@ -556,9 +559,11 @@ Status AcquireService::Impl::ServeResends() {
 void AcquireService::Impl::Prune(double now_s) {
   for (RunState& run : runs) {
     // Device-paced sources publish part-filled batches: size by the average.
-    const double batch = run.next_seq > 0 ? std::min<double>(run.batch_samples, static_cast<double>(run.samples_published) /
-                                                                                    static_cast<double>(run.next_seq))
-                                          : run.batch_samples;
+    const double batch =
+        run.next_seq > 0
+            ? std::min<double>(run.batch_samples, static_cast<double>(run.samples_published) /
+                                                      static_cast<double>(run.next_seq))
+            : run.batch_samples;
     const double batches_per_s = run.unit.source->info().nominal_rate_hz / std::max(batch, 1.0);
     const size_t cap = static_cast<size_t>(options.window_batches) +
                        static_cast<size_t>(std::ceil(options.retention_s * batches_per_s));
@@ -632,12 +637,13 @@ Status AcquireService::Run() {
   s.bus->Subscribe<imuqual::ack_t>(
       channels::kAck, 10000,
       [&s](const std::string&, imuqual::ack_t&& ack, int64_t) { s.OnAck(ack); });
-  s.bus->Subscribe<imuqual::resend_t>(
-      channels::kResend, 1000, [&s](const std::string&, imuqual::resend_t&& req, int64_t) {
-        ++s.resend_requests;
-        s.last_resend_request_s = MonotonicSeconds();
-        if (s.resend_queue.size() < 10000) s.resend_queue.push_back(std::move(req));
-      });
+  s.bus->Subscribe<imuqual::resend_t>(channels::kResend, 1000,
+                                      [&s](const std::string&, imuqual::resend_t&& req, int64_t) {
+                                        ++s.resend_requests;
+                                        s.last_resend_request_s = MonotonicSeconds();
+                                        if (s.resend_queue.size() < 10000)
+                                          s.resend_queue.push_back(std::move(req));
+                                      });
   // Early decisions (plans with early_decision): a decided unit's source stops.
   s.bus->Subscribe<imuqual::decision_t>(
       channels::kDecisionAll, 1000, [&s](const std::string&, imuqual::decision_t&& d, int64_t) {
@@ -705,8 +711,8 @@ Status AcquireService::Run() {
       next_status = now + 1.0;
     }
 
-    const bool all_done = std::all_of(s.runs.begin(), s.runs.end(),
-                                      [](const RunState& r) { return r.source_done; });
+    const bool all_done =
+        std::all_of(s.runs.begin(), s.runs.end(), [](const RunState& r) { return r.source_done; });
     if (all_done) {
       if (all_done_since < 0) all_done_since = now;
       // Without consumers to wait for, stay while anyone still asks for
@@ -738,8 +744,8 @@ Status AcquireService::Run() {
             }
           }
           const std::string missing = Join(silent, ", ");
-          const std::string why = "no acknowledgement from " + missing + " for run " +
-                                  run.run_id + " in " +
+          const std::string why = "no acknowledgement from " + missing + " for run " + run.run_id +
+                                  " in " +
                                   std::to_string(static_cast<int>(s.options.consumer_timeout_s)) +
                                   " s (is it running on " + s.options.lcm_url + "?)";
           s.Abort(why);

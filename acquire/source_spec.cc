@@ -33,9 +33,9 @@ Result<double> Number(const SourceSpec& spec, const std::string& key, double fal
 Status CheckKeys(const SourceSpec& spec, const std::set<std::string>& known) {
   for (const auto& [key, value] : spec.options) {
     if (!known.count(key)) {
-      return Status::InvalidArgument("source " + spec.kind + ":" + spec.location +
-                                     ": unknown option '" + key + "' (known: " +
-                                     Join(std::vector<std::string>(known.begin(), known.end()), ", ") + ")");
+      return Status::InvalidArgument(
+          "source " + spec.kind + ":" + spec.location + ": unknown option '" + key +
+          "' (known: " + Join(std::vector<std::string>(known.begin(), known.end()), ", ") + ")");
     }
   }
   return Status::Ok();
@@ -61,7 +61,8 @@ Result<std::vector<pb::Axis>> ParseAxes(const SourceSpec& spec, const std::strin
   return axes;
 }
 
-std::string Option(const SourceSpec& spec, const std::string& key, const std::string& fallback = "") {
+std::string Option(const SourceSpec& spec, const std::string& key,
+                   const std::string& fallback = "") {
   auto it = spec.options.find(key);
   return it == spec.options.end() ? fallback : it->second;
 }
@@ -76,8 +77,8 @@ Result<int> Integer(const SourceSpec& spec, const std::string& key, int fallback
 }
 
 Result<std::unique_ptr<SampleSource>> MakeSim(const SourceSpec& spec, const SourceDefaults& d) {
-  IMUQUAL_RETURN_IF_ERROR(
-      CheckKeys(spec, {"index", "duration", "rate", "seed", "actual_rate", "quantize", "lsb", "bits"}));
+  IMUQUAL_RETURN_IF_ERROR(CheckKeys(
+      spec, {"index", "duration", "rate", "seed", "actual_rate", "quantize", "lsb", "bits"}));
   auto profile = sim::LotProfileByName(spec.location.empty() ? "vg700" : spec.location);
   if (!profile.ok()) return profile.status();
   auto index = Number(spec, "index", d.index);
@@ -105,7 +106,8 @@ Result<std::unique_ptr<SampleSource>> MakeSim(const SourceSpec& spec, const Sour
   output.lsb = *lsb;
   output.adc_bits = static_cast<int>(*bits);
   const uint64_t lot_seed = *seed != 0 ? static_cast<uint64_t>(*seed) : sim::SeedFromName(d.lot);
-  auto source = SimSource::Create(*profile, lot_seed, static_cast<int>(*index), *rate, *duration, output);
+  auto source =
+      SimSource::Create(*profile, lot_seed, static_cast<int>(*index), *rate, *duration, output);
   if (!source.ok()) return source.status();
   return std::unique_ptr<SampleSource>(std::move(*source));
 }
@@ -121,7 +123,8 @@ Result<std::unique_ptr<SampleSource>> MakeCsv(const SourceSpec& spec, const Sour
   if (!scale.ok()) return scale.status();
   o.rate_hz = *rate;
   o.scale = *scale;
-  if (auto it = spec.options.find("counter"); it != spec.options.end()) o.counter_column = it->second;
+  if (auto it = spec.options.find("counter"); it != spec.options.end())
+    o.counter_column = it->second;
   if (auto it = spec.options.find("time"); it != spec.options.end()) o.time_column = it->second;
   if (auto it = spec.options.find("temperature"); it != spec.options.end()) {
     o.temperature_column = it->second;
@@ -143,12 +146,14 @@ Result<std::unique_ptr<SampleSource>> MakeCsv(const SourceSpec& spec, const Sour
 }
 
 // The text protocol's decoder and the axes it yields.
-Result<std::unique_ptr<FrameDecoder>> MakeTextDecoder(const SourceSpec& spec, const SourceDefaults& d,
+Result<std::unique_ptr<FrameDecoder>> MakeTextDecoder(const SourceSpec& spec,
+                                                      const SourceDefaults& d,
                                                       std::vector<pb::Axis>* axes) {
   TextProtocolOptions t;
   const std::string columns = Option(spec, "columns");
   if (columns.empty()) {
-    return Status::InvalidArgument(Where(spec) + ": protocol=text needs columns=NAME/NAME/... "
+    return Status::InvalidArgument(Where(spec) +
+                                   ": protocol=text needs columns=NAME/NAME/... "
                                    "(the fields of a line, _ for one to ignore)");
   }
   t.columns = Split(columns, '/');
@@ -165,7 +170,8 @@ Result<std::unique_ptr<FrameDecoder>> MakeTextDecoder(const SourceSpec& spec, co
   t.delimiter = dl->second;
   const std::string checksum = Option(spec, "checksum", "none");
   if (checksum != "none" && checksum != "nmea") {
-    return Status::InvalidArgument(Where(spec) + ": checksum '" + checksum + "' must be none or nmea");
+    return Status::InvalidArgument(Where(spec) + ": checksum '" + checksum +
+                                   "' must be none or nmea");
   }
   t.nmea_checksum = checksum == "nmea";
   auto bits = Integer(spec, "counter_bits", 0);
@@ -215,16 +221,17 @@ Result<std::unique_ptr<FrameDecoder>> MakeTextDecoder(const SourceSpec& spec, co
 }
 
 Result<std::unique_ptr<SampleSource>> MakeSerial(const SourceSpec& spec, const SourceDefaults& d) {
-  IMUQUAL_RETURN_IF_ERROR(CheckKeys(
-      spec, {"protocol", "rate", "baud", "parity", "data_bits", "stop_bits", "flow", "duration",
-             "axes", "columns", "counter", "counter_bits", "temperature", "scale", "delimiter",
-             "checksum", "reconnect_timeout"}));
+  IMUQUAL_RETURN_IF_ERROR(
+      CheckKeys(spec, {"protocol", "rate", "baud", "parity", "data_bits", "stop_bits", "flow",
+                       "duration", "axes", "columns", "counter", "counter_bits", "temperature",
+                       "scale", "delimiter", "checksum", "reconnect_timeout"}));
   SerialSourceOptions o;
   o.port.device = spec.location;
   o.protocol = Option(spec, "protocol");
   if (o.protocol != "text" && o.protocol != "xsens") {
-    return Status::InvalidArgument(Where(spec) + ": protocol=" +
-                                   (o.protocol.empty() ? "?" : o.protocol) + " must be text or xsens");
+    return Status::InvalidArgument(Where(spec) +
+                                   ": protocol=" + (o.protocol.empty() ? "?" : o.protocol) +
+                                   " must be text or xsens");
   }
   auto baud = Integer(spec, "baud", 115200);
   auto data_bits = Integer(spec, "data_bits", 8);
@@ -233,8 +240,9 @@ Result<std::unique_ptr<SampleSource>> MakeSerial(const SourceSpec& spec, const S
   auto flow = ParseFlowControl(Option(spec, "flow", "none"));
   auto rate = Number(spec, "rate", d.plan.nominal_rate_hz());
   // Record the plan's warm-up and minimum duration unless told otherwise.
-  auto duration = Number(spec, "duration",
-                         d.duration_s > 0 ? d.duration_s : d.plan.min_duration_s() + d.plan.warmup_s());
+  auto duration =
+      Number(spec, "duration",
+             d.duration_s > 0 ? d.duration_s : d.plan.min_duration_s() + d.plan.warmup_s());
   auto reconnect = Number(spec, "reconnect_timeout", 30);
   for (const auto* r : {&baud, &data_bits, &stop_bits}) {
     if (!r->ok()) return r->status();
@@ -256,7 +264,8 @@ Result<std::unique_ptr<SampleSource>> MakeSerial(const SourceSpec& spec, const S
     return Status::InvalidArgument(Where(spec) + ": give rate=HZ (or a plan with nominal_rate_hz)");
   }
   if (!(o.duration_s > 0)) {
-    return Status::InvalidArgument(Where(spec) + ": give duration=S (or --duration, or a plan "
+    return Status::InvalidArgument(Where(spec) +
+                                   ": give duration=S (or --duration, or a plan "
                                    "with min_duration_s)");
   }
   std::vector<pb::Axis> axes;
@@ -273,14 +282,15 @@ Result<std::unique_ptr<SampleSource>> MakeSerial(const SourceSpec& spec, const S
     if (!text.ok()) return text.status();
     decoder = std::move(*text);
   } else {
-    for (const char* key : {"columns", "counter", "counter_bits", "temperature", "scale",
-                            "delimiter", "checksum"}) {
+    for (const char* key :
+         {"columns", "counter", "counter_bits", "temperature", "scale", "delimiter", "checksum"}) {
       if (spec.options.count(key)) {
         return Status::InvalidArgument(Where(spec) + ": '" + key + "' is for protocol=text");
       }
     }
     if (o.port.flow == FlowControl::kXonXoff) {
-      return Status::InvalidArgument(Where(spec) + ": flow=xonxoff cannot carry a binary protocol "
+      return Status::InvalidArgument(Where(spec) +
+                                     ": flow=xonxoff cannot carry a binary protocol "
                                      "(the line would swallow its 0x11 and 0x13 bytes)");
     }
     if (axes.empty()) {
@@ -309,7 +319,8 @@ Result<std::unique_ptr<SampleSource>> MakeArchive(const SourceSpec& spec) {
 Result<SourceSpec> ParseSourceSpec(const std::string& text) {
   const size_t colon = text.find(':');
   if (colon == std::string::npos || colon == 0) {
-    return Status::InvalidArgument("source '" + text + "' must be KIND:LOCATION[,KEY=VALUE...] "
+    return Status::InvalidArgument("source '" + text +
+                                   "' must be KIND:LOCATION[,KEY=VALUE...] "
                                    "(sim:vg700, csv:FILE,rate=100, ...)");
   }
   SourceSpec spec;
@@ -334,7 +345,8 @@ Result<std::unique_ptr<SampleSource>> MakeSource(const SourceSpec& spec, const S
   if (spec.kind == "csv") return MakeCsv(spec, d);
   if (spec.kind == "serial") return MakeSerial(spec, d);
   if (spec.kind == "archive") return MakeArchive(spec);
-  return Status::InvalidArgument("source kind '" + spec.kind + "' is not one of sim, csv, serial, archive");
+  return Status::InvalidArgument("source kind '" + spec.kind +
+                                 "' is not one of sim, csv, serial, archive");
 }
 
 }  // namespace imuqual::acquire

@@ -40,15 +40,16 @@ Result<SourceSpec> ParseSourceSpec(const std::string& text);
 
 // What a spec may take from the acquire process's other flags.
 struct SourceDefaults {
-  pb::TestPlan plan;          // its axes name CSV columns
-  std::string lot;            // seeds simulated units
-  double duration_s = 0;      // simulated duration
-  double rate_hz = 0;         // simulated rate (0: the profile's)
+  pb::TestPlan plan;      // its axes name CSV columns
+  std::string lot;        // seeds simulated units
+  double duration_s = 0;  // simulated duration
+  double rate_hz = 0;     // simulated rate (0: the profile's)
   uint64_t seed = 0;
-  int index = 0;              // simulated unit index in the lot
+  int index = 0;  // simulated unit index in the lot
 };
 
-Result<std::unique_ptr<SampleSource>> MakeSource(const SourceSpec& spec, const SourceDefaults& defaults);
+Result<std::unique_ptr<SampleSource>> MakeSource(const SourceSpec& spec,
+                                                 const SourceDefaults& defaults);
 
 }  // namespace imuqual::acquire
 

@@ -130,13 +130,16 @@ TEST_F(ArchiveTest, RunsChunksAndGapsRoundTrip) {
   ASSERT_EQ(run->axes.size(), 2u);
   EXPECT_EQ(run->axes[1].kind, pb::ACCEL);
   std::vector<int64_t> seqs;
-  ASSERT_TRUE((*r)->ForEachChunk(*key, [&](const ChunkRecord& c) {
-                  seqs.push_back(c.seq);
-                  auto d = DecodeChunk(c.data, c.codec);
-                  EXPECT_TRUE(d.ok());
-                  EXPECT_EQ(d->at(1, 0), static_cast<float>(c.seq * 1000 + c.num_samples));
-                  return Status::Ok();
-                }).ok());
+  ASSERT_TRUE((*r)->ForEachChunk(*key,
+                                 [&](const ChunkRecord& c) {
+                                   seqs.push_back(c.seq);
+                                   auto d = DecodeChunk(c.data, c.codec);
+                                   EXPECT_TRUE(d.ok());
+                                   EXPECT_EQ(d->at(1, 0),
+                                             static_cast<float>(c.seq * 1000 + c.num_samples));
+                                   return Status::Ok();
+                                 })
+                  .ok());
   EXPECT_EQ(seqs, (std::vector<int64_t>{0, 1, 3, 4}));
 }
 
@@ -270,7 +273,8 @@ TEST_F(ArchiveTest, SchemaOneArchivesGetEachAxisCountFromItsFinalCurve) {
     ASSERT_TRUE((*a)->PutResult(key, res).ok());
     // ... in an archive as schema 1 kept it: no per-axis column.
     for (const char* sql :
-         {kUndoSchema4, "DROP VIEW axis_results", "ALTER TABLE run_axes DROP COLUMN invalid_samples",
+         {kUndoSchema4, "DROP VIEW axis_results",
+          "ALTER TABLE run_axes DROP COLUMN invalid_samples",
           "ALTER TABLE raw_chunks DROP COLUMN crc32c",
           "ALTER TABLE runs DROP COLUMN results_crc32c",
           "CREATE VIEW axis_results AS SELECT 1 AS schema_one", "PRAGMA user_version = 1"}) {

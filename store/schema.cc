@@ -518,8 +518,7 @@ Status CheckIdentity(Db& db, bool* empty) {
   }
   *empty = *tables == 0;
   if (!*empty && *app != kApplicationId) {
-    return Status::InvalidArgument(db.path() +
-                                   " is an SQLite database but not an imuqual archive");
+    return Status::InvalidArgument(db.path() + " is an SQLite database but not an imuqual archive");
   }
   auto version = db.QueryInt("PRAGMA user_version");
   if (!version.ok()) return version.status();
@@ -650,7 +649,8 @@ Status Migrate(Db& db) {
     Status st = v == 5 ? WidenOutcomeChecks(db) : Status::Ok();
     if (st.ok()) st = db.Exec(Migrations()[v]);
     if (st.ok()) st = db.Exec("PRAGMA user_version = " + std::to_string(v + 1));
-    if (st.ok() && v == 0) st = db.Exec("PRAGMA application_id = " + std::to_string(kApplicationId));
+    if (st.ok() && v == 0)
+      st = db.Exec("PRAGMA application_id = " + std::to_string(kApplicationId));
     // Checksums of rows archived before schema 3, with today's definition.
     if (st.ok() && v + 1 == SchemaVersion() && v >= 2) st = ComputeMissingChecksums(db);
     if (!st.ok()) {

@@ -148,10 +148,13 @@ TEST(BadInputTest, GarbageForeignAndLyingMessagesAreCountedAndTheRunSurvivesIt) 
   acq.Announce(imuqual::run_t::STATE_RUNNING, -1, 0);
 
   // Undecodable bytes on every channel the station uses.
-  const std::vector<std::string> channels_used = {
-      channels::kRun,           channels::kAck,           channels::kResend,
-      channels::kStatus,        channels::Raw("BAD-U01"), channels::Curve("BAD-U01"),
-      channels::Result("BAD-U01")};
+  const std::vector<std::string> channels_used = {channels::kRun,
+                                                  channels::kAck,
+                                                  channels::kResend,
+                                                  channels::kStatus,
+                                                  channels::Raw("BAD-U01"),
+                                                  channels::Curve("BAD-U01"),
+                                                  channels::Result("BAD-U01")};
   for (const std::string& ch : channels_used) {
     for (size_t n : {size_t{0}, size_t{3}, size_t{64}, size_t{1000}}) {
       std::vector<uint8_t> junk(n);
@@ -170,7 +173,8 @@ TEST(BadInputTest, GarbageForeignAndLyingMessagesAreCountedAndTheRunSurvivesIt) 
   ASSERT_TRUE(h.bus().Publish(channels::kRun, foreign).ok());
   // Length fields that lie: more samples than the bytes hold, and negative.
   for (int16_t lie : {int16_t{30000}, int16_t{-5}, int16_t{kSamples + 1}}) {
-    ASSERT_TRUE(h.bus().PublishEncoded(channels::Raw("BAD-U01"), LyingBatch(acq.Batch(0, 0), lie)).ok());
+    ASSERT_TRUE(
+        h.bus().PublishEncoded(channels::Raw("BAD-U01"), LyingBatch(acq.Batch(0, 0), lie)).ok());
   }
 
   // The run itself: 40 batches with everything wrong that can be wrong.
@@ -228,19 +232,21 @@ TEST(BadInputTest, GarbageForeignAndLyingMessagesAreCountedAndTheRunSurvivesIt) 
   ASSERT_TRUE(a.ok());
   const int64_t key = **(*a)->FindRunKey("BADRUN-1");
   std::vector<int64_t> seqs;
-  ASSERT_TRUE((*a)->ForEachChunk(key, [&](const store::ChunkRecord& c) {
-                  seqs.push_back(c.seq);
-                  if (c.seq == 3) {  // archived exactly as sent, NaN included
-                    auto d = store::DecodeChunk(c.data, c.codec);
-                    EXPECT_TRUE(std::isnan(d->at(0, 1)));
-                    EXPECT_TRUE(std::isinf(d->at(1, 2)));
-                  }
-                  if (c.seq == 4) {
-                    auto d = store::DecodeChunk(c.data, c.codec);
-                    EXPECT_EQ(d->flags.size(), 2u);
-                  }
-                  return Status::Ok();
-                }).ok());
+  ASSERT_TRUE((*a)->ForEachChunk(key,
+                                 [&](const store::ChunkRecord& c) {
+                                   seqs.push_back(c.seq);
+                                   if (c.seq == 3) {  // archived exactly as sent, NaN included
+                                     auto d = store::DecodeChunk(c.data, c.codec);
+                                     EXPECT_TRUE(std::isnan(d->at(0, 1)));
+                                     EXPECT_TRUE(std::isinf(d->at(1, 2)));
+                                   }
+                                   if (c.seq == 4) {
+                                     auto d = store::DecodeChunk(c.data, c.codec);
+                                     EXPECT_EQ(d->flags.size(), 2u);
+                                   }
+                                   return Status::Ok();
+                                 })
+                  .ok());
   EXPECT_EQ(seqs.size(), 39u);  // all but the wrong-rate batch
   EXPECT_EQ(std::count(seqs.begin(), seqs.end(), 20), 0);
   // The archive records what is wrong with it: seq 20 never archived, the
@@ -253,7 +259,8 @@ TEST(BadInputTest, GarbageForeignAndLyingMessagesAreCountedAndTheRunSurvivesIt) 
   EXPECT_EQ((*gaps)[1].num_samples.value(), -kSamples);
   EXPECT_EQ((*gaps)[2].reason, "counter");
   EXPECT_EQ((*gaps)[2].num_samples.value(), kSamples);
-  auto s = (*a)->db().Prepare("SELECT invalid_samples, gap_samples, verdict FROM runs WHERE run_key = ?");
+  auto s = (*a)->db().Prepare(
+      "SELECT invalid_samples, gap_samples, verdict FROM runs WHERE run_key = ?");
   s->Bind(1, key);
   ASSERT_TRUE(*s->Step());
   EXPECT_EQ(s->Int(0), invalid);
@@ -481,10 +488,10 @@ TEST(BadInputTest, APlanThatRequiresAnOperatorRefusesASoakWithoutOne) {
                          "min_duration_s: 10 require_operator: true\n";
   const std::string bus = "'udpm://239.255.76.67:7996?ttl=0'";
   for (const std::string& cmd :
-       {Bin("imuqual") + " run --unit U1=sim:vg700 --duration 10 --lot L --db " + db +
-            " --plan " + plan,
-        Bin("imuqual-acquire") + " --lcm-url " + bus + " --lot L --unit U1=sim:vg700 --duration 10 --plan " +
-            plan}) {
+       {Bin("imuqual") + " run --unit U1=sim:vg700 --duration 10 --lot L --db " + db + " --plan " +
+            plan,
+        Bin("imuqual-acquire") + " --lcm-url " + bus +
+            " --lot L --unit U1=sim:vg700 --duration 10 --plan " + plan}) {
     const auto r = RunCommand(cmd + " 2>&1");
     EXPECT_EQ(r.exit_code, 2) << cmd << ":\n" << r.output;
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
@@ -534,7 +541,7 @@ constexpr char kLoosePlan[] =
          min_duration_s: 30
          grid { kind: OCTAVE }
          limits { measurement: "angle_random_walk" axis_kind: GYRO high: 10 unit: "deg/sqrt(h)" }
-)pb";
+    )pb";
 
 // A minute of white rate noise at 100 Hz; `bad_row` >= 0 puts a word in that row.
 void WriteRecording(const std::string& path, uint32_t seed, int bad_row) {
@@ -567,9 +574,10 @@ TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchiv
   // THEN imuqual run exits with the source-failure code and says which unit and why, in one line
   EXPECT_EQ(r.exit_code, 3) << r.output;
   EXPECT_EQ(ErrorLines(r.output), 1) << r.output;
-  EXPECT_NE(r.output.find("error: 1 of 3 units' sources failed, their runs archived as ERROR: B1 (" +
-                          dir.path("b1.csv") + ":3002: 'oops' is not a number (column 'gy'))"),
-            std::string::npos)
+  EXPECT_NE(
+      r.output.find("error: 1 of 3 units' sources failed, their runs archived as ERROR: B1 (" +
+                    dir.path("b1.csv") + ":3002: 'oops' is not a number (column 'gy'))"),
+      std::string::npos)
       << r.output;
   // AND B1 is archived as aborted with the verdict ERROR (its source failed:
   // nothing is said of the unit) and that reason, while G1 and G2 ran to the
@@ -612,16 +620,19 @@ TEST(BadInputTest, AReadOnlyDirectoryIsAClearError) {
   const std::string ro = dir.path("ro");
   std::filesystem::create_directories(ro);
   // Read-only even for root: a read-only mount.
-  ASSERT_EQ(::mount("tmpfs", ro.c_str(), "tmpfs", MS_RDONLY, "size=64k"), 0) << std::strerror(errno);
+  ASSERT_EQ(::mount("tmpfs", ro.c_str(), "tmpfs", MS_RDONLY, "size=64k"), 0)
+      << std::strerror(errno);
   struct Unmount {
     std::string dir;
     ~Unmount() { ::umount2(dir.c_str(), MNT_DETACH); }
   } unmount{ro};
-  const auto r = RunCommand(Bin("imuqual-store") + " --lcm-url 'udpm://239.255.76.67:7998?ttl=0' --db " +
-                            ro + "/a.db 2>&1");
+  const auto r =
+      RunCommand(Bin("imuqual-store") + " --lcm-url 'udpm://239.255.76.67:7998?ttl=0' --db " + ro +
+                 "/a.db 2>&1");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
-  EXPECT_NE(r.output.find("cannot write the archive " + ro + "/a.db"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("cannot write the archive " + ro + "/a.db"), std::string::npos)
+      << r.output;
   EXPECT_NE(r.output.find("Read-only file system"), std::string::npos) << r.output;
 }
 
@@ -638,7 +649,8 @@ TEST(BadInputTest, AFullDiskStopsAcknowledgementsButLosesNothingAccepted) {
     ~Unmount() { ::umount2(dir.c_str(), MNT_DETACH); }
   } unmount{small};
   const std::string db = small + "/full.db";
-  Subprocess store = h.Start("imuqual-store", {"--db", db, "--give-up", "5", "--stale-after", "60"});
+  Subprocess store =
+      h.Start("imuqual-store", {"--db", db, "--give-up", "5", "--stale-after", "60"});
   ASSERT_TRUE(h.WaitReported("store", store.pid(), 20));
   FakeAcquire acq(h, "FULL-1", "FULL-U01");
   acq.Announce(imuqual::run_t::STATE_RUNNING, -1, 0);

@@ -3,20 +3,19 @@
 // process of a running soak and checks the archive afterwards: every batch
 // there, or recorded as a gap with the verdict saying so; results equal to
 // an undisturbed run's; nothing left hanging.
+#include <dirent.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/mount.h>
-
-#include <dirent.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <map>
-#include <filesystem>
-#include <cstring>
 #include <cerrno>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "common/clock.h"
@@ -43,10 +42,14 @@ std::vector<std::string> AcquireArgs(const std::string& lot, int units, double d
                                      double pace, const std::string& prefix) {
   // One datagram per batch, as across a station LAN: many small batches to
   // lose and repair.
-  std::vector<std::string> args = {"--lot", lot, "--sim", std::to_string(units), "--duration",
-                                   std::to_string(duration_s), "--await", "store,analyze",
-                                   "--run-prefix", prefix, "--seed", "7", "--plan",
-                                   "builtin:vg700ca", "--batch-bytes", "1399"};
+  std::vector<std::string> args = {"--lot",         lot,
+                                   "--sim",         std::to_string(units),
+                                   "--duration",    std::to_string(duration_s),
+                                   "--await",       "store,analyze",
+                                   "--run-prefix",  prefix,
+                                   "--seed",        "7",
+                                   "--plan",        "builtin:vg700ca",
+                                   "--batch-bytes", "1399"};
   if (pace > 0) args.insert(args.end(), {"--pace", std::to_string(pace)});
   return args;
 }
@@ -119,8 +122,9 @@ TEST(FaultTest, InjectedDropsAreRepairedToZeroGaps) {
   // The acceptance line, through the CLI.
   testing::TempDir dir("fault_drop");
   const std::string db = dir.path("drop.db");
-  const auto run = RunCommand(Bin("imuqual") + " run --sim 4 --duration 600 --rate 200 --lot DROP --db " +
-                              db + " --inject-drop 0.05 --quiet");
+  const auto run =
+      RunCommand(Bin("imuqual") + " run --sim 4 --duration 600 --rate 200 --lot DROP --db " + db +
+                 " --inject-drop 0.05 --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   auto log = ReadFileToString(db + ".log");
   ASSERT_TRUE(log.ok());
@@ -186,10 +190,16 @@ TEST(FaultTest, LostResultsArePublishedAgainUntilArchived) {
     auto w = store::Archive::Open(h.db(), store::Archive::Mode::kWrite);
     ASSERT_TRUE(w.ok()) << w.status().ToString();
     const std::string key = std::to_string(**(*w)->FindRunKey(id));
-    ASSERT_TRUE((*w)->db().Exec("DELETE FROM curve_points WHERE run_key = " + key + " AND axis = 'y'").ok());
-    ASSERT_TRUE((*w)->db().Exec("DELETE FROM curves WHERE run_key = " + key + " AND axis = 'y'").ok());
-    ASSERT_TRUE((*w)->db().Exec("UPDATE runs SET verdict = NULL, record = NULL, result_utime = NULL "
-                                "WHERE run_key = " + key).ok());
+    ASSERT_TRUE((*w)->db()
+                    .Exec("DELETE FROM curve_points WHERE run_key = " + key + " AND axis = 'y'")
+                    .ok());
+    ASSERT_TRUE(
+        (*w)->db().Exec("DELETE FROM curves WHERE run_key = " + key + " AND axis = 'y'").ok());
+    ASSERT_TRUE((*w)->db()
+                    .Exec("UPDATE runs SET verdict = NULL, record = NULL, result_utime = NULL "
+                          "WHERE run_key = " +
+                          key)
+                    .ok());
   }
   const auto check = RunCommand(Bin("imuqual") + " reanalyze " + id + " --check --db " + h.db() +
                                 " 2>&1 > /dev/null");
@@ -212,14 +222,17 @@ TEST(FaultTest, DatagramLossInTheKernelLosesNothing) {
     SCOPED_TRACE(std::to_string(percent) + " % loss");
     testing::TempDir dir("kernel_loss");
     const std::string db = dir.path("loss.db");
-    const std::string rule = "nft add table inet imuqual_loss && nft add chain inet imuqual_loss out "
-                             "'{ type filter hook output priority 0; }' && nft add rule inet "
-                             "imuqual_loss out meta l4proto udp numgen random mod 100 '<' " +
-                             std::to_string(percent) + " drop";
+    const std::string rule =
+        "nft add table inet imuqual_loss && nft add chain inet imuqual_loss out "
+        "'{ type filter hook output priority 0; }' && nft add rule inet "
+        "imuqual_loss out meta l4proto udp numgen random mod 100 '<' " +
+        std::to_string(percent) + " drop";
     const auto added = RunCommand(rule + " 2>&1");
     ASSERT_EQ(added.exit_code, 0) << "nftables: " << added.output;
-    const auto run = RunCommand(Bin("imuqual") + " run --sim 4 --profile vg700 --duration 900 "
-                                "--lot LOSS --quiet --db " + db + " 2>&1");
+    const auto run = RunCommand(Bin("imuqual") +
+                                " run --sim 4 --profile vg700 --duration 900 "
+                                "--lot LOSS --quiet --db " +
+                                db + " 2>&1");
     (void)RunCommand("nft delete table inet imuqual_loss");
     ASSERT_EQ(run.exit_code, 0) << run.output;
     ExpectSoakArchivedWhole(db, 4, 3);
@@ -423,8 +436,10 @@ TEST(FaultTest, AcquireFrozenPastSilenceIsJudgedAgainOnAllItsData) {
   for (const std::string unit : {"FAQF-U01", "FAQF-U02"}) {
     const std::string id = "FROZEN-" + unit;
     const std::string key = std::to_string(**(*a)->FindRunKey(id));
-    auto s = (*a)->db().Prepare("SELECT revision, verdict, cause FROM superseded_judgements "
-                                "WHERE run_key = " + key);
+    auto s = (*a)->db().Prepare(
+        "SELECT revision, verdict, cause FROM superseded_judgements "
+        "WHERE run_key = " +
+        key);
     ASSERT_TRUE(*s->Step()) << id << " kept no superseded judgement";
     EXPECT_EQ(s->Int(0), 0);
     EXPECT_EQ(s->Text(1), early.at(id).verdict);

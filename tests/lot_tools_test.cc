@@ -4,10 +4,9 @@
 // export reads back to what the archive holds. The SQL examples of
 // store/SCHEMA.md, run through the sqlite3 shell, give the answers the tools
 // give.
-#include <gtest/gtest.h>
-
 #include <google/protobuf/util/json_util.h>
 #include <google/protobuf/util/message_differencer.h>
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
@@ -15,9 +14,9 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <set>
 #include <sstream>
-#include <optional>
 #include <tuple>
 
 #include "analyze/judge/judge.h"
@@ -116,10 +115,13 @@ TEST_F(LotToolsTest, ComparisonFindsThePlantedDriftAndNothingBetweenALotAndItsel
     }
   }
   // Bad input: an unknown lot, a bad alpha.
-  EXPECT_EQ(RunCommand(Bin("imuqual") + " compare T-L001 NOPE --db " + db_ + " 2>/dev/null").exit_code, 2);
-  EXPECT_EQ(RunCommand(Bin("imuqual") + " compare T-L001 T-L002 --alpha 2 --db " + db_ + " 2>/dev/null")
-                .exit_code,
-            2);
+  EXPECT_EQ(
+      RunCommand(Bin("imuqual") + " compare T-L001 NOPE --db " + db_ + " 2>/dev/null").exit_code,
+      2);
+  EXPECT_EQ(
+      RunCommand(Bin("imuqual") + " compare T-L001 T-L002 --alpha 2 --db " + db_ + " 2>/dev/null")
+          .exit_code,
+      2);
 }
 
 TEST_F(LotToolsTest, UnitHistoryAndRunListings) {
@@ -151,7 +153,9 @@ TEST_F(LotToolsTest, UnitHistoryAndRunListings) {
   const std::string table = Imuqual("lot T-L002");
   EXPECT_NE(table.find("station station-2, operator ana: 10 runs"), std::string::npos) << table;
   EXPECT_NE(Imuqual("unit T-L002-U007").find("operator ben: 1 run"), std::string::npos);
-  EXPECT_EQ(RunCommand(Bin("imuqual") + " runs --since yesterday --db " + db_ + " 2>/dev/null").exit_code, 2);
+  EXPECT_EQ(
+      RunCommand(Bin("imuqual") + " runs --since yesterday --db " + db_ + " 2>/dev/null").exit_code,
+      2);
   EXPECT_EQ(Csv(ParseCsv(Imuqual("runs --since 2999-01-01 --format csv"))).rows.size(), 0u);
 }
 
@@ -169,8 +173,8 @@ TEST_F(LotToolsTest, DashIsStandardOutputAndMistypedCommandsAreNamed) {
   EXPECT_EQ(svg.exit_code, 0);
   EXPECT_EQ(svg.output.rfind("<svg ", 0), 0u) << svg.output.substr(0, 80);
   // Several plots cannot share standard output: a usage error, nothing written.
-  const auto several = RunCommand(in_dir + Bin("imuqual") + " plot --lot T-L001 -o - --db " +
-                                  db_ + " 2>&1");
+  const auto several =
+      RunCommand(in_dir + Bin("imuqual") + " plot --lot T-L001 -o - --db " + db_ + " 2>&1");
   EXPECT_EQ(several.exit_code, 2);
   EXPECT_NE(several.output.find("give --axis"), std::string::npos) << several.output;
   EXPECT_FALSE(std::filesystem::exists(dir_->path("-")));
@@ -259,8 +263,12 @@ TEST_F(LotToolsTest, CsvExportsHaveEveryRow) {
   size_t points = 0;
   for (const auto& c : *archived) points += c.curve.points.size();
   EXPECT_EQ(curves.rows.size(), points);
-  EXPECT_EQ(RunCommand(Bin("imuqual") + " export --lot T-L001 --as xml --db " + db_ + " 2>/dev/null").exit_code, 2);
-  EXPECT_EQ(RunCommand(Bin("imuqual") + " export --as json --db " + db_ + " 2>/dev/null").exit_code, 2);
+  EXPECT_EQ(
+      RunCommand(Bin("imuqual") + " export --lot T-L001 --as xml --db " + db_ + " 2>/dev/null")
+          .exit_code,
+      2);
+  EXPECT_EQ(RunCommand(Bin("imuqual") + " export --as json --db " + db_ + " 2>/dev/null").exit_code,
+            2);
 }
 
 // Every measurement in both exports says what it is: a value (or none, then
@@ -273,7 +281,8 @@ TEST_F(LotToolsTest, ExportsSayWhatEveryValueIs) {
   ASSERT_GT(csv.rows.size(), 40u);
   std::set<std::string> outcomes, qualifiers;
   for (const auto& r : csv.rows) {
-    const std::string what = r[csv.Col("run_id")] + " " + r[csv.Col("axis")] + " " + r[csv.Col("name")];
+    const std::string what =
+        r[csv.Col("run_id")] + " " + r[csv.Col("axis")] + " " + r[csv.Col("name")];
     const std::string qualifier = r[csv.Col("qualifier")], outcome = r[csv.Col("outcome")];
     EXPECT_TRUE(!r[csv.Col("value")].empty() || qualifier == "not_measurable") << what;
     const std::string method = r[csv.Col("uncertainty_method")];
@@ -285,7 +294,8 @@ TEST_F(LotToolsTest, ExportsSayWhatEveryValueIs) {
     EXPECT_FALSE(r[csv.Col("decision_rule")].empty()) << what;
     // Without a limit nothing is judged, and the export says so.
     const bool limited = !r[csv.Col("low")].empty() || !r[csv.Col("high")].empty() ||
-                         !r[csv.Col("marginal_low")].empty() || !r[csv.Col("marginal_high")].empty();
+                         !r[csv.Col("marginal_low")].empty() ||
+                         !r[csv.Col("marginal_high")].empty();
     if (!limited) {
       EXPECT_EQ(outcome, "not_judged") << what;
     }
@@ -369,14 +379,14 @@ TEST(SamplesExportTest, EverySampleAsArchivedWithGapsFlagsAndTemperature) {
     chunk(2, 103, 2, 7.0f, true, 30.0, {});
   }
   // WHEN the run's samples are exported
-  const auto out = testing::RunCommand(Bin("imuqual") + " export --run S-R1 --format samples --db " +
-                                       db + " 2>/dev/null");
+  const auto out = testing::RunCommand(
+      Bin("imuqual") + " export --run S-R1 --format samples --db " + db + " 2>/dev/null");
   ASSERT_EQ(out.exit_code, 0) << out.output;
   const Csv csv = ParseCsv(out.output);
   // THEN one row per counter 100..111, units in the axis columns' names
-  EXPECT_EQ(csv.header, (std::vector<std::string>{"sample", "device_time_s", "arrival_utime",
-                                                  "gx_deg_s", "ax_m_s2", "temperature_c",
-                                                  "flags"}));
+  EXPECT_EQ(csv.header,
+            (std::vector<std::string>{"sample", "device_time_s", "arrival_utime", "gx_deg_s",
+                                      "ax_m_s2", "temperature_c", "flags"}));
   ASSERT_EQ(csv.rows.size(), 12u);
   for (size_t k = 0; k < csv.rows.size(); ++k) {
     const auto& row = csv.rows[k];
@@ -401,8 +411,8 @@ TEST(SamplesExportTest, EverySampleAsArchivedWithGapsFlagsAndTemperature) {
   EXPECT_EQ(csv.rows[9][2], "");  // that chunk's arrival was not recorded
   EXPECT_EQ(csv.rows[9][5], "");
   // A lot is refused with a usage error naming why.
-  const auto lot = testing::RunCommand(Bin("imuqual") + " export --lot L --format samples --db " +
-                                       db + " 2>&1");
+  const auto lot =
+      testing::RunCommand(Bin("imuqual") + " export --lot L --format samples --db " + db + " 2>&1");
   EXPECT_EQ(lot.exit_code, 2);
   EXPECT_NE(lot.output.find("one run"), std::string::npos) << lot.output;
 }
@@ -433,7 +443,9 @@ class YieldTest : public ::testing::Test {
       r.end_utime = t + 1'000'000;
       r.nominal_rate_hz = 100;
       r.axes = {{"gx", pb::GYRO}};
-      r.state = verdict == pb::ABORTED ? "aborted" : verdict == pb::ERROR ? "incomplete" : "complete";
+      r.state = verdict == pb::ABORTED ? "aborted"
+                : verdict == pb::ERROR ? "incomplete"
+                                       : "complete";
       auto key = (*a)->UpsertRun(r);
       ASSERT_TRUE(key.ok()) << key.status().ToString();
       store::ResultRecord res;
@@ -540,9 +552,9 @@ TEST_F(YieldTest, LotsLotStatsAndTheReportSayTheSame) {
   ASSERT_EQ(lots.rows.size(), 1u);
   const auto& l = lots.rows[0];
   const std::map<std::string, std::string> want = {
-      {"runs", "7"},         {"units", "5"},   {"pass", "3"},    {"marginal", "0"},
-      {"fail", "0"},         {"inconclusive", "1"}, {"aborted", "1"}, {"error", "0"},
-      {"unjudged", "0"},     {"retests", "2"}, {"yield", "1"}};
+      {"runs", "7"},     {"units", "5"},        {"pass", "3"},    {"marginal", "0"},
+      {"fail", "0"},     {"inconclusive", "1"}, {"aborted", "1"}, {"error", "0"},
+      {"unjudged", "0"}, {"retests", "2"},      {"yield", "1"}};
   for (const auto& [column, value] : want) EXPECT_EQ(l[lots.Col(column)], value) << column;
   EXPECT_EQ(l[lots.Col("first_pass_yield")], "0.5");
   const std::string table = Imuqual("lots");
@@ -572,9 +584,8 @@ TEST_F(YieldTest, LotsLotStatsAndTheReportSayTheSame) {
   auto html = ReadFileToString(html_path);
   ASSERT_TRUE(html.ok());
   for (const char* part :
-       {"data-field=\"first_pass_yield\" data-v=\"0.5\"",
-        "data-field=\"final_yield\" data-v=\"1\"", "data-field=\"retests\" data-v=\"2\"",
-        "data-field=\"retest_candidates\" data-v=\"1\"",
+       {"data-field=\"first_pass_yield\" data-v=\"0.5\"", "data-field=\"final_yield\" data-v=\"1\"",
+        "data-field=\"retests\" data-v=\"2\"", "data-field=\"retest_candidates\" data-v=\"1\"",
         "data-unit=\"U2\" data-run=\"U2-R1\" data-verdict=\"FAIL\" data-next-run=\"U2-R2\"",
         "data-unit=\"U5\" data-run=\"U5-R1\" data-verdict=\"ERROR\" data-next-run=\"U5-R2\"",
         "<span class=\"badge v-INCONCLUSIVE\">INCONCLUSIVE</span>",
@@ -747,8 +758,8 @@ class SchemaExamplesTest : public ::testing::Test {
       const std::string& v = r[runs.Col("verdict")];
       const Rank rank{v == "PASS" || v == "MARGINAL" || v == "FAIL" || v == "INCONCLUSIVE",
                       r[runs.Col("start")]};  // ISO 8601 UTC: text order is time order
-      auto [it, fresh] = latest.try_emplace({r[runs.Col("lot")], r[runs.Col("unit")]},
-                                            rank, r[runs.Col("run_id")]);
+      auto [it, fresh] = latest.try_emplace({r[runs.Col("lot")], r[runs.Col("unit")]}, rank,
+                                            r[runs.Col("run_id")]);
       if (!fresh && rank > it->second.first) it->second = {rank, r[runs.Col("run_id")]};
     }
     std::set<std::string> ids;
@@ -892,69 +903,68 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
   // needs its check here.
   std::map<std::string, std::function<void(const Csv&)>> checks;
 
-  checks["Yield of every lot over each unit's final run, newest lot first."] =
-      [&](const Csv& out) {
-        struct Lot {
-          std::string last_start;
-          std::set<std::string> units;
-          int64_t runs = 0, pass = 0, marginal = 0, fail = 0, inconclusive = 0, unjudged = 0;
-          // each unit's first judged run: (start, verdict)
-          std::map<std::string, std::pair<std::string, std::string>> first;
-        };
-        std::map<std::string, Lot> lots;
-        // `imuqual runs` lists the newest first: oldest first here
-        for (auto it = runs.rows.rbegin(); it != runs.rows.rend(); ++it) {
-          const auto& r = *it;
-          Lot& l = lots[r[runs.Col("lot")]];
-          ++l.runs;
-          l.last_start = std::max(l.last_start, r[runs.Col("start")]);
-          l.units.insert(r[runs.Col("unit")]);
-          const std::string& v = r[runs.Col("verdict")];
-          const bool judged = v == "PASS" || v == "MARGINAL" || v == "FAIL" || v == "INCONCLUSIVE";
-          auto& first = l.first[r[runs.Col("unit")]];
-          if (judged && (first.first.empty() || r[runs.Col("start")] < first.first)) {
-            first = {r[runs.Col("start")], v};
-          }
-          if (!latest.contains(r[runs.Col("run_id")])) continue;
-          ++(v == "PASS"           ? l.pass
-             : v == "MARGINAL"     ? l.marginal
-             : v == "FAIL"         ? l.fail
-             : v == "INCONCLUSIVE" ? l.inconclusive
-                                   : l.unjudged);
-        }
-        // the running and the aborted (unjudged) retests do not replace R1
-        EXPECT_EQ(lots.at("TAC-L001").unjudged, 0);
-        std::vector<std::string> newest_first;
-        for (const auto& [lot, l] : lots) newest_first.push_back(lot);
-        std::sort(newest_first.begin(), newest_first.end(), [&](const auto& a, const auto& b) {
-          return lots[a].last_start > lots[b].last_start;
-        });
-        ASSERT_EQ(out.rows.size(), newest_first.size());
-        for (size_t i = 0; i < out.rows.size(); ++i) {
-          const auto& row = out.rows[i];
-          const Lot& l = lots[newest_first[i]];
-          EXPECT_EQ(row[out.Col("lot")], newest_first[i]);
-          EXPECT_EQ(row[out.Col("units")], std::to_string(l.units.size()));
-          EXPECT_EQ(row[out.Col("pass")], std::to_string(l.pass));
-          EXPECT_EQ(row[out.Col("marginal")], std::to_string(l.marginal));
-          EXPECT_EQ(row[out.Col("fail")], std::to_string(l.fail));
-          EXPECT_EQ(row[out.Col("unjudged")], std::to_string(l.unjudged));
-          EXPECT_EQ(row[out.Col("inconclusive")], std::to_string(l.inconclusive));
-          EXPECT_EQ(row[out.Col("retests")], std::to_string(l.runs - l.units.size()));
-          EXPECT_EQ(row[out.Col("retest_candidates")], std::to_string(l.inconclusive));
-          const int64_t judged = l.pass + l.marginal + l.fail;
-          ExpectReal(row[out.Col("yield")],
-                     judged > 0 ? static_cast<double>(l.pass + l.marginal) / judged : NAN, "yield");
-          int64_t first_pass = 0, first_judged = 0;
-          for (const auto& [unit, f] : l.first) {
-            first_judged += f.second == "PASS" || f.second == "MARGINAL" || f.second == "FAIL";
-            first_pass += f.second == "PASS" || f.second == "MARGINAL";
-          }
-          ExpectReal(row[out.Col("first_pass_yield")],
-                     first_judged > 0 ? static_cast<double>(first_pass) / first_judged : NAN,
-                     "first_pass_yield");
-        }
-      };
+  checks["Yield of every lot over each unit's final run, newest lot first."] = [&](const Csv& out) {
+    struct Lot {
+      std::string last_start;
+      std::set<std::string> units;
+      int64_t runs = 0, pass = 0, marginal = 0, fail = 0, inconclusive = 0, unjudged = 0;
+      // each unit's first judged run: (start, verdict)
+      std::map<std::string, std::pair<std::string, std::string>> first;
+    };
+    std::map<std::string, Lot> lots;
+    // `imuqual runs` lists the newest first: oldest first here
+    for (auto it = runs.rows.rbegin(); it != runs.rows.rend(); ++it) {
+      const auto& r = *it;
+      Lot& l = lots[r[runs.Col("lot")]];
+      ++l.runs;
+      l.last_start = std::max(l.last_start, r[runs.Col("start")]);
+      l.units.insert(r[runs.Col("unit")]);
+      const std::string& v = r[runs.Col("verdict")];
+      const bool judged = v == "PASS" || v == "MARGINAL" || v == "FAIL" || v == "INCONCLUSIVE";
+      auto& first = l.first[r[runs.Col("unit")]];
+      if (judged && (first.first.empty() || r[runs.Col("start")] < first.first)) {
+        first = {r[runs.Col("start")], v};
+      }
+      if (!latest.contains(r[runs.Col("run_id")])) continue;
+      ++(v == "PASS"           ? l.pass
+         : v == "MARGINAL"     ? l.marginal
+         : v == "FAIL"         ? l.fail
+         : v == "INCONCLUSIVE" ? l.inconclusive
+                               : l.unjudged);
+    }
+    // the running and the aborted (unjudged) retests do not replace R1
+    EXPECT_EQ(lots.at("TAC-L001").unjudged, 0);
+    std::vector<std::string> newest_first;
+    for (const auto& [lot, l] : lots) newest_first.push_back(lot);
+    std::sort(newest_first.begin(), newest_first.end(), [&](const auto& a, const auto& b) {
+      return lots[a].last_start > lots[b].last_start;
+    });
+    ASSERT_EQ(out.rows.size(), newest_first.size());
+    for (size_t i = 0; i < out.rows.size(); ++i) {
+      const auto& row = out.rows[i];
+      const Lot& l = lots[newest_first[i]];
+      EXPECT_EQ(row[out.Col("lot")], newest_first[i]);
+      EXPECT_EQ(row[out.Col("units")], std::to_string(l.units.size()));
+      EXPECT_EQ(row[out.Col("pass")], std::to_string(l.pass));
+      EXPECT_EQ(row[out.Col("marginal")], std::to_string(l.marginal));
+      EXPECT_EQ(row[out.Col("fail")], std::to_string(l.fail));
+      EXPECT_EQ(row[out.Col("unjudged")], std::to_string(l.unjudged));
+      EXPECT_EQ(row[out.Col("inconclusive")], std::to_string(l.inconclusive));
+      EXPECT_EQ(row[out.Col("retests")], std::to_string(l.runs - l.units.size()));
+      EXPECT_EQ(row[out.Col("retest_candidates")], std::to_string(l.inconclusive));
+      const int64_t judged = l.pass + l.marginal + l.fail;
+      ExpectReal(row[out.Col("yield")],
+                 judged > 0 ? static_cast<double>(l.pass + l.marginal) / judged : NAN, "yield");
+      int64_t first_pass = 0, first_judged = 0;
+      for (const auto& [unit, f] : l.first) {
+        first_judged += f.second == "PASS" || f.second == "MARGINAL" || f.second == "FAIL";
+        first_pass += f.second == "PASS" || f.second == "MARGINAL";
+      }
+      ExpectReal(row[out.Col("first_pass_yield")],
+                 first_judged > 0 ? static_cast<double>(first_pass) / first_judged : NAN,
+                 "first_pass_yield");
+    }
+  };
 
   checks["Bias instability of the gyros of two lots side by side."] = [&](const Csv& out) {
     ASSERT_EQ(out.rows.size(), 2u);
@@ -1020,35 +1030,38 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
     }
   };
 
-  checks["The values of a lot's final runs that are not plain measurements, with how they were "
-         "judged."] = [&](const Csv& out) {
-    const Csv all = ParseCsv(
-        RunCommand(Bin("imuqual") + " export --lot TAC-L001 --as measurements --db " + db_).output);
-    std::vector<std::vector<std::string>> expected;
-    for (const auto& r : all.rows) {
-      // The export names what SQL leaves NULL: a plain value "measured", no
-      // decision rule "none", no outcome "not_judged".
-      if (r[all.Col("qualifier")] == "measured" || !latest.contains(r[all.Col("run_id")])) continue;
-      auto null_as = [](const std::string& v, const char* text) { return v == text ? "" : v; };
-      expected.push_back({r[all.Col("unit")], r[all.Col("axis")], r[all.Col("name")],
-                          r[all.Col("qualifier")], r[all.Col("uncertainty_method")],
-                          null_as(r[all.Col("decision_rule")], "none"),
-                          null_as(r[all.Col("outcome")], "not_judged")});
-    }
-    std::sort(expected.begin(), expected.end());
-    ASSERT_FALSE(expected.empty());  // the judged retests' rate random walks
-    ASSERT_EQ(out.rows.size(), expected.size());
-    for (size_t i = 0; i < expected.size(); ++i) {
-      const auto& row = out.rows[i];
-      EXPECT_EQ(row[out.Col("serial")], expected[i][0]);
-      EXPECT_EQ(row[out.Col("axis")], expected[i][1]);
-      EXPECT_EQ(row[out.Col("name")], expected[i][2]);
-      EXPECT_EQ(row[out.Col("qualifier")], expected[i][3]);
-      EXPECT_EQ(row[out.Col("uncertainty_method")], expected[i][4]);
-      EXPECT_EQ(row[out.Col("decision_rule")], expected[i][5]);
-      EXPECT_EQ(row[out.Col("outcome")], expected[i][6]);
-    }
-  };
+  checks
+      ["The values of a lot's final runs that are not plain measurements, with how they were "
+       "judged."] = [&](const Csv& out) {
+        const Csv all = ParseCsv(
+            RunCommand(Bin("imuqual") + " export --lot TAC-L001 --as measurements --db " + db_)
+                .output);
+        std::vector<std::vector<std::string>> expected;
+        for (const auto& r : all.rows) {
+          // The export names what SQL leaves NULL: a plain value "measured", no
+          // decision rule "none", no outcome "not_judged".
+          if (r[all.Col("qualifier")] == "measured" || !latest.contains(r[all.Col("run_id")]))
+            continue;
+          auto null_as = [](const std::string& v, const char* text) { return v == text ? "" : v; };
+          expected.push_back({r[all.Col("unit")], r[all.Col("axis")], r[all.Col("name")],
+                              r[all.Col("qualifier")], r[all.Col("uncertainty_method")],
+                              null_as(r[all.Col("decision_rule")], "none"),
+                              null_as(r[all.Col("outcome")], "not_judged")});
+        }
+        std::sort(expected.begin(), expected.end());
+        ASSERT_FALSE(expected.empty());  // the judged retests' rate random walks
+        ASSERT_EQ(out.rows.size(), expected.size());
+        for (size_t i = 0; i < expected.size(); ++i) {
+          const auto& row = out.rows[i];
+          EXPECT_EQ(row[out.Col("serial")], expected[i][0]);
+          EXPECT_EQ(row[out.Col("axis")], expected[i][1]);
+          EXPECT_EQ(row[out.Col("name")], expected[i][2]);
+          EXPECT_EQ(row[out.Col("qualifier")], expected[i][3]);
+          EXPECT_EQ(row[out.Col("uncertainty_method")], expected[i][4]);
+          EXPECT_EQ(row[out.Col("decision_rule")], expected[i][5]);
+          EXPECT_EQ(row[out.Col("outcome")], expected[i][6]);
+        }
+      };
 
   checks["The failing values of each unit's final run in a lot, with their limits."] =
       [&](const Csv& out) {

@@ -20,7 +20,6 @@ namespace {
 
 double Pick(bool take, double v) { return take ? v : allan::kNaN; }
 
-
 // The machine-readable per-axis table (CSV/JSON): one column per quantity
 // and unit, so gyro and accelerometer rows never share a column.
 TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
@@ -31,34 +30,48 @@ TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
                  // The marks (after the columns programs already read): each value's
                  // 1-sigma uncertainty in its column's unit, its qualifier, and why
                  // the axis is not PASS.
-                 "random_walk_uncertainty", "random_walk_qualifier",
-                 "bias_instability_uncertainty", "bias_instability_qualifier",
-                 "tau_min_s_uncertainty", "tau_min_s_qualifier", "rate_random_walk_uncertainty",
-                 "rate_random_walk_qualifier", "axis_reasons",
+                 "random_walk_uncertainty", "random_walk_qualifier", "bias_instability_uncertainty",
+                 "bias_instability_qualifier", "tau_min_s_uncertainty", "tau_min_s_qualifier",
+                 "rate_random_walk_uncertainty", "rate_random_walk_qualifier", "axis_reasons",
                  // Early decisions: the run's decision time, s (empty: none, or a full soak).
                  "decision_time_s",
                  // Who and where ("" if not recorded).
                  "station", "slot", "operator"});
   for (const store::AxisRow& r : rows) {
     const bool gyro = r.kind != "accel";
-    t.AddRow({Cell::Text(r.lot), Cell::Text(r.unit), Cell::Text(r.run_id), Cell::Text(r.axis),
-              Cell::Text(r.kind), Cell::Real(Pick(gyro, r.random_walk)),
-              Cell::Real(Pick(!gyro, r.random_walk)), Cell::Real(Pick(gyro, r.bias_instability)),
+    t.AddRow({Cell::Text(r.lot),
+              Cell::Text(r.unit),
+              Cell::Text(r.run_id),
+              Cell::Text(r.axis),
+              Cell::Text(r.kind),
+              Cell::Real(Pick(gyro, r.random_walk)),
+              Cell::Real(Pick(!gyro, r.random_walk)),
+              Cell::Real(Pick(gyro, r.bias_instability)),
               Cell::Real(Pick(gyro, r.bias_instability_ieee)),
               Cell::Real(Pick(!gyro, r.bias_instability)),
-              Cell::Real(Pick(!gyro, r.bias_instability_ieee)), Cell::Real(r.tau_min_s),
-              Cell::Real(Pick(gyro, r.rate_random_walk)), Cell::Real(Pick(!gyro, r.rate_random_walk)),
-              Cell::Int(r.samples), Cell::Int(r.gap_samples), Cell::Int(r.invalid_samples),
-              Cell::Text(r.axis_verdict), Cell::Text(r.run_verdict), Cell::Text(r.state),
+              Cell::Real(Pick(!gyro, r.bias_instability_ieee)),
+              Cell::Real(r.tau_min_s),
+              Cell::Real(Pick(gyro, r.rate_random_walk)),
+              Cell::Real(Pick(!gyro, r.rate_random_walk)),
+              Cell::Int(r.samples),
+              Cell::Int(r.gap_samples),
+              Cell::Int(r.invalid_samples),
+              Cell::Text(r.axis_verdict),
+              Cell::Text(r.run_verdict),
+              Cell::Text(r.state),
               Cell::Real(r.random_walk_marks.uncertainty),
               Cell::Text(QualifierWord(r.random_walk_marks.qualifier, r.random_walk)),
               Cell::Real(r.bias_instability_marks.uncertainty),
               Cell::Text(QualifierWord(r.bias_instability_marks.qualifier, r.bias_instability)),
-              Cell::Real(r.tau_min_marks.uncertainty), Cell::Text(QualifierWord(r.tau_min_marks.qualifier, r.tau_min_s)),
+              Cell::Real(r.tau_min_marks.uncertainty),
+              Cell::Text(QualifierWord(r.tau_min_marks.qualifier, r.tau_min_s)),
               Cell::Real(r.rate_random_walk_marks.uncertainty),
               Cell::Text(QualifierWord(r.rate_random_walk_marks.qualifier, r.rate_random_walk)),
-              Cell::Text(r.axis_notes), Cell::Real(r.decision_time_s), Cell::Text(r.station),
-              Cell::Text(r.slot), Cell::Text(r.operator_name)});
+              Cell::Text(r.axis_notes),
+              Cell::Real(r.decision_time_s),
+              Cell::Text(r.station),
+              Cell::Text(r.slot),
+              Cell::Text(r.operator_name)});
   }
   return t;
 }
@@ -73,14 +86,15 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
   // A station's table in fixture order, with the slot first.
   std::vector<store::AxisRow> rows = unsorted;
   if (by_slot) {
-    std::stable_sort(rows.begin(), rows.end(), [](const store::AxisRow& a, const store::AxisRow& b) {
-      return NaturalLess(a.slot, b.slot);
-    });
+    std::stable_sort(rows.begin(), rows.end(),
+                     [](const store::AxisRow& a, const store::AxisRow& b) {
+                       return NaturalLess(a.slot, b.slot);
+                     });
   }
   const bool early = std::any_of(rows.begin(), rows.end(),
                                  [](const store::AxisRow& r) { return r.has_decision_time; });
-  std::vector<std::string> columns = {"unit",      "axis",      "ARW/VRW", "bias inst.",
-                                      "BI (IEEE)", "tau min s", "RRW",     "gap samples",
+  std::vector<std::string> columns = {"unit",      "axis",        "ARW/VRW", "bias inst.",
+                                      "BI (IEEE)", "tau min s",   "RRW",     "gap samples",
                                       "axis",      "unit verdict"};
   if (by_slot) columns.insert(columns.begin(), "slot");
   if (early) columns.push_back("decided at");
@@ -94,14 +108,16 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
       return Cell::NumText(MarkedValue(v, m, 4, with_u));
     };
     std::vector<Cell> row = {
-        Cell::Text(r.unit), Cell::Text(r.axis),
+        Cell::Text(r.unit),
+        Cell::Text(r.axis),
         marked(r.random_walk, r.random_walk_marks, "random walk", true),
         marked(r.bias_instability, r.bias_instability_marks, "bias_instability", true),
         marked(r.bias_instability_ieee, r.bias_instability_ieee_marks, "bias_instability_ieee",
                false),
         marked(r.tau_min_s, r.tau_min_marks, "tau_at_minimum", true),
         marked(r.rate_random_walk, r.rate_random_walk_marks, "rate_random_walk", true),
-        Cell::Int(r.gap_samples), Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
+        Cell::Int(r.gap_samples),
+        Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
         Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)};
     if (early) {
       row.push_back(Cell::Text(r.has_decision_time ? DecisionTimeText(r.decision_time_s) : ""));
@@ -112,11 +128,15 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
   std::string out = t.Render(Format::kTable);
   out += StationOperatorLines(rows);
   out += legend.Render();
-  out += "gyro units: ARW deg/sqrt(h), bias instability deg/h (curve minimum; IEEE B = minimum/0.664), "
-         "RRW deg/h/sqrt(h)\n";
+  out +=
+      "gyro units: ARW deg/sqrt(h), bias instability deg/h (curve minimum; IEEE B = "
+      "minimum/0.664), "
+      "RRW deg/h/sqrt(h)\n";
   if (any_accel) {
-    out += "accel units: VRW m/s/sqrt(h), bias instability ug (curve minimum; IEEE B = minimum/0.664), "
-           "RRW ug/sqrt(h)\n";
+    out +=
+        "accel units: VRW m/s/sqrt(h), bias instability ug (curve minimum; IEEE B = "
+        "minimum/0.664), "
+        "RRW ug/sqrt(h)\n";
   }
   return out;
 }
@@ -137,8 +157,8 @@ std::string YieldText(double yield) {
 // there are any).
 std::string VerdictCounts(const std::map<std::string, int>& counts) {
   std::string out;
-  for (pb::Outcome o : {pb::PASS, pb::MARGINAL, pb::FAIL, pb::INCONCLUSIVE, pb::ABORTED,
-                        pb::ERROR}) {
+  for (pb::Outcome o :
+       {pb::PASS, pb::MARGINAL, pb::FAIL, pb::INCONCLUSIVE, pb::ABORTED, pb::ERROR}) {
     const std::string text = store::OutcomeText(o);
     auto it = counts.find(text);
     const int n = it == counts.end() ? 0 : it->second;
@@ -261,7 +281,8 @@ int RunCommand(const StationRunOptions& options) {
   std::printf("lot %s archived in %s (runs %s-*; process log %s)\n", options.lot.c_str(),
               options.db_path.c_str(), run->run_prefix.c_str(), run->log_path.c_str());
   if (run->restarts > 0) {
-    std::printf("store/analyze restarted %d time(s) during the soak; see the process log\n", run->restarts);
+    std::printf("store/analyze restarted %d time(s) during the soak; see the process log\n",
+                run->restarts);
   }
   if (!run->left_open.empty()) {
     // Runs an earlier station process left open (a crash): judged now.

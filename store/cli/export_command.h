@@ -29,10 +29,10 @@ namespace imuqual::cli {
 
 struct ExportOptions {
   std::string db_path;
-  std::string lot;     // every run of the lot, or
-  std::string run_id;  // one run
+  std::string lot;          // every run of the lot, or
+  std::string run_id;       // one run
   std::string as = "json";  // json, measurements, curves, kalibr, samples
-  std::string output;  // file; "" or "-" for standard output
+  std::string output;       // file; "" or "-" for standard output
 };
 
 int ExportCommand(const ExportOptions& options);

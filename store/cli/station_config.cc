@@ -34,7 +34,8 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
   const auto* type = pb::StationConfig::descriptor();
   // "FILE:LINE: field: problem", at the field's line when it was written,
   // else at the file.
-  auto fail = [&](const char* field, int index, const std::string& problem, const char* sub = nullptr) {
+  auto fail = [&](const char* field, int index, const std::string& problem,
+                  const char* sub = nullptr) {
     const int line = parsed.LineOf(type, field, index, sub);
     return Status::InvalidArgument(path + ":" + (line > 0 ? std::to_string(line) + ":" : "") + " " +
                                    problem);
@@ -45,12 +46,12 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
   };
   IMUQUAL_RETURN_IF_ERROR(identifier("station_id", c.station_id()));
   IMUQUAL_RETURN_IF_ERROR(identifier("lot", c.lot()));
-  if (c.plan().empty()) return fail("plan", 0, "plan: required (a .textproto file or builtin:NAME)");
+  if (c.plan().empty())
+    return fail("plan", 0, "plan: required (a .textproto file or builtin:NAME)");
   if (c.plan().rfind("builtin:", 0) != 0) c.set_plan(Resolve(DirOf(path), c.plan()));
   auto plan = judge::LoadPlan(c.plan());
   if (!plan.ok()) return fail("plan", 0, "plan: " + plan.status().message());
-  if (IsBlank(c.operator_name()) &&
-      (c.require_operator() || plan->require_operator())) {
+  if (IsBlank(c.operator_name()) && (c.require_operator() || plan->require_operator())) {
     return fail(c.require_operator() ? "require_operator" : "plan", 0,
                 std::string("operator_name: required (") +
                     (c.require_operator() ? "require_operator is set"
@@ -73,8 +74,10 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
   if (!(c.stale_after_s() >= 0) || !std::isfinite(c.stale_after_s())) {
     return fail("stale_after_s", 0, "stale_after_s: must be >= 0");
   }
-  if (c.slot_size() == 0) return Status::InvalidArgument(path + ": no slot: give at least one slot { ... }");
-  if (c.slot_size() > kMaxSlots) return fail("slot", kMaxSlots, "slot: at most " + std::to_string(kMaxSlots));
+  if (c.slot_size() == 0)
+    return Status::InvalidArgument(path + ": no slot: give at least one slot { ... }");
+  if (c.slot_size() > kMaxSlots)
+    return fail("slot", kMaxSlots, "slot: at most " + std::to_string(kMaxSlots));
   std::set<std::string> serials, names;
   for (int i = 0; i < c.slot_size(); ++i) {
     pb::Slot& s = *c.mutable_slot(i);
@@ -86,9 +89,11 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
     if (Status st = ValidateIdentifier(label + " unit_serial", s.unit_serial()); !st.ok()) {
       return fail("slot", i, st.message(), "unit_serial");
     }
-    if (!names.insert(s.name()).second) return fail("slot", i, label + ": slot name '" + s.name() + "' twice", "name");
+    if (!names.insert(s.name()).second)
+      return fail("slot", i, label + ": slot name '" + s.name() + "' twice", "name");
     if (!serials.insert(s.unit_serial()).second) {
-      return fail("slot", i, label + ": unit " + s.unit_serial() + " is in two slots", "unit_serial");
+      return fail("slot", i, label + ": unit " + s.unit_serial() + " is in two slots",
+                  "unit_serial");
     }
     auto spec = acquire::ParseSourceSpec(s.source());
     if (!spec.ok()) return fail("slot", i, label + " source: " + spec.status().message(), "source");
@@ -96,7 +101,8 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
         spec->location[0] != '/') {
       const std::string head = spec->kind + ":" + spec->location;
       if (s.source().compare(0, head.size(), head) == 0) {
-        s.set_source(spec->kind + ":" + Resolve(DirOf(path), spec->location) + s.source().substr(head.size()));
+        s.set_source(spec->kind + ":" + Resolve(DirOf(path), spec->location) +
+                     s.source().substr(head.size()));
       }
     }
   }
@@ -105,7 +111,8 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
 
 Result<pb::StationConfig> LoadStationConfig(const std::string& path) {
   auto text = ReadFileToString(path);
-  if (!text.ok()) return Status::NotFound("station configuration " + path + ": " + text.status().message());
+  if (!text.ok())
+    return Status::NotFound("station configuration " + path + ": " + text.status().message());
   return ParseStationConfig(*text, path);
 }
 

@@ -37,16 +37,16 @@
 namespace imuqual::cli {
 namespace {
 
-constexpr double kStartTimeoutS = 20;   // store/analyze must report by then
-constexpr double kStopTimeoutS = 15;    // SIGTERM -> SIGKILL
-constexpr double kAbortDrainS = 30;     // after Ctrl-C: time for aborted runs to be archived
-constexpr double kAcquireEndS = 5;      // all archived: time for acquire's final acks
-constexpr double kSettleLeftOpenS = 60; // beyond the silence timer: runs left open earlier
-constexpr double kRestartDelayS = 1;    // a dead store/analyze is restarted after this
-constexpr double kCrashWindowS = 60;    // restarts counted over this window
-constexpr double kRedrawS = 0.25;       // live console refresh
-constexpr double kLogLineS = 10;        // progress line when not on a terminal
-constexpr double kComplaintS = 3;       // an unhealthy status shows this long after it was heard
+constexpr double kStartTimeoutS = 20;    // store/analyze must report by then
+constexpr double kStopTimeoutS = 15;     // SIGTERM -> SIGKILL
+constexpr double kAbortDrainS = 30;      // after Ctrl-C: time for aborted runs to be archived
+constexpr double kAcquireEndS = 5;       // all archived: time for acquire's final acks
+constexpr double kSettleLeftOpenS = 60;  // beyond the silence timer: runs left open earlier
+constexpr double kRestartDelayS = 1;     // a dead store/analyze is restarted after this
+constexpr double kCrashWindowS = 60;     // restarts counted over this window
+constexpr double kRedrawS = 0.25;        // live console refresh
+constexpr double kLogLineS = 10;         // progress line when not on a terminal
+constexpr double kComplaintS = 3;        // an unhealthy status shows this long after it was heard
 
 std::string CompactUtc(int64_t utime) {
   std::string out;
@@ -83,13 +83,13 @@ std::string LogTail(const std::string& path, int lines) {
 
 // A store or analyze process under supervision: restarted when it dies.
 struct Supervised {
-  std::string name;               // "imuqual-store", "imuqual-analyze 1/3"
-  std::string kind;               // "store", "analyze" (status_t.process)
+  std::string name;  // "imuqual-store", "imuqual-analyze 1/3"
+  std::string kind;  // "store", "analyze" (status_t.process)
   std::vector<std::string> argv;
   std::optional<Subprocess> proc;
-  double restart_at = -1;         // > 0: dead, restart due then
+  double restart_at = -1;  // > 0: dead, restart due then
   int restarts = 0;
-  std::vector<double> crashes;    // when it died, within kCrashWindowS
+  std::vector<double> crashes;  // when it died, within kCrashWindowS
 };
 
 // The station's processes. However RunStation ends, they are stopped in
@@ -124,7 +124,8 @@ class LiveScreen {
       height = ws.ws_row;
     }
     std::string frame = "\x1b[H";
-    for (const std::string& line : RenderConsole(model, width, height - 1)) frame += line + "\x1b[K\n";
+    for (const std::string& line : RenderConsole(model, width, height - 1))
+      frame += line + "\x1b[K\n";
     frame += "\x1b[J";
     std::fputs(frame.c_str(), stderr);
     std::fflush(stderr);
@@ -164,7 +165,8 @@ Status StationRunOptions::Validate() const {
   if (!(pace >= 0) || !std::isfinite(pace)) return Status::InvalidArgument("--pace must be >= 0");
   if (!(archive_timeout_s > 0)) return Status::InvalidArgument("--archive-timeout must be > 0");
   if (!(give_up_s > 0)) return Status::InvalidArgument("--give-up must be > 0");
-  if (analyze_shards < 1 || analyze_shards > 64) return Status::InvalidArgument("--analyze-shards must be 1..64");
+  if (analyze_shards < 1 || analyze_shards > 64)
+    return Status::InvalidArgument("--analyze-shards must be 1..64");
   if (!slots.empty() && slots.size() != units.size()) {
     return Status::InvalidArgument("slots: one per --unit");
   }
@@ -239,14 +241,15 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     u.serial = std::move(serial);
     model.units.push_back(std::move(u));
   };
-  for (int i = 0; i < o.sim_units; ++i) add_unit(std::to_string(i + 1), acquire::SimSerial(o.lot, i));
+  for (int i = 0; i < o.sim_units; ++i)
+    add_unit(std::to_string(i + 1), acquire::SimSerial(o.lot, i));
   for (size_t i = 0; i < o.units.size(); ++i) {
     const std::string slot = i < o.slots.size() && !o.slots[i].empty()
                                  ? o.slots[i]
                                  : std::to_string(o.sim_units + static_cast<int>(i) + 1);
     add_unit(slot, o.units[i].substr(0, o.units[i].find('=')));
   }
-  std::map<std::string, size_t> unit_index;  // serial -> model.units
+  std::map<std::string, size_t> unit_index;        // serial -> model.units
   std::map<std::string, std::string> end_reasons;  // serial -> why its run ended early
   for (size_t i = 0; i < model.units.size(); ++i) unit_index[model.units[i].serial] = i;
   auto unit_of_run = [&](const std::string& run_id, const std::string& serial) -> ConsoleUnit* {
@@ -262,17 +265,18 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     std::string message;
     double heard_s = 0;
   };
-  std::map<std::pair<std::string, std::string>, Complaint> problems;  // (process, instance) -> last unhealthy message
+  std::map<std::pair<std::string, std::string>, Complaint>
+      problems;  // (process, instance) -> last unhealthy message
 
-  bus.Subscribe<imuqual::status_t>(channels::kStatus, 1000,
-                                   [&](const std::string&, imuqual::status_t&& s, int64_t) {
-                                     heard[s.process].insert(s.instance);
-                                     if (s.healthy) {
-                                       problems.erase({s.process, s.instance});
-                                     } else {
-                                       problems[{s.process, s.instance}] = {s.message, MonotonicSeconds()};
-                                     }
-                                   });
+  bus.Subscribe<imuqual::status_t>(
+      channels::kStatus, 1000, [&](const std::string&, imuqual::status_t&& s, int64_t) {
+        heard[s.process].insert(s.instance);
+        if (s.healthy) {
+          problems.erase({s.process, s.instance});
+        } else {
+          problems[{s.process, s.instance}] = {s.message, MonotonicSeconds()};
+        }
+      });
   bus.Subscribe<imuqual::run_t>(
       channels::kRun, 1000, [&](const std::string&, imuqual::run_t&& r, int64_t) {
         ConsoleUnit* u = unit_of_run(r.run_id, r.unit_serial);
@@ -288,7 +292,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
         }
         if (!r.end_reason.empty()) end_reasons[r.unit_serial] = r.end_reason;
         u->samples = std::max(u->samples, r.samples_published);
-        if (r.nominal_rate_hz > 0) u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
+        if (r.nominal_rate_hz > 0)
+          u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
         if (u->axes.empty()) {
           for (const std::string& name : r.axis_names) {
             ConsoleAxis x;
@@ -311,8 +316,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
         if (u == nullptr) return;
         const bool decided = u->decision == imuqual::decision_t::STATE_PASS ||
                              u->decision == imuqual::decision_t::STATE_FAIL;
-        const bool older = d.state == imuqual::decision_t::STATE_PENDING &&
-                           d.looks_done < u->looks_done;
+        const bool older =
+            d.state == imuqual::decision_t::STATE_PENDING && d.looks_done < u->looks_done;
         if (decided || older) return;
         u->looks_planned = std::max<int>(u->looks_planned, d.looks_planned);
         u->looks_done = d.looks_done;
@@ -424,7 +429,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   for (;;) {
     bool all = true;
     for (Supervised* p : supervised) {
-      if (auto code = p->proc->Poll()) return failure(p->name + " exited (code " + std::to_string(*code) + ")");
+      if (auto code = p->proc->Poll())
+        return failure(p->name + " exited (code " + std::to_string(*code) + ")");
       all = all && reported(*p);
     }
     if (all) break;
@@ -433,18 +439,32 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
     IMUQUAL_RETURN_IF_ERROR(bus.HandleFor(50));
   }
 
-  std::vector<std::string> acquire_args = {
-      dir + "/imuqual-acquire", "--lcm-url", url, "--lot", o.lot, "--station", o.station,
-      "--profile", o.profile, "--run-prefix", result.run_prefix, "--await", "store,analyze"};
-  if (o.sim_units > 0) acquire_args.insert(acquire_args.end(), {"--sim", std::to_string(o.sim_units)});
-  if (o.duration_s > 0) acquire_args.insert(acquire_args.end(), {"--duration", std::to_string(o.duration_s)});
+  std::vector<std::string> acquire_args = {dir + "/imuqual-acquire",
+                                           "--lcm-url",
+                                           url,
+                                           "--lot",
+                                           o.lot,
+                                           "--station",
+                                           o.station,
+                                           "--profile",
+                                           o.profile,
+                                           "--run-prefix",
+                                           result.run_prefix,
+                                           "--await",
+                                           "store,analyze"};
+  if (o.sim_units > 0)
+    acquire_args.insert(acquire_args.end(), {"--sim", std::to_string(o.sim_units)});
+  if (o.duration_s > 0)
+    acquire_args.insert(acquire_args.end(), {"--duration", std::to_string(o.duration_s)});
   for (const std::string& unit : o.units) acquire_args.insert(acquire_args.end(), {"--unit", unit});
   for (size_t i = 0; i < o.slots.size(); ++i) {
-    acquire_args.insert(acquire_args.end(), {"--slot", model.units[static_cast<size_t>(o.sim_units) + i].slot});
+    acquire_args.insert(acquire_args.end(),
+                        {"--slot", model.units[static_cast<size_t>(o.sim_units) + i].slot});
   }
   if (o.rate_hz) acquire_args.insert(acquire_args.end(), {"--rate", FormatRate(*o.rate_hz)});
   if (!plan_spec.empty()) acquire_args.insert(acquire_args.end(), {"--plan", plan_spec});
-  if (!o.operator_name.empty()) acquire_args.insert(acquire_args.end(), {"--operator", o.operator_name});
+  if (!o.operator_name.empty())
+    acquire_args.insert(acquire_args.end(), {"--operator", o.operator_name});
   if (o.inject_drop > 0) {
     acquire_args.insert(acquire_args.end(), {"--inject-drop", std::to_string(o.inject_drop)});
   }
@@ -460,7 +480,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   LiveScreen screen(tty);
   const double t0 = MonotonicSeconds();
   double last_change = t0, last_draw = t0 - kRedrawS, last_line = t0;
-  double drain_deadline = -1;  // set when the runs are ending abnormally
+  double drain_deadline = -1;   // set when the runs are ending abnormally
   double settle_deadline = -1;  // set when only runs left open earlier remain
   int64_t last_total = -1;
   int last_done = -1;
@@ -500,9 +520,9 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
           p->crashes.push_back(now);
           std::erase_if(p->crashes, [&](double t) { return now - t > kCrashWindowS; });
           if (static_cast<int>(p->crashes.size()) > o.max_restarts) {
-            outcome = failure(p->name + " died " + std::to_string(p->crashes.size()) + " times in " +
-                              std::to_string(static_cast<int>(kCrashWindowS)) + " s (last exit code " +
-                              std::to_string(*code) + ")");
+            outcome = failure(p->name + " died " + std::to_string(p->crashes.size()) +
+                              " times in " + std::to_string(static_cast<int>(kCrashWindowS)) +
+                              " s (last exit code " + std::to_string(*code) + ")");
             break;
           }
           p->restart_at = now + kRestartDelayS;
@@ -542,7 +562,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
         // A complaint stands while its process keeps reporting it (a dead
         // process's last words fade after a few seconds).
         for (const auto& [who, complaint] : problems) {
-          if (who.first == cp->name && now - complaint.heard_s < kComplaintS) cp->problem = complaint.message;
+          if (who.first == cp->name && now - complaint.heard_s < kComplaintS)
+            cp->problem = complaint.message;
         }
         model.processes.push_back(*cp);
       }
@@ -606,16 +627,17 @@ Result<StationRunResult> RunStation(const StationRunOptions& o) {
   if (outcome.ok() && !result.interrupted) {
     std::vector<std::string> failed;
     for (const ConsoleUnit& u : model.units) {
-      const bool ended_early = u.state == imuqual::run_t::STATE_ABORTED ||
-                               u.state == imuqual::run_t::STATE_INCOMPLETE;
+      const bool ended_early =
+          u.state == imuqual::run_t::STATE_ABORTED || u.state == imuqual::run_t::STATE_INCOMPLETE;
       if (!ended_early) continue;
       auto reason = end_reasons.find(u.serial);
       failed.push_back(u.serial + " (" +
                        (reason == end_reasons.end() ? "ended early" : reason->second) + ")");
     }
     if (!failed.empty()) {
-      result.failure = std::to_string(failed.size()) + " of " + std::to_string(model.units.size()) +
-                       " units' sources failed, their runs archived as ERROR: " + Join(failed, "; ");
+      result.failure =
+          std::to_string(failed.size()) + " of " + std::to_string(model.units.size()) +
+          " units' sources failed, their runs archived as ERROR: " + Join(failed, "; ");
     } else if (acquire_code && *acquire_code != 0) {
       result.failure = "imuqual-acquire failed (exit " + std::to_string(*acquire_code) +
                        "); its runs are archived as they ended. Last lines of " + result.log_path +

@@ -28,31 +28,31 @@ struct StationRunOptions {
   std::optional<double> rate_hz;   // Hz, > 0; none: the profile's rate
   std::string lot;
   std::string db_path;
-  std::string plan_spec;           // file or builtin:NAME; "" = the profile's default
-  std::string lcm_url;             // "" = a fresh port on 239.255.76.67, ttl=0
+  std::string plan_spec;  // file or builtin:NAME; "" = the profile's default
+  std::string lcm_url;    // "" = a fresh port on 239.255.76.67, ttl=0
   std::string station = "station-1";
-  int analyze_shards = 1;          // analyze processes splitting the units
-  std::string report_path;         // HTML report at the end; "" = <db without .db>-<lot>.html
+  int analyze_shards = 1;   // analyze processes splitting the units
+  std::string report_path;  // HTML report at the end; "" = <db without .db>-<lot>.html
   std::string operator_name;
-  double inject_drop = 0;          // fault injection in acquire
-  double pace = 0;                 // 0: as fast as acknowledged; 1: real time; k: k x real time
-  double stale_after_s = 10;       // store: acquire silent this long ends its runs as incomplete
-  double stall_timeout_s = 120;    // no progress this long: give up
-  double archive_timeout_s = 90;   // store: the archive failing every write this long ends the
-                                   // station (IoError, exit 4); below acquire's 120 s ack timeout
-  double give_up_s = 30;           // store: a batch that never arrived is a gap after this
-  bool show_progress = true;       // live console on a terminal, else a progress line (stderr)
-  int max_restarts = 5;            // a store/analyze process dying more often in a minute: give up
+  double inject_drop = 0;         // fault injection in acquire
+  double pace = 0;                // 0: as fast as acknowledged; 1: real time; k: k x real time
+  double stale_after_s = 10;      // store: acquire silent this long ends its runs as incomplete
+  double stall_timeout_s = 120;   // no progress this long: give up
+  double archive_timeout_s = 90;  // store: the archive failing every write this long ends the
+                                  // station (IoError, exit 4); below acquire's 120 s ack timeout
+  double give_up_s = 30;          // store: a batch that never arrived is a gap after this
+  bool show_progress = true;      // live console on a terminal, else a progress line (stderr)
+  int max_restarts = 5;           // a store/analyze process dying more often in a minute: give up
   Status Validate() const;
 };
 
 struct StationRunResult {
-  std::string run_prefix;          // every run id of this station run starts with it
+  std::string run_prefix;  // every run id of this station run starts with it
   std::vector<std::string> run_ids;
-  std::string log_path;            // the processes' output
-  bool interrupted = false;        // Ctrl-C: runs were aborted
-  std::string failure;             // the source failed; runs were archived as they ended
-  int restarts = 0;                // store/analyze processes restarted
+  std::string log_path;      // the processes' output
+  bool interrupted = false;  // Ctrl-C: runs were aborted
+  std::string failure;       // the source failed; runs were archived as they ended
+  int restarts = 0;          // store/analyze processes restarted
   // Runs of this station an earlier station process left open (a crash),
   // found when the archive was opened: judged (ERROR) during this run.
   std::vector<std::string> left_open;
