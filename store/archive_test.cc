@@ -3,9 +3,13 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
 
 #include "store/checksums.h"
 #include "store/chunk_codec.h"
@@ -318,6 +322,43 @@ TEST_F(ArchiveTest, RefusesFilesThatAreNotArchives) {
   a = Archive::Open((dir_ / "missing.db").string(), Archive::Mode::kRead);
   ASSERT_FALSE(a.ok());
   EXPECT_EQ(a.status().code(), Status::Code::kNotFound);
+}
+
+TEST_F(ArchiveTest, StationsCreatingTheSameNewArchiveAtOnceAllSucceed) {
+  // GIVEN 6 stations (each its own connection) opening the same new file at
+  // the same moment, 20 times over: the schema is created by one of them and
+  // the others find it there (a migration reads the version under the write
+  // lock), rather than "table lots already exists".
+  constexpr int kStations = 6;
+  for (int round = 0; round < 20; ++round) {
+    const std::string path = (dir_ / ("race" + std::to_string(round) + ".db")).string();
+    std::atomic<int> ready{0};
+    std::vector<std::string> errors(kStations);
+    std::vector<std::thread> stations;
+    for (int i = 0; i < kStations; ++i) {
+      stations.emplace_back([&, i] {
+        ++ready;
+        while (ready.load() < kStations) {
+        }
+        auto a = Archive::Open(path, Archive::Mode::kWrite);
+        if (!a.ok()) {
+          errors[i] = a.status().message();
+          return;
+        }
+        RunInfo r = Run("R" + std::to_string(i));
+        auto key = (*a)->UpsertRun(r);
+        if (!key.ok()) errors[i] = key.status().message();
+      });
+    }
+    for (std::thread& t : stations) t.join();
+    for (int i = 0; i < kStations; ++i)
+      EXPECT_EQ(errors[i], "") << "round " << round << " station " << i;
+    // THEN one archive of the current schema holds every station's run.
+    auto a = Archive::Open(path, Archive::Mode::kRead);
+    ASSERT_TRUE(a.ok()) << a.status().ToString();
+    EXPECT_EQ(*(*a)->db().QueryInt("PRAGMA user_version"), SchemaVersion());
+    EXPECT_EQ(*(*a)->db().QueryInt("SELECT COUNT(*) FROM runs"), kStations);
+  }
 }
 
 TEST_F(ArchiveTest, RefusesANewerSchema) {

@@ -505,16 +505,18 @@ FROM (SELECT lot, kind, name, unit, COUNT(x) AS n, AVG(x) AS mean, MIN(x) AS min
 }
 
 Status CheckIdentity(Db& db, bool* empty) {
-  // The first read of the file: a non-SQLite file fails here.
-  auto app = db.QueryInt("PRAGMA application_id");
-  if (!app.ok()) {
-    return Status::Corruption(db.path() + " is not an imuqual archive (" + app.status().message() +
-                              ")");
-  }
+  // The first read of the file: a non-SQLite file fails here. The tables
+  // before the application id: a station creating the file at this moment
+  // commits both at once, so tables seen means its id is there too.
   auto tables = db.QueryInt("SELECT COUNT(*) FROM sqlite_schema");
   if (!tables.ok()) {
     return Status::Corruption(db.path() + " is not an imuqual archive (" +
                               tables.status().message() + ")");
+  }
+  auto app = db.QueryInt("PRAGMA application_id");
+  if (!app.ok()) {
+    return Status::Corruption(db.path() + " is not an imuqual archive (" + app.status().message() +
+                              ")");
   }
   *empty = *tables == 0;
   if (!*empty && *app != kApplicationId) {
@@ -642,10 +644,22 @@ Status Migrate(Db& db) {
   bool empty = false;
   IMUQUAL_RETURN_IF_ERROR(CheckIdentity(db, &empty));
   IMUQUAL_RETURN_IF_ERROR(CheckIntact(db));
-  auto version = db.QueryInt("PRAGMA user_version");
-  if (!version.ok()) return version.status();
-  for (int v = static_cast<int>(*version); v < SchemaVersion(); ++v) {
+  // Current already: no write lock taken (another process may be writing).
+  auto current = db.QueryInt("PRAGMA user_version");
+  if (!current.ok()) return current.status();
+  if (*current >= SchemaVersion()) return Status::Ok();
+  // One step per transaction, the version read under the write lock: a
+  // station that creates or migrates the same file at the same moment has
+  // either done a step (seen here, skipped) or waits for this one.
+  for (;;) {
     IMUQUAL_RETURN_IF_ERROR(db.Exec("BEGIN IMMEDIATE"));
+    auto version = db.QueryInt("PRAGMA user_version");
+    if (!version.ok()) {
+      (void)db.Exec("ROLLBACK");
+      return version.status();
+    }
+    const int v = static_cast<int>(*version);
+    if (v >= SchemaVersion()) return db.Exec("COMMIT");
     Status st = v == 5 ? WidenOutcomeChecks(db) : Status::Ok();
     if (st.ok()) st = db.Exec(Migrations()[v]);
     if (st.ok()) st = db.Exec("PRAGMA user_version = " + std::to_string(v + 1));
@@ -659,7 +673,6 @@ Status Migrate(Db& db) {
     }
     IMUQUAL_RETURN_IF_ERROR(db.Exec("COMMIT"));
   }
-  return Status::Ok();
 }
 
 }  // namespace imuqual::store
