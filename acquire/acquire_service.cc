@@ -11,6 +11,7 @@
 
 #include "acquire/random.h"
 #include "acquire/retention.h"
+#include "acquire/source_spec.h"
 #include "common/batch_integrity.h"
 #include "common/channels.h"
 #include "common/clock.h"
@@ -223,25 +224,7 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
       return Status::InvalidArgument("unit " + unit.serial + ": source has " +
                                      std::to_string(info.axes.size()) + " axes (1..64)");
     }
-    if (options.plan.axes_size() > 0) {
-      bool match = options.plan.axes_size() == static_cast<int>(info.axes.size());
-      for (size_t i = 0; match && i < info.axes.size(); ++i) {
-        match = options.plan.axes(i).name() == info.axes[i].name() &&
-                options.plan.axes(i).kind() == info.axes[i].kind();
-      }
-      if (!match) {
-        auto names = [](const auto& axes) {
-          std::vector<std::string> parts;
-          for (const pb::Axis& a : axes) {
-            parts.push_back(a.name() + (a.kind() == pb::ACCEL ? "(accel)" : "(gyro)"));
-          }
-          return Join(parts, ",");
-        };
-        return Status::InvalidArgument("unit " + unit.serial + ": source axes " + names(info.axes) +
-                                       " do not match the plan's axes " +
-                                       names(options.plan.axes()));
-      }
-    }
+    IMUQUAL_RETURN_IF_ERROR(CheckSourceAxes(unit.serial, info, options.plan));
     if (options.plan.nominal_rate_hz() > 0 &&
         std::abs(info.nominal_rate_hz / options.plan.nominal_rate_hz() - 1) > 0.01) {
       LogWarning("unit " + unit.serial + ": source rate " + std::to_string(info.nominal_rate_hz) +

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <set>
+#include <string>
+#include <vector>
 
 #include "acquire/archive_source.h"
 #include "acquire/csv_source.h"
@@ -347,6 +349,25 @@ Result<std::unique_ptr<SampleSource>> MakeSource(const SourceSpec& spec, const S
   if (spec.kind == "archive") return MakeArchive(spec);
   return Status::InvalidArgument("source kind '" + spec.kind +
                                  "' is not one of sim, csv, serial, archive");
+}
+
+Status CheckSourceAxes(const std::string& serial, const SourceInfo& info,
+                       const pb::TestPlan& plan) {
+  if (plan.axes_size() == 0) return Status::Ok();
+  bool match = plan.axes_size() == static_cast<int>(info.axes.size());
+  for (size_t i = 0; match && i < info.axes.size(); ++i) {
+    match =
+        plan.axes(i).name() == info.axes[i].name() && plan.axes(i).kind() == info.axes[i].kind();
+  }
+  if (match) return Status::Ok();
+  auto names = [](const auto& axes) {
+    std::vector<std::string> parts;
+    for (const pb::Axis& a : axes)
+      parts.push_back(a.name() + (a.kind() == pb::ACCEL ? "(accel)" : "(gyro)"));
+    return Join(parts, ",");
+  };
+  return Status::InvalidArgument("unit " + serial + ": source axes " + names(info.axes) +
+                                 " do not match the plan's axes " + names(plan.axes()));
 }
 
 }  // namespace imuqual::acquire

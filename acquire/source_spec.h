@@ -51,6 +51,10 @@ struct SourceDefaults {
 Result<std::unique_ptr<SampleSource>> MakeSource(const SourceSpec& spec,
                                                  const SourceDefaults& defaults);
 
+// Whether a unit's source gives the plan's axes, in order, with their kinds
+// (a plan without axes takes any); the error names the unit and both lists.
+Status CheckSourceAxes(const std::string& serial, const SourceInfo& info, const pb::TestPlan& plan);
+
 }  // namespace imuqual::acquire
 
 #endif  // IMUQUAL_ACQUIRE_SOURCE_SPEC_H_

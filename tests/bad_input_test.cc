@@ -13,6 +13,7 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <set>
 #include <sstream>
 
 #include "common/batch_integrity.h"
@@ -516,18 +517,13 @@ TEST(BadInputTest, ACsvWithoutSamplesIsRefusedNamingTheFile) {
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
     EXPECT_NE(r.output.find(file + ": "), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("no samples"), std::string::npos) << r.output;
-    // ... and imuqual run runs nothing: no complete run of 0 samples.
+    // ... and imuqual run's pre-flight refuses it, naming the slot and the
+    // file, before anything starts: no archive, no run of 0 samples.
     const std::string db = dir.path("csv.db");
     r = RunCommand(Bin("imuqual") + " run" + unit + " --lot L --db " + db + " --quiet 2>&1");
     EXPECT_EQ(r.exit_code, 2) << r.output;
-    EXPECT_NE(r.output.find(file + ": "), std::string::npos) << r.output;
-    auto archive = store::Archive::Open(db, store::Archive::Mode::kRead);
-    ASSERT_TRUE(archive.ok()) << archive.status().message();
-    store::RunFilter all;
-    all.lot = "L";
-    auto runs = store::QueryRuns(**archive, all);
-    ASSERT_TRUE(runs.ok());
-    EXPECT_TRUE(runs->empty());
+    EXPECT_NE(r.output.find("slot 1 (unit U1): " + file + ": "), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(db));
   }
 }
 
@@ -610,6 +606,81 @@ TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchiv
       EXPECT_EQ(row.samples, 6000) << row.unit << " " << row.axis;
     }
   }
+}
+
+// Pre-flight: every slot's source is opened before anything starts, and
+// every problem is listed at once at its slot's line of the station file;
+// --skip-failed-slots runs the others and names the ones left out.
+TEST(BadInputTest, PreflightListsEveryBadSlotAtOnceAndCanSkipThem) {
+  testing::TempDir dir("preflight");
+  // A plan for the simulated VG700 units' axes, 30 s of soak.
+  std::ofstream(dir.path("xyz.textproto"))
+      << "name: \"xyz\" axes { name: \"x\" kind: GYRO } axes { name: \"y\" kind: GYRO } "
+         "axes { name: \"z\" kind: GYRO } nominal_rate_hz: 100 min_duration_s: 30\n";
+  {
+    std::ofstream csv(dir.path("r1.csv"));
+    csv << "x,y,z\n";
+    for (int k = 0; k < 6000; ++k) csv << 0.001 * (k % 7) << ",0.002,-0.001\n";
+  }
+  const std::string station = dir.path("station.textproto");
+  auto write = [&](const std::string& sim_duration) {
+    std::ofstream(station)
+        << "station_id: \"s\"\nlot: \"PRE\"\nplan: \"xyz.textproto\"\nduration_s: 60\n"
+        << "archive: \"pre.db\"\n"
+        << "slot { name: \"A1\" unit_serial: \"U1\" source: \"csv:r1.csv,rate=100\" }\n"
+        << "slot { name: \"A2\" unit_serial: \"U2\" source: \"csv:missing.csv,rate=100\" }\n"
+        << "slot { name: \"A3\" unit_serial: \"U3\"\n"
+        << "       source: \"serial:/dev/imuqual-no-such-port,protocol=text,columns=x/y/z\" }\n"
+        << "slot { name: \"A4\" unit_serial: \"U4\" source: \"sim:vg700,duration=" << sim_duration
+        << "\" }\n"
+        << "slot { name: \"A5\" unit_serial: \"U5\" source: \"sim:tactical\" }\n";
+  };
+  // GIVEN a station file with a missing recording (line 7), a serial port
+  // that is not there (line 8), a simulated unit soaked 5 s under a plan
+  // that needs 30 s (line 10) and one whose axes are not the plan's (line 11)
+  write("5");
+  auto r = RunCommand(Bin("imuqual") + " run --station " + station + " --quiet 2>&1");
+  // THEN nothing starts, exit 2, and the four problems are named at once
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("pre-flight: 4 problems, nothing started"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find(station + ":7: slot A2 (unit U2): "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("missing.csv"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(station + ":8: slot A3 (unit U3): "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("/dev/imuqual-no-such-port"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(station + ":10: slot A4 (unit U4): a soak of 5 s is shorter than"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find(station + ":11: slot A5 (unit U5): unit U5: source axes gx(gyro)"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find("slot A1"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.path("pre.db")));
+  // A short soak is the station's problem: --skip-failed-slots does not skip it.
+  r = RunCommand(Bin("imuqual") + " run --station " + station +
+                 " --skip-failed-slots --quiet 2>&1");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.path("pre.db")));
+  // WHEN the soak is long enough and the operator skips the failed slots
+  write("60");
+  r = RunCommand(Bin("imuqual") + " run --station " + station +
+                 " --skip-failed-slots --quiet 2>&1");
+  // THEN A1 and A4 run and are archived; A2, A3 and A5 are named as not run
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  for (const std::string slot :
+       {":7: slot A2 (unit U2)", ":8: slot A3 (unit U3)", ":11: slot A5 (unit U5)"}) {
+    EXPECT_NE(r.output.find("not run (--skip-failed-slots): " + station + slot), std::string::npos)
+        << r.output;
+  }
+  auto archive = store::Archive::Open(dir.path("pre.db"), store::Archive::Mode::kRead);
+  ASSERT_TRUE(archive.ok()) << archive.status().message();
+  store::RunFilter lot;
+  lot.lot = "PRE";
+  auto runs = store::QueryRuns(**archive, lot);
+  ASSERT_TRUE(runs.ok());
+  std::set<std::string> units;
+  for (const store::RunRow& run : *runs) units.insert(run.unit);
+  EXPECT_EQ(units, (std::set<std::string>{"U1", "U4"})) << r.output;
 }
 
 TEST(BadInputTest, AReadOnlyDirectoryIsAClearError) {

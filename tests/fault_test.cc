@@ -3,19 +3,20 @@
 // process of a running soak and checks the archive afterwards: every batch
 // there, or recorded as a gap with the verdict saying so; results equal to
 // an undisturbed run's; nothing left hanging.
-#include <dirent.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/mount.h>
+
+#include <dirent.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <map>
+#include <filesystem>
+#include <cstring>
 #include <cerrno>
 #include <cstdlib>
-#include <cstring>
-#include <filesystem>
 #include <fstream>
-#include <map>
 #include <sstream>
 
 #include "common/clock.h"
@@ -42,14 +43,10 @@ std::vector<std::string> AcquireArgs(const std::string& lot, int units, double d
                                      double pace, const std::string& prefix) {
   // One datagram per batch, as across a station LAN: many small batches to
   // lose and repair.
-  std::vector<std::string> args = {"--lot",         lot,
-                                   "--sim",         std::to_string(units),
-                                   "--duration",    std::to_string(duration_s),
-                                   "--await",       "store,analyze",
-                                   "--run-prefix",  prefix,
-                                   "--seed",        "7",
-                                   "--plan",        "builtin:vg700ca",
-                                   "--batch-bytes", "1399"};
+  std::vector<std::string> args = {"--lot", lot, "--sim", std::to_string(units), "--duration",
+                                   std::to_string(duration_s), "--await", "store,analyze",
+                                   "--run-prefix", prefix, "--seed", "7", "--plan",
+                                   "builtin:vg700ca", "--batch-bytes", "1399"};
   if (pace > 0) args.insert(args.end(), {"--pace", std::to_string(pace)});
   return args;
 }
@@ -122,9 +119,8 @@ TEST(FaultTest, InjectedDropsAreRepairedToZeroGaps) {
   // The acceptance line, through the CLI.
   testing::TempDir dir("fault_drop");
   const std::string db = dir.path("drop.db");
-  const auto run =
-      RunCommand(Bin("imuqual") + " run --sim 4 --duration 600 --rate 200 --lot DROP --db " + db +
-                 " --inject-drop 0.05 --quiet");
+  const auto run = RunCommand(Bin("imuqual") + " run --sim 4 --duration 600 --short-soak --rate 200 --lot DROP --db " +
+                              db + " --inject-drop 0.05 --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   auto log = ReadFileToString(db + ".log");
   ASSERT_TRUE(log.ok());
@@ -190,16 +186,10 @@ TEST(FaultTest, LostResultsArePublishedAgainUntilArchived) {
     auto w = store::Archive::Open(h.db(), store::Archive::Mode::kWrite);
     ASSERT_TRUE(w.ok()) << w.status().ToString();
     const std::string key = std::to_string(**(*w)->FindRunKey(id));
-    ASSERT_TRUE((*w)->db()
-                    .Exec("DELETE FROM curve_points WHERE run_key = " + key + " AND axis = 'y'")
-                    .ok());
-    ASSERT_TRUE(
-        (*w)->db().Exec("DELETE FROM curves WHERE run_key = " + key + " AND axis = 'y'").ok());
-    ASSERT_TRUE((*w)->db()
-                    .Exec("UPDATE runs SET verdict = NULL, record = NULL, result_utime = NULL "
-                          "WHERE run_key = " +
-                          key)
-                    .ok());
+    ASSERT_TRUE((*w)->db().Exec("DELETE FROM curve_points WHERE run_key = " + key + " AND axis = 'y'").ok());
+    ASSERT_TRUE((*w)->db().Exec("DELETE FROM curves WHERE run_key = " + key + " AND axis = 'y'").ok());
+    ASSERT_TRUE((*w)->db().Exec("UPDATE runs SET verdict = NULL, record = NULL, result_utime = NULL "
+                                "WHERE run_key = " + key).ok());
   }
   const auto check = RunCommand(Bin("imuqual") + " reanalyze " + id + " --check --db " + h.db() +
                                 " 2>&1 > /dev/null");
@@ -222,17 +212,14 @@ TEST(FaultTest, DatagramLossInTheKernelLosesNothing) {
     SCOPED_TRACE(std::to_string(percent) + " % loss");
     testing::TempDir dir("kernel_loss");
     const std::string db = dir.path("loss.db");
-    const std::string rule =
-        "nft add table inet imuqual_loss && nft add chain inet imuqual_loss out "
-        "'{ type filter hook output priority 0; }' && nft add rule inet "
-        "imuqual_loss out meta l4proto udp numgen random mod 100 '<' " +
-        std::to_string(percent) + " drop";
+    const std::string rule = "nft add table inet imuqual_loss && nft add chain inet imuqual_loss out "
+                             "'{ type filter hook output priority 0; }' && nft add rule inet "
+                             "imuqual_loss out meta l4proto udp numgen random mod 100 '<' " +
+                             std::to_string(percent) + " drop";
     const auto added = RunCommand(rule + " 2>&1");
     ASSERT_EQ(added.exit_code, 0) << "nftables: " << added.output;
-    const auto run = RunCommand(Bin("imuqual") +
-                                " run --sim 4 --profile vg700 --duration 900 "
-                                "--lot LOSS --quiet --db " +
-                                db + " 2>&1");
+    const auto run = RunCommand(Bin("imuqual") + " run --sim 4 --profile vg700 --duration 900 --short-soak "
+                                "--lot LOSS --quiet --db " + db + " 2>&1");
     (void)RunCommand("nft delete table inet imuqual_loss");
     ASSERT_EQ(run.exit_code, 0) << run.output;
     ExpectSoakArchivedWhole(db, 4, 3);
@@ -436,10 +423,8 @@ TEST(FaultTest, AcquireFrozenPastSilenceIsJudgedAgainOnAllItsData) {
   for (const std::string unit : {"FAQF-U01", "FAQF-U02"}) {
     const std::string id = "FROZEN-" + unit;
     const std::string key = std::to_string(**(*a)->FindRunKey(id));
-    auto s = (*a)->db().Prepare(
-        "SELECT revision, verdict, cause FROM superseded_judgements "
-        "WHERE run_key = " +
-        key);
+    auto s = (*a)->db().Prepare("SELECT revision, verdict, cause FROM superseded_judgements "
+                                "WHERE run_key = " + key);
     ASSERT_TRUE(*s->Step()) << id << " kept no superseded judgement";
     EXPECT_EQ(s->Int(0), 0);
     EXPECT_EQ(s->Text(1), early.at(id).verdict);
@@ -534,7 +519,7 @@ TEST(FaultTest, KillingImuqualRunLeavesNoOrphans) {
   BusAddress bus;
   bus.port = 20000 + ::getpid() % 40000;
   const std::string url = bus.ToUrl();
-  auto run = Subprocess::Start({Bin("imuqual"), "run", "--sim", "2", "--duration", "3600", "--pace",
+  auto run = Subprocess::Start({Bin("imuqual"), "run", "--sim", "2", "--duration", "3600", "--short-soak", "--pace",
                                 "20", "--lot", "ORPHAN", "--db", db, "--lcm-url", url, "--quiet"},
                                dir.path("run.log"));
   ASSERT_TRUE(run.ok());
@@ -568,7 +553,7 @@ TEST(FaultTest, KillingImuqualRunLeavesNoOrphans) {
   // acquire that still announced its runs' end before the store went has
   // them aborted (ABORTED: a stop), else the store finds acquire silent and
   // they are incomplete (ERROR: a station fault, not the units').
-  const auto next = RunCommand(Bin("imuqual") + " run --sim 1 --duration 600 --lot ORPHAN2 --db " +
+  const auto next = RunCommand(Bin("imuqual") + " run --sim 1 --duration 600 --short-soak --lot ORPHAN2 --db " +
                                db + " --lcm-url '" + url + "' 2>&1");
   EXPECT_EQ(next.exit_code, 0) << next.output;
   EXPECT_NE(next.output.find("2 run(s) left open by an earlier station process:"),

@@ -126,7 +126,7 @@ TEST(IntegrityTest, BitsFlippedInFlightAreCaughtAndTheResultsEqualACleanRun) {
 std::string ArchiveOneRun(const testing::TempDir& dir) {
   const std::string db = dir.path("run.db");
   const auto run =
-      RunCommand(Bin("imuqual") + " run --sim 1 --duration 300 --lot REST --db " + db + " --quiet");
+      RunCommand(Bin("imuqual") + " run --sim 1 --duration 300 --short-soak --lot REST --db " + db + " --quiet");
   EXPECT_EQ(run.exit_code, 0) << run.output;
   return db;
 }
@@ -200,9 +200,8 @@ TEST(IntegrityTest, CheckHoldsOnASixAxisLotAndNamesAChangedPointOrMeasurement) {
     auto s = (*a)->db().Prepare("SELECT run_id FROM runs ORDER BY run_id");
     while (*s->Step()) ids.push_back(s->Text(0));
     // The plan's axis order, not the alphabet's.
-    auto axes = (*a)->db().Prepare(
-        "SELECT GROUP_CONCAT(axis, ' ') FROM (SELECT axis FROM "
-        "run_axes WHERE run_key = 1 ORDER BY axis_index)");
+    auto axes = (*a)->db().Prepare("SELECT GROUP_CONCAT(axis, ' ') FROM (SELECT axis FROM "
+                                   "run_axes WHERE run_key = 1 ORDER BY axis_index)");
     ASSERT_TRUE(*axes->Step());
     EXPECT_EQ(axes->Text(0), "gx gy gz ax ay az");
   }
@@ -252,22 +251,18 @@ TEST(IntegrityTest, CheckHoldsOnASixAxisLotAndNamesAChangedPointOrMeasurement) {
       EXPECT_NE(measurements.output.find(row), std::string::npos)
           << "measurements export lacks " << row;
     }
-    EXPECT_NE(html.find(std::string(">") + axis + "<"), std::string::npos)
-        << "report lacks " << axis;
+    EXPECT_NE(html.find(std::string(">") + axis + "<"), std::string::npos) << "report lacks " << axis;
   }
   auto check = [&](const std::string& id) {
-    return RunCommand(Bin("imuqual") + " reanalyze " + id + " --db " + db +
-                      " --check 2>&1 >/dev/null");
+    return RunCommand(Bin("imuqual") + " reanalyze " + id + " --db " + db + " --check 2>&1 >/dev/null");
   };
   for (const std::string& id : ids) {
     const auto c = check(id);
     EXPECT_EQ(c.exit_code, 0) << id << ": " << c.output;
   }
   // WHEN one curve point of gz in the first run is changed
-  Update(db,
-         "UPDATE curve_points SET dev = dev * 1.001 WHERE axis = 'gz' AND m = 4 AND run_key = "
-         "(SELECT run_key FROM runs WHERE run_id = '" +
-             ids[0] + "')");
+  Update(db, "UPDATE curve_points SET dev = dev * 1.001 WHERE axis = 'gz' AND m = 4 AND run_key = "
+             "(SELECT run_key FROM runs WHERE run_id = '" + ids[0] + "')");
   ResealResults(db, ids[0]);
   auto c = check(ids[0]);
   EXPECT_EQ(c.exit_code, 1) << c.output;
@@ -275,9 +270,8 @@ TEST(IntegrityTest, CheckHoldsOnASixAxisLotAndNamesAChangedPointOrMeasurement) {
   EXPECT_NE(c.output.find("(m=4) dev: archived "), std::string::npos) << c.output;
   EXPECT_EQ(c.output.find("axis gx"), std::string::npos) << "only gz differs: " << c.output;
   // AND one measurement of ay in the second run
-  Update(db,
-         "UPDATE measurements SET value = value * 1.001 WHERE axis = 'ay' AND name = "
-         "'bias_instability' AND run_key = (SELECT run_key FROM runs WHERE run_id = '" +
+  Update(db, "UPDATE measurements SET value = value * 1.001 WHERE axis = 'ay' AND name = "
+             "'bias_instability' AND run_key = (SELECT run_key FROM runs WHERE run_id = '" +
              ids[1] + "')");
   ResealResults(db, ids[1]);
   c = check(ids[1]);

@@ -217,7 +217,7 @@ void SoakAndCheck(const TempDir& dir, const std::string& lot, int soaks, const R
     // SIGINT: imuqual run stops its processes as on Ctrl-C.
     const auto run = RunCommand("timeout -s INT -k 30 " + std::to_string(kSoakTimeoutS) + " " +
                                 Bin("imuqual") + " run --sim " + std::to_string(kUnits) +
-                                " --profile vg700 --duration 900 --lot " + lot + std::to_string(k) +
+                                " --profile vg700 --duration 900 --short-soak --lot " + lot + std::to_string(k) +
                                 " --quiet --db " + db + " --lcm-url '" + bus.ToUrl() + "' 2>&1");
     EXPECT_EQ(run.exit_code, 0) << run.output;
     if (run.exit_code == 0) ExpectSoakArchivedWhole(db, kUnits, kAxes);

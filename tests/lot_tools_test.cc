@@ -10,7 +10,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -254,6 +257,40 @@ TEST_F(LotToolsTest, KalibrYamlEqualsTheFit) {
     EXPECT_NEAR(written, total / count[key], 1e-12 * std::abs(written)) << key;  // same doubles
   }
   EXPECT_NE(yaml.find("update_rate: 200"), std::string::npos);
+}
+
+// A lot's Kalibr export: one single-document file per unit (its latest
+// run) in a directory, the topic as asked; refused without a directory.
+TEST_F(LotToolsTest, KalibrLotExportIsOneFilePerUnit) {
+  testing::TempDir out("kalibr_lot");
+  const auto refused = RunCommand(Bin("imuqual") + " export --lot T-L001 --format kalibr -o " +
+                                  out.path("one.yaml") + " --db " + db_ + " 2>&1");
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("give -o DIR/"), std::string::npos) << refused.output;
+  const auto r = RunCommand(Bin("imuqual") +
+                            " export --lot T-L001 --format kalibr --rostopic "
+                            "/vn100/imu --upper-bounds -o " +
+                            out.path("k") + "/ --db " + db_ + " 2>&1");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Csv units = ParseCsv(Imuqual("lot T-L001 --format csv"));
+  std::set<std::string> serials;
+  for (const auto& row : units.rows) serials.insert(row[units.Col("unit")]);
+  ASSERT_FALSE(serials.empty());
+  size_t files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(out.path("k"))) {
+    ++files;
+    const std::string serial = entry.path().stem().string();
+    EXPECT_TRUE(serials.count(serial)) << serial;
+    std::ifstream in(entry.path());
+    const std::string yaml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(yaml.find("---"), std::string::npos) << serial;  // one document
+    EXPECT_NE(yaml.find("rostopic: '/vn100/imu'"), std::string::npos) << yaml;
+    for (const char* key : {"accelerometer_noise_density: ", "accelerometer_random_walk: ",
+                            "gyroscope_noise_density: ", "gyroscope_random_walk: "}) {
+      EXPECT_NE(yaml.find(std::string("\n") + key), std::string::npos) << key << "\n" << yaml;
+    }
+  }
+  EXPECT_EQ(files, serials.size());
 }
 
 TEST_F(LotToolsTest, CsvExportsHaveEveryRow) {

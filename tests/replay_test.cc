@@ -2,13 +2,14 @@
 // station run recorded with lcm-logger and replayed with lcm-logplayer into
 // a fresh analyze and store.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <map>
 #include <sstream>
+
+#include <unistd.h>
 
 #include "acquire/imu_simulator.h"
 #include "common/strings.h"
@@ -67,9 +68,9 @@ TEST(ReplayTest, CsvThroughTheStationArchivesFloat32ExactAndReanalysesAsAnalyze)
   }
   // GIVEN the recording replayed as unit R1 of lot CSV
   const std::string db = dir.path("replay.db");
-  const auto run = RunCommand(
-      Bin("imuqual") + " run --unit R1=csv:" + dir.path("record.csv") +
-      ",rate=100,counter=count,axes=gx:gyro/gy:gyro/gz:gyro --lot CSV --db " + db + " --quiet");
+  const auto run = RunCommand(Bin("imuqual") + " run --unit R1=csv:" + dir.path("record.csv") +
+                              ",rate=100,counter=count,axes=gx:gyro/gy:gyro/gz:gyro --lot CSV --db " +
+                              db + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   // THEN every sample is archived, as the float32 nearest to the CSV value.
   auto archive = store::Archive::Open(db, store::Archive::Mode::kRead);
@@ -85,8 +86,7 @@ TEST(ReplayTest, CsvThroughTheStationArchivesFloat32ExactAndReanalysesAsAnalyze)
   for (int a = 0; a < 3; ++a) {
     ASSERT_EQ(samples->samples[a].size(), static_cast<size_t>(kRows));
     int exact = 0;
-    for (int k = 0; k < kRows; ++k)
-      exact += samples->samples[a][k] == static_cast<float>(axes[a][k]);
+    for (int k = 0; k < kRows; ++k) exact += samples->samples[a][k] == static_cast<float>(axes[a][k]);
     EXPECT_EQ(exact, kRows) << "axis " << a;
   }
   // AND the exact re-analysis of the archive equals imuqual analyze of the
@@ -117,8 +117,7 @@ TEST(ReplayTest, CsvThroughTheStationArchivesFloat32ExactAndReanalysesAsAnalyze)
         out << v;
       }
     }
-    const auto an =
-        RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 --stop none --format csv");
+    const auto an = RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 --stop none --format csv");
     ASSERT_EQ(an.exit_code, 0);
     std::istringstream in(an.output);
     std::string line;
@@ -186,8 +185,8 @@ TEST(ReplayTest, StoredRunsReplayedFromTheArchiveGiveTheSameResults) {
   testing::TempDir dir("replay_archive");
   // GIVEN a lot soaked and archived
   const std::string original = dir.path("original.db");
-  auto run = RunCommand(Bin("imuqual") + " run --sim 2 --duration 1800 --lot ORIG --db " +
-                        original + " --quiet");
+  auto run = RunCommand(Bin("imuqual") + " run --sim 2 --duration 1800 --short-soak --lot ORIG --db " + original +
+                        " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   const auto runs = RunsOf(original, "ORIG");
   ASSERT_EQ(runs.size(), 2u);
@@ -226,8 +225,7 @@ TEST(ReplayTest, StoredRunsReplayedFromTheArchiveGiveTheSameResults) {
 
 TEST(ReplayTest, LoggedStationReplayedWithLcmLogplayerGivesTheLiveResults) {
   const std::string logger = Which("lcm-logger"), player = Which("lcm-logplayer");
-  ASSERT_FALSE(logger.empty() || player.empty())
-      << "lcm-logger and lcm-logplayer (liblcm-bin) are needed";
+  ASSERT_FALSE(logger.empty() || player.empty()) << "lcm-logger and lcm-logplayer (liblcm-bin) are needed";
   const std::string acquire_channels = "IMUQUAL4_(RUN|RAW\\..*)";
   // GIVEN a live station whose acquire traffic the standard logger records
   testing::StationHarness live("replay_live");
@@ -236,14 +234,13 @@ TEST(ReplayTest, LoggedStationReplayedWithLcmLogplayerGivesTheLiveResults) {
     Subprocess store = live.StartStore();
     Subprocess analyze = live.StartAnalyze();
     auto rec = Subprocess::Start(
-        {logger, "--lcm-url=" + live.url(), "--channel=" + acquire_channels, "-f", log},
-        live.log());
+        {logger, "--lcm-url=" + live.url(), "--channel=" + acquire_channels, "-f", log}, live.log());
     ASSERT_TRUE(rec.ok());
     live.Pump(300);  // the logger subscribes
-    Subprocess acquire =
-        live.Start("imuqual-acquire", {"--lot", "LOGGED", "--sim", "2", "--duration", "600",
-                                       "--pace", "200", "--await", "store,analyze", "--run-prefix",
-                                       "LOG", "--plan", "builtin:vg700ca"});
+    Subprocess acquire = live.Start(
+        "imuqual-acquire", {"--lot", "LOGGED", "--sim", "2", "--duration", "600", "--pace", "200",
+                            "--await", "store,analyze", "--run-prefix", "LOG", "--plan",
+                            "builtin:vg700ca"});
     ASSERT_TRUE(live.WaitRunsDone(2, 120)) << live.Logs();
     EXPECT_EQ(acquire.Wait(30), 0);
     EXPECT_EQ(rec->Stop(10), 0);  // SIGTERM: the logger closes its file
@@ -254,9 +251,9 @@ TEST(ReplayTest, LoggedStationReplayedWithLcmLogplayerGivesTheLiveResults) {
   testing::StationHarness replay("replay_played");
   Subprocess store = replay.StartStore({"--stale-after", "30"});
   Subprocess analyze = replay.StartAnalyze({"--stale-after", "30"});
-  auto play = Subprocess::Start(
-      {player, "--lcm-url=" + replay.url(), "--speed=0.5", "--regexp=" + acquire_channels, log},
-      replay.log());
+  auto play = Subprocess::Start({player, "--lcm-url=" + replay.url(), "--speed=0.5",
+                                 "--regexp=" + acquire_channels, log},
+                                replay.log());
   ASSERT_TRUE(play.ok());
   ASSERT_TRUE(replay.WaitRunsDone(2, 120)) << replay.Logs();
   EXPECT_EQ(play->Wait(30), 0);

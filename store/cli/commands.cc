@@ -269,6 +269,9 @@ int RunCommand(const StationRunOptions& options) {
     passed += v == pb::PASS || v == pb::MARGINAL;
   }
   std::printf("%s", ReasonLines(**archive, *rows, run->run_ids).c_str());
+  for (const std::string& skipped : run->skipped) {
+    std::printf("not run (--skip-failed-slots): %s\n", skipped.c_str());
+  }
   std::printf("\n%zu units: %s%s\nyield %s%s\n", unit_of.size(), VerdictCounts(verdicts).c_str(),
               run->interrupted ? " (interrupted: runs aborted)" : "",
               YieldText(counted > 0 ? static_cast<double>(passed) / counted : allan::kNaN).c_str(),

@@ -7,11 +7,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
+#include <map>
 #include <numbers>
 
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
 #include "common/clock.h"
+#include "common/command_line.h"
 #include "common/log.h"
 #include "common/strings.h"
 #include "common/text_util.h"
@@ -165,84 +168,137 @@ std::string Num(double v) { return ShortestReal(v); }
 // Kalibr's noise density is the continuous-time white-noise density (IEEE
 // 952's N) and its random walk the bias random walk (IEEE 952's K), in rad
 // (gyro) and m (accel) units; like allan_variance_ros, the sensor's value is
-// the mean over its axes (each axis is listed in a comment).
-Result<std::string> ExportKalibr(store::Archive& archive, const std::vector<RunRef>& runs) {
-  std::string out;
-  for (const RunRef& r : runs) {
-    auto result = archive.LoadResult(r.key);
-    if (!result.ok()) return result.status();
-    if (!result->has_value()) {
-      LogWarning("run " + r.run_id + " has no final result yet; not exported");
+// the mean over its axes (each axis is listed in a comment). One YAML
+// document (Kalibr's imu.yaml) for one run; errors name the run and the axis.
+Result<std::string> KalibrYaml(store::Archive& archive, const RunRef& r, const ExportOptions& o) {
+  auto result = archive.LoadResult(r.key);
+  if (!result.ok()) return result.status();
+  if (!result->has_value()) {
+    return Status::InvalidArgument("run " + r.run_id + " has no final result yet");
+  }
+  struct Sums {
+    double n = 0, k = 0;
+    int n_count = 0, k_count = 0;
+    std::string comments;
+  } gyro, accel;
+  // A navigation filter tuned from a model that does not fit the sensor is
+  // tuned wrong: only adequate models are exported.
+  for (const pb::Measurement& m : (*result)->measurements) {
+    if (m.name() != judge::kNoiseModelPValue) continue;
+    if (!ModelAdequate(m)) {
+      return Status::InvalidArgument("run " + r.run_id + " axis " + m.axis() +
+                                     ": no adequate noise model for Kalibr (" + m.note() + ")");
+    }
+  }
+  for (const pb::Measurement& m : (*result)->measurements) {
+    const bool gyro_n = m.name() == judge::kFitAngleRandomWalk;
+    const bool accel_n = m.name() == judge::kFitVelocityRandomWalk;
+    const bool rrw = m.name() == judge::kFitRateRandomWalk;
+    if (!(gyro_n || accel_n || rrw)) continue;
+    if (!std::isfinite(m.value())) {
+      return Status::InvalidArgument("run " + r.run_id + " axis " + m.axis() + ": " + m.name() +
+                                     " not measured (" + m.note() + "); no Kalibr YAML");
+    }
+    // A term the model leaves out is only bounded: a filter tuned with the
+    // bound over-weights that noise, which the user has to choose.
+    if (UpperBound(m) && !o.kalibr_upper_bounds) {
+      return Status::InvalidArgument(
+          "run " + r.run_id + " axis " + m.axis() + ": " + m.name() +
+          " is only an upper bound (the noise model has no such term); --upper-bounds exports "
+          "the 95 % bound");
+    }
+    bool is_accel = accel_n;
+    if (rrw) {
+      for (const store::AxisInfo& a : r.info.axes) {
+        if (a.name == m.axis()) is_accel = a.kind == pb::ACCEL;
+      }
+    }
+    Sums& sums = is_accel ? accel : gyro;
+    double si;  // SI/rad base value
+    if (gyro_n) {
+      si = allan::DegPerRootHourToDegPerRootSec(m.value()) * kRadPerDeg;  // rad/s/sqrt(Hz)
+    } else if (accel_n) {
+      si = allan::MetersPerSecPerRootHourToMetersPerSecSqPerRootHz(m.value());  // m/s^2/sqrt(Hz)
+    } else if (!is_accel) {
+      si = allan::DegPerHourPerRootHourToDegPerSecPerRootSec(m.value()) *
+           kRadPerDeg;  // rad/s^2/sqrt(Hz)
+    } else {
+      si = allan::MicroGToMetersPerSecSq(m.value()) / 60.0;  // ug/sqrt(h) -> m/s^3/sqrt(Hz)
+    }
+    if (rrw) {
+      sums.k += si;
+      ++sums.k_count;
+    } else {
+      sums.n += si;
+      ++sums.n_count;
+    }
+    sums.comments +=
+        "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) +
+        (UpperBound(m) ? " (upper bound at 95 %: the noise model has no such term)" : "") + "\n";
+  }
+  // Kalibr's imu.yaml has both sensors: a unit without one cannot fill it.
+  for (const auto& [sums, sensor] :
+       {std::pair{&accel, "accelerometer"}, std::pair{&gyro, "gyroscope"}}) {
+    if (sums->n_count == 0 || sums->k_count == 0) {
+      return Status::InvalidArgument("run " + r.run_id + " (unit " + r.info.serial + "): no " +
+                                     sensor + " noise density and random walk (" +
+                                     (sums->n_count + sums->k_count == 0
+                                          ? "no " + std::string(sensor) + " axis"
+                                          : "a term not measured") +
+                                     "); Kalibr's imu.yaml needs both sensors");
+    }
+  }
+  std::string out = "# " + r.info.serial + ", run " + r.run_id + " (lot " + r.info.lot +
+                    "): composite noise model, mean over the axes\n";
+  out += "#Accelerometer\n" + accel.comments;
+  out += "accelerometer_noise_density: " + Num(accel.n / accel.n_count) + "\n";
+  out += "accelerometer_random_walk: " + Num(accel.k / accel.k_count) + "\n";
+  out += "#Gyroscope\n" + gyro.comments;
+  out += "gyroscope_noise_density: " + Num(gyro.n / gyro.n_count) + "\n";
+  out += "gyroscope_random_walk: " + Num(gyro.k / gyro.k_count) + "\n";
+  out += "rostopic: '" + o.rostopic + "'\nupdate_rate: " + Num(r.info.nominal_rate_hz) + "\n";
+  return out;
+}
+
+// --format kalibr: one run's YAML to -o FILE (or standard output), or each
+// unit's latest run of a lot into -o DIR/ as DIR/<serial>.yaml (one document
+// per file, as Kalibr and PyYAML's safe_load read it). Every problem is
+// reported; the files of the units without one are written.
+int ExportKalibr(store::Archive& archive, const std::vector<RunRef>& runs, const ExportOptions& o) {
+  if (o.run_id.empty() && (o.output.empty() || o.output.back() != '/')) {
+    LogError(
+        "a lot's Kalibr export is one file per unit: give -o DIR/ (the trailing / names a "
+        "directory)");
+    return kExitUsage;
+  }
+  // Each unit's latest run (runs are oldest first): a superseded retest is
+  // not the unit.
+  std::map<std::string, const RunRef*> latest;
+  for (const RunRef& r : runs) latest[r.info.serial] = &r;
+  int failed = 0;
+  for (const auto& [serial, run] : latest) {
+    Result<std::string> yaml = KalibrYaml(archive, *run, o);
+    if (!yaml.ok()) {
+      LogError(yaml.status().message());
+      ++failed;
       continue;
     }
-    struct Sums {
-      double n = 0, k = 0;
-      int n_count = 0, k_count = 0;
-      std::string comments;
-    } gyro, accel;
-    // A navigation filter tuned from a model that does not fit the sensor
-    // is tuned wrong: only adequate models are exported.
-    for (const pb::Measurement& m : (*result)->measurements) {
-      if (m.name() != judge::kNoiseModelPValue) continue;
-      if (!ModelAdequate(m)) {
-        return Status::InvalidArgument("run " + r.run_id + " axis " + m.axis() +
-                                       ": no adequate noise model for Kalibr (" + m.note() + ")");
-      }
+    if (!o.run_id.empty() && (o.output.empty() || o.output == "-")) {
+      std::fwrite(yaml->data(), 1, yaml->size(), stdout);
+      continue;
     }
-    for (const pb::Measurement& m : (*result)->measurements) {
-      const bool gyro_n = m.name() == "fit_angle_random_walk";
-      const bool accel_n = m.name() == "fit_velocity_random_walk";
-      const bool rrw = m.name() == "fit_rate_random_walk";
-      if (!(gyro_n || accel_n || rrw)) continue;
-      if (!std::isfinite(m.value())) {
-        return Status::InvalidArgument("run " + r.run_id + " axis " + m.axis() + ": " + m.name() +
-                                       " not measured (" + m.note() + "); no Kalibr YAML");
-      }
-      bool is_accel = accel_n;
-      if (rrw) {
-        for (const store::AxisInfo& a : r.info.axes) {
-          if (a.name == m.axis()) is_accel = a.kind == pb::ACCEL;
-        }
-      }
-      Sums& s = is_accel ? accel : gyro;
-      double si;  // SI/rad base value
-      if (gyro_n) {
-        si = allan::DegPerRootHourToDegPerRootSec(m.value()) * kRadPerDeg;  // rad/s/sqrt(Hz)
-      } else if (accel_n) {
-        si = allan::MetersPerSecPerRootHourToMetersPerSecSqPerRootHz(m.value());  // m/s^2/sqrt(Hz)
-      } else if (!is_accel) {
-        si = allan::DegPerHourPerRootHourToDegPerSecPerRootSec(m.value()) *
-             kRadPerDeg;  // rad/s^2/sqrt(Hz)
-      } else {
-        si = allan::MicroGToMetersPerSecSq(m.value()) / 60.0;  // ug/sqrt(h) -> m/s^3/sqrt(Hz)
-      }
-      if (rrw) {
-        s.k += si;
-        ++s.k_count;
-      } else {
-        s.n += si;
-        ++s.n_count;
-      }
-      s.comments +=
-          "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) +
-          (UpperBound(m) ? " (upper bound at 95 %: the noise model has no such term)" : "") + "\n";
+    std::string path = o.output;
+    if (path.back() == '/') {
+      std::error_code ec;
+      std::filesystem::create_directories(path, ec);
+      path += serial + ".yaml";
     }
-    out += "---\n# " + r.info.serial + ", run " + r.run_id + " (lot " + r.info.lot +
-           "): composite noise model, mean over the axes\n";
-    if (accel.n_count + accel.k_count > 0) {
-      out += "#Accelerometer\n" + accel.comments;
-      if (accel.n_count)
-        out += "accelerometer_noise_density: " + Num(accel.n / accel.n_count) + "\n";
-      if (accel.k_count) out += "accelerometer_random_walk: " + Num(accel.k / accel.k_count) + "\n";
+    if (Status st = WriteStringToFile(path, *yaml); !st.ok()) {
+      LogError(st.message());
+      ++failed;
     }
-    if (gyro.n_count + gyro.k_count > 0) {
-      out += "#Gyroscope\n" + gyro.comments;
-      if (gyro.n_count) out += "gyroscope_noise_density: " + Num(gyro.n / gyro.n_count) + "\n";
-      if (gyro.k_count) out += "gyroscope_random_walk: " + Num(gyro.k / gyro.k_count) + "\n";
-    }
-    out += "rostopic: '/imu0'\nupdate_rate: " + Num(r.info.nominal_rate_hz) + "\n";
   }
-  return out;
+  return failed == 0 ? kExitOk : kExitError;
 }
 
 // The shortest text that reads back as the same float32 (the archived bits).
@@ -367,12 +423,13 @@ int ExportCommand(const ExportOptions& o) {
     }
     return 0;
   }
+  if (o.as == "kalibr") return ExportKalibr(**archive, *runs, o);
   Result<std::string> text =
       Status::InvalidArgument("--format must be json, measurements, curves, kalibr or samples");
   if (o.as == "json") text = ExportJson(**archive, *runs);
   if (o.as == "measurements") text = ExportMeasurements(**archive, *runs);
   if (o.as == "curves") text = ExportCurves(**archive, *runs);
-  if (o.as == "kalibr") text = ExportKalibr(**archive, *runs);
+
   if (!text.ok()) {
     LogError(text.status().message());
     return text.status().code() == Status::Code::kInvalidArgument ? 2 : 1;

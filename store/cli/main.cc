@@ -82,6 +82,12 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--report", run.report_path,
                       "HTML report written at the end (default: beside the archive)");
   run_cmd->add_flag("--quiet", quiet, "no live console or progress line");
+  run_cmd->add_flag("--short-soak", run.short_soak,
+                    "run although the soak is shorter than the plan's warm-up + minimum duration "
+                    "(its runs are judged too short: FAIL)");
+  run_cmd->add_flag("--skip-failed-slots", run.skip_failed_slots,
+                    "pre-flight: run without the units whose source cannot be opened (each "
+                    "named) instead of stopping");
   run_cmd->footer(cli::kRunExitCodesHelp);
 
   std::string db, format = "table", lot;
@@ -147,7 +153,11 @@ int main(int argc, char** argv) {
                    "arrival_utime, <axis>_deg_s|_m_s2, temperature_c, flags); --as is the "
                    "former name")
       ->capture_default_str();
-  export_cmd->add_option("-o,--output", ex.output, "file (default: standard output)");
+  export_cmd->add_option("-o,--output", ex.output,
+                         "file (default: standard output); kalibr of a lot: a directory, DIR/");
+  export_cmd->add_option("--rostopic", ex.rostopic, "kalibr: the IMU topic")->capture_default_str();
+  export_cmd->add_flag("--upper-bounds", ex.kalibr_upper_bounds,
+                       "kalibr: export a term the noise model only bounds (its 95 % upper bound)");
 
   cli::AnalyzeFileOptions an;
   CLI::App* analyze_cmd =
@@ -302,17 +312,21 @@ int main(int argc, char** argv) {
           return 2;
         }
       }
-      auto config = cli::LoadStationConfig(station_file);
+      std::vector<int> slot_lines;
+      auto config = cli::LoadStationConfig(station_file, &slot_lines);
       if (!config.ok()) {
         LogError(config.status().message());
         return 2;
       }
-      cli::StationRunOptions from_file = cli::StationRunFromConfig(*config);
+      cli::StationRunOptions from_file =
+          cli::StationRunFromConfig(*config, station_file, slot_lines);
       // What the command line may still set: pacing, fault injection, patience, shards, report.
       if (run_cmd->count("--pace") > 0) from_file.pace = run.pace;
       if (run_cmd->count("--analyze-shards") > 0) from_file.analyze_shards = run.analyze_shards;
       if (run_cmd->count("--report") > 0) from_file.report_path = run.report_path;
       from_file.inject_drop = run.inject_drop;
+      from_file.skip_failed_slots = run.skip_failed_slots;
+      from_file.short_soak = run.short_soak;
       from_file.stall_timeout_s = run.stall_timeout_s;
       run = std::move(from_file);
     } else if (run.lot.empty() || run.db_path.empty()) {

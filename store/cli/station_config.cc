@@ -27,7 +27,8 @@ std::string Resolve(const std::string& dir, const std::string& path) {
 
 }  // namespace
 
-Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std::string& path) {
+Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std::string& path,
+                                             std::vector<int>* slot_lines) {
   pb::StationConfig c;
   pb::TextProto parsed;
   IMUQUAL_RETURN_IF_ERROR(parsed.Parse(text, path, &c));
@@ -106,17 +107,22 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
       }
     }
   }
+  if (slot_lines) {
+    slot_lines->clear();
+    for (int i = 0; i < c.slot_size(); ++i) slot_lines->push_back(parsed.LineOf(type, "slot", i));
+  }
   return c;
 }
 
-Result<pb::StationConfig> LoadStationConfig(const std::string& path) {
+Result<pb::StationConfig> LoadStationConfig(const std::string& path, std::vector<int>* slot_lines) {
   auto text = ReadFileToString(path);
   if (!text.ok())
     return Status::NotFound("station configuration " + path + ": " + text.status().message());
-  return ParseStationConfig(*text, path);
+  return ParseStationConfig(*text, path, slot_lines);
 }
 
-StationRunOptions StationRunFromConfig(const pb::StationConfig& c) {
+StationRunOptions StationRunFromConfig(const pb::StationConfig& c, const std::string& path,
+                                       const std::vector<int>& slot_lines) {
   StationRunOptions o;
   o.station = c.station_id();
   o.lcm_url = c.lcm_url();
@@ -130,9 +136,14 @@ StationRunOptions StationRunFromConfig(const pb::StationConfig& c) {
   o.pace = c.pace();
   if (c.has_rate_hz()) o.rate_hz = c.rate_hz();
   if (c.stale_after_s() > 0) o.stale_after_s = c.stale_after_s();
-  for (const pb::Slot& s : c.slot()) {
+  for (int i = 0; i < c.slot_size(); ++i) {
+    const pb::Slot& s = c.slot(i);
     o.units.push_back(s.unit_serial() + "=" + s.source());
     o.slots.push_back(s.name());
+    const int line = i < static_cast<int>(slot_lines.size()) ? slot_lines[i] : 0;
+    o.unit_locations.push_back(path.empty() ? ""
+                               : line > 0   ? path + ":" + std::to_string(line)
+                                            : path);
   }
   return o;
 }

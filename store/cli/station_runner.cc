@@ -30,6 +30,7 @@
 #include "imuqual/status_t.hpp"
 #include "imuqual/unit_result_t.hpp"
 #include "store/archive.h"
+#include "store/cli/preflight.h"
 #include "store/cli/station_console.h"
 #include "store/outcome.h"
 #include "store/store_service.h"
@@ -170,27 +171,67 @@ Status StationRunOptions::Validate() const {
   if (!slots.empty() && slots.size() != units.size()) {
     return Status::InvalidArgument("slots: one per --unit");
   }
+  if (!unit_locations.empty() && unit_locations.size() != units.size()) {
+    return Status::InvalidArgument("unit_locations: one per --unit");
+  }
   return Status::Ok();
 }
 
-Result<StationRunResult> RunStation(const StationRunOptions& o) {
-  IMUQUAL_RETURN_IF_ERROR(o.Validate());
-  auto profile = sim::LotProfileByName(o.profile);
+Result<StationRunResult> RunStation(const StationRunOptions& given) {
+  IMUQUAL_RETURN_IF_ERROR(given.Validate());
+  auto profile = sim::LotProfileByName(given.profile);
   if (!profile.ok()) return profile.status();
-  std::string plan_spec = o.plan_spec;
-  if (plan_spec.empty() && o.profile == "vg700" && o.units.empty()) plan_spec = "builtin:vg700ca";
+  std::string plan_spec = given.plan_spec;
+  if (plan_spec.empty() && given.profile == "vg700" && given.units.empty()) {
+    plan_spec = "builtin:vg700ca";
+  }
   std::string plan_name = "(none)";
+  std::optional<pb::TestPlan> plan;
   if (!plan_spec.empty()) {
-    auto plan = judge::LoadPlan(plan_spec);  // fail here, not in a child
-    if (!plan.ok()) return plan.status();
+    auto loaded = judge::LoadPlan(plan_spec);  // fail here, not in a child
+    if (!loaded.ok()) return loaded.status();
+    plan = std::move(*loaded);
     plan_name = plan->name().empty() ? plan_spec : plan->name();
-    if (plan->require_operator() && IsBlank(o.operator_name)) {
+    if (plan->require_operator() && IsBlank(given.operator_name)) {
       return Status::InvalidArgument("plan " + plan_name +
                                      " requires an operator: give --operator NAME (or "
                                      "operator_name in the station file)");
     }
   }
   StationRunResult result;
+  // Pre-flight: every problem of the station at once, before any process.
+  StationRunOptions checked = given;
+  {
+    const PreflightResult pre = Preflight(given, plan ? &*plan : nullptr);
+    const bool skip = given.skip_failed_slots && !pre.station_problem &&
+                      pre.failed_units.size() < given.units.size() + (given.sim_units > 0 ? 1 : 0);
+    if (!pre.problems.empty() && !skip) {
+      std::string text = "pre-flight: " + std::to_string(pre.problems.size()) + " problem" +
+                         (pre.problems.size() == 1 ? "" : "s") + ", nothing started:";
+      for (const std::string& p : pre.problems) text += "\n  " + p;
+      if (!pre.station_problem && !pre.failed_units.empty() &&
+          pre.failed_units.size() < given.units.size() + (given.sim_units > 0 ? 1 : 0)) {
+        text += "\n  (--skip-failed-slots runs the other slots without them)";
+      }
+      return Status::InvalidArgument(text);
+    }
+    // Skipped: the failed units leave units, slots and locations together.
+    for (size_t k = pre.failed_units.size(); k-- > 0;) {
+      const size_t i = pre.failed_units[k];
+      checked.units.erase(checked.units.begin() + static_cast<std::ptrdiff_t>(i));
+      if (i < checked.slots.size())
+        checked.slots.erase(checked.slots.begin() + static_cast<std::ptrdiff_t>(i));
+      if (i < checked.unit_locations.size()) {
+        checked.unit_locations.erase(checked.unit_locations.begin() +
+                                     static_cast<std::ptrdiff_t>(i));
+      }
+    }
+    for (const std::string& p : pre.problems) {
+      LogWarning("skipped: " + p);
+      result.skipped.push_back(p);
+    }
+  }
+  const StationRunOptions& o = checked;
   // Runs of this station that an earlier station process left open (killed
   // outright, a power cut): the store resumes them, finds their source
   // silent and ends them incomplete, and the analysis judges them ERROR.

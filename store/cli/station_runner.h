@@ -23,9 +23,19 @@ struct StationRunOptions {
   int sim_units = 0;               // simulated units
   std::vector<std::string> units;  // more units as SERIAL=SOURCE (csv:FILE,..., sim:PROFILE,...)
   std::vector<std::string> slots;  // fixture positions of `units`, in order ("" = numbered)
-  std::string profile = "vg700";   // simulated lot profile
-  double duration_s = 0;           // simulated seconds per unit
-  std::optional<double> rate_hz;   // Hz, > 0; none: the profile's rate
+  // Where each of `units` was configured, "FILE:LINE" of its slot in a
+  // station file (empty, or "" for one: the command line); pre-flight
+  // problems are located there.
+  std::vector<std::string> unit_locations;
+  // Pre-flight (preflight.h): run without the units whose source cannot be
+  // opened (each named on stderr and in the result) rather than stop.
+  bool skip_failed_slots = false;
+  // Pre-flight: a soak shorter than the plan's warm-up + minimum duration is
+  // run anyway (its runs FAIL as too short) instead of being refused.
+  bool short_soak = false;
+  std::string profile = "vg700";  // simulated lot profile
+  double duration_s = 0;          // simulated seconds per unit
+  std::optional<double> rate_hz;  // Hz, > 0; none: the profile's rate
   std::string lot;
   std::string db_path;
   std::string plan_spec;  // file or builtin:NAME; "" = the profile's default
@@ -56,6 +66,8 @@ struct StationRunResult {
   // Runs of this station an earlier station process left open (a crash),
   // found when the archive was opened: judged (ERROR) during this run.
   std::vector<std::string> left_open;
+  // Units left out by --skip-failed-slots, one line each: slot, unit, why.
+  std::vector<std::string> skipped;
 };
 
 Result<StationRunResult> RunStation(const StationRunOptions& options);
