@@ -20,8 +20,16 @@ Result<std::unique_ptr<CsvSource>> CsvSource::Open(const CsvSourceOptions& optio
   auto file = std::make_unique<std::ifstream>(options.path);
   if (!*file) return Status::IoError("cannot read " + options.path);
   std::unique_ptr<CsvSource> s(new CsvSource(options, std::move(file)));
+  for (double f : options.axis_factors) {
+    if (!std::isfinite(f)) {
+      return Status::InvalidArgument("csv source " + options.path + ": an axis factor is not finite");
+    }
+  }
   std::vector<std::string> wanted;
-  for (const pb::Axis& a : options.axes) wanted.push_back(a.name());
+  for (size_t a = 0; a < options.axes.size(); ++a) {
+    const bool own = a < options.axis_columns.size() && !options.axis_columns[a].empty();
+    wanted.push_back(own ? options.axis_columns[a] : options.axes[a].name());
+  }
   if (!options.counter_column.empty()) wanted.push_back(options.counter_column);
   if (!options.time_column.empty()) {
     s->time_index_ = static_cast<int>(wanted.size());
@@ -113,7 +121,10 @@ Result<int> CsvSource::Read(int max_samples, SampleBlock* block) {
       }
     }
     for (size_t a = 0; a < axes; ++a) {
-      block->samples[a].push_back(static_cast<float>(row_[a] * options_.scale));
+      const double factor = a < options_.axis_factors.size() && options_.axis_factors[a] != 0
+                                ? options_.axis_factors[a]
+                                : options_.scale;
+      block->samples[a].push_back(static_cast<float>(row_[a] * factor));
     }
     if (temperature_index_ >= 0 && std::isfinite(row_[temperature_index_])) {
       temperature_sum += row_[temperature_index_];

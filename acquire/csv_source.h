@@ -25,7 +25,13 @@ struct CsvSourceOptions {
   std::string counter_column;     // "" = the row index is the counter
   std::string time_column;        // seconds: when the row was recorded ("" = none); gives
                                   // the device's measured rate and jitter
-  double scale = 1.0;             // applied to every axis value
+  double scale = 1.0;             // applied to every axis value without its own factor
+  // Per axis, parallel to `axes` (empty, or "" / 0 for an axis: none): the
+  // column it is read from (default: the axis's name) and the factor from
+  // that column's values to the axis's unit (deg/s, m/s^2), which replaces
+  // `scale` for it.
+  std::vector<std::string> axis_columns;
+  std::vector<double> axis_factors;
   std::string temperature_column; // deg C per row ("" = none); each block carries the mean
                                   // of its rows' finite values (an empty cell: none)
 };

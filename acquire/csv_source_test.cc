@@ -5,7 +5,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "acquire/source_spec.h"
 #include "tests/test_util.h"
@@ -143,6 +147,47 @@ TEST(SourceSpecTest, ARateThatIsNoRateIsRefused) {
   auto source = MakeSource(*spec, defaults);
   ASSERT_TRUE(source.ok()) << source.status().message();
   EXPECT_GT((*source)->info().nominal_rate_hz, 0);
+}
+
+// A recording with gyros in rad/s and accelerometers in g, columns named
+// otherwise than the plan's axes, and a raw counts column with its LSB.
+TEST(SourceSpecTest, EachAxisFromItsColumnInItsUnit) {
+  TempDir dir("source_spec_map");
+  const std::string csv =
+      Write(dir, "imu.csv", "t,wx,wy,fx,counts\n0,0.5,-1,1,2000\n0.01,0.25,2,-0.5,-4000\n");
+  SourceDefaults defaults;
+  auto spec = ParseSourceSpec("csv:" + csv +
+                              ",rate=100,axes=gx:gyro/gy:gyro/ax:accel/az:accel,gx=wx:rad/s,"
+                              "gy=wy:deg/h,ax=fx:g,az=counts:mg:0.5");
+  ASSERT_TRUE(spec.ok()) << spec.status().message();
+  auto source = MakeSource(*spec, defaults);
+  ASSERT_TRUE(source.ok()) << source.status().message();
+  SampleBlock block;
+  auto n = (*source)->Read(10, &block);
+  ASSERT_TRUE(n.ok()) << n.status().message();
+  ASSERT_EQ(*n, 2);
+  // THEN each axis is in deg/s or m/s^2, as every source delivers (float32).
+  const double deg = 180 / M_PI;
+  EXPECT_FLOAT_EQ(block.samples[0][0], static_cast<float>(0.5 * deg));
+  EXPECT_FLOAT_EQ(block.samples[0][1], static_cast<float>(0.25 * deg));
+  EXPECT_FLOAT_EQ(block.samples[1][1], static_cast<float>(2.0 / 3600));
+  EXPECT_FLOAT_EQ(block.samples[2][0], static_cast<float>(9.80665));
+  EXPECT_FLOAT_EQ(block.samples[3][1], static_cast<float>(-4000 * 0.5 * 9.80665e-3));
+  // A unit of the wrong kind, an unknown one, a bad scale and an option that
+  // is neither an option nor an axis are refused, each naming what is wrong.
+  for (const auto& [mapping, says] : std::vector<std::pair<std::string, std::string>>{
+           {"gx=wx:g", "unit 'g' is not a unit for a gyro axis (deg/s, rad/s"},
+           {"ax=fx:furlong", "unit 'furlong' is not a unit for an accelerometer axis"},
+           {"az=counts:mg:zero", "scale 'zero' must be a finite, non-zero number"},
+           {"gq=wx", "unknown option 'gq'"}}) {
+    auto bad = ParseSourceSpec("csv:" + csv + ",rate=100,axes=gx:gyro/gy:gyro/ax:accel/az:accel," +
+                               mapping);
+    ASSERT_TRUE(bad.ok()) << mapping;
+    auto refused = MakeSource(*bad, defaults);
+    ASSERT_FALSE(refused.ok()) << mapping;
+    EXPECT_NE(refused.status().message().find(says), std::string::npos)
+        << refused.status().message();
+  }
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "acquire/lot_profile.h"
 #include "acquire/serial_source.h"
 #include "acquire/sim_source.h"
+#include "analyze/allan/units.h"
 #include "acquire/text_protocol.h"
 #include "acquire/xsens_protocol.h"
 #include "common/strings.h"
@@ -114,9 +115,42 @@ Result<std::unique_ptr<SampleSource>> MakeSim(const SourceSpec& spec, const Sour
   return std::unique_ptr<SampleSource>(std::move(*source));
 }
 
+// An axis's column mapping, AXIS=COLUMN[:UNIT[:SCALE]]: the column, and the
+// factor UNIT-to-base x SCALE (UNIT a sensor output unit of the axis's kind,
+// allan::OutputUnitToBase; SCALE a number, e.g. an LSB).
+Status MapCsvAxis(const SourceSpec& spec, const pb::Axis& axis, const std::string& text,
+                  std::string* column, double* factor) {
+  const std::vector<std::string> parts = Split(text, ':');
+  const std::string what = Where(spec) + ": " + axis.name() + "='" + text + "'";
+  if (parts.empty() || parts[0].empty() || parts.size() > 3) {
+    return Status::InvalidArgument(what + " must be COLUMN[:UNIT[:SCALE]]");
+  }
+  *column = parts[0];
+  *factor = 1.0;
+  const allan::SensorKind kind =
+      axis.kind() == pb::ACCEL ? allan::SensorKind::kAccelerometer : allan::SensorKind::kGyro;
+  if (parts.size() > 1 && !parts[1].empty()) {
+    *factor = allan::OutputUnitToBase(parts[1], kind);
+    if (!std::isfinite(*factor)) {
+      return Status::InvalidArgument(
+          what + ": unit '" + parts[1] + "' is not a unit for " +
+          (kind == allan::SensorKind::kGyro ? "a gyro" : "an accelerometer") + " axis (" +
+          std::string(allan::OutputUnitNames(kind)) + ")");
+    }
+  }
+  if (parts.size() > 2) {
+    char* end = nullptr;
+    const double scale = std::strtod(parts[2].c_str(), &end);
+    if (parts[2].empty() || *end != '\0' || !std::isfinite(scale) || scale == 0) {
+      return Status::InvalidArgument(what + ": scale '" + parts[2] +
+                                     "' must be a finite, non-zero number");
+    }
+    *factor *= scale;
+  }
+  return Status::Ok();
+}
+
 Result<std::unique_ptr<SampleSource>> MakeCsv(const SourceSpec& spec, const SourceDefaults& d) {
-  IMUQUAL_RETURN_IF_ERROR(
-      CheckKeys(spec, {"rate", "axes", "counter", "scale", "time", "temperature"}));
   CsvSourceOptions o;
   o.path = spec.location;
   auto rate = Number(spec, "rate", d.plan.nominal_rate_hz());
@@ -141,6 +175,19 @@ Result<std::unique_ptr<SampleSource>> MakeCsv(const SourceSpec& spec, const Sour
   if (o.axes.empty()) {
     return Status::InvalidArgument("source csv:" + o.path +
                                    ": name its axes (axes=gx:gyro/...) or use a plan with axes");
+  }
+  // The options, and one AXIS=COLUMN[:UNIT[:SCALE]] per axis that is not
+  // read from the column of its name or not in the axis's unit.
+  std::set<std::string> known = {"rate", "axes", "counter", "scale", "time", "temperature"};
+  for (const pb::Axis& a : o.axes) known.insert(a.name());
+  IMUQUAL_RETURN_IF_ERROR(CheckKeys(spec, known));
+  o.axis_columns.assign(o.axes.size(), "");
+  o.axis_factors.assign(o.axes.size(), 0.0);
+  for (size_t a = 0; a < o.axes.size(); ++a) {
+    const auto it = spec.options.find(o.axes[a].name());
+    if (it == spec.options.end()) continue;
+    IMUQUAL_RETURN_IF_ERROR(
+        MapCsvAxis(spec, o.axes[a], it->second, &o.axis_columns[a], &o.axis_factors[a]));
   }
   auto source = CsvSource::Open(o);
   if (!source.ok()) return source.status();

@@ -7,8 +7,12 @@
 //       quantize=0: no quantization term (float output); lsb: an ADC of that
 //       LSB and width (saturating, flagged)
 //   csv:PATH,rate=HZ[,axes=NAME:gyro/NAME:accel...][,counter=COLUMN][,time=COLUMN][,scale=F]
+//          [,temperature=COLUMN][,AXIS=COLUMN[:UNIT[:SCALE]]...]
 //       a recording; axes default to the plan's axes (by column name), else
-//       every column except the counter, as gyros; time: seconds per row
+//       every column except the counter, as gyros; time: seconds per row;
+//       AXIS=...: that axis from another column, in UNIT (gyro deg/s, rad/s,
+//       mrad/s, deg/h, rpm; accelerometer m/s^2, g, mg, ug), times SCALE
+//       (e.g. an LSB), instead of scale: gx=wx:rad/s,ax=fx:g,az=acc_z::0.001
 //   serial:DEVICE,protocol=text|xsens[,rate=HZ][,duration=S][,baud=N]
 //          [,parity=none|even|odd][,data_bits=8][,stop_bits=1]
 //          [,flow=none|rtscts|xonxoff][,axes=...][,reconnect_timeout=S]

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -183,6 +184,47 @@ TEST(AnalyzeCliTest, BadInputGetsAOneLineError) {
   const auto missing = RunCommand(Bin("imuqual") + " analyze /nonexistent/file 2>&1");
   EXPECT_NE(missing.exit_code, 0);
   EXPECT_NE(missing.output.find("/nonexistent/file"), std::string::npos);
+}
+
+// --unit and --scale: a series in rad/s (or in counts of an LSB) gives the
+// curve of the same series in deg/s, point for point.
+TEST(AnalyzeCliTest, UnitAndScaleConvertToTheBaseUnit) {
+  testing::TempDir dir("analyze_cli_unit");
+  const std::string data = ReferencePath("data/white_1e4.txt");
+  auto text = ReadFileToString(data);
+  ASSERT_TRUE(text.ok());
+  // The same values in rad/s, and in counts of 0.25 deg/s.
+  std::istringstream in(*text);
+  std::ofstream rad(dir.path("rad.txt")), counts(dir.path("counts.txt"));
+  rad.precision(17);
+  counts.precision(17);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty()) continue;
+    const double v = std::stod(line);
+    rad << v * M_PI / 180 << "\n";
+    counts << v * 4 << "\n";
+  }
+  rad.close();
+  counts.close();
+  const std::string common = " --rate 10 --format csv --kind gyro";
+  const Output base = Parse(RunCommand(Bin("imuqual") + " analyze " + data + common).output);
+  const Output from_rad =
+      Parse(RunCommand(Bin("imuqual") + " analyze " + dir.path("rad.txt") + common + " --unit rad/s").output);
+  const Output from_counts = Parse(
+      RunCommand(Bin("imuqual") + " analyze " + dir.path("counts.txt") + common + " --scale 0.25").output);
+  ASSERT_GT(base.rows.size(), 5u);
+  ASSERT_EQ(from_rad.rows.size(), base.rows.size());
+  ASSERT_EQ(from_counts.rows.size(), base.rows.size());
+  for (size_t i = 0; i < base.rows.size(); ++i) {
+    EXPECT_NEAR(from_rad.Num(i, "dev") / base.Num(i, "dev"), 1.0, 1e-12) << i;
+    EXPECT_NEAR(from_counts.Num(i, "dev") / base.Num(i, "dev"), 1.0, 1e-12) << i;
+  }
+  // A unit of the other kind, or without --kind, is a usage error naming it.
+  for (const std::string& args : {std::string(" --kind gyro --unit g"), std::string(" --unit rad/s")}) {
+    const auto r = RunCommand(Bin("imuqual") + " analyze " + data + args + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << args << ": " << r.output;
+    EXPECT_NE(r.output.find("--unit"), std::string::npos) << r.output;
+  }
 }
 
 TEST(AnalyzeCliTest, FitAndPlot) {

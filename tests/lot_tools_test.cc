@@ -189,6 +189,14 @@ TEST_F(LotToolsTest, DashIsStandardOutputAndMistypedCommandsAreNamed) {
   const auto nothing_close = RunCommand(Bin("imuqual") + " frobnicate 2>&1");
   EXPECT_EQ(nothing_close.exit_code, 2);
   EXPECT_EQ(nothing_close.output.find("did you mean"), std::string::npos) << nothing_close.output;
+  // `imuqual help [COMMAND]` is --help.
+  const auto help = RunCommand(Bin("imuqual") + " help");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_EQ(help.output, RunCommand(Bin("imuqual") + " --help").output);
+  const auto help_export = RunCommand(Bin("imuqual") + " help export");
+  EXPECT_EQ(help_export.exit_code, 0);
+  EXPECT_EQ(help_export.output, RunCommand(Bin("imuqual") + " export --help").output);
+  EXPECT_EQ(RunCommand(Bin("imuqual") + " help exprot 2>&1").exit_code, 2);
 }
 
 TEST_F(LotToolsTest, JsonRecordsParseBackToTheArchivedRecords) {

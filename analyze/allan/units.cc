@@ -54,4 +54,24 @@ DatasheetValue ToDatasheetUnits(NoiseTerm term, SensorKind kind, double base_val
   }
 }
 
+double OutputUnitToBase(std::string_view unit, SensorKind kind) {
+  if (kind == SensorKind::kGyro) {
+    if (unit == "deg/s") return 1.0;
+    if (unit == "rad/s") return 1.0 / kRadPerDeg;
+    if (unit == "mrad/s") return 1e-3 / kRadPerDeg;
+    if (unit == "deg/h") return 1.0 / kSecondsPerHour;
+    if (unit == "rpm") return 6.0;  // 360 deg per 60 s
+    return kNaN;
+  }
+  if (unit == "m/s^2" || unit == "m/s2") return 1.0;
+  if (unit == "g") return kStandardGravityMetersPerSecSq;
+  if (unit == "mg") return 1e-3 * kStandardGravityMetersPerSecSq;
+  if (unit == "ug") return kMicroGInMetersPerSecSq;
+  return kNaN;
+}
+
+std::string_view OutputUnitNames(SensorKind kind) {
+  return kind == SensorKind::kGyro ? "deg/s, rad/s, mrad/s, deg/h, rpm" : "m/s^2, g, mg, ug";
+}
+
 }  // namespace imuqual::allan

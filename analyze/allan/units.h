@@ -97,6 +97,15 @@ std::string_view BaseUnit(NoiseTerm term, SensorKind kind);
 //   accel: Q m/s, N m/s/sqrt(h), B ug, K ug/sqrt(h), R ug/h.
 DatasheetValue ToDatasheetUnits(NoiseTerm term, SensorKind kind, double base_value);
 
+// --- Sensor output units ------------------------------------------------------
+// The factor from a sensor's output unit to the base unit of its kind (deg/s
+// for a gyro, m/s^2 for an accelerometer): gyro "deg/s", "rad/s", "mrad/s",
+// "deg/h", "rpm"; accelerometer "m/s^2" (or "m/s2"), "g" (9.80665 m/s^2),
+// "mg", "ug". NaN for a name that is not a unit of that kind.
+double OutputUnitToBase(std::string_view unit, SensorKind kind);
+// The names OutputUnitToBase knows for `kind`, comma separated.
+std::string_view OutputUnitNames(SensorKind kind);
+
 }  // namespace imuqual::allan
 
 #endif  // IMUQUAL_ANALYZE_ALLAN_UNITS_H_

@@ -32,6 +32,7 @@ struct Parsed {
   CurveRequest curves;
   Format format;
   std::optional<allan::SensorKind> kind;
+  double factor = 1.0;  // values to the base unit: scale x unit
 };
 
 Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
@@ -51,6 +52,22 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   }
   if (!(o.rate_hz > 0) || !std::isfinite(o.rate_hz)) {
     return Status::InvalidArgument("--rate must be a positive rate in Hz");
+  }
+  if (!std::isfinite(o.scale) || o.scale == 0) {
+    return Status::InvalidArgument("--scale must be a finite, non-zero number");
+  }
+  p.factor = o.scale;
+  if (!o.unit.empty()) {
+    if (!p.kind) {
+      return Status::InvalidArgument("--unit " + o.unit + ": give --kind gyro or accel too");
+    }
+    const double to_base = allan::OutputUnitToBase(o.unit, *p.kind);
+    if (!std::isfinite(to_base)) {
+      return Status::InvalidArgument("--unit " + o.unit + " is not a unit for " +
+                                     (*p.kind == allan::SensorKind::kGyro ? "a gyro" : "an accelerometer") +
+                                     " (" + std::string(allan::OutputUnitNames(*p.kind)) + ")");
+    }
+    p.factor *= to_base;
   }
   if (o.type != "rate" && o.type != "phase") {
     return Status::InvalidArgument("--type must be rate or phase");
@@ -206,6 +223,9 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   if (!values.ok()) {
     LogError(values.status().message());
     return 1;
+  }
+  if (p.factor != 1.0) {
+    for (double& v : *values) v *= p.factor;
   }
   const double tau0 = 1.0 / o.rate_hz;
   const allan::PhaseRecord phase =

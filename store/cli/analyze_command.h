@@ -22,6 +22,11 @@ struct AnalyzeFileOptions {
   double confidence = 0.682689492137086;
   bool fit = false;                    // composite noise model and slope-line read-offs
   std::string kind;                    // gyro, accel or "" (units of the fit report)
+  // The values' unit (a gyro's deg/s, rad/s, mrad/s, deg/h, rpm; an
+  // accelerometer's m/s^2, g, mg, ug; needs kind) and a factor (an LSB):
+  // values x scale x unit-to-base are analysed in deg/s or m/s^2.
+  std::string unit;
+  double scale = 1.0;
   std::string format = "table";        // table, csv, json
   std::string plot_path;               // SVG output, "" for none
 };

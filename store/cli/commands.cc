@@ -174,9 +174,10 @@ std::string VerdictCounts(const std::map<std::string, int>& counts) {
 
 // "reasons:" and one line per reason of the runs given (every run of `rows`
 // when `run_ids` is empty), each after its unit (the verdict is in the
-// table): "  U3: gx: bias_instability ...".
+// table): "  U3: gx: bias_instability ...". `by_slot`: in the order of the
+// station's table (slot, naturally: 2 before 10), each after its slot too.
 std::string ReasonLines(store::Archive& archive, const std::vector<store::AxisRow>& rows,
-                        std::vector<std::string> run_ids) {
+                        std::vector<std::string> run_ids, bool by_slot = false) {
   std::map<std::string, const store::AxisRow*> run_of;
   const bool every_run = run_ids.empty();
   for (const store::AxisRow& r : rows) {
@@ -184,10 +185,22 @@ std::string ReasonLines(store::Archive& archive, const std::vector<store::AxisRo
   }
   auto reasons = store::QueryReasons(archive, run_ids);
   if (!reasons.ok() || reasons->empty()) return "";
+  if (by_slot) {
+    auto slot_of = [&](const std::string& run_id) {
+      auto it = run_of.find(run_id);
+      return it == run_of.end() ? std::string() : it->second->slot;
+    };
+    std::stable_sort(reasons->begin(), reasons->end(), [&](const auto& a, const auto& b) {
+      return NaturalLess(slot_of(a.first), slot_of(b.first));
+    });
+  }
   std::string out = "\nreasons:\n";
   for (const auto& [run_id, text] : *reasons) {
     auto it = run_of.find(run_id);
-    const std::string who = it == run_of.end() ? run_id : it->second->unit;
+    std::string who = it == run_of.end() ? run_id : it->second->unit;
+    if (by_slot && it != run_of.end() && !it->second->slot.empty()) {
+      who = "slot " + it->second->slot + " " + who;
+    }
     size_t start = 0;
     while (start < text.size()) {
       const size_t end = text.find('\n', start);
@@ -268,7 +281,7 @@ int RunCommand(const StationRunOptions& options) {
     counted += store::CountsInYield(v);
     passed += v == pb::PASS || v == pb::MARGINAL;
   }
-  std::printf("%s", ReasonLines(**archive, *rows, run->run_ids).c_str());
+  std::printf("%s", ReasonLines(**archive, *rows, run->run_ids, /*by_slot=*/true).c_str());
   for (const std::string& skipped : run->skipped) {
     std::printf("not run (--skip-failed-slots): %s\n", skipped.c_str());
   }

@@ -187,6 +187,11 @@ int main(int argc, char** argv) {
                         "Gauss-Markov, sinusoids; selected, tested for fit, with sigmas) beside "
                         "the slope-line read-offs");
   analyze_cmd->add_option("--kind", an.kind, "gyro or accel: datasheet units for the fit");
+  analyze_cmd->add_option("--unit", an.unit,
+                          "the values' unit, with --kind: gyro deg/s (default), rad/s, mrad/s, "
+                          "deg/h, rpm; accel m/s^2 (default), g, mg, ug");
+  analyze_cmd->add_option("--scale", an.scale, "multiply every value (e.g. an LSB) before --unit")
+      ->capture_default_str();
   analyze_cmd->add_option("--format", an.format, "table, csv or json")->capture_default_str();
   analyze_cmd->add_option("--plot", an.plot_path, "write an SVG plot of the curves");
 
@@ -269,6 +274,23 @@ int main(int argc, char** argv) {
   report_cmd->add_option("-o,--output", report.output, "HTML file to write; - for standard output")
       ->required();
 
+  // `imuqual help [COMMAND]` is `imuqual [COMMAND] --help` (git's and
+  // cargo's habit).
+  if (argc > 1 && std::string(argv[1]) == "help") {
+    std::vector<char*> args = {argv[0]};
+    if (argc > 2) {
+      bool known = false;
+      for (const CLI::App* sub : app.get_subcommands({})) known = known || sub->get_name() == argv[2];
+      if (!known) {
+        LogError(std::string("help: unknown command '") + argv[2] + "'; imuqual help lists them");
+        return kExitUsage;
+      }
+      args.push_back(argv[2]);
+    }
+    static char help_flag[] = "--help";
+    args.push_back(help_flag);
+    return ParseCommandLine(app, static_cast<int>(args.size()), args.data()).value_or(kExitOk);
+  }
   // A mistyped command is named, with the closest one, not "A subcommand is
   // required".
   if (argc > 1 && argv[1][0] != '-') {
