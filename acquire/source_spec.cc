@@ -1,5 +1,6 @@
 #include "acquire/source_spec.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -9,6 +10,7 @@
 
 #include "acquire/archive_source.h"
 #include "acquire/csv_source.h"
+#include "acquire/rosbag_source.h"
 #include "acquire/lot_profile.h"
 #include "acquire/serial_source.h"
 #include "acquire/sim_source.h"
@@ -190,6 +192,36 @@ Result<std::unique_ptr<SampleSource>> MakeCsv(const SourceSpec& spec, const Sour
         MapCsvAxis(spec, o.axes[a], it->second, &o.axis_columns[a], &o.axis_factors[a]));
   }
   auto source = CsvSource::Open(o);
+  if (!source.ok()) return source.status();
+  return std::unique_ptr<SampleSource>(std::move(*source));
+}
+
+// bag:PATH[,topic=/imu][,rate=HZ][,axes=gx/gy/gz/ax/ay/az]: the channels
+// default to the plan's axes when every one is a channel name, else all six.
+Result<std::unique_ptr<SampleSource>> MakeBag(const SourceSpec& spec, const SourceDefaults& d) {
+  IMUQUAL_RETURN_IF_ERROR(CheckKeys(spec, {"topic", "rate", "axes"}));
+  RosbagSourceOptions o;
+  o.path = spec.location;
+  o.topic = Option(spec, "topic", "/imu");
+  auto rate = Number(spec, "rate", d.plan.nominal_rate_hz());
+  if (!rate.ok()) return rate.status();
+  o.rate_hz = *rate;
+  if (!(o.rate_hz > 0)) {
+    return Status::InvalidArgument(Where(spec) + ": give rate=HZ (or a plan with nominal_rate_hz)");
+  }
+  if (auto it = spec.options.find("axes"); it != spec.options.end()) {
+    o.channels = Split(it->second, '/');
+  } else {
+    const std::vector<std::string>& names = RosbagSource::ChannelNames();
+    bool plan_named = d.plan.axes_size() > 0;
+    for (const pb::Axis& a : d.plan.axes()) {
+      plan_named = plan_named && std::find(names.begin(), names.end(), a.name()) != names.end();
+    }
+    if (plan_named) {
+      for (const pb::Axis& a : d.plan.axes()) o.channels.push_back(a.name());
+    }
+  }
+  auto source = RosbagSource::Open(o);
   if (!source.ok()) return source.status();
   return std::unique_ptr<SampleSource>(std::move(*source));
 }
@@ -394,8 +426,9 @@ Result<std::unique_ptr<SampleSource>> MakeSource(const SourceSpec& spec, const S
   if (spec.kind == "csv") return MakeCsv(spec, d);
   if (spec.kind == "serial") return MakeSerial(spec, d);
   if (spec.kind == "archive") return MakeArchive(spec);
+  if (spec.kind == "bag") return MakeBag(spec, d);
   return Status::InvalidArgument("source kind '" + spec.kind +
-                                 "' is not one of sim, csv, serial, archive");
+                                 "' is not one of sim, csv, serial, archive, bag");
 }
 
 Status CheckSourceAxes(const std::string& serial, const SourceInfo& info,

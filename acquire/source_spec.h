@@ -21,6 +21,10 @@
 //          [,checksum=none|nmea]
 //   archive:DB,run=RUN_ID
 //       a stored run replayed from its raw chunks
+//   bag:PATH[,topic=/imu][,rate=HZ][,axes=gx/gy/gz/ax/ay/az]
+//       a ROS 1 bag's sensor_msgs/Imu messages (rosbag_source.h); rate
+//       defaults to the plan's, the channels to the plan's axes when each is
+//       a channel name, else all six
 #ifndef IMUQUAL_ACQUIRE_SOURCE_SPEC_H_
 #define IMUQUAL_ACQUIRE_SOURCE_SPEC_H_
 

@@ -98,7 +98,8 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
     }
     auto spec = acquire::ParseSourceSpec(s.source());
     if (!spec.ok()) return fail("slot", i, label + " source: " + spec.status().message(), "source");
-    if ((spec->kind == "csv" || spec->kind == "archive") && !spec->location.empty() &&
+    if ((spec->kind == "csv" || spec->kind == "archive" || spec->kind == "bag") &&
+        !spec->location.empty() &&
         spec->location[0] != '/') {
       const std::string head = spec->kind + ":" + spec->location;
       if (s.source().compare(0, head.size(), head) == 0) {
