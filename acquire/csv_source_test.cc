@@ -83,8 +83,7 @@ TEST(CsvSourceTest, TheFirstRowReadAtOpenIsDeliveredOnce) {
 // values, an empty cell being none; the column is not an axis.
 TEST(CsvSourceTest, ATemperatureColumnGivesEachBlockItsMeanTemperature) {
   TempDir dir("csv_source_temperature");
-  const std::string path =
-      Write(dir, "temp.csv", "gx,temp_c,gy\n1,25.0,2\n3,25.5,4\n5,,6\n7,,8\n");
+  const std::string path = Write(dir, "temp.csv", "gx,temp_c,gy\n1,25.0,2\n3,25.5,4\n5,,6\n7,,8\n");
   CsvSourceOptions o = Options(path);
   o.temperature_column = "temp_c";
   auto source = CsvSource::Open(o);
@@ -173,6 +172,15 @@ TEST(SourceSpecTest, EachAxisFromItsColumnInItsUnit) {
   EXPECT_FLOAT_EQ(block.samples[1][1], static_cast<float>(2.0 / 3600));
   EXPECT_FLOAT_EQ(block.samples[2][0], static_cast<float>(9.80665));
   EXPECT_FLOAT_EQ(block.samples[3][1], static_cast<float>(-4000 * 0.5 * 9.80665e-3));
+  // A column alone keeps scale=.
+  auto scaled = ParseSourceSpec("csv:" + csv + ",rate=100,axes=gx:gyro,gx=wx,scale=2");
+  ASSERT_TRUE(scaled.ok());
+  auto scaled_source = MakeSource(*scaled, defaults);
+  ASSERT_TRUE(scaled_source.ok()) << scaled_source.status().message();
+  auto scaled_read = (*scaled_source)->Read(10, &block);
+  ASSERT_TRUE(scaled_read.ok()) << scaled_read.status().message();
+  ASSERT_EQ(*scaled_read, 2);
+  EXPECT_FLOAT_EQ(block.samples[0][0], 1.0f);
   // A unit of the wrong kind, an unknown one, a bad scale and an option that
   // is neither an option nor an axis are refused, each naming what is wrong.
   for (const auto& [mapping, says] : std::vector<std::pair<std::string, std::string>>{

@@ -72,8 +72,9 @@ struct RosbagSource::Impl {
         counter = static_cast<int64_t>(m->header.seq) - static_cast<int64_t>(*first_seq);
         if (counter <= last_counter) {
           return Status::InvalidArgument(options.path + ": topic " + options.topic + " message " +
-                                         std::to_string(index) + ": header.seq goes backwards (" +
-                                         std::to_string(m->header.seq) + ")");
+                                         std::to_string(index) + ": header.seq " +
+                                         std::to_string(m->header.seq) +
+                                         " does not increase (a repeated or earlier message)");
         }
       }
       ++index;

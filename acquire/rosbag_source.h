@@ -7,7 +7,7 @@
 // linear_acceleration (m/s^2). The device counter is header.seq counted from
 // the first message's (a jump is a gap: messages the recorder missed), or the
 // message's index in the topic when the recorder left seq constant; a seq
-// that goes backwards is an error naming the message. header.stamp gives the
+// that does not increase is an error naming the message. header.stamp gives the
 // arrival time of each block's first sample (the measured rate and jitter).
 // The header of this file names no ROS type: the library's headers need C++17
 // and stay in rosbag_source.cc.
@@ -34,8 +34,8 @@ struct RosbagSourceOptions {
 class RosbagSource : public SampleSource {
  public:
   // Opens the bag and finds the topic's first message; errors name the file
-  // and the topic (a topic with no message, or not of type sensor_msgs/Imu,
-  // is refused, listing the bag's topics).
+  // and the topic: a topic with no message is refused listing the bag's
+  // topics, one of another type naming its type.
   static Result<std::unique_ptr<RosbagSource>> Open(const RosbagSourceOptions& options);
   ~RosbagSource() override;
   const SourceInfo& info() const override { return info_; }

@@ -10,13 +10,13 @@
 
 #include "acquire/archive_source.h"
 #include "acquire/csv_source.h"
-#include "acquire/rosbag_source.h"
 #include "acquire/lot_profile.h"
+#include "acquire/rosbag_source.h"
 #include "acquire/serial_source.h"
 #include "acquire/sim_source.h"
-#include "analyze/allan/units.h"
 #include "acquire/text_protocol.h"
 #include "acquire/xsens_protocol.h"
+#include "analyze/allan/units.h"
 #include "common/strings.h"
 
 namespace imuqual::acquire {
@@ -128,6 +128,8 @@ Status MapCsvAxis(const SourceSpec& spec, const pb::Axis& axis, const std::strin
     return Status::InvalidArgument(what + " must be COLUMN[:UNIT[:SCALE]]");
   }
   *column = parts[0];
+  *factor = 0.0;  // a column alone: scale= applies (csv_source.h)
+  if (parts.size() == 1 || (parts[1].empty() && parts.size() == 2)) return Status::Ok();
   *factor = 1.0;
   const allan::SensorKind kind =
       axis.kind() == pb::ACCEL ? allan::SensorKind::kAccelerometer : allan::SensorKind::kGyro;

@@ -12,7 +12,8 @@
 //       every column except the counter, as gyros; time: seconds per row;
 //       AXIS=...: that axis from another column, in UNIT (gyro deg/s, rad/s,
 //       mrad/s, deg/h, rpm; accelerometer m/s^2, g, mg, ug), times SCALE
-//       (e.g. an LSB), instead of scale: gx=wx:rad/s,ax=fx:g,az=acc_z::0.001
+//       (e.g. an LSB), instead of scale (a column alone keeps scale):
+//       gx=wx:rad/s,ax=fx:g,az=acc_z::0.001
 //   serial:DEVICE,protocol=text|xsens[,rate=HZ][,duration=S][,baud=N]
 //          [,parity=none|even|odd][,data_bits=8][,stop_bits=1]
 //          [,flow=none|rtscts|xonxoff][,axes=...][,reconnect_timeout=S]

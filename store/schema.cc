@@ -640,6 +640,13 @@ Status CheckReadable(Db& db) {
   return Status::Ok();
 }
 
+// How long a migration waits for another station's migration step, and the
+// usual wait (store/sqlite.cc), in ms.
+constexpr int kMigrationWaitMs = 30 * 60 * 1000;
+constexpr int kUsualWaitMs = 5000;
+
+static Status MigrateSteps(Db& db);
+
 Status Migrate(Db& db) {
   bool empty = false;
   IMUQUAL_RETURN_IF_ERROR(CheckIdentity(db, &empty));
@@ -648,6 +655,15 @@ Status Migrate(Db& db) {
   auto current = db.QueryInt("PRAGMA user_version");
   if (!current.ok()) return current.status();
   if (*current >= SchemaVersion()) return Status::Ok();
+  // Another station may hold the lock for a whole step (checksums of a large
+  // archive take minutes): wait for it, then restore the usual patience.
+  IMUQUAL_RETURN_IF_ERROR(db.Exec("PRAGMA busy_timeout = " + std::to_string(kMigrationWaitMs)));
+  Status st = MigrateSteps(db);
+  const Status restored = db.Exec("PRAGMA busy_timeout = " + std::to_string(kUsualWaitMs));
+  return st.ok() ? restored : st;
+}
+
+static Status MigrateSteps(Db& db) {
   // One step per transaction, the version read under the write lock: a
   // station that creates or migrates the same file at the same moment has
   // either done a step (seen here, skipped) or waits for this one.

@@ -651,7 +651,7 @@ TEST(BadInputTest, PreflightListsEveryBadSlotAtOnceAndCanSkipThem) {
   EXPECT_NE(r.output.find(station + ":10: slot A4 (unit U4): a soak of 5 s is shorter than"),
             std::string::npos)
       << r.output;
-  EXPECT_NE(r.output.find(station + ":11: slot A5 (unit U5): unit U5: source axes gx(gyro)"),
+  EXPECT_NE(r.output.find(station + ":11: slot A5 (unit U5): source axes gx(gyro)"),
             std::string::npos)
       << r.output;
   EXPECT_EQ(r.output.find("slot A1"), std::string::npos) << r.output;
@@ -681,6 +681,19 @@ TEST(BadInputTest, PreflightListsEveryBadSlotAtOnceAndCanSkipThem) {
   std::set<std::string> units;
   for (const store::RunRow& run : *runs) units.insert(run.unit);
   EXPECT_EQ(units, (std::set<std::string>{"U1", "U4"})) << r.output;
+  // Unnamed slots keep their numbers when a slot before them is skipped.
+  const std::string csv = ",rate=100 ";
+  r = RunCommand(Bin("imuqual") + " run --unit G1=csv:" + dir.path("r1.csv") + csv +
+                 "--unit B2=csv:" + dir.path("missing.csv") + csv + "--unit G3=csv:" +
+                 dir.path("r1.csv") + csv + "--plan " + dir.path("xyz.textproto") +
+                 " --lot NUM --db " + dir.path("num.db") + " --skip-failed-slots --quiet 2>&1");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("not run (--skip-failed-slots): slot 2 (unit B2)"), std::string::npos)
+      << r.output;
+  const auto listed = RunCommand(Bin("imuqual") + " runs --lot NUM --format csv --db " +
+                                 dir.path("num.db"));
+  EXPECT_NE(listed.output.find(",G1,NUM,station-1,1,"), std::string::npos) << listed.output;
+  EXPECT_NE(listed.output.find(",G3,NUM,station-1,3,"), std::string::npos) << listed.output;
 }
 
 TEST(BadInputTest, AReadOnlyDirectoryIsAClearError) {

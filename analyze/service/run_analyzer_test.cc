@@ -379,7 +379,7 @@ TEST(RunAnalyzerTest, TemperatureOfTheAnalysedBatchesIsMeasuredAndLimited) {
     }
     return nullptr;
   };
-  // THEN the warm-up's readings are not counted: range 2.95 deg C (batches
+  // THEN the warm-up's readings are not counted: range 2.9 deg C (batches
   // 11..69 of the ramp), a slope of 0.05 deg C/s = 180 deg C/h, both FAIL.
   const pb::Measurement* r = find(judge::kTemperatureRange);
   const pb::Measurement* s = find(judge::kTemperatureSlope);

@@ -2,6 +2,7 @@
 
 #include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -10,6 +11,7 @@
 #include <filesystem>
 #include <map>
 #include <numbers>
+#include <set>
 
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
@@ -271,16 +273,26 @@ int ExportKalibr(store::Archive& archive, const std::vector<RunRef>& runs, const
         "directory)");
     return kExitUsage;
   }
-  // Each unit's latest run (runs are oldest first): a superseded retest is
-  // not the unit.
+  // Each unit's latest judged run, else its latest (as `imuqual lot` counts
+  // a unit; runs are oldest first): a superseded retest is not the unit.
   std::map<std::string, const RunRef*> latest;
-  for (const RunRef& r : runs) latest[r.info.serial] = &r;
-  int failed = 0;
+  std::set<std::string> judged;
+  for (const RunRef& r : runs) {
+    auto result = archive.LoadResult(r.key);
+    const bool has_result = result.ok() && result->has_value();
+    if (has_result || !judged.count(r.info.serial)) latest[r.info.serial] = &r;
+    if (has_result) judged.insert(r.info.serial);
+  }
+  int exit_code = kExitOk;
   for (const auto& [serial, run] : latest) {
     Result<std::string> yaml = KalibrYaml(archive, *run, o);
     if (!yaml.ok()) {
       LogError(yaml.status().message());
-      ++failed;
+      // Refused (a model or term that cannot tune a filter): 2, as before;
+      // the archive failing: 1.
+      exit_code =
+          std::max(exit_code, yaml.status().code() == Status::Code::kInvalidArgument ? kExitUsage
+                                                                                     : kExitError);
       continue;
     }
     if (!o.run_id.empty() && (o.output.empty() || o.output == "-")) {
@@ -295,10 +307,10 @@ int ExportKalibr(store::Archive& archive, const std::vector<RunRef>& runs, const
     }
     if (Status st = WriteStringToFile(path, *yaml); !st.ok()) {
       LogError(st.message());
-      ++failed;
+      exit_code = std::max(exit_code, kExitError);
     }
   }
-  return failed == 0 ? kExitOk : kExitError;
+  return exit_code;
 }
 
 // The shortest text that reads back as the same float32 (the archived bits).
@@ -311,8 +323,9 @@ std::string FloatText(float v) {
 // A column name's unit suffix for an axis kind: deg/s -> deg_s, m/s^2 -> m_s2.
 std::string UnitSuffix(pb::AxisKind kind) { return kind == pb::ACCEL ? "m_s2" : "deg_s"; }
 
-// A counter jump beyond this many seconds of samples is not filled with
-// empty rows (the analysis refuses such a jump as a corrupt counter).
+// A counter jump beyond this many seconds of samples is a corrupt counter:
+// the analysis refuses that chunk (and, its expected counter unchanged, every
+// later one), and so does the export.
 constexpr double kLongestFilledGapS = 86400.0;
 
 // --format samples: one run's raw samples as archived, one row per device
@@ -339,14 +352,16 @@ Status ExportSamples(store::Archive& archive, const RunRef& run, std::FILE* out)
     const auto time_of = [&](int64_t counter) {
       return ShortestReal(static_cast<double>(counter - first) / rate);
     };
+    if (static_cast<double>(c.first_sample - next) / rate > kLongestFilledGapS) {
+      ++skipped;
+      return Status::Ok();
+    }
     // Samples that never arrived: rows with empty values, flagged "missing".
-    if (static_cast<double>(c.first_sample - next) / rate <= kLongestFilledGapS) {
-      for (int64_t k = next; k < c.first_sample; ++k) {
-        row = std::to_string(k) + "," + time_of(k) + ",";
-        for (size_t a = 0; a < axes; ++a) row += ",";
-        row += ",,missing\n";  // no temperature either
-        std::fputs(row.c_str(), out);
-      }
+    for (int64_t k = next; k < c.first_sample; ++k) {
+      row = std::to_string(k) + "," + time_of(k) + ",";
+      for (size_t a = 0; a < axes; ++a) row += ",";
+      row += ",,missing\n";  // no temperature either
+      std::fputs(row.c_str(), out);
     }
     const std::string temperature = c.temperature_c ? ShortestReal(*c.temperature_c) : "";
     for (int i = 0; i < chunk->num_samples; ++i) {
@@ -374,9 +389,10 @@ Status ExportSamples(store::Archive& archive, const RunRef& run, std::FILE* out)
   });
   if (!st.ok()) return st;
   if (skipped > 0) {
-    LogWarning("run " + run.run_id + ": " + std::to_string(skipped) +
-               " archived chunks not exported (counter went backwards or axes differ), as the "
-               "analysis rejected them");
+    LogWarning(
+        "run " + run.run_id + ": " + std::to_string(skipped) +
+        " archived chunks not exported (counter went backwards or jumped by more than a day, "
+        "or axes differ), as the analysis rejected them");
   }
   if (std::fflush(out) != 0 || std::ferror(out))
     return Status::IoError("writing the samples failed");

@@ -87,7 +87,12 @@ PreflightResult Preflight(const StationRunOptions& o, const pb::TestPlan* plan) 
     (*source)->Stop();
     if (plan) {
       if (Status axes = acquire::CheckSourceAxes(serial, (*source)->info(), *plan); !axes.ok()) {
-        out.problems.push_back(where + axes.message());
+        // The unit is named in `where` already.
+        std::string why = axes.message();
+        if (const std::string own = "unit " + serial + ": "; why.rfind(own, 0) == 0) {
+          why = why.substr(own.size());
+        }
+        out.problems.push_back(where + why);
         out.failed_units.push_back(i);
         continue;
       }

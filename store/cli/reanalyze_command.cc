@@ -1,5 +1,6 @@
 #include "store/cli/reanalyze_command.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include "analyze/judge/judge.h"
+#include "analyze/judge/measurements.h"
 #include "common/log.h"
 #include "store/archive.h"
 #include "store/checksums.h"
@@ -44,11 +46,11 @@ int Exact(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
   }
   const bool with_ci = request->ci != allan::CiMethod::kNone;
   if (format == Format::kTable) {
-    std::printf("run %s (unit %s, lot %s): %zu samples per axis at %g Hz from device counter %lld%s\n",
-                o.run_id.c_str(), run->info.serial.c_str(), run->info.lot.c_str(),
-                run->samples[0].size(), run->info.nominal_rate_hz,
-                static_cast<long long>(run->first_counter),
-                run->skipped_chunks ? " (some chunks skipped: counter went backwards)" : "");
+    std::printf(
+        "run %s (unit %s, lot %s): %zu samples per axis at %g Hz from device counter %lld%s\n",
+        o.run_id.c_str(), run->info.serial.c_str(), run->info.lot.c_str(), run->samples[0].size(),
+        run->info.nominal_rate_hz, static_cast<long long>(run->first_counter),
+        run->skipped_chunks ? " (some chunks skipped: counter went backwards)" : "");
   }
   std::printf("%s", CurveTable(curves, with_ci, true, true).Render(format).c_str());
   return 0;
@@ -86,7 +88,8 @@ double Opt(bool has, double v) { return has ? v : std::nan(""); }
 
 // Each differing point of an axis's curve (at most a few, then a count).
 void ComparePoints(const std::string& axis, const std::vector<allan::CurvePoint>& archived,
-                   const std::vector<allan::CurvePoint>& again, std::vector<std::string>* problems) {
+                   const std::vector<allan::CurvePoint>& again,
+                   std::vector<std::string>* problems) {
   constexpr int kShown = 3;
   int differ = 0;
   for (size_t p = 0; p < archived.size(); ++p) {
@@ -109,8 +112,8 @@ void ComparePoints(const std::string& axis, const std::vector<allan::CurvePoint>
       if (!counted) ++differ;
       counted = true;
       if (differ <= kShown) {
-        problems->push_back("axis " + axis + ", curve point " + std::to_string(p) + " (m=" +
-                            std::to_string(x.m) + ") " + name + ": archived " +
+        problems->push_back("axis " + axis + ", curve point " + std::to_string(p) +
+                            " (m=" + std::to_string(x.m) + ") " + name + ": archived " +
                             Exactly(v.first) + ", recomputed " + Exactly(v.second));
       }
     }
@@ -153,7 +156,17 @@ void CompareJudgements(const store::ResultRecord& archived, const analyze::RunOu
   };
   std::map<std::pair<std::string, std::string>, const pb::Measurement*> stored;
   for (const pb::Measurement& m : archived.measurements) stored[{m.axis(), m.name()}] = &m;
+  // The temperature measurements came after some archives: a run archived
+  // without them (by an earlier imuqual) is not a different result for them.
+  const auto is_temperature = [](const std::string& name) {
+    return name == judge::kTemperatureMean || name == judge::kTemperatureRange ||
+           name == judge::kTemperatureSlope;
+  };
+  const bool archived_temperature =
+      std::any_of(archived.measurements.begin(), archived.measurements.end(),
+                  [&](const pb::Measurement& m) { return is_temperature(m.name()); });
   for (const pb::Measurement& y : again.measurements) {
+    if (!archived_temperature && is_temperature(y.name())) continue;
     auto it = stored.find({y.axis(), y.name()});
     if (it == stored.end()) {
       problems->push_back(label(y) + ": recomputed but not archived");
@@ -163,16 +176,18 @@ void CompareJudgements(const store::ResultRecord& archived, const analyze::RunOu
     stored.erase(it);
     const std::pair<const char*, std::pair<double, double>> fields[] = {
         {"value", {x.value(), y.value()}},
-        {"uncertainty", {Opt(x.has_uncertainty(), x.uncertainty()),
-                         Opt(y.has_uncertainty(), y.uncertainty())}},
+        {"uncertainty",
+         {Opt(x.has_uncertainty(), x.uncertainty()), Opt(y.has_uncertainty(), y.uncertainty())}},
         {"low", {Opt(x.has_low(), x.low()), Opt(y.has_low(), y.low())}},
         {"high", {Opt(x.has_high(), x.high()), Opt(y.has_high(), y.high())}},
-        {"marginal_low", {Opt(x.has_marginal_low(), x.marginal_low()),
-                          Opt(y.has_marginal_low(), y.marginal_low())}},
-        {"marginal_high", {Opt(x.has_marginal_high(), x.marginal_high()),
-                           Opt(y.has_marginal_high(), y.marginal_high())}},
-        {"guard_band", {Opt(x.has_guard_band(), x.guard_band()),
-                        Opt(y.has_guard_band(), y.guard_band())}}};
+        {"marginal_low",
+         {Opt(x.has_marginal_low(), x.marginal_low()),
+          Opt(y.has_marginal_low(), y.marginal_low())}},
+        {"marginal_high",
+         {Opt(x.has_marginal_high(), x.marginal_high()),
+          Opt(y.has_marginal_high(), y.marginal_high())}},
+        {"guard_band",
+         {Opt(x.has_guard_band(), x.guard_band()), Opt(y.has_guard_band(), y.guard_band())}}};
     for (const auto& [name, v] : fields) {
       if (!Same(v.first, v.second)) {
         problems->push_back(label(x) + " " + name + ": archived " + Exactly(v.first) +
@@ -180,8 +195,8 @@ void CompareJudgements(const store::ResultRecord& archived, const analyze::RunOu
       }
     }
     if (x.outcome() != y.outcome()) {
-      problems->push_back(label(x) + " outcome: archived " + Shown(x.outcome()) +
-                          ", recomputed " + Shown(y.outcome()));
+      problems->push_back(label(x) + " outcome: archived " + Shown(x.outcome()) + ", recomputed " +
+                          Shown(y.outcome()));
     }
     if (x.unit() != y.unit()) {
       problems->push_back(label(x) + " unit: archived " + x.unit() + ", recomputed " + y.unit());
@@ -205,7 +220,8 @@ void CompareJudgements(const store::ResultRecord& archived, const analyze::RunOu
                           y.note() + "\"");
     }
   }
-  for (const auto& [key, m] : stored) problems->push_back(label(*m) + ": archived but not recomputed");
+  for (const auto& [key, m] : stored)
+    problems->push_back(label(*m) + ": archived but not recomputed");
 }
 
 int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
@@ -226,8 +242,8 @@ int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
                 Shown(outcome->judgement.verdict).c_str());
     if (o.looks) {
       const analyze::RunOutcome::Early& e = *outcome->early;
-      std::printf("early decisions: %s after %d of %d looks%s\n",
-                  judge::DecisionName(e.unit), e.looks_done, e.looks_planned,
+      std::printf("early decisions: %s after %d of %d looks%s\n", judge::DecisionName(e.unit),
+                  e.looks_done, e.looks_planned,
                   e.unit == judge::Decision::kPending
                       ? " (full-length verdict)"
                       : (" at " + DecisionTimeText(e.decided_at_s)).c_str());

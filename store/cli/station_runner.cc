@@ -206,9 +206,14 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
     const bool skip = given.skip_failed_slots && !pre.station_problem &&
                       pre.failed_units.size() < given.units.size() + (given.sim_units > 0 ? 1 : 0);
     if (!pre.problems.empty() && !skip) {
-      std::string text = "pre-flight: " + std::to_string(pre.problems.size()) + " problem" +
-                         (pre.problems.size() == 1 ? "" : "s") + ", nothing started:";
-      for (const std::string& p : pre.problems) text += "\n  " + p;
+      // One problem: one line; several: one line each under a count.
+      std::string text = pre.problems.size() == 1
+                             ? "pre-flight: " + pre.problems.front() + "; nothing started"
+                             : "pre-flight: " + std::to_string(pre.problems.size()) +
+                                   " problems, nothing started:";
+      for (const std::string& p : pre.problems) {
+        if (pre.problems.size() > 1) text += "\n  " + p;
+      }
       if (!pre.station_problem && !pre.failed_units.empty() &&
           pre.failed_units.size() < given.units.size() + (given.sim_units > 0 ? 1 : 0)) {
         text += "\n  (--skip-failed-slots runs the other slots without them)";
@@ -216,6 +221,22 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
       return Status::InvalidArgument(text);
     }
     // Skipped: the failed units leave units, slots and locations together.
+    // The others keep what they were: their slot (an unnamed one is numbered
+    // by its place in the whole station) and, for a simulated unit without
+    // index=, the simulated unit of its place.
+    if (!pre.failed_units.empty()) {
+      checked.slots.resize(checked.units.size());
+      for (size_t i = 0; i < checked.units.size(); ++i) {
+        if (checked.slots[i].empty())
+          checked.slots[i] = std::to_string(given.sim_units + static_cast<int>(i) + 1);
+        std::string& unit = checked.units[i];
+        const size_t eq = unit.find('=');
+        auto spec = acquire::ParseSourceSpec(eq == std::string::npos ? "" : unit.substr(eq + 1));
+        if (spec.ok() && spec->kind == "sim" && spec->options.count("index") == 0) {
+          unit += ",index=" + std::to_string(i);
+        }
+      }
+    }
     for (size_t k = pre.failed_units.size(); k-- > 0;) {
       const size_t i = pre.failed_units[k];
       checked.units.erase(checked.units.begin() + static_cast<std::ptrdiff_t>(i));
