@@ -189,6 +189,14 @@ TEST_F(LotToolsTest, DashIsStandardOutputAndMistypedCommandsAreNamed) {
   const auto nothing_close = RunCommand(Bin("imuqual") + " frobnicate 2>&1");
   EXPECT_EQ(nothing_close.exit_code, 2);
   EXPECT_EQ(nothing_close.output.find("did you mean"), std::string::npos) << nothing_close.output;
+  // One axis of a run: the N and K slope lines with their read-off points,
+  // the values as archived.
+  const auto axis_plot = RunCommand(Bin("imuqual") + " plot --run T-L001-U003-R1 --axis gx -o - --db " + db_);
+  EXPECT_EQ(axis_plot.exit_code, 0);
+  for (const char* text : {">N line<", ">K line<", "deg/sqrt(h) @1s<", "deg/h/sqrt(h) @3s<",
+                           "grey: N, K lines (read at 1, 3 s)"}) {
+    EXPECT_NE(axis_plot.output.find(text), std::string::npos) << text;
+  }
   // `imuqual help [COMMAND]` is --help.
   const auto help = RunCommand(Bin("imuqual") + " help");
   EXPECT_EQ(help.exit_code, 0);

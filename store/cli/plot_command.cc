@@ -120,7 +120,6 @@ PlotSeries CurveSeries(const allan::Curve& curve, std::string label, std::string
   return s;
 }
 
-
 // The axis's noise model over the curve's tau span, dashed in the axis's
 // colour (several axes on one plot: the model's terms would crowd it).
 std::optional<PlotSeries> ModelSeries(const AxisPlotData& a, std::string label, std::string color) {
@@ -199,6 +198,45 @@ const LimitLine kLimitLines[] = {
      "fit RRW"},
     {judge::kFitRateRamp, NoiseTerm::kRateRamp, 1, 1 / std::numbers::sqrt2, "fit R"},
 };
+
+// The IEEE 952 slope-line read-offs of one axis, as kalibr_allan and
+// allan_variance_ros draw them: the -1/2 line through N at tau = 1 s and the
+// +1/2 line through K at tau = 3 s, each with its read-off point (in the
+// legend: the value archived, "<=" when it is only an upper bound).
+void AddReadOffLines(const AxisPlotData& a, LogLogPlot* p) {
+  struct ReadOff {
+    std::string_view measurement;
+    const char* name;
+    double tau_s;
+  };
+  const ReadOff read_offs[] = {{judge::kAngleRandomWalk, "N", 1.0},
+                               {judge::kVelocityRandomWalk, "N", 1.0},
+                               {judge::kRateRandomWalk, "K", 3.0}};
+  for (const ReadOff& r : read_offs) {
+    const pb::Measurement* m = FindMeasurementRow(a, r.measurement);
+    if (m == nullptr || !std::isfinite(m->value()) || m->value() <= 0) continue;
+    const LimitLine* shape = nullptr;
+    for (const LimitLine& l : kLimitLines) {
+      if (l.measurement == r.measurement) shape = &l;
+    }
+    if (shape == nullptr) continue;
+    const double base = m->value() / DatasheetPerBase(shape->term, a.kind);
+    const std::string value = std::string(m->qualifier() == pb::UPPER_BOUND ? "<=" : "=") +
+                              Num(m->value()) + " " + m->unit();
+    PlotLine line;
+    line.label = std::string(r.name) + " line";
+    line.y = base * shape->scale;  // sigma at tau = 1 s
+    line.slope = shape->slope;
+    line.color = "#7f7f7f";
+    p->lines.push_back(std::move(line));
+    PlotMarker point;
+    point.label = std::string(r.name) + value + " @" + Num(r.tau_s) + "s";
+    point.x = r.tau_s;
+    point.y = base * shape->scale * std::pow(r.tau_s, shape->slope);
+    point.color = "#7f7f7f";
+    p->markers.push_back(std::move(point));
+  }
+}
 
 // The plan's limits that an Allan plot of `axes` (all of `kind`) can show.
 void AddPlanLines(const pb::TestPlan& plan, pb::AxisKind kind, const std::vector<std::string>& axes,
@@ -410,6 +448,7 @@ std::vector<AllanPlot> RunAllanPlots(const RunPlotData& run, const std::string& 
           AddModelSeries(m->model, a.curve->tau0_s, a.curve->points.front().tau_s,
                          a.curve->points.back().tau_s, m->adequate, &p);
         }
+        AddReadOffLines(a, &p);
       } else if (auto model = ModelSeries(a, a.axis + " noise model", color)) {
         p.series.push_back(std::move(*model));
       }
@@ -434,6 +473,7 @@ std::vector<AllanPlot> RunAllanPlots(const RunPlotData& run, const std::string& 
     if (first_curve != nullptr) p.notes.push_back(BandNote(*first_curve, "band: "));
     p.notes.push_back("dashed: IEEE 952 model fit");
     p.notes.push_back("ring: curve minimum (BI)");
+    if (!axis.empty()) p.notes.push_back("grey: N, K lines (read at 1, 3 s)");
     p.notes.push_back("run " + run.info.run_id);
     out.svg = p.ToSvg();
     plots.push_back(std::move(out));
@@ -602,7 +642,8 @@ int PlotCommand(const PlotOptions& options) {
   if (options.output == "-") {  // standard output: one plot only
     if (plots.size() != 1) {
       LogError("plot: -o - writes one plot to standard output; this gives " +
-               std::to_string(plots.size()) + " (one per axis kind or axis): give --axis, or -o FILE.svg");
+               std::to_string(plots.size()) +
+               " (one per axis kind or axis): give --axis, or -o FILE.svg");
       return kExitUsage;
     }
     const std::string& svg = plots.front().svg;
