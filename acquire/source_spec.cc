@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "acquire/archive_source.h"
+#include "acquire/crossbow_protocol.h"
 #include "acquire/csv_source.h"
 #include "acquire/lot_profile.h"
 #include "acquire/rosbag_source.h"
@@ -304,17 +305,24 @@ Result<std::unique_ptr<FrameDecoder>> MakeTextDecoder(const SourceSpec& spec,
 }
 
 Result<std::unique_ptr<SampleSource>> MakeSerial(const SourceSpec& spec, const SourceDefaults& d) {
-  IMUQUAL_RETURN_IF_ERROR(
-      CheckKeys(spec, {"protocol", "rate", "baud", "parity", "data_bits", "stop_bits", "flow",
-                       "duration", "axes", "columns", "counter", "counter_bits", "temperature",
-                       "scale", "delimiter", "checksum", "reconnect_timeout"}));
+  IMUQUAL_RETURN_IF_ERROR(CheckKeys(
+      spec, {"protocol", "rate", "baud", "parity", "data_bits", "stop_bits", "flow", "duration",
+             "axes", "columns", "counter", "counter_bits", "temperature", "scale", "delimiter",
+             "checksum", "reconnect_timeout", "rate_range", "g_range"}));
   SerialSourceOptions o;
   o.port.device = spec.location;
   o.protocol = Option(spec, "protocol");
-  if (o.protocol != "text" && o.protocol != "xsens") {
+  if (o.protocol != "text" && o.protocol != "xsens" && o.protocol != "crossbow") {
     return Status::InvalidArgument(Where(spec) +
                                    ": protocol=" + (o.protocol.empty() ? "?" : o.protocol) +
-                                   " must be text or xsens");
+                                   " must be text, xsens or crossbow");
+  }
+  if (o.protocol != "crossbow") {
+    for (const char* key : {"rate_range", "g_range"}) {
+      if (spec.options.count(key)) {
+        return Status::InvalidArgument(Where(spec) + ": '" + key + "' is for protocol=crossbow");
+      }
+    }
   }
   auto baud = Integer(spec, "baud", 115200);
   auto data_bits = Integer(spec, "data_bits", 8);
@@ -367,7 +375,8 @@ Result<std::unique_ptr<SampleSource>> MakeSerial(const SourceSpec& spec, const S
   } else {
     for (const char* key :
          {"columns", "counter", "counter_bits", "temperature", "scale", "delimiter", "checksum"}) {
-      if (spec.options.count(key)) {
+      const bool crossbow_checksum = o.protocol == "crossbow" && std::string(key) == "checksum";
+      if (spec.options.count(key) && !crossbow_checksum) {
         return Status::InvalidArgument(Where(spec) + ": '" + key + "' is for protocol=text");
       }
     }
@@ -380,9 +389,32 @@ Result<std::unique_ptr<SampleSource>> MakeSerial(const SourceSpec& spec, const S
       auto parsed = ParseAxes(spec, "gx:gyro/gy:gyro/gz:gyro");
       axes = std::move(*parsed);
     }
-    auto xsens = XsensDecoder::Create(axes);
-    if (!xsens.ok()) return xsens.status().WithContext(Where(spec));
-    decoder = std::move(*xsens);
+    if (o.protocol == "crossbow") {
+      CrossbowOptions c;
+      c.axes = axes;
+      auto rr = Number(spec, "rate_range", 0);
+      auto gr = Number(spec, "g_range", 0);
+      if (!rr.ok()) return rr.status();
+      if (!gr.ok()) return gr.status();
+      c.rate_range_dps = *rr;
+      c.g_range = *gr;
+      const std::string rule = Option(spec, "checksum", "either");
+      if (rule == "mod256") {
+        c.checksum = CrossbowChecksum::kMod256;
+      } else if (rule == "mod255") {
+        c.checksum = CrossbowChecksum::kMod255;
+      } else if (rule != "either") {
+        return Status::InvalidArgument(Where(spec) + ": checksum=" + rule +
+                                       " must be mod256, mod255 or either (the manual gives both)");
+      }
+      auto crossbow = CrossbowDecoder::Create(c);
+      if (!crossbow.ok()) return crossbow.status().WithContext(Where(spec));
+      decoder = std::move(*crossbow);
+    } else {
+      auto xsens = XsensDecoder::Create(axes);
+      if (!xsens.ok()) return xsens.status().WithContext(Where(spec));
+      decoder = std::move(*xsens);
+    }
   }
   o.axes = axes;
   auto source = SerialSource::Open(std::move(o), std::move(decoder));

@@ -14,12 +14,14 @@
 //       mrad/s, deg/h, rpm; accelerometer m/s^2, g, mg, ug), times SCALE
 //       (e.g. an LSB), instead of scale (a column alone keeps scale):
 //       gx=wx:rad/s,ax=fx:g,az=acc_z::0.001
-//   serial:DEVICE,protocol=text|xsens[,rate=HZ][,duration=S][,baud=N]
+//   serial:DEVICE,protocol=text|xsens|crossbow[,rate=HZ][,duration=S][,baud=N]
 //          [,parity=none|even|odd][,data_bits=8][,stop_bits=1]
 //          [,flow=none|rtscts|xonxoff][,axes=...][,reconnect_timeout=S]
 //       text only: columns=NAME/NAME/...(_ skips)[,counter=COL][,counter_bits=N]
 //          [,temperature=COL][,scale=F|AXIS:F/...][,delimiter=comma|semicolon|tab|space]
 //          [,checksum=none|nmea]
+//       crossbow only (crossbow_protocol.h, scaled sensor mode): rate_range=DEG_PER_S
+//          [,g_range=G][,checksum=mod256|mod255|either]
 //   archive:DB,run=RUN_ID
 //       a stored run replayed from its raw chunks
 //   bag:PATH[,topic=/imu][,rate=HZ][,axes=gx/gy/gz/ax/ay/az]
