@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The operator's view: `imuqual run --station FILE` in a terminal (a tmux
-# pane, 140 x 50), read the way a person reads it. A soak of four units in
+# pane, 140 x 50; the second soak at 80 x 24), read the way a person reads it. A soak of four units in
 # named slots with two analyze shards: the live table (slots, units, axes,
 # elapsed vs planned, live bias instability, provisional verdicts, progress
 # bar); the store and an analyze shard killed mid-soak and restarted by the
@@ -40,8 +40,8 @@ wait_screen() {
 }
 # The pane runs `imuqual run` under a shell that reports its exit code (the
 # shell keeps Ctrl-C for imuqual: its trap runs only once imuqual has ended).
-start_soak() {
-  tm new-session -d -s soak -x 140 -y 50 \
+start_soak() {  # [COLUMNS ROWS], default 140 x 50
+  tm new-session -d -s soak -x "${1:-140}" -y "${2:-50}" \
     "trap : INT; '$bin/imuqual' run --station '$work/station.textproto'; echo \"imuqual run exited with \$?\""
 }
 wait_exit() {
@@ -86,16 +86,18 @@ printf '%s' "$err" | grep -q "bad.textproto:4: duration_s: must be > 0" || fail 
 write_config 40
 start_soak
 wait_screen "imuqual station bench-C +lot CONSOLE-LOT +plan vg700ca-short +operator ana" 20
-wait_screen "^A1 +SN-101 +running" 30
+wait_screen "^A1 +SN-101 .*running" 30
 # The live bias instability of A1 itself, once past the warm-up (units reach
 # it one after another; on a loaded host "deg/h" on another row came first).
 # A live value with its marks: "≤ 9.8", "10.2†", "10.2‡", "10.2 ± 0.81" (n/m has no number).
 v='(≤ )?[0-9.]+(†|‡)?( ± [0-9.e+-]+)?'
-wait_screen "^A1 .* x +$v deg/h" 30
+p='(pass|marginal|fail|inconclusive)\?'
+wait_screen "^A1 .* x +($p +)?$v deg/h" 30
 now="$(screen)"
-for want in "^\[#*\.*\] +[0-9]+% +elapsed" "analyze 2/2" "^B2 +SN-104 +running +[0-9:]+ / 20:00" \
-    "^A1 .* x +$v deg/h +(pass|marginal|fail|inconclusive)\? +(pass|marginal|fail|inconclusive)\?$" \
-    "^ +y +$v deg/h +(pass|marginal|fail|inconclusive)\?$" "^ +z +$v deg/h" \
+# Each row: slot, unit, the unit's verdict (and why, when not a pass), state,
+# elapsed / planned, axis, the axis's verdict, its live value, samples, gaps.
+for want in "^\[#*\.*\] +[0-9]+% +elapsed" "analyze 2/2" "^B2 +SN-104 .*running +[0-9:]+ / 20:00" \
+    "^A1 +SN-101 +$p .* x +$p +$v deg/h" "^ +y +$p +$v deg/h" "^ +z +$p +$v deg/h" \
     "Ctrl-C: stop the soak"; do
   printf '%s\n' "$now" | grep -Eq -- "$want" || fail "live table lacks '$want'"
 done
@@ -126,17 +128,26 @@ for run in $(sql "SELECT run_id FROM runs"); do
 done
 tm kill-session -t soak
 
-# --- Soak 2: Ctrl-C mid-soak.
+# --- Soak 2, on an 80 x 24 terminal: every unit's row still starts with its
+# slot, unit and provisional verdict (the numbers are what a narrow screen
+# cuts); then Ctrl-C mid-soak.
 write_config 10
-start_soak
-wait_screen "^A1 +SN-101 +running" 30
-wait_screen "deg/h" 40
+start_soak 80 24
+wait_screen "^A1 +SN-101 .*running" 30
+wait_screen "^A1 +SN-101 +(pass|marginal|fail|inconclusive)\? " 60
+now="$(screen)"
+for unit in "A2 +SN-102" "B1 +SN-103" "B2 +SN-104"; do
+  printf '%s\n' "$now" | grep -Eq -- "^$unit +((pass|marginal|fail|inconclusive)\? +)?.*(running|waiting)" ||
+    fail "80 x 24: no row '$unit ... running'"
+done
+# (A line the renderer let run past 80 columns would wrap onto the next
+# unit's row and break the patterns above.)
 tm send-keys -t soak C-c
 code="$(wait_exit 120)"
 [ "$code" = 130 ] || fail "soak 2: imuqual run exit $code after Ctrl-C"
 final="$(screen)"
 for want in "^4 units: 0 PASS, 0 MARGINAL, 0 FAIL, 4 ABORTED \(interrupted: runs aborted\)$" \
-    "^yield not measurable: no judged unit$" "SN-101: run aborted before completion" "^report: "; do
+    "^yield not measurable: no judged unit$" "slot B2 SN-104: run aborted before completion" "^report: "; do
   printf '%s\n' "$final" | grep -Eq -- "$want" || fail "final screen after Ctrl-C lacks '$want'"
 done
 # Stopped by the operator: ABORTED, not a FAIL of the units.
@@ -154,7 +165,7 @@ tm kill-session -t soak
 # Ctrl-C: every run aborted, archived and judged, nothing left running.
 before="$(sql "SELECT COUNT(*) FROM runs")"
 start_soak
-wait_screen "^A1 +SN-101 +running" 30
+wait_screen "^A1 +SN-101 .*running" 30
 wait_screen "deg/h" 40
 tm kill-session -t soak
 t=0

@@ -1,16 +1,19 @@
 #include "store/cli/station_console.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <set>
+#include <utility>
 
 #include "imuqual/decision_t.hpp"
 #include "imuqual/measurement_t.hpp"
 #include "imuqual/run_t.hpp"
 #include "store/cli/early_decisions.h"
-#include "store/cli/table_writer.h"
 #include "store/cli/marks.h"
+#include "store/cli/table_writer.h"
 #include "store/outcome.h"
 
 namespace imuqual::cli {
@@ -20,9 +23,10 @@ using imuqual::decision_t;
 using imuqual::measurement_t;
 using imuqual::run_t;
 
-constexpr int kHeaderLines = 5;  // station, bus, progress, processes, blank
-constexpr int kTableFrame = 2;   // column names and rule
-constexpr int kNoticeLines = 2;  // blank, notice
+constexpr int kHeaderLines = 5;        // station, bus, progress, processes, blank
+constexpr int kTableFrame = 2;         // column names and rule
+constexpr int kNoticeLines = 2;        // blank, notice
+constexpr size_t kReasonColumns = 24;  // the short reason beside the verdict
 
 std::string Printf(const char* format, double v) {
   char buf[64];
@@ -53,10 +57,14 @@ std::string VerdictText(int8_t outcome, bool final_result) {
 // A value's mark in the per-unit table: '!' FAIL, '?' INCONCLUSIVE, '~' MARGINAL.
 const char* OutcomeMark(int8_t outcome) {
   switch (store::OutcomeFromNumber(outcome)) {
-    case pb::FAIL: return "!";
-    case pb::INCONCLUSIVE: return "?";
-    case pb::MARGINAL: return "~";
-    default: return "";
+    case pb::FAIL:
+      return "!";
+    case pb::INCONCLUSIVE:
+      return "?";
+    case pb::MARGINAL:
+      return "~";
+    default:
+      return "";
   }
 }
 
@@ -103,15 +111,22 @@ int8_t RankedVerdict(const ConsoleUnit& u) {
 }
 
 std::string StateText(const ConsoleUnit& u) {
-  if (u.state == 0) return "waiting";
-  if (u.archived && u.final_result) return "done";
+  if (u.state == 0) return u.silent_s >= kConsoleSilentS ? "no data" : "waiting";
+  if (u.archived && u.final_result) return u.source_failed ? "source failed" : "done";
   if (Early(u) && Decided(u)) return "slot free";
+  if (u.source_failed) return "source failed";
   switch (u.state) {
-    case run_t::STATE_RUNNING: return "running";
-    case run_t::STATE_COMPLETE: return "finishing";
-    case run_t::STATE_ABORTED: return "aborted";
-    case run_t::STATE_INCOMPLETE: return "incomplete";
-    default: return "?";
+    case run_t::STATE_RUNNING:
+      if (u.silent_s >= kConsoleSilentS) return "no data " + FormatDuration(u.silent_s);
+      return "running";
+    case run_t::STATE_COMPLETE:
+      return "finishing";
+    case run_t::STATE_ABORTED:
+      return "aborted";
+    case run_t::STATE_INCOMPLETE:
+      return "incomplete";
+    default:
+      return "?";
   }
 }
 
@@ -157,16 +172,28 @@ pb::Qualifier QualifierOf(const ConsoleAxis& x) {
 // The live bias instability with its marks (marks.h); "" before there is
 // one. A provisional value not measurable yet (no curve so far) is not
 // there yet; only a final one reads "n/m".
-std::string LiveValue(const ConsoleAxis& x, int digits, bool with_uncertainty,
-                      bool final_result) {
+std::string LiveValue(const ConsoleAxis& x, int digits, bool with_uncertainty, bool final_result) {
   const pb::Qualifier q = QualifierOf(x);
   if (std::isnan(x.bias_instability) && (q != pb::NOT_MEASURABLE || !final_result)) return "";
   return MarkedValue(x.bias_instability, q, x.bias_instability_uncertainty, digits,
                      with_uncertainty);
 }
 
-// One line explaining the marks shown ("" when none is).
-std::string MarksLine(const ConsoleModel& m) {
+// The first reason, cut to `width` columns ("..." when cut).
+std::string ShortReason(const ConsoleUnit& u, size_t width) {
+  if (u.reason.empty() || RankedVerdict(u) == measurement_t::OUTCOME_PASS) return "";
+  if (DisplayWidth(u.reason) <= width) return u.reason;
+  std::string out;
+  for (size_t i = 0; i < u.reason.size() && DisplayWidth(out) + 3 < width; ++i) {
+    out += u.reason[i];
+  }
+  while (!out.empty() && (static_cast<unsigned char>(out.back()) & 0xC0) == 0xC0) out.pop_back();
+  return out + "...";
+}
+
+// One line explaining the marks shown ("" when none is). `verdict_marks`:
+// the per-unit table's marks on the values too.
+std::string MarksLine(const ConsoleModel& m, bool verdict_marks = false) {
   std::set<pb::Qualifier> used;
   for (const ConsoleUnit& u : m.units) {
     for (const ConsoleAxis& x : u.axes) {
@@ -174,42 +201,55 @@ std::string MarksLine(const ConsoleModel& m) {
     }
   }
   std::string out;
-  if (used.count(pb::UPPER_BOUND)) out += std::string(out.empty() ? "" : "   ") + "\u2264 upper bound";
+  if (used.count(pb::UPPER_BOUND))
+    out += std::string(out.empty() ? "" : "   ") + "\u2264 upper bound";
   if (used.count(pb::MINIMUM_NOT_RESOLVED)) {
     out += std::string(out.empty() ? "" : "   ") + kMinimumNotResolvedMark +
            " minimum at the last point: the true minimum may lie lower";
   }
   if (used.count(pb::MODEL_INADEQUATE)) {
-    out += std::string(out.empty() ? "" : "   ") + kModelInadequateMark + " noise model failed its fit";
+    out += std::string(out.empty() ? "" : "   ") + kModelInadequateMark +
+           " noise model failed its fit";
   }
-  if (used.count(pb::NOT_MEASURABLE)) out += std::string(out.empty() ? "" : "   ") + "n/m not measurable";
+  if (used.count(pb::NOT_MEASURABLE))
+    out += std::string(out.empty() ? "" : "   ") + "n/m not measurable";
+  if (verdict_marks) {
+    out = "BI value: ! fail  ~ marginal  ? inconclusive" + (out.empty() ? "" : "   " + out);
+  }
+  const bool provisional = std::any_of(m.units.begin(), m.units.end(), [](const ConsoleUnit& u) {
+    return !u.final_result && ShowsProvisional(u) && u.verdict != 0;
+  });
+  if (provisional) out += std::string(out.empty() ? "" : "   ") + "pass? fail?: provisional";
   return out;
 }
 
 // One row per unit and axis.
 std::vector<std::string> AxisRows(const ConsoleModel& m) {
-  TableWriter t({"slot", "unit", "state", "elapsed / planned", "samples", "gaps", "axis",
-                 "BI (live)", "axis verdict", "unit verdict"});
+  TableWriter t({"slot", "unit", "verdict", "why", "state", "elapsed / planned", "axis",
+                 "axis verdict", "BI (live)", "samples", "gaps"});
   for (const ConsoleUnit& u : m.units) {
     const std::string samples = u.state == 0 ? "" : Si(static_cast<double>(u.samples));
     const std::string gaps = u.state == 0 ? "" : std::to_string(u.gap_samples);
     if (u.axes.empty()) {
-      t.AddRow({Cell::Text(u.slot), Cell::Text(u.serial), Cell::Text(StateText(u)),
-                Cell::Text(ElapsedText(u, m.planned_s)), Cell::Text(samples), Cell::Text(gaps)});
+      t.AddRow({Cell::Text(u.slot), Cell::Text(u.serial), Cell::Text(UnitVerdictText(u)),
+                Cell::Text(ShortReason(u, kReasonColumns)), Cell::Text(StateText(u)),
+                Cell::Text(ElapsedText(u, m.planned_s)), Cell::Text(""), Cell::Text(""),
+                Cell::Text(""), Cell::Text(samples), Cell::Text(gaps)});
       continue;
     }
     for (size_t a = 0; a < u.axes.size(); ++a) {
       const ConsoleAxis& x = u.axes[a];
       const bool first = a == 0;
       t.AddRow({Cell::Text(first ? u.slot : ""), Cell::Text(first ? u.serial : ""),
+                Cell::Text(first ? UnitVerdictText(u) : ""),
+                Cell::Text(first ? ShortReason(u, kReasonColumns) : ""),
                 Cell::Text(first ? StateText(u) : ""),
-                Cell::Text(first ? ElapsedText(u, m.planned_s) : ""), Cell::Text(first ? samples : ""),
-                Cell::Text(first ? gaps : ""), Cell::Text(x.name),
+                Cell::Text(first ? ElapsedText(u, m.planned_s) : ""), Cell::Text(x.name),
+                Cell::Text(AxisVerdictText(u, x)),
                 Cell::Text(LiveValue(x, 3, true, u.final_result).empty()
                                ? "-"
                                : LiveValue(x, 3, true, u.final_result) + " " + x.unit),
-                Cell::Text(AxisVerdictText(u, x)),
-                Cell::Text(first ? UnitVerdictText(u) : "")});
+                Cell::Text(first ? samples : ""), Cell::Text(first ? gaps : "")});
     }
   }
   std::vector<std::string> lines = Lines(t.Render(Format::kTable));
@@ -219,7 +259,8 @@ std::vector<std::string> AxisRows(const ConsoleModel& m) {
 }
 
 // One row per unit, the axes' live bias instability side by side ('!' FAIL,
-// '~' MARGINAL); at most `max_units` units, those needing attention first.
+// '~' MARGINAL); at most `max_units` units; those needing attention first
+// (this table is shown when the per-axis one does not fit).
 std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
   std::vector<std::string> axis_names;
   for (const ConsoleUnit& u : m.units) {
@@ -229,24 +270,26 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
       }
     }
   }
-  std::vector<std::string> columns = {"slot", "unit", "state", "elapsed / planned", "samples", "gaps"};
+  std::vector<std::string> columns = {"slot", "unit",  "verdict",
+                                      "why",  "state", "elapsed / planned"};
   for (const std::string& a : axis_names) columns.push_back(a);
-  columns.push_back("verdict");
+  columns.push_back("samples");
+  columns.push_back("gaps");
   std::vector<const ConsoleUnit*> shown;
   for (const ConsoleUnit& u : m.units) shown.push_back(&u);
+  std::stable_sort(shown.begin(), shown.end(), [](const ConsoleUnit* a, const ConsoleUnit* b) {
+    return AttentionRank(*a) > AttentionRank(*b);
+  });
   const bool cut = static_cast<int>(shown.size()) > max_units;
-  if (cut) {
-    std::stable_sort(shown.begin(), shown.end(), [](const ConsoleUnit* a, const ConsoleUnit* b) {
-      return AttentionRank(*a) > AttentionRank(*b);
-    });
-    shown.resize(static_cast<size_t>(std::max(0, max_units - 1)));
-  }
+  if (cut) shown.resize(static_cast<size_t>(std::max(0, max_units - 1)));
   TableWriter t(columns, 3);
   for (const ConsoleUnit* u : shown) {
-    std::vector<Cell> row = {Cell::Text(u->slot), Cell::Text(u->serial), Cell::Text(StateText(*u)),
-                             Cell::Text(ElapsedText(*u, m.planned_s)),
-                             Cell::Text(u->state == 0 ? "" : Si(static_cast<double>(u->samples))),
-                             Cell::Text(u->state == 0 ? "" : std::to_string(u->gap_samples))};
+    std::vector<Cell> row = {Cell::Text(u->slot),
+                             Cell::Text(u->serial),
+                             Cell::Text(UnitVerdictText(*u)),
+                             Cell::Text(ShortReason(*u, kReasonColumns)),
+                             Cell::Text(StateText(*u)),
+                             Cell::Text(ElapsedText(*u, m.planned_s))};
     for (const std::string& name : axis_names) {
       std::string text;
       for (const ConsoleAxis& x : u->axes) {
@@ -256,7 +299,8 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
       }
       row.push_back(Cell::Text(text));
     }
-    row.push_back(Cell::Text(UnitVerdictText(*u)));
+    row.push_back(Cell::Text(u->state == 0 ? "" : Si(static_cast<double>(u->samples))));
+    row.push_back(Cell::Text(u->state == 0 ? "" : std::to_string(u->gap_samples)));
     t.AddRow(std::move(row));
   }
   std::vector<std::string> lines = Lines(t.Render(Format::kTable));
@@ -293,12 +337,13 @@ std::string ConsoleTally(const ConsoleModel& m) {
   }
   if (finals == 0) return "";
   std::string out = "final:";
-  for (pb::Outcome o : {pb::PASS, pb::MARGINAL, pb::FAIL, pb::INCONCLUSIVE, pb::ABORTED,
-                        pb::ERROR}) {
+  for (pb::Outcome o :
+       {pb::PASS, pb::MARGINAL, pb::FAIL, pb::INCONCLUSIVE, pb::ABORTED, pb::ERROR}) {
     if (counts[o] == 0 && !store::CountsInYield(o)) continue;
     out += " " + std::to_string(counts[o]) + " " + store::OutcomeText(o) + ",";
   }
-  if (counts[pb::OUTCOME_UNSET] > 0) out += " " + std::to_string(counts[pb::OUTCOME_UNSET]) + " not judged,";
+  if (counts[pb::OUTCOME_UNSET] > 0)
+    out += " " + std::to_string(counts[pb::OUTCOME_UNSET]) + " not judged,";
   out.back() = ';';
   const int judged = counts[pb::PASS] + counts[pb::MARGINAL] + counts[pb::FAIL];
   if (judged == 0) return out + " yield not measurable: no judged unit";
@@ -334,7 +379,8 @@ std::string ConsoleSummaryLine(const ConsoleModel& m) {
   double samples = 0;
   int archived = 0;
   for (const ConsoleUnit& u : m.units) {
-    samples += static_cast<double>(u.samples) * static_cast<double>(std::max<size_t>(1, u.axes.size()));
+    samples +=
+        static_cast<double>(u.samples) * static_cast<double>(std::max<size_t>(1, u.axes.size()));
     archived += u.archived;
   }
   const double f = ConsoleProgress(m);
@@ -343,7 +389,38 @@ std::string ConsoleSummaryLine(const ConsoleModel& m) {
          FormatDuration(m.wall_s);
 }
 
-std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int height) {
+// ANSI colour and bold for the verdict and state words of a rendered line
+// (whole words only; zero display width, so the cut lines stay in width).
+std::string Colorize(const std::string& line) {
+  static const std::pair<const char*, const char*> kWords[] = {
+      {"FAIL", "\x1b[1;31m"},          {"fail?", "\x1b[31m"},         {"ERROR", "\x1b[1;31m"},
+      {"source failed", "\x1b[1;31m"}, {"MARGINAL", "\x1b[1;33m"},    {"marginal?", "\x1b[33m"},
+      {"INCONCLUSIVE", "\x1b[1;35m"},  {"inconclusive?", "\x1b[35m"}, {"ABORTED", "\x1b[1;35m"},
+      {"no data", "\x1b[1;33m"},       {"PASS", "\x1b[1;32m"},        {"pass?", "\x1b[32m"}};
+  auto word_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+  std::string out;
+  size_t i = 0;
+  while (i < line.size()) {
+    bool matched = false;
+    if (i == 0 || !word_char(line[i - 1])) {
+      for (const auto& [word, code] : kWords) {
+        const size_t n = std::strlen(word);
+        if (line.compare(i, n, word) != 0) continue;
+        if (i + n < line.size() && word_char(line[i + n])) continue;
+        out += code;
+        out += word;
+        out += "\x1b[0m";
+        i += n;
+        matched = true;
+        break;
+      }
+    }
+    if (!matched) out += line[i++];
+  }
+  return out;
+}
+
+std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int height, bool color) {
   std::vector<std::string> out;
   std::string title = "imuqual station " + m.station + "   lot " + m.lot + "   plan " + m.plan;
   if (!m.operator_name.empty()) title += "   operator " + m.operator_name;
@@ -352,8 +429,8 @@ std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int hei
   const double f = ConsoleProgress(m);
   int archived = 0;
   for (const ConsoleUnit& u : m.units) archived += u.archived;
-  std::string progress = Bar(f, 30) + Printf(" %3.0f%%", 100 * f) + "   elapsed " +
-                         FormatDuration(m.wall_s);
+  std::string progress =
+      Bar(f, 30) + Printf(" %3.0f%%", 100 * f) + "   elapsed " + FormatDuration(m.wall_s);
   if (f > 0.01 && f < 1) progress += "   left ~" + FormatDuration(m.wall_s * (1 - f) / f);
   progress += "   runs archived " + std::to_string(archived) + "/" + std::to_string(m.units.size());
   out.push_back(progress);
@@ -371,16 +448,17 @@ std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int hei
   size_t axis_rows = 0;
   for (const ConsoleUnit& u : m.units) axis_rows += std::max<size_t>(1, u.axes.size());
   const int room = height - kHeaderLines - kTableFrame - kNoticeLines;
-  const int legend = MarksLine(m).empty() ? 0 : 1;
-  std::vector<std::string> table = static_cast<int>(axis_rows) + legend <= room
-                                       ? AxisRows(m)
-                                       : UnitRows(m, std::max(1, room - legend));
-  if (static_cast<int>(axis_rows) + legend > room && legend > 0) table.push_back(MarksLine(m));
+  const bool per_axis = static_cast<int>(axis_rows) + (MarksLine(m).empty() ? 0 : 1) <= room;
+  const std::string marks = MarksLine(m, !per_axis);
+  const int legend = marks.empty() ? 0 : 1;
+  std::vector<std::string> table = per_axis ? AxisRows(m) : UnitRows(m, std::max(1, room - legend));
+  if (!per_axis && legend > 0) table.push_back(marks);
   out.insert(out.end(), table.begin(), table.end());
   const std::string tally = ConsoleTally(m);
   if (!tally.empty() && static_cast<int>(out.size()) + kNoticeLines < height) out.push_back(tally);
   out.push_back("");
-  out.push_back(m.notice.empty() ? "Ctrl-C: stop the soak (runs are archived as aborted)" : m.notice);
+  out.push_back(m.notice.empty() ? "Ctrl-C: stop the soak (runs are archived as aborted)"
+                                 : m.notice);
   if (static_cast<int>(out.size()) > height) out.resize(static_cast<size_t>(std::max(0, height)));
   for (std::string& line : out) {
     // Cut at `width` columns, never inside a UTF-8 character.
@@ -391,6 +469,10 @@ std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int hei
       if (columns++ == std::max(0, width)) break;
     }
     line.resize(bytes);
+  }
+  if (color) {
+    // The table, the tally and the notice: not the header (a plan's name).
+    for (size_t i = kHeaderLines; i < out.size(); ++i) out[i] = Colorize(out[i]);
   }
   return out;
 }

@@ -31,7 +31,7 @@ namespace imuqual::cli {
 struct ConsoleAxis {
   std::string name;
   double bias_instability = std::numeric_limits<double>::quiet_NaN();  // live estimate
-  std::string unit;        // of bias_instability, e.g. "deg/h"
+  std::string unit;  // of bias_instability, e.g. "deg/h"
   // Its marks as measurement_t gives them: 1-sigma uncertainty (NaN: none)
   // and qualifier (measurement_t.QUALIFIER_*): shown "10.2 ± 0.8", "≤ 10.2",
   // "10.2†" (minimum not resolved), "10.2‡" (inadequate model), "n/m".
@@ -61,23 +61,30 @@ struct ConsoleUnit {
   int8_t decision = 0;
   double decided_at_s = 0;
   std::vector<std::string> pending;
+  // Why the verdict is not PASS (the judgement's first reason), "" if none.
+  std::string reason;
+  // Wall seconds since the unit's published samples last grew (0: they just
+  // did); a running unit silent this long shows "no data".
+  double silent_s = 0;
+  // Its run ended because its source failed (not the operator's stop).
+  bool source_failed = false;
 };
 
 struct ConsoleProcess {
-  std::string name;    // "store", "analyze", "acquire"
-  int running = 0;     // processes of this kind alive
+  std::string name;  // "store", "analyze", "acquire"
+  int running = 0;   // processes of this kind alive
   int expected = 1;
   int restarts = 0;
-  std::string problem; // last unhealthy message, "" when healthy
+  std::string problem;  // last unhealthy message, "" when healthy
 };
 
 struct ConsoleModel {
   std::string station, lot, plan, operator_name, bus, archive;
-  double planned_s = 0;   // per unit; 0: unknown (recordings run to their end)
-  double wall_s = 0;      // since the soak started
+  double planned_s = 0;  // per unit; 0: unknown (recordings run to their end)
+  double wall_s = 0;     // since the soak started
   std::vector<ConsoleUnit> units;
   std::vector<ConsoleProcess> processes;
-  std::string notice;     // e.g. "interrupted: aborting the runs"
+  std::string notice;  // e.g. "interrupted: aborting the runs"
 };
 
 // Fraction of the soak done, 0..1: device time over planned time of every
@@ -85,9 +92,17 @@ struct ConsoleModel {
 // when unplanned.
 double ConsoleProgress(const ConsoleModel& model);
 
+// A running unit whose samples stopped this long shows "no data Ns".
+inline constexpr double kConsoleSilentS = 5.0;
+
 // The screen, one string per line, each at most `width` columns, at most
-// `height` lines.
-std::vector<std::string> RenderConsole(const ConsoleModel& model, int width, int height);
+// `height` lines. Each row starts with what an operator acts on: slot,
+// unit, verdict and a short reason, then the state and the numbers (a
+// narrow terminal cuts numbers, never the verdict); a legend explains the
+// marks. `color`: verdicts and states in colour and bold (ANSI; the caller
+// decides: a terminal, and NO_COLOR not set).
+std::vector<std::string> RenderConsole(const ConsoleModel& model, int width, int height,
+                                       bool color = false);
 
 // The final verdicts so far, e.g. "final: 3 PASS, 0 MARGINAL, 1 FAIL, 1
 // ABORTED; yield 75% of 4 judged units" (the yield over PASS, MARGINAL and

@@ -23,8 +23,8 @@ std::string Screen(const std::vector<std::string>& lines) {
   return out;
 }
 
-ConsoleUnit Unit(const std::string& slot, const std::string& serial, double elapsed_s, int8_t verdict,
-                 bool final_result = false) {
+ConsoleUnit Unit(const std::string& slot, const std::string& serial, double elapsed_s,
+                 int8_t verdict, bool final_result = false) {
   ConsoleUnit u;
   u.slot = slot;
   u.serial = serial;
@@ -126,7 +126,7 @@ TEST(StationConsoleTest, EveryOutcomeIsShownAndTheYieldCountsJudgedUnitsOnly) {
   // INCONCLUSIVE
   m.units[2].final_result = false;
   EXPECT_NE(Screen(RenderConsole(m, 160, 50)).find("inconclusive?"), std::string::npos);
-  const std::string small = Screen(RenderConsole(m, 120, 14));
+  const std::string small = Screen(RenderConsole(m, 120, 15));  // with the marks' legend
   EXPECT_NE(small.find("10.2?"), std::string::npos) << small;
   EXPECT_LT(small.find("SN-2"), small.find("SN-5")) << small;
   EXPECT_LT(small.find("SN-5"), small.find("SN-4")) << small;
@@ -156,7 +156,8 @@ TEST(StationConsoleTest, SmallScreenShowsAUnitPerRowAttentionFirst) {
   for (const char* column : {"  x  ", "  y  ", "  z  ", "verdict"}) {
     EXPECT_NE(header->find(column), std::string::npos) << *header;
   }
-  const size_t fail = screen.find("SN-2 "), marginal = screen.find("SN-41"), pass = screen.find("SN-1 ");
+  const size_t fail = screen.find("SN-2 "), marginal = screen.find("SN-41"),
+               pass = screen.find("SN-1 ");
   ASSERT_NE(fail, std::string::npos) << screen;
   ASSERT_NE(marginal, std::string::npos) << screen;
   EXPECT_LT(fail, marginal);
@@ -166,6 +167,69 @@ TEST(StationConsoleTest, SmallScreenShowsAUnitPerRowAttentionFirst) {
   EXPECT_NE(screen.find("10.2!"), std::string::npos) << screen;
   EXPECT_NE(screen.find("10.2~"), std::string::npos) << screen;
   EXPECT_NE(screen.find("more units ("), std::string::npos) << screen;
+}
+
+// At 80x24 (a terminal's default), eight 3-axis units: each row starts with
+// what the operator acts on (slot, unit, verdict, why), FAIL first, a legend
+// for the marks, a silent unit and a failed source said as such, colour only
+// when asked.
+TEST(StationConsoleTest, EightyByTwentyFourShowsVerdictsAndReasonsFirst) {
+  ConsoleModel m = Model();
+  m.units.clear();
+  for (int i = 1; i <= 8; ++i) {
+    m.units.push_back(Unit("A" + std::to_string(i), "SN-10" + std::to_string(i), 300,
+                           measurement_t::OUTCOME_PASS));
+  }
+  m.units[5].verdict = measurement_t::OUTCOME_FAIL;
+  m.units[5].axes[1].outcome = measurement_t::OUTCOME_FAIL;
+  m.units[5].reason = "y: bias_instability 31.2 deg/h above high limit 30 deg/h";
+  m.units[2].silent_s = 12;
+  m.units[3].source_failed = true;
+  m.units[3].state = run_t::STATE_ABORTED;
+  const std::vector<std::string> lines = RenderConsole(m, 80, 24);
+  const std::string screen = Screen(lines);
+  EXPECT_LE(lines.size(), 24u);
+  for (const std::string& l : lines) EXPECT_LE(DisplayWidth(l), 80u) << l;
+  // The failing unit first, its verdict and the start of its reason on its row.
+  const auto header = std::find_if(lines.begin(), lines.end(),
+                                   [](const std::string& l) { return l.rfind("slot", 0) == 0; });
+  ASSERT_NE(header, lines.end()) << screen;
+  ASSERT_LT(header + 2, lines.end());
+  const std::string& first = *(header + 2);
+  EXPECT_NE(first.find("SN-106"), std::string::npos) << screen;
+  EXPECT_NE(first.find("fail?"), std::string::npos) << screen;
+  EXPECT_NE(first.find("y: bias_instability"), std::string::npos) << screen;
+  for (const ConsoleUnit& u : m.units) {
+    const auto row = std::find_if(lines.begin(), lines.end(), [&](const std::string& l) {
+      return l.find(u.serial) != std::string::npos;
+    });
+    ASSERT_NE(row, lines.end()) << u.serial << "\n" << screen;
+    EXPECT_TRUE(row->find("pass?") != std::string::npos || row->find("fail?") != std::string::npos)
+        << *row;
+  }
+  EXPECT_NE(screen.find("no data 0:12"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("source failed"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("BI value: ! fail  ~ marginal"), std::string::npos) << screen;
+  EXPECT_NE(screen.find("pass? fail?: provisional"), std::string::npos) << screen;
+  // No escape codes unless asked; asked, the verdicts are coloured and the
+  // lines keep their width.
+  EXPECT_EQ(screen.find('\x1b'), std::string::npos);
+  const std::vector<std::string> colored = RenderConsole(m, 80, 24, /*color=*/true);
+  const std::string colored_screen = Screen(colored);
+  EXPECT_NE(colored_screen.find("\x1b[31mfail?\x1b[0m"), std::string::npos);
+  EXPECT_NE(colored_screen.find("\x1b[1;31msource failed\x1b[0m"), std::string::npos);
+  ASSERT_EQ(colored.size(), lines.size());
+  for (size_t i = 0; i < lines.size(); ++i) {
+    std::string plain;
+    for (size_t k = 0; k < colored[i].size(); ++k) {
+      if (colored[i][k] == '\x1b') {
+        k = colored[i].find('m', k);
+        continue;
+      }
+      plain += colored[i][k];
+    }
+    EXPECT_EQ(plain, lines[i]);
+  }
 }
 
 // The provisional values carry the marks measurement_t gives them.
@@ -181,10 +245,10 @@ TEST(StationConsoleTest, LiveValuesCarryTheirMarksAndALegend) {
   m.units[1].final_result = true;
   m.units[1].axes[1].bias_instability_qualifier = measurement_t::QUALIFIER_MODEL_INADEQUATE;
   const std::string screen = Screen(RenderConsole(m, 160, 40));
-  for (const char* shown : {"10.2 \u00B1 0.81 deg/h", "10.2\u2020 deg/h", "\u2264 10.2 deg/h",
-                            "n/m deg/h", "10.2\u2021 deg/h", "\u2020 minimum at the last point",
-                            "\u2021 noise model failed its fit", "n/m not measurable",
-                            "\u2264 upper bound"}) {
+  for (const char* shown :
+       {"10.2 \u00B1 0.81 deg/h", "10.2\u2020 deg/h", "\u2264 10.2 deg/h", "n/m deg/h",
+        "10.2\u2021 deg/h", "\u2020 minimum at the last point", "\u2021 noise model failed its fit",
+        "n/m not measurable", "\u2264 upper bound"}) {
     EXPECT_NE(screen.find(shown), std::string::npos) << shown << "\n" << screen;
   }
   // A unit per row: the marks without the uncertainty, the legend kept.
@@ -251,7 +315,7 @@ TEST(StationConsoleTest, EarlyDecisionUnitsShowPendingLooksThenTheirDecision) {
     u.serial = serial;
     m.units.insert(m.units.begin(), u);
   }
-  const std::vector<std::string> small_lines = RenderConsole(m, 120, 12);
+  const std::vector<std::string> small_lines = RenderConsole(m, 120, 13);  // with the legend
   const std::string small = Screen(small_lines);
   ASSERT_NE(small.find("SN-2"), std::string::npos) << small;
   EXPECT_NE(small.find("3 not judged yet)"), std::string::npos) << small;

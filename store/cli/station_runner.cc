@@ -7,6 +7,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <optional>
 #include <random>
@@ -112,7 +113,10 @@ struct Children {
 // cursor hidden; restored however the run ends.
 class LiveScreen {
  public:
+  // Colour unless NO_COLOR is set to anything but "" (no-color.org).
   explicit LiveScreen(bool on) : on_(on) {
+    const char* no_color = std::getenv("NO_COLOR");
+    color_ = no_color == nullptr || *no_color == '\0';
     if (on_) std::fputs("\x1b[?25l\x1b[H\x1b[2J", stderr);
   }
   ~LiveScreen() { Close(); }
@@ -125,7 +129,7 @@ class LiveScreen {
       height = ws.ws_row;
     }
     std::string frame = "\x1b[H";
-    for (const std::string& line : RenderConsole(model, width, height - 1))
+    for (const std::string& line : RenderConsole(model, width, height - 1, color_))
       frame += line + "\x1b[K\n";
     frame += "\x1b[J";
     std::fputs(frame.c_str(), stderr);
@@ -141,6 +145,7 @@ class LiveScreen {
 
  private:
   bool on_;
+  bool color_ = false;
 };
 
 }  // namespace
@@ -353,6 +358,10 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
           u->state = std::max(u->state, r.state);
         }
         if (!r.end_reason.empty()) end_reasons[r.unit_serial] = r.end_reason;
+        // Ended by its source, not by the operator: the slot says so.
+        u->source_failed = r.state == imuqual::run_t::STATE_INCOMPLETE ||
+                           (r.state == imuqual::run_t::STATE_ABORTED && !r.end_reason.empty() &&
+                            r.end_reason != kShutdownEndReason);
         u->samples = std::max(u->samples, r.samples_published);
         if (r.nominal_rate_hz > 0)
           u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
@@ -403,6 +412,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
         if (u == nullptr || (u->final_result && !r.is_final)) return;
         u->final_result = r.is_final;
         u->gap_samples = r.gap_samples;
+        u->reason = r.num_reasons > 0 ? r.reasons[0] : "";
         // Final: the analysis's verdict. Provisional: judged on what is
         // measured so far; what cannot be measured yet (a curve still
         // shorter than its minimum, the run's duration) does not count.
@@ -542,6 +552,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
   LiveScreen screen(tty);
   const double t0 = MonotonicSeconds();
   double last_change = t0, last_draw = t0 - kRedrawS, last_line = t0;
+  // Per unit: its published samples and when they last grew.
+  std::vector<std::pair<int64_t, double>> growth(model.units.size(), {-1, t0});
   double drain_deadline = -1;   // set when the runs are ending abnormally
   double settle_deadline = -1;  // set when only runs left open earlier remain
   int64_t last_total = -1;
@@ -629,6 +641,13 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
         }
         model.processes.push_back(*cp);
       }
+    }
+    // A unit whose samples stopped growing: how long (a silent serial unit).
+    for (size_t i = 0; i < model.units.size(); ++i) {
+      ConsoleUnit& u = model.units[i];
+      if (u.samples != growth[i].first) growth[i] = {u.samples, now};
+      const bool waiting = u.state == 0 || u.state == imuqual::run_t::STATE_RUNNING;
+      u.silent_s = waiting && !u.archived ? now - growth[i].second : 0;
     }
     if (tty && now - last_draw >= kRedrawS) {
       screen.Draw(model);
