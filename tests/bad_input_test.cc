@@ -628,15 +628,16 @@ TEST(BadInputTest, PreflightListsEveryBadSlotAtOnceAndCanSkipThem) {
         << "station_id: \"s\"\nlot: \"PRE\"\nplan: \"xyz.textproto\"\nduration_s: 60\n"
         << "archive: \"pre.db\"\n"
         << "slot { name: \"A1\" unit_serial: \"U1\" source: \"csv:r1.csv,rate=100\" }\n"
-        << "slot { name: \"A2\" unit_serial: \"U2\" source: \"csv:missing.csv,rate=100\" }\n"
+        << "slot { name: \"A2\" unit_serial: \"U2\" source: "
+           "\"serial:/dev/imuqual-no-such-port-2,protocol=xsens\" }\n"
         << "slot { name: \"A3\" unit_serial: \"U3\"\n"
         << "       source: \"serial:/dev/imuqual-no-such-port,protocol=text,columns=x/y/z\" }\n"
         << "slot { name: \"A4\" unit_serial: \"U4\" source: \"sim:vg700,duration=" << sim_duration
         << "\" }\n"
         << "slot { name: \"A5\" unit_serial: \"U5\" source: \"sim:tactical\" }\n";
   };
-  // GIVEN a station file with a missing recording (line 7), a serial port
-  // that is not there (line 8), a simulated unit soaked 5 s under a plan
+  // GIVEN a station file with two serial ports that are not there (lines 7
+  // and 8), a simulated unit soaked 5 s under a plan
   // that needs 30 s (line 10) and one whose axes are not the plan's (line 11)
   write("5");
   auto r = RunCommand(Bin("imuqual") + " run --station " + station + " --quiet 2>&1");
@@ -645,7 +646,7 @@ TEST(BadInputTest, PreflightListsEveryBadSlotAtOnceAndCanSkipThem) {
   EXPECT_NE(r.output.find("pre-flight: 4 problems, nothing started"), std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find(station + ":7: slot A2 (unit U2): "), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("missing.csv"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("/dev/imuqual-no-such-port-2"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(station + ":8: slot A3 (unit U3): "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("/dev/imuqual-no-such-port"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(station + ":10: slot A4 (unit U4): a soak of 5 s is shorter than"),

@@ -301,6 +301,17 @@ TEST_F(LotToolsTest, KalibrLotExportIsOneFilePerUnit) {
     const std::string yaml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     EXPECT_EQ(yaml.find("---"), std::string::npos) << serial;  // one document
     EXPECT_NE(yaml.find("rostopic: '/vn100/imu'"), std::string::npos) << yaml;
+    // Kalibr reads it with PyYAML's safe_load: one mapping with the keys.
+    const auto loaded = RunCommand(
+        "python3 -c \"import sys, yaml; d = yaml.safe_load(open(sys.argv[1])); "
+        "print(sorted(d)); assert isinstance(d['gyroscope_noise_density'], float)\" " +
+        entry.path().string() + " 2>&1");
+    EXPECT_EQ(loaded.exit_code, 0) << loaded.output;
+    EXPECT_NE(loaded.output.find("'accelerometer_noise_density', 'accelerometer_random_walk', "
+                                 "'gyroscope_noise_density', 'gyroscope_random_walk', 'rostopic', "
+                                 "'update_rate'"),
+              std::string::npos)
+        << loaded.output;
     for (const char* key : {"accelerometer_noise_density: ", "accelerometer_random_walk: ",
                             "gyroscope_noise_density: ", "gyroscope_random_walk: "}) {
       EXPECT_NE(yaml.find(std::string("\n") + key), std::string::npos) << key << "\n" << yaml;
