@@ -65,7 +65,7 @@ std::unique_ptr<CrossbowDecoder> Decoder(CrossbowChecksum rule) {
 TEST(CrossbowDecoderTest, ScaledSensorModeAsTheManualConvertsIt) {
   auto d = Decoder(CrossbowChecksum::kMod256);
   // GIVEN words for 1000, -2000, 32767 (saturated), 16384, 0, -16384 and a
-  // temperature word of 1126 (25 deg C: (1126 x 5/4096 - 1.375) x 44.44)
+  // temperature word of 1126 (about 0 deg C: (1126 x 5/4096 - 1.375) x 44.44)
   const std::vector<uint8_t> p =
       Packet({1000, -2000, 32767, 16384, 0, -16384}, 1126, 40000, CrossbowChecksum::kMod256);
   ASSERT_EQ(p.size(), crossbow::kScaledPacketBytes);

@@ -137,7 +137,7 @@ wait_screen "^A1 +SN-101 .*running" 30
 wait_screen "^A1 +SN-101 +(pass|marginal|fail|inconclusive)\? " 60
 now="$(screen)"
 for unit in "A2 +SN-102" "B1 +SN-103" "B2 +SN-104"; do
-  printf '%s\n' "$now" | grep -Eq -- "^$unit +((pass|marginal|fail|inconclusive)\? +)?.*(running|waiting)" ||
+  printf '%s\n' "$now" | grep -Eq -- "^$unit +((pass|marginal|fail|inconclusive)\? +)?.*(running|waiting|no data)" ||
     fail "80 x 24: no row '$unit ... running'"
 done
 # (A line the renderer let run past 80 columns would wrap onto the next

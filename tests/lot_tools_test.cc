@@ -304,7 +304,9 @@ TEST_F(LotToolsTest, KalibrLotExportIsOneFilePerUnit) {
     // Kalibr reads it with PyYAML's safe_load: one mapping with the keys.
     const auto loaded = RunCommand(
         "python3 -c \"import sys, yaml; d = yaml.safe_load(open(sys.argv[1])); "
-        "print(sorted(d)); assert isinstance(d['gyroscope_noise_density'], float)\" " +
+        "print(sorted(d)); assert all(isinstance(d[k], float) for k in ('gyroscope_noise_density', "
+        "'gyroscope_random_walk', 'accelerometer_noise_density', 'accelerometer_random_walk', "
+        "'update_rate'))\" " +
         entry.path().string() + " 2>&1");
     EXPECT_EQ(loaded.exit_code, 0) << loaded.output;
     EXPECT_NE(loaded.output.find("'accelerometer_noise_density', 'accelerometer_random_walk', "

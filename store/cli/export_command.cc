@@ -167,6 +167,16 @@ bool ModelAdequate(const pb::Measurement& p_value) {
 
 std::string Num(double v) { return ShortestReal(v); }
 
+// A YAML 1.1 float (PyYAML, which Kalibr uses, reads "1e-05" as a string: its
+// float needs a dot in the mantissa): the shortest round-trip text with ".0"
+// added to a mantissa that has no dot ("1.0e-05", "200.0").
+std::string YamlFloat(double v) {
+  std::string text = ShortestReal(v);
+  if (!std::isfinite(v) || text.find('.') != std::string::npos) return text;
+  const size_t e = text.find_first_of("eE");
+  return e == std::string::npos ? text + ".0" : text.insert(e, ".0");
+}
+
 // Kalibr's noise density is the continuous-time white-noise density (IEEE
 // 952's N) and its random walk the bias random walk (IEEE 952's K), in rad
 // (gyro) and m (accel) units; like allan_variance_ros, the sensor's value is
@@ -253,12 +263,12 @@ Result<std::string> KalibrYaml(store::Archive& archive, const RunRef& r, const E
   std::string out = "# " + r.info.serial + ", run " + r.run_id + " (lot " + r.info.lot +
                     "): composite noise model, mean over the axes\n";
   out += "#Accelerometer\n" + accel.comments;
-  out += "accelerometer_noise_density: " + Num(accel.n / accel.n_count) + "\n";
-  out += "accelerometer_random_walk: " + Num(accel.k / accel.k_count) + "\n";
+  out += "accelerometer_noise_density: " + YamlFloat(accel.n / accel.n_count) + "\n";
+  out += "accelerometer_random_walk: " + YamlFloat(accel.k / accel.k_count) + "\n";
   out += "#Gyroscope\n" + gyro.comments;
-  out += "gyroscope_noise_density: " + Num(gyro.n / gyro.n_count) + "\n";
-  out += "gyroscope_random_walk: " + Num(gyro.k / gyro.k_count) + "\n";
-  out += "rostopic: '" + o.rostopic + "'\nupdate_rate: " + Num(r.info.nominal_rate_hz) + "\n";
+  out += "gyroscope_noise_density: " + YamlFloat(gyro.n / gyro.n_count) + "\n";
+  out += "gyroscope_random_walk: " + YamlFloat(gyro.k / gyro.k_count) + "\n";
+  out += "rostopic: '" + o.rostopic + "'\nupdate_rate: " + YamlFloat(r.info.nominal_rate_hz) + "\n";
   return out;
 }
 

@@ -149,6 +149,11 @@ std::string Bar(double fraction, int width) {
 // FAIL first, then ERROR, ABORTED, INCONCLUSIVE, MARGINAL, then the rest
 // (store::AttentionRank); slot order within each.
 int AttentionRank(const ConsoleUnit& u) {
+  // A failed source or a silent unit needs the operator as an ERROR does.
+  if (u.source_failed || u.silent_s >= kConsoleSilentS) {
+    return std::max(store::AttentionRank(pb::ERROR),
+                    store::AttentionRank(store::OutcomeFromNumber(RankedVerdict(u))));
+  }
   return store::AttentionRank(store::OutcomeFromNumber(RankedVerdict(u)));
 }
 
@@ -181,6 +186,8 @@ std::string LiveValue(const ConsoleAxis& x, int digits, bool with_uncertainty, b
 
 // The first reason, cut to `width` columns ("..." when cut).
 std::string ShortReason(const ConsoleUnit& u, size_t width) {
+  // Nothing a later look may overturn (an early-decision unit not decided).
+  if (!u.final_result && !ShowsProvisional(u)) return "";
   if (u.reason.empty() || RankedVerdict(u) == measurement_t::OUTCOME_PASS) return "";
   if (DisplayWidth(u.reason) <= width) return u.reason;
   std::string out;

@@ -5,12 +5,13 @@
 // On a terminal the screen holds, top to bottom: the station header, the
 // progress bar (elapsed vs planned over every unit, wall time, estimated
 // time left), the processes (up, restarts), one row per unit and axis
-// (slot, unit, axis, elapsed/planned, samples, gap samples, the live
-// bias-instability estimate of the streaming engine, the axis's and the
-// unit's provisional verdict; provisional verdicts are lower case with a
-// '?', final ones upper case) and a notice line. When the rows do not fit
-// the screen, one row per unit with the axes side by side; when even those
-// do not fit, the units needing attention first and a count of the rest.
+// (slot, unit, the unit's verdict and its first reason, state,
+// elapsed/planned, axis, the axis's verdict, the live bias-instability
+// estimate of the streaming engine, samples, gap samples; provisional
+// verdicts are lower case with a '?', final ones upper case) and a notice
+// line. When the rows do not fit the screen, one row per unit with the axes
+// side by side, the units needing attention first, a legend for the marks,
+// and when even those do not fit, a count of the rest.
 //
 // A unit whose plan has early decisions shows no provisional verdict that a
 // look may overturn: until it is decided its verdict reads "PENDING look
@@ -64,7 +65,8 @@ struct ConsoleUnit {
   // Why the verdict is not PASS (the judgement's first reason), "" if none.
   std::string reason;
   // Wall seconds since the unit's published samples last grew (0: they just
-  // did); a running unit silent this long shows "no data".
+  // did, or the unit is not paced by its device); a running unit silent
+  // kConsoleSilentS or more shows "no data M:SS".
   double silent_s = 0;
   // Its run ended because its source failed (not the operator's stop).
   bool source_failed = false;
@@ -92,7 +94,7 @@ struct ConsoleModel {
 // when unplanned.
 double ConsoleProgress(const ConsoleModel& model);
 
-// A running unit whose samples stopped this long shows "no data Ns".
+// A running unit whose samples stopped this long shows "no data M:SS".
 inline constexpr double kConsoleSilentS = 5.0;
 
 // The screen, one string per line, each at most `width` columns, at most

@@ -358,10 +358,11 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
           u->state = std::max(u->state, r.state);
         }
         if (!r.end_reason.empty()) end_reasons[r.unit_serial] = r.end_reason;
-        // Ended by its source, not by the operator: the slot says so.
-        u->source_failed = r.state == imuqual::run_t::STATE_INCOMPLETE ||
-                           (r.state == imuqual::run_t::STATE_ABORTED && !r.end_reason.empty() &&
-                            r.end_reason != kShutdownEndReason);
+        // Aborted for a reason other than the operator's stop: its source
+        // failed (acquire ends a unit's run so when its source's read fails).
+        const auto why = end_reasons.find(r.unit_serial);
+        u->source_failed = u->state == imuqual::run_t::STATE_ABORTED && why != end_reasons.end() &&
+                           why->second != kShutdownEndReason;
         u->samples = std::max(u->samples, r.samples_published);
         if (r.nominal_rate_hz > 0)
           u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
@@ -412,7 +413,10 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
         if (u == nullptr || (u->final_result && !r.is_final)) return;
         u->final_result = r.is_final;
         u->gap_samples = r.gap_samples;
-        u->reason = r.num_reasons > 0 ? r.reasons[0] : "";
+        // Final: the judgement's first reason. Provisional: the first
+        // measurement that makes the verdict (the judgement's reasons also
+        // list what cannot be measured yet, which the verdict ignores).
+        u->reason = r.is_final && r.num_reasons > 0 ? r.reasons[0] : "";
         // Final: the analysis's verdict. Provisional: judged on what is
         // measured so far; what cannot be measured yet (a curve still
         // shorter than its minimum, the run's duration) does not count.
@@ -437,6 +441,16 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
               x.bias_instability_uncertainty = m.uncertainty;
               x.bias_instability_qualifier = m.qualifier;
             }
+          }
+        }
+        if (!r.is_final && u->verdict != imuqual::measurement_t::OUTCOME_PASS) {
+          for (const imuqual::measurement_t& m : r.measurements) {
+            if (!std::isfinite(m.value) || m.name == "duration" || m.outcome != u->verdict)
+              continue;
+            char value[32];
+            std::snprintf(value, sizeof value, "%.4g", m.value);
+            u->reason = (m.axis.empty() ? "" : m.axis + ": ") + m.name + " " + value + " " + m.unit;
+            break;
           }
         }
       });
@@ -552,8 +566,16 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
   LiveScreen screen(tty);
   const double t0 = MonotonicSeconds();
   double last_change = t0, last_draw = t0 - kRedrawS, last_line = t0;
-  // Per unit: its published samples and when they last grew.
+  // Per unit: its published samples and when they last grew; only a unit
+  // paced by its device (a serial unit) is silent when they stop growing (a
+  // recording or a simulated unit waits for the archive's acknowledgements).
   std::vector<std::pair<int64_t, double>> growth(model.units.size(), {-1, t0});
+  std::vector<bool> device_paced(model.units.size(), false);
+  for (size_t i = 0; i < o.units.size(); ++i) {
+    const size_t eq = o.units[i].find('=');
+    auto spec = acquire::ParseSourceSpec(eq == std::string::npos ? "" : o.units[i].substr(eq + 1));
+    device_paced[static_cast<size_t>(o.sim_units) + i] = spec.ok() && spec->kind == "serial";
+  }
   double drain_deadline = -1;   // set when the runs are ending abnormally
   double settle_deadline = -1;  // set when only runs left open earlier remain
   int64_t last_total = -1;
@@ -647,7 +669,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
       ConsoleUnit& u = model.units[i];
       if (u.samples != growth[i].first) growth[i] = {u.samples, now};
       const bool waiting = u.state == 0 || u.state == imuqual::run_t::STATE_RUNNING;
-      u.silent_s = waiting && !u.archived ? now - growth[i].second : 0;
+      u.silent_s = device_paced[i] && waiting && !u.archived ? now - growth[i].second : 0;
     }
     if (tty && now - last_draw >= kRedrawS) {
       screen.Draw(model);
