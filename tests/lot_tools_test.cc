@@ -481,6 +481,25 @@ TEST(SamplesExportTest, EverySampleAsArchivedWithGapsFlagsAndTemperature) {
       testing::RunCommand(Bin("imuqual") + " export --lot L --format samples --db " + db + " 2>&1");
   EXPECT_EQ(lot.exit_code, 2);
   EXPECT_NE(lot.output.find("one run"), std::string::npos) << lot.output;
+  // The time-series plot of the same run counts what the export shows: 9
+  // samples, the 3 missing counters and the chunk the analysis rejects, with
+  // a temperature panel (one chunk has a temperature).
+  const auto plot =
+      testing::RunCommand(Bin("imuqual") + " plot --run S-R1 --series -o - --db " + db + " 2>&1");
+  ASSERT_EQ(plot.exit_code, 0) << plot.output;
+  EXPECT_EQ(plot.output.rfind("<svg", 0), 0u) << plot.output;
+  EXPECT_NE(plot.output.find("9 samples, 3 missing, 1 chunk left out"), std::string::npos)
+      << plot.output;
+  EXPECT_NE(plot.output.find("gx [deg/s]"), std::string::npos);
+  EXPECT_NE(plot.output.find("ax [m/s^2]"), std::string::npos);
+  EXPECT_NE(plot.output.find("temperature [deg C]"), std::string::npos);
+  const auto no_run = testing::RunCommand(Bin("imuqual") + " plot --run NOPE --series -o - --db " +
+                                          db + " 2>&1");
+  EXPECT_EQ(no_run.exit_code, 1);
+  EXPECT_NE(no_run.output.find("no run 'NOPE'"), std::string::npos) << no_run.output;
+  const auto lot_series = testing::RunCommand(Bin("imuqual") + " plot --lot L --series -o - --db " +
+                                              db + " 2>&1");
+  EXPECT_EQ(lot_series.exit_code, 2) << lot_series.output;
 }
 
 // ---------------------------------------------------------------------------

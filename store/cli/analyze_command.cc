@@ -173,10 +173,21 @@ std::string FitJson(const allan::CompositeFit& fit, const Curve& curve,
 }
 
 std::string PlotCurves(const std::vector<Curve>& curves, const allan::CompositeFit* fit,
-                       const Curve* fit_curve, const std::string& title) {
+                       const Curve* fit_curve, const std::string& title,
+                       const std::optional<allan::SensorKind>& kind, bool phase) {
   LogLogPlot plot;
   plot.title = title;
-  plot.y_label = "deviation";
+  if (kind) {  // datasheet units on the left, the base unit on the right
+    const bool gyro = *kind == allan::SensorKind::kGyro;
+    plot.y_scale = allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *kind, 1.0).value;
+    plot.y_label = "deviation [" +
+                   std::string(allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *kind, 1.0).unit) +
+                   "]";
+    plot.y2_label = gyro ? "[deg/s]" : "[m/s^2]";
+  } else {
+    plot.y_label = phase ? "deviation [fractional frequency, phase in s]"
+                         : "deviation [the input's unit x --scale]";
+  }
   for (size_t i = 0; i < curves.size(); ++i) {
     PlotSeries s;
     s.label = std::string(allan::DeviationName(curves[i].deviation));
@@ -296,7 +307,8 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   }
   if (!o.plot_path.empty()) {
     const std::string svg = PlotCurves(curves, fit ? &*fit : nullptr, fit ? &fit_curve : nullptr,
-                                       o.path.substr(o.path.find_last_of('/') + 1));
+                                       o.path.substr(o.path.find_last_of('/') + 1), p.kind,
+                                       o.type == "phase");
     Status st = WriteStringToFile(o.plot_path, svg);
     if (!st.ok()) {
       LogError(st.message());

@@ -23,6 +23,7 @@
 #include "store/archive.h"
 #include "store/chunk_codec.h"
 #include "store/cli/marks.h"
+#include "store/cli/run_samples.h"
 #include "store/cli/table_writer.h"
 #include "store/outcome.h"
 #include "store/query.h"
@@ -333,11 +334,6 @@ std::string FloatText(float v) {
 // A column name's unit suffix for an axis kind: deg/s -> deg_s, m/s^2 -> m_s2.
 std::string UnitSuffix(pb::AxisKind kind) { return kind == pb::ACCEL ? "m_s2" : "deg_s"; }
 
-// A counter jump beyond this many seconds of samples is a corrupt counter:
-// the analysis refuses that chunk (and, its expected counter unchanged, every
-// later one), and so does the export.
-constexpr double kLongestFilledGapS = 86400.0;
-
 // --format samples: one run's raw samples as archived, one row per device
 // sample counter from the first archived chunk to the last; see the header.
 Status ExportSamples(store::Archive& archive, const RunRef& run, std::FILE* out) {
@@ -348,41 +344,32 @@ Status ExportSamples(store::Archive& archive, const RunRef& run, std::FILE* out)
   header += ",temperature_c,flags\n";
   std::fputs(header.c_str(), out);
   const size_t axes = info.axes.size();
-  int64_t first = -1, next = -1, skipped = 0;
   std::string row;
-  Status st = archive.ForEachChunk(run.key, [&](const store::ChunkRecord& c) -> Status {
-    auto chunk = store::DecodeChunk(c.data, c.codec);
-    if (!chunk.ok())
-      return chunk.status().WithContext("run " + run.run_id + " seq " + std::to_string(c.seq));
-    if (static_cast<size_t>(chunk->num_axes) != axes || (next >= 0 && c.first_sample < next)) {
-      ++skipped;  // as the analysis rejects it: wrong axes or the counter went back
-      return Status::Ok();
-    }
-    if (first < 0) first = next = c.first_sample;
-    const auto time_of = [&](int64_t counter) {
-      return ShortestReal(static_cast<double>(counter - first) / rate);
-    };
-    if (static_cast<double>(c.first_sample - next) / rate > kLongestFilledGapS) {
-      ++skipped;
-      return Status::Ok();
-    }
-    // Samples that never arrived: rows with empty values, flagged "missing".
-    for (int64_t k = next; k < c.first_sample; ++k) {
-      row = std::to_string(k) + "," + time_of(k) + ",";
+  const auto time_of = [&](int64_t first, int64_t counter) {
+    return ShortestReal(static_cast<double>(counter - first) / rate);
+  };
+  RunSampleVisitor visitor;
+  // Samples that never arrived: rows with empty values, flagged "missing".
+  visitor.missing = [&](int64_t first, int64_t from, int64_t count) {
+    for (int64_t k = from; k < from + count; ++k) {
+      row = std::to_string(k) + "," + time_of(first, k) + ",";
       for (size_t a = 0; a < axes; ++a) row += ",";
       row += ",,missing\n";  // no temperature either
       std::fputs(row.c_str(), out);
     }
+    return Status::Ok();
+  };
+  visitor.chunk = [&](int64_t first, const store::ChunkRecord& c, const store::ChunkData& chunk) {
     const std::string temperature = c.temperature_c ? ShortestReal(*c.temperature_c) : "";
-    for (int i = 0; i < chunk->num_samples; ++i) {
+    for (int i = 0; i < chunk.num_samples; ++i) {
       const int64_t k = c.first_sample + i;
-      row = std::to_string(k) + "," + time_of(k) + ",";
+      row = std::to_string(k) + "," + time_of(first, k) + ",";
       if (c.sample_utime > 0) row += std::to_string(c.sample_utime + std::llround(i * 1e6 / rate));
       std::string flags;
       for (size_t a = 0; a < axes; ++a) {
-        row += "," + FloatText(chunk->at(static_cast<int>(a), i));
+        row += "," + FloatText(chunk.at(static_cast<int>(a), i));
       }
-      for (const store::SampleFlag& f : chunk->flags) {
+      for (const store::SampleFlag& f : chunk.flags) {
         if (f.sample != i) continue;
         if (!flags.empty()) flags += " ";
         flags += info.axes[f.axis].name + ":" +
@@ -394,13 +381,13 @@ Status ExportSamples(store::Archive& archive, const RunRef& run, std::FILE* out)
       row += "," + temperature + "," + flags + "\n";
       std::fputs(row.c_str(), out);
     }
-    next = c.first_sample + chunk->num_samples;
     return Status::Ok();
-  });
-  if (!st.ok()) return st;
-  if (skipped > 0) {
+  };
+  auto walk = WalkRunSamples(archive, run.key, info, visitor);
+  if (!walk.ok()) return walk.status();
+  if (walk->skipped > 0) {
     LogWarning(
-        "run " + run.run_id + ": " + std::to_string(skipped) +
+        "run " + run.run_id + ": " + std::to_string(walk->skipped) +
         " archived chunks not exported (counter went backwards or jumped by more than a day, "
         "or axes differ), as the analysis rejected them");
   }

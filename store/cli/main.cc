@@ -261,6 +261,9 @@ int main(int argc, char** argv) {
                        "plot this run: its axes overlaid, one plot per axis kind");
   plot_cmd->add_option("--lot", plot.lot, "overlay every unit of this lot, one plot per axis");
   plot_cmd->add_option("--axis", plot.axis, "only this axis");
+  plot_cmd->add_flag("--series", plot.series,
+                     "with --run: the raw samples against time (rate per axis and temperature, "
+                     "bin mean with its min/max envelope) instead of the Allan plots");
   plot_cmd
       ->add_option("-o,--output", plot.output,
                    "SVG file; several plots go to FILE-<kind or axis>.svg beside it; - for "

@@ -15,6 +15,7 @@
 #include "common/text_util.h"
 #include "store/cli/model_plot.h"
 #include "store/cli/svg_plot.h"
+#include "store/cli/time_series.h"
 #include "store/outcome.h"
 #include "store/query.h"
 
@@ -25,9 +26,6 @@ using allan::NoiseTerm;
 
 constexpr char kLimitColor[] = "#d62728";     // red: the limit
 constexpr char kMarginalColor[] = "#e69f00";  // amber: the marginal band's edge
-constexpr char kFailColor[] = "#d62728";
-constexpr char kMarginalCurveColor[] = "#e69f00";
-constexpr char kInconclusiveCurveColor[] = "#5a32a3";  // violet, as the report's
 constexpr char kPassCurveColor[] = "#4a78a8";
 constexpr char kUnjudgedCurveColor[] = "#999999";
 // Points of the model curve: smooth at plot size, one per ~1/20 decade over
@@ -66,6 +64,14 @@ std::string Num(double v) {
 const char* KindWord(pb::AxisKind kind) { return kind == pb::ACCEL ? "accelerometer" : "gyro"; }
 const char* RateUnit(pb::AxisKind kind) { return kind == pb::ACCEL ? "m/s^2" : "deg/s"; }
 
+// The y axes: datasheet units (deg/h, ug: those of the limits and tables) on
+// the left, the curve's own unit (deg/s, m/s^2) on the right.
+void DatasheetAxes(pb::AxisKind kind, LogLogPlot* p) {
+  p->y_scale = DatasheetPerBase(NoiseTerm::kBiasInstability, kind);
+  p->y_label = "Allan deviation [" + DatasheetUnit(NoiseTerm::kBiasInstability, kind) + "]";
+  p->y2_label = std::string("[") + RateUnit(kind) + "]";
+}
+
 const pb::Measurement* FindMeasurementRow(const AxisPlotData& a, std::string_view name) {
   for (const pb::Measurement& m : a.measurements) {
     if (m.name() == name) return &m;
@@ -75,20 +81,19 @@ const pb::Measurement* FindMeasurementRow(const AxisPlotData& a, std::string_vie
 
 int Severity(const std::string& verdict) { return store::OutcomeSeverity(verdict); }
 
-// The colour of a unit's curve in a lot overlay by its axis's verdict, and
-// whether it is drawn bold with its band; nullptr: drawn thin (PASS, not
-// judged).
-const char* BoldCurveColor(const std::string& verdict) {
-  switch (store::OutcomeFromText(verdict)) {
-    case pb::FAIL:
-      return kFailColor;
-    case pb::INCONCLUSIVE:
-      return kInconclusiveCurveColor;
-    case pb::MARGINAL:
-      return kMarginalCurveColor;
-    default:
-      return nullptr;
-  }
+// Whether a unit's curve in a lot overlay is drawn bold, in its own colour
+// and with its band: its axis is judged FAIL, INCONCLUSIVE or MARGINAL.
+bool DrawnBold(const std::string& verdict) {
+  const pb::Outcome o = store::OutcomeFromText(verdict);
+  return o == pb::FAIL || o == pb::INCONCLUSIVE || o == pb::MARGINAL;
+}
+
+// The colour of the i-th flagged (FAIL, INCONCLUSIVE, MARGINAL) unit of a lot
+// overlay: distinct for the first ten, none the PASS curves' blue.
+std::string FlaggedUnitColor(size_t i) {
+  static const char* kColors[] = {"#d62728", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
+                                  "#17becf", "#bcbd22", "#2ca02c", "#7f7f7f", "#000000"};
+  return kColors[i % (sizeof kColors / sizeof kColors[0])];
 }
 
 std::string WorstOutcome(const std::vector<pb::Measurement>& ms) {
@@ -166,6 +171,17 @@ std::optional<PlotMarker> MinimumMarker(const AxisPlotData& a, std::string label
     m.label += tau_text;
   }
   return m;
+}
+
+// What hovering over a unit's curve in a lot overlay says: the unit, its
+// slot, the axis's verdict and its curve minimum, the run.
+std::string CurveTooltip(const RunPlotData& run, const AxisPlotData& a) {
+  std::string t = run.info.serial;
+  if (!run.info.slot.empty()) t += " (slot " + run.info.slot + ")";
+  t += " " + a.axis + ": " + (a.verdict.empty() ? std::string("not judged") : a.verdict);
+  if (auto m = MinimumMarker(a, "minimum ", "")) t += "; " + m->label;
+  t += "; run " + run.info.run_id;
+  return t;
 }
 
 // How a limit on a measurement shows on the Allan deviation plot: the line
@@ -420,9 +436,7 @@ std::vector<AllanPlot> RunAllanPlots(const RunPlotData& run, const std::string& 
   std::vector<AllanPlot> plots;
   for (pb::AxisKind kind : kinds) {
     LogLogPlot p;
-    p.y_label = "Allan deviation [";
-    p.y_label += RateUnit(kind);
-    p.y_label += "]";
+    DatasheetAxes(kind, &p);
     p.marker_labels_in_legend = true;
     p.width = kPlotWidthPx;
     p.legend_width = kLegendWidthPx;
@@ -510,24 +524,26 @@ std::vector<AllanPlot> LotAllanPlots(const std::string& lot, const std::vector<R
       unjudged += m.second->verdict.empty();
     }
     LogLogPlot p;
-    p.y_label = "Allan deviation [";
-    p.y_label += RateUnit(kind);
-    p.y_label += "]";
+    DatasheetAxes(kind, &p);
     p.width = kPlotWidthPx;
     p.legend_width = kLegendWidthPx;
     bool pass_listed = false, unjudged_listed = false;
+    size_t bold_index = 0;
     for (const auto& [run, a] : members) {
-      if (const char* bold = BoldCurveColor(a->verdict)) {
-        const std::string color = bold;
+      if (DrawnBold(a->verdict)) {
+        // Each flagged unit its own colour, named in the legend with its verdict.
+        const std::string color = FlaggedUnitColor(bold_index++);
         PlotSeries s = CurveSeries(*a->curve, run->info.serial + " " + a->verdict, color);
         s.stroke_width = 2.2;
         s.markers = false;
+        s.tooltip = CurveTooltip(*run, *a);
         p.series.push_back(std::move(s));
         if (auto m = MinimumMarker(*a, "", color)) p.markers.push_back(std::move(*m));
         continue;
       }
       const bool judged = a->verdict == "PASS";
       PlotSeries s = CurveSeries(*a->curve, "", judged ? kPassCurveColor : kUnjudgedCurveColor);
+      s.tooltip = CurveTooltip(*run, *a);
       s.lo.clear();
       s.hi.clear();
       s.markers = false;
@@ -557,7 +573,8 @@ std::vector<AllanPlot> LotAllanPlots(const std::string& lot, const std::vector<R
     out.title += std::to_string(members.size());
     out.title += members.size() == 1 ? " unit" : " units";
     p.title = out.title;
-    p.notes.push_back("colour: the axis's verdict");
+    p.notes.push_back("blue: PASS; a colour per unit flagged");
+    p.notes.push_back("hover a curve: unit, verdict, minimum");
     if (!members.empty()) {
       p.notes.push_back("bands: FAIL, INCONCLUSIVE and MARGINAL units,");
       p.notes.push_back(BandNote(*members.front().second->curve, ""));
@@ -578,13 +595,24 @@ int PlotCommand(const PlotOptions& options) {
     LogError("plot: -o FILE.svg is required");
     return kExitUsage;
   }
+  if (options.series && (options.run_id.empty() || !options.axis.empty())) {
+    LogError("plot: --series plots one run's raw samples: give --run RUN_ID and no --axis");
+    return kExitUsage;
+  }
   auto archive = store::Archive::Open(options.db_path, store::Archive::Mode::kRead);
   if (!archive.ok()) {
     LogError(archive.status().message());
     return kExitError;
   }
   std::vector<AllanPlot> plots;
-  if (!options.run_id.empty()) {
+  if (options.series) {
+    auto svg = RunTimeSeriesSvg(**archive, options.run_id);
+    if (!svg.ok()) {
+      LogError(svg.status().message());
+      return kExitError;
+    }
+    plots.push_back({"series", "raw samples", std::move(*svg)});
+  } else if (!options.run_id.empty()) {
     auto run = LoadRunPlotData(**archive, options.run_id);
     if (!run.ok()) {
       LogError(run.status().message());

@@ -2,8 +2,9 @@
 // SVG, for one run or overlaid for a lot, and the plot builders the HTML lot
 // report reuses.
 //
-// What a plot shows (curves in deg/s for gyros, m/s^2 for accelerometers,
-// tau in s, log-log):
+// What a plot shows (log-log, tau in s; the deviation in datasheet units,
+// deg/h for gyros and ug for accelerometers, on the left axis, and in the
+// curve's own unit, deg/s or m/s^2, on the right):
 //  - the measured overlapping Allan deviation with its confidence band (the
 //    interval stored with the curve, at its level and method);
 //  - the fitted IEEE 952 model (run plots), dashed, from the run's stored
@@ -41,6 +42,7 @@ struct PlotOptions {
   std::string run_id;   // --run: plot this run (exactly one of run_id and lot)
   std::string lot;      // --lot: overlay every unit of this lot (each unit's latest run)
   std::string axis;     // --axis: only this axis name ("" = every axis)
+  bool series = false;  // --series: the run's time-series plot (time_series.h), one SVG
   std::string output;   // -o: the SVG file to write (required); see PlotCommand for
                         // the names used when the selection needs several plots
 };
@@ -48,9 +50,11 @@ struct PlotOptions {
 // Run plot: the run's axes of one kind overlaid on one plot (each axis its
 // colour, its band, its model and its minimum); a run with gyro and
 // accelerometer axes gets one plot per kind. Lot plot: one plot per axis
-// name, every unit's curve; units whose axis is judged FAIL (red) or
-// MARGINAL (amber) are drawn bold with their band and listed in the legend,
-// the others thin and blue. One plot is written to `output` as given; several
+// name, every unit's curve; units whose axis is judged FAIL, INCONCLUSIVE or
+// MARGINAL are drawn bold, each in its own colour, with their band, and
+// listed in the legend with their verdict; every curve names its unit,
+// verdict and minimum on hover (an SVG <title>); the others are thin and
+// blue. One plot is written to `output` as given; several
 // go to <stem>-<kind or axis><ext> beside it (out.svg -> out-x.svg,
 // out-y.svg, ...). Prints the paths written, one per line. Returns 0, 1 on an
 // error (unknown run, lot or axis, unreadable archive, unwritable file: one

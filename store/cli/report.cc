@@ -23,6 +23,7 @@
 #include "store/cli/lot_statistics.h"
 #include "store/cli/marks.h"
 #include "store/cli/plot_command.h"
+#include "store/cli/time_series.h"
 #include "store/outcome.h"
 #include "store/query.h"
 
@@ -992,6 +993,15 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
       }
       Figure(plots[i], Attr("id", id) + Attr("data-run", r->info.run_id), caption, &unit_figures);
     }
+    // Its raw samples against time: where a step, a drift or a burst shows.
+    auto series = RunTimeSeriesSvg(archive, r->info.run_id);
+    if (series.ok()) {
+      AllanPlot plot{"series", "raw samples", std::move(*series)};
+      Figure(plot, Attr("data-run", r->info.run_id) + Attr("data-plot", "series"),
+             "<strong>" + Esc(r->info.serial) + "</strong>: raw samples against time", &unit_figures);
+    } else if (series.status().code() != Status::Code::kNotFound) {
+      return series.status();
+    }
   }
 
   std::string html;
@@ -1011,7 +1021,7 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
       "<a href=\"#results\">Results per unit</a><a href=\"#statistics\">Lot statistics</a>"
       "<a href=\"#lot-model\">Lot noise model</a>"
       "<a href=\"#lot-plots\">Lot Allan plots</a>";
-  if (!unit_figures.empty()) html += "<a href=\"#unit-plots\">Unit Allan plots</a>";
+  if (!unit_figures.empty()) html += "<a href=\"#unit-plots\">Unit plots</a>";
   html += "</nav>\n";
   Attention(d, plot_anchor, &html);
   Results(d, &html);
@@ -1027,16 +1037,20 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
   }
   html +=
       "<p class=\"note\">Every unit's overlapping Allan deviation on one axis; units whose axis is "
-      "judged FAIL (red) or MARGINAL (amber) are drawn bold with their confidence band and ringed "
-      "at their curve minimum. Dashed lines: the plan's limits (red) and marginal band edges "
+      "judged FAIL, INCONCLUSIVE or MARGINAL are drawn bold, each in its own colour (named in "
+      "the legend), with their confidence band, and ringed at their curve minimum; hovering over "
+      "a curve names its unit, verdict and minimum. Left axis in datasheet units (deg/h, "
+      "&micro;g), right axis in the curve's own unit (deg/s, m/s<sup>2</sup>). Dashed lines: the plan's limits (red) and marginal band edges "
       "(amber); bias instability against the curve minimum, random walks as the "
       "&minus;&frac12; and +&frac12; slope lines they are read from.</p>\n</section>\n";
   if (!unit_figures.empty()) {
     Add(&html,
-        "<section id=\"unit-plots\">\n<h2>Allan deviation: failing and marginal units</h2>\n",
+        "<section id=\"unit-plots\">\n<h2>Failing and marginal units: Allan deviation and raw samples</h2>\n",
         "<div class=\"plots\">\n", unit_figures, "</div>\n",
         "<p class=\"note\">Each axis with its confidence band, its composite noise model "
-        "(dashed) and its curve minimum (ringed).</p>\n</section>\n");
+        "(dashed) and its curve minimum (ringed); then the unit's raw samples against device "
+        "time (deg/s, m/s<sup>2</sup> and &deg;C; bin means with their min/max envelope).</p>\n"
+        "</section>\n");
   }
   Add(&html,
       "<footer>Bias instability is the minimum of the overlapping Allan deviation curve "

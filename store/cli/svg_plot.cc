@@ -62,6 +62,15 @@ double Distance(double x, double y, const Segment& s) {
 
 bool Drawable(double x, double y) { return x > 0 && y > 0 && std::isfinite(x) && std::isfinite(y); }
 
+// Text widths in px, generous (DejaVu Sans, the usual sans-serif on Linux).
+constexpr double kCharWidthPx = 7.0;       // 12 px
+constexpr double kSmallCharWidthPx = 6.1;  // 10.5 px
+double TextWidth(const std::string& s, double per_char) {
+  size_t chars = 0;  // UTF-8 code points
+  for (unsigned char c : s) chars += (c & 0xC0) != 0x80;
+  return per_char * static_cast<double>(chars);
+}
+
 }  // namespace
 
 std::string PaletteColor(size_t i) {
@@ -71,14 +80,16 @@ std::string PaletteColor(size_t i) {
 }
 
 std::string LogLogPlot::ToSvg() const {
-  // Data range in decades, padded to whole decades.
+  const double k = y_scale > 0 && std::isfinite(y_scale) ? y_scale : 1;
+  const double log_k = std::log10(k);
+  // Data range in decades (of the displayed values), padded to whole decades.
   double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
   auto take = [&](double x, double y) {
     if (!Drawable(x, y)) return;
     x0 = std::min(x0, std::log10(x));
     x1 = std::max(x1, std::log10(x));
-    y0 = std::min(y0, std::log10(y));
-    y1 = std::max(y1, std::log10(y));
+    y0 = std::min(y0, std::log10(y) + log_k);
+    y1 = std::max(y1, std::log10(y) + log_k);
   };
   for (const PlotSeries& s : series) {
     for (size_t i = 0; i < s.x.size(); ++i) {
@@ -96,8 +107,8 @@ std::string LogLogPlot::ToSvg() const {
   }
   for (const PlotLine& l : lines) {
     if (l.slope == 0 && l.y > 0 && std::isfinite(l.y)) {
-      y0 = std::min(y0, std::log10(l.y));
-      y1 = std::max(y1, std::log10(l.y));
+      y0 = std::min(y0, std::log10(l.y) + log_k);
+      y1 = std::max(y1, std::log10(l.y) + log_k);
     }
   }
   x0 = std::floor(x0);
@@ -108,12 +119,29 @@ std::string LogLogPlot::ToSvg() const {
   const double left = 80, right = legend_width, top = 40, bottom = 55;
   const double pw = width - left - right, ph = height - top - bottom;
   auto px = [&](double x) { return left + (std::log10(x) - x0) / (x1 - x0) * pw; };
+  // py: a displayed value; pyb: a value in the base unit.
   auto py = [&](double y) { return top + (y1 - std::log10(y)) / (y1 - y0) * ph; };
+  auto pyb = [&](double y) { return py(y * k); };
+  // The right axis (base unit), then the legend, as wide as its texts need.
+  const double axis2_width = y2_label.empty() ? 0 : 62;
+  double legend_need = 0;
+  for (const PlotSeries& s : series)
+    if (s.in_legend) legend_need = std::max(legend_need, 30 + TextWidth(s.label, kCharWidthPx));
+  if (marker_labels_in_legend) {
+    for (const PlotMarker& m : markers)
+      legend_need = std::max(legend_need, 30 + TextWidth(m.label, kCharWidthPx));
+  }
+  for (const std::string& note : notes)
+    legend_need = std::max(legend_need, TextWidth(note, kSmallCharWidthPx));
+  legend_need += 12 + 8;  // the gap before it, a margin after
+  const int total_width = static_cast<int>(
+      std::ceil(width + axis2_width + std::max(0.0, legend_need - legend_width)));
 
   std::string svg;
-  svg += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + std::to_string(width) +
-         "\" height=\"" + std::to_string(height) + "\" viewBox=\"0 0 " + std::to_string(width) +
-         " " + std::to_string(height) + "\" font-family=\"sans-serif\" font-size=\"12\"";
+  svg += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + std::to_string(total_width) +
+         "\" height=\"" + std::to_string(height) + "\" viewBox=\"0 0 " +
+         std::to_string(total_width) + " " + std::to_string(height) +
+         "\" font-family=\"sans-serif\" font-size=\"12\"";
   svg += " role=\"img\" aria-label=\"";
   svg += Esc(title);
   svg += "\">\n";
@@ -145,6 +173,19 @@ std::string LogLogPlot::ToSvg() const {
          "\" text-anchor=\"middle\">" + Esc(x_label) + "</text>\n";
   svg += "<text transform=\"translate(18," + F(top + ph / 2) +
          ") rotate(-90)\" text-anchor=\"middle\">" + Esc(y_label) + "</text>\n";
+  if (!y2_label.empty()) {  // base-unit decades on the right
+    for (double d = std::floor(y0 - log_k); d <= y1 - log_k + 1e-9; d += 1) {
+      if (d + log_k < y0 - 1e-9) continue;
+      const double y = top + (y1 - d - log_k) / (y1 - y0) * ph;
+      svg += "<line x1=\"" + F(left + pw) + "\" y1=\"" + F(y) + "\" x2=\"" + F(left + pw + 5) +
+             "\" y2=\"" + F(y) + "\" stroke=\"#333333\"/>\n";
+      svg += "<text x=\"" + F(left + pw + 8) + "\" y=\"" + F(y + 4) + "\" fill=\"#555555\">" +
+             Tick(d) + "</text>\n";
+    }
+    svg += "<text transform=\"translate(" + F(left + pw + axis2_width - 8) + "," +
+           F(top + ph / 2) + ") rotate(-90)\" text-anchor=\"middle\" fill=\"#555555\">" +
+           Esc(y2_label) + "</text>\n";
+  }
 
   // Bands first, then lines and points on top.
   for (const PlotSeries& s : series) {
@@ -152,8 +193,8 @@ std::string LogLogPlot::ToSvg() const {
     std::string upper, lower;
     for (size_t i = 0; i < s.x.size(); ++i) {
       if (!Drawable(s.x[i], s.lo[i]) || !Drawable(s.x[i], s.hi[i])) continue;
-      upper += F(px(s.x[i])) + "," + F(py(s.hi[i])) + " ";
-      lower = F(px(s.x[i])) + "," + F(py(s.lo[i])) + " " + lower;
+      upper += F(px(s.x[i])) + "," + F(pyb(s.hi[i])) + " ";
+      lower = F(px(s.x[i])) + "," + F(pyb(s.lo[i])) + " " + lower;
     }
     if (!upper.empty()) {
       svg += "<polygon points=\"" + upper + lower + "\" fill=\"" + s.color +
@@ -168,7 +209,7 @@ std::string LogLogPlot::ToSvg() const {
     if (!(l.y > 0) || !std::isfinite(l.y) || !std::isfinite(l.slope)) continue;
     // In decades: ly(lx) = log10(y) + slope lx, clipped to [x0, x1] x [y0, y1].
     double a = x0, b = x1;
-    const double c = std::log10(l.y);
+    const double c = std::log10(l.y) + log_k;
     if (l.slope != 0) {
       double ea = (y0 - c) / l.slope, eb = (y1 - c) / l.slope;
       if (ea > eb) std::swap(ea, eb);
@@ -187,7 +228,7 @@ std::string LogLogPlot::ToSvg() const {
   for (const PlotSeries& s : series) {
     std::string pts;
     for (size_t i = 0; i < s.x.size(); ++i) {
-      if (Drawable(s.x[i], s.y[i])) pts += F(px(s.x[i])) + "," + F(py(s.y[i])) + " ";
+      if (Drawable(s.x[i], s.y[i])) pts += F(px(s.x[i])) + "," + F(pyb(s.y[i])) + " ";
     }
     if (pts.empty()) continue;
     std::string opacity;
@@ -196,30 +237,36 @@ std::string LogLogPlot::ToSvg() const {
       opacity += F(std::max(s.opacity, 0.0));
       opacity += "\"";
     }
+    if (!s.tooltip.empty()) svg += "<g><title>" + Esc(s.tooltip) + "</title>";
     svg += "<polyline points=\"" + pts + "\" fill=\"none\" stroke=\"" + s.color +
            "\" stroke-width=\"" + F(s.stroke_width) + "\"" +
            (s.dashed ? " stroke-dasharray=\"5,3\"" : "") + opacity + "/>\n";
     if (s.markers) {
       for (size_t i = 0; i < s.x.size(); ++i) {
         if (!Drawable(s.x[i], s.y[i])) continue;
-        svg += "<circle cx=\"" + F(px(s.x[i])) + "\" cy=\"" + F(py(s.y[i])) +
+        svg += "<circle cx=\"" + F(px(s.x[i])) + "\" cy=\"" + F(pyb(s.y[i])) +
                "\" r=\"2.6\" fill=\"" + s.color + "\"" + opacity + "/>\n";
       }
     }
+    if (!s.tooltip.empty()) svg += "</g>\n";
   }
   for (const PlotMarker& m : markers) {
     if (!Drawable(m.x, m.y)) continue;
-    svg += "<circle cx=\"" + F(px(m.x)) + "\" cy=\"" + F(py(m.y)) +
-           "\" r=\"5\" fill=\"none\" stroke=\"" + m.color + "\" stroke-width=\"2\"/>\n";
+    const double mx = px(m.x), my = pyb(m.y);
+    svg += "<circle cx=\"" + F(mx) + "\" cy=\"" + F(my) + "\" r=\"5\" fill=\"none\" stroke=\"" +
+           m.color + "\" stroke-width=\"2\"/>\n";
     if (marker_labels_in_legend || m.label.empty()) continue;
-    svg += "<text x=\"" + F(px(m.x) + 8) + "\" y=\"" + F(py(m.y) + 16) + "\" fill=\"" + m.color +
-           "\">" + Esc(m.label) + "</text>\n";
+    // Below right of the ring, or on the side (and above) where the plot has room.
+    const bool to_left = mx + 8 + TextWidth(m.label, kCharWidthPx) > left + pw;
+    const bool above = my + 16 > top + ph - 2;
+    svg += "<text x=\"" + F(to_left ? mx - 8 : mx + 8) + "\" y=\"" + F(above ? my - 9 : my + 16) +
+           "\" fill=\"" + m.color + "\"" + (to_left ? " text-anchor=\"end\"" : "") + ">" +
+           Esc(m.label) + "</text>\n";
   }
   // Line labels along their lines, each where it least overlaps the curves,
   // the markers, the other lines and the labels placed before it: the first
   // candidate with kLabelClearPx of free space, else the clearest one.
   {
-    constexpr double kCharWidthPx = 6.2;   // 12 px sans-serif, generous
     constexpr double kHalfHeightPx = 4.5;  // half the cap height
     constexpr double kLabelClearPx = 3;
     constexpr int kSamples = 8;
@@ -229,7 +276,7 @@ std::string LogLogPlot::ToSvg() const {
       double lx = 0, ly = 0;
       for (size_t i = 0; i < s.x.size(); ++i) {
         if (!Drawable(s.x[i], s.y[i])) continue;
-        const double x = px(s.x[i]), y = py(s.y[i]);
+        const double x = px(s.x[i]), y = pyb(s.y[i]);
         if (have) obstacles.push_back({lx, ly, x, y});
         lx = x;
         ly = y;
@@ -237,7 +284,7 @@ std::string LogLogPlot::ToSvg() const {
       }
     }
     for (const PlotMarker& m : markers) {
-      if (Drawable(m.x, m.y)) obstacles.push_back({px(m.x), py(m.y), px(m.x), py(m.y)});
+      if (Drawable(m.x, m.y)) obstacles.push_back({px(m.x), pyb(m.y), px(m.x), pyb(m.y)});
     }
     std::vector<Segment> placed;  // centre lines of the labels already placed
     struct Candidate {
@@ -251,7 +298,7 @@ std::string LogLogPlot::ToSvg() const {
       const double len = std::hypot(g.bx - g.ax, g.by - g.ay);
       if (!(len > 0)) continue;
       const double dx = (g.bx - g.ax) / len, dy = (g.by - g.ay) / len;  // along the line
-      const double w = kCharWidthPx * static_cast<double>(lines[li].label.size());
+      const double w = TextWidth(lines[li].label, kCharWidthPx);
       // Along the line, ending at points from its right end backwards, the
       // baseline above then below it; then level text beside those points
       // (for a line too short or too steep to carry its label).
@@ -322,7 +369,7 @@ std::string LogLogPlot::ToSvg() const {
   }
   // Legend: series, then (optionally) markers, then notes; what does not fit
   // above the bottom margin is counted instead of drawn.
-  const double legend_x = left + pw + 12, legend_end = height - bottom;
+  const double legend_x = left + pw + axis2_width + 12, legend_end = height - bottom;
   double ly = top + 10;
   size_t not_shown = 0;
   auto room = [&](double need) { return ly + need <= legend_end; };

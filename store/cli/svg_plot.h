@@ -20,6 +20,7 @@ struct PlotSeries {
   bool in_legend = true;      // false: drawn, but not listed in the legend
   double stroke_width = 1.8;  // px
   double opacity = 1.0;       // of the line and markers, in (0, 1]
+  std::string tooltip;        // shown on hover (an SVG <title>): e.g. the unit and its values
 };
 
 // A reference line, e.g. a limit: y(x) = y * x^slope on the log-log axes
@@ -45,6 +46,11 @@ struct LogLogPlot {
   std::string title;
   std::string x_label = "tau [s]";
   std::string y_label;
+  // Every y (series, bands, lines, markers) is given in a base unit and drawn
+  // times y_scale on the left axis (e.g. 3600: deg/s data in deg/h, the
+  // datasheet unit); with y2_label set, a right axis shows the base unit.
+  double y_scale = 1;
+  std::string y2_label;
   std::vector<PlotSeries> series;
   std::vector<PlotLine> lines;
   std::vector<PlotMarker> markers;
@@ -55,7 +61,10 @@ struct LogLogPlot {
   std::vector<std::string> notes;  // small lines of text under the legend
   int width = 760;
   int height = 520;
-  int legend_width = 190;  // px right of the plot area for the legend
+  int legend_width = 190;  // px right of the plot area for the legend (the
+                           // SVG grows when a legend text needs more)
+  // Every text lies inside the SVG: the legend's width follows its longest
+  // text, a marker's label turns to the side of the marker that has room.
   std::string ToSvg() const;
 };
 

@@ -213,10 +213,19 @@ async function renderAndRead(htmlPath, chromiumPath, profileDir) {
         lotPlots: [...document.querySelectorAll('#lot-plots figure')].map((f) => ({
           svg: !!f.querySelector('svg'), curves: f.querySelectorAll('svg polyline').length,
           caption: f.querySelector('figcaption')?.textContent || '',
+          tooltips: [...f.querySelectorAll('svg g > title')].map((t) => t.textContent),
+          boldColours: [...f.querySelectorAll('svg g > polyline')]
+            .filter((l) => Number(l.getAttribute('stroke-width')) > 2).map((l) => l.getAttribute('stroke')),
         })),
         unitPlots: [...document.querySelectorAll('#unit-plots figure')].map((f) => ({
           id: f.id, run: f.dataset.run, svg: !!f.querySelector('svg'), curves: f.querySelectorAll('svg polyline').length,
-          caption: f.querySelector('figcaption')?.textContent || '',
+          caption: f.querySelector('figcaption')?.textContent || '', series: f.dataset.plot === 'series',
+          // Every text of the plot inside its SVG's box (nothing cut off).
+          textsOutside: [...f.querySelectorAll('svg text')].filter((t) => {
+            const b = t.getBoundingClientRect(), s = t.ownerSVGElement.getBoundingClientRect();
+            return b.width > 0 && (b.left < s.left - 0.5 || b.right > s.right + 0.5 ||
+                                   b.top < s.top - 0.5 || b.bottom > s.bottom + 0.5);
+          }).map((t) => t.textContent),
         })),
         scripts: document.scripts.length,
         images: document.images.length,
@@ -469,6 +478,14 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
   if (dom.lotPlots.length !== axes.size) fail(`${dom.lotPlots.length} lot plots for ${axes.size} axes`);
   for (const p of dom.lotPlots) {
     if (!p.svg || p.curves < rows.length / axes.size) fail(`lot plot '${p.caption}' lacks curves (${p.curves})`);
+    // Every unit's curve names it on hover; the bold (flagged) ones each in their own colour.
+    const units = new Set(rows.map((r) => r.unit));
+    for (const u of units) {
+      if (!p.tooltips.some((t) => t.startsWith(`${u} `))) fail(`lot plot: no tooltip names unit ${u}`);
+    }
+    if (new Set(p.boldColours).size !== Math.min(p.boldColours.length, 10)) {
+      fail(`lot plot: flagged units share colours ${p.boldColours}`);
+    }
   }
   // (one per axis kind of the unit)
   const plotted = new Set(dom.unitPlots.map((p) => p.run));
@@ -478,6 +495,14 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
   }
   for (const p of dom.unitPlots) {
     if (!p.svg || p.curves < 1) fail(`unit plot '${p.caption}' has no curve`);
+    if (p.textsOutside.length > 0) fail(`unit plot '${p.caption}': text outside the plot: ${p.textsOutside}`);
+  }
+  // ... and its raw samples against time: a rate panel and a drift panel per axis.
+  for (const run of flaggedRuns) {
+    const series = dom.unitPlots.filter((p) => p.run === run && p.series);
+    const axesOfRun = rows.filter((r) => r.run_id === run).length;
+    if (series.length !== 1) fail(`run ${run}: ${series.length} time-series plots, want 1`);
+    else if (series[0].curves < 2 * axesOfRun) fail(`run ${run}: time-series plot has ${series[0].curves} lines for ${axesOfRun} axes`);
   }
 
   // Sorting (the first results table: the first axis kind's rows).
