@@ -27,9 +27,15 @@
 // header, a 16-bit checksum) is another layout and is not decoded here.
 //
 // The timer is not a sample counter, so frames carry none: the serial source
-// places them by the host clock (device_protocol.h). Resynchronisation after
-// corruption: a packet that fails its checksum gives up its header byte only,
-// and the search for 255 starts again at the next byte.
+// places them after the previous one, leaving room for the packets lost in
+// between (DeviceFrame::rejected_before: the bytes skipped since the last
+// good packet, in packets, at least one), checked against the host clock.
+// Resynchronisation after corruption: a packet that fails its checksum gives
+// up its header byte only, and the search for 255 starts again at the next
+// byte; out of sync (at the start, after a skipped byte), a packet is taken
+// only when the next packet's header byte follows it, so that a stray 255
+// with a checksum that holds by chance (1 in 128-256) is not taken for a
+// sample (1 in 2^15-2^16 with the next header).
 #ifndef IMUQUAL_ACQUIRE_CROSSBOW_PROTOCOL_H_
 #define IMUQUAL_ACQUIRE_CROSSBOW_PROTOCOL_H_
 
@@ -68,23 +74,22 @@ class CrossbowDecoder : public FrameDecoder {
   static Result<std::unique_ptr<CrossbowDecoder>> Create(const CrossbowOptions& options);
 
   void Feed(const uint8_t* data, size_t size, std::vector<DeviceFrame>* out) override;
-  void Reset() override { buf_.clear(); }
+  void Reset() override;
   int counter_bits() const override { return 0; }
 
   // The checksum byte of packet bytes 1-16 under `rule` (kMod256 or kMod255).
   static uint8_t Checksum(const uint8_t* packet, CrossbowChecksum rule);
 
  private:
-  struct AxisSource {
-    bool gyro = true;
-    int component = 0;  // 0..2
-  };
-  CrossbowDecoder(CrossbowOptions options, std::vector<AxisSource> axes)
+  CrossbowDecoder(CrossbowOptions options, std::vector<AxisComponent> axes)
       : options_(std::move(options)), axes_(std::move(axes)) {}
 
   CrossbowOptions options_;
-  std::vector<AxisSource> axes_;
+  std::vector<AxisComponent> axes_;
   std::vector<uint8_t> buf_;
+  bool in_sync_ = false;      // the last bytes were a good packet: the next starts here
+  bool have_packet_ = false;  // a good packet since the start or the last Reset
+  int64_t skipped_since_packet_ = 0;  // bytes skipped since the last good packet
 };
 
 }  // namespace imuqual::acquire

@@ -71,7 +71,11 @@ TEST(CrossbowDecoderTest, ScaledSensorModeAsTheManualConvertsIt) {
   ASSERT_EQ(p.size(), crossbow::kScaledPacketBytes);
   std::vector<DeviceFrame> frames;
   d->Feed(p.data(), p.size(), &frames);
+  EXPECT_EQ(frames.size(), 0u);  // out of sync: taken once the next packet's header follows
+  const uint8_t next_header = crossbow::kHeader;
+  d->Feed(&next_header, 1, &frames);
   ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(frames[0].rejected_before, 0);
   const DeviceFrame& f = frames[0];
   // THEN rate = word x 200 x 1.5 / 32767 deg/s, accel = word x 4 x 1.5 / 32767 g
   EXPECT_FLOAT_EQ(f.values[0], static_cast<float>(1000 * 300.0 / 32767));
@@ -96,13 +100,14 @@ TEST(CrossbowDecoderTest, BothReadingsOfTheChecksum) {
            {CrossbowChecksum::kMod256, true, false},
            {CrossbowChecksum::kMod255, false, true},
            {CrossbowChecksum::kEither, true, true}}) {
-    auto d = Decoder(rule);
-    std::vector<DeviceFrame> frames;
-    d->Feed(p256.data(), p256.size(), &frames);
-    EXPECT_EQ(frames.size(), accepts256 ? 1u : 0u);
-    frames.clear();
-    d->Feed(p255.data(), p255.size(), &frames);
-    EXPECT_EQ(frames.size(), accepts255 ? 1u : 0u);
+    for (const auto& [packet, accepts] : {std::pair{p256, accepts256}, std::pair{p255, accepts255}}) {
+      auto d = Decoder(rule);
+      std::vector<uint8_t> bytes = packet;
+      bytes.push_back(crossbow::kHeader);  // the next packet's start
+      std::vector<DeviceFrame> frames;
+      d->Feed(bytes.data(), bytes.size(), &frames);
+      EXPECT_EQ(frames.size(), accepts ? 1u : 0u);
+    }
   }
 }
 
@@ -129,6 +134,69 @@ TEST(CrossbowDecoderTest, ResynchronisesAfterCorruptionAndSplitReads) {
   }
   EXPECT_GE(d->counters().bad_checksum, 1);
   EXPECT_EQ(d->counters().frames, 20);
+}
+
+// Out of sync, a stray 255 followed by 17 bytes whose checksum holds by
+// chance is not a sample: the next packet's header must follow it. In sync,
+// every good packet is taken as it completes.
+TEST(CrossbowDecoderTest, AChanceChecksumWhileResyncingIsNoSample) {
+  auto d = Decoder(CrossbowChecksum::kMod256);
+  // A false packet: header, words, a checksum that holds, then noise (not 255).
+  std::vector<uint8_t> stream = Packet({111, 0, 0, 0, 0, 0}, 1, 2, CrossbowChecksum::kMod256);
+  stream.push_back(7);
+  for (int k = 0; k < 5; ++k) {
+    const auto p = Packet({static_cast<int16_t>(k), 0, 0, 0, 0, 0}, 1126, 0,
+                          CrossbowChecksum::kMod256);
+    stream.insert(stream.end(), p.begin(), p.end());
+  }
+  std::vector<DeviceFrame> frames;
+  d->Feed(stream.data(), stream.size(), &frames);
+  // The first real packet waits for the second's header; the last is taken
+  // in sync without waiting.
+  ASSERT_EQ(frames.size(), 5u);
+  for (int k = 0; k < 5; ++k) EXPECT_FLOAT_EQ(frames[k].values[0], k * 300.0f / 32767) << k;
+  EXPECT_EQ(frames[0].rejected_before, 0);  // nothing good came before it
+}
+
+// Packets lost between two good ones are counted in the next good frame
+// (rejected_before), so that a counter-less source keeps the time axis: one
+// corrupted packet, one cut short by an overrun (3 bytes lost), two
+// corrupted in a row.
+TEST(CrossbowDecoderTest, LostPacketsAreCountedForThePlacementOfTheNext) {
+  auto d = Decoder(CrossbowChecksum::kMod256);
+  auto good = [](int k) {
+    return Packet({static_cast<int16_t>(k), 0, 0, 0, 0, 0}, 1126, 0, CrossbowChecksum::kMod256);
+  };
+  auto corrupt = [&](int k) {
+    auto p = good(k);
+    p[3] ^= 0x10;
+    return p;
+  };
+  std::vector<uint8_t> stream;
+  auto add = [&](const std::vector<uint8_t>& p) { stream.insert(stream.end(), p.begin(), p.end()); };
+  add(good(0));
+  add(good(1));
+  add(corrupt(2));
+  add(good(3));
+  auto cut = good(4);
+  cut.erase(cut.begin() + 5, cut.begin() + 8);
+  add(cut);
+  add(good(5));
+  add(corrupt(6));
+  add(corrupt(7));
+  add(good(8));
+  add(good(9));
+  std::vector<DeviceFrame> frames;
+  for (size_t at = 0; at < stream.size(); at += 5) {
+    d->Feed(stream.data() + at, std::min<size_t>(5, stream.size() - at), &frames);
+  }
+  ASSERT_EQ(frames.size(), 6u);
+  const int want_value[] = {0, 1, 3, 5, 8, 9};
+  const int64_t want_rejected[] = {0, 0, 1, 1, 2, 0};
+  for (size_t i = 0; i < frames.size(); ++i) {
+    EXPECT_FLOAT_EQ(frames[i].values[0], want_value[i] * 300.0f / 32767) << i;
+    EXPECT_EQ(frames[i].rejected_before, want_rejected[i]) << i;
+  }
 }
 
 TEST(CrossbowDecoderTest, RangesAreRequiredAndKeysBelongToTheProtocol) {

@@ -10,7 +10,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <string_view>
 #include <vector>
+
+#include "common/status.h"
+#include "imuqual/plan.pb.h"
 
 namespace imuqual::acquire {
 
@@ -45,6 +49,20 @@ class FrameDecoder {
  protected:
   DecoderCounters counters_;
 };
+
+// Which component of a device's gyro or accelerometer triple each
+// configured axis reads.
+struct AxisComponent {
+  bool gyro = true;
+  int component = 0;  // 0, 1, 2: x (roll), y (pitch), z (yaw)
+};
+
+// The component of every axis of `axes`, for a device with one gyro and one
+// accelerometer triple: by the name's last letter (gx, gy, gz; gyro_z; ...)
+// when every axis of a kind names a distinct one, else in the axes' order.
+// More than three axes of a kind is an error naming `protocol` and the axis.
+Result<std::vector<AxisComponent>> AssignTripleComponents(const std::vector<pb::Axis>& axes,
+                                                          std::string_view protocol);
 
 }  // namespace imuqual::acquire
 

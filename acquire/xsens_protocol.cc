@@ -58,46 +58,10 @@ struct Triple {
 
 }  // namespace
 
-namespace {
-// 0, 1, 2 for a name ending in x, y, z (either case); -1 otherwise.
-int ComponentFromName(const std::string& name) {
-  if (name.empty()) return -1;
-  switch (name.back()) {
-    case 'x': case 'X': return 0;
-    case 'y': case 'Y': return 1;
-    case 'z': case 'Z': return 2;
-    default: return -1;
-  }
-}
-}  // namespace
-
 Result<std::unique_ptr<XsensDecoder>> XsensDecoder::Create(const std::vector<pb::Axis>& axes) {
-  if (axes.empty()) return Status::InvalidArgument("xsens protocol: no axes");
-  std::vector<AxisSource> sources(axes.size());
-  for (bool gyro : {true, false}) {
-    std::vector<size_t> of_kind;
-    for (size_t i = 0; i < axes.size(); ++i) {
-      if ((axes[i].kind() != pb::ACCEL) == gyro) of_kind.push_back(i);
-    }
-    if (of_kind.size() > 3) {
-      return Status::InvalidArgument("xsens protocol: at most three " +
-                                     std::string(gyro ? "gyro" : "accelerometer") +
-                                     " axes (x, y, z); axis '" + axes[of_kind[3]].name() +
-                                     "' is one too many");
-    }
-    // By name (gx, gy, gz; gyro_z; ...) when every axis of the kind names a
-    // distinct component, else in order: the first is x, then y, then z.
-    bool by_name = true;
-    int seen = 0;
-    for (size_t i : of_kind) {
-      const int c = ComponentFromName(axes[i].name());
-      if (c < 0 || (seen & (1 << c))) by_name = false;
-      if (c >= 0) seen |= 1 << c;
-    }
-    int next = 0;
-    for (size_t i : of_kind) sources[i] = {gyro, by_name ? ComponentFromName(axes[i].name()) : next++};
-  }
-  return std::unique_ptr<XsensDecoder>(new XsensDecoder(std::move(sources)));
+  auto components = AssignTripleComponents(axes, "xsens");
+  if (!components.ok()) return components.status();
+  return std::unique_ptr<XsensDecoder>(new XsensDecoder(std::move(*components)));
 }
 
 void XsensDecoder::Reset() { buf_.clear(); }
@@ -193,7 +157,7 @@ bool XsensDecoder::Payload(const uint8_t* p, size_t n, std::vector<DeviceFrame>*
     }
   }
   bool any = false;
-  for (const AxisSource& a : axes_) any |= (a.gyro ? gyr : acc).present;
+  for (const AxisComponent& a : axes_) any |= (a.gyro ? gyr : acc).present;
   if (!any) {
     ++counters_.other_messages;
     return true;
@@ -202,7 +166,7 @@ bool XsensDecoder::Payload(const uint8_t* p, size_t n, std::vector<DeviceFrame>*
   f.values.resize(axes_.size());
   f.flags.assign(axes_.size(), 0);
   for (size_t i = 0; i < axes_.size(); ++i) {
-    const AxisSource& a = axes_[i];
+    const AxisComponent& a = axes_[i];
     const Triple& t = a.gyro ? gyr : acc;
     if (!t.present || !std::isfinite(t.v[a.component])) {
       f.values[i] = std::nanf("");

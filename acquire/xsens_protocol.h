@@ -56,15 +56,11 @@ class XsensDecoder : public FrameDecoder {
   int counter_bits() const override { return 16; }
 
  private:
-  struct AxisSource {
-    bool gyro = true;
-    int component = 0;  // 0..2
-  };
-  explicit XsensDecoder(std::vector<AxisSource> axes) : axes_(std::move(axes)) {}
+  explicit XsensDecoder(std::vector<AxisComponent> axes) : axes_(std::move(axes)) {}
   // Parses an MTData2 payload; false if its layout is malformed.
   bool Payload(const uint8_t* p, size_t n, std::vector<DeviceFrame>* out);
 
-  std::vector<AxisSource> axes_;
+  std::vector<AxisComponent> axes_;
   std::vector<uint8_t> buf_;
 };
 
