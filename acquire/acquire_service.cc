@@ -184,6 +184,10 @@ struct AcquireService::Impl {
   Status PublishOneBatch(RunState& run, double now_s, bool* published_one);
   Status Abort(const std::string& why);
   Counters StatusCounters() const;
+  // Running runs whose serial device is gone (SampleSource::Reconnecting),
+  // and that set as last published: a change is published at once.
+  std::vector<std::string> ReconnectingRuns() const;
+  std::vector<std::string> reconnecting_published;
   void LogSummary(const std::string& how) const {
     LogInfo(how + ": " + std::to_string(published) + " batches published, " +
             std::to_string(resent) + " resent, " + std::to_string(injected_drops) +
@@ -580,6 +584,15 @@ Status AcquireService::Impl::Abort(const std::string& why) {
   return Status::Ok();
 }
 
+std::vector<std::string> AcquireService::Impl::ReconnectingRuns() const {
+  std::vector<std::string> ids;
+  for (const RunState& r : runs) {
+    if (r.state == imuqual::run_t::STATE_RUNNING && r.unit.source->Reconnecting())
+      ids.push_back(r.run_id);
+  }
+  return ids;
+}
+
 Counters AcquireService::Impl::StatusCounters() const {
   int64_t retained = 0, retained_bytes = 0, active = 0;
   std::map<std::string, int64_t> sources;
@@ -608,6 +621,9 @@ Counters AcquireService::Impl::StatusCounters() const {
                   {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
                   {"messages_damaged", static_cast<int64_t>(bus->damaged())}};
   for (const auto& [name, value] : sources) out.emplace_back(name, value);
+  // Per run: a unit whose device is gone, for the station console.
+  for (const std::string& id : ReconnectingRuns())
+    out.emplace_back(std::string(channels::kReconnectingCounterPrefix) + id, 1);
   return out;
 }
 
@@ -686,7 +702,9 @@ Status AcquireService::Run() {
       for (RunState& run : s.runs) s.Announce(run);
       next_heartbeat = now + s.options.heartbeat_s;
     }
-    if (now >= next_status) {
+    std::vector<std::string> reconnecting = s.ReconnectingRuns();
+    if (now >= next_status || reconnecting != s.reconnecting_published) {
+      s.reconnecting_published = std::move(reconnecting);
       // Unhealthy for a while after batches were dropped unacknowledged.
       const bool dropping = now - s.retention_warning_s < kRetentionWarningS;
       (void)PublishStatus(*s.bus, "acquire", !dropping, dropping ? s.retention_warning : "",

@@ -139,6 +139,8 @@ void SerialSource::ReaderLoop() {
       trouble = "device gone (" + WithoutPrefix(n.status().message(), who + ": ") + ")";
       LogWarning(who + ": " + trouble + "; reconnecting");
       port_.reset();
+      std::lock_guard<std::mutex> lock(mu_);
+      reconnecting_ = true;
       continue;
     }
     if (*n == 0) continue;
@@ -155,6 +157,7 @@ void SerialSource::ReaderLoop() {
     if (!frames.empty()) {
       trouble_since = mono;
       trouble = "no frames";
+      reconnecting_ = false;
     }
   }
 }
@@ -307,6 +310,11 @@ Result<int> SerialSource::Read(int max_samples, SampleBlock* block) {
   q_values_.erase(q_values_.begin(), q_values_.begin() + static_cast<std::ptrdiff_t>(n * axes));
   q_flags_.erase(q_flags_.begin(), q_flags_.begin() + static_cast<std::ptrdiff_t>(n * axes));
   return static_cast<int>(n);
+}
+
+bool SerialSource::Reconnecting() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return reconnecting_ && !ended_;
 }
 
 SerialCounters SerialSource::counters() const {

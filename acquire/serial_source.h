@@ -71,6 +71,7 @@ class SerialSource : public SampleSource {
   const SourceInfo& info() const override { return info_; }
   Result<int> Read(int max_samples, SampleBlock* block) override;
   void AddCounters(std::map<std::string, int64_t>* counters) const override;
+  bool Reconnecting() const override;
   SerialCounters counters() const;
 
  private:
@@ -96,6 +97,7 @@ class SerialSource : public SampleSource {
   // Timeline (mu_).
   bool have_last_ = false;
   bool reconnected_ = false;
+  bool reconnecting_ = false;  // the device is gone, or reopened with no frame since
   uint64_t last_raw_ = 0;
   int64_t last_counter_ = 0;
   int64_t counter_offset_ = 0;  // timeline counter - device counter (mod its wrap)

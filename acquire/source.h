@@ -54,6 +54,9 @@ class SampleSource {
   // Adds this source's health counters (frames, checksum errors,
   // reconnects...) to `counters` (summed over the process's units).
   virtual void AddCounters(std::map<std::string, int64_t>* counters) const { (void)counters; }
+  // True while the source's device is gone (or was just reopened and has
+  // sent no frame since): its unit waits for a reconnection, not for data.
+  virtual bool Reconnecting() const { return false; }
   // Ends the source early (its unit was decided: the run needs no more
   // samples): releases what it holds (the device, its threads, its file)
   // at once rather than when it is destroyed. Read() is not called after.

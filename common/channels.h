@@ -12,6 +12,9 @@ inline constexpr char kRun[] = "IMUQUAL4_RUN";        // run_t heartbeats
 inline constexpr char kAck[] = "IMUQUAL4_ACK";        // ack_t flow control
 inline constexpr char kResend[] = "IMUQUAL4_RESEND";  // resend_t requests
 inline constexpr char kStatus[] = "IMUQUAL4_STATUS";  // status_t per process
+// acquire's status_t counter "reconnecting:<run id>" = 1: that run's serial
+// device is gone and acquire is reconnecting (absent otherwise).
+inline constexpr char kReconnectingCounterPrefix[] = "reconnecting:";
 
 inline constexpr char kRawPrefix[] = "IMUQUAL4_RAW.";            // + unit serial: rate_batch_t
 inline constexpr char kCurvePrefix[] = "IMUQUAL4_CURVE.";        // + unit serial: allan_curve_t

@@ -103,7 +103,10 @@ for want in "^\[#*\.*\] +[0-9]+% +elapsed" "analyze 2/2" "^B2 +SN-104 .*running 
 done
 pkill -9 -f "imuqual-store .*--db $work/lot.db" || fail "no store process to kill"
 wait_screen "store up \(restarted 1x\)" 30
-pkill -9 -f "imuqual-analyze .*--shard 1/2" || fail "no analyze shard 1/2 to kill"
+# (This station's shard only: another station on this host keeps its own.)
+station_pid="$(pgrep -d, -f "imuqual run --station $work/station.textproto")" ||
+  fail "no imuqual run process"
+pkill -9 -P "$station_pid" -f "imuqual-analyze .*--shard 1/2" || fail "no analyze shard 1/2 to kill"
 wait_screen "analyze 2/2 \(restarted 1x\)" 30
 code="$(wait_exit 240)"
 [ "$code" = 0 ] || fail "soak 1: imuqual run exit $code"
@@ -194,4 +197,53 @@ want="4 0 8 $n_judged $(awk -v p="$n_passed" -v n="$n_judged" 'BEGIN { printf "%
 lots="$("$bin/imuqual" lot CONSOLE-LOT --db "$work/lot.db" 2>&1)" || fail "soak 3: imuqual lot failed: $lots"
 printf '%s\n' "$lots" | grep -Eq "by their final run: .*[1-9][0-9]* ABORTED" && fail "soak 3: imuqual lot counts aborted retests as final: $lots"
 printf '%s\n' "$lots" | grep -Eq "final yield" || fail "soak 3: imuqual lot shows no final yield: $lots"
+# --- Soak 4: a unit on a serial line (a text-line device on a pseudo-
+# terminal) goes silent (SIGSTOP), then its cable is pulled and plugged in
+# again: the console says "no data M:SS", then "reconnecting M:SS", then
+# "running" again, and the run ends complete with the unplugged time as a gap.
+cat >"$work/serial_plan.textproto" <<EOF
+name: "serial-console"
+axes { name: "x" kind: GYRO }
+axes { name: "y" kind: GYRO }
+axes { name: "z" kind: GYRO }
+nominal_rate_hz: 100
+min_duration_s: 0
+warmup_s: 0
+limits { measurement: "bias_instability" axis_kind: GYRO high: 1000 unit: "deg/h" }
+EOF
+cat >"$work/serial.textproto" <<EOF
+station_id: "bench-S"
+lot: "SERIAL-LOT"
+plan: "serial_plan.textproto"
+duration_s: 45
+archive: "serial.db"
+slot { name: "S1" unit_serial: "SN-201" source: "serial:$work/ttyS,protocol=text,baud=115200,rate=100,columns=n/x/y/z,counter=n,counter_bits=32" }
+EOF
+t0="$(date +%s.%N)"
+python3 "$src/tests/serial_feeder.py" "$work/ttyS" 100 "$t0" &
+feeder=$!
+for _ in $(seq 50); do [ -e "$work/ttyS" ] && break; sleep 0.1; done
+[ -e "$work/ttyS" ] || fail "soak 4: the serial feeder made no device"
+tm new-session -d -s soak -x 120 -y 30 \
+  "trap : INT; '$bin/imuqual' run --station '$work/serial.textproto'; echo \"imuqual run exited with \$?\""
+wait_screen "^S1 +SN-201 .*running" 30
+sleep 2
+kill -STOP "$feeder"
+wait_screen "^S1 +SN-201 .*no data 0:0[5-9]" 20
+kill -CONT "$feeder"
+wait_screen "^S1 +SN-201 .*running" 20
+kill "$feeder"  # the cable is pulled
+wait "$feeder" 2>/dev/null || true
+wait_screen "^S1 +SN-201 .*reconnecting 0:0[0-9]" 20
+python3 "$src/tests/serial_feeder.py" "$work/ttyS" 100 "$t0" &
+feeder=$!
+wait_screen "^S1 +SN-201 .*running" 30
+code="$(wait_exit 120)"
+kill "$feeder" 2>/dev/null || true
+[ "$code" = 0 ] || fail "soak 4: imuqual run exit $code"
+serial="$(sqlite3 "$work/serial.db" "SELECT r.state || ' ' || (a.gap_samples > 0) || ' ' || (r.verdict IS NOT NULL)
+                                      FROM runs r JOIN run_archive a USING (run_id)")"
+[ "$serial" = "complete 1 1" ] || fail "soak 4: run '$serial' (want complete, a gap from the unplug, judged)"
+tm kill-session -t soak
+
 echo "console test: ok"

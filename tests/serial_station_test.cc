@@ -206,6 +206,10 @@ TEST(SerialStationTest, CorruptFramesUnplugAndAFastClockThroughTheStation) {
 
   // The line's troubles, as acquire counted them.
   EXPECT_EQ(h.Counter("acquire", "device_reconnects"), 1);
+  // While the cable was out, acquire said which run waits for its device
+  // (the console's "reconnecting"); only X's.
+  EXPECT_EQ(h.Counter("acquire", "reconnecting:S-X"), 1);
+  EXPECT_EQ(h.Counter("acquire", "reconnecting:S-T"), -1);
   EXPECT_GE(h.Counter("acquire", "device_bad_checksum"),
             static_cast<int64_t>(kXCorrupt.size() + 1 + kTCorrupt.size()));
   EXPECT_GE(h.Counter("acquire", "device_malformed"), 1);

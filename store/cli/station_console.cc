@@ -117,6 +117,7 @@ std::string StateText(const ConsoleUnit& u) {
   if (u.source_failed) return "source failed";
   switch (u.state) {
     case run_t::STATE_RUNNING:
+      if (u.reconnecting) return "reconnecting " + FormatDuration(u.silent_s);
       if (u.silent_s >= kConsoleSilentS) return "no data " + FormatDuration(u.silent_s);
       return "running";
     case run_t::STATE_COMPLETE:
@@ -150,7 +151,7 @@ std::string Bar(double fraction, int width) {
 // (store::AttentionRank); slot order within each.
 int AttentionRank(const ConsoleUnit& u) {
   // A failed source or a silent unit needs the operator as an ERROR does.
-  if (u.source_failed || u.silent_s >= kConsoleSilentS) {
+  if (u.source_failed || u.silent_s >= kConsoleSilentS || u.reconnecting) {
     return std::max(store::AttentionRank(pb::ERROR),
                     store::AttentionRank(store::OutcomeFromNumber(RankedVerdict(u))));
   }
@@ -396,35 +397,56 @@ std::string ConsoleSummaryLine(const ConsoleModel& m) {
          FormatDuration(m.wall_s);
 }
 
-// ANSI colour and bold for the verdict and state words of a rendered line
-// (whole words only; zero display width, so the cut lines stay in width).
-std::string Colorize(const std::string& line) {
+// ANSI colour and bold for a verdict or state word at the start of a cell
+// (zero display width, so the cut lines stay in width).
+const char* ColourOf(std::string_view cell) {
   static const std::pair<const char*, const char*> kWords[] = {
       {"FAIL", "\x1b[1;31m"},          {"fail?", "\x1b[31m"},         {"ERROR", "\x1b[1;31m"},
       {"source failed", "\x1b[1;31m"}, {"MARGINAL", "\x1b[1;33m"},    {"marginal?", "\x1b[33m"},
       {"INCONCLUSIVE", "\x1b[1;35m"},  {"inconclusive?", "\x1b[35m"}, {"ABORTED", "\x1b[1;35m"},
-      {"no data", "\x1b[1;33m"},       {"PASS", "\x1b[1;32m"},        {"pass?", "\x1b[32m"}};
-  auto word_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
-  std::string out;
-  size_t i = 0;
-  while (i < line.size()) {
-    bool matched = false;
-    if (i == 0 || !word_char(line[i - 1])) {
-      for (const auto& [word, code] : kWords) {
-        const size_t n = std::strlen(word);
-        if (line.compare(i, n, word) != 0) continue;
-        if (i + n < line.size() && word_char(line[i + n])) continue;
-        out += code;
-        out += word;
-        out += "\x1b[0m";
-        i += n;
-        matched = true;
-        break;
-      }
-    }
-    if (!matched) out += line[i++];
+      {"no data", "\x1b[1;33m"},       {"reconnecting", "\x1b[1;33m"}, {"PASS", "\x1b[1;32m"},
+      {"pass?", "\x1b[32m"}};
+  for (const auto& [word, code] : kWords) {
+    if (cell.rfind(word, 0) == 0) return code;
   }
-  return out;
+  return nullptr;
+}
+
+// Colours the verdict and state cells of the table that starts at
+// lines[first] (its header, then the dashes that give each column's
+// extent): only columns `verdict`, `state` and `axis verdict`, so that a
+// serial, a reason or a lot that happens to read "PASS" stays plain.
+void ColorizeTable(std::vector<std::string>* lines, size_t first) {
+  if (first + 1 >= lines->size()) return;
+  const std::string& header = (*lines)[first];
+  const std::string& dashes = (*lines)[first + 1];
+  if (dashes.empty() || dashes.find_first_not_of("- ") != std::string::npos) return;
+  std::vector<std::pair<size_t, size_t>> spans;  // byte ranges of the coloured columns
+  for (size_t at = dashes.find('-'); at != std::string::npos;) {
+    const size_t end = std::min(dashes.find(' ', at), dashes.size());
+    std::string name = header.size() > at ? header.substr(at, end - at) : "";
+    name.erase(name.find_last_not_of(' ') + 1);
+    if (name == "verdict" || name == "state" || name == "axis verdict") spans.emplace_back(at, end);
+    at = dashes.find('-', end);
+  }
+  for (size_t i = first + 2; i < lines->size(); ++i) {
+    std::string& line = (*lines)[i];
+    if (line.empty()) break;  // the end of the table
+    // Right to left, so that the earlier offsets stay valid.
+    for (auto it = spans.rbegin(); it != spans.rend(); ++it) {
+      const auto [at, end] = *it;
+      if (at >= line.size()) continue;
+      // The table is ASCII up to its verdict columns (slot and unit names are
+      // padded by display width; a wide name shifts the bytes: then the cell
+      // does not start with a word and stays plain).
+      const std::string_view cell(line.data() + at, std::min(end, line.size()) - at);
+      const char* code = ColourOf(cell);
+      if (code == nullptr || (at > 0 && line[at - 1] != ' ')) continue;
+      const size_t text_end = cell.find_last_not_of(' ') + 1;
+      line.insert(at + text_end, "\x1b[0m");
+      line.insert(at, code);
+    }
+  }
 }
 
 std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int height, bool color) {
@@ -477,10 +499,7 @@ std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int hei
     }
     line.resize(bytes);
   }
-  if (color) {
-    // The table, the tally and the notice: not the header (a plan's name).
-    for (size_t i = kHeaderLines; i < out.size(); ++i) out[i] = Colorize(out[i]);
-  }
+  if (color) ColorizeTable(&out, kHeaderLines);
   return out;
 }
 

@@ -68,6 +68,9 @@ struct ConsoleUnit {
   // did, or the unit is not paced by its device); a running unit silent
   // kConsoleSilentS or more shows "no data M:SS".
   double silent_s = 0;
+  // Its serial device is gone (or was just reopened) and acquire is
+  // reconnecting: shown "reconnecting M:SS" (M:SS silent) instead of "no data".
+  bool reconnecting = false;
   // Its run ended because its source failed (not the operator's stop).
   bool source_failed = false;
 };

@@ -232,6 +232,46 @@ TEST(StationConsoleTest, EightyByTwentyFourShowsVerdictsAndReasonsFirst) {
   }
 }
 
+// Colour goes to the verdict and state cells only: a serial, a slot or a
+// reason that reads like a verdict stays plain. A unit whose device is gone
+// shows "reconnecting M:SS" and is listed with the units needing attention.
+TEST(StationConsoleTest, ColourOnlyInVerdictAndStateCellsAndReconnectingShown) {
+  ConsoleModel m = Model();
+  m.units.clear();
+  for (int i = 1; i <= 3; ++i) {
+    m.units.push_back(Unit("PASS", "FAIL-0" + std::to_string(i), 300,
+                           measurement_t::OUTCOME_PASS));
+  }
+  m.units[1].verdict = measurement_t::OUTCOME_FAIL;
+  m.units[1].reason = "FAIL x: PASS";
+  m.units[2].reconnecting = true;
+  m.units[2].silent_s = 9;
+  const std::vector<std::string> plain = RenderConsole(m, 140, 45);
+  const std::string screen = Screen(plain);
+  EXPECT_NE(screen.find("reconnecting 0:09"), std::string::npos) << screen;
+  const std::string colored = Screen(RenderConsole(m, 140, 45, /*color=*/true));
+  EXPECT_NE(colored.find("\x1b[1;33mreconnecting 0:09\x1b[0m"), std::string::npos) << colored;
+  EXPECT_NE(colored.find("\x1b[31mfail?\x1b[0m"), std::string::npos) << colored;
+  // Serials, slots and the reason: never coloured.
+  for (const char* text : {"FAIL-01", "FAIL-02", "FAIL-03", "FAIL x: PASS"}) {
+    const size_t at = colored.find(text);
+    ASSERT_NE(at, std::string::npos) << text << "\n" << colored;
+    EXPECT_NE(colored[at == 0 ? 0 : at - 1], 'm') << text << "\n" << colored;
+  }
+  EXPECT_EQ(colored.find("\x1b[1;32mPASS"), std::string::npos) << colored;  // the slot name
+  // At 80x24 with more units than rows, the reconnecting unit comes first.
+  for (int i = 4; i <= 12; ++i) {
+    m.units.push_back(Unit("A" + std::to_string(i), "SN-" + std::to_string(i), 300,
+                           measurement_t::OUTCOME_PASS));
+  }
+  m.units[1].verdict = measurement_t::OUTCOME_PASS;
+  m.units[1].reason.clear();
+  const std::string small = Screen(RenderConsole(m, 80, 24));
+  const size_t reconnecting = small.find("FAIL-03"), other = small.find("SN-4 ");
+  ASSERT_NE(reconnecting, std::string::npos) << small;
+  if (other != std::string::npos) EXPECT_LT(reconnecting, other) << small;
+}
+
 // The provisional values carry the marks measurement_t gives them.
 TEST(StationConsoleTest, LiveValuesCarryTheirMarksAndALegend) {
   ConsoleModel m = Model();

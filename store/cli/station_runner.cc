@@ -335,9 +335,21 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
   std::map<std::pair<std::string, std::string>, Complaint>
       problems;  // (process, instance) -> last unhealthy message
 
+  // Runs whose serial device acquire is reconnecting, as last heard.
+  std::set<std::string> reconnecting;
+  double reconnecting_heard_s = -1;
   bus.Subscribe<imuqual::status_t>(
       channels::kStatus, 1000, [&](const std::string&, imuqual::status_t&& s, int64_t) {
         heard[s.process].insert(s.instance);
+        if (s.process == "acquire") {
+          reconnecting.clear();
+          const std::string_view prefix = channels::kReconnectingCounterPrefix;
+          for (size_t i = 0; i < s.counter_names.size() && i < s.counter_values.size(); ++i) {
+            if (s.counter_names[i].rfind(prefix, 0) == 0 && s.counter_values[i] > 0)
+              reconnecting.insert(s.counter_names[i].substr(prefix.size()));
+          }
+          reconnecting_heard_s = MonotonicSeconds();
+        }
         if (s.healthy) {
           problems.erase({s.process, s.instance});
         } else {
@@ -670,6 +682,8 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
       if (u.samples != growth[i].first) growth[i] = {u.samples, now};
       const bool waiting = u.state == 0 || u.state == imuqual::run_t::STATE_RUNNING;
       u.silent_s = device_paced[i] && waiting && !u.archived ? now - growth[i].second : 0;
+      u.reconnecting = u.silent_s > 0 && now - reconnecting_heard_s < kComplaintS &&
+                       reconnecting.count(u.run_id) > 0;
     }
     if (tty && now - last_draw >= kRedrawS) {
       screen.Draw(model);
