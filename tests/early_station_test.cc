@@ -317,7 +317,7 @@ TEST(EarlyDecisionTest, DecidedUnitsEndAtTheirDecisionAndArchiveCleanly) {
   ASSERT_FALSE(t.rows.empty()) << csv.output;
   int checked = 0;
   for (size_t i = 0; i < t.rows.size(); ++i) {
-    const std::string unit = t.rows[i][t.Col("unit")], cell = t.rows[i][t.Col("decision_time_s")];
+    const std::string unit = t.rows[i][t.Col("serial")], cell = t.rows[i][t.Col("decision_time_s")];
     if (unit == "GOOD") {
       EXPECT_EQ(cell, Exact(good.decision_time_s));
     } else if (unit == "SLOW") {

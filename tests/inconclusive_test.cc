@@ -205,7 +205,7 @@ TEST_F(InconclusiveTest, TheReportShowsTheBadgeAndTheReason) {
   const std::string reason = a.reasons.substr(0, a.reasons.find('\n'));
   for (const std::string& part : std::vector<std::string>{
            "<span class=\"badge v-INCONCLUSIVE\">INCONCLUSIVE</span>",
-        "data-unit=\"" + a.serial + "\" data-run=\"" + a.run_id + "\" data-verdict=\"INCONCLUSIVE\"",
+        "data-serial=\"" + a.serial + "\" data-run=\"" + a.run_id + "\" data-verdict=\"INCONCLUSIVE\"",
         "<li>" + reason + "</li>",  // the attention list (nothing to escape in it)
         "data-field=\"retest_candidates\" data-v=\"1\"",
         "<td class=\"num o-INCONCLUSIVE\" data-m=\"bias_instability\" data-v=\"" + Exact(a.value) +
@@ -222,7 +222,8 @@ TEST_F(InconclusiveTest, TheLotPlotDrawsTheUnitAsInconclusive) {
   Imuqual(std::string("plot --lot ") + kLot + " --axis " + kAxis + " -o " + path);
   auto svg = ReadFileToString(path);
   ASSERT_TRUE(svg.ok());
-  // Bold, in the inconclusive violet, labelled with its verdict: not a FAIL's red.
+  // Bold, in a shade of the inconclusive violet (the first: #5a32a3), labelled with
+  // its verdict: not a FAIL's red.
   EXPECT_NE(svg->find(a.serial + " INCONCLUSIVE"), std::string::npos);
   EXPECT_NE(svg->find("#5a32a3"), std::string::npos);
   EXPECT_NE(svg->find("bands: FAIL, INCONCLUSIVE and MARGINAL units"), std::string::npos);

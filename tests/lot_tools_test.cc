@@ -290,7 +290,7 @@ TEST_F(LotToolsTest, KalibrLotExportIsOneFilePerUnit) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Csv units = ParseCsv(Imuqual("lot T-L001 --format csv"));
   std::set<std::string> serials;
-  for (const auto& row : units.rows) serials.insert(row[units.Col("unit")]);
+  for (const auto& row : units.rows) serials.insert(row[units.Col("serial")]);
   ASSERT_FALSE(serials.empty());
   size_t files = 0;
   for (const auto& entry : std::filesystem::directory_iterator(out.path("k"))) {
@@ -671,8 +671,8 @@ TEST_F(YieldTest, LotsLotStatsAndTheReportSayTheSame) {
   for (const char* part :
        {"data-field=\"first_pass_yield\" data-v=\"0.5\"", "data-field=\"final_yield\" data-v=\"1\"",
         "data-field=\"retests\" data-v=\"2\"", "data-field=\"retest_candidates\" data-v=\"1\"",
-        "data-unit=\"U2\" data-run=\"U2-R1\" data-verdict=\"FAIL\" data-next-run=\"U2-R2\"",
-        "data-unit=\"U5\" data-run=\"U5-R1\" data-verdict=\"ERROR\" data-next-run=\"U5-R2\"",
+        "data-serial=\"U2\" data-run=\"U2-R1\" data-verdict=\"FAIL\" data-next-run=\"U2-R2\"",
+        "data-serial=\"U5\" data-run=\"U5-R1\" data-verdict=\"ERROR\" data-next-run=\"U5-R2\"",
         "<span class=\"badge v-INCONCLUSIVE\">INCONCLUSIVE</span>",
         "<span class=\"badge v-ABORTED\">ABORTED</span>",
         "<span class=\"badge v-ERROR\">ERROR</span>"}) {
@@ -843,7 +843,7 @@ class SchemaExamplesTest : public ::testing::Test {
       const std::string& v = r[runs.Col("verdict")];
       const Rank rank{v == "PASS" || v == "MARGINAL" || v == "FAIL" || v == "INCONCLUSIVE",
                       r[runs.Col("start")]};  // ISO 8601 UTC: text order is time order
-      auto [it, fresh] = latest.try_emplace({r[runs.Col("lot")], r[runs.Col("unit")]}, rank,
+      auto [it, fresh] = latest.try_emplace({r[runs.Col("lot")], r[runs.Col("serial")]}, rank,
                                             r[runs.Col("run_id")]);
       if (!fresh && rank > it->second.first) it->second = {rank, r[runs.Col("run_id")]};
     }
@@ -1003,10 +1003,10 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
       Lot& l = lots[r[runs.Col("lot")]];
       ++l.runs;
       l.last_start = std::max(l.last_start, r[runs.Col("start")]);
-      l.units.insert(r[runs.Col("unit")]);
+      l.units.insert(r[runs.Col("serial")]);
       const std::string& v = r[runs.Col("verdict")];
       const bool judged = v == "PASS" || v == "MARGINAL" || v == "FAIL" || v == "INCONCLUSIVE";
-      auto& first = l.first[r[runs.Col("unit")]];
+      auto& first = l.first[r[runs.Col("serial")]];
       if (judged && (first.first.empty() || r[runs.Col("start")] < first.first)) {
         first = {r[runs.Col("start")], v};
       }
@@ -1091,7 +1091,7 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
     std::map<std::string, std::string> verdict_of;
     for (const auto& r : runs.rows) {
       if (r[runs.Col("lot")] != "TAC-L001") continue;
-      of_unit[r[runs.Col("unit")]].push_back({r[runs.Col("start")], r[runs.Col("run_id")]});
+      of_unit[r[runs.Col("serial")]].push_back({r[runs.Col("start")], r[runs.Col("run_id")]});
       verdict_of[r[runs.Col("run_id")]] = r[runs.Col("verdict")];
     }
     std::vector<std::vector<std::string>> expected;  // serial, run, verdict, next
@@ -1128,7 +1128,7 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
           if (r[all.Col("qualifier")] == "measured" || !latest.contains(r[all.Col("run_id")]))
             continue;
           auto null_as = [](const std::string& v, const char* text) { return v == text ? "" : v; };
-          expected.push_back({r[all.Col("unit")], r[all.Col("axis")], r[all.Col("name")],
+          expected.push_back({r[all.Col("serial")], r[all.Col("axis")], r[all.Col("name")],
                               r[all.Col("qualifier")], r[all.Col("uncertainty_method")],
                               null_as(r[all.Col("decision_rule")], "none"),
                               null_as(r[all.Col("outcome")], "not_judged")});
@@ -1156,8 +1156,8 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
         std::vector<std::vector<std::string>> expected;
         for (const auto& r : all.rows) {
           if (r[all.Col("outcome")] != "FAIL" || !latest.contains(r[all.Col("run_id")])) continue;
-          expected.push_back({r[all.Col("unit")], r[all.Col("run_id")], r[all.Col("axis")],
-                              r[all.Col("name")], r[all.Col("value")], r[all.Col("unit_of_value")],
+          expected.push_back({r[all.Col("serial")], r[all.Col("run_id")], r[all.Col("axis")],
+                              r[all.Col("name")], r[all.Col("value")], r[all.Col("unit")],
                               r[all.Col("low")], r[all.Col("high")]});
         }
         std::sort(expected.begin(), expected.end(), [](const auto& a, const auto& b) {
@@ -1185,7 +1185,7 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
         std::map<std::string, std::string> start_of;
         for (const auto& r : runs.rows) {
           if (r[runs.Col("lot")] != "TAC-L001") continue;
-          ++runs_of[r[runs.Col("unit")]];
+          ++runs_of[r[runs.Col("serial")]];
           start_of[r[runs.Col("run_id")]] = r[runs.Col("start")];
         }
         const Csv all = ParseCsv(
@@ -1194,12 +1194,12 @@ TEST_F(SchemaExamplesTest, EverySqlExampleAnswersItsQuestion) {
         std::vector<std::vector<std::string>> expected;
         for (const auto& r : all.rows) {
           if (r[all.Col("name")] != "bias_instability" || kinds.at(r[all.Col("axis")]) != "gyro" ||
-              runs_of[r[all.Col("unit")]] < 2) {
+              runs_of[r[all.Col("serial")]] < 2) {
             continue;
           }
-          expected.push_back({r[all.Col("unit")], start_of.at(r[all.Col("run_id")]),
+          expected.push_back({r[all.Col("serial")], start_of.at(r[all.Col("run_id")]),
                               r[all.Col("axis")], r[all.Col("run_id")], r[all.Col("value")],
-                              r[all.Col("unit_of_value")], r[all.Col("outcome")]});
+                              r[all.Col("unit")], r[all.Col("outcome")]});
         }
         std::sort(expected.begin(), expected.end());  // serial, start, axis
         ASSERT_EQ(out.rows.size(), expected.size());

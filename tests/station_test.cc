@@ -92,7 +92,7 @@ TEST_F(StationTest, RunEndsCleanlyWithATable) {
   EXPECT_NE(run_->output.find("8 units:"), std::string::npos) << run_->output;
   EXPECT_NE(run_->output.find("bias inst."), std::string::npos);
   // The final table is in fixture order, the slot first.
-  EXPECT_NE(run_->output.find("slot  unit"), std::string::npos) << run_->output;
+  EXPECT_NE(run_->output.find("slot  serial"), std::string::npos) << run_->output;
 }
 
 TEST_F(StationTest, EveryBatchIsArchivedWithoutGaps) {
@@ -230,7 +230,7 @@ TEST_F(StationTest, LotQueryAsCsv) {
   auto col = [&](const std::string& name) {
     return std::find(cols.begin(), cols.end(), name) - cols.begin();
   };
-  for (const char* name : {"unit", "axis", "arw_deg_rt_hr", "bias_instability_deg_hr", "tau_min_s",
+  for (const char* name : {"serial", "axis", "arw_deg_rt_hr", "bias_instability_deg_hr", "tau_min_s",
                            "gap_samples", "verdict"}) {
     EXPECT_LT(col(name), static_cast<long>(cols.size())) << name;
   }

@@ -23,7 +23,7 @@ double Pick(bool take, double v) { return take ? v : allan::kNaN; }
 // The machine-readable per-axis table (CSV/JSON): one column per quantity
 // and unit, so gyro and accelerometer rows never share a column.
 TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
-  TableWriter t({"lot", "unit", "run_id", "axis", "kind", "arw_deg_rt_hr", "vrw_m_s_rt_hr",
+  TableWriter t({"lot", "serial", "run_id", "axis", "kind", "arw_deg_rt_hr", "vrw_m_s_rt_hr",
                  "bias_instability_deg_hr", "bias_instability_ieee_deg_hr", "bias_instability_ug",
                  "bias_instability_ieee_ug", "tau_min_s", "rrw_deg_hr_rt_hr", "rrw_ug_rt_hr",
                  "samples", "gap_samples", "invalid_samples", "verdict", "run_verdict", "state",
@@ -93,7 +93,7 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
   }
   const bool early = std::any_of(rows.begin(), rows.end(),
                                  [](const store::AxisRow& r) { return r.has_decision_time; });
-  std::vector<std::string> columns = {"unit",      "axis",        "ARW/VRW", "bias inst.",
+  std::vector<std::string> columns = {"serial",    "axis",        "ARW/VRW", "bias inst.",
                                       "BI (IEEE)", "tau min s",   "RRW",     "gap samples",
                                       "axis",      "unit verdict"};
   if (by_slot) columns.insert(columns.begin(), "slot");

@@ -95,7 +95,7 @@ Result<std::string> ExportJson(store::Archive& archive, const std::vector<RunRef
 }
 
 Result<std::string> ExportMeasurements(store::Archive& archive, const std::vector<RunRef>& runs) {
-  TableWriter t({"lot", "unit", "run_id", "axis", "name", "value", "uncertainty", "unit_of_value",
+  TableWriter t({"lot", "serial", "run_id", "axis", "name", "value", "uncertainty", "unit",
                  "low", "high", "marginal_low", "marginal_high", "outcome", "note",
                  "uncertainty_method", "qualifier", "decision_rule", "guard_band"});
   for (const RunRef& r : runs) {
@@ -124,7 +124,7 @@ Result<std::string> ExportMeasurements(store::Archive& archive, const std::vecto
 }
 
 Result<std::string> ExportCurves(store::Archive& archive, const std::vector<RunRef>& runs) {
-  TableWriter t({"lot", "unit", "run_id", "axis", "estimator", "ci_method", "m", "tau_s", "dev",
+  TableWriter t({"lot", "serial", "run_id", "axis", "estimator", "ci_method", "m", "tau_s", "dev",
                  "lo", "hi", "edf", "n_terms", "stride", "alpha", "alpha_from"});
   for (const RunRef& r : runs) {
     auto curves = archive.LoadCurves(r.key);

@@ -305,7 +305,7 @@ int RunsCommand(const std::string& db_path, store::RunFilter filter, const std::
     return kExitError;
   }
   // New columns go last: programs may read the earlier ones by position.
-  TableWriter t({"run_id", "unit", "lot", "station", "slot", "start", "state", "verdict", "reason",
+  TableWriter t({"run_id", "serial", "lot", "station", "slot", "start", "state", "verdict", "reason",
                  "operator"});
   for (const store::RunRow& r : *rows) {
     t.AddRow({Cell::Text(r.run_id), Cell::Text(r.unit), Cell::Text(r.lot), Cell::Text(r.station),

@@ -138,7 +138,7 @@ void AddLotModelRows(const std::string& lot, const std::vector<AxisLotModel>& mo
 }
 
 TableWriter InconsistentUnitsTable(const std::vector<AxisLotModel>& models) {
-  TableWriter t({"axis", "unit", "p_value", "worst_tau_s", "deviation_vs_others"}, 4);
+  TableWriter t({"axis", "serial", "p_value", "worst_tau_s", "deviation_vs_others"}, 4);
   for (const AxisLotModel& m : models) {
     if (!m.model.ok()) continue;
     for (const allan::UnitConsistency& c : m.model->consistency) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <numbers>
 #include <set>
 
@@ -88,12 +89,21 @@ bool DrawnBold(const std::string& verdict) {
   return o == pb::FAIL || o == pb::INCONCLUSIVE || o == pb::MARGINAL;
 }
 
-// The colour of the i-th flagged (FAIL, INCONCLUSIVE, MARGINAL) unit of a lot
-// overlay: distinct for the first ten, none the PASS curves' blue.
-std::string FlaggedUnitColor(size_t i) {
-  static const char* kColors[] = {"#d62728", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
-                                  "#17becf", "#bcbd22", "#2ca02c", "#7f7f7f", "#000000"};
-  return kColors[i % (sizeof kColors / sizeof kColors[0])];
+// The colour of the i-th unit with `verdict` (FAIL, INCONCLUSIVE, MARGINAL)
+// in a lot overlay: a shade of its verdict's colour family (reds for FAIL,
+// violets for INCONCLUSIVE, ambers and browns for MARGINAL), distinct for the
+// first six of each, so that units are told apart and their verdict read at a
+// glance; none is the PASS curves' blue.
+std::string FlaggedUnitColor(const std::string& verdict, size_t i) {
+  static const char* kFail[] = {"#d62728", "#8c1c13", "#ff7f7f", "#e377c2", "#b35806", "#67000d"};
+  static const char* kInconclusive[] = {"#5a32a3", "#9467bd", "#3f007d", "#c51b7d", "#807dba",
+                                        "#e7298a"};
+  static const char* kMarginal[] = {"#e69f00", "#8c6d1f", "#f0c05a", "#b8860b", "#fdae61",
+                                    "#6b4c00"};
+  const char* const* family = verdict == "FAIL"           ? kFail
+                              : verdict == "INCONCLUSIVE" ? kInconclusive
+                                                          : kMarginal;
+  return family[i % 6];
 }
 
 std::string WorstOutcome(const std::vector<pb::Measurement>& ms) {
@@ -528,11 +538,12 @@ std::vector<AllanPlot> LotAllanPlots(const std::string& lot, const std::vector<R
     p.width = kPlotWidthPx;
     p.legend_width = kLegendWidthPx;
     bool pass_listed = false, unjudged_listed = false;
-    size_t bold_index = 0;
+    std::map<std::string, size_t> of_verdict;  // flagged units drawn so far, per verdict
     for (const auto& [run, a] : members) {
       if (DrawnBold(a->verdict)) {
-        // Each flagged unit its own colour, named in the legend with its verdict.
-        const std::string color = FlaggedUnitColor(bold_index++);
+        // Each flagged unit its own shade of its verdict's colour, named in
+        // the legend with its verdict.
+        const std::string color = FlaggedUnitColor(a->verdict, of_verdict[a->verdict]++);
         PlotSeries s = CurveSeries(*a->curve, run->info.serial + " " + a->verdict, color);
         s.stroke_width = 2.2;
         s.markers = false;
@@ -573,7 +584,9 @@ std::vector<AllanPlot> LotAllanPlots(const std::string& lot, const std::vector<R
     out.title += std::to_string(members.size());
     out.title += members.size() == 1 ? " unit" : " units";
     p.title = out.title;
-    p.notes.push_back("blue: PASS; a colour per unit flagged");
+    p.notes.push_back("blue: PASS; flagged units in shades");
+    p.notes.push_back("of red (FAIL), violet (INCONCLUSIVE),");
+    p.notes.push_back("amber (MARGINAL), one per unit");
     p.notes.push_back("hover a curve: unit, verdict, minimum");
     if (!members.empty()) {
       p.notes.push_back("bands: FAIL, INCONCLUSIVE and MARGINAL units,");

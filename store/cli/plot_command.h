@@ -51,7 +51,8 @@ struct PlotOptions {
 // colour, its band, its model and its minimum); a run with gyro and
 // accelerometer axes gets one plot per kind. Lot plot: one plot per axis
 // name, every unit's curve; units whose axis is judged FAIL, INCONCLUSIVE or
-// MARGINAL are drawn bold, each in its own colour, with their band, and
+// MARGINAL are drawn bold, each in its own shade of its verdict's colour
+// (reds, violets, ambers), with their band, and
 // listed in the legend with their verdict; every curve names its unit,
 // verdict and minimum on hover (an SVG <title>); the others are thin and
 // blue. One plot is written to `output` as given; several

@@ -399,7 +399,7 @@ void Yields(const ReportData& d, std::string* out) {
   if (!d.retests.empty()) {
     *out += "<ul class=\"reasons retests\">\n";
     for (const store::RetestRow& r : d.retests) {
-      Add(out, "<li", Attr("data-unit", r.unit), Attr("data-run", r.run_id),
+      Add(out, "<li", Attr("data-serial", r.unit), Attr("data-run", r.run_id),
           Attr("data-verdict", r.verdict), Attr("data-next-run", r.next_run_id),
           "><div class=\"who\">", Badge(r.verdict), " <strong>", Esc(r.unit),
           "</strong> <span class=\"run\">run ", Esc(r.run_id), " (", Esc(r.state),
@@ -456,7 +456,7 @@ void EarlyDecisions(const ReportData& d, std::string* out) {
     const bool decided = std::isfinite(r.decision_time_s);
     const double ratio = decided && r.horizon_s > 0 ? r.decision_time_s / r.horizon_s : 1.0;
     Add(out, "<tr", Attr("data-run", r.run_id),
-        Attr("data-decision-time", Exact(r.decision_time_s)), Attr("data-unit", r.unit),
+        Attr("data-decision-time", Exact(r.decision_time_s)), Attr("data-serial", r.unit),
         "><td class=\"unit\">", Esc(r.unit), "</td><td>", Esc(r.run_id), "</td>",
         VerdictCell(r.verdict, "run_verdict"), "<td class=\"num\"",
         Attr("data-v", Exact(r.decision_time_s)), ">",
@@ -486,7 +486,7 @@ void Attention(const ReportData& d, const std::map<std::string, std::string>& pl
   }
   *out += "<ul class=\"reasons\">\n";
   for (const RunPlotData* r : flagged) {
-    Add(out, "<li", Attr("data-unit", r->info.serial), Attr("data-run", r->info.run_id),
+    Add(out, "<li", Attr("data-serial", r->info.serial), Attr("data-run", r->info.run_id),
         Attr("data-verdict", r->verdict), "><div class=\"who\">", Badge(r->verdict), " <strong>",
         Esc(r->info.serial), "</strong> <span class=\"run\">run ", Esc(r->info.run_id), "</span>");
     auto it = plot_anchor.find(r->info.run_id);
@@ -560,7 +560,7 @@ void UnitTable(const ReportData& d, const std::string& kind, std::string* out) {
     if (r.kind != kind) continue;
     *out += r.run_id != previous_run ? "<tr class=\"unit-start\"" : "<tr";
     previous_run = r.run_id;
-    Add(out, Attr("data-run", r.run_id), Attr("data-unit", r.unit), Attr("data-axis", r.axis),
+    Add(out, Attr("data-run", r.run_id), Attr("data-serial", r.unit), Attr("data-axis", r.axis),
         "><td class=\"unit\" title=\"run ", Esc(r.run_id), "\">", Esc(r.unit), "</td><td>",
         Esc(r.axis), "</td>");
     for (const Column& c : columns) {
@@ -1037,8 +1037,8 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
   }
   html +=
       "<p class=\"note\">Every unit's overlapping Allan deviation on one axis; units whose axis is "
-      "judged FAIL, INCONCLUSIVE or MARGINAL are drawn bold, each in its own colour (named in "
-      "the legend), with their confidence band, and ringed at their curve minimum; hovering over "
+      "judged FAIL, INCONCLUSIVE or MARGINAL are drawn bold, each in its own shade of red, violet "
+      "or amber (named in the legend), with their confidence band, and ringed at their curve minimum; hovering over "
       "a curve names its unit, verdict and minimum. Left axis in datasheet units (deg/h, "
       "&micro;g), right axis in the curve's own unit (deg/s, m/s<sup>2</sup>). Dashed lines: the plan's limits (red) and marginal band edges "
       "(amber); bias instability against the curve minimum, random walks as the "

@@ -18,8 +18,9 @@
 //
 // For programs reading the page: visible numbers are rounded for people,
 // and every numeric cell carries its full-precision value in data-v (the shortest text that reads back exactly,
-// empty for none). Rows are identified by data-run/data-unit/data-axis
-// (results) and data-axis/data-name (statistics; axis "" = run level),
+// empty for none). Rows are identified by data-run/data-serial/data-axis
+// (results) and data-axis/data-name/data-unit (statistics; axis "" = run
+// level; data-unit the values' unit),
 // cells by data-m (measurement) or data-stat. Every text from the archive is
 // HTML-escaped.
 #ifndef IMUQUAL_STORE_CLI_REPORT_H_

@@ -233,7 +233,7 @@ std::string MarksLine(const ConsoleModel& m, bool verdict_marks = false) {
 
 // One row per unit and axis.
 std::vector<std::string> AxisRows(const ConsoleModel& m) {
-  TableWriter t({"slot", "unit", "verdict", "why", "state", "elapsed / planned", "axis",
+  TableWriter t({"slot", "serial", "verdict", "why", "state", "elapsed / planned", "axis",
                  "axis verdict", "BI (live)", "samples", "gaps"});
   for (const ConsoleUnit& u : m.units) {
     const std::string samples = u.state == 0 ? "" : Si(static_cast<double>(u.samples));
@@ -278,7 +278,7 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
       }
     }
   }
-  std::vector<std::string> columns = {"slot", "unit",  "verdict",
+  std::vector<std::string> columns = {"slot", "serial", "verdict",
                                       "why",  "state", "elapsed / planned"};
   for (const std::string& a : axis_names) columns.push_back(a);
   columns.push_back("samples");

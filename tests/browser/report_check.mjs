@@ -198,7 +198,7 @@ async function renderAndRead(htmlPath, chromiumPath, profileDir) {
         title: document.title,
         facts,
         results: [...document.querySelectorAll('table.results tbody tr')].map((tr) => ({
-          run: tr.dataset.run, unit: tr.dataset.unit, axis: tr.dataset.axis,
+          run: tr.dataset.run, unit: tr.dataset.serial, axis: tr.dataset.axis,
           m: cells(tr, 'data-m'), field: cells(tr, 'data-field'),
         })),
         stats: [...document.querySelectorAll('table.stats tbody tr')].map((tr) => ({
@@ -206,7 +206,7 @@ async function renderAndRead(htmlPath, chromiumPath, profileDir) {
           s: cells(tr, 'data-stat'),
         })),
         attention: [...document.querySelectorAll('#attention ul.reasons > li')].map((li) => ({
-          unit: li.dataset.unit, run: li.dataset.run, verdict: li.dataset.verdict,
+          unit: li.dataset.serial, run: li.dataset.run, verdict: li.dataset.verdict,
           badge: li.querySelector('.badge')?.textContent.trim(),
           reasons: [...li.querySelectorAll('ul > li')].map((r) => r.textContent),
         })),
@@ -345,7 +345,7 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
   for (const r of rows) {
     const p = pageRows.get(`${r.run_id}\u0000${r.axis}`);
     if (!p) {
-      fail(`no results row for ${r.unit} axis ${r.axis}`);
+      fail(`no results row for ${r.serial} axis ${r.axis}`);
       continue;
     }
     const gyro = r.kind !== 'accel';
@@ -365,38 +365,38 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
     for (const [key, want] of Object.entries(expect)) {
       const cell = p.m[key];
       if (!cell) {
-        fail(`${r.unit} ${r.axis}: no ${key} cell`);
+        fail(`${r.serial} ${r.axis}: no ${key} cell`);
         continue;
       }
-      if (!sameExact(cell.v, want)) fail(`${r.unit} ${r.axis} ${key}: page ${cell.v}, archive ${want}`);
+      if (!sameExact(cell.v, want)) fail(`${r.serial} ${r.axis} ${key}: page ${cell.v}, archive ${want}`);
       const notMeasurable = cell.q === 'not_measurable';
       if (notMeasurable ? cell.text.trim() !== 'n/m' : !visibleMatches(cell.text, cell.v)) {
-        fail(`${r.unit} ${r.axis} ${key}: visible '${cell.text}' is not ${cell.v} to 4 digits`);
+        fail(`${r.serial} ${r.axis} ${key}: visible '${cell.text}' is not ${cell.v} to 4 digits`);
       }
       if (measurementName[key]) {
         const outcome = outcomeOf.get(`${r.run_id}\u0000${r.axis}\u0000${measurementName[key]}`) ?? null;
         if ((cell.outcome || null) !== outcome) {
-          fail(`${r.unit} ${r.axis} ${key}: page outcome ${cell.outcome}, archive ${outcome}`);
+          fail(`${r.serial} ${r.axis} ${key}: page outcome ${cell.outcome}, archive ${outcome}`);
         }
         // The marks: the qualifier, the uncertainty exactly, and what is shown beside the number.
         const m = measurementOf.get(`${r.run_id}\u0000${r.axis}\u0000${measurementName[key]}`);
         if (m) {
-          if (cell.q !== m.qualifier) fail(`${r.unit} ${r.axis} ${key}: page qualifier ${cell.q}, archive ${m.qualifier}`);
-          if (!sameExact(cell.u ?? '', m.uncertainty)) fail(`${r.unit} ${r.axis} ${key}: page uncertainty ${cell.u}, archive ${m.uncertainty}`);
+          if (cell.q !== m.qualifier) fail(`${r.serial} ${r.axis} ${key}: page qualifier ${cell.q}, archive ${m.qualifier}`);
+          if (!sameExact(cell.u ?? '', m.uncertainty)) fail(`${r.serial} ${r.axis} ${key}: page uncertainty ${cell.u}, archive ${m.uncertainty}`);
           const marks = { upper_bound: '\u2264', minimum_not_resolved: '\u2020', model_inadequate: '\u2021' };
           if (marks[m.qualifier] && cell.v !== '' && !cell.whole.includes(marks[m.qualifier])) {
-            fail(`${r.unit} ${r.axis} ${key}: ${m.qualifier} shown without its mark: '${cell.whole}'`);
+            fail(`${r.serial} ${r.axis} ${key}: ${m.qualifier} shown without its mark: '${cell.whole}'`);
           }
           const showsU = cell.whole.includes('\u00b1');
           const wantsU = m.uncertainty !== null && cell.v !== '' && m.qualifier !== 'upper_bound' && !notMeasurable;
-          if (showsU !== wantsU) fail(`${r.unit} ${r.axis} ${key}: '${cell.whole}' ${wantsU ? 'lacks' : 'shows'} ± u`);
+          if (showsU !== wantsU) fail(`${r.serial} ${r.axis} ${key}: '${cell.whole}' ${wantsU ? 'lacks' : 'shows'} ± u`);
         }
       }
     }
     const axisVerdict = p.field.axis_verdict?.text.trim();
     const runVerdict = p.field.run_verdict?.text.trim();
-    if (axisVerdict !== (r.verdict || 'not judged')) fail(`${r.unit} ${r.axis}: axis verdict '${axisVerdict}', archive '${r.verdict}'`);
-    if (runVerdict !== (r.run_verdict || 'not judged')) fail(`${r.unit} ${r.axis}: unit verdict '${runVerdict}', archive '${r.run_verdict}'`);
+    if (axisVerdict !== (r.verdict || 'not judged')) fail(`${r.serial} ${r.axis}: axis verdict '${axisVerdict}', archive '${r.verdict}'`);
+    if (runVerdict !== (r.run_verdict || 'not judged')) fail(`${r.serial} ${r.axis}: unit verdict '${runVerdict}', archive '${r.run_verdict}'`);
   }
 
   // Statistics, recomputed from the measurements of each unit's final run
@@ -479,11 +479,11 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
   for (const p of dom.lotPlots) {
     if (!p.svg || p.curves < rows.length / axes.size) fail(`lot plot '${p.caption}' lacks curves (${p.curves})`);
     // Every unit's curve names it on hover; the bold (flagged) ones each in their own colour.
-    const units = new Set(rows.map((r) => r.unit));
+    const units = new Set(rows.map((r) => r.serial));
     for (const u of units) {
       if (!p.tooltips.some((t) => t.startsWith(`${u} `))) fail(`lot plot: no tooltip names unit ${u}`);
     }
-    if (new Set(p.boldColours).size !== Math.min(p.boldColours.length, 10)) {
+    if (new Set(p.boldColours).size !== Math.min(p.boldColours.length, 6)) {
       fail(`lot plot: flagged units share colours ${p.boldColours}`);
     }
   }
