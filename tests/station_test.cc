@@ -263,5 +263,36 @@ TEST(StationTableTest, FinalTableIsInSlotOrder) {
   EXPECT_LT(zed, alf);
 }
 
+// --fail-exit: a FAIL verdict makes the exit code 5 (for a script or a line
+// controller); a lot that passes still exits 0, and without the flag a FAIL
+// is a result (0).
+TEST(StationTableTest, FailExitIsFiveOnlyWhenAUnitFails) {
+  testing::TempDir dir("station_fail_exit");
+  auto plan = [&](const char* name, double high) {
+    const std::string path = dir.path(std::string(name) + ".textproto");
+    std::ofstream(path) << "name: \"" << name << "\"\n"
+                        << "axes { name: \"x\" kind: GYRO }\naxes { name: \"y\" kind: GYRO }\n"
+                        << "axes { name: \"z\" kind: GYRO }\nnominal_rate_hz: 100\n"
+                        << "min_duration_s: 0\nwarmup_s: 0\n"
+                        << "limits { measurement: \"bias_instability\" axis_kind: GYRO high: " << high
+                        << " unit: \"deg/h\" }\n";
+    return path;
+  };
+  const std::string strict = plan("strict", 0.001), loose = plan("loose", 1e6);
+  auto run = [&](const std::string& plan_path, const std::string& lot, const char* flag) {
+    return RunCommand(Bin("imuqual") + " run --unit U1=sim:vg700,index=0 --duration 120 --lot " +
+                      lot + " --db " + dir.path("f.db") + " --plan " + plan_path + " --quiet " +
+                      flag);
+  };
+  const auto failed = run(strict, "F1", "--fail-exit");
+  EXPECT_EQ(failed.exit_code, 5) << failed.output;
+  EXPECT_NE(failed.output.find("1 FAIL"), std::string::npos) << failed.output;
+  const auto passed = run(loose, "F2", "--fail-exit");
+  EXPECT_EQ(passed.exit_code, 0) << passed.output;
+  EXPECT_NE(passed.output.find("1 PASS"), std::string::npos) << passed.output;
+  const auto plain = run(strict, "F3", "");
+  EXPECT_EQ(plain.exit_code, 0) << plain.output;
+}
+
 }  // namespace
 }  // namespace imuqual

@@ -337,7 +337,9 @@ int RunCommand(const StationRunOptions& options) {
     LogError(run->failure);
     return kRunExitSourceFailed;
   }
-  return run->interrupted ? kRunExitInterrupted : kRunExitOk;
+  if (run->interrupted) return kRunExitInterrupted;
+  const bool units_failed = verdicts["FAIL"] > 0 || verdicts["INCONCLUSIVE"] > 0;
+  return options.fail_exit && units_failed ? kRunExitUnitsFailed : kRunExitOk;
 }
 
 int LotsCommand(const std::string& db_path, Format format) {

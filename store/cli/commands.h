@@ -16,7 +16,7 @@ namespace imuqual::cli {
 
 // Exit codes of `imuqual run` (README "Exit codes", `imuqual run --help`).
 // A unit that FAILs its plan is a result, not an error: the station still
-// exits 0.
+// exits 0, unless --fail-exit asks for kRunExitUnitsFailed.
 inline constexpr int kRunExitOk = 0;             // every run ended normally and was judged
 inline constexpr int kRunExitError = 1;          // the station failed (process, archive, stall)
 inline constexpr int kRunExitUsage = 2;          // bad options, station file, plan, source
@@ -27,6 +27,8 @@ inline constexpr int kRunExitSourceFailed = 3;   // a unit's source failed (bad 
 inline constexpr int kRunExitArchiveUnwritable = 4;  // the archive could not be written (a
                                                      // full disk): what was acknowledged is
                                                      // archived, the runs are not finished
+inline constexpr int kRunExitUnitsFailed = 5;  // --fail-exit: the station ended normally and a
+                                               // unit was judged FAIL or INCONCLUSIVE
 inline constexpr int kRunExitInterrupted = 130;  // Ctrl-C: runs aborted, archived and judged
 inline constexpr char kRunExitCodesHelp[] =
     "Exit codes: 0 every run ended normally and was judged (a FAIL verdict is a result); "
@@ -35,7 +37,8 @@ inline constexpr char kRunExitCodesHelp[] =
     "data, a device gone): its run is archived as ERROR with the reason, every other unit "
     "finished and was judged and archived; 4 the archive could not be written (a full disk) "
     "for --archive-timeout: everything acknowledged is archived, the runs are not finished; "
-    "130 interrupted (Ctrl-C, a hang-up, SIGTERM): the runs were aborted, "
+    "5 (only with --fail-exit) the station ended normally and a unit was judged FAIL or "
+    "INCONCLUSIVE; 130 interrupted (Ctrl-C, a hang-up, SIGTERM): the runs were aborted, "
     "archived and judged.";
 
 // A lot's counts by final run, first-pass and final yield, retests and

@@ -88,6 +88,9 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--skip-failed-slots", run.skip_failed_slots,
                     "pre-flight: run without the units whose source cannot be opened (each "
                     "named) instead of stopping");
+  run_cmd->add_flag("--fail-exit", run.fail_exit,
+                    "exit 5 when a unit is judged FAIL or INCONCLUSIVE (for scripts and line "
+                    "controllers; without it a FAIL verdict is a result and the exit is 0)");
   run_cmd->footer(cli::kRunExitCodesHelp);
 
   std::string db, format = "table", lot;
@@ -352,6 +355,7 @@ int main(int argc, char** argv) {
       from_file.inject_drop = run.inject_drop;
       from_file.skip_failed_slots = run.skip_failed_slots;
       from_file.short_soak = run.short_soak;
+      from_file.fail_exit = run.fail_exit;
       from_file.stall_timeout_s = run.stall_timeout_s;
       run = std::move(from_file);
     } else if (run.lot.empty() || run.db_path.empty()) {

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -12,6 +13,7 @@
 #include <optional>
 #include <random>
 #include <set>
+#include <thread>
 
 #include "acquire/lot_profile.h"
 #include "acquire/units.h"
@@ -278,10 +280,25 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
       if (!*row) break;
       left_open.insert(open_runs->Text(0));
     }
+    // The station in every run id: two stations never mint the same one.
+    // The same station started again within the second of its last start
+    // (a script's quick retest) would: it waits for the next second.
+    auto taken = (*archive)->db().Prepare(
+        "SELECT 1 FROM runs WHERE run_id >= ? AND run_id < ? LIMIT 1");
+    if (!taken.ok()) return taken.status();
+    for (int attempt = 0;; ++attempt) {
+      const int64_t now = NowUtime();
+      result.run_prefix = CompactUtc(now) + "-" + o.station;
+      taken->Reset();
+      taken->Bind(1, result.run_prefix + "-");
+      taken->Bind(2, result.run_prefix + ".");  // '.' sorts right after '-'
+      auto row = taken->Step();
+      if (!row.ok()) return row.status();
+      if (!*row || attempt >= 3) break;
+      std::this_thread::sleep_for(std::chrono::microseconds(1'000'000 - now % 1'000'000 + 1000));
+    }
   }
   result.left_open.assign(left_open.begin(), left_open.end());
-  // The station in every run id: two stations never mint the same one.
-  result.run_prefix = CompactUtc(NowUtime()) + "-" + o.station;
   result.log_path = o.db_path + ".log";
   std::string url = o.lcm_url;
   if (url.empty()) {

@@ -33,6 +33,9 @@ struct StationRunOptions {
   // Pre-flight: a soak shorter than the plan's warm-up + minimum duration is
   // run anyway (its runs FAIL as too short) instead of being refused.
   bool short_soak = false;
+  // --fail-exit: exit kRunExitUnitsFailed when a unit is judged FAIL or
+  // INCONCLUSIVE (and the station itself ended normally).
+  bool fail_exit = false;
   std::string profile = "vg700";  // simulated lot profile
   double duration_s = 0;          // simulated seconds per unit
   std::optional<double> rate_hz;  // Hz, > 0; none: the profile's rate
