@@ -229,7 +229,8 @@ const LimitLine kLimitLines[] = {
 // allan_variance_ros draw them: the -1/2 line through N at tau = 1 s and the
 // +1/2 line through K at tau = 3 s, each with its read-off point (in the
 // legend: the value archived, "<=" when it is only an upper bound).
-void AddReadOffLines(const AxisPlotData& a, LogLogPlot* p) {
+bool AddReadOffLines(const AxisPlotData& a, LogLogPlot* p) {
+  bool added = false;
   struct ReadOff {
     std::string_view measurement;
     const char* name;
@@ -260,8 +261,11 @@ void AddReadOffLines(const AxisPlotData& a, LogLogPlot* p) {
     point.x = r.tau_s;
     point.y = base * shape->scale * std::pow(r.tau_s, shape->slope);
     point.color = "#7f7f7f";
+    point.sets_range = false;  // a K far below the curve must not squash it
     p->markers.push_back(std::move(point));
+    added = true;
   }
+  return added;
 }
 
 // The plan's limits that an Allan plot of `axes` (all of `kind`) can show.
@@ -452,6 +456,7 @@ std::vector<AllanPlot> RunAllanPlots(const RunPlotData& run, const std::string& 
     p.legend_width = kLegendWidthPx;
     std::vector<std::string> names;
     const allan::Curve* first_curve = nullptr;
+    bool read_off_lines = false;
     size_t i = 0;
     for (const AxisPlotData& a : run.axes) {
       if (a.kind != kind || (!axis.empty() && a.axis != axis)) continue;
@@ -472,7 +477,7 @@ std::vector<AllanPlot> RunAllanPlots(const RunPlotData& run, const std::string& 
           AddModelSeries(m->model, a.curve->tau0_s, a.curve->points.front().tau_s,
                          a.curve->points.back().tau_s, m->adequate, &p);
         }
-        AddReadOffLines(a, &p);
+        read_off_lines = AddReadOffLines(a, &p);
       } else if (auto model = ModelSeries(a, a.axis + " noise model", color)) {
         p.series.push_back(std::move(*model));
       }
@@ -497,7 +502,7 @@ std::vector<AllanPlot> RunAllanPlots(const RunPlotData& run, const std::string& 
     if (first_curve != nullptr) p.notes.push_back(BandNote(*first_curve, "band: "));
     p.notes.push_back("dashed: IEEE 952 model fit");
     p.notes.push_back("ring: curve minimum (BI)");
-    if (!axis.empty()) p.notes.push_back("grey: N, K lines (read at 1, 3 s)");
+    if (read_off_lines) p.notes.push_back("grey: N, K lines (read at 1, 3 s)");
     p.notes.push_back("run " + run.info.run_id);
     out.svg = p.ToSvg();
     plots.push_back(std::move(out));

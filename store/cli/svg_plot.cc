@@ -98,7 +98,8 @@ std::string LogLogPlot::ToSvg() const {
       if (i < s.hi.size()) take(s.x[i], s.hi[i]);
     }
   }
-  for (const PlotMarker& m : markers) take(m.x, m.y);
+  for (const PlotMarker& m : markers)
+    if (m.sets_range) take(m.x, m.y);
   if (!std::isfinite(x0)) {
     x0 = 0;
     x1 = 1;
@@ -253,6 +254,7 @@ std::string LogLogPlot::ToSvg() const {
   for (const PlotMarker& m : markers) {
     if (!Drawable(m.x, m.y)) continue;
     const double mx = px(m.x), my = pyb(m.y);
+    if (mx < left - 0.5 || mx > left + pw + 0.5 || my < top - 0.5 || my > top + ph + 0.5) continue;
     svg += "<circle cx=\"" + F(mx) + "\" cy=\"" + F(my) + "\" r=\"5\" fill=\"none\" stroke=\"" +
            m.color + "\" stroke-width=\"2\"/>\n";
     if (marker_labels_in_legend || m.label.empty()) continue;

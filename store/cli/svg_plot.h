@@ -40,6 +40,10 @@ struct PlotMarker {  // a single labelled point, e.g. the curve minimum
   std::string label;
   double x = 0, y = 0;
   std::string color = "#000000";
+  // false: the plot's range does not grow to show it (a reference point
+  // such as a slope line's read-off); outside the range it is not drawn, and
+  // its legend entry (marker_labels_in_legend) stays.
+  bool sets_range = true;
 };
 
 struct LogLogPlot {

@@ -74,5 +74,29 @@ TEST(LogLogPlotTest, MarkerLabelTurnsAwayFromTheEdge) {
       << svg.substr(open, at - open);
 }
 
+// A reference marker (sets_range false) far below the curves neither
+// widens the range nor is drawn; its legend entry stays.
+TEST(LogLogPlotTest, AReferenceMarkerOutsideTheRangeIsNotDrawn) {
+  LogLogPlot p;
+  p.marker_labels_in_legend = true;
+  PlotSeries s;
+  s.x = {1, 10, 100};
+  s.y = {1, 0.5, 0.6};
+  p.series.push_back(s);
+  PlotMarker k{"K=1e-6 @3s", 3, 1e-6, "#7f7f7f"};
+  k.sets_range = false;
+  p.markers.push_back(k);
+  const std::string svg = p.ToSvg();
+  EXPECT_EQ(svg.find(">1e-06</text>"), std::string::npos) << svg;  // the range: 0.1..1
+  size_t rings = 0;  // the legend's only, not one in the plot
+  for (size_t at = svg.find("stroke=\"#7f7f7f\""); at != std::string::npos;
+       at = svg.find("stroke=\"#7f7f7f\"", at + 1))
+    ++rings;
+  EXPECT_EQ(rings, 1u) << svg;
+  EXPECT_NE(svg.find("K=1e-6 @3s"), std::string::npos);  // listed in the legend
+  p.markers[0].sets_range = true;
+  EXPECT_NE(p.ToSvg().find(">1e-06</text>"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace imuqual::cli
