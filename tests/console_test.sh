@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The operator's view: `imuqual run --station FILE` in a terminal (a tmux
-# pane, 140 x 50; the second soak at 80 x 24), read the way a person reads it. A soak of four units in
+# pane, 140 x 45; the second soak at 80 x 24), read the way a person reads it. A soak of four units in
 # named slots with two analyze shards: the live table (slots, units, axes,
 # elapsed vs planned, live bias instability, provisional verdicts, progress
 # bar); the store and an analyze shard killed mid-soak and restarted by the
@@ -40,8 +40,8 @@ wait_screen() {
 }
 # The pane runs `imuqual run` under a shell that reports its exit code (the
 # shell keeps Ctrl-C for imuqual: its trap runs only once imuqual has ended).
-start_soak() {  # [COLUMNS ROWS], default 140 x 50
-  tm new-session -d -s soak -x "${1:-140}" -y "${2:-50}" \
+start_soak() {  # [COLUMNS ROWS], default 140 x 45
+  tm new-session -d -s soak -x "${1:-140}" -y "${2:-45}" \
     "trap : INT; '$bin/imuqual' run --station '$work/station.textproto'; echo \"imuqual run exited with \$?\""
 }
 wait_exit() {
