@@ -75,6 +75,11 @@ struct LogLogPlot {
 // A categorical palette colour for series i.
 std::string PaletteColor(size_t i);
 
+// Text for an SVG element or attribute: & < > " escaped.
+std::string SvgEscape(const std::string& s);
+// A coordinate in px, 2 decimals.
+std::string SvgPx(double v);
+
 }  // namespace imuqual::cli
 
 #endif  // IMUQUAL_STORE_CLI_SVG_PLOT_H_

@@ -78,25 +78,8 @@ void EnvelopeBuilder::Add(int64_t counter, std::span<const double> values) {
 
 namespace {
 
-std::string Esc(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
-std::string F(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.2f", v);
-  return buf;
-}
+std::string Esc(const std::string& s) { return SvgEscape(s); }
+std::string F(double v) { return SvgPx(v); }
 
 std::string G(double v) {
   char buf[32];
