@@ -52,6 +52,12 @@ constexpr double kRedrawS = 0.25;        // live console refresh
 constexpr double kLogLineS = 10;         // progress line when not on a terminal
 constexpr double kComplaintS = 3;        // an unhealthy status shows this long after it was heard
 
+// The source of a unit given as SERIAL=SOURCE.
+Result<acquire::SourceSpec> UnitSourceSpec(const std::string& unit) {
+  const size_t eq = unit.find('=');
+  return acquire::ParseSourceSpec(eq == std::string::npos ? "" : unit.substr(eq + 1));
+}
+
 std::string CompactUtc(int64_t utime) {
   std::string out;
   for (char c : FormatUtimeIso(utime)) {
@@ -237,8 +243,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
         if (checked.slots[i].empty())
           checked.slots[i] = std::to_string(given.sim_units + static_cast<int>(i) + 1);
         std::string& unit = checked.units[i];
-        const size_t eq = unit.find('=');
-        auto spec = acquire::ParseSourceSpec(eq == std::string::npos ? "" : unit.substr(eq + 1));
+        auto spec = UnitSourceSpec(unit);
         if (spec.ok() && spec->kind == "sim" && spec->options.count("index") == 0) {
           unit += ",index=" + std::to_string(i);
         }
@@ -601,8 +606,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
   std::vector<std::pair<int64_t, double>> growth(model.units.size(), {-1, t0});
   std::vector<bool> device_paced(model.units.size(), false);
   for (size_t i = 0; i < o.units.size(); ++i) {
-    const size_t eq = o.units[i].find('=');
-    auto spec = acquire::ParseSourceSpec(eq == std::string::npos ? "" : o.units[i].substr(eq + 1));
+    auto spec = UnitSourceSpec(o.units[i]);
     device_paced[static_cast<size_t>(o.sim_units) + i] = spec.ok() && spec->kind == "serial";
   }
   double drain_deadline = -1;   // set when the runs are ending abnormally
