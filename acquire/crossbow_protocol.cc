@@ -102,7 +102,8 @@ void CrossbowDecoder::Feed(const uint8_t* data, size_t size, std::vector<DeviceF
     // length; an overrun drops a few bytes of one).
     if (have_packet_ && skipped_since_packet_ > 0) {
       f.rejected_before = std::max<int64_t>(
-          1, std::llround(static_cast<double>(skipped_since_packet_) / static_cast<double>(kBytes)));
+          1,
+          std::llround(static_cast<double>(skipped_since_packet_) / static_cast<double>(kBytes)));
     }
     have_packet_ = true;
     in_sync_ = true;

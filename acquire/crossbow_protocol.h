@@ -87,8 +87,8 @@ class CrossbowDecoder : public FrameDecoder {
   CrossbowOptions options_;
   std::vector<AxisComponent> axes_;
   std::vector<uint8_t> buf_;
-  bool in_sync_ = false;      // the last bytes were a good packet: the next starts here
-  bool have_packet_ = false;  // a good packet since the start or the last Reset
+  bool in_sync_ = false;              // the last bytes were a good packet: the next starts here
+  bool have_packet_ = false;          // a good packet since the start or the last Reset
   int64_t skipped_since_packet_ = 0;  // bytes skipped since the last good packet
 };
 

@@ -36,9 +36,8 @@ Result<std::vector<AxisComponent>> AssignTripleComponents(const std::vector<pb::
     }
     if (of_kind.size() > 3) {
       return Status::InvalidArgument(std::string(protocol) + " protocol: at most three " +
-                                     (gyro ? "gyro" : "accelerometer") +
-                                     " axes (x, y, z); axis '" + axes[of_kind[3]].name() +
-                                     "' is one too many");
+                                     (gyro ? "gyro" : "accelerometer") + " axes (x, y, z); axis '" +
+                                     axes[of_kind[3]].name() + "' is one too many");
     }
     bool by_name = true;
     int seen = 0;

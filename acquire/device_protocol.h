@@ -19,11 +19,11 @@
 namespace imuqual::acquire {
 
 struct DeviceFrame {
-  std::optional<uint64_t> counter;     // raw device counter (wraps at counter_bits)
-  std::vector<float> values;           // per configured axis; NaN when the frame lacks it
-  std::vector<uint8_t> flags;          // per axis rate_batch_t FLAG_* bits
+  std::optional<uint64_t> counter;  // raw device counter (wraps at counter_bits)
+  std::vector<float> values;        // per configured axis; NaN when the frame lacks it
+  std::vector<uint8_t> flags;       // per axis rate_batch_t FLAG_* bits
   std::optional<float> temperature_c;
-  int64_t rejected_before = 0;         // frames rejected since the previous good one
+  int64_t rejected_before = 0;  // frames rejected since the previous good one
 };
 
 struct DecoderCounters {

@@ -18,10 +18,14 @@ uint32_t Be32(const uint8_t* p) {
 // One value of the given precision at p; its size in bytes (0: unknown).
 int ValueSize(int precision) {
   switch (precision) {
-    case xsens::kPrecisionFloat32: return 4;
-    case xsens::kPrecisionFp1220: return 4;
-    case xsens::kPrecisionFp1632: return 6;
-    default: return 8;
+    case xsens::kPrecisionFloat32:
+      return 4;
+    case xsens::kPrecisionFp1220:
+      return 4;
+    case xsens::kPrecisionFp1632:
+      return 6;
+    default:
+      return 8;
   }
 }
 
@@ -179,7 +183,8 @@ bool XsensDecoder::Payload(const uint8_t* p, size_t n, std::vector<DeviceFrame>*
     if (status >> clip_bit & 1u) f.flags[i] |= imuqual::rate_batch_t::FLAG_SATURATED;
   }
   if (counter) f.counter = *counter;
-  if (temperature && std::isfinite(*temperature)) f.temperature_c = static_cast<float>(*temperature);
+  if (temperature && std::isfinite(*temperature))
+    f.temperature_c = static_cast<float>(*temperature);
   ++counters_.frames;
   out->push_back(std::move(f));
   return true;

@@ -14,6 +14,7 @@
 // deviation minimum over the taus the full-length curve shows, the tau of
 // that minimum and N, judged against the plan's limits. Never asserts.
 // DECIDE_TRACE=1 prints every 10th look of every unit (what is pending).
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
 #include <cctype>
@@ -26,8 +27,6 @@
 #include <thread>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
 #include "acquire/imu_simulator.h"
 #include "acquire/lot_profile.h"
 #include "analyze/allan/composite_model.h"
@@ -36,7 +35,7 @@
 #include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
 #include "analyze/service/run_analyzer.h"
-#include "store/cli/plan_soak_command.h"
+#include "offline/plan_soak_command.h"
 
 namespace imuqual {
 namespace {
@@ -69,7 +68,7 @@ double Median(std::vector<double> v) {
 // relies on |z| < 2.33 in 99 % of units.
 void PrintCalibration(const std::vector<UnitResult>& results) {
   const std::string_view names[] = {judge::kBiasInstability, judge::kTauAtMinimum,
-                                     judge::kAngleRandomWalk};
+                                    judge::kAngleRandomWalk};
   for (std::string_view name : names) {
     std::map<int, std::vector<double>> zs;  // by fraction in percent
     for (const UnitResult& r : results) {
@@ -92,15 +91,16 @@ void PrintCalibration(const std::vector<UnitResult>& results) {
         beyond += std::abs(x) > 2.33;
       }
       std::sort(z.begin(), z.end());
-      std::printf("calibration_%s_f%02d rms_z %.3f beyond_2.33 %.4f p50_abs_z %.3f n %zu\n",
-                  std::string(name).c_str(), pct, std::sqrt(ss / z.size()),
-                  static_cast<double>(beyond) / z.size(),
-                  [&] {
-                    std::vector<double> a;
-                    for (double x : z) a.push_back(std::abs(x));
-                    return Median(a);
-                  }(),
-                  z.size());
+      std::printf(
+          "calibration_%s_f%02d rms_z %.3f beyond_2.33 %.4f p50_abs_z %.3f n %zu\n",
+          std::string(name).c_str(), pct, std::sqrt(ss / z.size()),
+          static_cast<double>(beyond) / z.size(),
+          [&] {
+            std::vector<double> a;
+            for (double x : z) a.push_back(std::abs(x));
+            return Median(a);
+          }(),
+          z.size());
     }
   }
 }
@@ -252,7 +252,8 @@ int main(int argc, char** argv) {
       size_t next_snap = 0;
       cli::FeedSimulatedRecord(*simulator, rate, total, [&](const analyze::BatchView& view) {
         (void)full->AddBatch(view);
-        const double analysed_s = static_cast<double>(full->analysed_end_counter()) * tau0 - warmup_s;
+        const double analysed_s =
+            static_cast<double>(full->analysed_end_counter()) * tau0 - warmup_s;
         if (calibration && next_snap < std::size(snap_s) && analysed_s >= snap_s[next_snap]) {
           r.snapshots.emplace_back(analysed_s / soak_s, full->Outcome(false).measurements);
           ++next_snap;
@@ -277,7 +278,8 @@ int main(int argc, char** argv) {
         // Which judged measurements read differently, early and full length.
         for (const pb::Measurement& g : f.measurements) {
           for (const pb::Measurement& m : e.measurements) {
-            if (m.axis() != g.axis() || m.name() != g.name() || m.outcome() == g.outcome()) continue;
+            if (m.axis() != g.axis() || m.name() != g.name() || m.outcome() == g.outcome())
+              continue;
             r.differs += "\n    " + m.axis() + " " + m.name() + " early " +
                          judge::OutcomeName(m.outcome()) + " " + std::to_string(m.value()) +
                          " +- " + std::to_string(m.uncertainty()) + ", full " +
@@ -294,7 +296,9 @@ int main(int argc, char** argv) {
           if (look.index % 10 != 0) continue;
           std::fprintf(stderr, "  unit %d look %d: %s\n", i, look.index, look.note.c_str());
           for (const judge::LookEntry& entry : look.entries) {
-            if (entry.decision == judge::Decision::kPending || entry.name == "tau_at_minimum") std::fprintf(stderr, "     %s %s %g +- %g\n", entry.axis.c_str(), entry.name.c_str(), entry.value, entry.uncertainty);
+            if (entry.decision == judge::Decision::kPending || entry.name == "tau_at_minimum")
+              std::fprintf(stderr, "     %s %s %g +- %g\n", entry.axis.c_str(), entry.name.c_str(),
+                           entry.value, entry.uncertainty);
           }
         }
       }
@@ -306,15 +310,16 @@ int main(int argc, char** argv) {
       }
       if (verbose) {
         std::lock_guard<std::mutex> lock(log);
-        std::fprintf(stderr, "unit %3d %-13s truth %-8s full %-8s early %-8s %s bi %.2f\n", i,
-                     r.role.c_str(), judge::OutcomeName(r.truth), judge::OutcomeName(r.full),
-                     judge::OutcomeName(r.early),
-                     r.decided ? ("decided at " + std::to_string(std::lround(r.decided_at_s)) +
-                                  " s").c_str()
-                               : "pending to the end",
-                     r.truth_bi);
+        std::fprintf(
+            stderr, "unit %3d %-13s truth %-8s full %-8s early %-8s %s bi %.2f\n", i,
+            r.role.c_str(), judge::OutcomeName(r.truth), judge::OutcomeName(r.full),
+            judge::OutcomeName(r.early),
+            r.decided ? ("decided at " + std::to_string(std::lround(r.decided_at_s)) + " s").c_str()
+                      : "pending to the end",
+            r.truth_bi);
         if (!r.decided) std::fprintf(stderr, "  pending:%s\n", r.pending.c_str());
-        if (!r.differs.empty()) std::fprintf(stderr, "  judged differently:%s\n", r.differs.c_str());
+        if (!r.differs.empty())
+          std::fprintf(stderr, "  judged differently:%s\n", r.differs.c_str());
       }
     }
   };
@@ -323,7 +328,8 @@ int main(int argc, char** argv) {
   for (std::thread& t : pool) t.join();
 
   std::vector<double> ratios, decided_times;
-  int disagree = 0, disagree_side = 0, early_wrong = 0, full_wrong = 0, early_cat = 0, full_cat = 0, decided = 0;
+  int disagree = 0, disagree_side = 0, early_wrong = 0, full_wrong = 0, early_cat = 0, full_cat = 0,
+      decided = 0;
   int truth_fail = 0, early_fail_decided = 0;
   for (const UnitResult& r : results) {
     ratios.push_back((warmup_s + r.decided_at_s) / (warmup_s + soak_s));
@@ -346,12 +352,12 @@ int main(int argc, char** argv) {
   std::printf("decide_risk %g 1\n", risk);
   std::printf("decide_marginal_flags_%s 1 mode\n", flags.c_str());
   std::printf("soak_time_ratio_median %.4f 1\n", Median(ratios));
-  std::printf("soak_time_saved_fraction %.4f 1\n",
-              1.0 - [&] {
-                double s = 0;
-                for (double x : ratios) s += x;
-                return s / n;
-              }());
+  std::printf(
+      "soak_time_saved_fraction %.4f 1\n", 1.0 - [&] {
+        double s = 0;
+        for (double x : ratios) s += x;
+        return s / n;
+      }());
   std::printf("decided_early_fraction %.4f 1\n", decided / n);
   std::printf("decided_fail_units %d units\n", early_fail_decided);
   std::printf("decision_time_median_s %.0f s\n", Median(decided_times));

@@ -7,8 +7,8 @@
 #include <string>
 
 #include "bench/bench_summary.h"
+#include "report/lot_statistics.h"
 #include "store/archive.h"
-#include "store/cli/lot_statistics.h"
 #include "store/query.h"
 
 namespace {
@@ -74,8 +74,10 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&n, args.data());
   bench::SummaryReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
-  bench::PrintFigure("lot_summary_s", reporter.BestRealSeconds("LotSummary/iterations:20/repeats:3"), "s");
-  bench::PrintFigure("lot_compare_s", reporter.BestRealSeconds("LotCompare/iterations:20/repeats:3"), "s");
+  bench::PrintFigure("lot_summary_s",
+                     reporter.BestRealSeconds("LotSummary/iterations:20/repeats:3"), "s");
+  bench::PrintFigure("lot_compare_s",
+                     reporter.BestRealSeconds("LotCompare/iterations:20/repeats:3"), "s");
   bench::PrintFigure("history_lots", static_cast<double>(g_lots.size()), "lots");
   return 0;
 }

@@ -1,0 +1,421 @@
+#include "cli/commands.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "common/clock.h"
+#include "common/command_line.h"
+#include "common/log.h"
+#include "common/text_util.h"
+#include "report/early_decisions.h"
+#include "report/marks.h"
+#include "report/report.h"
+#include "store/outcome.h"
+#include "store/query.h"
+
+namespace imuqual::cli {
+namespace {
+
+double Pick(bool take, double v) { return take ? v : allan::kNaN; }
+
+// The machine-readable per-axis table (CSV/JSON): one column per quantity
+// and unit, so gyro and accelerometer rows never share a column.
+TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
+  TableWriter t({"lot", "serial", "run_id", "axis", "kind", "arw_deg_rt_hr", "vrw_m_s_rt_hr",
+                 "bias_instability_deg_hr", "bias_instability_ieee_deg_hr", "bias_instability_ug",
+                 "bias_instability_ieee_ug", "tau_min_s", "rrw_deg_hr_rt_hr", "rrw_ug_rt_hr",
+                 "samples", "gap_samples", "invalid_samples", "verdict", "run_verdict", "state",
+                 // The marks (after the columns programs already read): each value's
+                 // 1-sigma uncertainty in its column's unit, its qualifier, and why
+                 // the axis is not PASS.
+                 "random_walk_uncertainty", "random_walk_qualifier", "bias_instability_uncertainty",
+                 "bias_instability_qualifier", "tau_min_s_uncertainty", "tau_min_s_qualifier",
+                 "rate_random_walk_uncertainty", "rate_random_walk_qualifier", "axis_reasons",
+                 // Early decisions: the run's decision time, s (empty: none, or a full soak).
+                 "decision_time_s",
+                 // Who and where ("" if not recorded).
+                 "station", "slot", "operator"});
+  for (const store::AxisRow& r : rows) {
+    const bool gyro = r.kind != "accel";
+    t.AddRow({Cell::Text(r.lot),
+              Cell::Text(r.unit),
+              Cell::Text(r.run_id),
+              Cell::Text(r.axis),
+              Cell::Text(r.kind),
+              Cell::Real(Pick(gyro, r.random_walk)),
+              Cell::Real(Pick(!gyro, r.random_walk)),
+              Cell::Real(Pick(gyro, r.bias_instability)),
+              Cell::Real(Pick(gyro, r.bias_instability_ieee)),
+              Cell::Real(Pick(!gyro, r.bias_instability)),
+              Cell::Real(Pick(!gyro, r.bias_instability_ieee)),
+              Cell::Real(r.tau_min_s),
+              Cell::Real(Pick(gyro, r.rate_random_walk)),
+              Cell::Real(Pick(!gyro, r.rate_random_walk)),
+              Cell::Int(r.samples),
+              Cell::Int(r.gap_samples),
+              Cell::Int(r.invalid_samples),
+              Cell::Text(r.axis_verdict),
+              Cell::Text(r.run_verdict),
+              Cell::Text(r.state),
+              Cell::Real(r.random_walk_marks.uncertainty),
+              Cell::Text(QualifierWord(r.random_walk_marks.qualifier, r.random_walk)),
+              Cell::Real(r.bias_instability_marks.uncertainty),
+              Cell::Text(QualifierWord(r.bias_instability_marks.qualifier, r.bias_instability)),
+              Cell::Real(r.tau_min_marks.uncertainty),
+              Cell::Text(QualifierWord(r.tau_min_marks.qualifier, r.tau_min_s)),
+              Cell::Real(r.rate_random_walk_marks.uncertainty),
+              Cell::Text(QualifierWord(r.rate_random_walk_marks.qualifier, r.rate_random_walk)),
+              Cell::Text(r.axis_notes),
+              Cell::Real(r.decision_time_s),
+              Cell::Text(r.station),
+              Cell::Text(r.slot),
+              Cell::Text(r.operator_name)});
+  }
+  return t;
+}
+
+// The table people read; `by_slot` (a station's final table): in slot
+// order, the slot first.
+// Each value with its marks (marks.h); "± u" where the value has an
+// uncertainty (not on B (IEEE), the minimum / 0.664, for room). When a run
+// used early decisions, when its unit was decided ("full soak": pending at
+// every look).
+std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slot) {
+  // A station's table in fixture order, with the slot first.
+  std::vector<store::AxisRow> rows = unsorted;
+  if (by_slot) {
+    std::stable_sort(rows.begin(), rows.end(),
+                     [](const store::AxisRow& a, const store::AxisRow& b) {
+                       return NaturalLess(a.slot, b.slot);
+                     });
+  }
+  const bool early = std::any_of(rows.begin(), rows.end(),
+                                 [](const store::AxisRow& r) { return r.has_decision_time; });
+  std::vector<std::string> columns = {"serial",    "axis",        "ARW/VRW", "bias inst.",
+                                      "BI (IEEE)", "tau min s",   "RRW",     "gap samples",
+                                      "axis",      "unit verdict"};
+  if (by_slot) columns.insert(columns.begin(), "slot");
+  if (early) columns.push_back("decided at");
+  TableWriter t(columns);
+  bool any_accel = false;
+  MarkLegend legend;
+  for (const store::AxisRow& r : rows) {
+    any_accel |= r.kind == "accel";
+    auto marked = [&](double v, const store::ValueMarks& m, const char* name, bool with_u) {
+      legend.Add(m, r.unit, r.axis, name, v);
+      return Cell::NumText(MarkedValue(v, m, 4, with_u));
+    };
+    std::vector<Cell> row = {
+        Cell::Text(r.unit),
+        Cell::Text(r.axis),
+        marked(r.random_walk, r.random_walk_marks, "random walk", true),
+        marked(r.bias_instability, r.bias_instability_marks, "bias_instability", true),
+        marked(r.bias_instability_ieee, r.bias_instability_ieee_marks, "bias_instability_ieee",
+               false),
+        marked(r.tau_min_s, r.tau_min_marks, "tau_at_minimum", true),
+        marked(r.rate_random_walk, r.rate_random_walk_marks, "rate_random_walk", true),
+        Cell::Int(r.gap_samples),
+        Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
+        Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)};
+    if (early) {
+      row.push_back(Cell::Text(r.has_decision_time ? DecisionTimeText(r.decision_time_s) : ""));
+    }
+    if (by_slot) row.insert(row.begin(), Cell::Text(r.slot));
+    t.AddRow(std::move(row));
+  }
+  std::string out = t.Render(Format::kTable);
+  out += StationOperatorLines(rows);
+  out += legend.Render();
+  out +=
+      "gyro units: ARW deg/sqrt(h), bias instability deg/h (curve minimum; IEEE B = "
+      "minimum/0.664), "
+      "RRW deg/h/sqrt(h)\n";
+  if (any_accel) {
+    out +=
+        "accel units: VRW m/s/sqrt(h), bias instability ug (curve minimum; IEEE B = "
+        "minimum/0.664), "
+        "RRW ug/sqrt(h)\n";
+  }
+  return out;
+}
+
+Result<std::unique_ptr<store::Archive>> OpenForReading(const std::string& db_path) {
+  return store::Archive::Open(db_path, store::Archive::Mode::kRead);
+}
+
+std::string YieldText(double yield) {
+  if (std::isnan(yield)) return "not measurable: no judged unit";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f %%", 100 * yield);
+  return buf;
+}
+
+// Run verdicts counted: "3 PASS, 0 MARGINAL, 1 FAIL, 1 ABORTED" (PASS,
+// MARGINAL and FAIL always, the other outcomes and the runs not judged when
+// there are any).
+std::string VerdictCounts(const std::map<std::string, int>& counts) {
+  std::string out;
+  for (pb::Outcome o :
+       {pb::PASS, pb::MARGINAL, pb::FAIL, pb::INCONCLUSIVE, pb::ABORTED, pb::ERROR}) {
+    const std::string text = store::OutcomeText(o);
+    auto it = counts.find(text);
+    const int n = it == counts.end() ? 0 : it->second;
+    if (n == 0 && !store::CountsInYield(o)) continue;
+    out += (out.empty() ? "" : ", ") + std::to_string(n) + " " + text;
+  }
+  auto none = counts.find("");
+  if (none != counts.end() && none->second > 0) {
+    out += (out.empty() ? "" : ", ") + std::to_string(none->second) + " not judged";
+  }
+  return out;
+}
+
+// "reasons:" and one line per reason of the runs given (every run of `rows`
+// when `run_ids` is empty), each after its unit (the verdict is in the
+// table): "  U3: gx: bias_instability ...". `by_slot`: in the order of the
+// station's table (slot, naturally: 2 before 10), each after its slot too.
+std::string ReasonLines(store::Archive& archive, const std::vector<store::AxisRow>& rows,
+                        std::vector<std::string> run_ids, bool by_slot = false) {
+  std::map<std::string, const store::AxisRow*> run_of;
+  const bool every_run = run_ids.empty();
+  for (const store::AxisRow& r : rows) {
+    if (run_of.emplace(r.run_id, &r).second && every_run) run_ids.push_back(r.run_id);
+  }
+  auto reasons = store::QueryReasons(archive, run_ids);
+  if (!reasons.ok() || reasons->empty()) return "";
+  if (by_slot) {
+    auto slot_of = [&](const std::string& run_id) {
+      auto it = run_of.find(run_id);
+      return it == run_of.end() ? std::string() : it->second->slot;
+    };
+    std::stable_sort(reasons->begin(), reasons->end(), [&](const auto& a, const auto& b) {
+      return NaturalLess(slot_of(a.first), slot_of(b.first));
+    });
+  }
+  std::string out = "\nreasons:\n";
+  for (const auto& [run_id, text] : *reasons) {
+    auto it = run_of.find(run_id);
+    std::string who = it == run_of.end() ? run_id : it->second->unit;
+    if (by_slot && it != run_of.end() && !it->second->slot.empty()) {
+      who = "slot " + it->second->slot + " " + who;
+    }
+    size_t start = 0;
+    while (start < text.size()) {
+      const size_t end = text.find('\n', start);
+      out += "  " + who + ": " + text.substr(start, end - start) + "\n";
+      if (end == std::string::npos) break;
+      start = end + 1;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// The lot's yields and why units were tested again (commands.h).
+std::string LotYieldLines(store::Archive& archive, const std::string& lot) {
+  auto lots = store::QueryLots(archive);
+  if (!lots.ok()) return "";
+  std::string out;
+  for (const store::LotRow& l : *lots) {
+    if (l.lot != lot) continue;
+    std::map<std::string, int> counts = {{"PASS", static_cast<int>(l.pass)},
+                                         {"MARGINAL", static_cast<int>(l.marginal)},
+                                         {"FAIL", static_cast<int>(l.fail)},
+                                         {"INCONCLUSIVE", static_cast<int>(l.inconclusive)},
+                                         {"ABORTED", static_cast<int>(l.aborted)},
+                                         {"ERROR", static_cast<int>(l.error)},
+                                         {"", static_cast<int>(l.unjudged)}};
+    out += "\n" + std::to_string(l.units) + " units by their final run: " + VerdictCounts(counts) +
+           "\nfirst-pass yield " + YieldText(l.first_pass_yield) + ", final yield " +
+           YieldText(l.yield) + " (PASS + MARGINAL over PASS, MARGINAL and FAIL); " +
+           std::to_string(l.retests) + " retest(s), " + std::to_string(l.retest_candidates) +
+           " retest candidate(s) (INCONCLUSIVE)\n";
+  }
+  auto retests = store::QueryRetestReasons(archive, lot);
+  if (retests.ok() && !retests->empty()) {
+    out += "tested again after:\n";
+    for (const store::RetestRow& r : *retests) {
+      const std::string verdict = r.verdict.empty() ? "not judged (" + r.state + ")" : r.verdict;
+      out += "  " + r.unit + " run " + r.run_id + ": " + verdict;
+      const std::string first = r.reasons.substr(0, r.reasons.find('\n'));
+      if (!first.empty()) out += ": " + first;
+      out += "\n";
+    }
+  }
+  return out;
+}
+
+int RunCommand(const StationRunOptions& options) {
+  auto run = RunStation(options);
+  if (!run.ok()) {
+    LogError(run.status().message());
+    // Bad options, plan, source or archive file: refused before any run.
+    if (run.status().code() == Status::Code::kIoError) return kRunExitArchiveUnwritable;
+    return run.status().code() == Status::Code::kInvalidArgument ? kRunExitUsage : kRunExitError;
+  }
+  auto archive = OpenForReading(options.db_path);
+  if (!archive.ok()) {
+    LogError(archive.status().message());
+    return kRunExitError;
+  }
+  store::AxisRowFilter filter;
+  filter.lot = options.lot;
+  filter.run_prefix = run->run_prefix + "-";
+  filter.latest_per_unit = false;
+  auto rows = store::QueryAxisRows(**archive, filter);
+  if (!rows.ok()) {
+    LogError(rows.status().message());
+    return kRunExitError;
+  }
+  std::printf("%s", PeopleTable(*rows, /*by_slot=*/true).c_str());
+  std::map<std::string, std::string> unit_of;
+  std::map<std::string, int> verdicts;
+  int passed = 0, counted = 0;  // the yield: judged units only
+  for (const store::AxisRow& r : *rows) {
+    if (!unit_of.emplace(r.run_id, r.unit).second) continue;
+    ++verdicts[r.run_verdict];
+    const pb::Outcome v = store::OutcomeFromText(r.run_verdict);
+    counted += store::CountsInYield(v);
+    passed += v == pb::PASS || v == pb::MARGINAL;
+  }
+  std::printf("%s", ReasonLines(**archive, *rows, run->run_ids, /*by_slot=*/true).c_str());
+  for (const std::string& skipped : run->skipped) {
+    std::printf("not run (--skip-failed-slots): %s\n", skipped.c_str());
+  }
+  std::printf("\n%zu units: %s%s\nyield %s%s\n", unit_of.size(), VerdictCounts(verdicts).c_str(),
+              run->interrupted ? " (interrupted: runs aborted)" : "",
+              YieldText(counted > 0 ? static_cast<double>(passed) / counted : allan::kNaN).c_str(),
+              counted > 0 ? (" (" + std::to_string(passed) + " of " + std::to_string(counted) +
+                             " units judged PASS, MARGINAL or FAIL)")
+                                .c_str()
+                          : "");
+  auto early = QueryEarlyDecisions(**archive, options.lot, run->run_prefix + "-");
+  if (early.ok() && !early->runs.empty()) std::printf("%s\n", EarlyDecisionLine(*early).c_str());
+  std::printf("lot %s archived in %s (runs %s-*; process log %s)\n", options.lot.c_str(),
+              options.db_path.c_str(), run->run_prefix.c_str(), run->log_path.c_str());
+  if (run->restarts > 0) {
+    std::printf("store/analyze restarted %d time(s) during the soak; see the process log\n",
+                run->restarts);
+  }
+  if (!run->left_open.empty()) {
+    // Runs an earlier station process left open (a crash): judged now.
+    std::printf("%zu run(s) left open by an earlier station process:\n", run->left_open.size());
+    auto s = (*archive)->db().Prepare(
+        "SELECT state, COALESCE(verdict, 'not judged'), COALESCE(reasons, ''), "
+        "finalized_utime IS NOT NULL FROM runs WHERE run_id = ?");
+    for (const std::string& id : run->left_open) {
+      if (!s.ok()) break;
+      s->Reset();
+      s->Bind(1, id);
+      auto row = s->Step();
+      if (!row.ok() || !*row) continue;
+      const std::string reasons = s->Text(2);
+      std::printf("  %s: %s, %s%s%s\n", id.c_str(), s->Text(0).c_str(), s->Text(1).c_str(),
+                  reasons.empty() ? "" : ": ", reasons.substr(0, reasons.find('\n')).c_str());
+      if (s->Int(3) == 0) std::printf("    (not finished yet: the next station run settles it)\n");
+    }
+  }
+  if (!run->run_ids.empty()) {
+    std::string report = options.report_path;
+    if (report.empty()) {
+      const std::string& db = options.db_path;
+      const bool dot_db = db.size() > 3 && db.compare(db.size() - 3, 3, ".db") == 0;
+      report = (dot_db ? db.substr(0, db.size() - 3) : db) + "-" + options.lot + ".html";
+    }
+    auto html = BuildLotReportHtml(**archive, options.lot, options.db_path);
+    const Status st = html.ok() ? WriteStringToFile(report, *html) : html.status();
+    if (st.ok()) {
+      std::printf("report: %s\n", report.c_str());
+    } else {
+      LogError("report not written: " + st.message());
+    }
+  }
+  if (!run->failure.empty()) {
+    LogError(run->failure);
+    return kRunExitSourceFailed;
+  }
+  if (run->interrupted) return kRunExitInterrupted;
+  const bool units_failed = verdicts["FAIL"] > 0 || verdicts["INCONCLUSIVE"] > 0;
+  return options.fail_exit && units_failed ? kRunExitUnitsFailed : kRunExitOk;
+}
+
+int LotsCommand(const std::string& db_path, Format format) {
+  auto archive = OpenForReading(db_path);
+  if (!archive.ok()) {
+    LogError(archive.status().message());
+    return kExitError;
+  }
+  auto lots = store::QueryLots(**archive);
+  if (!lots.ok()) {
+    LogError(lots.status().message());
+    return kExitError;
+  }
+  // Each unit counted once, by its final run (its latest judged run, else
+  // its latest): yield (the final yield) and first_pass_yield count PASS and
+  // MARGINAL against PASS, MARGINAL and FAIL; INCONCLUSIVE units are retest
+  // candidates, ABORTED and ERROR runs say nothing about a unit.
+  TableWriter t({"lot", "runs", "units", "pass", "marginal", "fail", "inconclusive", "aborted",
+                 "error", "unjudged", "first_pass_yield", "yield", "retests", "first_start",
+                 "last_start"});
+  auto yield = [format](double v) {
+    return format == Format::kTable && std::isnan(v) ? Cell::Text("n/m") : Cell::Real(v);
+  };
+  bool unmeasurable = false;
+  for (const store::LotRow& l : *lots) {
+    unmeasurable |= std::isnan(l.yield) || std::isnan(l.first_pass_yield);
+    t.AddRow({Cell::Text(l.lot), Cell::Int(l.runs), Cell::Int(l.units), Cell::Int(l.pass),
+              Cell::Int(l.marginal), Cell::Int(l.fail), Cell::Int(l.inconclusive),
+              Cell::Int(l.aborted), Cell::Int(l.error), Cell::Int(l.unjudged),
+              yield(l.first_pass_yield), yield(l.yield), Cell::Int(l.retests),
+              Cell::Text(FormatUtimeIso(l.first_start_utime)),
+              Cell::Text(FormatUtimeIso(l.last_start_utime))});
+  }
+  std::printf("%s", t.Render(format).c_str());
+  if (format == Format::kTable) {
+    std::printf(
+        "units by their final run (latest judged, else latest); yield = (pass + marginal) / "
+        "(pass + marginal + fail); first_pass_yield = units whose first judged run passed / units "
+        "with a judged run\n");
+    if (unmeasurable) std::printf("n/m: not measurable: no judged unit\n");
+  }
+  return 0;
+}
+
+int LotCommand(const std::string& db_path, const std::string& lot, Format format, bool all_runs) {
+  auto archive = OpenForReading(db_path);
+  if (!archive.ok()) {
+    LogError(archive.status().message());
+    return kExitError;
+  }
+  store::AxisRowFilter filter;
+  filter.lot = lot;
+  filter.latest_per_unit = !all_runs;
+  auto rows = store::QueryAxisRows(**archive, filter);
+  if (!rows.ok()) {
+    LogError(rows.status().message());
+    return kExitError;
+  }
+  if (rows->empty()) {
+    LogError("no lot '" + lot + "' in " + db_path + " (imuqual lots lists them)");
+    return kExitUsage;
+  }
+  if (format == Format::kTable) {
+    std::printf("%s", PeopleTable(*rows, /*by_slot=*/false).c_str());
+    std::printf("%s", ReasonLines(**archive, *rows, {}).c_str());
+    if (!all_runs) std::printf("%s", LotYieldLines(**archive, lot).c_str());
+    auto early = QueryEarlyDecisions(**archive, lot);
+    if (!early.ok()) {
+      LogError(early.status().message());
+      return kExitError;
+    }
+    if (!early->runs.empty()) std::printf("%s\n", EarlyDecisionLine(*early).c_str());
+  } else {
+    std::printf("%s", MachineTable(*rows).Render(format).c_str());
+  }
+  return 0;
+}
+
+}  // namespace imuqual::cli

@@ -1,0 +1,381 @@
+// imuqual: the operator's and engineer's tool. Runs a station, answers lot
+// queries. Subcommand flags -> command functions -> exit code.
+#include <CLI/CLI.hpp>
+#include <algorithm>
+
+#include "cli/commands.h"
+#include "cli/export_command.h"
+#include "cli/lot_commands.h"
+#include "cli/verify_command.h"
+#include "common/command_line.h"
+#include "common/log.h"
+#include "common/shutdown.h"
+#include "common/text_util.h"
+#include "common/version.h"
+#include "offline/analyze_command.h"
+#include "offline/plan_soak_command.h"
+#include "offline/reanalyze_command.h"
+#include "report/plot_command.h"
+#include "report/report.h"
+#include "station/station_config.h"
+
+int main(int argc, char** argv) {
+  using namespace imuqual;
+  SetLogProgramName("imuqual");
+  CLI::App app{"imuqual: IMU end-of-line qualification station (Allan deviation, IEEE 952)"};
+  app.set_version_flag("--version", kSoftwareVersion);
+  app.require_subcommand(1);
+
+  cli::StationRunOptions run;
+  bool quiet = false;
+  std::string station_file;
+  CLI::App* run_cmd =
+      app.add_subcommand("run", "run a station on this host: a multi-unit soak end to end");
+  run_cmd->add_option(
+      "--station", station_file,
+      "station configuration (protobuf text: station id, bus, slots with unit serials "
+      "and sources, plan, lot, operator, duration, archive); replaces --sim/--unit/--lot/--db/"
+      "--plan/--duration/--rate/--operator/--lcm-url");
+  run_cmd->add_option("--sim", run.sim_units, "number of simulated units");
+  run_cmd->add_option("--unit", run.units,
+                      "SERIAL=SOURCE, repeatable: sim:PROFILE[,index=N,duration=S,actual_rate=HZ], "
+                      "csv:FILE,rate=HZ[,axes=NAME:gyro/...][,counter=COL][,time=COL], "
+                      "serial:DEVICE,protocol=text|xsens[,baud=N,...]");
+  run_cmd->add_option("--duration", run.duration_s,
+                      "seconds of data per unit (simulated units; serial units record this long)");
+  double rate_hz = 0;  // given or not: run.rate_hz
+  run_cmd->add_option("--rate", rate_hz, "sample rate in Hz, > 0 (default: the profile's)");
+  run_cmd->add_option("--lot", run.lot, "production lot name");
+  run_cmd->add_option("--db", run.db_path, "archive file (created if missing)");
+  run_cmd->add_option("--plan", run.plan_spec, "test plan: .textproto file or builtin:NAME");
+  run_cmd
+      ->add_option("--profile", run.profile,
+                   "simulated lot profile: vg700, tactical, fog, mems-lab, mems-real")
+      ->capture_default_str();
+  run_cmd->add_option("--lcm-url", run.lcm_url, "station bus (default: a private port, ttl=0)");
+  run_cmd->add_option("--station-id", run.station, "station id")->capture_default_str();
+  run_cmd->add_option("--operator", run.operator_name, "operator name");
+  run_cmd
+      ->add_option("--inject-drop", run.inject_drop,
+                   "fault injection: drop this fraction of batches")
+      ->capture_default_str();
+  run_cmd
+      ->add_option("--stall-timeout", run.stall_timeout_s,
+                   "seconds without progress before giving up")
+      ->capture_default_str();
+  run_cmd
+      ->add_option("--archive-timeout", run.archive_timeout_s,
+                   "seconds the archive may fail every write (a full disk) before the station "
+                   "stops with exit code 4")
+      ->capture_default_str();
+  run_cmd
+      ->add_option("--give-up", run.give_up_s,
+                   "seconds before a batch that never arrived becomes a gap")
+      ->capture_default_str();
+  run_cmd
+      ->add_option("--pace", run.pace,
+                   "0: as fast as the station goes, 1: real time, k: k x real time")
+      ->capture_default_str();
+  run_cmd
+      ->add_option("--analyze-shards", run.analyze_shards, "analyze processes splitting the units")
+      ->capture_default_str();
+  run_cmd->add_option("--report", run.report_path,
+                      "HTML report written at the end (default: beside the archive)");
+  run_cmd->add_flag("--quiet", quiet, "no live console or progress line");
+  run_cmd->add_flag("--short-soak", run.short_soak,
+                    "run although the soak is shorter than the plan's warm-up + minimum duration "
+                    "(its runs are judged too short: FAIL)");
+  run_cmd->add_flag("--skip-failed-slots", run.skip_failed_slots,
+                    "pre-flight: run without the units whose source cannot be opened (each "
+                    "named) instead of stopping");
+  run_cmd->add_flag("--fail-exit", run.fail_exit,
+                    "exit 5 when a unit is judged FAIL or INCONCLUSIVE (for scripts and line "
+                    "controllers; without it a FAIL verdict is a result and the exit is 0)");
+  run_cmd->footer(cli::kRunExitCodesHelp);
+
+  std::string db, format = "table", lot;
+  bool all_runs = false, stats = false, lot_model = false;
+  CLI::App* lots_cmd = app.add_subcommand("lots", "list the lots in an archive");
+  lots_cmd->add_option("--db", db, "archive file")->required();
+  lots_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
+
+  CLI::App* lot_cmd = app.add_subcommand("lot", "per-unit, per-axis results of one lot");
+  lot_cmd->add_option("lot", lot, "lot name")->required();
+  lot_cmd->add_option("--db", db, "archive file")->required();
+  lot_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
+  lot_cmd->add_flag(
+      "--all-runs", all_runs,
+      "every run, not only each unit's final one (its latest judged run, else its latest)");
+  lot_cmd->add_flag("--stats", stats,
+                    "per axis and measurement: n, mean, sd, min, max, yield, Cpk/Cpu/Cpl (and, as "
+                    "a table, the lot noise model)");
+  lot_cmd->add_flag("--model", lot_model,
+                    "the lot noise model per axis: the units' curves pooled, a composite model "
+                    "fitted, the units inconsistent with it");
+
+  std::string lot_b;
+  double alpha = 0.05;
+  CLI::App* compare_cmd = app.add_subcommand("compare", "two lots side by side, with significance");
+  compare_cmd->add_option("lot_a", lot, "first lot")->required();
+  compare_cmd->add_option("lot_b", lot_b, "second lot")->required();
+  compare_cmd->add_option("--db", db, "archive file")->required();
+  compare_cmd->add_option("--alpha", alpha, "family-wise significance level (Holm)")
+      ->capture_default_str();
+  compare_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
+
+  std::string serial;
+  CLI::App* unit_cmd = app.add_subcommand("unit", "the history of one unit across runs and lots");
+  unit_cmd->add_option("serial", serial, "unit serial number")->required();
+  unit_cmd->add_option("--db", db, "archive file")->required();
+  unit_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
+
+  store::RunFilter run_filter;
+  std::string since;
+  CLI::App* runs_cmd = app.add_subcommand("runs", "list runs, newest first");
+  runs_cmd->add_option("--db", db, "archive file")->required();
+  runs_cmd->add_option("--lot", run_filter.lot, "only this lot");
+  runs_cmd->add_option("--station", run_filter.station, "only this station");
+  runs_cmd->add_option("--unit", run_filter.unit, "only this unit serial");
+  runs_cmd->add_option("--since", since,
+                       "started at or after (2026-11-21 or 2026-11-21T08:00:00Z)");
+  runs_cmd->add_option("--verdict,--outcome", run_filter.verdict,
+                       "PASS, MARGINAL, FAIL, INCONCLUSIVE, ABORTED, ERROR or none");
+  runs_cmd->add_option("--limit", run_filter.limit, "at most this many")->capture_default_str();
+  runs_cmd->add_option("--format", format, "table, csv or json")->capture_default_str();
+
+  cli::ExportOptions ex;
+  CLI::App* export_cmd =
+      app.add_subcommand("export", "run records, measurements, curves, Kalibr YAML or raw samples");
+  export_cmd->add_option("--db", ex.db_path, "archive file")->required();
+  export_cmd->add_option("--lot", ex.lot, "every run of this lot");
+  export_cmd->add_option("--run", ex.run_id, "this run");
+  export_cmd
+      ->add_option("--format,--as", ex.as,
+                   "json (run records), measurements (CSV), curves (CSV), kalibr (YAML), "
+                   "samples (CSV of one --run's raw samples: sample, device_time_s, "
+                   "arrival_utime, <axis>_deg_s|_m_s2, temperature_c, flags); --as is the "
+                   "former name")
+      ->capture_default_str();
+  export_cmd->add_option("-o,--output", ex.output,
+                         "file (default: standard output); kalibr of a lot: a directory, DIR/");
+  export_cmd->add_option("--rostopic", ex.rostopic, "kalibr: the IMU topic")->capture_default_str();
+  export_cmd->add_flag("--upper-bounds", ex.kalibr_upper_bounds,
+                       "kalibr: export a term the noise model only bounds (its 95 % upper bound)");
+
+  cli::AnalyzeFileOptions an;
+  CLI::App* analyze_cmd =
+      app.add_subcommand("analyze", "offline Allan analysis of a recorded series");
+  analyze_cmd->add_option("file", an.path, "one value per line, or CSV with a header")->required();
+  analyze_cmd->add_option("--column", an.column, "CSV column to analyse");
+  analyze_cmd->add_option("--rate", an.rate_hz, "sample rate in Hz")->capture_default_str();
+  analyze_cmd->add_option("--type", an.type, "rate or phase")->capture_default_str();
+  analyze_cmd
+      ->add_option("--dev", an.devs,
+                   "estimators: adev,oadev,mdev,tdev,hdev,ohdev,totdev; long tau: theo1, "
+                   "theobr (bias-removed), theoh (oadev then theobr), mtotdev, ttotdev, htotdev. "
+                   "theo1/theobr/theoh report tau = 0.75 m tau0 (m even); the long-tau "
+                   "estimators reach past T/9 only with --stop stable32 or none; with gaps they "
+                   "use the longest gap-free span")
+      ->capture_default_str();
+  analyze_cmd
+      ->add_option("--grid", an.grid, "octave, decade, all, logN (N per decade), or taus 1,2,5")
+      ->capture_default_str();
+  analyze_cmd->add_option("--stop", an.stop, "bins9, stable32 or none")->capture_default_str();
+  analyze_cmd->add_option("--ci", an.ci, "none, simple (1/sqrt(2(K-1))) or chi2 (Greenhall edf)")
+      ->capture_default_str();
+  analyze_cmd->add_option("--confidence", an.confidence, "chi2 interval level")
+      ->capture_default_str();
+  analyze_cmd->add_flag("--fit", an.fit,
+                        "composite noise model (white, quantization, flicker, RRW, drift, "
+                        "Gauss-Markov, sinusoids; selected, tested for fit, with sigmas) beside "
+                        "the slope-line read-offs");
+  analyze_cmd->add_option("--kind", an.kind, "gyro or accel: datasheet units for the fit");
+  analyze_cmd->add_option("--unit", an.unit,
+                          "the values' unit, with --kind: gyro deg/s (default), rad/s, mrad/s, "
+                          "deg/h, rpm; accel m/s^2 (default), g, mg, ug");
+  analyze_cmd->add_option("--scale", an.scale, "multiply every value (e.g. an LSB) before --unit")
+      ->capture_default_str();
+  analyze_cmd->add_option("--format", an.format, "table, csv or json")->capture_default_str();
+  analyze_cmd->add_option("--plot", an.plot_path, "write an SVG plot of the curves");
+
+  cli::ReanalyzeOptions re;
+  CLI::App* reanalyze_cmd = app.add_subcommand("reanalyze", "analyse an archived run again");
+  reanalyze_cmd->add_option("run", re.run_id, "run id")->required();
+  reanalyze_cmd->add_option("--db", re.db_path, "archive file")->required();
+  CLI::Option* exact_flag = reanalyze_cmd->add_flag(
+      "--exact", re.exact,
+      "exact batch estimators over every archived sample (any grid, stop, CI)");
+  reanalyze_cmd
+      ->add_flag("--check", re.check,
+                 "live mode: verify the run's checksums and that it equals the archived result "
+                 "(every curve point, measurement and the verdict)")
+      ->excludes(exact_flag);
+  // Options only the exact mode honours are refused without it, never ignored.
+  reanalyze_cmd
+      ->add_option("--dev", re.devs,
+                   "--exact: estimators (as for analyze, the long-tau ones included)")
+      ->capture_default_str()
+      ->needs(exact_flag);
+  reanalyze_cmd->add_option("--grid", re.grid, "--exact: tau grid")
+      ->capture_default_str()
+      ->needs(exact_flag);
+  reanalyze_cmd->add_option("--stop", re.stop, "--exact: bins9, stable32 or none")
+      ->capture_default_str()
+      ->needs(exact_flag);
+  reanalyze_cmd->add_option("--ci", re.ci, "--exact: none, simple or chi2")
+      ->capture_default_str()
+      ->needs(exact_flag);
+  reanalyze_cmd
+      ->add_flag("--looks", re.looks,
+                 "live mode: every look of the run's early decisions (evidence, decisions, what "
+                 "was pending) instead of the curves")
+      ->excludes(exact_flag);
+  reanalyze_cmd->add_option("--format", re.format, "table, csv or json")->capture_default_str();
+
+  std::string verify_db;
+  CLI::App* verify_cmd = app.add_subcommand(
+      "verify", "check an archive for damage: SQLite's integrity check and every stored checksum");
+  verify_cmd->add_option("--db", verify_db, "archive file")->required();
+
+  cli::PlanSoakOptions soak;
+  CLI::App* soak_cmd = app.add_subcommand(
+      "plan-soak",
+      "predict, by simulating records through the station's analysis, how long a plan with "
+      "early_decision soaks a unit before deciding it, and the distribution over a lot");
+  soak_cmd->add_option("--plan", soak.plan, "builtin:NAME or a plan .textproto with early_decision")
+      ->required();
+  soak_cmd->add_option("--model", soak.model,
+                       "a typical unit's noise model: CSV axis,name,value,unit (model term "
+                       "names and datasheet units, as the archive's model_* rows)");
+  soak_cmd->add_option("--lot", soak.lot,
+                       "a past lot whose units' noise models to use (with --db)");
+  soak_cmd->add_option("--db", soak.db, "archive file of --lot");
+  soak_cmd->add_option("--profile", soak.profile, "a simulator lot profile (e.g. vg700)");
+  soak_cmd->add_option("--records", soak.records, "records to simulate")->capture_default_str();
+  soak_cmd->add_option("--seed", soak.seed, "first seed")->capture_default_str();
+  soak_cmd->add_option("--threads", soak.threads, "worker threads")->capture_default_str();
+
+  cli::PlotOptions plot;
+  CLI::App* plot_cmd = app.add_subcommand("plot",
+                                          "SVG Allan deviation plots: one run (axes of a kind "
+                                          "overlaid) or a lot (units overlaid per axis)");
+  plot_cmd->add_option("--db", plot.db_path, "archive file")->required();
+  plot_cmd->add_option("--run", plot.run_id,
+                       "plot this run: its axes overlaid, one plot per axis kind");
+  plot_cmd->add_option("--lot", plot.lot, "overlay every unit of this lot, one plot per axis");
+  plot_cmd->add_option("--axis", plot.axis, "only this axis");
+  plot_cmd->add_flag("--series", plot.series,
+                     "with --run: the raw samples against time (rate per axis and temperature, "
+                     "bin mean with its min/max envelope) instead of the Allan plots");
+  plot_cmd
+      ->add_option("-o,--output", plot.output,
+                   "SVG file; several plots go to FILE-<kind or axis>.svg beside it; - for "
+                   "standard output (one plot)")
+      ->required();
+
+  cli::ReportOptions report;
+  CLI::App* report_cmd = app.add_subcommand("report", "self-contained HTML report of a lot");
+  report_cmd->add_option("--db", report.db_path, "archive file")->required();
+  report_cmd->add_option("--lot", report.lot, "lot name")->required();
+  report_cmd->add_option("-o,--output", report.output, "HTML file to write; - for standard output")
+      ->required();
+
+  // `imuqual help [COMMAND]` is `imuqual [COMMAND] --help` (git's and
+  // cargo's habit).
+  if (argc > 1 && std::string(argv[1]) == "help") {
+    std::vector<char*> args = {argv[0]};
+    if (argc > 2) {
+      bool known = false;
+      for (const CLI::App* sub : app.get_subcommands({}))
+        known = known || sub->get_name() == argv[2];
+      if (!known) {
+        LogError(std::string("help: unknown command '") + argv[2] + "'; imuqual help lists them");
+        return kExitUsage;
+      }
+      args.push_back(argv[2]);
+    }
+    static char help_flag[] = "--help";
+    args.push_back(help_flag);
+    return ParseCommandLine(app, static_cast<int>(args.size()), args.data()).value_or(kExitOk);
+  }
+  // A mistyped command is named, with the closest one, not "A subcommand is
+  // required".
+  if (argc > 1 && argv[1][0] != '-') {
+    std::vector<std::string> names;
+    for (const CLI::App* sub : app.get_subcommands({})) names.push_back(sub->get_name());
+    if (std::find(names.begin(), names.end(), argv[1]) == names.end()) {
+      std::string message = "unknown command '";
+      message += argv[1];
+      message += "'";
+      if (const std::string close = ClosestName(argv[1], names); !close.empty()) {
+        message += " (did you mean '";
+        message += close;
+        message += "'?)";
+      }
+      message += "; imuqual --help lists them";
+      LogError(message);
+      return kExitUsage;
+    }
+  }
+  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
+  if (plot_cmd->parsed()) return cli::PlotCommand(plot);
+  if (soak_cmd->parsed()) return cli::PlanSoakCommand(soak);
+  if (report_cmd->parsed()) return cli::ReportCommand(report);
+  if (reanalyze_cmd->parsed()) return cli::ReanalyzeCommand(re);
+  if (verify_cmd->parsed()) return cli::VerifyCommand(verify_db);
+  if (analyze_cmd->parsed()) return cli::AnalyzeFileCommand(an);
+
+  auto fmt = cli::ParseFormat(format);
+  if (!fmt.ok()) {
+    LogError(fmt.status().message());
+    return 2;
+  }
+  if (run_cmd->parsed()) {
+    if (run_cmd->count("--rate") > 0) run.rate_hz = rate_hz;
+    if (!station_file.empty()) {
+      for (const char* flag : {"--sim", "--unit", "--lot", "--db", "--plan", "--duration", "--rate",
+                               "--operator", "--lcm-url", "--station-id", "--profile"}) {
+        if (run_cmd->count(flag) > 0) {
+          LogError(std::string("--station ") + station_file +
+                   " holds the station's setup: do not also give " + flag);
+          return 2;
+        }
+      }
+      std::vector<int> slot_lines;
+      auto config = cli::LoadStationConfig(station_file, &slot_lines);
+      if (!config.ok()) {
+        LogError(config.status().message());
+        return 2;
+      }
+      cli::StationRunOptions from_file =
+          cli::StationRunFromConfig(*config, station_file, slot_lines);
+      // What the command line may still set: pacing, fault injection, patience, shards, report.
+      if (run_cmd->count("--pace") > 0) from_file.pace = run.pace;
+      if (run_cmd->count("--analyze-shards") > 0) from_file.analyze_shards = run.analyze_shards;
+      if (run_cmd->count("--report") > 0) from_file.report_path = run.report_path;
+      from_file.inject_drop = run.inject_drop;
+      from_file.skip_failed_slots = run.skip_failed_slots;
+      from_file.short_soak = run.short_soak;
+      from_file.fail_exit = run.fail_exit;
+      from_file.stall_timeout_s = run.stall_timeout_s;
+      run = std::move(from_file);
+    } else if (run.lot.empty() || run.db_path.empty()) {
+      LogError(
+          "run: give --station FILE, or --lot and --db (with --sim N and/or --unit SERIAL=SOURCE)");
+      return 2;
+    }
+    InstallShutdownHandlers();
+    run.show_progress = !quiet;
+    return cli::RunCommand(run);
+  }
+  if (lots_cmd->parsed()) return cli::LotsCommand(db, *fmt);
+  if (lot_cmd->parsed()) {
+    if (lot_model) return cli::LotModelCommand(db, lot, *fmt);
+    return stats ? cli::LotStatsCommand(db, lot, *fmt) : cli::LotCommand(db, lot, *fmt, all_runs);
+  }
+  if (compare_cmd->parsed()) return cli::CompareCommand(db, lot, lot_b, alpha, *fmt);
+  if (unit_cmd->parsed()) return cli::UnitCommand(db, serial, *fmt);
+  if (runs_cmd->parsed()) return cli::RunsCommand(db, run_filter, since, *fmt);
+  if (export_cmd->parsed()) return cli::ExportCommand(ex);
+  return 2;
+}

@@ -1,0 +1,323 @@
+#include "offline/analyze_command.h"
+
+#include <cmath>
+#include <cstdio>
+#include <optional>
+
+#include "analyze/allan/confidence.h"
+#include "analyze/allan/estimators.h"
+#include "analyze/allan/gmwm.h"
+#include "analyze/allan/model_quantities.h"
+#include "analyze/allan/noise_model.h"
+#include "analyze/allan/phase.h"
+#include "analyze/allan/tau_grid.h"
+#include "analyze/allan/units.h"
+#include "common/log.h"
+#include "common/numeric_text.h"
+#include "common/strings.h"
+#include "common/text_util.h"
+#include "offline/curve_request.h"
+#include "report/model_plot.h"
+#include "report/svg_plot.h"
+#include "report/table_writer.h"
+
+namespace imuqual::cli {
+namespace {
+
+using allan::Curve;
+using allan::Deviation;
+using allan::NoiseTerm;
+
+struct Parsed {
+  CurveRequest curves;
+  Format format;
+  std::optional<allan::SensorKind> kind;
+  double factor = 1.0;  // values to the base unit: scale x unit
+};
+
+Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
+  Parsed p;
+  auto request = ParseCurveRequest(o.devs, o.grid, o.stop, o.ci, o.confidence);
+  if (!request.ok()) return request.status();
+  p.curves = *request;
+  auto format = ParseFormat(o.format);
+  if (!format.ok()) return format.status();
+  p.format = *format;
+  if (o.kind == "gyro") {
+    p.kind = allan::SensorKind::kGyro;
+  } else if (o.kind == "accel") {
+    p.kind = allan::SensorKind::kAccelerometer;
+  } else if (!o.kind.empty()) {
+    return Status::InvalidArgument("--kind must be gyro or accel");
+  }
+  if (!(o.rate_hz > 0) || !std::isfinite(o.rate_hz)) {
+    return Status::InvalidArgument("--rate must be a positive rate in Hz");
+  }
+  if (!std::isfinite(o.scale) || o.scale == 0) {
+    return Status::InvalidArgument("--scale must be a finite, non-zero number");
+  }
+  p.factor = o.scale;
+  if (!o.unit.empty()) {
+    if (!p.kind) {
+      return Status::InvalidArgument("--unit " + o.unit + ": give --kind gyro or accel too");
+    }
+    const double to_base = allan::OutputUnitToBase(o.unit, *p.kind);
+    if (!std::isfinite(to_base)) {
+      return Status::InvalidArgument(
+          "--unit " + o.unit + " is not a unit for " +
+          (*p.kind == allan::SensorKind::kGyro ? "a gyro" : "an accelerometer") + " (" +
+          std::string(allan::OutputUnitNames(*p.kind)) + ")");
+    }
+    p.factor *= to_base;
+  }
+  if (o.type != "rate" && o.type != "phase") {
+    return Status::InvalidArgument("--type must be rate or phase");
+  }
+  return p;
+}
+
+std::vector<LabeledCurve> Unlabeled(const std::vector<Curve>& curves) {
+  std::vector<LabeledCurve> out;
+  for (const Curve& c : curves) out.emplace_back("", c);
+  return out;
+}
+
+// Datasheet units when the sensor kind is known, else the input's base units.
+std::pair<double, std::string> Present(NoiseTerm term, const std::optional<allan::SensorKind>& kind,
+                                       double base) {
+  if (kind) {
+    const allan::DatasheetValue v = allan::ToDatasheetUnits(term, *kind, base);
+    return {v.value, std::string(v.unit)};
+  }
+  static const char* kBase[] = {"u*s", "u*sqrt(s)", "u", "u/sqrt(s)", "u/s"};
+  return {base, kBase[static_cast<int>(term)]};
+}
+
+// The slope-line (or curve-minimum) read-off that stands beside a model figure.
+double ReadOff(const std::string& name, const Curve& curve,
+               const std::optional<allan::SensorKind>& kind) {
+  auto present = [&](NoiseTerm term, double base) { return Present(term, kind, base).first; };
+  const std::optional<allan::CurveMinimum> min = allan::FindCurveMinimum(curve);
+  if (name == "angle_random_walk" || name == "velocity_random_walk") {
+    return present(NoiseTerm::kAngleRandomWalk,
+                   allan::ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk).value);
+  }
+  if (name == "rate_random_walk") {
+    return present(NoiseTerm::kRateRandomWalk,
+                   allan::ReadSlopeLine(curve, NoiseTerm::kRateRandomWalk).value);
+  }
+  if (!min) return allan::kNaN;
+  if (name == "bias_instability") return present(NoiseTerm::kBiasInstability, min->dev);
+  if (name == "bias_instability_ieee") {
+    return present(NoiseTerm::kBiasInstability, min->bias_instability_ieee);
+  }
+  if (name == "tau_at_minimum") return min->tau_s;
+  return allan::kNaN;
+}
+
+TableWriter QuantityTable(const allan::CompositeFit& fit, const Curve& curve,
+                          const std::optional<allan::SensorKind>& kind) {
+  TableWriter t({"term", "value", "sigma", "unit", "read_off", "role", "note"}, 5);
+  for (const allan::ModelQuantity& q : allan::DescribeCompositeFit(fit, kind)) {
+    t.AddRow({Cell::Text(q.name), Cell::Real(q.value), Cell::Real(q.sigma), Cell::Text(q.unit),
+              Cell::Real(q.figure ? ReadOff(q.name, curve, kind) : allan::kNaN),
+              Cell::Text(q.figure ? "figure" : "parameter"), Cell::Text(q.note)});
+  }
+  return t;
+}
+
+TableWriter CandidateTable(const allan::CompositeFit& fit) {
+  TableWriter t({"model", "parameters", "objective", "criterion", "p_value", "weight"}, 5);
+  for (const allan::ModelCandidate& c : fit.candidates) {
+    t.AddRow({Cell::Text(c.name), Cell::Int(c.parameters), Cell::Real(c.objective),
+              Cell::Real(c.criterion), Cell::Real(c.p_value), Cell::Real(c.weight)});
+  }
+  return t;
+}
+
+// The model at every tau of the curve (analysed or not), for comparison
+// point by point with the measured deviation and its interval.
+TableWriter ModelCurveTable(const allan::CompositeFit& fit, const Curve& curve) {
+  TableWriter t({"tau", "dev"}, 6);
+  for (const allan::CurvePoint& p : curve.points) {
+    t.AddRow({Cell::Real(p.tau_s), Cell::Real(fit.ModelDeviation(p.tau_s))});
+  }
+  return t;
+}
+
+std::string FitSummary(const allan::CompositeFit& fit) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "noise model %s (GMWM, %d points, %d parameters): J = %.4g on %d dof, p = %.3g: %s",
+                fit.model.Name().c_str(), fit.points_used, fit.parameters, fit.objective, fit.dof,
+                fit.p_value, fit.adequate ? "adequate" : "INADEQUATE (the model does not fit)");
+  return buf;
+}
+
+// A JSON number, null when not finite (JSON has no NaN).
+std::string JsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  return ShortestReal(v);
+}
+
+std::string FitJson(const allan::CompositeFit& fit, const Curve& curve,
+                    const std::optional<allan::SensorKind>& kind) {
+  return "{\"model\": \"" + fit.model.Name() +
+         "\", \"adequate\": " + (fit.adequate ? "true" : "false") +
+         ", \"p_value\": " + JsonNumber(fit.p_value) +
+         ", \"objective\": " + JsonNumber(fit.objective) + ", \"dof\": " + std::to_string(fit.dof) +
+         ", \"parameters\": " + std::to_string(fit.parameters) +
+         ", \"criterion\": \"AICc, 3.84 per one-parameter term\", \"criterion_value\": " +
+         JsonNumber(fit.criterion) +
+         ",\n\"terms\": " + QuantityTable(fit, curve, kind).Render(Format::kJson) +
+         ",\n\"curve\": " + ModelCurveTable(fit, curve).Render(Format::kJson) +
+         ",\n\"candidates\": " + CandidateTable(fit).Render(Format::kJson) + "}";
+}
+
+std::string PlotCurves(const std::vector<Curve>& curves, const allan::CompositeFit* fit,
+                       const Curve* fit_curve, const std::string& title,
+                       const std::optional<allan::SensorKind>& kind, bool phase) {
+  LogLogPlot plot;
+  plot.title = title;
+  if (kind) {  // datasheet units on the left, the base unit on the right
+    const bool gyro = *kind == allan::SensorKind::kGyro;
+    plot.y_scale = allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *kind, 1.0).value;
+    plot.y_label =
+        "deviation [" +
+        std::string(allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *kind, 1.0).unit) + "]";
+    plot.y2_label = gyro ? "[deg/s]" : "[m/s^2]";
+  } else {
+    plot.y_label = phase ? "deviation [fractional frequency, phase in s]"
+                         : "deviation [the input's unit x --scale]";
+  }
+  for (size_t i = 0; i < curves.size(); ++i) {
+    PlotSeries s;
+    s.label = std::string(allan::DeviationName(curves[i].deviation));
+    s.color = PaletteColor(i);
+    for (const allan::CurvePoint& p : curves[i].points) {
+      s.x.push_back(p.tau_s);
+      s.y.push_back(p.dev);
+      s.lo.push_back(p.lo);
+      s.hi.push_back(p.hi);
+    }
+    if (curves[i].ci == allan::CiMethod::kNone) {
+      s.lo.clear();
+      s.hi.clear();
+    }
+    plot.series.push_back(std::move(s));
+  }
+  if (fit != nullptr && fit_curve != nullptr && !fit_curve->points.empty()) {
+    AddModelSeries(fit->model, fit->tau0_s, fit_curve->points.front().tau_s,
+                   fit_curve->points.back().tau_s, fit->adequate, &plot);
+    if (auto min = allan::FindCurveMinimum(*fit_curve)) {
+      char label[64];
+      std::snprintf(label, sizeof label, "minimum %.4g at %.4g s", min->dev, min->tau_s);
+      plot.markers.push_back({label, min->tau_s, min->dev, "#d62728"});
+    }
+  }
+  return plot.ToSvg();
+}
+
+}  // namespace
+
+int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
+  auto parsed = ParseOptions(o);
+  if (!parsed.ok()) {
+    LogError(parsed.status().message());
+    return 2;
+  }
+  const Parsed& p = *parsed;
+  auto text = ReadFileToString(o.path);
+  if (!text.ok()) {
+    LogError(text.status().message());
+    return 1;
+  }
+  auto values = ParseSeries(*text, o.path, o.column);
+  if (!values.ok()) {
+    LogError(values.status().message());
+    return 1;
+  }
+  if (p.factor != 1.0) {
+    for (double& v : *values) v *= p.factor;
+  }
+  const double tau0 = 1.0 / o.rate_hz;
+  const allan::PhaseRecord phase =
+      o.type == "rate" ? allan::PhaseFromRate(*values, tau0) : allan::PhaseFromPhase(*values, tau0);
+  const std::vector<Curve> curves = ComputeCurves(phase, p.curves);
+
+  // The fit works on an Allan variance curve: the OADEV (or ADEV) asked for,
+  // else an octave OADEV computed for it.
+  std::optional<allan::CompositeFit> fit;
+  Curve fit_curve;
+  if (o.fit) {
+    bool found = false;
+    for (const Curve& c : curves) {
+      if (!found && (c.deviation == Deviation::kOadev || c.deviation == Deviation::kAdev)) {
+        fit_curve = c;
+        found = true;
+      }
+    }
+    if (!found) {
+      const std::vector<int64_t> m = allan::AveragingFactors(
+          allan::TauGridSpec{}, tau0, phase.size(), Deviation::kOadev, p.curves.stop);
+      fit_curve = allan::ComputeDeviation(phase, Deviation::kOadev, m);
+    }
+    allan::GmwmOptions fo;
+    fo.stop = allan::StopRule::kNone;  // the curve is already cut by --stop
+    auto f = allan::FitCompositeModel(fit_curve, fo);
+    if (!f.ok()) {
+      LogError("--fit: " + f.status().message());
+      return 1;
+    }
+    fit = *f;
+  }
+
+  const bool with_ci = p.curves.ci != allan::CiMethod::kNone;
+  if (p.format == Format::kTable) {
+    std::printf("%s: %zu %s samples at %g Hz, %lld invalid\n", o.path.c_str(), values->size(),
+                o.type.c_str(), o.rate_hz, static_cast<long long>(phase.invalid_count()));
+    for (const Curve& c : curves) {
+      std::printf("\n%s (grid %s, stop %s, ci %s)\n",
+                  std::string(allan::DeviationName(c.deviation)).c_str(), o.grid.c_str(),
+                  o.stop.c_str(), o.ci.c_str());
+      std::printf("%s",
+                  CurveTable({{"", c}}, with_ci, false, false).Render(Format::kTable).c_str());
+    }
+    if (fit) {
+      std::printf("\n%s\n", FitSummary(*fit).c_str());
+      std::printf("%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kTable).c_str());
+      std::printf(
+          "\ncandidates (best first; criterion J + 3.84 per Q/N/B/K/R term + 2 per Gauss-Markov or "
+          "sinusoid parameter + 2k(k+1)/(p-k-1); figures and IEEE terms are averaged with the "
+          "weights)\n%s",
+          CandidateTable(*fit).Render(Format::kTable).c_str());
+    }
+  } else if (p.format == Format::kCsv) {
+    std::printf("%s",
+                CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kCsv).c_str());
+    if (fit) {
+      std::printf("\n%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kCsv).c_str());
+      std::printf("\n%s", CandidateTable(*fit).Render(Format::kCsv).c_str());
+    }
+  } else {
+    std::string json = "{\"file\": \"" + o.path +
+                       "\", \"samples\": " + std::to_string(values->size()) +
+                       ", \"rate_hz\": " + std::to_string(o.rate_hz) + ",\n\"curves\": " +
+                       CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kJson);
+    if (fit) json += ",\n\"fit\": " + FitJson(*fit, fit_curve, p.kind);
+    std::printf("%s}\n", json.c_str());
+  }
+  if (!o.plot_path.empty()) {
+    const std::string svg =
+        PlotCurves(curves, fit ? &*fit : nullptr, fit ? &fit_curve : nullptr,
+                   o.path.substr(o.path.find_last_of('/') + 1), p.kind, o.type == "phase");
+    Status st = WriteStringToFile(o.plot_path, svg);
+    if (!st.ok()) {
+      LogError(st.message());
+      return 1;
+    }
+  }
+  return 0;
+}
+
+}  // namespace imuqual::cli

@@ -1,0 +1,38 @@
+// `imuqual analyze FILE`: offline Allan analysis of a recorded series (one
+// value per line, or CSV with a header and a chosen column), with every
+// estimator, grid, stop rule and confidence interval of the analysis core,
+// the composite noise-model fit (analyze/allan/gmwm.h) beside the slope-line
+// read-offs, and an SVG plot.
+#ifndef IMUQUAL_OFFLINE_ANALYZE_COMMAND_H_
+#define IMUQUAL_OFFLINE_ANALYZE_COMMAND_H_
+
+#include <string>
+
+namespace imuqual::cli {
+
+struct AnalyzeFileOptions {
+  std::string path;
+  std::string column;           // CSV column (required if several)
+  double rate_hz = 1.0;         // sample rate
+  std::string type = "rate";    // "rate" (deg/s, m/s^2, fractional frequency) or "phase"
+  std::string devs = "oadev";   // comma list of adev, oadev, mdev, tdev, hdev, ohdev, totdev
+  std::string grid = "octave";  // octave, decade, all, logN, or explicit taus "1,2,5"
+  std::string stop = "bins9";   // bins9, stable32, none
+  std::string ci = "none";      // none, simple, chi2
+  double confidence = 0.682689492137086;
+  bool fit = false;  // composite noise model and slope-line read-offs
+  std::string kind;  // gyro, accel or "" (units of the fit report)
+  // The values' unit (a gyro's deg/s, rad/s, mrad/s, deg/h, rpm; an
+  // accelerometer's m/s^2, g, mg, ug; needs kind) and a factor (an LSB):
+  // values x scale x unit-to-base are analysed in deg/s or m/s^2.
+  std::string unit;
+  double scale = 1.0;
+  std::string format = "table";  // table, csv, json
+  std::string plot_path;         // SVG output, "" for none
+};
+
+int AnalyzeFileCommand(const AnalyzeFileOptions& options);
+
+}  // namespace imuqual::cli
+
+#endif  // IMUQUAL_OFFLINE_ANALYZE_COMMAND_H_

@@ -1,0 +1,53 @@
+// `imuqual report`: a lot's qualification report as one self-contained HTML
+// file (inline CSS, inline SVG plots, a few lines of inline script to sort
+// the tables; no external resource of any kind), readable in any browser
+// and printable.
+//
+// Content, for each unit's latest run in the lot:
+//  - the lot header: lot, plan(s), units, runs, PASS / MARGINAL / FAIL
+//    counts, yield = (PASS + MARGINAL) / judged, first and last start (UTC);
+//  - the units needing attention (FAIL, then MARGINAL) with their reasons;
+//  - per unit and axis: ARW/VRW, bias instability (curve minimum and IEEE B),
+//    tau at the minimum, RRW, gap samples, the axis and unit verdicts; each
+//    value coloured by its own judgement; one table per axis kind, units in
+//    the headers;
+//  - the lot statistics per axis and measurement (n, mean, sd, min, max,
+//    limits, yield, Cpk/Cpu/Cpl), judged measurements first;
+//  - the Allan plots: the lot overlay per axis, and each FAIL or MARGINAL
+//    unit's own plot (see plot_command.h).
+//
+// For programs reading the page: visible numbers are rounded for people,
+// and every numeric cell carries its full-precision value in data-v (the shortest text that reads
+// back exactly, empty for none). Rows are identified by data-run/data-serial/data-axis (results)
+// and data-axis/data-name/data-unit (statistics; axis "" = run level; data-unit the values' unit),
+// cells by data-m (measurement) or data-stat. Every text from the archive is
+// HTML-escaped.
+#ifndef IMUQUAL_REPORT_REPORT_H_
+#define IMUQUAL_REPORT_REPORT_H_
+
+#include <string>
+
+#include "common/status.h"
+#include "store/archive.h"
+
+namespace imuqual::cli {
+
+// Command-line fields of `imuqual report`.
+struct ReportOptions {
+  std::string db_path;  // --db: the archive (required)
+  std::string lot;      // --lot: the lot to report (required)
+  std::string output;   // -o: the HTML file to write (required; replaced atomically)
+};
+
+// Writes the report. Returns 0, 1 on an error (unknown lot, unreadable
+// archive, unwritable output file: one line on stderr), 2 on a usage error.
+int ReportCommand(const ReportOptions& options);
+
+// The report's HTML. NotFound names the lot when the archive has no run of
+// it. `archive_label` is how the page names the archive (e.g. its path).
+Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
+                                       const std::string& archive_label);
+
+}  // namespace imuqual::cli
+
+#endif  // IMUQUAL_REPORT_REPORT_H_

@@ -1,0 +1,189 @@
+#include "report/table_writer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "common/strings.h"
+
+namespace imuqual::cli {
+namespace {
+
+// digits 17: for programs, the shortest text that reads back exactly.
+std::string FormatReal(double v, int digits) {
+  if (std::isnan(v)) return "";
+  if (digits >= 17) return ShortestReal(v);
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
+std::string CellText(const Cell& c, int digits) {
+  switch (c.kind) {
+    case Cell::Kind::kText:
+    case Cell::Kind::kNumText:
+      return c.text;
+    case Cell::Kind::kReal:
+      return FormatReal(c.real, digits);
+    case Cell::Kind::kInt:
+      return std::to_string(c.integer);
+    case Cell::Kind::kBool:
+      return c.integer ? "true" : "false";
+  }
+  return "";
+}
+
+std::string CsvQuote(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string JsonString(const std::string& s) {
+  std::string out = "\"";
+  for (unsigned char c : s) {
+    switch (c) {
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      default:
+        if (c < 0x20) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\u%04x", c);
+          out += buf;
+        } else {
+          out += static_cast<char>(c);
+        }
+    }
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
+size_t DisplayWidth(const std::string& s) {
+  size_t n = 0;
+  for (unsigned char c : s) n += (c & 0xC0) != 0x80;
+  return n;
+}
+
+Result<Format> ParseFormat(const std::string& name) {
+  if (name == "table") return Format::kTable;
+  if (name == "csv") return Format::kCsv;
+  if (name == "json") return Format::kJson;
+  return Status::InvalidArgument("--format must be table, csv or json, not '" + name + "'");
+}
+
+std::string TableWriter::Render(Format format) const {
+  switch (format) {
+    case Format::kTable:
+      return RenderTable();
+    case Format::kCsv:
+      return RenderCsv();
+    case Format::kJson:
+      return RenderJson();
+  }
+  return "";
+}
+
+std::string TableWriter::RenderTable() const {
+  std::vector<size_t> width(columns_.size());
+  for (size_t c = 0; c < columns_.size(); ++c) width[c] = DisplayWidth(columns_[c]);
+  std::vector<std::vector<std::string>> cells;
+  for (const auto& row : rows_) {
+    std::vector<std::string> texts;
+    for (size_t c = 0; c < columns_.size(); ++c) {
+      std::string text = c < row.size() ? CellText(row[c], digits_) : std::string();
+      if (c < row.size() && row[c].kind == Cell::Kind::kBool) text = row[c].integer ? "yes" : "no";
+      // A missing number shows as "-" for people.
+      if (text.empty() && c < row.size() && row[c].kind == Cell::Kind::kReal) text.push_back('-');
+      texts.push_back(std::move(text));
+      width[c] = std::max(width[c], DisplayWidth(texts.back()));
+    }
+    cells.push_back(std::move(texts));
+  }
+  std::string out;
+  auto line = [&](const std::vector<std::string>& texts, const std::vector<Cell>* row) {
+    for (size_t c = 0; c < texts.size(); ++c) {
+      const bool numeric = row && c < row->size() && (*row)[c].kind != Cell::Kind::kText &&
+                           (*row)[c].kind != Cell::Kind::kBool;
+      const std::string pad(width[c] - DisplayWidth(texts[c]), ' ');
+      if (numeric) {
+        out += pad;
+        out += texts[c];
+      } else {
+        out += texts[c];
+        if (c + 1 < texts.size()) out += pad;
+      }
+      if (c + 1 < texts.size()) out += "  ";
+    }
+    while (!out.empty() && out.back() == ' ') out.pop_back();
+    out += '\n';
+  };
+  line(columns_, nullptr);
+  std::vector<std::string> rule;
+  for (size_t w : width) rule.push_back(std::string(w, '-'));
+  line(rule, nullptr);
+  for (size_t r = 0; r < rows_.size(); ++r) line(cells[r], &rows_[r]);
+  return out;
+}
+
+std::string TableWriter::RenderCsv() const {
+  std::string out;
+  for (size_t c = 0; c < columns_.size(); ++c) {
+    if (c) out += ',';
+    out += CsvQuote(columns_[c]);
+  }
+  out += '\n';
+  for (const auto& row : rows_) {
+    for (size_t c = 0; c < columns_.size(); ++c) {
+      if (c) out += ',';
+      if (c < row.size()) out += CsvQuote(CellText(row[c], 17));
+    }
+    out += '\n';
+  }
+  return out;
+}
+
+std::string TableWriter::RenderJson() const {
+  std::string out = "[";
+  for (size_t r = 0; r < rows_.size(); ++r) {
+    out += r ? ",\n {" : "\n {";
+    for (size_t c = 0; c < columns_.size(); ++c) {
+      if (c) out += ", ";
+      out += JsonString(columns_[c]);
+      out += ": ";
+      const Cell& cell = c < rows_[r].size() ? rows_[r][c] : Cell::Text("");
+      if (cell.kind == Cell::Kind::kText || cell.kind == Cell::Kind::kNumText) {
+        out += JsonString(cell.text);
+      } else if (cell.kind == Cell::Kind::kInt) {
+        out += std::to_string(cell.integer);
+      } else if (cell.kind == Cell::Kind::kBool) {
+        out += cell.integer ? "true" : "false";
+      } else {
+        out += std::isfinite(cell.real) ? FormatReal(cell.real, 17) : "null";
+      }
+    }
+    out += "}";
+  }
+  out += rows_.empty() ? "]\n" : "\n]\n";
+  return out;
+}
+
+}  // namespace imuqual::cli

@@ -1,0 +1,58 @@
+// Tabular output in three formats: an aligned text table for people, CSV
+// (RFC 4180) and JSON (an array of objects) for programs. Numbers keep full
+// precision in CSV and JSON; NaN is an empty CSV cell and JSON null.
+#ifndef IMUQUAL_REPORT_TABLE_WRITER_H_
+#define IMUQUAL_REPORT_TABLE_WRITER_H_
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+
+namespace imuqual::cli {
+
+enum class Format { kTable, kCsv, kJson };
+Result<Format> ParseFormat(const std::string& name);  // "table", "csv", "json"
+
+struct Cell {
+  // kNumText: a number already written as text with its marks ("≤ 0.68",
+  // "22.1† ± 1.3", "n/m"), right-aligned like numbers, a string in JSON.
+  // kBool: true/false in CSV and JSON (a JSON boolean), yes/no in the table.
+  enum class Kind { kText, kReal, kInt, kNumText, kBool } kind = Kind::kText;
+  std::string text;
+  double real = 0;
+  int64_t integer = 0;
+  static Cell Text(std::string t) { return {Kind::kText, std::move(t), 0, 0}; }
+  static Cell Real(double v) { return {Kind::kReal, "", v, 0}; }
+  static Cell Int(int64_t v) { return {Kind::kInt, "", 0, v}; }
+  static Cell NumText(std::string t) { return {Kind::kNumText, std::move(t), 0, 0}; }
+  static Cell Bool(bool b) { return {Kind::kBool, "", 0, b ? 1 : 0}; }
+};
+
+// Columns a UTF-8 string takes on a terminal: its code points ("±", "≤",
+// "†" one column each).
+size_t DisplayWidth(const std::string& s);
+
+class TableWriter {
+ public:
+  // `digits`: significant digits in the text table (CSV/JSON use 17).
+  explicit TableWriter(std::vector<std::string> columns, int digits = 4)
+      : columns_(std::move(columns)), digits_(digits) {}
+  void AddRow(std::vector<Cell> row) { rows_.push_back(std::move(row)); }
+  size_t rows() const { return rows_.size(); }
+  std::string Render(Format format) const;
+
+ private:
+  std::string RenderTable() const;
+  std::string RenderCsv() const;
+  std::string RenderJson() const;
+  std::vector<std::string> columns_;
+  std::vector<std::vector<Cell>> rows_;
+  int digits_;
+};
+
+}  // namespace imuqual::cli
+
+#endif  // IMUQUAL_REPORT_TABLE_WRITER_H_

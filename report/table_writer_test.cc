@@ -1,0 +1,72 @@
+#include "report/table_writer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace imuqual::cli {
+namespace {
+
+TableWriter Sample() {
+  TableWriter t({"name", "value", "count"});
+  t.AddRow({Cell::Text("a,b"), Cell::Real(0.1), Cell::Int(3)});
+  t.AddRow({Cell::Text("say \"hi\""), Cell::Real(std::nan("")), Cell::Int(-1)});
+  return t;
+}
+
+TEST(TableWriterTest, CsvQuotesAndKeepsFullPrecision) {
+  EXPECT_EQ(Sample().Render(Format::kCsv),
+            "name,value,count\n\"a,b\",0.1,3\n\"say \"\"hi\"\"\",,-1\n");
+}
+
+TEST(TableWriterTest, JsonHasNullForNaN) {
+  EXPECT_EQ(Sample().Render(Format::kJson),
+            "[\n {\"name\": \"a,b\", \"value\": 0.1, \"count\": 3},\n"
+            " {\"name\": \"say \\\"hi\\\"\", \"value\": null, \"count\": -1}\n]\n");
+  EXPECT_EQ(TableWriter({"x"}).Render(Format::kJson), "[]\n");
+}
+
+TEST(TableWriterTest, TableAlignsNumbersRight) {
+  EXPECT_EQ(Sample().Render(Format::kTable),
+            "name      value  count\n"
+            "--------  -----  -----\n"
+            "a,b         0.1      3\n"
+            "say \"hi\"      -     -1\n");
+}
+
+// A yes/no fact is a JSON boolean, true/false in CSV, yes/no for people.
+TEST(TableWriterTest, BooleansAreBooleans) {
+  TableWriter t({"name", "differs"});
+  t.AddRow({Cell::Text("a"), Cell::Bool(true)});
+  t.AddRow({Cell::Text("b"), Cell::Bool(false)});
+  EXPECT_EQ(
+      t.Render(Format::kJson),
+      "[\n {\"name\": \"a\", \"differs\": true},\n {\"name\": \"b\", \"differs\": false}\n]\n");
+  EXPECT_EQ(t.Render(Format::kCsv), "name,differs\na,true\nb,false\n");
+  EXPECT_EQ(t.Render(Format::kTable), "name  differs\n----  -------\na     yes\nb     no\n");
+}
+
+// Marked values ("≤ 0.68", "22.1† ± 1.3") align right by the columns they
+// take, not their bytes.
+TEST(TableWriterTest, MarkedNumbersAlignByTheirColumns) {
+  TableWriter t({"v"});
+  t.AddRow({Cell::NumText("\u2264 0.68")});
+  t.AddRow({Cell::NumText("22.1\u2020 \u00B1 1.3")});
+  t.AddRow({Cell::NumText("n/m")});
+  EXPECT_EQ(t.Render(Format::kTable),
+            "v\n"
+            "-----------\n"
+            "     \u2264 0.68\n"
+            "22.1\u2020 \u00B1 1.3\n"
+            "        n/m\n");
+  EXPECT_EQ(t.Render(Format::kCsv), "v\n\u2264 0.68\n22.1\u2020 \u00B1 1.3\nn/m\n");
+  EXPECT_EQ(DisplayWidth("\u2264 0.68"), 6u);
+}
+
+TEST(TableWriterTest, ParseFormat) {
+  EXPECT_TRUE(ParseFormat("csv").ok());
+  EXPECT_FALSE(ParseFormat("xml").ok());
+}
+
+}  // namespace
+}  // namespace imuqual::cli

@@ -1,0 +1,508 @@
+#include "station/station_console.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <set>
+#include <utility>
+
+#include "imuqual/decision_t.hpp"
+#include "imuqual/measurement_t.hpp"
+#include "imuqual/run_t.hpp"
+#include "report/early_decisions.h"
+#include "report/marks.h"
+#include "report/table_writer.h"
+#include "store/outcome.h"
+
+namespace imuqual::cli {
+namespace {
+
+using imuqual::decision_t;
+using imuqual::measurement_t;
+using imuqual::run_t;
+
+constexpr int kHeaderLines = 5;        // station, bus, progress, processes, blank
+constexpr int kTableFrame = 2;         // column names and rule
+constexpr int kNoticeLines = 2;        // blank, notice
+constexpr size_t kReasonColumns = 24;  // the short reason beside the verdict
+
+std::string Printf(const char* format, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+std::string Si(double v) {
+  if (v >= 1e9) return Printf("%.2fG", v / 1e9);
+  if (v >= 1e6) return Printf("%.2fM", v / 1e6);
+  if (v >= 1e4) return Printf("%.1fk", v / 1e3);
+  return Printf("%.0f", v);
+}
+
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// Provisional verdicts read "pass?", "inconclusive?", final ones "PASS",
+// "INCONCLUSIVE", "ABORTED", "ERROR"; "-" when nothing is judged.
+std::string VerdictText(int8_t outcome, bool final_result) {
+  const std::string word = store::OutcomeText(store::OutcomeFromNumber(outcome));
+  if (word.empty()) return final_result ? "-" : "";
+  return final_result ? word : Lower(word) + "?";
+}
+
+// A value's mark in the per-unit table: '!' FAIL, '?' INCONCLUSIVE, '~' MARGINAL.
+const char* OutcomeMark(int8_t outcome) {
+  switch (store::OutcomeFromNumber(outcome)) {
+    case pb::FAIL:
+      return "!";
+    case pb::INCONCLUSIVE:
+      return "?";
+    case pb::MARGINAL:
+      return "~";
+    default:
+      return "";
+  }
+}
+
+// Early decisions: the plan has them, and the unit is decided (PASS or FAIL).
+bool Early(const ConsoleUnit& u) { return u.looks_planned > 0; }
+bool Decided(const ConsoleUnit& u) {
+  return u.decision == decision_t::STATE_PASS || u.decision == decision_t::STATE_FAIL;
+}
+// Provisional outcomes are shown unless a look may still overturn them: an
+// early-decision unit not decided yet shows its decisions instead.
+bool ShowsProvisional(const ConsoleUnit& u) { return !Early(u) || Decided(u); }
+
+// The unit's verdict as shown: final, provisional, or (early decisions)
+// "PENDING look k/K", "decided PASS at 14m".
+std::string UnitVerdictText(const ConsoleUnit& u) {
+  if (u.final_result || !Early(u)) return VerdictText(u.verdict, u.final_result);
+  if (Decided(u)) {
+    return std::string("decided ") + (u.decision == decision_t::STATE_FAIL ? "FAIL" : "PASS") +
+           " at " + DecisionTimeText(u.decided_at_s);
+  }
+  return "PENDING look " + std::to_string(u.looks_done) + "/" + std::to_string(u.looks_planned);
+}
+
+// An axis's verdict as shown; an early-decision unit not decided yet: the
+// axis "pending" while a measurement of it is pending at the last look,
+// "pass" once every one is decided (none is decided FAIL before the unit
+// is), nothing before the first look or without a judged measurement.
+std::string AxisVerdictText(const ConsoleUnit& u, const ConsoleAxis& x) {
+  if (u.final_result || ShowsProvisional(u)) return VerdictText(x.outcome, u.final_result);
+  const std::string prefix = x.name + ": ";
+  for (const std::string& p : u.pending) {
+    if (p.starts_with(prefix)) return "pending";
+  }
+  return u.looks_done > 0 && x.outcome != 0 ? "pass" : "";
+}
+
+// The verdict the unit ranks by: an early-decision unit's decision, not its
+// provisional outcome.
+int8_t RankedVerdict(const ConsoleUnit& u) {
+  if (u.final_result || !Early(u)) return u.verdict;
+  if (u.decision == decision_t::STATE_FAIL) return measurement_t::OUTCOME_FAIL;
+  if (u.decision == decision_t::STATE_PASS) return measurement_t::OUTCOME_PASS;
+  return measurement_t::OUTCOME_UNSET;
+}
+
+std::string StateText(const ConsoleUnit& u) {
+  if (u.state == 0) return u.silent_s >= kConsoleSilentS ? "no data" : "waiting";
+  if (u.archived && u.final_result) return u.source_failed ? "source failed" : "done";
+  if (Early(u) && Decided(u)) return "slot free";
+  if (u.source_failed) return "source failed";
+  switch (u.state) {
+    case run_t::STATE_RUNNING:
+      if (u.reconnecting) return "reconnecting " + FormatDuration(u.silent_s);
+      if (u.silent_s >= kConsoleSilentS) return "no data " + FormatDuration(u.silent_s);
+      return "running";
+    case run_t::STATE_COMPLETE:
+      return "finishing";
+    case run_t::STATE_ABORTED:
+      return "aborted";
+    case run_t::STATE_INCOMPLETE:
+      return "incomplete";
+    default:
+      return "?";
+  }
+}
+
+std::string ElapsedText(const ConsoleUnit& u, double planned_s) {
+  if (u.state == 0) return "";
+  std::string out = FormatDuration(u.elapsed_s);
+  if (planned_s > 0) out += " / " + FormatDuration(planned_s);
+  return out;
+}
+
+std::string Bar(double fraction, int width) {
+  const int full = std::clamp(static_cast<int>(std::floor(fraction * width)), 0, width);
+  std::string bar(static_cast<size_t>(width) + 2, '.');
+  bar.front() = '[';
+  bar.back() = ']';
+  std::fill_n(bar.begin() + 1, full, '#');
+  return bar;
+}
+
+// FAIL first, then ERROR, ABORTED, INCONCLUSIVE, MARGINAL, then the rest
+// (store::AttentionRank); slot order within each.
+int AttentionRank(const ConsoleUnit& u) {
+  // A failed source or a silent unit needs the operator as an ERROR does.
+  if (u.source_failed || u.silent_s >= kConsoleSilentS || u.reconnecting) {
+    return std::max(store::AttentionRank(pb::ERROR),
+                    store::AttentionRank(store::OutcomeFromNumber(RankedVerdict(u))));
+  }
+  return store::AttentionRank(store::OutcomeFromNumber(RankedVerdict(u)));
+}
+
+std::vector<std::string> Lines(const std::string& text) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (start < text.size()) {
+    const size_t end = text.find('\n', start);
+    out.push_back(text.substr(start, end - start));
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return out;
+}
+
+pb::Qualifier QualifierOf(const ConsoleAxis& x) {
+  const int q = x.bias_instability_qualifier;
+  return pb::Qualifier_IsValid(q) ? static_cast<pb::Qualifier>(q) : pb::QUALIFIER_NONE;
+}
+
+// The live bias instability with its marks (marks.h); "" before there is
+// one. A provisional value not measurable yet (no curve so far) is not
+// there yet; only a final one reads "n/m".
+std::string LiveValue(const ConsoleAxis& x, int digits, bool with_uncertainty, bool final_result) {
+  const pb::Qualifier q = QualifierOf(x);
+  if (std::isnan(x.bias_instability) && (q != pb::NOT_MEASURABLE || !final_result)) return "";
+  return MarkedValue(x.bias_instability, q, x.bias_instability_uncertainty, digits,
+                     with_uncertainty);
+}
+
+// The first reason, cut to `width` columns ("..." when cut).
+std::string ShortReason(const ConsoleUnit& u, size_t width) {
+  // Nothing a later look may overturn (an early-decision unit not decided).
+  if (!u.final_result && !ShowsProvisional(u)) return "";
+  if (u.reason.empty() || RankedVerdict(u) == measurement_t::OUTCOME_PASS) return "";
+  if (DisplayWidth(u.reason) <= width) return u.reason;
+  std::string out;
+  for (size_t i = 0; i < u.reason.size() && DisplayWidth(out) + 3 < width; ++i) {
+    out += u.reason[i];
+  }
+  while (!out.empty() && (static_cast<unsigned char>(out.back()) & 0xC0) == 0xC0) out.pop_back();
+  return out + "...";
+}
+
+// One line explaining the marks shown ("" when none is). `verdict_marks`:
+// the per-unit table's marks on the values too.
+std::string MarksLine(const ConsoleModel& m, bool verdict_marks = false) {
+  std::set<pb::Qualifier> used;
+  for (const ConsoleUnit& u : m.units) {
+    for (const ConsoleAxis& x : u.axes) {
+      if (!LiveValue(x, 3, false, u.final_result).empty()) used.insert(QualifierOf(x));
+    }
+  }
+  std::string out;
+  if (used.count(pb::UPPER_BOUND))
+    out += std::string(out.empty() ? "" : "   ") + "\u2264 upper bound";
+  if (used.count(pb::MINIMUM_NOT_RESOLVED)) {
+    out += std::string(out.empty() ? "" : "   ") + kMinimumNotResolvedMark +
+           " minimum at the last point: the true minimum may lie lower";
+  }
+  if (used.count(pb::MODEL_INADEQUATE)) {
+    out += std::string(out.empty() ? "" : "   ") + kModelInadequateMark +
+           " noise model failed its fit";
+  }
+  if (used.count(pb::NOT_MEASURABLE))
+    out += std::string(out.empty() ? "" : "   ") + "n/m not measurable";
+  if (verdict_marks) {
+    out = "BI value: ! fail  ~ marginal  ? inconclusive" + (out.empty() ? "" : "   " + out);
+  }
+  const bool provisional = std::any_of(m.units.begin(), m.units.end(), [](const ConsoleUnit& u) {
+    return !u.final_result && ShowsProvisional(u) && u.verdict != 0;
+  });
+  if (provisional) out += std::string(out.empty() ? "" : "   ") + "pass? fail?: provisional";
+  return out;
+}
+
+// One row per unit and axis.
+std::vector<std::string> AxisRows(const ConsoleModel& m) {
+  TableWriter t({"slot", "serial", "verdict", "why", "state", "elapsed / planned", "axis",
+                 "axis verdict", "BI (live)", "samples", "gaps"});
+  for (const ConsoleUnit& u : m.units) {
+    const std::string samples = u.state == 0 ? "" : Si(static_cast<double>(u.samples));
+    const std::string gaps = u.state == 0 ? "" : std::to_string(u.gap_samples);
+    if (u.axes.empty()) {
+      t.AddRow({Cell::Text(u.slot), Cell::Text(u.serial), Cell::Text(UnitVerdictText(u)),
+                Cell::Text(ShortReason(u, kReasonColumns)), Cell::Text(StateText(u)),
+                Cell::Text(ElapsedText(u, m.planned_s)), Cell::Text(""), Cell::Text(""),
+                Cell::Text(""), Cell::Text(samples), Cell::Text(gaps)});
+      continue;
+    }
+    for (size_t a = 0; a < u.axes.size(); ++a) {
+      const ConsoleAxis& x = u.axes[a];
+      const bool first = a == 0;
+      t.AddRow({Cell::Text(first ? u.slot : ""), Cell::Text(first ? u.serial : ""),
+                Cell::Text(first ? UnitVerdictText(u) : ""),
+                Cell::Text(first ? ShortReason(u, kReasonColumns) : ""),
+                Cell::Text(first ? StateText(u) : ""),
+                Cell::Text(first ? ElapsedText(u, m.planned_s) : ""), Cell::Text(x.name),
+                Cell::Text(AxisVerdictText(u, x)),
+                Cell::Text(LiveValue(x, 3, true, u.final_result).empty()
+                               ? "-"
+                               : LiveValue(x, 3, true, u.final_result) + " " + x.unit),
+                Cell::Text(first ? samples : ""), Cell::Text(first ? gaps : "")});
+    }
+  }
+  std::vector<std::string> lines = Lines(t.Render(Format::kTable));
+  const std::string marks = MarksLine(m);
+  if (!marks.empty()) lines.push_back(marks);
+  return lines;
+}
+
+// One row per unit, the axes' live bias instability side by side ('!' FAIL,
+// '~' MARGINAL); at most `max_units` units; those needing attention first
+// (this table is shown when the per-axis one does not fit).
+std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
+  std::vector<std::string> axis_names;
+  for (const ConsoleUnit& u : m.units) {
+    for (const ConsoleAxis& x : u.axes) {
+      if (std::find(axis_names.begin(), axis_names.end(), x.name) == axis_names.end()) {
+        axis_names.push_back(x.name);
+      }
+    }
+  }
+  std::vector<std::string> columns = {"slot", "serial", "verdict",
+                                      "why",  "state",  "elapsed / planned"};
+  for (const std::string& a : axis_names) columns.push_back(a);
+  columns.push_back("samples");
+  columns.push_back("gaps");
+  std::vector<const ConsoleUnit*> shown;
+  for (const ConsoleUnit& u : m.units) shown.push_back(&u);
+  std::stable_sort(shown.begin(), shown.end(), [](const ConsoleUnit* a, const ConsoleUnit* b) {
+    return AttentionRank(*a) > AttentionRank(*b);
+  });
+  const bool cut = static_cast<int>(shown.size()) > max_units;
+  if (cut) shown.resize(static_cast<size_t>(std::max(0, max_units - 1)));
+  TableWriter t(columns, 3);
+  for (const ConsoleUnit* u : shown) {
+    std::vector<Cell> row = {Cell::Text(u->slot),
+                             Cell::Text(u->serial),
+                             Cell::Text(UnitVerdictText(*u)),
+                             Cell::Text(ShortReason(*u, kReasonColumns)),
+                             Cell::Text(StateText(*u)),
+                             Cell::Text(ElapsedText(*u, m.planned_s))};
+    for (const std::string& name : axis_names) {
+      std::string text;
+      for (const ConsoleAxis& x : u->axes) {
+        if (x.name != name || LiveValue(x, 3, false, u->final_result).empty()) continue;
+        text = LiveValue(x, 3, false, u->final_result) +
+               (u->final_result || ShowsProvisional(*u) ? OutcomeMark(x.outcome) : "");
+      }
+      row.push_back(Cell::Text(text));
+    }
+    row.push_back(Cell::Text(u->state == 0 ? "" : Si(static_cast<double>(u->samples))));
+    row.push_back(Cell::Text(u->state == 0 ? "" : std::to_string(u->gap_samples)));
+    t.AddRow(std::move(row));
+  }
+  std::vector<std::string> lines = Lines(t.Render(Format::kTable));
+  if (cut) {
+    const size_t hidden = m.units.size() - shown.size();
+    int pass = 0, pending = 0, other = 0;
+    for (const ConsoleUnit& u : m.units) {
+      if (std::find(shown.begin(), shown.end(), &u) != shown.end()) continue;
+      const int8_t verdict = RankedVerdict(u);
+      if (verdict == measurement_t::OUTCOME_PASS) {
+        ++pass;
+      } else if (verdict == measurement_t::OUTCOME_UNSET) {
+        ++pending;
+      } else {
+        ++other;
+      }
+    }
+    lines.push_back("... " + std::to_string(hidden) + " more units (" + std::to_string(pass) +
+                    " pass, " + (other > 0 ? std::to_string(other) + " other, " : "") +
+                    std::to_string(pending) + " not judged yet)");
+  }
+  return lines;
+}
+
+}  // namespace
+
+std::string ConsoleTally(const ConsoleModel& m) {
+  int counts[7] = {};
+  int finals = 0;
+  for (const ConsoleUnit& u : m.units) {
+    if (!u.final_result) continue;
+    ++finals;
+    ++counts[store::OutcomeFromNumber(u.verdict)];
+  }
+  if (finals == 0) return "";
+  std::string out = "final:";
+  for (pb::Outcome o :
+       {pb::PASS, pb::MARGINAL, pb::FAIL, pb::INCONCLUSIVE, pb::ABORTED, pb::ERROR}) {
+    if (counts[o] == 0 && !store::CountsInYield(o)) continue;
+    out += " " + std::to_string(counts[o]) + " " + store::OutcomeText(o) + ",";
+  }
+  if (counts[pb::OUTCOME_UNSET] > 0)
+    out += " " + std::to_string(counts[pb::OUTCOME_UNSET]) + " not judged,";
+  out.back() = ';';
+  const int judged = counts[pb::PASS] + counts[pb::MARGINAL] + counts[pb::FAIL];
+  if (judged == 0) return out + " yield not measurable: no judged unit";
+  return out + Printf(" yield %.0f%%", 100.0 * (counts[pb::PASS] + counts[pb::MARGINAL]) / judged) +
+         " of " + std::to_string(judged) + " judged unit" + (judged == 1 ? "" : "s");
+}
+
+std::string FormatDuration(double seconds) {
+  const long s = std::lround(std::max(0.0, seconds));
+  char buf[32];
+  if (s >= 3600) {
+    std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
+  } else {
+    std::snprintf(buf, sizeof buf, "%ld:%02ld", s / 60, s % 60);
+  }
+  return buf;
+}
+
+double ConsoleProgress(const ConsoleModel& m) {
+  if (m.units.empty()) return 0;
+  double done = 0;
+  for (const ConsoleUnit& u : m.units) {
+    if (u.archived || (Early(u) && Decided(u))) {
+      done += 1;
+    } else if (m.planned_s > 0) {
+      done += std::min(u.elapsed_s / m.planned_s, 0.999);
+    }
+  }
+  return std::clamp(done / static_cast<double>(m.units.size()), 0.0, 1.0);
+}
+
+std::string ConsoleSummaryLine(const ConsoleModel& m) {
+  double samples = 0;
+  int archived = 0;
+  for (const ConsoleUnit& u : m.units) {
+    samples +=
+        static_cast<double>(u.samples) * static_cast<double>(std::max<size_t>(1, u.axes.size()));
+    archived += u.archived;
+  }
+  const double f = ConsoleProgress(m);
+  return Bar(f, 30) + Printf(" %3.0f%%", 100 * f) + "  " + Si(samples) + " values  runs archived " +
+         std::to_string(archived) + "/" + std::to_string(m.units.size()) + "  " +
+         FormatDuration(m.wall_s);
+}
+
+// ANSI colour and bold for a verdict or state word at the start of a cell
+// (zero display width, so the cut lines stay in width).
+const char* ColourOf(std::string_view cell) {
+  static const std::pair<const char*, const char*> kWords[] = {
+      {"FAIL", "\x1b[1;31m"},         {"fail?", "\x1b[31m"},
+      {"ERROR", "\x1b[1;31m"},        {"source failed", "\x1b[1;31m"},
+      {"MARGINAL", "\x1b[1;33m"},     {"marginal?", "\x1b[33m"},
+      {"INCONCLUSIVE", "\x1b[1;35m"}, {"inconclusive?", "\x1b[35m"},
+      {"ABORTED", "\x1b[1;35m"},      {"no data", "\x1b[1;33m"},
+      {"reconnecting", "\x1b[1;33m"}, {"PASS", "\x1b[1;32m"},
+      {"pass?", "\x1b[32m"}};
+  for (const auto& [word, code] : kWords) {
+    if (cell.rfind(word, 0) == 0) return code;
+  }
+  return nullptr;
+}
+
+// Colours the verdict and state cells of the table that starts at
+// lines[first] (its header, then the dashes that give each column's
+// extent): only columns `verdict`, `state` and `axis verdict`, so that a
+// serial, a reason or a lot that happens to read "PASS" stays plain.
+void ColorizeTable(std::vector<std::string>* lines, size_t first) {
+  if (first + 1 >= lines->size()) return;
+  const std::string& header = (*lines)[first];
+  const std::string& dashes = (*lines)[first + 1];
+  if (dashes.empty() || dashes.find_first_not_of("- ") != std::string::npos) return;
+  std::vector<std::pair<size_t, size_t>> spans;  // byte ranges of the coloured columns
+  for (size_t at = dashes.find('-'); at != std::string::npos;) {
+    const size_t end = std::min(dashes.find(' ', at), dashes.size());
+    std::string name = header.size() > at ? header.substr(at, end - at) : "";
+    name.erase(name.find_last_not_of(' ') + 1);
+    if (name == "verdict" || name == "state" || name == "axis verdict") spans.emplace_back(at, end);
+    at = dashes.find('-', end);
+  }
+  for (size_t i = first + 2; i < lines->size(); ++i) {
+    std::string& line = (*lines)[i];
+    if (line.empty()) break;  // the end of the table
+    // Right to left, so that the earlier offsets stay valid.
+    for (auto it = spans.rbegin(); it != spans.rend(); ++it) {
+      const auto [at, end] = *it;
+      if (at >= line.size()) continue;
+      // The table is ASCII up to its verdict columns (slot and unit names are
+      // padded by display width; a wide name shifts the bytes: then the cell
+      // does not start with a word and stays plain).
+      const std::string_view cell(line.data() + at, std::min(end, line.size()) - at);
+      const char* code = ColourOf(cell);
+      if (code == nullptr || (at > 0 && line[at - 1] != ' ')) continue;
+      const size_t text_end = cell.find_last_not_of(' ') + 1;
+      line.insert(at + text_end, "\x1b[0m");
+      line.insert(at, code);
+    }
+  }
+}
+
+std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int height, bool color) {
+  std::vector<std::string> out;
+  std::string title = "imuqual station " + m.station + "   lot " + m.lot + "   plan " + m.plan;
+  if (!m.operator_name.empty()) title += "   operator " + m.operator_name;
+  out.push_back(title);
+  out.push_back("bus " + m.bus + "   archive " + m.archive);
+  const double f = ConsoleProgress(m);
+  int archived = 0;
+  for (const ConsoleUnit& u : m.units) archived += u.archived;
+  std::string progress =
+      Bar(f, 30) + Printf(" %3.0f%%", 100 * f) + "   elapsed " + FormatDuration(m.wall_s);
+  if (f > 0.01 && f < 1) progress += "   left ~" + FormatDuration(m.wall_s * (1 - f) / f);
+  progress += "   runs archived " + std::to_string(archived) + "/" + std::to_string(m.units.size());
+  out.push_back(progress);
+  std::string procs = "processes:";
+  for (const ConsoleProcess& p : m.processes) {
+    procs += "  " + p.name + " ";
+    procs += p.expected > 1 ? std::to_string(p.running) + "/" + std::to_string(p.expected)
+                            : std::string(p.running > 0 ? "up" : "down");
+    if (p.restarts > 0) procs += " (restarted " + std::to_string(p.restarts) + "x)";
+    if (!p.problem.empty()) procs += " [" + p.problem + "]";
+  }
+  out.push_back(procs);
+  out.push_back("");
+
+  size_t axis_rows = 0;
+  for (const ConsoleUnit& u : m.units) axis_rows += std::max<size_t>(1, u.axes.size());
+  const int room = height - kHeaderLines - kTableFrame - kNoticeLines;
+  const bool per_axis = static_cast<int>(axis_rows) + (MarksLine(m).empty() ? 0 : 1) <= room;
+  const std::string marks = MarksLine(m, !per_axis);
+  const int legend = marks.empty() ? 0 : 1;
+  std::vector<std::string> table = per_axis ? AxisRows(m) : UnitRows(m, std::max(1, room - legend));
+  if (!per_axis && legend > 0) table.push_back(marks);
+  out.insert(out.end(), table.begin(), table.end());
+  const std::string tally = ConsoleTally(m);
+  if (!tally.empty() && static_cast<int>(out.size()) + kNoticeLines < height) out.push_back(tally);
+  out.push_back("");
+  out.push_back(m.notice.empty() ? "Ctrl-C: stop the soak (runs are archived as aborted)"
+                                 : m.notice);
+  if (static_cast<int>(out.size()) > height) out.resize(static_cast<size_t>(std::max(0, height)));
+  for (std::string& line : out) {
+    // Cut at `width` columns, never inside a UTF-8 character.
+    if (static_cast<int>(DisplayWidth(line)) <= width) continue;
+    size_t bytes = 0;
+    for (int columns = 0; bytes < line.size(); ++bytes) {
+      if ((static_cast<unsigned char>(line[bytes]) & 0xC0) == 0x80) continue;
+      if (columns++ == std::max(0, width)) break;
+    }
+    line.resize(bytes);
+  }
+  if (color) ColorizeTable(&out, kHeaderLines);
+  return out;
+}
+
+}  // namespace imuqual::cli

@@ -1,0 +1,804 @@
+#include "station/station_runner.h"
+
+#include <sys/ioctl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <optional>
+#include <random>
+#include <set>
+#include <thread>
+
+#include "acquire/lot_profile.h"
+#include "acquire/units.h"
+#include "analyze/judge/early_decision.h"
+#include "analyze/judge/plan_file.h"
+#include "common/channels.h"
+#include "common/clock.h"
+#include "common/lcm_bus.h"
+#include "common/log.h"
+#include "common/shutdown.h"
+#include "common/strings.h"
+#include "common/subprocess.h"
+#include "common/text_util.h"
+#include "imuqual/ack_t.hpp"
+#include "imuqual/decision_t.hpp"
+#include "imuqual/run_t.hpp"
+#include "imuqual/status_t.hpp"
+#include "imuqual/unit_result_t.hpp"
+#include "station/preflight.h"
+#include "station/station_console.h"
+#include "store/archive.h"
+#include "store/outcome.h"
+#include "store/store_service.h"
+
+namespace imuqual::cli {
+namespace {
+
+constexpr double kStartTimeoutS = 20;    // store/analyze must report by then
+constexpr double kStopTimeoutS = 15;     // SIGTERM -> SIGKILL
+constexpr double kAbortDrainS = 30;      // after Ctrl-C: time for aborted runs to be archived
+constexpr double kAcquireEndS = 5;       // all archived: time for acquire's final acks
+constexpr double kSettleLeftOpenS = 60;  // beyond the silence timer: runs left open earlier
+constexpr double kRestartDelayS = 1;     // a dead store/analyze is restarted after this
+constexpr double kCrashWindowS = 60;     // restarts counted over this window
+constexpr double kRedrawS = 0.25;        // live console refresh
+constexpr double kLogLineS = 10;         // progress line when not on a terminal
+constexpr double kComplaintS = 3;        // an unhealthy status shows this long after it was heard
+
+// The source of a unit given as SERIAL=SOURCE.
+Result<acquire::SourceSpec> UnitSourceSpec(const std::string& unit) {
+  const size_t eq = unit.find('=');
+  return acquire::ParseSourceSpec(eq == std::string::npos ? "" : unit.substr(eq + 1));
+}
+
+std::string CompactUtc(int64_t utime) {
+  std::string out;
+  for (char c : FormatUtimeIso(utime)) {
+    if (c != '-' && c != ':') out += c;
+  }
+  return out;
+}
+
+// A rate as text, exactly (it is passed on to imuqual-acquire).
+std::string FormatRate(double hz) { return ShortestReal(hz); }
+
+// A port of its own for this station run (20000..59999).
+int PickPort() {
+  std::random_device rd;
+  std::mt19937 gen(rd() ^ static_cast<unsigned>(::getpid()));
+  return 20000 + static_cast<int>(gen() % 40000);
+}
+
+std::string LogTail(const std::string& path, int lines) {
+  auto text = ReadFileToString(path);
+  if (!text.ok()) return "";
+  const std::string& t = *text;
+  size_t pos = t.size();
+  for (int n = 0; n <= lines && pos > 0; ++n) {
+    pos = t.rfind('\n', pos - 1);
+    if (pos == std::string::npos) {
+      pos = 0;
+      break;
+    }
+  }
+  return t.substr(pos == 0 ? 0 : pos + 1);
+}
+
+// A store or analyze process under supervision: restarted when it dies.
+struct Supervised {
+  std::string name;  // "imuqual-store", "imuqual-analyze 1/3"
+  std::string kind;  // "store", "analyze" (status_t.process)
+  std::vector<std::string> argv;
+  std::optional<Subprocess> proc;
+  double restart_at = -1;  // > 0: dead, restart due then
+  int restarts = 0;
+  std::vector<double> crashes;  // when it died, within kCrashWindowS
+};
+
+// The station's processes. However RunStation ends, they are stopped in
+// order (source, analysis, archive), each given time to drain.
+struct Children {
+  std::optional<Subprocess> acquire;
+  std::vector<Supervised> analyze;
+  std::optional<Supervised> store;
+  ~Children() {
+    if (acquire) acquire->Stop(kStopTimeoutS);
+    for (Supervised& a : analyze) {
+      if (a.proc) a.proc->Stop(kStopTimeoutS);
+    }
+    if (store && store->proc) store->proc->Stop(kStopTimeoutS);
+  }
+};
+
+// The live console on a terminal: drawn over the screen from the top,
+// cursor hidden; restored however the run ends.
+class LiveScreen {
+ public:
+  // Colour unless NO_COLOR is set to anything but "" (no-color.org).
+  explicit LiveScreen(bool on) : on_(on) {
+    const char* no_color = std::getenv("NO_COLOR");
+    color_ = no_color == nullptr || *no_color == '\0';
+    if (on_) std::fputs("\x1b[?25l\x1b[H\x1b[2J", stderr);
+  }
+  ~LiveScreen() { Close(); }
+  void Draw(const ConsoleModel& model) {
+    if (!on_) return;
+    struct winsize ws {};
+    int width = 100, height = 40;
+    if (::ioctl(STDERR_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0 && ws.ws_row > 0) {
+      width = ws.ws_col;
+      height = ws.ws_row;
+    }
+    std::string frame = "\x1b[H";
+    for (const std::string& line : RenderConsole(model, width, height - 1, color_))
+      frame += line + "\x1b[K\n";
+    frame += "\x1b[J";
+    std::fputs(frame.c_str(), stderr);
+    std::fflush(stderr);
+  }
+  // Clears the console for the final report.
+  void Close() {
+    if (!on_) return;
+    std::fputs("\x1b[H\x1b[J\x1b[?25h", stderr);
+    std::fflush(stderr);
+    on_ = false;
+  }
+
+ private:
+  bool on_;
+  bool color_ = false;
+};
+
+}  // namespace
+
+Status StationRunOptions::Validate() const {
+  if (sim_units < 0 || sim_units > 1000) return Status::InvalidArgument("--sim must be 0..1000");
+  if (sim_units == 0 && units.empty()) {
+    return Status::InvalidArgument("no units: give --sim N and/or --unit SERIAL=SOURCE");
+  }
+  if (sim_units > 0 && (!(duration_s > 0) || !std::isfinite(duration_s))) {
+    return Status::InvalidArgument("--duration must be > 0 s");
+  }
+  if (rate_hz && !(*rate_hz > 0 && std::isfinite(*rate_hz))) {
+    return Status::InvalidArgument("--rate " + FormatRate(*rate_hz) +
+                                   ": must be a positive, finite rate in Hz");
+  }
+  IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("--lot", lot));
+  IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("--station", station));
+  if (db_path.empty()) return Status::InvalidArgument("--db is required");
+  if (!(inject_drop >= 0 && inject_drop < 1)) {
+    return Status::InvalidArgument("--inject-drop must be in [0, 1)");
+  }
+  if (!(pace >= 0) || !std::isfinite(pace)) return Status::InvalidArgument("--pace must be >= 0");
+  if (!(archive_timeout_s > 0)) return Status::InvalidArgument("--archive-timeout must be > 0");
+  if (!(give_up_s > 0)) return Status::InvalidArgument("--give-up must be > 0");
+  if (analyze_shards < 1 || analyze_shards > 64)
+    return Status::InvalidArgument("--analyze-shards must be 1..64");
+  if (!slots.empty() && slots.size() != units.size()) {
+    return Status::InvalidArgument("slots: one per --unit");
+  }
+  if (!unit_locations.empty() && unit_locations.size() != units.size()) {
+    return Status::InvalidArgument("unit_locations: one per --unit");
+  }
+  return Status::Ok();
+}
+
+Result<StationRunResult> RunStation(const StationRunOptions& given) {
+  IMUQUAL_RETURN_IF_ERROR(given.Validate());
+  auto profile = sim::LotProfileByName(given.profile);
+  if (!profile.ok()) return profile.status();
+  std::string plan_spec = given.plan_spec;
+  if (plan_spec.empty() && given.profile == "vg700" && given.units.empty()) {
+    plan_spec = "builtin:vg700ca";
+  }
+  std::string plan_name = "(none)";
+  std::optional<pb::TestPlan> plan;
+  if (!plan_spec.empty()) {
+    auto loaded = judge::LoadPlan(plan_spec);  // fail here, not in a child
+    if (!loaded.ok()) return loaded.status();
+    plan = std::move(*loaded);
+    plan_name = plan->name().empty() ? plan_spec : plan->name();
+    if (plan->require_operator() && IsBlank(given.operator_name)) {
+      return Status::InvalidArgument("plan " + plan_name +
+                                     " requires an operator: give --operator NAME (or "
+                                     "operator_name in the station file)");
+    }
+  }
+  StationRunResult result;
+  // Pre-flight: every problem of the station at once, before any process.
+  StationRunOptions checked = given;
+  {
+    const PreflightResult pre = Preflight(given, plan ? &*plan : nullptr);
+    const bool skip = given.skip_failed_slots && !pre.station_problem &&
+                      pre.failed_units.size() < given.units.size() + (given.sim_units > 0 ? 1 : 0);
+    if (!pre.problems.empty() && !skip) {
+      // One problem: one line; several: one line each under a count.
+      std::string text = pre.problems.size() == 1
+                             ? "pre-flight: " + pre.problems.front() + "; nothing started"
+                             : "pre-flight: " + std::to_string(pre.problems.size()) +
+                                   " problems, nothing started:";
+      for (const std::string& p : pre.problems) {
+        if (pre.problems.size() > 1) text += "\n  " + p;
+      }
+      if (!pre.station_problem && !pre.failed_units.empty() &&
+          pre.failed_units.size() < given.units.size() + (given.sim_units > 0 ? 1 : 0)) {
+        text += "\n  (--skip-failed-slots runs the other slots without them)";
+      }
+      return Status::InvalidArgument(text);
+    }
+    // Skipped: the failed units leave units, slots and locations together.
+    // The others keep what they were: their slot (an unnamed one is numbered
+    // by its place in the whole station) and, for a simulated unit without
+    // index=, the simulated unit of its place.
+    if (!pre.failed_units.empty()) {
+      checked.slots.resize(checked.units.size());
+      for (size_t i = 0; i < checked.units.size(); ++i) {
+        if (checked.slots[i].empty())
+          checked.slots[i] = std::to_string(given.sim_units + static_cast<int>(i) + 1);
+        std::string& unit = checked.units[i];
+        auto spec = UnitSourceSpec(unit);
+        if (spec.ok() && spec->kind == "sim" && spec->options.count("index") == 0) {
+          unit += ",index=" + std::to_string(i);
+        }
+      }
+    }
+    for (size_t k = pre.failed_units.size(); k-- > 0;) {
+      const size_t i = pre.failed_units[k];
+      checked.units.erase(checked.units.begin() + static_cast<std::ptrdiff_t>(i));
+      if (i < checked.slots.size())
+        checked.slots.erase(checked.slots.begin() + static_cast<std::ptrdiff_t>(i));
+      if (i < checked.unit_locations.size()) {
+        checked.unit_locations.erase(checked.unit_locations.begin() +
+                                     static_cast<std::ptrdiff_t>(i));
+      }
+    }
+    for (const std::string& p : pre.problems) {
+      LogWarning("skipped: " + p);
+      result.skipped.push_back(p);
+    }
+  }
+  const StationRunOptions& o = checked;
+  // Runs of this station that an earlier station process left open (killed
+  // outright, a power cut): the store resumes them, finds their source
+  // silent and ends them incomplete, and the analysis judges them ERROR.
+  // The station waits for that too (bounded), so that the archive holds no
+  // open run once it is done.
+  std::set<std::string> left_open;
+  {
+    // A bad archive file fails before any process starts.
+    auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kWrite);
+    if (!archive.ok()) return archive.status();
+    auto open_runs = (*archive)->db().Prepare(
+        "SELECT run_id FROM runs WHERE station = ? AND finalized_utime IS NULL ORDER BY run_id");
+    if (!open_runs.ok()) return open_runs.status();
+    open_runs->Bind(1, o.station);
+    for (;;) {
+      auto row = open_runs->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      left_open.insert(open_runs->Text(0));
+    }
+    // The station in every run id: two stations never mint the same one.
+    // The same station started again within the second of its last start
+    // (a script's quick retest) would: it waits for the next second.
+    auto taken =
+        (*archive)->db().Prepare("SELECT 1 FROM runs WHERE run_id >= ? AND run_id < ? LIMIT 1");
+    if (!taken.ok()) return taken.status();
+    for (int attempt = 0;; ++attempt) {
+      const int64_t now = NowUtime();
+      result.run_prefix = CompactUtc(now) + "-" + o.station;
+      taken->Reset();
+      taken->Bind(1, result.run_prefix + "-");
+      taken->Bind(2, result.run_prefix + ".");  // '.' sorts right after '-'
+      auto row = taken->Step();
+      if (!row.ok()) return row.status();
+      if (!*row || attempt >= 3) break;
+      std::this_thread::sleep_for(std::chrono::microseconds(1'000'000 - now % 1'000'000 + 1000));
+    }
+  }
+  result.left_open.assign(left_open.begin(), left_open.end());
+  result.log_path = o.db_path + ".log";
+  std::string url = o.lcm_url;
+  if (url.empty()) {
+    BusAddress address;
+    address.port = PickPort();
+    url = address.ToUrl();
+  }
+  auto bus_or = LcmBus::Open(url);
+  if (!bus_or.ok()) return bus_or.status();
+  LcmBus& bus = **bus_or;
+
+  // What the operator sees, one entry per unit in slot order.
+  ConsoleModel model;
+  model.station = o.station;
+  model.lot = o.lot;
+  model.plan = plan_name;
+  model.operator_name = o.operator_name;
+  model.bus = url;
+  model.archive = o.db_path;
+  model.planned_s = o.duration_s;
+  auto add_unit = [&](std::string slot, std::string serial) {
+    ConsoleUnit u;
+    u.slot = std::move(slot);
+    u.serial = std::move(serial);
+    model.units.push_back(std::move(u));
+  };
+  for (int i = 0; i < o.sim_units; ++i)
+    add_unit(std::to_string(i + 1), acquire::SimSerial(o.lot, i));
+  for (size_t i = 0; i < o.units.size(); ++i) {
+    const std::string slot = i < o.slots.size() && !o.slots[i].empty()
+                                 ? o.slots[i]
+                                 : std::to_string(o.sim_units + static_cast<int>(i) + 1);
+    add_unit(slot, o.units[i].substr(0, o.units[i].find('=')));
+  }
+  std::map<std::string, size_t> unit_index;        // serial -> model.units
+  std::map<std::string, std::string> end_reasons;  // serial -> why its run ended early
+  for (size_t i = 0; i < model.units.size(); ++i) unit_index[model.units[i].serial] = i;
+  auto unit_of_run = [&](const std::string& run_id, const std::string& serial) -> ConsoleUnit* {
+    if (run_id.rfind(result.run_prefix + "-", 0) != 0) return nullptr;  // another station run
+    auto it = unit_index.find(serial);
+    if (it == unit_index.end()) return nullptr;
+    ConsoleUnit& u = model.units[it->second];
+    if (u.run_id.empty()) u.run_id = run_id;
+    return u.run_id == run_id ? &u : nullptr;
+  };
+  std::map<std::string, std::set<std::string>> heard;  // process -> instances (host:pid)
+  struct Complaint {
+    std::string message;
+    double heard_s = 0;
+  };
+  std::map<std::pair<std::string, std::string>, Complaint>
+      problems;  // (process, instance) -> last unhealthy message
+
+  // Runs whose serial device acquire is reconnecting, as last heard.
+  std::set<std::string> reconnecting;
+  double reconnecting_heard_s = -1;
+  bus.Subscribe<imuqual::status_t>(
+      channels::kStatus, 1000, [&](const std::string&, imuqual::status_t&& s, int64_t) {
+        heard[s.process].insert(s.instance);
+        if (s.process == "acquire") {
+          reconnecting.clear();
+          const std::string_view prefix = channels::kReconnectingCounterPrefix;
+          for (size_t i = 0; i < s.counter_names.size() && i < s.counter_values.size(); ++i) {
+            if (s.counter_names[i].rfind(prefix, 0) == 0 && s.counter_values[i] > 0)
+              reconnecting.insert(s.counter_names[i].substr(prefix.size()));
+          }
+          reconnecting_heard_s = MonotonicSeconds();
+        }
+        if (s.healthy) {
+          problems.erase({s.process, s.instance});
+        } else {
+          problems[{s.process, s.instance}] = {s.message, MonotonicSeconds()};
+        }
+      });
+  bus.Subscribe<imuqual::run_t>(
+      channels::kRun, 1000, [&](const std::string&, imuqual::run_t&& r, int64_t) {
+        ConsoleUnit* u = unit_of_run(r.run_id, r.unit_serial);
+        if (u == nullptr) return;
+        if (!r.slot.empty()) u->slot = r.slot;
+        // States only move on, except an end the store inferred from
+        // silence: acquire announcing the run again (it was paused, or cut
+        // off) makes it running again.
+        if (r.announcer == "acquire" && u->state == imuqual::run_t::STATE_INCOMPLETE) {
+          u->state = r.state;
+        } else {
+          u->state = std::max(u->state, r.state);
+        }
+        if (!r.end_reason.empty()) end_reasons[r.unit_serial] = r.end_reason;
+        // Aborted for a reason other than the operator's stop: its source
+        // failed (acquire ends a unit's run so when its source's read fails).
+        const auto why = end_reasons.find(r.unit_serial);
+        u->source_failed = u->state == imuqual::run_t::STATE_ABORTED && why != end_reasons.end() &&
+                           why->second != kShutdownEndReason;
+        u->samples = std::max(u->samples, r.samples_published);
+        if (r.nominal_rate_hz > 0)
+          u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
+        if (u->axes.empty()) {
+          for (const std::string& name : r.axis_names) {
+            ConsoleAxis x;
+            x.name = name;
+            u->axes.push_back(std::move(x));
+          }
+          // Early decisions: the looks its plan schedules.
+          pb::TestPlan plan;
+          if (plan.ParseFromArray(r.plan.data(), static_cast<int>(r.plan.size())) &&
+              plan.has_early_decision()) {
+            u->looks_planned = static_cast<int>(judge::MakeLookSchedule(plan).times_s.size());
+          }
+        }
+      });
+  // Early decisions: the looks so far and, once decided, the decision (final:
+  // a later message of the same run changes nothing).
+  bus.Subscribe<imuqual::decision_t>(
+      channels::kDecisionAll, 1000, [&](const std::string&, imuqual::decision_t&& d, int64_t) {
+        ConsoleUnit* u = unit_of_run(d.run_id, d.unit_serial);
+        if (u == nullptr) return;
+        const bool decided = u->decision == imuqual::decision_t::STATE_PASS ||
+                             u->decision == imuqual::decision_t::STATE_FAIL;
+        const bool older =
+            d.state == imuqual::decision_t::STATE_PENDING && d.looks_done < u->looks_done;
+        if (decided || older) return;
+        u->looks_planned = std::max<int>(u->looks_planned, d.looks_planned);
+        u->looks_done = d.looks_done;
+        u->decision = d.state;
+        u->decided_at_s = d.decided_at_s;
+        u->pending = std::move(d.pending);
+      });
+  bus.Subscribe<imuqual::ack_t>(channels::kAck, 20000,
+                                [&](const std::string&, imuqual::ack_t&& a, int64_t) {
+                                  // The store's latest word: a run it opens
+                                  // again (judged anew) is no longer archived.
+                                  if (a.process != "store") return;
+                                  if (a.run_done) left_open.erase(a.run_id);
+                                  for (ConsoleUnit& u : model.units) {
+                                    if (u.run_id == a.run_id) u.archived = a.run_done;
+                                  }
+                                });
+  bus.Subscribe<imuqual::unit_result_t>(
+      channels::kResultAll, 1000, [&](const std::string&, imuqual::unit_result_t&& r, int64_t) {
+        ConsoleUnit* u = unit_of_run(r.run_id, r.unit_serial);
+        if (u == nullptr || (u->final_result && !r.is_final)) return;
+        u->final_result = r.is_final;
+        u->gap_samples = r.gap_samples;
+        // Final: the judgement's first reason. Provisional: the first
+        // measurement that makes the verdict (the judgement's reasons also
+        // list what cannot be measured yet, which the verdict ignores).
+        u->reason = r.is_final && r.num_reasons > 0 ? r.reasons[0] : "";
+        // Final: the analysis's verdict. Provisional: judged on what is
+        // measured so far; what cannot be measured yet (a curve still
+        // shorter than its minimum, the run's duration) does not count.
+        u->verdict = r.is_final ? r.verdict : 0;
+        for (ConsoleAxis& x : u->axes) x.outcome = 0;
+        for (const imuqual::measurement_t& m : r.measurements) {
+          const bool counts = r.is_final || (std::isfinite(m.value) && m.name != "duration");
+          // The worst: FAIL > INCONCLUSIVE > MARGINAL > PASS (not the codes' order).
+          auto worst = [](int8_t a, int8_t b) {
+            return store::OutcomeSeverity(store::OutcomeFromNumber(b)) >
+                           store::OutcomeSeverity(store::OutcomeFromNumber(a))
+                       ? b
+                       : a;
+          };
+          if (counts && !r.is_final) u->verdict = worst(u->verdict, m.outcome);
+          for (ConsoleAxis& x : u->axes) {
+            if (x.name != m.axis) continue;
+            if (counts) x.outcome = worst(x.outcome, m.outcome);
+            if (m.name == "bias_instability") {
+              x.bias_instability = m.value;
+              x.unit = m.unit;
+              x.bias_instability_uncertainty = m.uncertainty;
+              x.bias_instability_qualifier = m.qualifier;
+            }
+          }
+        }
+        if (!r.is_final && u->verdict != imuqual::measurement_t::OUTCOME_PASS) {
+          for (const imuqual::measurement_t& m : r.measurements) {
+            if (!std::isfinite(m.value) || m.name == "duration" || m.outcome != u->verdict)
+              continue;
+            char value[32];
+            std::snprintf(value, sizeof value, "%.4g", m.value);
+            u->reason = (m.axis.empty() ? "" : m.axis + ": ") + m.name + " " + value + " " + m.unit;
+            break;
+          }
+        }
+      });
+
+  {
+    auto header = ReadFileToString(result.log_path);
+    std::string text = header.ok() ? *header : "";
+    text += "=== imuqual run " + result.run_prefix + " lot " + o.lot + " on " + url + "\n";
+    IMUQUAL_RETURN_IF_ERROR(WriteStringToFile(result.log_path, text));
+  }
+  const std::string dir = ExecutableDir();
+  Children children;
+  auto supervised_process = [](std::string name, std::string kind, std::vector<std::string> argv) {
+    Supervised p;
+    p.name = std::move(name);
+    p.kind = std::move(kind);
+    p.argv = std::move(argv);
+    return p;
+  };
+  children.store = supervised_process(
+      "imuqual-store", "store",
+      {dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path, "--stale-after",
+       std::to_string(o.stale_after_s), "--give-up", std::to_string(o.give_up_s), "--write-give-up",
+       std::to_string(o.archive_timeout_s), "--station", o.station});
+  for (int k = 0; k < o.analyze_shards; ++k) {
+    Supervised a =
+        supervised_process("imuqual-analyze", "analyze",
+                           {dir + "/imuqual-analyze", "--lcm-url", url, "--station", o.station});
+    if (o.analyze_shards > 1) {
+      const std::string shard = std::to_string(k) + "/" + std::to_string(o.analyze_shards);
+      a.name += " " + shard;
+      a.argv.insert(a.argv.end(), {"--shard", shard});
+    }
+    children.analyze.push_back(std::move(a));
+  }
+  std::vector<Supervised*> supervised = {&*children.store};
+  for (Supervised& a : children.analyze) supervised.push_back(&a);
+  for (Supervised* p : supervised) {
+    auto started = Subprocess::Start(p->argv, result.log_path);
+    if (!started.ok()) return started.status();
+    p->proc = std::move(*started);
+  }
+
+  auto failure = [&](const std::string& what) {
+    return Status::Unavailable(what + "; last lines of " + result.log_path + ":\n" +
+                               LogTail(result.log_path, 8));
+  };
+  auto reported = [&](const Supervised& p) {
+    auto it = heard.find(p.kind);
+    if (it == heard.end() || !p.proc) return false;
+    const std::string suffix = ":" + std::to_string(p.proc->pid());
+    for (const std::string& instance : it->second) {
+      if (instance.size() > suffix.size() &&
+          instance.compare(instance.size() - suffix.size(), suffix.size(), suffix) == 0) {
+        return true;
+      }
+    }
+    return false;
+  };
+  // Wait until store and analyze are up and listening.
+  const double start_deadline = MonotonicSeconds() + kStartTimeoutS;
+  for (;;) {
+    bool all = true;
+    for (Supervised* p : supervised) {
+      if (auto code = p->proc->Poll())
+        return failure(p->name + " exited (code " + std::to_string(*code) + ")");
+      all = all && reported(*p);
+    }
+    if (all) break;
+    if (MonotonicSeconds() > start_deadline) return failure("imuqual-store/analyze did not start");
+    if (ShutdownRequested()) return Status::Unavailable("interrupted before the soak started");
+    IMUQUAL_RETURN_IF_ERROR(bus.HandleFor(50));
+  }
+
+  std::vector<std::string> acquire_args = {dir + "/imuqual-acquire",
+                                           "--lcm-url",
+                                           url,
+                                           "--lot",
+                                           o.lot,
+                                           "--station",
+                                           o.station,
+                                           "--profile",
+                                           o.profile,
+                                           "--run-prefix",
+                                           result.run_prefix,
+                                           "--await",
+                                           "store,analyze"};
+  if (o.sim_units > 0)
+    acquire_args.insert(acquire_args.end(), {"--sim", std::to_string(o.sim_units)});
+  if (o.duration_s > 0)
+    acquire_args.insert(acquire_args.end(), {"--duration", std::to_string(o.duration_s)});
+  for (const std::string& unit : o.units) acquire_args.insert(acquire_args.end(), {"--unit", unit});
+  for (size_t i = 0; i < o.slots.size(); ++i) {
+    acquire_args.insert(acquire_args.end(),
+                        {"--slot", model.units[static_cast<size_t>(o.sim_units) + i].slot});
+  }
+  if (o.rate_hz) acquire_args.insert(acquire_args.end(), {"--rate", FormatRate(*o.rate_hz)});
+  if (!plan_spec.empty()) acquire_args.insert(acquire_args.end(), {"--plan", plan_spec});
+  if (!o.operator_name.empty())
+    acquire_args.insert(acquire_args.end(), {"--operator", o.operator_name});
+  if (o.inject_drop > 0) {
+    acquire_args.insert(acquire_args.end(), {"--inject-drop", std::to_string(o.inject_drop)});
+  }
+  if (o.pace > 0) acquire_args.insert(acquire_args.end(), {"--pace", std::to_string(o.pace)});
+  {
+    auto started = Subprocess::Start(acquire_args, result.log_path);
+    if (!started.ok()) return started.status();
+    children.acquire = std::move(*started);
+  }
+  std::optional<Subprocess>& acquire = children.acquire;
+
+  const bool tty = o.show_progress && ::isatty(STDERR_FILENO);
+  LiveScreen screen(tty);
+  const double t0 = MonotonicSeconds();
+  double last_change = t0, last_draw = t0 - kRedrawS, last_line = t0;
+  // Per unit: its published samples and when they last grew; only a unit
+  // paced by its device (a serial unit) is silent when they stop growing (a
+  // recording or a simulated unit waits for the archive's acknowledgements).
+  std::vector<std::pair<int64_t, double>> growth(model.units.size(), {-1, t0});
+  std::vector<bool> device_paced(model.units.size(), false);
+  for (size_t i = 0; i < o.units.size(); ++i) {
+    auto spec = UnitSourceSpec(o.units[i]);
+    device_paced[static_cast<size_t>(o.sim_units) + i] = spec.ok() && spec->kind == "serial";
+  }
+  double drain_deadline = -1;   // set when the runs are ending abnormally
+  double settle_deadline = -1;  // set when only runs left open earlier remain
+  int64_t last_total = -1;
+  int last_done = -1;
+  Status outcome;
+  auto notice = [&](const std::string& text) {
+    model.notice = text;
+    if (!tty) LogWarning(text);
+  };
+  for (;;) {
+    IMUQUAL_RETURN_IF_ERROR(bus.HandleFor(100));
+    const double now = MonotonicSeconds();
+    int64_t published = 0;
+    int done = 0, announced = 0;
+    for (const ConsoleUnit& u : model.units) {
+      published += u.samples;
+      done += u.archived;
+      announced += !u.run_id.empty();
+    }
+    if (published != last_total || done != last_done) {
+      last_total = published;
+      last_done = done;
+      last_change = now;
+    }
+    // Supervision: a dead store or analyze process is restarted; it catches
+    // up from the source's retention and the archive.
+    for (Supervised* p : supervised) {
+      if (p->restart_at < 0) {
+        if (auto code = p->proc->Poll()) {
+          if (p->kind == "store" && *code == store::kStoreExitUnwritable) {
+            // Restarting cannot free the disk: the station stops, nothing
+            // unarchived was acknowledged.
+            outcome = Status::IoError("imuqual-store could not write the archive " + o.db_path +
+                                      "; last lines of " + result.log_path + ":\n" +
+                                      LogTail(result.log_path, 8));
+            break;
+          }
+          p->crashes.push_back(now);
+          std::erase_if(p->crashes, [&](double t) { return now - t > kCrashWindowS; });
+          if (static_cast<int>(p->crashes.size()) > o.max_restarts) {
+            outcome = failure(p->name + " died " + std::to_string(p->crashes.size()) +
+                              " times in " + std::to_string(static_cast<int>(kCrashWindowS)) +
+                              " s (last exit code " + std::to_string(*code) + ")");
+            break;
+          }
+          p->restart_at = now + kRestartDelayS;
+          notice(p->name + " exited (code " + std::to_string(*code) + "); restarting it");
+        }
+      } else if (now >= p->restart_at) {
+        auto started = Subprocess::Start(p->argv, result.log_path);
+        if (!started.ok()) {
+          outcome = started.status();
+          break;
+        }
+        p->proc = std::move(*started);
+        p->restart_at = -1;
+        ++p->restarts;
+        ++result.restarts;
+        notice(p->name + " restarted (pid " + std::to_string(p->proc->pid()) + "); catching up");
+      }
+    }
+    if (!outcome.ok()) break;
+
+    model.wall_s = now - t0;
+    model.processes.clear();
+    {
+      ConsoleProcess store_p, analyze_p, acquire_p;
+      store_p.name = "store";
+      store_p.running = children.store->restart_at < 0 ? 1 : 0;
+      store_p.restarts = children.store->restarts;
+      analyze_p.name = "analyze";
+      analyze_p.expected = static_cast<int>(children.analyze.size());
+      for (const Supervised& a : children.analyze) {
+        analyze_p.running += a.restart_at < 0;
+        analyze_p.restarts += a.restarts;
+      }
+      acquire_p.name = "acquire";
+      acquire_p.running = acquire->Poll() ? 0 : 1;
+      for (ConsoleProcess* cp : {&store_p, &analyze_p, &acquire_p}) {
+        // A complaint stands while its process keeps reporting it (a dead
+        // process's last words fade after a few seconds).
+        for (const auto& [who, complaint] : problems) {
+          if (who.first == cp->name && now - complaint.heard_s < kComplaintS)
+            cp->problem = complaint.message;
+        }
+        model.processes.push_back(*cp);
+      }
+    }
+    // A unit whose samples stopped growing: how long (a silent serial unit).
+    for (size_t i = 0; i < model.units.size(); ++i) {
+      ConsoleUnit& u = model.units[i];
+      if (u.samples != growth[i].first) growth[i] = {u.samples, now};
+      const bool waiting = u.state == 0 || u.state == imuqual::run_t::STATE_RUNNING;
+      u.silent_s = device_paced[i] && waiting && !u.archived ? now - growth[i].second : 0;
+      u.reconnecting = u.silent_s > 0 && now - reconnecting_heard_s < kComplaintS &&
+                       reconnecting.count(u.run_id) > 0;
+    }
+    if (tty && now - last_draw >= kRedrawS) {
+      screen.Draw(model);
+      last_draw = now;
+    } else if (o.show_progress && !tty && now - last_line >= kLogLineS) {
+      std::fprintf(stderr, "%s\n", ConsoleSummaryLine(model).c_str());
+      last_line = now;
+    }
+
+    if (done >= static_cast<int>(model.units.size())) {
+      if (left_open.empty()) break;
+      if (settle_deadline < 0) {
+        settle_deadline = now + o.stale_after_s + kSettleLeftOpenS;
+        notice(std::to_string(left_open.size()) +
+               " run(s) left open by an earlier station process: waiting for them to be judged");
+      }
+      if (now > settle_deadline) break;
+    }
+    if (ShutdownRequested() && drain_deadline < 0) {
+      drain_deadline = now + kAbortDrainS;
+      result.interrupted = true;
+      notice("interrupted: aborting the runs and archiving what was measured ...");
+      acquire->Signal(SIGTERM);
+    }
+    // Aborted: done once the source has ended and every announced run is archived.
+    if (result.interrupted && acquire->Poll() && done >= announced) break;
+    if (drain_deadline >= 0 && now > drain_deadline) break;
+    if (auto code = acquire->Poll(); code && *code != 0 && announced == 0) {
+      // It failed before announcing anything (a bad source or plan): nothing to wait for.
+      outcome = failure("imuqual-acquire failed (exit " + std::to_string(*code) + ")");
+      if (*code == 2) outcome = Status::InvalidArgument(outcome.message());  // it refused its input
+      break;
+    }
+    if (auto code = acquire->Poll(); code && *code != 0 && drain_deadline < 0) {
+      // A unit's source failed (its run is aborted) or acquire died (the
+      // store ends its runs as incomplete once it has been silent for
+      // stale_after_s): wait for the runs to be archived, then report.
+      drain_deadline = now + o.stale_after_s + kAbortDrainS;
+      notice("imuqual-acquire ended with code " + std::to_string(*code) +
+             "; waiting for its runs to be archived");
+    }
+    if (now - last_change > o.stall_timeout_s) {
+      outcome = failure("the station made no progress for " +
+                        std::to_string(static_cast<int>(o.stall_timeout_s)) + " s");
+      break;
+    }
+  }
+  screen.Close();
+  // Stop in order: the source first (it normally ends by itself once its
+  // last acknowledgements arrive), then analysis, then the archive (which
+  // drains and commits what it holds).
+  std::optional<int> acquire_code;
+  if (outcome.ok() && !result.interrupted) acquire_code = acquire->Wait(kAcquireEndS);
+  acquire->Stop(kStopTimeoutS);
+  // A unit's source that failed (bad data, a device gone) aborted that run
+  // only: every run may be archived by now, before acquire's exit code was
+  // looked at, so the runs' end states say it.
+  if (outcome.ok() && !result.interrupted) {
+    std::vector<std::string> failed;
+    for (const ConsoleUnit& u : model.units) {
+      const bool ended_early =
+          u.state == imuqual::run_t::STATE_ABORTED || u.state == imuqual::run_t::STATE_INCOMPLETE;
+      if (!ended_early) continue;
+      auto reason = end_reasons.find(u.serial);
+      failed.push_back(u.serial + " (" +
+                       (reason == end_reasons.end() ? "ended early" : reason->second) + ")");
+    }
+    if (!failed.empty()) {
+      result.failure =
+          std::to_string(failed.size()) + " of " + std::to_string(model.units.size()) +
+          " units' sources failed, their runs archived as ERROR: " + Join(failed, "; ");
+    } else if (acquire_code && *acquire_code != 0) {
+      result.failure = "imuqual-acquire failed (exit " + std::to_string(*acquire_code) +
+                       "); its runs are archived as they ended. Last lines of " + result.log_path +
+                       ":\n" + LogTail(result.log_path, 6);
+    }
+  }
+  for (Supervised& a : children.analyze) {
+    if (a.proc) a.proc->Stop(kStopTimeoutS);
+  }
+  const int store_code = children.store->proc->Stop(kStopTimeoutS);
+  if (!outcome.ok()) return outcome;
+  if (store_code == store::kStoreExitUnwritable) {
+    return Status::IoError("imuqual-store could not write the archive " + o.db_path +
+                           " at the end; last lines of " + result.log_path + ":\n" +
+                           LogTail(result.log_path, 8));
+  }
+  if (store_code != 0 && !result.interrupted) {
+    return failure("imuqual-store ended with code " + std::to_string(store_code));
+  }
+  for (const ConsoleUnit& u : model.units) {
+    if (!u.run_id.empty()) result.run_ids.push_back(u.run_id);
+  }
+  return result;
+}
+
+}  // namespace imuqual::cli
