@@ -6,6 +6,8 @@
 #include "cli/commands.h"
 #include "cli/export_command.h"
 #include "cli/lot_commands.h"
+#include "cli/plot_command.h"
+#include "cli/report_command.h"
 #include "cli/verify_command.h"
 #include "common/command_line.h"
 #include "common/log.h"
@@ -15,8 +17,6 @@
 #include "offline/analyze_command.h"
 #include "offline/plan_soak_command.h"
 #include "offline/reanalyze_command.h"
-#include "report/plot_command.h"
-#include "report/report.h"
 #include "station/station_config.h"
 
 int main(int argc, char** argv) {
@@ -258,7 +258,8 @@ int main(int argc, char** argv) {
   cli::PlotOptions plot;
   CLI::App* plot_cmd = app.add_subcommand("plot",
                                           "SVG Allan deviation plots: one run (axes of a kind "
-                                          "overlaid) or a lot (units overlaid per axis)");
+                                          "overlaid) or a lot (units overlaid per axis); "
+                                          "--series: a run's raw samples against time");
   plot_cmd->add_option("--db", plot.db_path, "archive file")->required();
   plot_cmd->add_option("--run", plot.run_id,
                        "plot this run: its axes overlaid, one plot per axis kind");

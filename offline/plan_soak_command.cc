@@ -17,7 +17,7 @@
 #include "analyze/judge/plan_file.h"
 #include "analyze/service/run_analyzer.h"
 #include "report/lot_model_view.h"
-#include "report/plot_command.h"
+#include "report/allan_plots.h"
 #include "store/archive.h"
 
 namespace imuqual::cli {

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "analyze/allan/lot_model.h"
-#include "report/plot_command.h"
+#include "report/allan_plots.h"
 #include "report/table_writer.h"
 #include "store/archive.h"
 

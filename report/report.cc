@@ -18,11 +18,11 @@
 #include "common/strings.h"
 #include "common/text_util.h"
 #include "common/version.h"
+#include "report/allan_plots.h"
 #include "report/early_decisions.h"
 #include "report/lot_model_view.h"
 #include "report/lot_statistics.h"
 #include "report/marks.h"
-#include "report/plot_command.h"
 #include "report/time_series.h"
 #include "store/outcome.h"
 #include "store/query.h"
@@ -1070,35 +1070,6 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
       Esc(kSoftwareVersion), " on ", Esc(IsoTime(NowUtime())), ".</footer>\n</main>\n<script>",
       kScript, "</script>\n</body>\n</html>\n");
   return html;
-}
-
-int ReportCommand(const ReportOptions& options) {
-  if (options.lot.empty() || options.output.empty() || options.db_path.empty()) {
-    LogError("report: --db FILE, --lot LOT and -o FILE.html are required");
-    return kExitUsage;
-  }
-  auto archive = store::Archive::Open(options.db_path, store::Archive::Mode::kRead);
-  if (!archive.ok()) {
-    LogError(archive.status().message());
-    return kExitError;
-  }
-  auto html = BuildLotReportHtml(**archive, options.lot, options.db_path);
-  if (!html.ok()) {
-    LogError(html.status().message());
-    return kExitError;
-  }
-  if (options.output == "-") {  // standard output
-    return std::fwrite(html->data(), 1, html->size(), stdout) == html->size() &&
-                   std::fflush(stdout) == 0
-               ? 0
-               : kExitError;
-  }
-  const Status st = WriteStringToFile(options.output, *html);
-  if (!st.ok()) {
-    LogError(st.message());
-    return kExitError;
-  }
-  return 0;
 }
 
 }  // namespace imuqual::cli

@@ -1,7 +1,6 @@
-// `imuqual report`: a lot's qualification report as one self-contained HTML
-// file (inline CSS, inline SVG plots, a few lines of inline script to sort
-// the tables; no external resource of any kind), readable in any browser
-// and printable.
+// A lot's qualification report (`imuqual report`, the end of `imuqual run`) as one self-contained
+// HTML file (inline CSS, inline SVG plots, a few lines of inline script to sort the tables; no
+// external resource of any kind), readable in any browser and printable.
 //
 // Content, for each unit's latest run in the lot:
 //  - the lot header: lot, plan(s), units, runs, PASS / MARGINAL / FAIL
@@ -31,17 +30,6 @@
 #include "store/archive.h"
 
 namespace imuqual::cli {
-
-// Command-line fields of `imuqual report`.
-struct ReportOptions {
-  std::string db_path;  // --db: the archive (required)
-  std::string lot;      // --lot: the lot to report (required)
-  std::string output;   // -o: the HTML file to write (required; replaced atomically)
-};
-
-// Writes the report. Returns 0, 1 on an error (unknown lot, unreadable
-// archive, unwritable output file: one line on stderr), 2 on a usage error.
-int ReportCommand(const ReportOptions& options);
 
 // The report's HTML. NotFound names the lot when the archive has no run of
 // it. `archive_label` is how the page names the archive (e.g. its path).

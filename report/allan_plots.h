@@ -1,6 +1,6 @@
-// `imuqual plot`: Allan deviation plots from the archive as self-contained
-// SVG, for one run or overlaid for a lot, and the plot builders the HTML lot
-// report reuses.
+// Allan deviation plots from the archive as self-contained SVG, for one run
+// or overlaid for a lot: what `imuqual plot` writes and the HTML lot report
+// shows.
 //
 // What a plot shows (log-log, tau in s; the deviation in datasheet units,
 // deg/h for gyros and ug for accelerometers, on the left axis, and in the
@@ -20,8 +20,8 @@
 //    (sqrt(3) Q/tau, R tau/sqrt(2)). Red: the limit, amber: the marginal
 //    band's edge. Limits on other measurements (tau_at_minimum, bias_offset,
 //    gaps, ...) are not levels of the curve and are not drawn.
-#ifndef IMUQUAL_REPORT_PLOT_COMMAND_H_
-#define IMUQUAL_REPORT_PLOT_COMMAND_H_
+#ifndef IMUQUAL_REPORT_ALLAN_PLOTS_H_
+#define IMUQUAL_REPORT_ALLAN_PLOTS_H_
 
 #include <optional>
 #include <string>
@@ -35,34 +35,6 @@
 #include "store/archive.h"
 
 namespace imuqual::cli {
-
-// Command-line fields of `imuqual plot`.
-struct PlotOptions {
-  std::string db_path;  // --db: the archive (required)
-  std::string run_id;   // --run: plot this run (exactly one of run_id and lot)
-  std::string lot;      // --lot: overlay every unit of this lot (each unit's latest run)
-  std::string axis;     // --axis: only this axis name ("" = every axis)
-  bool series = false;  // --series: the run's time-series plot (time_series.h), one SVG
-  std::string output;   // -o: the SVG file to write (required); see PlotCommand for
-                        // the names used when the selection needs several plots
-};
-
-// Run plot: the run's axes of one kind overlaid on one plot (each axis its
-// colour, its band, its model and its minimum); a run with gyro and
-// accelerometer axes gets one plot per kind. Lot plot: one plot per axis
-// name, every unit's curve; units whose axis is judged FAIL, INCONCLUSIVE or
-// MARGINAL are drawn bold, each in its own shade of its verdict's colour
-// (reds, violets, ambers), with their band, and
-// listed in the legend with their verdict; every curve names its unit,
-// verdict and minimum on hover (an SVG <title>); the others are thin and
-// blue. One plot is written to `output` as given; several
-// go to <stem>-<kind or axis><ext> beside it (out.svg -> out-x.svg,
-// out-y.svg, ...). Prints the paths written, one per line. Returns 0, 1 on an
-// error (unknown run, lot or axis, unreadable archive, unwritable file: one
-// line on stderr), 2 on a usage error.
-int PlotCommand(const PlotOptions& options);
-
-// --- The plot builders (also used by the HTML lot report) -----------------
 
 // One axis of a run as the plots need it.
 struct AxisPlotData {
@@ -112,4 +84,4 @@ std::vector<AllanPlot> LotAllanPlots(const std::string& lot, const std::vector<R
 
 }  // namespace imuqual::cli
 
-#endif  // IMUQUAL_REPORT_PLOT_COMMAND_H_
+#endif  // IMUQUAL_REPORT_ALLAN_PLOTS_H_
