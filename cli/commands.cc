@@ -9,6 +9,7 @@
 #include "common/command_line.h"
 #include "common/log.h"
 #include "common/text_util.h"
+#include "report/archive_tables.h"
 #include "report/early_decisions.h"
 #include "report/marks.h"
 #include "report/report.h"
@@ -17,64 +18,6 @@
 
 namespace imuqual::cli {
 namespace {
-
-double Pick(bool take, double v) { return take ? v : allan::kNaN; }
-
-// The machine-readable per-axis table (CSV/JSON): one column per quantity
-// and unit, so gyro and accelerometer rows never share a column.
-TableWriter MachineTable(const std::vector<store::AxisRow>& rows) {
-  TableWriter t({"lot", "serial", "run_id", "axis", "kind", "arw_deg_rt_hr", "vrw_m_s_rt_hr",
-                 "bias_instability_deg_hr", "bias_instability_ieee_deg_hr", "bias_instability_ug",
-                 "bias_instability_ieee_ug", "tau_min_s", "rrw_deg_hr_rt_hr", "rrw_ug_rt_hr",
-                 "samples", "gap_samples", "invalid_samples", "verdict", "run_verdict", "state",
-                 // The marks (after the columns programs already read): each value's
-                 // 1-sigma uncertainty in its column's unit, its qualifier, and why
-                 // the axis is not PASS.
-                 "random_walk_uncertainty", "random_walk_qualifier", "bias_instability_uncertainty",
-                 "bias_instability_qualifier", "tau_min_s_uncertainty", "tau_min_s_qualifier",
-                 "rate_random_walk_uncertainty", "rate_random_walk_qualifier", "axis_reasons",
-                 // Early decisions: the run's decision time, s (empty: none, or a full soak).
-                 "decision_time_s",
-                 // Who and where ("" if not recorded).
-                 "station", "slot", "operator"});
-  for (const store::AxisRow& r : rows) {
-    const bool gyro = r.kind != "accel";
-    t.AddRow({Cell::Text(r.lot),
-              Cell::Text(r.unit),
-              Cell::Text(r.run_id),
-              Cell::Text(r.axis),
-              Cell::Text(r.kind),
-              Cell::Real(Pick(gyro, r.random_walk)),
-              Cell::Real(Pick(!gyro, r.random_walk)),
-              Cell::Real(Pick(gyro, r.bias_instability)),
-              Cell::Real(Pick(gyro, r.bias_instability_ieee)),
-              Cell::Real(Pick(!gyro, r.bias_instability)),
-              Cell::Real(Pick(!gyro, r.bias_instability_ieee)),
-              Cell::Real(r.tau_min_s),
-              Cell::Real(Pick(gyro, r.rate_random_walk)),
-              Cell::Real(Pick(!gyro, r.rate_random_walk)),
-              Cell::Int(r.samples),
-              Cell::Int(r.gap_samples),
-              Cell::Int(r.invalid_samples),
-              Cell::Text(r.axis_verdict),
-              Cell::Text(r.run_verdict),
-              Cell::Text(r.state),
-              Cell::Real(r.random_walk_marks.uncertainty),
-              Cell::Text(QualifierWord(r.random_walk_marks.qualifier, r.random_walk)),
-              Cell::Real(r.bias_instability_marks.uncertainty),
-              Cell::Text(QualifierWord(r.bias_instability_marks.qualifier, r.bias_instability)),
-              Cell::Real(r.tau_min_marks.uncertainty),
-              Cell::Text(QualifierWord(r.tau_min_marks.qualifier, r.tau_min_s)),
-              Cell::Real(r.rate_random_walk_marks.uncertainty),
-              Cell::Text(QualifierWord(r.rate_random_walk_marks.qualifier, r.rate_random_walk)),
-              Cell::Text(r.axis_notes),
-              Cell::Real(r.decision_time_s),
-              Cell::Text(r.station),
-              Cell::Text(r.slot),
-              Cell::Text(r.operator_name)});
-  }
-  return t;
-}
 
 // The table people read; `by_slot` (a station's final table): in slot
 // order, the slot first.
@@ -353,26 +296,10 @@ int LotsCommand(const std::string& db_path, Format format) {
     LogError(lots.status().message());
     return kExitError;
   }
-  // Each unit counted once, by its final run (its latest judged run, else
-  // its latest): yield (the final yield) and first_pass_yield count PASS and
-  // MARGINAL against PASS, MARGINAL and FAIL; INCONCLUSIVE units are retest
-  // candidates, ABORTED and ERROR runs say nothing about a unit.
-  TableWriter t({"lot", "runs", "units", "pass", "marginal", "fail", "inconclusive", "aborted",
-                 "error", "unjudged", "first_pass_yield", "yield", "retests", "first_start",
-                 "last_start"});
-  auto yield = [format](double v) {
-    return format == Format::kTable && std::isnan(v) ? Cell::Text("n/m") : Cell::Real(v);
-  };
   bool unmeasurable = false;
-  for (const store::LotRow& l : *lots) {
+  for (const store::LotRow& l : *lots)
     unmeasurable |= std::isnan(l.yield) || std::isnan(l.first_pass_yield);
-    t.AddRow({Cell::Text(l.lot), Cell::Int(l.runs), Cell::Int(l.units), Cell::Int(l.pass),
-              Cell::Int(l.marginal), Cell::Int(l.fail), Cell::Int(l.inconclusive),
-              Cell::Int(l.aborted), Cell::Int(l.error), Cell::Int(l.unjudged),
-              yield(l.first_pass_yield), yield(l.yield), Cell::Int(l.retests),
-              Cell::Text(FormatUtimeIso(l.first_start_utime)),
-              Cell::Text(FormatUtimeIso(l.last_start_utime))});
-  }
+  const TableWriter t = LotsTable(*lots, /*for_people=*/format == Format::kTable);
   std::printf("%s", t.Render(format).c_str());
   if (format == Format::kTable) {
     std::printf(
@@ -413,7 +340,7 @@ int LotCommand(const std::string& db_path, const std::string& lot, Format format
     }
     if (!early->runs.empty()) std::printf("%s\n", EarlyDecisionLine(*early).c_str());
   } else {
-    std::printf("%s", MachineTable(*rows).Render(format).c_str());
+    std::printf("%s", LotAxisTable(*rows).Render(format).c_str());
   }
   return 0;
 }

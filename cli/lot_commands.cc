@@ -9,6 +9,7 @@
 #include "common/clock.h"
 #include "common/command_line.h"
 #include "common/log.h"
+#include "report/archive_tables.h"
 #include "report/early_decisions.h"
 #include "report/lot_model_view.h"
 #include "report/lot_statistics.h"
@@ -319,15 +320,7 @@ int RunsCommand(const std::string& db_path, store::RunFilter filter, const std::
     LogError(rows.status().message());
     return kExitError;
   }
-  // New columns go last: programs may read the earlier ones by position.
-  TableWriter t({"run_id", "serial", "lot", "station", "slot", "start", "state", "verdict",
-                 "reason", "operator"});
-  for (const store::RunRow& r : *rows) {
-    t.AddRow({Cell::Text(r.run_id), Cell::Text(r.unit), Cell::Text(r.lot), Cell::Text(r.station),
-              Cell::Text(r.slot), Cell::Text(FormatUtimeIso(r.start_utime)), Cell::Text(r.state),
-              Cell::Text(r.verdict.empty() ? "-" : r.verdict),
-              Cell::Text(r.reasons.substr(0, r.reasons.find('\n'))), Cell::Text(r.operator_name)});
-  }
+  const TableWriter t = RunsTable(*rows);
   std::printf("%s", t.Render(format).c_str());
   return 0;
 }

@@ -77,6 +77,33 @@ std::string JsonString(const std::string& s) {
 
 }  // namespace
 
+std::string HtmlEscape(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
 size_t DisplayWidth(const std::string& s) {
   size_t n = 0;
   for (unsigned char c : s) n += (c & 0xC0) != 0x80;
@@ -98,6 +125,8 @@ std::string TableWriter::Render(Format format) const {
       return RenderCsv();
     case Format::kJson:
       return RenderJson();
+    case Format::kHtml:
+      return RenderHtml();
   }
   return "";
 }
@@ -184,6 +213,30 @@ std::string TableWriter::RenderJson() const {
   }
   out += rows_.empty() ? "]\n" : "\n]\n";
   return out;
+}
+
+std::string TableWriter::RenderHtml() const {
+  std::string out = "<table class=\"data\">\n<thead><tr>";
+  for (const std::string& c : columns_) out += "<th>" + HtmlEscape(c) + "</th>";
+  out += "</tr></thead>\n<tbody>\n";
+  for (const auto& row : rows_) {
+    out += "<tr>";
+    for (size_t c = 0; c < columns_.size(); ++c) {
+      const Cell& cell = c < row.size() ? row[c] : Cell::Text("");
+      const bool number = cell.kind == Cell::Kind::kReal || cell.kind == Cell::Kind::kInt ||
+                          cell.kind == Cell::Kind::kNumText;
+      out += number ? "<td class=\"num\"" : "<td";
+      if (cell.kind == Cell::Kind::kReal || cell.kind == Cell::Kind::kInt)
+        out += " data-v=\"" + HtmlEscape(CellText(cell, 17)) + "\"";
+      out += ">";
+      std::string text = HtmlEscape(CellText(cell, digits_));
+      if (cell.kind == Cell::Kind::kReal && std::isnan(cell.real)) text = "&ndash;";
+      if (!cell.href.empty()) text = "<a href=\"" + HtmlEscape(cell.href) + "\">" + text + "</a>";
+      out += text + "</td>";
+    }
+    out += "</tr>\n";
+  }
+  return out + "</tbody>\n</table>\n";
 }
 
 }  // namespace imuqual::cli

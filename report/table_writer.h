@@ -1,6 +1,7 @@
-// Tabular output in three formats: an aligned text table for people, CSV
-// (RFC 4180) and JSON (an array of objects) for programs. Numbers keep full
-// precision in CSV and JSON; NaN is an empty CSV cell and JSON null.
+// Tabular output: an aligned text table for people, CSV (RFC 4180) and JSON
+// (an array of objects) for programs, and an HTML table for web pages.
+// Numbers keep full precision in CSV and JSON (and in HTML's data-v); NaN is
+// an empty CSV cell and JSON null.
 #ifndef IMUQUAL_REPORT_TABLE_WRITER_H_
 #define IMUQUAL_REPORT_TABLE_WRITER_H_
 
@@ -13,8 +14,9 @@
 
 namespace imuqual::cli {
 
-enum class Format { kTable, kCsv, kJson };
-Result<Format> ParseFormat(const std::string& name);  // "table", "csv", "json"
+enum class Format { kTable, kCsv, kJson, kHtml };
+// "table", "csv", "json" (HTML is for the web pages, not a --format).
+Result<Format> ParseFormat(const std::string& name);
 
 struct Cell {
   // kNumText: a number already written as text with its marks ("≤ 0.68",
@@ -29,7 +31,17 @@ struct Cell {
   static Cell Int(int64_t v) { return {Kind::kInt, "", 0, v}; }
   static Cell NumText(std::string t) { return {Kind::kNumText, std::move(t), 0, 0}; }
   static Cell Bool(bool b) { return {Kind::kBool, "", 0, b ? 1 : 0}; }
+  // A link target for the HTML table (escaped there; ignored elsewhere).
+  std::string href;
+  Cell Linked(std::string target) && {
+    href = std::move(target);
+    return std::move(*this);
+  }
 };
+
+// Text for HTML element content or a quoted attribute value: & < > " '
+// escaped.
+std::string HtmlEscape(const std::string& s);
 
 // Columns a UTF-8 string takes on a terminal: its code points ("±", "≤",
 // "†" one column each).
@@ -48,6 +60,10 @@ class TableWriter {
   std::string RenderTable() const;
   std::string RenderCsv() const;
   std::string RenderJson() const;
+  // <table class="data">: headers, then a row per row; numbers rounded to
+  // `digits` with the full value in data-v, links as <a href>; every text
+  // escaped.
+  std::string RenderHtml() const;
   std::vector<std::string> columns_;
   std::vector<std::vector<Cell>> rows_;
   int digits_;

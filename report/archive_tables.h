@@ -1,0 +1,31 @@
+// The archive's listings as tables (report/table_writer.h), the same for
+// the imuqual command's text, CSV and JSON and for the web pages: the lots,
+// a lot's units per axis, and runs.
+#ifndef IMUQUAL_REPORT_ARCHIVE_TABLES_H_
+#define IMUQUAL_REPORT_ARCHIVE_TABLES_H_
+
+#include <vector>
+
+#include "report/table_writer.h"
+#include "store/query.h"
+
+namespace imuqual::cli {
+
+// Every lot with its counts by final run, first-pass and final yield,
+// retests and first/last start. `for_people`: a yield that cannot be
+// measured (no judged unit) reads "n/m" instead of an empty value.
+TableWriter LotsTable(const std::vector<store::LotRow>& lots, bool for_people);
+
+// A lot's units per axis, for programs: one column per quantity and unit
+// (gyro and accelerometer rows never share a column), each value's
+// uncertainty and qualifier, the verdicts, the decision time, station, slot
+// and operator.
+TableWriter LotAxisTable(const std::vector<store::AxisRow>& rows);
+
+// Runs, one row each: run id, serial, lot, station, slot, start (ISO 8601
+// UTC), state, verdict, the first reason, operator.
+TableWriter RunsTable(const std::vector<store::RunRow>& rows);
+
+}  // namespace imuqual::cli
+
+#endif  // IMUQUAL_REPORT_ARCHIVE_TABLES_H_
