@@ -8,6 +8,7 @@
 #include "cli/lot_commands.h"
 #include "cli/plot_command.h"
 #include "cli/report_command.h"
+#include "cli/serve_command.h"
 #include "cli/verify_command.h"
 #include "common/command_line.h"
 #include "common/log.h"
@@ -281,6 +282,16 @@ int main(int argc, char** argv) {
   report_cmd->add_option("-o,--output", report.output, "HTML file to write; - for standard output")
       ->required();
 
+  cli::ServeCommandOptions serve;
+  CLI::App* serve_cmd = app.add_subcommand(
+      "serve", "the archive in a browser: lots, lot reports, units, runs, JSON API (read-only)");
+  serve_cmd->add_option("--db", serve.db_path, "archive file")->required();
+  serve_cmd->add_option("--listen", serve.listen, "ADDR:PORT, [IPV6]:PORT or PORT to listen on")
+      ->capture_default_str();
+  serve_cmd->add_option("--token", serve.token,
+                        "required on a non-loopback address: Authorization: Bearer TOKEN or "
+                        "?token=TOKEN");
+
   // `imuqual help [COMMAND]` is `imuqual [COMMAND] --help` (git's and
   // cargo's habit).
   if (argc > 1 && std::string(argv[1]) == "help") {
@@ -322,6 +333,7 @@ int main(int argc, char** argv) {
   if (plot_cmd->parsed()) return cli::PlotCommand(plot);
   if (soak_cmd->parsed()) return cli::PlanSoakCommand(soak);
   if (report_cmd->parsed()) return cli::ReportCommand(report);
+  if (serve_cmd->parsed()) return cli::ServeCommand(serve);
   if (reanalyze_cmd->parsed()) return cli::ReanalyzeCommand(re);
   if (verify_cmd->parsed()) return cli::VerifyCommand(verify_db);
   if (analyze_cmd->parsed()) return cli::AnalyzeFileCommand(an);

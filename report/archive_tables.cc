@@ -11,6 +11,11 @@ namespace {
 
 double Pick(bool take, double v) { return take ? v : allan::kNaN; }
 
+// A text cell, linked when `link` is set.
+Cell Named(const std::string& text, const std::function<std::string(const std::string&)>& link) {
+  return link ? Cell::Text(text).Linked(link(text)) : Cell::Text(text);
+}
+
 }  // namespace
 
 TableWriter LotAxisTable(const std::vector<store::AxisRow>& rows) {
@@ -67,7 +72,8 @@ TableWriter LotAxisTable(const std::vector<store::AxisRow>& rows) {
   return t;
 }
 
-TableWriter LotsTable(const std::vector<store::LotRow>& lots, bool for_people) {
+TableWriter LotsTable(const std::vector<store::LotRow>& lots, bool for_people,
+                      const TableLinks& links) {
   // Each unit counted once, by its final run (its latest judged run, else
   // its latest): yield (the final yield) and first_pass_yield count PASS and
   // MARGINAL against PASS, MARGINAL and FAIL; INCONCLUSIVE units are retest
@@ -79,7 +85,7 @@ TableWriter LotsTable(const std::vector<store::LotRow>& lots, bool for_people) {
     return for_people && std::isnan(v) ? Cell::Text("n/m") : Cell::Real(v);
   };
   for (const store::LotRow& l : lots) {
-    t.AddRow({Cell::Text(l.lot), Cell::Int(l.runs), Cell::Int(l.units), Cell::Int(l.pass),
+    t.AddRow({Named(l.lot, links.lot), Cell::Int(l.runs), Cell::Int(l.units), Cell::Int(l.pass),
               Cell::Int(l.marginal), Cell::Int(l.fail), Cell::Int(l.inconclusive),
               Cell::Int(l.aborted), Cell::Int(l.error), Cell::Int(l.unjudged),
               yield(l.first_pass_yield), yield(l.yield), Cell::Int(l.retests),
@@ -89,14 +95,14 @@ TableWriter LotsTable(const std::vector<store::LotRow>& lots, bool for_people) {
   return t;
 }
 
-TableWriter RunsTable(const std::vector<store::RunRow>& rows) {
+TableWriter RunsTable(const std::vector<store::RunRow>& rows, const TableLinks& links) {
   // New columns go last: programs may read the earlier ones by position.
   TableWriter t({"run_id", "serial", "lot", "station", "slot", "start", "state", "verdict",
                  "reason", "operator"});
   for (const store::RunRow& r : rows) {
-    t.AddRow({Cell::Text(r.run_id), Cell::Text(r.unit), Cell::Text(r.lot), Cell::Text(r.station),
-              Cell::Text(r.slot), Cell::Text(FormatUtimeIso(r.start_utime)), Cell::Text(r.state),
-              Cell::Text(r.verdict.empty() ? "-" : r.verdict),
+    t.AddRow({Named(r.run_id, links.run), Named(r.unit, links.serial), Named(r.lot, links.lot),
+              Cell::Text(r.station), Cell::Text(r.slot), Cell::Text(FormatUtimeIso(r.start_utime)),
+              Cell::Text(r.state), Cell::Text(r.verdict.empty() ? "-" : r.verdict),
               Cell::Text(r.reasons.substr(0, r.reasons.find('\n'))), Cell::Text(r.operator_name)});
   }
   return t;

@@ -4,6 +4,8 @@
 #ifndef IMUQUAL_REPORT_ARCHIVE_TABLES_H_
 #define IMUQUAL_REPORT_ARCHIVE_TABLES_H_
 
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "report/table_writer.h"
@@ -11,10 +13,19 @@
 
 namespace imuqual::cli {
 
+// Where a lot's, a run's or a unit's name links to in an HTML table (web
+// pages); unset: no link.
+struct TableLinks {
+  std::function<std::string(const std::string& lot)> lot;
+  std::function<std::string(const std::string& run_id)> run;
+  std::function<std::string(const std::string& serial)> serial;
+};
+
 // Every lot with its counts by final run, first-pass and final yield,
 // retests and first/last start. `for_people`: a yield that cannot be
 // measured (no judged unit) reads "n/m" instead of an empty value.
-TableWriter LotsTable(const std::vector<store::LotRow>& lots, bool for_people);
+TableWriter LotsTable(const std::vector<store::LotRow>& lots, bool for_people,
+                      const TableLinks& links = {});
 
 // A lot's units per axis, for programs: one column per quantity and unit
 // (gyro and accelerometer rows never share a column), each value's
@@ -24,7 +35,7 @@ TableWriter LotAxisTable(const std::vector<store::AxisRow>& rows);
 
 // Runs, one row each: run id, serial, lot, station, slot, start (ISO 8601
 // UTC), state, verdict, the first reason, operator.
-TableWriter RunsTable(const std::vector<store::RunRow>& rows);
+TableWriter RunsTable(const std::vector<store::RunRow>& rows, const TableLinks& links = {});
 
 }  // namespace imuqual::cli
 

@@ -1,0 +1,23 @@
+// `imuqual serve`: the archive in a browser (web/web_server.h) until Ctrl-C
+// or SIGTERM.
+#ifndef IMUQUAL_CLI_SERVE_COMMAND_H_
+#define IMUQUAL_CLI_SERVE_COMMAND_H_
+
+#include <string>
+
+namespace imuqual::cli {
+
+struct ServeCommandOptions {
+  std::string db_path;                    // --db (required)
+  std::string listen = "127.0.0.1:8080";  // --listen ADDR:PORT
+  std::string token;                      // --token (required beyond loopback)
+};
+
+// Prints the URL, serves until interrupted. Returns 0 when stopped by a
+// signal, 1 when it cannot serve (the archive, the address), 2 on a usage
+// error (a bad --listen, a non-loopback address without --token).
+int ServeCommand(const ServeCommandOptions& options);
+
+}  // namespace imuqual::cli
+
+#endif  // IMUQUAL_CLI_SERVE_COMMAND_H_

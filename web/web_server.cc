@@ -1,0 +1,139 @@
+#include "web/web_server.h"
+
+#include <arpa/inet.h>
+#include <httplib.h>
+
+#include <map>
+#include <string>
+
+#include "store/archive.h"
+#include "web/pages.h"
+
+namespace imuqual::web {
+namespace {
+
+// Compares in time independent of where the strings differ.
+bool SameSecret(const std::string& a, const std::string& b) {
+  unsigned diff = a.size() != b.size();
+  for (size_t i = 0; i < a.size() && i < b.size(); ++i)
+    diff |= static_cast<unsigned char>(a[i]) ^ static_cast<unsigned char>(b[i]);
+  return diff == 0;
+}
+
+constexpr char kSecurityPolicy[] =
+    "default-src 'none'; style-src 'unsafe-inline'; script-src 'unsafe-inline'; img-src data:; "
+    "form-action 'self'; base-uri 'none'; frame-ancestors 'none'";
+
+}  // namespace
+
+bool IsLoopback(const std::string& host) {
+  if (host == "localhost" || host == "::1") return true;
+  in_addr a{};
+  return inet_pton(AF_INET, host.c_str(), &a) == 1 && (ntohl(a.s_addr) >> 24) == 127;
+}
+
+Status ParseListen(const std::string& text, ServeOptions* o) {
+  std::string host = o->host, port = text;
+  if (!text.empty() && text.front() == '[') {
+    const size_t close = text.find(']');
+    if (close == std::string::npos || close + 1 >= text.size() || text[close + 1] != ':')
+      return Status::InvalidArgument("--listen: '" + text + "' is not [IPV6]:PORT");
+    host = text.substr(1, close - 1);
+    port = text.substr(close + 2);
+  } else if (const size_t colon = text.rfind(':'); colon != std::string::npos) {
+    host = text.substr(0, colon);
+    port = text.substr(colon + 1);
+  }
+  char* end = nullptr;
+  const long p = std::strtol(port.c_str(), &end, 10);
+  if (port.empty() || *end != '\0' || p < 0 || p > 65535)
+    return Status::InvalidArgument("--listen: '" + text + "': the port must be 0-65535");
+  if (host.empty()) return Status::InvalidArgument("--listen: '" + text + "' has no address");
+  o->host = host;
+  o->port = static_cast<int>(p);
+  return Status::Ok();
+}
+
+struct WebServer::Impl {
+  ServeOptions options;
+  httplib::Server server;
+  int port = 0;
+};
+
+WebServer::WebServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+WebServer::~WebServer() { Stop(); }
+int WebServer::port() const { return impl_->port; }
+void WebServer::Run() { impl_->server.listen_after_bind(); }
+void WebServer::Stop() { impl_->server.stop(); }
+
+Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
+  if (!IsLoopback(o.host) && o.token.empty()) {
+    return Status::InvalidArgument("serve: listening on " + o.host +
+                                   " (not a loopback address) needs --token TOKEN: anyone who "
+                                   "can reach it could read the archive");
+  }
+  {
+    auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
+    if (!archive.ok()) return archive.status();
+  }
+  auto impl = std::make_unique<Impl>();
+  impl->options = o;
+  httplib::Server& s = impl->server;
+  s.set_payload_max_length(1024);  // nothing here takes a body
+  s.set_read_timeout(10, 0);
+  s.set_write_timeout(30, 0);
+  const ServeOptions opts = o;
+  // Before any route: methods, the token, then the page.
+  s.set_pre_routing_handler([opts](const httplib::Request& req, httplib::Response& res) {
+    res.set_header("Content-Security-Policy", kSecurityPolicy);
+    res.set_header("X-Content-Type-Options", "nosniff");
+    res.set_header("Referrer-Policy", "no-referrer");
+    res.set_header("Cache-Control", "no-store");
+    if (req.method != "GET" && req.method != "HEAD") {
+      res.status = 405;
+      res.set_header("Allow", "GET, HEAD");
+      res.set_content("read-only: GET and HEAD only\n", "text/plain; charset=utf-8");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (!req.body.empty()) {
+      res.status = 413;
+      res.set_content("no request body is taken\n", "text/plain; charset=utf-8");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (!opts.token.empty()) {
+      std::string given = req.get_param_value("token");
+      const std::string auth = req.get_header_value("Authorization");
+      if (auth.rfind("Bearer ", 0) == 0) given = auth.substr(7);
+      if (!SameSecret(given, opts.token)) {
+        res.status = 401;
+        res.set_header("WWW-Authenticate", "Bearer");
+        res.set_content("a token is needed: Authorization: Bearer TOKEN, or ?token=TOKEN\n",
+                        "text/plain; charset=utf-8");
+        return httplib::Server::HandlerResponse::Handled;
+      }
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
+  });
+  s.Get(".*", [opts](const httplib::Request& req, httplib::Response& res) {
+    std::map<std::string, std::string> query;
+    for (const auto& [k, v] : req.params) query.emplace(k, v);
+    auto archive = store::Archive::Open(opts.db_path, store::Archive::Mode::kRead);
+    Page page;
+    if (!archive.ok()) {
+      page = {500, "text/plain; charset=utf-8", archive.status().message() + "\n"};
+    } else {
+      page = Route(**archive, opts.db_path, req.path, query);
+    }
+    res.status = page.status;
+    res.set_content(page.body, page.content_type.c_str());
+  });
+  impl->port = o.port == 0 ? s.bind_to_any_port(o.host.c_str()) : o.port;
+  if (o.port != 0 && !s.bind_to_port(o.host.c_str(), o.port)) impl->port = -1;
+  if (impl->port < 0) {
+    return Status::Unavailable("serve: cannot listen on " + o.host + ":" + std::to_string(o.port) +
+                               " (address in use, or not an address of this host)");
+  }
+  return std::unique_ptr<WebServer>(new WebServer(std::move(impl)));
+}
+
+}  // namespace imuqual::web

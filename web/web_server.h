@@ -1,0 +1,53 @@
+// `imuqual serve`: a read-only HTTP server for the archive (web/pages.h),
+// on cpp-httplib (Debian's libcpp-httplib). Every request opens the archive
+// read-only (SQLite WAL: the station keeps writing meanwhile), answers GET
+// and HEAD only, takes no request body, and sends pages that load nothing
+// from anywhere else (Content-Security-Policy default-src 'none').
+//
+// Access: on a loopback address anyone on this host may read; on any other
+// address a token is required (Start refuses without one), given as
+// "Authorization: Bearer TOKEN" or "?token=TOKEN"; a request without it gets
+// 401 and nothing else.
+#ifndef IMUQUAL_WEB_WEB_SERVER_H_
+#define IMUQUAL_WEB_WEB_SERVER_H_
+
+#include <memory>
+#include <string>
+
+#include "common/status.h"
+
+namespace imuqual::web {
+
+struct ServeOptions {
+  std::string db_path;             // the archive (must exist)
+  std::string host = "127.0.0.1";  // address to listen on
+  int port = 8080;                 // 0: any free port (see WebServer::port)
+  std::string token;               // required unless host is a loopback address
+};
+
+// Whether `host` is a loopback address (127.0.0.0/8, ::1, localhost).
+bool IsLoopback(const std::string& host);
+
+// Parses "ADDR:PORT", "[IPV6]:PORT" or "PORT" (then 127.0.0.1) into *o.
+Status ParseListen(const std::string& text, ServeOptions* o);
+
+class WebServer {
+ public:
+  // Binds (the archive is checked first: a missing or foreign file is an
+  // error naming it). Serving starts with Run().
+  static Result<std::unique_ptr<WebServer>> Start(const ServeOptions& options);
+  ~WebServer();
+  int port() const;
+  // Serves until Stop() (from another thread or a signal handler's thread).
+  void Run();
+  void Stop();
+
+ private:
+  struct Impl;
+  explicit WebServer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace imuqual::web
+
+#endif  // IMUQUAL_WEB_WEB_SERVER_H_

@@ -1,0 +1,245 @@
+// imuqual serve, in-process on a loopback port: the pages agree with the
+// archive and with the report's own code, hostile strings are inert, the
+// server only reads, and a token guards it when asked.
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <string>
+#include <thread>
+
+#include "common/strings.h"
+#include "report/report.h"
+#include "store/archive.h"
+#include "store/outcome.h"
+#include "store/run_record.h"
+#include "tests/test_util.h"
+#include "web/pages.h"
+#include "web/web_server.h"
+
+namespace imuqual::web {
+namespace {
+
+// A lot and a unit whose names try to break out of HTML, attributes and JSON.
+const std::string kLot = "L<script>alert(1)</script>\"'&";
+const std::string kSerial = "S\"><img src=x onerror=alert(2)>";
+const std::string kRun = "R-1";
+
+std::string MakeArchive(const testing::TempDir& dir) {
+  const std::string db = dir.path("web.db");
+  auto a = store::Archive::Open(db, store::Archive::Mode::kWrite);
+  EXPECT_TRUE(a.ok()) << a.status().ToString();
+  store::RunInfo r;
+  r.run_id = kRun;
+  r.serial = kSerial;
+  r.lot = kLot;
+  r.station = "bench<1>";
+  r.slot = "A1";
+  r.operator_name = "ana </td><script>x</script>";
+  r.start_utime = 1'800'000'000'000'000;
+  r.end_utime = r.start_utime + 1'000'000;
+  r.nominal_rate_hz = 100;
+  r.axes = {{"gx", pb::GYRO}};
+  r.state = "complete";
+  auto key = (*a)->UpsertRun(r);
+  EXPECT_TRUE(key.ok());
+  store::ResultRecord res;
+  res.verdict = "FAIL";
+  res.reasons = {"gx: bias_instability 9.25 deg/h above high limit 5 <b>"};
+  res.result_utime = *r.end_utime;
+  pb::Measurement m;
+  m.set_axis("gx");
+  m.set_name("bias_instability");
+  m.set_value(9.2500000000000018);
+  m.set_uncertainty(0.125);
+  m.set_unit("deg/h");
+  m.set_high(5);
+  m.set_outcome(pb::FAIL);
+  res.measurements.push_back(m);
+  res.record = store::BuildRunRecord(r, res, 0).SerializeAsString();
+  EXPECT_TRUE((*a)->PutResult(*key, res).ok());
+  EXPECT_TRUE((*a)->MarkFinalized(*key, res.result_utime).ok());
+  return db;
+}
+
+std::string Encode(const std::string& s) {
+  static const char kHex[] = "0123456789ABCDEF";
+  std::string out;
+  for (unsigned char c : s) {
+    if (std::isalnum(c)) {
+      out += static_cast<char>(c);
+    } else {
+      out += '%';
+      out += kHex[c >> 4];
+      out += kHex[c & 15];
+    }
+  }
+  return out;
+}
+
+class WebTest : public ::testing::Test {
+ protected:
+  void SetUp() override { db_ = MakeArchive(dir_); }
+  void Serve(const std::string& token = "") {
+    ServeOptions o;
+    o.db_path = db_;
+    o.port = 0;
+    o.token = token;
+    auto s = WebServer::Start(o);
+    ASSERT_TRUE(s.ok()) << s.status().ToString();
+    server_ = std::move(*s);
+    thread_ = std::thread([this] { server_->Run(); });
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", server_->port());
+    // Serving starts in the thread: wait until it answers.
+    for (int i = 0; i < 200 && !client_->Get("/favicon-probe"); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  void TearDown() override {
+    if (server_) server_->Stop();
+    if (thread_.joinable()) thread_.join();
+  }
+  testing::TempDir dir_{"web_test"};
+  std::string db_;
+  std::unique_ptr<WebServer> server_;
+  std::thread thread_;
+  std::unique_ptr<httplib::Client> client_;
+};
+
+// Every page from the archive is there, agrees with it, and renders the
+// hostile names as text.
+TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
+  Serve();
+  auto home = client_->Get("/");
+  ASSERT_TRUE(home);
+  EXPECT_EQ(home->status, 200);
+  EXPECT_NE(home->get_header_value("Content-Security-Policy").find("default-src 'none'"),
+            std::string::npos);
+  EXPECT_NE(home->body.find("L&lt;script&gt;alert(1)&lt;/script&gt;&quot;&#39;&amp;"),
+            std::string::npos)
+      << home->body;
+  EXPECT_NE(home->body.find("href=\"/lot/" + Encode(kLot) + "\""), std::string::npos) << home->body;
+  // The lot page is the report, byte for byte as the report's code builds it.
+  auto lot = client_->Get("/lot/" + Encode(kLot));
+  ASSERT_TRUE(lot);
+  EXPECT_EQ(lot->status, 200);
+  auto archive = store::Archive::Open(db_, store::Archive::Mode::kRead);
+  ASSERT_TRUE(archive.ok());
+  auto report = cli::BuildLotReportHtml(**archive, kLot, db_);
+  ASSERT_TRUE(report.ok());
+  auto strip_time = [](std::string s) {  // the report says when it was generated
+    const size_t at = s.find(" on 20");
+    return at == std::string::npos ? s : s.substr(0, at);
+  };
+  EXPECT_EQ(strip_time(lot->body), strip_time(*report));
+  // The run page: the value exactly (data-v), its limit, outcome and reasons.
+  auto run = client_->Get("/run/" + kRun);
+  ASSERT_TRUE(run);
+  EXPECT_EQ(run->status, 200);
+  EXPECT_NE(run->body.find("data-v=\"" + ShortestReal(9.2500000000000018) + "\""),
+            std::string::npos)
+      << run->body;
+  EXPECT_NE(run->body.find("data-v=\"0.125\""), std::string::npos);
+  EXPECT_NE(run->body.find("above high limit 5 &lt;b&gt;"), std::string::npos);
+  EXPECT_NE(run->body.find("ana &lt;/td&gt;&lt;script&gt;x&lt;/script&gt;"), std::string::npos);
+  for (const auto* body : {&home->body, &lot->body, &run->body}) {
+    EXPECT_EQ(body->find("<script>alert"), std::string::npos);
+    EXPECT_EQ(body->find("<img src=x"), std::string::npos);
+  }
+  // The unit's history, by path and by the search form.
+  auto unit = client_->Get("/unit?serial=" + Encode(kSerial));
+  ASSERT_TRUE(unit);
+  EXPECT_EQ(unit->status, 200);
+  EXPECT_NE(unit->body.find("href=\"/run/R-1\""), std::string::npos) << unit->body;
+  // JSON for programs: the same columns as the imuqual command's.
+  auto api = client_->Get("/api/run/" + kRun);
+  ASSERT_TRUE(api);
+  EXPECT_EQ(api->status, 200);
+  EXPECT_EQ(api->get_header_value("Content-Type"), "application/json; charset=utf-8");
+  EXPECT_NE(api->body.find("\"value\": " + ShortestReal(9.2500000000000018)), std::string::npos)
+      << api->body;
+  auto runs = client_->Get("/api/runs?lot=" + Encode(kLot));
+  ASSERT_TRUE(runs);
+  EXPECT_NE(runs->body.find("\"serial\": \"S\\\"><img src=x onerror=alert(2)>\""),
+            std::string::npos)
+      << runs->body;
+  // What the archive does not hold: 404.
+  for (const char* path : {"/run/NOPE", "/lot/NOPE", "/unit/NOPE", "/nothing", "/api/run/NOPE"}) {
+    auto r = client_->Get(path);
+    ASSERT_TRUE(r) << path;
+    EXPECT_EQ(r->status, 404) << path;
+  }
+}
+
+// Read-only and closed: other methods, bodies and paths out of the tree are
+// refused; no file of the host is ever served.
+TEST_F(WebTest, OnlyReadsAndServesNoFile) {
+  Serve();
+  auto post = client_->Post("/", "x=1", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(post);
+  EXPECT_EQ(post->status, 405);
+  auto del = client_->Delete("/run/" + kRun);
+  ASSERT_TRUE(del);
+  EXPECT_EQ(del->status, 405);
+  for (const char* path : {"/../../../../etc/passwd", "/lot/..%2F..%2F..%2Fetc%2Fpasswd",
+                           "/run/%2e%2e/%2e%2e/etc/passwd", "/web.db"}) {
+    auto r = client_->Get(path);
+    ASSERT_TRUE(r) << path;
+    EXPECT_EQ(r->status, 404) << path;
+    EXPECT_EQ(r->body.find("root:"), std::string::npos) << path;
+    EXPECT_EQ(r->body.find("SQLite format"), std::string::npos) << path;
+  }
+  // A request too long to be one of ours.
+  auto huge = client_->Get("/run/" + std::string(20000, 'a'));
+  ASSERT_TRUE(huge);
+  EXPECT_GE(huge->status, 400);
+  // The archive stays as it was.
+  auto archive = store::Archive::Open(db_, store::Archive::Mode::kRead);
+  ASSERT_TRUE(archive.ok());
+}
+
+// With a token: nothing without it, everything with it (header or query).
+TEST_F(WebTest, ATokenGuardsEveryPage) {
+  Serve("s3cret");
+  auto none = client_->Get("/");
+  ASSERT_TRUE(none);
+  EXPECT_EQ(none->status, 401);
+  EXPECT_EQ(none->body.find("Lots"), std::string::npos);
+  auto wrong = client_->Get("/?token=s3creT");
+  ASSERT_TRUE(wrong);
+  EXPECT_EQ(wrong->status, 401);
+  auto query = client_->Get("/?token=s3cret");
+  ASSERT_TRUE(query);
+  EXPECT_EQ(query->status, 200);
+  auto header = client_->Get("/api/lots", {{"Authorization", "Bearer s3cret"}});
+  ASSERT_TRUE(header);
+  EXPECT_EQ(header->status, 200);
+}
+
+TEST(WebServerTest, AnAddressBeyondThisHostNeedsAToken) {
+  testing::TempDir dir("web_listen");
+  ServeOptions o;
+  o.db_path = MakeArchive(dir);
+  ASSERT_TRUE(ParseListen("0.0.0.0:0", &o).ok());
+  auto s = WebServer::Start(o);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.status().message().find("needs --token"), std::string::npos);
+  EXPECT_TRUE(IsLoopback("127.0.0.1"));
+  EXPECT_TRUE(IsLoopback("127.1.2.3"));
+  EXPECT_TRUE(IsLoopback("::1"));
+  EXPECT_FALSE(IsLoopback("10.0.0.1"));
+  EXPECT_FALSE(IsLoopback("0.0.0.0"));
+  ServeOptions p;
+  EXPECT_TRUE(ParseListen("8081", &p).ok());
+  EXPECT_EQ(p.host, "127.0.0.1");
+  EXPECT_EQ(p.port, 8081);
+  EXPECT_TRUE(ParseListen("[::1]:9000", &p).ok());
+  EXPECT_EQ(p.host, "::1");
+  EXPECT_FALSE(ParseListen("host:http", &p).ok());
+  EXPECT_FALSE(ParseListen("1.2.3.4:70000", &p).ok());
+  o.db_path = dir.path("missing.db");
+  o.host = "127.0.0.1";
+  auto missing = WebServer::Start(o);
+  EXPECT_FALSE(missing.ok());
+}
+
+}  // namespace
+}  // namespace imuqual::web
