@@ -1,0 +1,207 @@
+// `imuqual serve` in a real browser, checked against the archive.
+//
+// GIVEN a small real archive (4 simulated VG700-like gyros, a short soak on
+//       purpose so that every unit FAILs with reasons) whose plan name and
+//       operator are hostile HTML,
+// WHEN  `imuqual serve` serves it on a loopback port and headless Chromium
+//       walks it: the lots page, the lot's report, each unit's history and
+//       each run's page,
+// THEN  every page loads with no console error, no page error and no
+//       request to anything but the server; the lots row equals the
+//       lot_overview view; each run page's measurements equal the archive's
+//       (sqlite3) value for value, bit for bit (data-v); the hostile strings
+//       show as text and run nothing; links lead lot -> report, unit -> runs,
+//       run -> run page; a POST is refused.
+//
+// Usage: node web_check.mjs --imuqual BIN [--chromium PATH]
+// Exit status 0 when every check passes, 1 otherwise (each failure is one
+// line on stderr).
+import { execFileSync, spawn } from 'node:child_process';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { chromium } from 'playwright-core';
+
+const kLot = 'WEB';
+const kUnits = 4;
+const kPlanSource = new URL('../../plans/vg700ca.textproto', import.meta.url);
+const kPlanName = 'vg700 <script>window.injected = 1</script> & "q"';
+const kOperator = 'ana"><img src=x onerror="window.injected=2">';
+
+function parseArgs(argv) {
+  const args = { chromium: '/usr/bin/chromium' };
+  for (let i = 0; i < argv.length; i += 2) {
+    const key = argv[i].replace(/^--/, '');
+    if (!['imuqual', 'chromium'].includes(key) || i + 1 >= argv.length) {
+      throw new Error(`unknown or incomplete argument '${argv[i]}'`);
+    }
+    args[key] = argv[i + 1];
+  }
+  if (!args.imuqual) throw new Error('--imuqual BIN is required');
+  return args;
+}
+
+function run(file, args) {
+  try {
+    return execFileSync(file, args, { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'] });
+  } catch (e) {
+    throw new Error(`${path.basename(file)} ${args.join(' ')} failed (exit ${e.status}): ` +
+                    `${(e.stderr || '').trim()}`);
+  }
+}
+
+function sqlText(s) { return `'${s.replace(/'/g, "''")}'`; }
+function sqlite(db, sql) {
+  const out = run('sqlite3', ['-json', '-bail', '-readonly', db, sql]).trim();
+  return out === '' ? [] : JSON.parse(out);
+}
+
+const failures = [];
+function fail(message) { failures.push(message); }
+
+function sameExact(pageText, dbValue) {
+  if (dbValue === null || dbValue === undefined) return pageText === null || pageText === '';
+  return pageText !== null && pageText !== '' && Number(pageText) === dbValue;
+}
+
+// Starts `imuqual serve` on a free loopback port; resolves to its base URL.
+function serve(imuqual, db) {
+  const child = spawn(imuqual, ['serve', '--db', db, '--listen', '127.0.0.1:0'],
+                      { stdio: ['ignore', 'pipe', 'pipe'] });
+  return new Promise((resolve, reject) => {
+    let out = '';
+    const timer = setTimeout(() => reject(new Error(`serve printed no URL: ${out}`)), 20000);
+    child.stdout.on('data', (d) => {
+      out += d;
+      const m = /at (http:\/\/127\.0\.0\.1:\d+\/)/.exec(out);
+      if (m) {
+        clearTimeout(timer);
+        resolve({ child, base: m[1] });
+      }
+    });
+    child.on('exit', (code) => reject(new Error(`serve exited ${code}: ${out}`)));
+  });
+}
+
+async function main() {
+  const args = parseArgs(process.argv.slice(2));
+  const started = Date.now();
+  const work = fs.mkdtempSync(path.join(os.tmpdir(), 'imuqual-web-'));
+  const db = path.join(work, 'web.db');
+  const plan = path.join(work, 'plan.textproto');
+  fs.writeFileSync(plan, fs.readFileSync(kPlanSource, 'utf8')
+      .replace(/^name: .*$/m, `name: ${JSON.stringify(kPlanName)}`));
+  run(args.imuqual, ['run', '--sim', String(kUnits), '--duration', '600', '--lot', kLot, '--db', db,
+                     '--plan', plan, '--operator', kOperator, '--short-soak', '--quiet']);
+  const { child, base } = await serve(args.imuqual, db);
+  const origin = new URL(base).origin;
+  const context = await chromium.launchPersistentContext(path.join(work, 'profile'), {
+    executablePath: args.chromium,
+    headless: true,
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+           '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+    timeout: 60000,
+  });
+  try {
+    const page = context.pages()[0] || await context.newPage();
+    page.on('console', (msg) => {
+      if (msg.type() === 'error' || msg.type() === 'warning') fail(`console ${msg.type()}: ${msg.text()}`);
+    });
+    page.on('pageerror', (err) => fail(`page error: ${err.message}`));
+    page.on('request', (req) => {
+      const u = req.url();
+      if (!u.startsWith(origin + '/') && !u.startsWith('data:')) fail(`request outside the server: ${u}`);
+    });
+    const visit = async (url) => {
+      const response = await page.goto(url, { waitUntil: 'load', timeout: 30000 });
+      if (!response || response.status() !== 200) fail(`${url}: status ${response?.status()}`);
+      if (await page.evaluate(() => window.injected !== undefined)) fail(`${url}: a hostile string ran`);
+    };
+
+    // The lots page: the lot's row equals the lot_overview view.
+    await visit(base);
+    const overview = sqlite(db, `SELECT * FROM lot_overview WHERE lot = ${sqlText(kLot)}`)[0];
+    const lotRow = await page.evaluate((lot) => {
+      const rows = [...document.querySelectorAll('table.data tbody tr')];
+      const row = rows.find((tr) => tr.cells[0].textContent === lot);
+      if (!row) return null;
+      const head = [...document.querySelectorAll('table.data thead th')].map((th) => th.textContent);
+      const out = { href: row.cells[0].querySelector('a')?.getAttribute('href') };
+      head.forEach((h, i) => { out[h] = row.cells[i].getAttribute('data-v') ?? row.cells[i].textContent; });
+      return out;
+    }, kLot);
+    if (!lotRow) {
+      fail(`the lots page has no row for ${kLot}`);
+    } else {
+      for (const k of ['units', 'runs', 'pass', 'marginal', 'fail']) {
+        if (Number(lotRow[k]) !== overview[k]) fail(`lots page ${k} ${lotRow[k]}, lot_overview ${overview[k]}`);
+      }
+      // The lot's page is its report.
+      await visit(new URL(lotRow.href, base).href);
+      const title = await page.title();
+      if (!title.startsWith(`Lot ${kLot}`)) fail(`lot page title '${title}'`);
+      const planText = await page.evaluate(() => document.querySelector('[data-field="plan"]')?.textContent);
+      if (!planText?.includes(kPlanName)) fail(`the plan's name is not shown as text: '${planText}'`);
+    }
+
+    // Each unit: its history links to its run, whose measurements equal the archive's.
+    const runs = sqlite(db, `SELECT run_id, serial FROM runs WHERE lot = ${sqlText(kLot)} ORDER BY serial`);
+    if (runs.length !== kUnits) fail(`${runs.length} runs archived, ${kUnits} expected`);
+    for (const r of runs) {
+      await visit(`${base}unit/${encodeURIComponent(r.serial)}`);
+      const link = await page.evaluate((id) => [...document.querySelectorAll('a')]
+          .find((a) => a.textContent === id)?.getAttribute('href'), r.run_id);
+      if (!link) { fail(`unit ${r.serial}: no link to run ${r.run_id}`); continue; }
+      await visit(new URL(link, base).href);
+      const shown = await page.evaluate(() => {
+        const table = document.querySelector('table.data');
+        const head = [...table.querySelectorAll('thead th')].map((th) => th.textContent);
+        return [...table.querySelectorAll('tbody tr')].map((tr) => {
+          const o = {};
+          head.forEach((h, i) => { o[h] = { v: tr.cells[i].getAttribute('data-v'), text: tr.cells[i].textContent }; });
+          return o;
+        });
+      });
+      const archived = sqlite(db, `SELECT m.axis, m.name, m.value, m.uncertainty, m.unit, m.low, m.high, m.outcome
+                                   FROM measurements m JOIN runs USING (run_key)
+                                   WHERE run_id = ${sqlText(r.run_id)}`);
+      if (shown.length !== archived.length) fail(`run ${r.run_id}: ${shown.length} measurements shown, ${archived.length} archived`);
+      for (const m of archived) {
+        const axis = m.axis === '' ? '(run)' : m.axis;
+        const row = shown.find((s) => s.axis.text === axis && s.measurement.text === m.name);
+        if (!row) { fail(`run ${r.run_id}: ${axis} ${m.name} not shown`); continue; }
+        for (const [col, want] of [['value', m.value], ['uncertainty', m.uncertainty], ['low', m.low], ['high', m.high]]) {
+          if (!sameExact(row[col].v, want)) fail(`run ${r.run_id} ${axis} ${m.name} ${col}: page ${row[col].v}, archive ${want}`);
+        }
+        if (row.unit.text !== m.unit) fail(`run ${r.run_id} ${axis} ${m.name} unit: page ${row.unit.text}, archive ${m.unit}`);
+        if (row.outcome.text !== (m.outcome ?? 'not_judged')) fail(`run ${r.run_id} ${axis} ${m.name} outcome: page ${row.outcome.text}, archive ${m.outcome}`);
+      }
+      const operator = await page.evaluate(() => [...document.querySelectorAll('dt')]
+          .find((dt) => dt.textContent === 'operator')?.nextElementSibling?.textContent);
+      if (operator !== kOperator) fail(`run ${r.run_id}: operator shown as '${operator}'`);
+      const plots = await page.evaluate(() => document.querySelectorAll('figure svg').length);
+      if (plots < 2) fail(`run ${r.run_id}: ${plots} plots (Allan and raw samples expected)`);
+    }
+
+    // Read-only.
+    const post = await fetch(base, { method: 'POST', body: 'x=1' });
+    if (post.status !== 405) fail(`POST answered ${post.status}`);
+  } finally {
+    await context.close();
+    child.kill('SIGTERM');
+  }
+  const seconds = ((Date.now() - started) / 1000).toFixed(1);
+  if (failures.length > 0) {
+    for (const f of failures) console.error(`web_check: FAIL: ${f}`);
+    console.error(`web_check: ${failures.length} failure(s); the files are kept in ${work}`);
+    process.exit(1);
+  }
+  console.log(`web_check: OK: lots page, report, ${kUnits} units and runs against the archive, ` +
+              `no console error, no outside request (${seconds} s)`);
+  fs.rmSync(work, { recursive: true, force: true });
+}
+
+main().catch((e) => {
+  console.error(`web_check: FAIL: ${e.message}`);
+  process.exit(1);
+});

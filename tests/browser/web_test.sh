@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# ctest entry of the browser test of `imuqual serve` (web_check.mjs):
+# checks that what it needs is there, saying how to get what is not, then
+# runs it. Usage: web_test.sh path/to/imuqual
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+imuqual="${1:?usage: web_test.sh path/to/imuqual}"
+chromium="${CHROMIUM:-/usr/bin/chromium}"
+
+die() {
+  echo "web_test: FAIL: $*" >&2
+  exit 1
+}
+deps="scripts/browser-deps installs it"
+command -v node >/dev/null 2>&1 || die "node is not installed; $deps"
+node_major="$(node -p 'process.versions.node.split(".")[0]')"
+[ "$node_major" -ge 18 ] || die "node $(node --version) is too old (need 18 or newer)"
+[ -x "$chromium" ] || die "no Chromium at $chromium (set CHROMIUM for another); $deps"
+[ -f "$here/node_modules/playwright-core/package.json" ] ||
+  die "playwright-core is not installed in tests/browser; $deps (npm ci)"
+command -v sqlite3 >/dev/null 2>&1 || die "the sqlite3 shell is not installed; scripts/bootstrap installs it"
+[ -x "$imuqual" ] || die "no imuqual binary at $imuqual"
+
+exec node "$here/web_check.mjs" --imuqual "$imuqual" --chromium "$chromium"
