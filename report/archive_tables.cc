@@ -108,4 +108,38 @@ TableWriter RunsTable(const std::vector<store::RunRow>& rows, const TableLinks& 
   return t;
 }
 
+TableWriter ComparisonTable(const std::vector<Comparison>& rows) {
+  TableWriter t({"axis", "measurement", "unit", "n_a", "mean_a", "sd_a", "yield_a", "n_b", "mean_b",
+                 "sd_b", "yield_b", "mean_change", "p_mean", "p_sd", "p_yield", "significant",
+                 "mean_differs", "sd_differs", "yield_differs"});
+  for (const Comparison& c : rows) {
+    std::string sig;
+    for (auto [flag, what] : {std::pair{c.mean_significant, "mean"},
+                              {c.spread_significant, "sd"},
+                              {c.yield_significant, "yield"}}) {
+      if (!flag) continue;
+      if (!sig.empty()) sig += ',';
+      sig += what;
+    }
+    const judge::Summary& x = c.a.summary;
+    const judge::Summary& y = c.b.summary;
+    t.AddRow({Cell::Text(c.a.axis.empty() ? "(run)" : c.a.axis), Cell::Text(c.a.name),
+              Cell::Text(c.a.unit), Cell::Int(x.n), Cell::Real(x.mean), Cell::Real(x.sd),
+              Cell::Real(x.yield), Cell::Int(y.n), Cell::Real(y.mean), Cell::Real(y.sd),
+              Cell::Real(y.yield), Cell::Real(c.mean_change), Cell::Real(c.mean.p_value),
+              Cell::Real(c.spread.p_value), Cell::Real(c.yield.p_value),
+              Cell::Text(sig.empty() ? "none" : sig), Cell::Bool(c.mean_significant),
+              Cell::Bool(c.spread_significant), Cell::Bool(c.yield_significant)});
+  }
+  return t;
+}
+
+Result<std::vector<MeasurementStats>> LotStatistics(store::Archive& archive,
+                                                    const std::string& lot) {
+  auto rows = store::QueryLotMeasurements(archive, lot);
+  if (!rows.ok()) return rows.status();
+  if (rows->empty()) return Status::NotFound("no lot '" + lot + "' (imuqual lots lists them)");
+  return ComputeLotStatistics(*rows);
+}
+
 }  // namespace imuqual::cli

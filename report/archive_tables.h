@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "report/lot_statistics.h"
 #include "report/table_writer.h"
 #include "store/query.h"
 
@@ -36,6 +37,16 @@ TableWriter LotAxisTable(const std::vector<store::AxisRow>& rows);
 // Runs, one row each: run id, serial, lot, station, slot, start (ISO 8601
 // UTC), state, verdict, the first reason, operator.
 TableWriter RunsTable(const std::vector<store::RunRow>& rows, const TableLinks& links = {});
+
+// Two lots compared per axis and measurement (report/lot_statistics.h):
+// n, mean, sd and yield of each, the mean's change, the p-values and which
+// differences are significant.
+TableWriter ComparisonTable(const std::vector<Comparison>& rows);
+
+// A lot's statistics per axis and measurement, each unit by its final run.
+// NotFound names the lot.
+Result<std::vector<MeasurementStats>> LotStatistics(store::Archive& archive,
+                                                    const std::string& lot);
 
 }  // namespace imuqual::cli
 

@@ -51,7 +51,8 @@ std::string Html(const std::string& title, const std::string& body) {
          "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
          "<link rel=\"icon\" href=\"data:,\">\n<title>" +
          HtmlEscape(title) + " - imuqual</title>\n<style>" + kStyle +
-         "</style>\n</head>\n<body>\n<nav><a href=\"/\">imuqual: lots</a>"
+         "</style>\n</head>\n<body>\n<nav><a href=\"/\">imuqual: lots</a><a "
+         "href=\"/compare\">compare lots</a>"
          "<form action=\"/unit\" method=\"get\"><label>serial <input name=\"serial\" "
          "size=\"16\"></label> <button>find</button></form></nav>\n<main>\n" +
          body + "</main>\n</body>\n</html>\n";
@@ -208,6 +209,38 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
   return {200, "text/html; charset=utf-8", Html("run " + run_id, body)};
 }
 
+// Two lots side by side: every measurement's n, mean, sd and yield in each,
+// with the tests of `imuqual compare` (alpha 0.05, Holm over all tests).
+Page Compare(store::Archive& archive, const std::string& lot_a, const std::string& lot_b,
+             bool json) {
+  std::string body =
+      "<h1>Compare two lots</h1>\n<form action=\"/compare\" method=\"get\"><label>lot a "
+      "<input name=\"a\" value=\"" +
+      HtmlEscape(lot_a) + "\"></label> <label>lot b <input name=\"b\" value=\"" +
+      HtmlEscape(lot_b) + "\"></label> <button>compare</button></form>\n";
+  if (lot_a.empty() || lot_b.empty()) {
+    if (json) return {404, "application/json", "{\"error\": \"give a and b\"}\n"};
+    return {200, "text/html; charset=utf-8", Html("compare", body)};
+  }
+  auto a = cli::LotStatistics(archive, lot_a);
+  auto b = a.ok() ? cli::LotStatistics(archive, lot_b) : a;
+  if (!a.ok() || !b.ok()) {
+    const Status& st = a.ok() ? b.status() : a.status();
+    if (st.code() != Status::Code::kNotFound) return Failed(st);
+    if (json) return {404, "application/json", "{\"error\": \"no such lot\"}\n"};
+    return NotFound(st.message());
+  }
+  constexpr double kAlpha = 0.05;
+  const std::vector<cli::Comparison> rows = cli::CompareLots(*a, *b, kAlpha);
+  const TableWriter t = cli::ComparisonTable(rows);
+  if (json) return Json(t.Render(Format::kJson));
+  body += "<p>" + HtmlEscape(lot_a) + " (a) against " + HtmlEscape(lot_b) +
+          " (b): each unit by its latest run; Welch t (mean), F (sd), Fisher exact (yield); "
+          "significant at 0.05 family-wise (Holm, " +
+          std::to_string(3 * rows.size()) + " tests).</p>\n" + t.Render(Format::kHtml);
+  return {200, "text/html; charset=utf-8", Html("compare " + lot_a + " and " + lot_b, body)};
+}
+
 }  // namespace
 
 Page Route(store::Archive& archive, const std::string& archive_label, const std::string& path,
@@ -228,6 +261,8 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
     return UnitHistory(archive, serial);
   }
   if (Under(path, "/unit/", &rest)) return UnitHistory(archive, rest);
+  if (path == "/compare") return Compare(archive, Param(query, "a"), Param(query, "b"), false);
+  if (path == "/api/compare") return Compare(archive, Param(query, "a"), Param(query, "b"), true);
   if (Under(path, "/run/", &rest)) return RunPage(archive, rest, /*json=*/false);
   if (path == "/api/lots") {
     auto lots = store::QueryLots(archive);

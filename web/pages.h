@@ -24,12 +24,14 @@ struct Page {
 //   /lot/LOT               the lot's report (report/report.h), as `imuqual report` writes it
 //   /unit/SERIAL           the unit's runs across lots
 //   /unit?serial=S         the same (the search form)
+//   /compare?a=LOT&b=LOT   two lots compared (`imuqual compare`: Welch, F, Fisher; Holm)
 //   /run/RUN_ID            a run: identity, verdict and reasons, every measurement with its
 //                          limits and outcome, its Allan plots and raw samples against time
 //   /api/lots              JSON: the lots (the columns of `imuqual lots --format json`)
 //   /api/lot/LOT           JSON: the lot's units per axis (`imuqual lot LOT --format json`)
 //   /api/runs?lot=&serial= JSON: runs, newest first (`imuqual runs --format json`)
 //   /api/run/RUN_ID        JSON: the run's measurements, one object each
+//   /api/compare?a=&b=     JSON: the comparison (`imuqual compare --format json`)
 // Anything else is a 404 page. An archive error is a 500 page naming it.
 Page Route(store::Archive& archive, const std::string& archive_label, const std::string& path,
            const std::map<std::string, std::string>& query);

@@ -161,6 +161,18 @@ TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
   EXPECT_NE(runs->body.find("\"serial\": \"S\\\"><img src=x onerror=alert(2)>\""),
             std::string::npos)
       << runs->body;
+  // Two lots compared (here the lot with itself: nothing differs), as
+  // `imuqual compare` computes it.
+  auto compare = client_->Get("/compare?a=" + Encode(kLot) + "&b=" + Encode(kLot));
+  ASSERT_TRUE(compare);
+  EXPECT_EQ(compare->status, 200);
+  EXPECT_NE(compare->body.find("bias_instability"), std::string::npos) << compare->body;
+  auto compare_json = client_->Get("/api/compare?a=" + Encode(kLot) + "&b=" + Encode(kLot));
+  ASSERT_TRUE(compare_json);
+  EXPECT_NE(compare_json->body.find("\"mean_change\": 0"), std::string::npos) << compare_json->body;
+  auto compare_none = client_->Get("/compare?a=" + Encode(kLot) + "&b=NOPE");
+  ASSERT_TRUE(compare_none);
+  EXPECT_EQ(compare_none->status, 404);
   // What the archive does not hold: 404.
   for (const char* path : {"/run/NOPE", "/lot/NOPE", "/unit/NOPE", "/nothing", "/api/run/NOPE"}) {
     auto r = client_->Get(path);
