@@ -290,7 +290,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   serve_cmd->add_option("--token", serve.token,
                         "required on a non-loopback address: Authorization: Bearer TOKEN or "
-                        "?token=TOKEN");
+                        "?token=TOKEN (visible to local users in ps: prefer --token-file)");
+  serve_cmd->add_option("--token-file", serve.token_file, "a file whose first line is the token");
 
   // `imuqual help [COMMAND]` is `imuqual [COMMAND] --help` (git's and
   // cargo's habit).

@@ -7,6 +7,7 @@
 #include "common/command_line.h"
 #include "common/log.h"
 #include "common/shutdown.h"
+#include "common/text_util.h"
 #include "web/web_server.h"
 
 namespace imuqual::cli {
@@ -15,6 +16,18 @@ int ServeCommand(const ServeCommandOptions& options) {
   web::ServeOptions o;
   o.db_path = options.db_path;
   o.token = options.token;
+  if (!options.token_file.empty()) {
+    if (!options.token.empty()) {
+      LogError("serve: give --token or --token-file, not both");
+      return kExitUsage;
+    }
+    auto text = ReadFileToString(options.token_file);
+    if (!text.ok()) {
+      LogError("serve: --token-file: " + text.status().message());
+      return kExitUsage;
+    }
+    o.token = text->substr(0, text->find_first_of("\r\n"));
+  }
   Status st = web::ParseListen(options.listen, &o);
   if (!st.ok()) {
     LogError(st.message());

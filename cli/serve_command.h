@@ -11,6 +11,7 @@ struct ServeCommandOptions {
   std::string db_path;                    // --db (required)
   std::string listen = "127.0.0.1:8080";  // --listen ADDR:PORT
   std::string token;                      // --token (required beyond loopback)
+  std::string token_file;                 // --token-file: the token's first line (not in `ps`)
 };
 
 // Prints the URL, serves until interrupted. Returns 0 when stopped by a

@@ -95,11 +95,11 @@ bool DrawnBold(const std::string& verdict) {
 // first six of each, so that units are told apart and their verdict read at a
 // glance; none is the PASS curves' blue.
 std::string FlaggedUnitColor(const std::string& verdict, size_t i) {
-  static const char* kFail[] = {"#d62728", "#8c1c13", "#ff7f7f", "#e377c2", "#b35806", "#67000d"};
+  static const char* kFail[] = {"#d62728", "#8c1c13", "#ff6f6f", "#b2182b", "#67000d", "#e34a33"};
   static const char* kInconclusive[] = {"#5a32a3", "#9467bd", "#3f007d",
-                                        "#c51b7d", "#807dba", "#e7298a"};
+                                        "#807dba", "#54278f", "#b4a7d6"};
   static const char* kMarginal[] = {"#e69f00", "#8c6d1f", "#f0c05a",
-                                    "#b8860b", "#fdae61", "#6b4c00"};
+                                    "#b8860b", "#fdd049", "#6b4c00"};
   const char* const* family = verdict == "FAIL"           ? kFail
                               : verdict == "INCONCLUSIVE" ? kInconclusive
                                                           : kMarginal;

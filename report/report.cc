@@ -1007,7 +1007,11 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
              "<strong>" + Esc(r->info.serial) + "</strong>: raw samples against time",
              &unit_figures);
     } else if (series.status().code() != Status::Code::kNotFound) {
-      return series.status();
+      // A damaged chunk costs this plot only, not the lot's report.
+      Add(&unit_figures, "<figure", Attr("data-run", r->info.run_id), Attr("data-plot", "series"),
+          "><figcaption><strong>", Esc(r->info.serial),
+          "</strong>: raw samples not plotted: ", Esc(series.status().message()),
+          "</figcaption></figure>\n");
     }
   }
 

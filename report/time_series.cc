@@ -45,7 +45,10 @@ void EnvelopeBuilder::Halve() {
 }
 
 void EnvelopeBuilder::Add(int64_t counter, std::span<const double> values) {
-  if (first_ < 0) first_ = counter;
+  if (!started_) {
+    first_ = counter;
+    started_ = true;
+  }
   if (counter < first_) return;  // counters do not go back (the walk guarantees it)
   size_t index = static_cast<size_t>((counter - first_) / width_);
   while (index >= max_bins_) {
@@ -101,11 +104,12 @@ double NiceStep(double range, int count) {
 
 std::string TimeSeriesPlot::ToSvg(const EnvelopeBuilder& builder) const {
   const std::vector<EnvelopeBin>& bins = builder.bins();
-  const double rate = counters_per_second > 0 ? counters_per_second : 1;
+  const double rate =
+      counters_per_second > 0 && std::isfinite(counters_per_second) ? counters_per_second : 1;
   const double span_s = static_cast<double>(bins.size() * builder.width()) / rate;
   const double time_unit = span_s >= 2 * 3600 ? 3600 : span_s >= 600 ? 60 : 1;
   const char* time_name = time_unit == 3600 ? "h" : time_unit == 60 ? "min" : "s";
-  const double x_max = std::max(span_s / time_unit, 1e-9);
+  const double x_max = std::isfinite(span_s) ? std::max(span_s / time_unit, 1e-9) : 1.0;
 
   const int left = 78, right = 16, top = 34, gap = 16;
   const double pw = width - left - right;
@@ -153,7 +157,7 @@ std::string TimeSeriesPlot::ToSvg(const EnvelopeBuilder& builder) const {
            ") rotate(-90)\" text-anchor=\"middle\" font-size=\"11\">" + Esc(panel->label) +
            "</text>\n";
     // Vertical grid at the time ticks.
-    for (double t = 0; t <= x_max * (1 + 1e-9); t += x_step) {
+    for (double t = 0; t <= x_max * (1 + 1e-9) && t <= 50 * x_step; t += x_step) {
       const double x = left + t / x_max * pw;
       svg += "<line x1=\"" + F(x) + "\" y1=\"" + F(ptop) + "\" x2=\"" + F(x) + "\" y2=\"" +
              F(ptop + ph) + "\" stroke=\"#eeeeee\"/>\n";
@@ -164,17 +168,25 @@ std::string TimeSeriesPlot::ToSvg(const EnvelopeBuilder& builder) const {
       ptop += ph + gap;
       continue;
     }
-    if (hi - lo <= std::max(std::abs(hi), std::abs(lo)) * 1e-12) {  // a constant: a visible range
-      const double pad = std::abs(hi) > 0 ? std::abs(hi) * 0.01 : 1.0;
-      lo -= pad;
-      hi += pad;
+    // A constant (up to rounding, also on a drift panel's scaled values):
+    // a visible range around it (a drift panel's rounding residue is 0).
+    const double scale_floor =
+        panel->envelope ? 0.0 : 1e-9 * std::abs(panel->offset * panel->scale);
+    if (hi - lo <= std::max(std::max(std::abs(hi), std::abs(lo)) * 1e-12, scale_floor)) {
+      double center = 0.5 * (hi + lo);
+      if (std::abs(center) <= scale_floor) center = 0;
+      const double pad = std::max(std::abs(center) * 0.01, center == 0 ? 1.0 : 0.0);
+      lo = center - pad;
+      hi = center + pad;
     }
     const double margin = 0.06 * (hi - lo);
     lo -= margin;
     hi += margin;
     const auto py = [&](double v) { return ptop + (hi - v) / (hi - lo) * ph; };
     const double y_step = NiceStep(hi - lo, 4);
-    for (double v = std::ceil(lo / y_step) * y_step; v <= hi; v += y_step) {
+    int y_ticks = 0;
+    for (double v = std::ceil(lo / y_step) * y_step; v <= hi && y_ticks < 50;
+         v += y_step, ++y_ticks) {
       svg += "<line x1=\"" + F(left - 4) + "\" y1=\"" + F(py(v)) + "\" x2=\"" + F(left + pw) +
              "\" y2=\"" + F(py(v)) + "\" stroke=\"#eeeeee\"/>\n";
       svg += "<text x=\"" + F(left - 7) + "\" y=\"" + F(py(v) + 4) + "\" text-anchor=\"end\">" +
@@ -216,7 +228,7 @@ std::string TimeSeriesPlot::ToSvg(const EnvelopeBuilder& builder) const {
     ptop += ph + gap;
   }
   const double axis_y = plot_bottom - gap;
-  for (double t = 0; t <= x_max * (1 + 1e-9); t += x_step) {
+  for (double t = 0; t <= x_max * (1 + 1e-9) && t <= 50 * x_step; t += x_step) {
     svg += "<text x=\"" + F(left + t / x_max * pw) + "\" y=\"" + F(axis_y + 16) +
            "\" text-anchor=\"middle\">" + G(t) + "</text>\n";
   }
@@ -238,6 +250,10 @@ Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string&
   if (!key->has_value()) return Status::NotFound("no run '" + run_id + "' in " + archive.path());
   auto info = archive.LoadRun(run_id);
   if (!info.ok()) return info.status();
+  if (!(info->nominal_rate_hz > 0) || !std::isfinite(info->nominal_rate_hz)) {
+    return Status::InvalidArgument("run '" + run_id + "' has no usable sample rate (" +
+                                   ShortestReal(info->nominal_rate_hz) + " Hz): no time axis");
+  }
   const size_t axes = info->axes.size();
   constexpr size_t kMaxBins = 600;
   EnvelopeBuilder builder(axes + 1, kMaxBins);  // the axes, then the temperature

@@ -44,7 +44,8 @@ class EnvelopeBuilder {
  private:
   void Halve();
   size_t channels_, max_bins_;
-  int64_t first_ = -1, width_ = 1;
+  bool started_ = false;
+  int64_t first_ = 0, width_ = 1;
   std::vector<EnvelopeBin> bins_;
 };
 

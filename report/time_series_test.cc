@@ -70,6 +70,39 @@ TEST(EnvelopeBuilderTest, BinsHoldExactlyTheirCountersWhateverTheMerging) {
   EXPECT_EQ(empty_b, 2);
 }
 
+// Counters may be negative (a device's signed counter): bins still start
+// at the first one.
+TEST(EnvelopeBuilderTest, NegativeCountersAreBinnedFromTheFirst) {
+  EnvelopeBuilder builder(1, 600);
+  for (int64_t k = -10; k < 10; ++k) {
+    const double v[1] = {static_cast<double>(k)};
+    builder.Add(k, v);
+  }
+  EXPECT_EQ(builder.first(), -10);
+  ASSERT_EQ(builder.bins().size(), 20u);
+  EXPECT_EQ(builder.bins()[0].n[0], 1);
+  EXPECT_EQ(builder.bins()[0].min[0], -10);
+}
+
+// A stuck sensor (a constant) draws a flat line, not rounding noise blown
+// up into a drift, and a zero or absurd rate draws no endless axis.
+TEST(TimeSeriesPlotTest, ConstantsAndBadRatesStayFinite) {
+  EnvelopeBuilder builder(1, 100);
+  for (int64_t k = 0; k < 1000; ++k) {
+    const double v[1] = {0.1 + (k % 3) * 1e-17};
+    builder.Add(k, v);
+  }
+  TimeSeriesPlot plot;
+  plot.panels = {{"x drift [deg/h]", "#1f77b4", 0, false, 0.1, 3600}};
+  for (double rate : {100.0, 0.0, 1e-320, std::numeric_limits<double>::infinity()}) {
+    plot.counters_per_second = rate;
+    const std::string svg = plot.ToSvg(builder);
+    EXPECT_EQ(svg.find("e-1"), std::string::npos) << rate;  // no ticks at 1e-13 deg/h
+    EXPECT_EQ(svg.find("nan"), std::string::npos) << rate;
+    EXPECT_EQ(svg.find("inf"), std::string::npos) << rate;
+  }
+}
+
 // The SVG: one panel per channel with its label, the title and labels
 // escaped, a band per stretch of bins with values (a gap splits it), and a
 // note line per note.

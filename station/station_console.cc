@@ -423,7 +423,7 @@ void ColorizeTable(std::vector<std::string>* lines, size_t first) {
   const std::string& header = (*lines)[first];
   const std::string& dashes = (*lines)[first + 1];
   if (dashes.empty() || dashes.find_first_not_of("- ") != std::string::npos) return;
-  std::vector<std::pair<size_t, size_t>> spans;  // byte ranges of the coloured columns
+  std::vector<std::pair<size_t, size_t>> spans;  // display columns of the coloured columns
   for (size_t at = dashes.find('-'); at != std::string::npos;) {
     const size_t end = std::min(dashes.find(' ', at), dashes.size());
     std::string name = header.size() > at ? header.substr(at, end - at) : "";
@@ -434,14 +434,20 @@ void ColorizeTable(std::vector<std::string>* lines, size_t first) {
   for (size_t i = first + 2; i < lines->size(); ++i) {
     std::string& line = (*lines)[i];
     if (line.empty()) break;  // the end of the table
+    // The rule's columns are display columns; a reason with "±" before them
+    // shifts the bytes: map each column to its byte offset in this line.
+    std::vector<size_t> byte_of;  // display column -> byte offset
+    for (size_t b = 0; b < line.size(); ++b) {
+      if ((static_cast<unsigned char>(line[b]) & 0xC0) != 0x80) byte_of.push_back(b);
+    }
+    byte_of.push_back(line.size());
     // Right to left, so that the earlier offsets stay valid.
     for (auto it = spans.rbegin(); it != spans.rend(); ++it) {
-      const auto [at, end] = *it;
-      if (at >= line.size()) continue;
-      // The table is ASCII up to its verdict columns (slot and unit names are
-      // padded by display width; a wide name shifts the bytes: then the cell
-      // does not start with a word and stays plain).
-      const std::string_view cell(line.data() + at, std::min(end, line.size()) - at);
+      const auto [col, col_end] = *it;
+      if (col >= byte_of.size() - 1) continue;
+      const size_t at = byte_of[col];
+      const size_t end = byte_of[std::min(col_end, byte_of.size() - 1)];
+      const std::string_view cell(line.data() + at, end - at);
       const char* code = ColourOf(cell);
       if (code == nullptr || (at > 0 && line[at - 1] != ' ')) continue;
       const size_t text_end = cell.find_last_not_of(' ') + 1;

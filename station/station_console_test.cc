@@ -245,12 +245,21 @@ TEST(StationConsoleTest, ColourOnlyInVerdictAndStateCellsAndReconnectingShown) {
   m.units[1].reason = "FAIL x: PASS";
   m.units[2].reconnecting = true;
   m.units[2].silent_s = 9;
+  m.units[2].verdict = measurement_t::OUTCOME_FAIL;
+  m.units[2].reason = "x: bias_instability 31 \u00b1 2 \u2264 deg/h";  // bytes != columns
   const std::vector<std::string> plain = RenderConsole(m, 140, 45);
   const std::string screen = Screen(plain);
   EXPECT_NE(screen.find("reconnecting 0:09"), std::string::npos) << screen;
   const std::string colored = Screen(RenderConsole(m, 140, 45, /*color=*/true));
   EXPECT_NE(colored.find("\x1b[1;33mreconnecting 0:09\x1b[0m"), std::string::npos) << colored;
   EXPECT_NE(colored.find("\x1b[31mfail?\x1b[0m"), std::string::npos) << colored;
+  // The row whose reason has multi-byte characters before its state keeps
+  // its colours.
+  const size_t row3 = colored.find("FAIL-03");
+  ASSERT_NE(row3, std::string::npos);
+  const std::string row = colored.substr(row3, colored.find('\n', row3) - row3);
+  EXPECT_NE(row.find("\x1b[1;33mreconnecting 0:09\x1b[0m"), std::string::npos) << row;
+  EXPECT_NE(row.find("\x1b[31mfail?\x1b[0m"), std::string::npos) << row;
   // Serials, slots and the reason: never coloured.
   for (const char* text : {"FAIL-01", "FAIL-02", "FAIL-03", "FAIL x: PASS"}) {
     const size_t at = colored.find(text);
@@ -265,6 +274,8 @@ TEST(StationConsoleTest, ColourOnlyInVerdictAndStateCellsAndReconnectingShown) {
   }
   m.units[1].verdict = measurement_t::OUTCOME_PASS;
   m.units[1].reason.clear();
+  m.units[2].verdict = measurement_t::OUTCOME_PASS;
+  m.units[2].reason.clear();
   const std::string small = Screen(RenderConsole(m, 80, 24));
   const size_t reconnecting = small.find("FAIL-03"), other = small.find("SN-4 ");
   ASSERT_NE(reconnecting, std::string::npos) << small;

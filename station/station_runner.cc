@@ -288,18 +288,28 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
     // The station in every run id: two stations never mint the same one.
     // The same station started again within the second of its last start
     // (a script's quick retest) would: it waits for the next second.
-    auto taken =
-        (*archive)->db().Prepare("SELECT 1 FROM runs WHERE run_id >= ? AND run_id < ? LIMIT 1");
+    std::vector<std::string> serials;
+    for (int i = 0; i < o.sim_units; ++i) serials.push_back(acquire::SimSerial(o.lot, i));
+    for (const std::string& u : o.units) serials.push_back(u.substr(0, u.find('=')));
+    auto taken = (*archive)->db().Prepare("SELECT 1 FROM runs WHERE run_id = ?");
     if (!taken.ok()) return taken.status();
     for (int attempt = 0;; ++attempt) {
       const int64_t now = NowUtime();
       result.run_prefix = CompactUtc(now) + "-" + o.station;
-      taken->Reset();
-      taken->Bind(1, result.run_prefix + "-");
-      taken->Bind(2, result.run_prefix + ".");  // '.' sorts right after '-'
-      auto row = taken->Step();
-      if (!row.ok()) return row.status();
-      if (!*row || attempt >= 3) break;
+      bool collides = false;
+      for (const std::string& serial : serials) {
+        taken->Reset();
+        taken->Bind(1, result.run_prefix + "-" + serial);
+        auto row = taken->Step();
+        if (!row.ok()) return row.status();
+        collides = collides || *row;
+      }
+      if (!collides) break;
+      if (attempt >= 5) {
+        return Status::InvalidArgument("run ids " + result.run_prefix +
+                                       "-* are already in the archive (has the clock gone "
+                                       "back?): not starting runs that would collide");
+      }
       std::this_thread::sleep_for(std::chrono::microseconds(1'000'000 - now % 1'000'000 + 1000));
     }
   }

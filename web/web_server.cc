@@ -20,6 +20,36 @@ bool SameSecret(const std::string& a, const std::string& b) {
   return diff == 0;
 }
 
+constexpr size_t kWorkers = 32;
+constexpr char kTokenCookie[] = "imuqual_token";
+
+// A Host header naming this host: 127.x.y.z, localhost or [::1], with or
+// without a port.
+bool LocalHostHeader(const std::string& host) {
+  std::string name = host;
+  if (!name.empty() && name.front() == '[') {
+    name = name.substr(1, name.find(']') == std::string::npos ? 0 : name.find(']') - 1);
+  } else if (const size_t colon = name.rfind(':'); colon != std::string::npos) {
+    name = name.substr(0, colon);
+  }
+  return IsLoopback(name);
+}
+
+// The value of cookie `name` in a Cookie header, "" if absent.
+std::string CookieValue(const std::string& header, const std::string& name) {
+  size_t at = 0;
+  while (at < header.size()) {
+    size_t end = header.find(';', at);
+    if (end == std::string::npos) end = header.size();
+    std::string pair = header.substr(at, end - at);
+    const size_t start = pair.find_first_not_of(' ');
+    pair = start == std::string::npos ? "" : pair.substr(start);
+    if (pair.rfind(name + "=", 0) == 0) return pair.substr(name.size() + 1);
+    at = end + 1;
+  }
+  return "";
+}
+
 constexpr char kSecurityPolicy[] =
     "default-src 'none'; style-src 'unsafe-inline'; script-src 'unsafe-inline'; img-src data:; "
     "form-action 'self'; base-uri 'none'; frame-ancestors 'none'";
@@ -72,6 +102,17 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
                                    " (not a loopback address) needs --token TOKEN: anyone who "
                                    "can reach it could read the archive");
   }
+  if (!o.token.empty()) {
+    const bool plain =
+        o.token.find_first_not_of(
+            "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-._~+/=") ==
+        std::string::npos;
+    if (!plain || o.token.size() < 12) {
+      return Status::InvalidArgument(
+          "serve: the token must be at least 12 characters of letters, digits and -._~+/= "
+          "(it travels in a header, a URL and a cookie)");
+    }
+  }
   {
     auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
     if (!archive.ok()) return archive.status();
@@ -80,8 +121,13 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
   impl->options = o;
   httplib::Server& s = impl->server;
   s.set_payload_max_length(1024);  // nothing here takes a body
-  s.set_read_timeout(10, 0);
+  // One request per connection: a body the server does not read can never
+  // be parsed as a second request. A slow client holds a worker for at most
+  // the read timeout; 32 workers (cpp-httplib's default is 8).
+  s.set_keep_alive_max_count(1);
+  s.set_read_timeout(3, 0);
   s.set_write_timeout(30, 0);
+  s.new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
   const ServeOptions opts = o;
   // Before any route: methods, the token, then the page.
   s.set_pre_routing_handler([opts](const httplib::Request& req, httplib::Response& res) {
@@ -95,21 +141,47 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
       res.set_content("read-only: GET and HEAD only\n", "text/plain; charset=utf-8");
       return httplib::Server::HandlerResponse::Handled;
     }
-    if (!req.body.empty()) {
+    // A GET's body is never read (cpp-httplib reads bodies of POST, PUT,
+    // PATCH and DELETE only): a request that announces one is refused.
+    const std::string length = req.get_header_value("Content-Length");
+    if ((!length.empty() && length != "0") || req.has_header("Transfer-Encoding")) {
       res.status = 413;
       res.set_content("no request body is taken\n", "text/plain; charset=utf-8");
       return httplib::Server::HandlerResponse::Handled;
     }
-    if (!opts.token.empty()) {
-      std::string given = req.get_param_value("token");
+    if (opts.token.empty()) {
+      // Loopback without a token: only a Host naming this host, so that a
+      // web page whose name is rebound to 127.0.0.1 cannot read the archive.
+      if (!LocalHostHeader(req.get_header_value("Host"))) {
+        res.status = 421;
+        res.set_content("this server answers to 127.0.0.1, localhost or [::1] only\n",
+                        "text/plain; charset=utf-8");
+        return httplib::Server::HandlerResponse::Handled;
+      }
+    } else {
+      // The token: a Bearer header, ?token= (which also sets a cookie, so
+      // that a browser's next pages need not carry it), or that cookie.
+      std::string given;
+      bool from_query = false;
       const std::string auth = req.get_header_value("Authorization");
-      if (auth.rfind("Bearer ", 0) == 0) given = auth.substr(7);
+      if (auth.rfind("Bearer ", 0) == 0) {
+        given = auth.substr(7);
+      } else if (req.has_param("token")) {
+        given = req.get_param_value("token");
+        from_query = true;
+      } else {
+        given = CookieValue(req.get_header_value("Cookie"), kTokenCookie);
+      }
       if (!SameSecret(given, opts.token)) {
         res.status = 401;
         res.set_header("WWW-Authenticate", "Bearer");
         res.set_content("a token is needed: Authorization: Bearer TOKEN, or ?token=TOKEN\n",
                         "text/plain; charset=utf-8");
         return httplib::Server::HandlerResponse::Handled;
+      }
+      if (from_query) {
+        res.set_header("Set-Cookie", std::string(kTokenCookie) + "=" + given +
+                                         "; Path=/; HttpOnly; SameSite=Strict");
       }
     }
     return httplib::Server::HandlerResponse::Unhandled;

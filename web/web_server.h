@@ -4,10 +4,16 @@
 // and HEAD only, takes no request body, and sends pages that load nothing
 // from anywhere else (Content-Security-Policy default-src 'none').
 //
-// Access: on a loopback address anyone on this host may read; on any other
-// address a token is required (Start refuses without one), given as
-// "Authorization: Bearer TOKEN" or "?token=TOKEN"; a request without it gets
-// 401 and nothing else.
+// Access: on a loopback address anyone on this host may read, and only
+// requests whose Host names this host are answered (a web page whose name is
+// rebound to 127.0.0.1 gets 421); on any other address a token is required
+// (Start refuses without one; at least 12 of A-Z a-z 0-9 -._~+/=), given as
+// "Authorization: Bearer TOKEN", as "?token=TOKEN" (which also sets an
+// HttpOnly, SameSite=Strict cookie so that a browser's next pages need not
+// carry it) or as that cookie; a request without it gets 401 and nothing
+// else. One request per connection; a request that announces a body is
+// refused (413); 32 workers, each held by a slow client for at most 3 s per
+// read. Exposed beyond a trusted network, put it behind a proxy.
 #ifndef IMUQUAL_WEB_WEB_SERVER_H_
 #define IMUQUAL_WEB_WEB_SERVER_H_
 

@@ -10,6 +10,7 @@
 #include "common/strings.h"
 #include "report/report.h"
 #include "store/archive.h"
+#include "store/chunk_codec.h"
 #include "store/outcome.h"
 #include "store/run_record.h"
 #include "tests/test_util.h"
@@ -199,6 +200,19 @@ TEST_F(WebTest, OnlyReadsAndServesNoFile) {
     EXPECT_EQ(r->body.find("root:"), std::string::npos) << path;
     EXPECT_EQ(r->body.find("SQLite format"), std::string::npos) << path;
   }
+  // A GET that announces a body is refused (its body would otherwise be
+  // read as the next request).
+  auto with_body = client_->Get("/", {{"Content-Length", "5"}});
+  ASSERT_TRUE(with_body);
+  EXPECT_EQ(with_body->status, 413);
+  // A page whose host name was rebound to 127.0.0.1 is not answered.
+  auto rebound = client_->Get("/api/lots", {{"Host", "evil.example:8080"}});
+  ASSERT_TRUE(rebound);
+  EXPECT_EQ(rebound->status, 421);
+  EXPECT_EQ(rebound->body.find(kLot), std::string::npos);
+  auto local = client_->Get("/api/lots", {{"Host", "localhost:8080"}});
+  ASSERT_TRUE(local);
+  EXPECT_EQ(local->status, 200);
   // A request too long to be one of ours.
   auto huge = client_->Get("/run/" + std::string(20000, 'a'));
   ASSERT_TRUE(huge);
@@ -210,20 +224,57 @@ TEST_F(WebTest, OnlyReadsAndServesNoFile) {
 
 // With a token: nothing without it, everything with it (header or query).
 TEST_F(WebTest, ATokenGuardsEveryPage) {
-  Serve("s3cret");
+  Serve("s3cret-token-42");
   auto none = client_->Get("/");
   ASSERT_TRUE(none);
   EXPECT_EQ(none->status, 401);
   EXPECT_EQ(none->body.find("Lots"), std::string::npos);
-  auto wrong = client_->Get("/?token=s3creT");
+  auto wrong = client_->Get("/?token=s3cret-token-4Z");
   ASSERT_TRUE(wrong);
   EXPECT_EQ(wrong->status, 401);
-  auto query = client_->Get("/?token=s3cret");
+  auto query = client_->Get("/?token=s3cret-token-42");
   ASSERT_TRUE(query);
   EXPECT_EQ(query->status, 200);
-  auto header = client_->Get("/api/lots", {{"Authorization", "Bearer s3cret"}});
+  // ... which leaves a cookie for the browser's next pages.
+  const std::string cookie = query->get_header_value("Set-Cookie");
+  EXPECT_NE(cookie.find("imuqual_token=s3cret-token-42"), std::string::npos) << cookie;
+  EXPECT_NE(cookie.find("HttpOnly"), std::string::npos) << cookie;
+  auto with_cookie =
+      client_->Get("/run/" + kRun, {{"Cookie", "a=1; imuqual_token=s3cret-token-42"}});
+  ASSERT_TRUE(with_cookie);
+  EXPECT_EQ(with_cookie->status, 200);
+  auto bad_cookie = client_->Get("/run/" + kRun, {{"Cookie", "imuqual_token=nope"}});
+  ASSERT_TRUE(bad_cookie);
+  EXPECT_EQ(bad_cookie->status, 401);
+  auto header = client_->Get("/api/lots", {{"Authorization", "Bearer s3cret-token-42"}});
   ASSERT_TRUE(header);
   EXPECT_EQ(header->status, 200);
+}
+
+// A damaged chunk costs the unit's raw-sample plot, not the lot's report.
+TEST(WebPagesTest, ADamagedChunkCostsOnlyItsPlot) {
+  testing::TempDir dir("web_damaged");
+  const std::string db = MakeArchive(dir);
+  {
+    auto a = store::Archive::Open(db, store::Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok());
+    auto key = (*a)->FindRunKey(kRun);
+    ASSERT_TRUE(key.ok() && key->has_value());
+    store::ChunkRecord c;
+    c.seq = 0;
+    c.first_sample = 0;
+    c.num_samples = 10;
+    c.codec = store::kCodecRawFloat32;
+    c.data = {1, 2, 3};  // not 10 float32 values
+    ASSERT_TRUE((*a)->InsertChunk(**key, c, nullptr).ok());
+  }
+  auto archive = store::Archive::Open(db, store::Archive::Mode::kRead);
+  ASSERT_TRUE(archive.ok());
+  const Page lot = Route(**archive, db, "/lot/" + kLot, {});
+  EXPECT_EQ(lot.status, 200);
+  EXPECT_NE(lot.body.find("raw samples not plotted"), std::string::npos);
+  const Page run = Route(**archive, db, "/run/" + kRun, {});
+  EXPECT_EQ(run.status, 200);
 }
 
 TEST(WebServerTest, AnAddressBeyondThisHostNeedsAToken) {
@@ -247,6 +298,14 @@ TEST(WebServerTest, AnAddressBeyondThisHostNeedsAToken) {
   EXPECT_EQ(p.host, "::1");
   EXPECT_FALSE(ParseListen("host:http", &p).ok());
   EXPECT_FALSE(ParseListen("1.2.3.4:70000", &p).ok());
+  o.host = "127.0.0.1";
+  o.token = "short";
+  auto weak = WebServer::Start(o);
+  ASSERT_FALSE(weak.ok());
+  EXPECT_NE(weak.status().message().find("at least 12"), std::string::npos);
+  o.token = "has;semicolon-in-it";
+  EXPECT_FALSE(WebServer::Start(o).ok());
+  o.token.clear();
   o.db_path = dir.path("missing.db");
   o.host = "127.0.0.1";
   auto missing = WebServer::Start(o);
