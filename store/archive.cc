@@ -4,8 +4,11 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstring>
+#include <thread>
 
+#include "common/clock.h"
 #include "store/checksums.h"
 #include "store/outcome.h"
 #include "store/schema.h"
@@ -26,6 +29,12 @@ pb::AxisKind ParseAxisKind(const std::string& name) {
 }
 
 Archive::~Archive() = default;
+
+namespace {
+// How long opening for writing retries the switch to WAL while other
+// connections hold the new file (several stations creating it at once).
+constexpr double kWalSwitchWaitS = 60;
+}  // namespace
 
 Result<std::unique_ptr<Archive>> Archive::Open(const std::string& path, Mode mode) {
   if (mode == Mode::kRead && ::access(path.c_str(), F_OK) != 0) {
@@ -48,10 +57,19 @@ Result<std::unique_ptr<Archive>> Archive::Open(const std::string& path, Mode mod
   Db& d = *archive->db_;
   if (mode == Mode::kWrite) {
     IMUQUAL_RETURN_IF_ERROR(Migrate(d));
-    auto wal = d.Prepare("PRAGMA journal_mode=WAL");
-    if (!wal.ok()) return wal.status();
-    auto row = wal->Step();
-    if (!row.ok()) return row.status();
+    // Switching a new file to WAL needs it to itself, and SQLite answers
+    // "database is locked" at once (no busy wait) while another station's
+    // connection is opening the same new archive: retry for a while.
+    const double give_up = MonotonicSeconds() + kWalSwitchWaitS;
+    for (int attempt = 0;; ++attempt) {
+      auto wal = d.Prepare("PRAGMA journal_mode=WAL");
+      if (!wal.ok()) return wal.status();
+      auto row = wal->Step();
+      if (row.ok()) break;
+      if (row.status().code() != Status::Code::kUnavailable || MonotonicSeconds() > give_up)
+        return row.status();
+      std::this_thread::sleep_for(std::chrono::milliseconds(5 + (attempt % 8) * 5));
+    }
     IMUQUAL_RETURN_IF_ERROR(d.Exec("PRAGMA synchronous=NORMAL; PRAGMA foreign_keys=ON;"));
   } else {
     IMUQUAL_RETURN_IF_ERROR(CheckReadable(d));
