@@ -50,7 +50,8 @@ std::string Sha256Hex(std::string_view data) {
 
 Status ValidateIdentifier(std::string_view what, std::string_view value) {
   if (value.empty() || value.size() > 48 ||
-      value.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") !=
+      value.find_first_not_of(
+          "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") !=
           std::string_view::npos) {
     return Status::InvalidArgument(std::string(what) + " '" + std::string(value) +
                                    "' must be 1-48 characters of A-Z a-z 0-9 . _ -");
@@ -71,8 +72,8 @@ std::string ClosestName(std::string_view given, const std::vector<std::string>& 
       row[0] = i;
       for (size_t j = 1; j <= name.size(); ++j) {
         const size_t above = row[j];
-        row[j] = std::min({row[j] + 1, row[j - 1] + 1,
-                           diagonal + (given[i - 1] == name[j - 1] ? 0 : 1)});
+        row[j] = std::min(
+            {row[j] + 1, row[j - 1] + 1, diagonal + (given[i - 1] == name[j - 1] ? 0 : 1)});
         diagonal = above;
       }
     }
@@ -110,5 +111,31 @@ bool NaturalLess(const std::string& a, const std::string& b) {
   return a.size() - i < b.size() - j;
 }
 
+std::string HtmlEscape(std::string_view s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
 
 }  // namespace imuqual

@@ -38,6 +38,10 @@ inline bool IsBlank(std::string_view name) {
 // the rest byte by byte. A strict weak order.
 bool NaturalLess(const std::string& a, const std::string& b);
 
+// Text for HTML or SVG (XML) element content or a quoted attribute value:
+// & < > " ' escaped.
+std::string HtmlEscape(std::string_view s);
+
 }  // namespace imuqual
 
 #endif  // IMUQUAL_COMMON_TEXT_UTIL_H_

@@ -9,10 +9,12 @@
 #include <utility>
 #include <vector>
 
+#include "common/text_util.h"
+
 namespace imuqual::cli {
 namespace {
 
-std::string Esc(const std::string& s) { return SvgEscape(s); }
+std::string Esc(const std::string& s) { return HtmlEscape(s); }
 std::string F(double v) { return SvgPx(v); }
 
 std::string Tick(double decade) {
@@ -46,29 +48,6 @@ double TextWidth(const std::string& s, double per_char) {
 }
 
 }  // namespace
-
-std::string SvgEscape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
 
 std::string SvgPx(double v) {
   char buf[32];

@@ -75,8 +75,6 @@ struct LogLogPlot {
 // A categorical palette colour for series i.
 std::string PaletteColor(size_t i);
 
-// Text for an SVG element or attribute: & < > " escaped.
-std::string SvgEscape(const std::string& s);
 // A coordinate in px, 2 decimals.
 std::string SvgPx(double v);
 

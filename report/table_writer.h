@@ -39,10 +39,6 @@ struct Cell {
   }
 };
 
-// Text for HTML element content or a quoted attribute value: & < > " '
-// escaped.
-std::string HtmlEscape(const std::string& s);
-
 // Columns a UTF-8 string takes on a terminal: its code points ("±", "≤",
 // "†" one column each).
 size_t DisplayWidth(const std::string& s);

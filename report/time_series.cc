@@ -10,6 +10,7 @@
 
 #include "analyze/allan/units.h"
 #include "common/strings.h"
+#include "common/text_util.h"
 #include "report/run_samples.h"
 #include "report/svg_plot.h"
 
@@ -81,7 +82,7 @@ void EnvelopeBuilder::Add(int64_t counter, std::span<const double> values) {
 
 namespace {
 
-std::string Esc(const std::string& s) { return SvgEscape(s); }
+std::string Esc(const std::string& s) { return HtmlEscape(s); }
 std::string F(double v) { return SvgPx(v); }
 
 std::string G(double v) {

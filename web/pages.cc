@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "common/clock.h"
+#include "common/text_util.h"
 #include "report/allan_plots.h"
 #include "report/archive_tables.h"
 #include "report/marks.h"
@@ -20,7 +21,6 @@ namespace {
 
 using cli::Cell;
 using cli::Format;
-using cli::HtmlEscape;
 using cli::TableWriter;
 
 constexpr char kStyle[] = R"css(

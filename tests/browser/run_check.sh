@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
-# ctest entry of the browser test of `imuqual serve` (web_check.mjs):
-# checks that what it needs is there, saying how to get what is not, then
-# runs it. Usage: web_test.sh path/to/imuqual
+# ctest entry of a browser test (report_check.mjs: `imuqual report`;
+# web_check.mjs: `imuqual serve`): checks that what it needs is there,
+# saying how to get what is not, then runs it.
+# Usage: run_check.sh CHECK.mjs path/to/imuqual
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
-imuqual="${1:?usage: web_test.sh path/to/imuqual}"
+check="${1:?usage: run_check.sh CHECK.mjs path/to/imuqual}"
+imuqual="${2:?usage: run_check.sh CHECK.mjs path/to/imuqual}"
 chromium="${CHROMIUM:-/usr/bin/chromium}"
 
 die() {
-  echo "web_test: FAIL: $*" >&2
+  echo "${check%.mjs}: FAIL: $*" >&2
   exit 1
 }
 deps="scripts/browser-deps installs it"
@@ -21,4 +23,5 @@ node_major="$(node -p 'process.versions.node.split(".")[0]')"
 command -v sqlite3 >/dev/null 2>&1 || die "the sqlite3 shell is not installed; scripts/bootstrap installs it"
 [ -x "$imuqual" ] || die "no imuqual binary at $imuqual"
 
-exec node "$here/web_check.mjs" --imuqual "$imuqual" --chromium "$chromium"
+[ -f "$here/$check" ] || die "no check $here/$check"
+exec node "$here/$check" --imuqual "$imuqual" --chromium "$chromium"
