@@ -457,6 +457,32 @@ void ColorizeTable(std::vector<std::string>* lines, size_t first) {
   }
 }
 
+std::string ConsoleProcessesLine(const ConsoleModel& m) {
+  std::string procs;
+  for (const ConsoleProcess& p : m.processes) {
+    procs += "  " + p.name + " ";
+    procs += p.expected > 1 ? std::to_string(p.running) + "/" + std::to_string(p.expected)
+                            : std::string(p.running > 0 ? "up" : "down");
+    if (p.restarts > 0) procs += " (restarted " + std::to_string(p.restarts) + "x)";
+    if (!p.problem.empty()) procs += " [" + p.problem + "]";
+  }
+  return procs;
+}
+
+ConsoleUnitCells DescribeUnit(const ConsoleModel& m, const ConsoleUnit& u, size_t reason_width) {
+  ConsoleUnitCells c;
+  c.verdict = UnitVerdictText(u);
+  c.reason = ShortReason(u, reason_width);
+  c.state = StateText(u);
+  c.elapsed = ElapsedText(u, m.planned_s);
+  c.attention = AttentionRank(u);
+  for (const ConsoleAxis& x : u.axes) {
+    const std::string value = LiveValue(x, 3, true, u.final_result);
+    c.axes.push_back({x.name, AxisVerdictText(u, x), value.empty() ? "-" : value + " " + x.unit});
+  }
+  return c;
+}
+
 std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int height, bool color) {
   std::vector<std::string> out;
   std::string title = "imuqual station " + m.station + "   lot " + m.lot + "   plan " + m.plan;
@@ -471,15 +497,7 @@ std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int hei
   if (f > 0.01 && f < 1) progress += "   left ~" + FormatDuration(m.wall_s * (1 - f) / f);
   progress += "   runs archived " + std::to_string(archived) + "/" + std::to_string(m.units.size());
   out.push_back(progress);
-  std::string procs = "processes:";
-  for (const ConsoleProcess& p : m.processes) {
-    procs += "  " + p.name + " ";
-    procs += p.expected > 1 ? std::to_string(p.running) + "/" + std::to_string(p.expected)
-                            : std::string(p.running > 0 ? "up" : "down");
-    if (p.restarts > 0) procs += " (restarted " + std::to_string(p.restarts) + "x)";
-    if (!p.problem.empty()) procs += " [" + p.problem + "]";
-  }
-  out.push_back(procs);
+  out.push_back("processes:" + ConsoleProcessesLine(m));
   out.push_back("");
 
   size_t axis_rows = 0;

@@ -117,6 +117,26 @@ std::string ConsoleTally(const ConsoleModel& model);
 // One line for a log or a pipe (no terminal): progress, samples, runs archived.
 std::string ConsoleSummaryLine(const ConsoleModel& model);
 
+// A unit's cells as the console shows them (the same words on the live web
+// page): verdict ("pass?", "FAIL", "PENDING look 2/4"), short reason, state
+// ("running", "no data 0:07", "done"), elapsed / planned, and per axis its
+// verdict and live bias instability with marks and unit ("-" when none).
+struct ConsoleAxisCells {
+  std::string name, verdict, bias_instability;
+};
+struct ConsoleUnitCells {
+  std::string verdict, reason, state, elapsed;
+  // FAIL > ERROR > ABORTED > INCONCLUSIVE > MARGINAL > the rest: a silent
+  // unit or a failed source ranks as ERROR (store::AttentionRank).
+  int attention = 0;
+  std::vector<ConsoleAxisCells> axes;
+};
+ConsoleUnitCells DescribeUnit(const ConsoleModel& model, const ConsoleUnit& unit,
+                              size_t reason_width = 200);
+
+// The process line: "store 1/1 (1 restart)  analyze 2/2  acquire 1/1".
+std::string ConsoleProcessesLine(const ConsoleModel& model);
+
 // "1:02:03" (h:mm:ss) or "2:03" (m:ss).
 std::string FormatDuration(double seconds);
 

@@ -34,6 +34,7 @@
 #include "imuqual/unit_result_t.hpp"
 #include "station/preflight.h"
 #include "station/station_console.h"
+#include "station/station_monitor.h"
 #include "store/archive.h"
 #include "store/outcome.h"
 #include "store/store_service.h"
@@ -50,7 +51,6 @@ constexpr double kRestartDelayS = 1;     // a dead store/analyze is restarted af
 constexpr double kCrashWindowS = 60;     // restarts counted over this window
 constexpr double kRedrawS = 0.25;        // live console refresh
 constexpr double kLogLineS = 10;         // progress line when not on a terminal
-constexpr double kComplaintS = 3;        // an unhealthy status shows this long after it was heard
 
 // The source of a unit given as SERIAL=SOURCE.
 Result<acquire::SourceSpec> UnitSourceSpec(const std::string& unit) {
@@ -325,8 +325,11 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
   if (!bus_or.ok()) return bus_or.status();
   LcmBus& bus = **bus_or;
 
-  // What the operator sees, one entry per unit in slot order.
-  ConsoleModel model;
+  // What the operator sees, one entry per unit in slot order, as heard on the bus.
+  MonitorOptions monitor_options;
+  monitor_options.run_prefix = result.run_prefix;
+  StationMonitor monitor(monitor_options);
+  ConsoleModel& model = monitor.model();
   model.station = o.station;
   model.lot = o.lot;
   model.plan = plan_name;
@@ -334,170 +337,17 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
   model.bus = url;
   model.archive = o.db_path;
   model.planned_s = o.duration_s;
-  auto add_unit = [&](std::string slot, std::string serial) {
-    ConsoleUnit u;
-    u.slot = std::move(slot);
-    u.serial = std::move(serial);
-    model.units.push_back(std::move(u));
-  };
   for (int i = 0; i < o.sim_units; ++i)
-    add_unit(std::to_string(i + 1), acquire::SimSerial(o.lot, i));
+    monitor.AddUnit(std::to_string(i + 1), acquire::SimSerial(o.lot, i));
   for (size_t i = 0; i < o.units.size(); ++i) {
     const std::string slot = i < o.slots.size() && !o.slots[i].empty()
                                  ? o.slots[i]
                                  : std::to_string(o.sim_units + static_cast<int>(i) + 1);
-    add_unit(slot, o.units[i].substr(0, o.units[i].find('=')));
+    auto spec = UnitSourceSpec(o.units[i]);
+    monitor.AddUnit(slot, o.units[i].substr(0, o.units[i].find('=')),
+                    spec.ok() && spec->kind == "serial");
   }
-  std::map<std::string, size_t> unit_index;        // serial -> model.units
-  std::map<std::string, std::string> end_reasons;  // serial -> why its run ended early
-  for (size_t i = 0; i < model.units.size(); ++i) unit_index[model.units[i].serial] = i;
-  auto unit_of_run = [&](const std::string& run_id, const std::string& serial) -> ConsoleUnit* {
-    if (run_id.rfind(result.run_prefix + "-", 0) != 0) return nullptr;  // another station run
-    auto it = unit_index.find(serial);
-    if (it == unit_index.end()) return nullptr;
-    ConsoleUnit& u = model.units[it->second];
-    if (u.run_id.empty()) u.run_id = run_id;
-    return u.run_id == run_id ? &u : nullptr;
-  };
-  std::map<std::string, std::set<std::string>> heard;  // process -> instances (host:pid)
-  struct Complaint {
-    std::string message;
-    double heard_s = 0;
-  };
-  std::map<std::pair<std::string, std::string>, Complaint>
-      problems;  // (process, instance) -> last unhealthy message
-
-  // Runs whose serial device acquire is reconnecting, as last heard.
-  std::set<std::string> reconnecting;
-  double reconnecting_heard_s = -1;
-  bus.Subscribe<imuqual::status_t>(
-      channels::kStatus, 1000, [&](const std::string&, imuqual::status_t&& s, int64_t) {
-        heard[s.process].insert(s.instance);
-        if (s.process == "acquire") {
-          reconnecting.clear();
-          const std::string_view prefix = channels::kReconnectingCounterPrefix;
-          for (size_t i = 0; i < s.counter_names.size() && i < s.counter_values.size(); ++i) {
-            if (s.counter_names[i].rfind(prefix, 0) == 0 && s.counter_values[i] > 0)
-              reconnecting.insert(s.counter_names[i].substr(prefix.size()));
-          }
-          reconnecting_heard_s = MonotonicSeconds();
-        }
-        if (s.healthy) {
-          problems.erase({s.process, s.instance});
-        } else {
-          problems[{s.process, s.instance}] = {s.message, MonotonicSeconds()};
-        }
-      });
-  bus.Subscribe<imuqual::run_t>(
-      channels::kRun, 1000, [&](const std::string&, imuqual::run_t&& r, int64_t) {
-        ConsoleUnit* u = unit_of_run(r.run_id, r.unit_serial);
-        if (u == nullptr) return;
-        if (!r.slot.empty()) u->slot = r.slot;
-        // States only move on, except an end the store inferred from
-        // silence: acquire announcing the run again (it was paused, or cut
-        // off) makes it running again.
-        if (r.announcer == "acquire" && u->state == imuqual::run_t::STATE_INCOMPLETE) {
-          u->state = r.state;
-        } else {
-          u->state = std::max(u->state, r.state);
-        }
-        if (!r.end_reason.empty()) end_reasons[r.unit_serial] = r.end_reason;
-        // Aborted for a reason other than the operator's stop: its source
-        // failed (acquire ends a unit's run so when its source's read fails).
-        const auto why = end_reasons.find(r.unit_serial);
-        u->source_failed = u->state == imuqual::run_t::STATE_ABORTED && why != end_reasons.end() &&
-                           why->second != kShutdownEndReason;
-        u->samples = std::max(u->samples, r.samples_published);
-        if (r.nominal_rate_hz > 0)
-          u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
-        if (u->axes.empty()) {
-          for (const std::string& name : r.axis_names) {
-            ConsoleAxis x;
-            x.name = name;
-            u->axes.push_back(std::move(x));
-          }
-          // Early decisions: the looks its plan schedules.
-          pb::TestPlan plan;
-          if (plan.ParseFromArray(r.plan.data(), static_cast<int>(r.plan.size())) &&
-              plan.has_early_decision()) {
-            u->looks_planned = static_cast<int>(judge::MakeLookSchedule(plan).times_s.size());
-          }
-        }
-      });
-  // Early decisions: the looks so far and, once decided, the decision (final:
-  // a later message of the same run changes nothing).
-  bus.Subscribe<imuqual::decision_t>(
-      channels::kDecisionAll, 1000, [&](const std::string&, imuqual::decision_t&& d, int64_t) {
-        ConsoleUnit* u = unit_of_run(d.run_id, d.unit_serial);
-        if (u == nullptr) return;
-        const bool decided = u->decision == imuqual::decision_t::STATE_PASS ||
-                             u->decision == imuqual::decision_t::STATE_FAIL;
-        const bool older =
-            d.state == imuqual::decision_t::STATE_PENDING && d.looks_done < u->looks_done;
-        if (decided || older) return;
-        u->looks_planned = std::max<int>(u->looks_planned, d.looks_planned);
-        u->looks_done = d.looks_done;
-        u->decision = d.state;
-        u->decided_at_s = d.decided_at_s;
-        u->pending = std::move(d.pending);
-      });
-  bus.Subscribe<imuqual::ack_t>(channels::kAck, 20000,
-                                [&](const std::string&, imuqual::ack_t&& a, int64_t) {
-                                  // The store's latest word: a run it opens
-                                  // again (judged anew) is no longer archived.
-                                  if (a.process != "store") return;
-                                  if (a.run_done) left_open.erase(a.run_id);
-                                  for (ConsoleUnit& u : model.units) {
-                                    if (u.run_id == a.run_id) u.archived = a.run_done;
-                                  }
-                                });
-  bus.Subscribe<imuqual::unit_result_t>(
-      channels::kResultAll, 1000, [&](const std::string&, imuqual::unit_result_t&& r, int64_t) {
-        ConsoleUnit* u = unit_of_run(r.run_id, r.unit_serial);
-        if (u == nullptr || (u->final_result && !r.is_final)) return;
-        u->final_result = r.is_final;
-        u->gap_samples = r.gap_samples;
-        // Final: the judgement's first reason. Provisional: the first
-        // measurement that makes the verdict (the judgement's reasons also
-        // list what cannot be measured yet, which the verdict ignores).
-        u->reason = r.is_final && r.num_reasons > 0 ? r.reasons[0] : "";
-        // Final: the analysis's verdict. Provisional: judged on what is
-        // measured so far; what cannot be measured yet (a curve still
-        // shorter than its minimum, the run's duration) does not count.
-        u->verdict = r.is_final ? r.verdict : 0;
-        for (ConsoleAxis& x : u->axes) x.outcome = 0;
-        for (const imuqual::measurement_t& m : r.measurements) {
-          const bool counts = r.is_final || (std::isfinite(m.value) && m.name != "duration");
-          // The worst: FAIL > INCONCLUSIVE > MARGINAL > PASS (not the codes' order).
-          auto worst = [](int8_t a, int8_t b) {
-            return store::OutcomeSeverity(store::OutcomeFromNumber(b)) >
-                           store::OutcomeSeverity(store::OutcomeFromNumber(a))
-                       ? b
-                       : a;
-          };
-          if (counts && !r.is_final) u->verdict = worst(u->verdict, m.outcome);
-          for (ConsoleAxis& x : u->axes) {
-            if (x.name != m.axis) continue;
-            if (counts) x.outcome = worst(x.outcome, m.outcome);
-            if (m.name == "bias_instability") {
-              x.bias_instability = m.value;
-              x.unit = m.unit;
-              x.bias_instability_uncertainty = m.uncertainty;
-              x.bias_instability_qualifier = m.qualifier;
-            }
-          }
-        }
-        if (!r.is_final && u->verdict != imuqual::measurement_t::OUTCOME_PASS) {
-          for (const imuqual::measurement_t& m : r.measurements) {
-            if (!std::isfinite(m.value) || m.name == "duration" || m.outcome != u->verdict)
-              continue;
-            char value[32];
-            std::snprintf(value, sizeof value, "%.4g", m.value);
-            u->reason = (m.axis.empty() ? "" : m.axis + ": ") + m.name + " " + value + " " + m.unit;
-            break;
-          }
-        }
-      });
+  monitor.Attach(bus);
 
   {
     auto header = ReadFileToString(result.log_path);
@@ -543,16 +393,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
                                LogTail(result.log_path, 8));
   };
   auto reported = [&](const Supervised& p) {
-    auto it = heard.find(p.kind);
-    if (it == heard.end() || !p.proc) return false;
-    const std::string suffix = ":" + std::to_string(p.proc->pid());
-    for (const std::string& instance : it->second) {
-      if (instance.size() > suffix.size() &&
-          instance.compare(instance.size() - suffix.size(), suffix.size(), suffix) == 0) {
-        return true;
-      }
-    }
-    return false;
+    return p.proc && monitor.Reported(p.kind, p.proc->pid());
   };
   // Wait until store and analyze are up and listening.
   const double start_deadline = MonotonicSeconds() + kStartTimeoutS;
@@ -610,15 +451,6 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
   LiveScreen screen(tty);
   const double t0 = MonotonicSeconds();
   double last_change = t0, last_draw = t0 - kRedrawS, last_line = t0;
-  // Per unit: its published samples and when they last grew; only a unit
-  // paced by its device (a serial unit) is silent when they stop growing (a
-  // recording or a simulated unit waits for the archive's acknowledgements).
-  std::vector<std::pair<int64_t, double>> growth(model.units.size(), {-1, t0});
-  std::vector<bool> device_paced(model.units.size(), false);
-  for (size_t i = 0; i < o.units.size(); ++i) {
-    auto spec = UnitSourceSpec(o.units[i]);
-    device_paced[static_cast<size_t>(o.sim_units) + i] = spec.ok() && spec->kind == "serial";
-  }
   double drain_deadline = -1;   // set when the runs are ending abnormally
   double settle_deadline = -1;  // set when only runs left open earlier remain
   int64_t last_total = -1;
@@ -700,22 +532,13 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
       for (ConsoleProcess* cp : {&store_p, &analyze_p, &acquire_p}) {
         // A complaint stands while its process keeps reporting it (a dead
         // process's last words fade after a few seconds).
-        for (const auto& [who, complaint] : problems) {
-          if (who.first == cp->name && now - complaint.heard_s < kComplaintS)
-            cp->problem = complaint.message;
-        }
+        cp->problem = monitor.Problem(cp->name, now);
         model.processes.push_back(*cp);
       }
     }
     // A unit whose samples stopped growing: how long (a silent serial unit).
-    for (size_t i = 0; i < model.units.size(); ++i) {
-      ConsoleUnit& u = model.units[i];
-      if (u.samples != growth[i].first) growth[i] = {u.samples, now};
-      const bool waiting = u.state == 0 || u.state == imuqual::run_t::STATE_RUNNING;
-      u.silent_s = device_paced[i] && waiting && !u.archived ? now - growth[i].second : 0;
-      u.reconnecting = u.silent_s > 0 && now - reconnecting_heard_s < kComplaintS &&
-                       reconnecting.count(u.run_id) > 0;
-    }
+    monitor.Refresh(now, /*processes_from_status=*/false);
+    std::erase_if(left_open, [&](const std::string& run) { return monitor.RunArchived(run); });
     if (tty && now - last_draw >= kRedrawS) {
       screen.Draw(model);
       last_draw = now;
@@ -778,9 +601,10 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
       const bool ended_early =
           u.state == imuqual::run_t::STATE_ABORTED || u.state == imuqual::run_t::STATE_INCOMPLETE;
       if (!ended_early) continue;
-      auto reason = end_reasons.find(u.serial);
+      auto reason = monitor.end_reasons().find(u.serial);
       failed.push_back(u.serial + " (" +
-                       (reason == end_reasons.end() ? "ended early" : reason->second) + ")");
+                       (reason == monitor.end_reasons().end() ? "ended early" : reason->second) +
+                       ")");
     }
     if (!failed.empty()) {
       result.failure =
