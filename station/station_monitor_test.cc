@@ -1,0 +1,275 @@
+#include "station/station_monitor.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/channels.h"
+#include "imuqual/measurement_t.hpp"
+#include "imuqual/rate_batch_t.hpp"
+
+namespace imuqual::cli {
+namespace {
+
+imuqual::run_t RunMsg(const std::string& run_id, const std::string& serial, const std::string& slot,
+                   int8_t state = imuqual::run_t::STATE_RUNNING, int64_t samples = 1000,
+                   int64_t start_utime = 1'000'000) {
+  imuqual::run_t r{};
+  r.run_id = run_id;
+  r.unit_serial = serial;
+  r.slot = slot;
+  r.lot = "L1";
+  r.station = "bench-A";
+  r.source = "sim:vg700";
+  r.announcer = "acquire";
+  r.nominal_rate_hz = 100;
+  r.state = state;
+  r.samples_published = samples;
+  r.start_utime = start_utime;
+  r.num_axes = 2;
+  r.axis_names = {"gx", "gy"};
+  r.axis_kinds = {imuqual::rate_batch_t::KIND_GYRO, imuqual::rate_batch_t::KIND_GYRO};
+  return r;
+}
+
+imuqual::status_t StatusMsg(const std::string& process, const std::string& instance,
+                         bool healthy = true, const std::string& message = "") {
+  imuqual::status_t s{};
+  s.process = process;
+  s.instance = instance;
+  s.healthy = healthy;
+  s.message = message;
+  return s;
+}
+
+imuqual::unit_result_t ResultMsg(const std::string& run_id, const std::string& serial, bool final,
+                              double gx_bi, int8_t gx_outcome) {
+  imuqual::unit_result_t r{};
+  r.run_id = run_id;
+  r.unit_serial = serial;
+  r.is_final = final;
+  r.host_utime = 77;
+  r.verdict = final ? gx_outcome : 0;
+  imuqual::measurement_t m{};
+  m.axis = "gx";
+  m.name = "bias_instability";
+  m.value = gx_bi;
+  m.unit = "deg/h";
+  m.uncertainty = 0.5;
+  m.outcome = gx_outcome;
+  r.measurements.push_back(m);
+  r.num_measurements = 1;
+  if (final) {
+    r.reasons = {"gx: bias_instability 12 deg/h > 10"};
+    r.num_reasons = 1;
+  }
+  return r;
+}
+
+TEST(StationMonitorTest, DiscoversUnitsInSlotOrderAndTakesTheHeaderFromTheirRuns) {
+  MonitorOptions o;
+  o.discover_units = true;
+  StationMonitor m(o);
+  m.OnRun(RunMsg("R-U10", "U10", "A10"));
+  m.OnRun(RunMsg("R-U2", "U2", "A2"));
+  m.OnRun(RunMsg("R-U1", "U1", "A1"));
+  ASSERT_EQ(m.model().units.size(), 3u);
+  EXPECT_EQ(m.model().units[0].serial, "U1");
+  EXPECT_EQ(m.model().units[1].serial, "U2");  // A2 before A10
+  EXPECT_EQ(m.model().units[2].serial, "U10");
+  EXPECT_EQ(m.model().station, "bench-A");
+  EXPECT_EQ(m.model().lot, "L1");
+  EXPECT_DOUBLE_EQ(m.model().units[1].elapsed_s, 10.0);
+  ASSERT_EQ(m.model().units[1].axes.size(), 2u);
+  // A result or decision of an unknown unit adds nothing: it names no slot.
+  m.OnResult(ResultMsg("R-U9", "U9", false, 3, imuqual::measurement_t::OUTCOME_PASS));
+  EXPECT_EQ(m.model().units.size(), 3u);
+}
+
+TEST(StationMonitorTest, WithoutDiscoveryOnlyItsUnitsAndItsRunPrefix) {
+  MonitorOptions o;
+  o.run_prefix = "P1";
+  StationMonitor m(o);
+  m.AddUnit("1", "U1");
+  m.OnRun(RunMsg("P0-U1", "U1", "9"));  // another station run
+  m.OnRun(RunMsg("P1-U7", "U7", "7"));  // not this station's unit
+  ASSERT_EQ(m.model().units.size(), 1u);
+  EXPECT_TRUE(m.model().units[0].run_id.empty());
+  m.OnRun(RunMsg("P1-U1", "U1", "1"));
+  EXPECT_EQ(m.model().units[0].run_id, "P1-U1");
+}
+
+TEST(StationMonitorTest, ANewerRunOfAUnitReplacesItsRow) {
+  MonitorOptions o;
+  o.discover_units = true;
+  StationMonitor m(o);
+  m.OnRun(RunMsg("R1-U1", "U1", "A1", imuqual::run_t::STATE_COMPLETE, 5000, 1'000'000));
+  m.OnResult(ResultMsg("R1-U1", "U1", true, 12, imuqual::measurement_t::OUTCOME_FAIL));
+  EXPECT_TRUE(m.model().units[0].final_result);
+  // An older run's late message changes nothing.
+  m.OnRun(RunMsg("R0-U1", "U1", "A1", imuqual::run_t::STATE_RUNNING, 10, 500'000));
+  EXPECT_EQ(m.model().units[0].run_id, "R1-U1");
+  m.OnRun(RunMsg("R2-U1", "U1", "A1", imuqual::run_t::STATE_RUNNING, 100, 2'000'000));
+  ASSERT_EQ(m.model().units.size(), 1u);
+  EXPECT_EQ(m.model().units[0].run_id, "R2-U1");
+  EXPECT_FALSE(m.model().units[0].final_result);
+  EXPECT_EQ(m.model().units[0].samples, 100);
+}
+
+TEST(StationMonitorTest, ResultsSetProvisionalAndFinalVerdictsAndRaiseTheVersion) {
+  MonitorOptions o;
+  o.discover_units = true;
+  StationMonitor m(o);
+  m.OnRun(RunMsg("R-U1", "U1", "A1"));
+  const uint64_t before = m.version();
+  m.OnResult(ResultMsg("R-U1", "U1", false, 12, imuqual::measurement_t::OUTCOME_FAIL));
+  EXPECT_GT(m.version(), before);
+  EXPECT_EQ(m.newest_utime(), 77);
+  const ConsoleUnit& u = m.model().units[0];
+  EXPECT_FALSE(u.final_result);
+  EXPECT_EQ(u.verdict, imuqual::measurement_t::OUTCOME_FAIL);
+  EXPECT_EQ(u.reason, "gx: bias_instability 12 deg/h");
+  ConsoleUnitCells cells = DescribeUnit(m.model(), u);
+  EXPECT_EQ(cells.verdict, "fail?");
+  ASSERT_EQ(cells.axes.size(), 2u);
+  EXPECT_EQ(cells.axes[0].bias_instability, "12 \u00b1 0.5 deg/h");
+  EXPECT_EQ(cells.axes[1].bias_instability, "-");
+  m.OnResult(ResultMsg("R-U1", "U1", true, 12, imuqual::measurement_t::OUTCOME_FAIL));
+  EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).verdict, "FAIL");
+  // A provisional result after the final one is ignored.
+  m.OnResult(ResultMsg("R-U1", "U1", false, 3, imuqual::measurement_t::OUTCOME_PASS));
+  EXPECT_TRUE(m.model().units[0].final_result);
+  imuqual::ack_t a{};
+  a.process = "store";
+  a.run_id = "R-U1";
+  a.run_done = true;
+  m.OnAck(a);
+  EXPECT_TRUE(m.RunArchived("R-U1"));
+  EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).state, "done");
+}
+
+TEST(StationMonitorTest, ProcessesFromStatusCountAliveAndRestartedInstances) {
+  StationMonitor m;
+  m.OnStatus(StatusMsg("store", "h:100"), 0.0);
+  m.OnStatus(StatusMsg("analyze", "h:101"), 0.0);
+  m.OnStatus(StatusMsg("analyze", "h:102"), 0.0);
+  m.OnStatus(StatusMsg("acquire", "h:103"), 0.1);
+  m.Refresh(1.0, true);
+  ASSERT_EQ(m.model().processes.size(), 3u);
+  EXPECT_EQ(m.model().processes[0].running, 1);
+  EXPECT_EQ(m.model().processes[1].running, 2);
+  EXPECT_EQ(m.model().processes[1].expected, 2);
+  EXPECT_TRUE(m.Reported("analyze", 102));
+  EXPECT_FALSE(m.Reported("store", 102));
+  // The store killed at 1.5 s, a new one reports at 3 s; the others go on.
+  for (double t = 1.0; t <= 8.0; t += 1.0) {
+    m.OnStatus(StatusMsg("analyze", "h:101"), t);
+    m.OnStatus(StatusMsg("analyze", "h:102"), t);
+    m.OnStatus(StatusMsg("acquire", "h:103", false, "unit U3: device gone"), t);
+    if (t >= 3.0) m.OnStatus(StatusMsg("store", "h:200"), t);
+  }
+  m.Refresh(8.5, true);
+  const ConsoleProcess& store = m.model().processes[0];
+  EXPECT_EQ(store.running, 1);
+  EXPECT_EQ(store.restarts, 1);
+  EXPECT_EQ(m.model().processes[1].restarts, 0);
+  EXPECT_EQ(m.model().processes[2].problem, "unit U3: device gone");
+  EXPECT_NE(ConsoleProcessesLine(m.model()).find("store up (restarted 1x)"), std::string::npos);
+  // The end of the station: every instance silent together is no restart.
+  m.Refresh(20.0, true);
+  EXPECT_EQ(m.model().processes[1].running, 0);
+  EXPECT_EQ(m.model().processes[1].restarts, 0);
+  EXPECT_EQ(m.model().processes[0].restarts, 1);
+  EXPECT_EQ(m.model().processes[2].problem, "");  // faded
+}
+
+TEST(StationMonitorTest, ASilentSerialUnitShowsNoDataThenReconnecting) {
+  MonitorOptions o;
+  o.discover_units = true;
+  StationMonitor m(o);
+  imuqual::run_t r = RunMsg("R-U1", "U1", "A1");
+  r.source = "serial:/dev/ttyUSB0,protocol=text";
+  m.OnRun(r);
+  m.Refresh(10.0, false);
+  m.Refresh(17.0, false);
+  EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).state, "no data 0:07");
+  imuqual::status_t s = StatusMsg("acquire", "h:1");
+  s.counter_names = {std::string(channels::kReconnectingCounterPrefix) + "R-U1"};
+  s.counter_values = {1};
+  s.num_counters = 1;
+  m.OnStatus(s, 17.5);
+  m.Refresh(18.0, false);
+  EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).state, "reconnecting 0:08");
+  // Samples again: running.
+  r.samples_published += 100;
+  m.OnRun(r);
+  m.Refresh(18.5, false);
+  EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).state, "running");
+  // A simulated unit is never silent: it waits for the archive.
+  m.OnRun(RunMsg("R-U2", "U2", "A2"));
+  m.Refresh(30.0, false);
+  m.Refresh(60.0, false);
+  EXPECT_EQ(DescribeUnit(m.model(), m.model().units[1]).state, "running");
+}
+
+TEST(StationMonitorTest, CurvesInDatasheetUnitsThinnedFinalKept) {
+  MonitorOptions o;
+  o.discover_units = true;
+  o.keep_curves = true;
+  StationMonitor m(o);
+  m.OnRun(RunMsg("R-U1", "U1", "A1"));
+  imuqual::allan_curve_t c{};
+  c.run_id = "R-U1";
+  c.unit_serial = "U1";
+  c.axis = "gy";
+  c.axis_kind = imuqual::rate_batch_t::KIND_GYRO;
+  c.estimator = "oadev";
+  c.is_final = false;
+  c.samples = 5000;
+  c.host_utime = 99;
+  const int n = 1000;
+  for (int i = 0; i < n; ++i) {
+    const double tau = 0.01 * (i + 1);
+    c.m.push_back(i + 1);
+    c.tau_s.push_back(tau);
+    c.dev.push_back(1e-3 / std::sqrt(tau));
+    c.lo.push_back(0.9e-3 / std::sqrt(tau));
+    c.hi.push_back(1.1e-3 / std::sqrt(tau));
+  }
+  c.num_points = n;
+  m.OnCurve(c);
+  std::vector<LiveCurve> curves = m.Curves("R-U1");
+  ASSERT_EQ(curves.size(), 1u);
+  const LiveCurve& live = curves[0];
+  EXPECT_EQ(live.axis, "gy");
+  EXPECT_EQ(live.unit, "deg/h");
+  EXPECT_LE(live.tau_s.size(), kMaxLiveCurvePoints + 1);
+  EXPECT_GE(live.tau_s.size(), kMaxLiveCurvePoints / 2);
+  EXPECT_DOUBLE_EQ(live.tau_s.front(), 0.01);
+  EXPECT_DOUBLE_EQ(live.tau_s.back(), 10.0);
+  EXPECT_DOUBLE_EQ(live.dev.front(), 1e-3 / std::sqrt(0.01) * 3600);
+  for (size_t i = 1; i < live.tau_s.size(); ++i) EXPECT_GT(live.tau_s[i], live.tau_s[i - 1]);
+  // The final curve stays; a late interim one does not replace it.
+  c.is_final = true;
+  c.dev[0] = 2e-3 / std::sqrt(0.01);
+  m.OnCurve(c);
+  c.is_final = false;
+  c.dev[0] = 5e-3;
+  m.OnCurve(c);
+  curves = m.Curves("R-U1");
+  EXPECT_TRUE(curves[0].is_final);
+  EXPECT_DOUBLE_EQ(curves[0].dev.front(), 2e-3 / std::sqrt(0.01) * 3600);
+  // An accelerometer's curve in ug.
+  c.axis = "gx";
+  c.axis_kind = imuqual::rate_batch_t::KIND_ACCEL;
+  c.dev[0] = 9.80665e-6;
+  m.OnCurve(c);
+  curves = m.Curves("R-U1");
+  ASSERT_EQ(curves.size(), 2u);
+  EXPECT_EQ(curves[0].axis, "gx");  // the run's axis order
+  EXPECT_EQ(curves[0].unit, "ug");
+  EXPECT_NEAR(curves[0].dev.front(), 1.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace imuqual::cli
