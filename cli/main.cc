@@ -284,7 +284,9 @@ int main(int argc, char** argv) {
 
   cli::ServeCommandOptions serve;
   CLI::App* serve_cmd = app.add_subcommand(
-      "serve", "the archive in a browser: lots, lot reports, units, runs, JSON API (read-only)");
+      "serve",
+      "the archive in a browser: lots, lot reports, units, runs, JSON API, and with --bus the live "
+      "station (read-only)");
   serve_cmd->add_option("--db", serve.db_path, "archive file")->required();
   serve_cmd->add_option("--listen", serve.listen, "ADDR:PORT, [IPV6]:PORT or PORT to listen on")
       ->capture_default_str();
@@ -292,6 +294,8 @@ int main(int argc, char** argv) {
                         "required on a non-loopback address: Authorization: Bearer TOKEN or "
                         "?token=TOKEN (visible to local users in ps: prefer --token-file)");
   serve_cmd->add_option("--token-file", serve.token_file, "a file whose first line is the token");
+  serve_cmd->add_option("--bus", serve.bus_url,
+                        "a station's bus (the LCM URL its console shows): the live page /live");
 
   // `imuqual help [COMMAND]` is `imuqual [COMMAND] --help` (git's and
   // cargo's habit).

@@ -16,6 +16,7 @@ int ServeCommand(const ServeCommandOptions& options) {
   web::ServeOptions o;
   o.db_path = options.db_path;
   o.token = options.token;
+  o.bus_url = options.bus_url;
   if (!options.token_file.empty()) {
     if (!options.token.empty()) {
       LogError("serve: give --token or --token-file, not both");
@@ -43,6 +44,10 @@ int ServeCommand(const ServeCommandOptions& options) {
   std::printf("serving %s at http://%s%s%s:%d/%s (read-only; Ctrl-C stops)\n", o.db_path.c_str(),
               v6 ? "[" : "", o.host.c_str(), v6 ? "]" : "", (*server)->port(),
               o.token.empty() ? "" : "?token=...");
+  if (!o.bus_url.empty()) {
+    std::printf("live station (bus %s): http://%s%s%s:%d/live\n", o.bus_url.c_str(), v6 ? "[" : "",
+                o.host.c_str(), v6 ? "]" : "", (*server)->port());
+  }
   if (!web::IsLoopback(o.host)) {
     std::printf("listening beyond this host: every request needs the token\n");
   }

@@ -12,6 +12,7 @@ struct ServeCommandOptions {
   std::string listen = "127.0.0.1:8080";  // --listen ADDR:PORT
   std::string token;                      // --token (required beyond loopback)
   std::string token_file;                 // --token-file: the token's first line (not in `ps`)
+  std::string bus_url;                    // --bus: a station bus for the live page
 };
 
 // Prints the URL, serves until interrupted. Returns 0 when stopped by a

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 
 #include "analyze/allan/units.h"
 #include "analyze/judge/early_decision.h"
@@ -96,6 +97,29 @@ ConsoleUnit* StationMonitor::UnitOfRun(const std::string& run_id, const std::str
     // Discovered from its run's announcement only (a result or a decision
     // names no slot).
     if (!options_.discover_units || announcement == nullptr) return nullptr;
+    const bool fresh_run = announcement->announcer == "acquire" &&
+                           announcement->state == imuqual::run_t::STATE_RUNNING;
+    if (fresh_run) {
+      // A new soak: every unit shown is done (archived with its final
+      // result) and started before this run. They leave, and so do the
+      // processes of the last soak.
+      const bool all_done =
+          std::all_of(model_.units.begin(), model_.units.end(), [&](const ConsoleUnit& v) {
+            return v.archived && v.final_result &&
+                   tracks_[v.serial].start_utime < announcement->start_utime;
+          });
+      if (all_done && !model_.units.empty()) {
+        RemoveUnits([](const ConsoleUnit&) { return true; });
+        std::erase_if(instances_, [](const auto& entry) { return entry.second.gone; });
+        most_alive_.clear();
+      }
+      // A new unit in a fixture slot whose unit is done: it takes the row.
+      RemoveUnits([&](const ConsoleUnit& v) {
+        const Track& t = tracks_[v.serial];
+        return v.slot == announcement->slot && t.station == announcement->station &&
+               v.archived && v.final_result && t.start_utime < announcement->start_utime;
+      });
+    }
     ConsoleUnit u;
     u.slot = announcement->slot;
     u.serial = serial;
@@ -110,6 +134,7 @@ ConsoleUnit* StationMonitor::UnitOfRun(const std::string& run_id, const std::str
     index_.clear();
     for (size_t i = 0; i < model_.units.size(); ++i) index_[model_.units[i].serial] = i;
     tracks_[serial] = Track{};
+    tracks_[serial].station = announcement->station;
     it = index_.find(serial);
   }
   ConsoleUnit& u = model_.units[it->second];
@@ -324,7 +349,35 @@ std::vector<LiveCurve> StationMonitor::Curves(const std::string& run_id) const {
   return out;
 }
 
+void StationMonitor::RemoveUnits(const std::function<bool(const ConsoleUnit&)>& which) {
+  const size_t before = model_.units.size();
+  std::erase_if(model_.units, [&](const ConsoleUnit& u) {
+    if (!which(u)) return false;
+    for (auto it = curves_.begin(); it != curves_.end();) {
+      it = it->first.first == u.run_id ? curves_.erase(it) : std::next(it);
+    }
+    tracks_.erase(u.serial);
+    end_reasons_.erase(u.serial);
+    return true;
+  });
+  if (model_.units.size() == before) return;
+  index_.clear();
+  for (size_t i = 0; i < model_.units.size(); ++i) index_[model_.units[i].serial] = i;
+  Changed();
+}
+
 void StationMonitor::Refresh(double now, bool processes_from_status) {
+  if (options_.discover_units && options_.forget_after_s > 0) {
+    RemoveUnits([&](const ConsoleUnit& u) {
+      Track& t = tracks_[u.serial];
+      if (!(u.archived && u.final_result)) {
+        t.done_at = -1;
+      } else if (t.done_at < 0) {
+        t.done_at = now;
+      }
+      return t.done_at >= 0 && now - t.done_at >= options_.forget_after_s;
+    });
+  }
   for (ConsoleUnit& u : model_.units) {
     Track& t = tracks_[u.serial];
     if (u.samples != t.samples || t.grew_at < 0) {
@@ -355,9 +408,10 @@ void StationMonitor::Refresh(double now, bool processes_from_status) {
     ConsoleProcess p;
     p.name = kind;
     p.expected = 0;
-    for (const auto& [key, in] : instances_) {
+    for (auto& [key, in] : instances_) {
       if (in.kind != kind) continue;
-      if (now - in.last_heard < kGoneS) {
+      in.gone = now - in.last_heard >= kGoneS;
+      if (!in.gone) {
         ++p.running;
         continue;
       }

@@ -14,6 +14,7 @@
 #define IMUQUAL_STATION_STATION_MONITOR_H_
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <set>
 #include <string>
@@ -35,11 +36,17 @@ struct MonitorOptions {
   // Only runs "<run_prefix>-<serial>" ("": every run on the bus).
   std::string run_prefix;
   // A run of a serial not added with AddUnit adds its unit (slot from the
-  // run); a newer run of a unit (a later start) replaces its older one.
-  // Off: runs of other serials are ignored.
+  // run); a newer run of a unit (a later start) replaces its older one. A
+  // new run (announced by acquire) when every unit shown is done (archived
+  // with its final result) starts a new soak: the done units and the last
+  // soak's processes leave; a new unit in the fixture slot of a done one
+  // takes its row. Off: runs of other serials are ignored.
   bool discover_units = false;
   // Keep each axis's latest curve (Curves()).
   bool keep_curves = false;
+  // With discover_units: a unit whose run was archived with its final result
+  // this long ago leaves the model (a monitor that runs for days); 0: never.
+  double forget_after_s = 0;
 };
 
 // The latest curve of one axis of a run, in datasheet units (deg/h for a
@@ -109,14 +116,18 @@ class StationMonitor {
     double grew_at = -1;        // monotonic s (-1: not yet)
     bool device_paced = false;  // a serial source: silence means no data
     int64_t start_utime = 0;
+    double done_at = -1;        // archived with its final result (monotonic s)
+    std::string station;        // of its run (discovered units)
   };
   struct Instance {
     std::string kind;
     double first_heard = 0, last_heard = 0;
+    bool gone = false;  // silent kGoneS at the last Refresh
   };
   ConsoleUnit* UnitOfRun(const std::string& run_id, const std::string& serial,
                          const imuqual::run_t* announcement);
   void Changed(int64_t utime = 0);
+  void RemoveUnits(const std::function<bool(const ConsoleUnit&)>& which);
 
   MonitorOptions options_;
   ConsoleModel model_;

@@ -116,6 +116,75 @@ TEST(StationMonitorTest, ANewerRunOfAUnitReplacesItsRow) {
   EXPECT_EQ(m.model().units[0].samples, 100);
 }
 
+void Finish(StationMonitor& m, const std::string& run_id, const std::string& serial) {
+  m.OnResult(ResultMsg(run_id, serial, true, 5, imuqual::measurement_t::OUTCOME_PASS));
+  imuqual::ack_t a{};
+  a.process = "store";
+  a.run_id = run_id;
+  a.run_done = true;
+  m.OnAck(a);
+}
+
+TEST(StationMonitorTest, ANewSoakReplacesTheDoneOneAndItsProcesses) {
+  MonitorOptions o;
+  o.discover_units = true;
+  StationMonitor m(o);
+  m.OnStatus(StatusMsg("store", "h:1"), 0);
+  m.OnRun(RunMsg("S1-A", "A", "1", imuqual::run_t::STATE_RUNNING, 10, 1000));
+  m.OnRun(RunMsg("S1-B", "B", "2", imuqual::run_t::STATE_RUNNING, 10, 1000));
+  Finish(m, "S1-A", "A");
+  // Not all done: a new unit in another slot is added beside them.
+  m.OnRun(RunMsg("S2-C", "C", "3", imuqual::run_t::STATE_RUNNING, 10, 2000));
+  EXPECT_EQ(m.model().units.size(), 3u);
+  // A new unit in slot 1, whose unit is done, takes its row.
+  m.OnRun(RunMsg("S2-D", "D", "1", imuqual::run_t::STATE_RUNNING, 10, 2000));
+  ASSERT_EQ(m.model().units.size(), 3u);
+  EXPECT_EQ(m.model().units[0].serial, "D");
+  Finish(m, "S1-B", "B");
+  Finish(m, "S2-C", "C");
+  Finish(m, "S2-D", "D");
+  // The station's processes end; a new soak's start anew: no restart.
+  m.Refresh(10, true);
+  m.OnStatus(StatusMsg("store", "h:2"), 20);
+  m.Refresh(20, true);
+  EXPECT_EQ(m.model().processes[0].restarts, 1);  // as far as it can tell yet
+  m.OnRun(RunMsg("S3-E", "E", "1", imuqual::run_t::STATE_RUNNING, 10, 3000));
+  ASSERT_EQ(m.model().units.size(), 1u);
+  EXPECT_EQ(m.model().units[0].serial, "E");
+  m.Refresh(21, true);
+  EXPECT_EQ(m.model().processes[0].restarts, 0);
+  EXPECT_EQ(m.model().processes[0].running, 1);
+  // The store re-announcing an old run does not bring it back as a new soak.
+  imuqual::run_t old = RunMsg("S1-A", "A", "1", imuqual::run_t::STATE_COMPLETE, 10, 1000);
+  old.announcer = "store";
+  m.OnRun(old);
+  EXPECT_EQ(m.model().units.size(), 2u);  // shown (its analysis is not finished), E kept
+  EXPECT_EQ(m.model().units[1].serial, "E");
+}
+
+TEST(StationMonitorTest, ForgetsUnitsArchivedLongAgo) {
+  MonitorOptions o;
+  o.discover_units = true;
+  o.forget_after_s = 60;
+  StationMonitor m(o);
+  m.OnRun(RunMsg("R-U1", "U1", "A1"));
+  m.OnRun(RunMsg("R-U2", "U2", "A2"));
+  m.OnResult(ResultMsg("R-U1", "U1", true, 12, imuqual::measurement_t::OUTCOME_FAIL));
+  imuqual::ack_t a{};
+  a.process = "store";
+  a.run_id = "R-U1";
+  a.run_done = true;
+  m.OnAck(a);
+  m.Refresh(100, true);
+  m.Refresh(150, true);
+  EXPECT_EQ(m.model().units.size(), 2u);
+  m.Refresh(161, true);
+  ASSERT_EQ(m.model().units.size(), 1u);
+  EXPECT_EQ(m.model().units[0].serial, "U2");
+  m.OnRun(RunMsg("R-U2", "U2", "A2", imuqual::run_t::STATE_RUNNING, 2000));
+  EXPECT_EQ(m.model().units[0].samples, 2000);
+}
+
 TEST(StationMonitorTest, ResultsSetProvisionalAndFinalVerdictsAndRaiseTheVersion) {
   MonitorOptions o;
   o.discover_units = true;

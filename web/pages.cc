@@ -46,17 +46,21 @@ dt { color: #5b6670; }
 figure { margin: 8px 0; } svg { max-width: 100%; height: auto; }
 )css";
 
-std::string Html(const std::string& title, const std::string& body) {
+}  // namespace
+
+std::string PageHtml(const std::string& title, const std::string& body) {
   return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
          "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
          "<link rel=\"icon\" href=\"data:,\">\n<title>" +
          HtmlEscape(title) + " - imuqual</title>\n<style>" + kStyle +
          "</style>\n</head>\n<body>\n<nav><a href=\"/\">imuqual: lots</a><a "
-         "href=\"/compare\">compare lots</a>"
+         "href=\"/compare\">compare lots</a><a href=\"/live\">live station</a>"
          "<form action=\"/unit\" method=\"get\"><label>serial <input name=\"serial\" "
          "size=\"16\"></label> <button>find</button></form></nav>\n<main>\n" +
          body + "</main>\n</body>\n</html>\n";
 }
+
+namespace {
 
 // URL path segment: every byte but unreserved ones percent-encoded.
 std::string PathSegment(const std::string& s) {
@@ -85,12 +89,12 @@ cli::TableLinks Links() {
 
 Page NotFound(const std::string& what) {
   return {404, "text/html; charset=utf-8",
-          Html("not found", "<h1>Not found</h1>\n<p>" + HtmlEscape(what) + "</p>\n")};
+          PageHtml("not found", "<h1>Not found</h1>\n<p>" + HtmlEscape(what) + "</p>\n")};
 }
 
 Page Failed(const Status& st) {
   return {500, "text/html; charset=utf-8",
-          Html("error", "<h1>The archive could not be read</h1>\n<p>" + HtmlEscape(st.message()) +
+          PageHtml("error", "<h1>The archive could not be read</h1>\n<p>" + HtmlEscape(st.message()) +
                             "</p>\n")};
 }
 
@@ -120,7 +124,7 @@ Page Home(store::Archive& archive, const std::string& label) {
       "<p class=\"note\">Units by their final run (latest judged, else latest); yield = (pass + "
       "marginal) / (pass + marginal + fail); n/m: not measurable, no judged unit. JSON: "
       "<a href=\"/api/lots\">/api/lots</a>.</p>\n";
-  return {200, "text/html; charset=utf-8", Html("lots", body)};
+  return {200, "text/html; charset=utf-8", PageHtml("lots", body)};
 }
 
 Page UnitHistory(store::Archive& archive, const std::string& serial) {
@@ -134,7 +138,7 @@ Page UnitHistory(store::Archive& archive, const std::string& serial) {
   const std::string body = "<h1>Unit " + HtmlEscape(serial) + ": " + std::to_string(runs->size()) +
                            (runs->size() == 1 ? " run" : " runs") + ", newest first</h1>\n" +
                            t.Render(Format::kHtml);
-  return {200, "text/html; charset=utf-8", Html("unit " + serial, body)};
+  return {200, "text/html; charset=utf-8", PageHtml("unit " + serial, body)};
 }
 
 TableWriter MeasurementTable(const std::vector<pb::Measurement>& ms) {
@@ -206,7 +210,7 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
   if (series.ok()) body += "<h2>Raw samples against time</h2>\n<figure>" + *series + "</figure>\n";
   body += "<p class=\"note\">JSON: <a href=\"/api/run/" + HtmlEscape(PathSegment(run_id)) +
           "\">/api/run/" + HtmlEscape(run_id) + "</a>.</p>\n";
-  return {200, "text/html; charset=utf-8", Html("run " + run_id, body)};
+  return {200, "text/html; charset=utf-8", PageHtml("run " + run_id, body)};
 }
 
 // Two lots side by side: every measurement's n, mean, sd and yield in each,
@@ -220,7 +224,7 @@ Page Compare(store::Archive& archive, const std::string& lot_a, const std::strin
       HtmlEscape(lot_b) + "\"></label> <button>compare</button></form>\n";
   if (lot_a.empty() || lot_b.empty()) {
     if (json) return {404, "application/json", "{\"error\": \"give a and b\"}\n"};
-    return {200, "text/html; charset=utf-8", Html("compare", body)};
+    return {200, "text/html; charset=utf-8", PageHtml("compare", body)};
   }
   auto a = cli::LotStatistics(archive, lot_a);
   auto b = a.ok() ? cli::LotStatistics(archive, lot_b) : a;
@@ -238,7 +242,7 @@ Page Compare(store::Archive& archive, const std::string& lot_a, const std::strin
           " (b): each unit by its latest run; Welch t (mean), F (sd), Fisher exact (yield); "
           "significant at 0.05 family-wise (Holm, " +
           std::to_string(3 * rows.size()) + " tests).</p>\n" + t.Render(Format::kHtml);
-  return {200, "text/html; charset=utf-8", Html("compare " + lot_a + " and " + lot_b, body)};
+  return {200, "text/html; charset=utf-8", PageHtml("compare " + lot_a + " and " + lot_b, body)};
 }
 
 }  // namespace

@@ -18,6 +18,9 @@ struct Page {
   std::string body;
 };
 
+// A whole page in the site's frame (style, navigation); `body` is HTML.
+std::string PageHtml(const std::string& title, const std::string& body);
+
 // GET `path` (already URL-decoded by the server, without the query) with
 // `query` parameters. `archive_label` names the archive on the pages.
 //   /                      the lots (yield, dates) and a search by serial

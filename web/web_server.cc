@@ -3,10 +3,16 @@
 #include <arpa/inet.h>
 #include <httplib.h>
 
+#include <sys/stat.h>
+
+#include <atomic>
 #include <map>
 #include <string>
 
+#include "common/text_util.h"
 #include "store/archive.h"
+#include "web/live_feed.h"
+#include "web/live_page.h"
 #include "web/pages.h"
 
 namespace imuqual::web {
@@ -21,6 +27,8 @@ bool SameSecret(const std::string& a, const std::string& b) {
 }
 
 constexpr size_t kWorkers = 32;
+constexpr int kMaxStreams = 16;  // live event streams at once (each holds a worker)
+constexpr int kKeepAliveS = 15;  // a comment line this often on a quiet stream
 constexpr char kTokenCookie[] = "imuqual_token";
 
 // A Host header naming this host: 127.x.y.z, localhost or [::1], with or
@@ -52,6 +60,7 @@ std::string CookieValue(const std::string& header, const std::string& name) {
 
 constexpr char kSecurityPolicy[] =
     "default-src 'none'; style-src 'unsafe-inline'; script-src 'unsafe-inline'; img-src data:; "
+    "connect-src 'self'; "
     "form-action 'self'; base-uri 'none'; frame-ancestors 'none'";
 
 }  // namespace
@@ -86,6 +95,9 @@ Status ParseListen(const std::string& text, ServeOptions* o) {
 
 struct WebServer::Impl {
   ServeOptions options;
+  std::unique_ptr<LiveFeed> feed;  // with a bus
+  std::atomic<bool> stopping{false};
+  std::atomic<int> streams{0};
   httplib::Server server;
   int port = 0;
 };
@@ -94,7 +106,10 @@ WebServer::WebServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 WebServer::~WebServer() { Stop(); }
 int WebServer::port() const { return impl_->port; }
 void WebServer::Run() { impl_->server.listen_after_bind(); }
-void WebServer::Stop() { impl_->server.stop(); }
+void WebServer::Stop() {
+  impl_->stopping = true;  // event streams end within a second
+  impl_->server.stop();
+}
 
 Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
   if (!IsLoopback(o.host) && o.token.empty()) {
@@ -113,12 +128,20 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
           "(it travels in a header, a URL and a cookie)");
     }
   }
-  {
+  struct stat info {};
+  const bool exists = ::stat(o.db_path.c_str(), &info) == 0;
+  if (exists || o.bus_url.empty()) {
     auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
     if (!archive.ok()) return archive.status();
   }
   auto impl = std::make_unique<Impl>();
   impl->options = o;
+  if (!o.bus_url.empty()) {
+    auto feed = LiveFeed::Open(o.bus_url, o.db_path);
+    if (!feed.ok()) return feed.status();
+    impl->feed = std::move(*feed);
+  }
+  Impl* state = impl.get();
   httplib::Server& s = impl->server;
   s.set_payload_max_length(1024);  // nothing here takes a body
   // One request per connection: a body the server does not read can never
@@ -186,9 +209,70 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
     }
     return httplib::Server::HandlerResponse::Unhandled;
   });
+  // The live station (with a bus).
+  s.Get("/live", [opts](const httplib::Request&, httplib::Response& res) {
+    res.set_content(LivePageHtml(opts.bus_url), "text/html; charset=utf-8");
+  });
+  s.Get("/api/live", [state](const httplib::Request&, httplib::Response& res) {
+    if (!state->feed) {
+      res.status = 404;
+      res.set_content("{\"error\": \"no bus: start serve with --bus URL\"}\n", "application/json");
+      return;
+    }
+    res.set_content(state->feed->StatusJson() + "\n", "application/json; charset=utf-8");
+  });
+  s.Get("/api/live/curves", [state](const httplib::Request& req, httplib::Response& res) {
+    if (!state->feed) {
+      res.status = 404;
+      res.set_content("{\"error\": \"no bus: start serve with --bus URL\"}\n", "application/json");
+      return;
+    }
+    res.set_content(state->feed->CurvesJson(req.get_param_value("run")),
+                    "application/json; charset=utf-8");
+  });
+  s.Get("/live/events", [state](const httplib::Request&, httplib::Response& res) {
+    if (!state->feed) {
+      res.status = 404;
+      res.set_content("no bus: start serve with --bus URL\n", "text/plain; charset=utf-8");
+      return;
+    }
+    if (state->streams.fetch_add(1) >= kMaxStreams) {
+      state->streams.fetch_sub(1);
+      res.status = 503;
+      res.set_header("Retry-After", "10");
+      res.set_content("too many live pages open\n", "text/plain; charset=utf-8");
+      return;
+    }
+    auto cursor = std::make_shared<LiveFeed::Cursor>();
+    auto quiet = std::make_shared<int>(0);
+    res.set_chunked_content_provider(
+        "text/event-stream",
+        [state, cursor, quiet](size_t, httplib::DataSink& sink) {
+          if (state->stopping || state->feed->stopping()) return false;
+          std::string events = state->feed->NextEvents(cursor.get(), std::chrono::seconds(1));
+          if (events.empty()) {
+            if (++*quiet < kKeepAliveS) return true;
+            events = ": still here\n\n";  // a closed page is found by the failed write
+          }
+          *quiet = 0;
+          return sink.write(events.data(), events.size());
+        },
+        [state](bool) { state->streams.fetch_sub(1); });
+  });
   s.Get(".*", [opts](const httplib::Request& req, httplib::Response& res) {
     std::map<std::string, std::string> query;
     for (const auto& [k, v] : req.params) query.emplace(k, v);
+    struct stat info {};
+    if (!opts.bus_url.empty() && ::stat(opts.db_path.c_str(), &info) != 0) {
+      res.status = 503;
+      res.set_content(PageHtml("no archive yet", "<h1>No archive yet</h1>\n<p>" +
+                                                     HtmlEscape(opts.db_path) +
+                                                     " does not exist yet: the station creates it "
+                                                     "when its soak starts. <a href=\"/live\">The "
+                                                     "live station</a>.</p>\n"),
+                      "text/html; charset=utf-8");
+      return;
+    }
     auto archive = store::Archive::Open(opts.db_path, store::Archive::Mode::kRead);
     Page page;
     if (!archive.ok()) {

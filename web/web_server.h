@@ -14,6 +14,11 @@
 // else. One request per connection; a request that announces a body is
 // refused (413); 32 workers, each held by a slow client for at most 3 s per
 // read. Exposed beyond a trusted network, put it behind a proxy.
+//
+// With a bus (live_feed.h): /live is the live station page, /live/events
+// its server-sent events (at most 16 streams at once; 503 beyond),
+// /api/live the latest status document and /api/live/curves?run=ID the
+// latest curves of a run (JSON arrays).
 #ifndef IMUQUAL_WEB_WEB_SERVER_H_
 #define IMUQUAL_WEB_WEB_SERVER_H_
 
@@ -29,6 +34,10 @@ struct ServeOptions {
   std::string host = "127.0.0.1";  // address to listen on
   int port = 8080;                 // 0: any free port (see WebServer::port)
   std::string token;               // required unless host is a loopback address
+  // A station bus (LCM URL) for the live page (/live, /live/events,
+  // /api/live); "" without one. With a bus the archive may not exist yet
+  // (the station creates it): its pages say so until it does.
+  std::string bus_url;
 };
 
 // Whether `host` is a loopback address (127.0.0.0/8, ::1, localhost).

@@ -14,8 +14,18 @@
 #include "store/outcome.h"
 #include "store/run_record.h"
 #include "tests/test_util.h"
+#include "common/channels.h"
+#include "common/lcm_bus.h"
+#include "imuqual/allan_curve_t.hpp"
+#include "imuqual/rate_batch_t.hpp"
+#include "imuqual/run_t.hpp"
+#include "imuqual/status_t.hpp"
+#include "imuqual/unit_result_t.hpp"
+#include "web/live_feed.h"
 #include "web/pages.h"
 #include "web/web_server.h"
+
+#include <nlohmann/json.hpp>
 
 namespace imuqual::web {
 namespace {
@@ -310,6 +320,162 @@ TEST(WebServerTest, AnAddressBeyondThisHostNeedsAToken) {
   o.host = "127.0.0.1";
   auto missing = WebServer::Start(o);
   EXPECT_FALSE(missing.ok());
+}
+
+// The live page: a station bus heard, its runs, verdicts and curves served
+// as JSON and as server-sent events; the archive may come later.
+TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
+  testing::TempDir dir("web_live");
+  const std::string url =
+      "udpm://239.255.76.67:" + std::to_string(31000 + ::getpid() % 2000) + "?ttl=0";
+  ServeOptions o;
+  o.db_path = dir.path("not-yet.db");  // the station creates it later
+  o.port = 0;
+  o.bus_url = url;
+  auto s = WebServer::Start(o);
+  ASSERT_TRUE(s.ok()) << s.status().ToString();
+  std::unique_ptr<WebServer> server = std::move(*s);
+  std::thread serving([&] { server->Run(); });
+  httplib::Client client("127.0.0.1", server->port());
+  for (int i = 0; i < 200 && !client.Get("/live"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  auto page = client.Get("/live");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_NE(page->body.find("new EventSource('/live/events')"), std::string::npos);
+  EXPECT_NE(page->get_header_value("Content-Security-Policy").find("connect-src 'self'"),
+            std::string::npos);
+  auto home = client.Get("/");
+  ASSERT_TRUE(home);
+  EXPECT_EQ(home->status, 503);
+  EXPECT_NE(home->body.find("does not exist yet"), std::string::npos);
+
+  // A station on the bus: a unit whose serial tries HTML, its run, a
+  // provisional result and an interim curve, and the processes' status.
+  auto bus = LcmBus::Open(url);
+  ASSERT_TRUE(bus.ok()) << bus.status().ToString();
+  const std::string serial = "U<b>1";
+  imuqual::run_t r{};
+  r.run_id = "P-" + serial;
+  r.unit_serial = serial;
+  r.slot = "A1";
+  r.lot = "LOT-1";
+  r.station = "bench-9";
+  r.source = "sim:vg700";
+  r.announcer = "acquire";
+  r.state = imuqual::run_t::STATE_RUNNING;
+  r.nominal_rate_hz = 100;
+  r.samples_published = 6000;
+  r.start_utime = 1;
+  r.num_axes = 1;
+  r.axis_names = {"gx"};
+  r.axis_kinds = {imuqual::rate_batch_t::KIND_GYRO};
+  imuqual::unit_result_t res{};
+  res.run_id = r.run_id;
+  res.unit_serial = serial;
+  res.host_utime = 123456789;
+  imuqual::measurement_t m{};
+  m.axis = "gx";
+  m.name = "bias_instability";
+  m.value = 12.5;
+  m.uncertainty = 0.75;
+  m.unit = "deg/h";
+  m.outcome = imuqual::measurement_t::OUTCOME_FAIL;
+  res.measurements = {m};
+  res.num_measurements = 1;
+  imuqual::allan_curve_t c{};
+  c.run_id = r.run_id;
+  c.unit_serial = serial;
+  c.axis = "gx";
+  c.axis_kind = imuqual::rate_batch_t::KIND_GYRO;
+  c.estimator = "oadev";
+  c.host_utime = 5;
+  c.samples = 6000;
+  c.tau_s = {0.01, 0.1, 1};
+  c.dev = {0.1, 0.03, 0.01};
+  c.lo = {0.09, 0.027, 0.009};
+  c.hi = {0.11, 0.033, 0.011};
+  c.m = {1, 10, 100};
+  c.edf = {100, 50, 10};
+  c.n_terms = {1000, 900, 100};
+  c.stride = {1, 1, 1};
+  c.alpha = {0, 0, 0};
+  c.alpha_inherited = {false, false, false};
+  c.num_points = 3;
+  imuqual::status_t st{};
+  st.process = "store";
+  st.instance = "h:42";
+  st.healthy = 1;
+  nlohmann::json live;
+  for (int i = 0; i < 100; ++i) {
+    ASSERT_TRUE((*bus)->Publish(channels::kRun, r).ok());
+    ASSERT_TRUE((*bus)->Publish(channels::Result(serial), res).ok());
+    ASSERT_TRUE((*bus)->Publish(channels::Curve(serial), c).ok());
+    ASSERT_TRUE((*bus)->Publish(channels::kStatus, st).ok());
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    auto got = client.Get("/api/live");
+    ASSERT_TRUE(got);
+    live = nlohmann::json::parse(got->body);
+    if (!live["units"].empty() && !live["units"][0]["axes"][0]["verdict"].get<std::string>().empty())
+      break;
+  }
+  ASSERT_EQ(live["units"].size(), 1u) << live.dump();
+  const auto& u = live["units"][0];
+  EXPECT_EQ(u["serial"], serial);
+  EXPECT_EQ(u["slot"], "A1");
+  EXPECT_EQ(u["state"], "running");
+  EXPECT_EQ(u["elapsed"], "1:00");
+  EXPECT_EQ(u["verdict"], "fail?");
+  EXPECT_EQ(u["axes"][0]["bias_instability"], "12.5 \u00b1 0.75 deg/h");
+  EXPECT_EQ(live["station"], "bench-9");
+  EXPECT_EQ(live["lot"], "LOT-1");
+  EXPECT_EQ(live["newest_utime"], 123456789);
+  EXPECT_EQ(live["processes"][0]["name"], "store");
+  EXPECT_EQ(live["processes"][0]["running"], 1);
+  // The curve, in deg/h.
+  auto curves = client.Get("/api/live/curves?run=" + std::string("P-U%3Cb%3E1"));
+  ASSERT_TRUE(curves);
+  const nlohmann::json cj = nlohmann::json::parse(curves->body);
+  ASSERT_EQ(cj.size(), 1u) << curves->body;
+  EXPECT_EQ(cj[0]["unit"], "deg/h");
+  EXPECT_DOUBLE_EQ(cj[0]["dev"][0].get<double>(), 360.0);
+  // The event stream: a status and the curve, then the client goes away.
+  std::string stream;
+  auto events = client.Get("/live/events", [&](const char* data, size_t n) {
+    stream.append(data, n);
+    return stream.find("event: curve") == std::string::npos ||
+           stream.find("event: status") == std::string::npos;
+  });
+  EXPECT_NE(stream.find("event: status\ndata: {"), std::string::npos) << stream;
+  EXPECT_NE(stream.find("event: curve\ndata: {"), std::string::npos) << stream;
+  server->Stop();
+  serving.join();
+}
+
+TEST(LiveServeTest, WithoutABusTheLivePageSaysHowToStartIt) {
+  testing::TempDir dir("web_nobus");
+  ServeOptions o;
+  o.db_path = MakeArchive(dir);
+  o.port = 0;
+  auto s = WebServer::Start(o);
+  ASSERT_TRUE(s.ok());
+  std::unique_ptr<WebServer> server = std::move(*s);
+  std::thread serving([&] { server->Run(); });
+  httplib::Client client("127.0.0.1", server->port());
+  for (int i = 0; i < 200 && !client.Get("/live"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  auto page = client.Get("/live");
+  ASSERT_TRUE(page);
+  EXPECT_NE(page->body.find("--bus URL"), std::string::npos);
+  EXPECT_EQ(page->body.find("EventSource"), std::string::npos);
+  auto api = client.Get("/api/live");
+  ASSERT_TRUE(api);
+  EXPECT_EQ(api->status, 404);
+  auto events = client.Get("/live/events");
+  ASSERT_TRUE(events);
+  EXPECT_EQ(events->status, 404);
+  server->Stop();
+  serving.join();
 }
 
 }  // namespace
