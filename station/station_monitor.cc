@@ -395,8 +395,10 @@ void StationMonitor::Refresh(double now, bool processes_from_status) {
   }
   if (!processes_from_status) return;
   // The processes as their status messages say: alive while heard within
-  // kGoneS; an instance gone with a newer one of its kind heard after it
-  // (a new pid) was restarted.
+  // kGoneS. An instance was restarted (superseded) when another of its kind
+  // was first heard after it fell silent: more than a status period after
+  // its last word, or at all once it is gone (processes started together
+  // are heard within one period of each other).
   std::vector<ConsoleProcess> processes;
   int64_t first_start = 0;
   for (const ConsoleUnit& u : model_.units) {
@@ -404,22 +406,22 @@ void StationMonitor::Refresh(double now, bool processes_from_status) {
     if (start > 0 && (first_start == 0 || start < first_start)) first_start = start;
   }
   model_.wall_s = first_start > 0 ? static_cast<double>(NowUtime() - first_start) / 1e6 : 0;
+  for (auto& [key, in] : instances_) in.gone = now - in.last_heard >= kGoneS;
   for (const char* kind : {"store", "analyze", "acquire"}) {
     ConsoleProcess p;
     p.name = kind;
-    p.expected = 0;
-    for (auto& [key, in] : instances_) {
+    for (const auto& [key, in] : instances_) {
       if (in.kind != kind) continue;
-      in.gone = now - in.last_heard >= kGoneS;
-      if (!in.gone) {
-        ++p.running;
-        continue;
-      }
+      bool superseded = false;
       for (const auto& [other_key, other] : instances_) {
-        if (other.kind == kind && other.first_heard > in.last_heard) {
-          ++p.restarts;
-          break;
-        }
+        superseded = superseded ||
+                     (other.kind == kind && (other.first_heard > in.last_heard + kStatusPeriodS ||
+                                             (in.gone && other.first_heard > in.last_heard)));
+      }
+      if (superseded) {
+        ++p.restarts;
+      } else if (!in.gone) {
+        ++p.running;
       }
     }
     int& most = most_alive_[kind];

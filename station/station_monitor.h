@@ -109,6 +109,7 @@ class StationMonitor {
   // this long is gone (status_t comes about once a second).
   static constexpr double kComplaintS = 3;
   static constexpr double kGoneS = 3.5;
+  static constexpr double kStatusPeriodS = 1.0;
 
  private:
   struct Track {

@@ -230,12 +230,23 @@ TEST(StationMonitorTest, ProcessesFromStatusCountAliveAndRestartedInstances) {
   EXPECT_EQ(m.model().processes[1].expected, 2);
   EXPECT_TRUE(m.Reported("analyze", 102));
   EXPECT_FALSE(m.Reported("store", 102));
-  // The store killed at 1.5 s, a new one reports at 3 s; the others go on.
-  for (double t = 1.0; t <= 8.0; t += 1.0) {
+  // The store killed at 1.5 s (last heard at 1 s), a new one reports at
+  // 2.6 s: while the old one is not yet known gone, one store is expected,
+  // one runs, one was restarted. The others go on.
+  m.OnStatus(StatusMsg("store", "h:100"), 1.0);
+  for (double t = 1.0; t <= 8.0; t += 0.5) {
     m.OnStatus(StatusMsg("analyze", "h:101"), t);
-    m.OnStatus(StatusMsg("analyze", "h:102"), t);
+    m.OnStatus(StatusMsg("analyze", "h:102"), t + 0.3);
     m.OnStatus(StatusMsg("acquire", "h:103", false, "unit U3: device gone"), t);
-    if (t >= 3.0) m.OnStatus(StatusMsg("store", "h:200"), t);
+    if (t >= 2.5) m.OnStatus(StatusMsg("store", "h:200"), t + 0.1);
+    m.Refresh(t + 0.2, true);
+    EXPECT_EQ(m.model().processes[1].running, 2) << t;
+    EXPECT_EQ(m.model().processes[1].restarts, 0) << t;
+    if (t >= 2.5) {
+      EXPECT_EQ(m.model().processes[0].running, 1) << t;
+      EXPECT_EQ(m.model().processes[0].expected, 1) << t;
+      EXPECT_EQ(m.model().processes[0].restarts, 1) << t;
+    }
   }
   m.Refresh(8.5, true);
   const ConsoleProcess& store = m.model().processes[0];

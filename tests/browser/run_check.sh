@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # ctest entry of a browser test (report_check.mjs: `imuqual report`;
-# web_check.mjs: `imuqual serve`): checks that what it needs is there,
+# web_check.mjs: `imuqual serve`; live_check.mjs: `imuqual serve --bus`
+# during a soak): checks that what it needs is there,
 # saying how to get what is not, then runs it.
 # Usage: run_check.sh CHECK.mjs path/to/imuqual
 set -euo pipefail

@@ -1,0 +1,210 @@
+// The live station page of `imuqual serve --bus` in a real browser, during
+// a real soak.
+//
+// GIVEN `imuqual serve --db DB --bus URL` started before the station (the
+//       archive does not exist yet), and `imuqual run` soaking 4 simulated
+//       VG700-like gyros on that bus, paced so that the soak lasts about a
+//       minute, with an operator name that is hostile HTML,
+// WHEN  headless Chromium opens /live and watches the soak; halfway the
+//       station's store process is killed (the station restarts it),
+// THEN  a row appears for every unit and its samples grow; each unit's Allan
+//       curves are drawn and grow; the killed store is shown restarted
+//       ("store up (restarted 1x)"); at the end every unit shows its final
+//       verdict, equal to the archive's (sqlite3), the tally is shown, and
+//       the report link leads to the lot's report; the hostile operator
+//       name shows as text and runs nothing; no console error, no page
+//       error, no request to anything but the server. The page's update
+//       latency (result published -> shown) is printed, not asserted.
+//
+// Usage: node live_check.mjs --imuqual BIN [--chromium PATH]
+import { execFileSync, spawn } from 'node:child_process';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { chromium } from 'playwright-core';
+
+const kLot = 'LIVE';
+const kUnits = 4;
+const kDurationS = 3660;  // the plan's warm-up + minimum: judged, not too short
+const kPace = 60;         // about a minute of wall time
+const kOperator = 'op"><img src=x onerror="window.injected=3">';
+
+function parseArgs(argv) {
+  const args = { chromium: '/usr/bin/chromium' };
+  for (let i = 0; i < argv.length; i += 2) {
+    const key = argv[i].replace(/^--/, '');
+    if (!['imuqual', 'chromium'].includes(key) || i + 1 >= argv.length) {
+      throw new Error(`unknown or incomplete argument '${argv[i]}'`);
+    }
+    args[key] = argv[i + 1];
+  }
+  if (!args.imuqual) throw new Error('--imuqual BIN is required');
+  return args;
+}
+
+function sqlite(db, sql) {
+  const out = execFileSync('sqlite3', ['-json', '-bail', '-readonly', db, sql], { encoding: 'utf8' }).trim();
+  return out === '' ? [] : JSON.parse(out);
+}
+
+const failures = [];
+function fail(message) { failures.push(message); }
+
+function serve(imuqual, db, bus) {
+  const child = spawn(imuqual, ['serve', '--db', db, '--bus', bus, '--listen', '127.0.0.1:0'],
+                      { stdio: ['ignore', 'pipe', 'pipe'] });
+  return new Promise((resolve, reject) => {
+    let out = '';
+    const timer = setTimeout(() => reject(new Error(`serve printed no live URL: ${out}`)), 20000);
+    child.stdout.on('data', (d) => {
+      out += d;
+      const m = /live station \(bus [^)]*\): (http:\/\/127\.0\.0\.1:\d+\/live)/.exec(out);
+      if (m) {
+        clearTimeout(timer);
+        resolve({ child, live: m[1] });
+      }
+    });
+    child.on('exit', (code) => reject(new Error(`serve exited ${code}: ${out}`)));
+  });
+}
+
+// Resolves when `predicate` (run in the page) is true; fails after `seconds`.
+async function waitFor(page, what, seconds, predicate, arg) {
+  const deadline = Date.now() + seconds * 1000;
+  for (;;) {
+    if (await page.evaluate(predicate, arg)) return true;
+    if (Date.now() > deadline) {
+      fail(`${what}: not seen within ${seconds} s`);
+      return false;
+    }
+    await new Promise((r) => setTimeout(r, 200));
+  }
+}
+
+function percentile(values, p) {
+  if (values.length === 0) return NaN;
+  const sorted = [...values].sort((a, b) => a - b);
+  return sorted[Math.min(sorted.length - 1, Math.ceil(p * sorted.length) - 1)];
+}
+
+async function main() {
+  const args = parseArgs(process.argv.slice(2));
+  const started = Date.now();
+  const work = fs.mkdtempSync(path.join(os.tmpdir(), 'imuqual-live-'));
+  const db = path.join(work, 'live.db');
+  const bus = `udpm://239.255.76.67:${20000 + (process.pid % 30000)}?ttl=0`;
+  const { child: server, live } = await serve(args.imuqual, db, bus);
+  const origin = new URL(live).origin;
+  const context = await chromium.launchPersistentContext(path.join(work, 'profile'), {
+    executablePath: args.chromium,
+    headless: true,
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+           '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+    timeout: 60000,
+  });
+  let station = null;
+  let stationLog = '';
+  try {
+    const page = context.pages()[0] || await context.newPage();
+    page.on('console', (msg) => {
+      if (msg.type() === 'error' || msg.type() === 'warning') fail(`console ${msg.type()}: ${msg.text()}`);
+    });
+    page.on('pageerror', (err) => fail(`page error: ${err.message}`));
+    page.on('request', (req) => {
+      const u = req.url();
+      if (!u.startsWith(origin + '/') && !u.startsWith('data:')) fail(`request outside the server: ${u}`);
+    });
+    const response = await page.goto(live, { waitUntil: 'load', timeout: 30000 });
+    if (!response || response.status() !== 200) fail(`${live}: status ${response?.status()}`);
+    await waitFor(page, 'the page connected', 20, () => window.imuqualLive?.updates > 0);
+
+    station = spawn(args.imuqual, ['run', '--sim', String(kUnits), '--duration', String(kDurationS),
+                                   '--lot', kLot, '--db', db, '--lcm-url', bus, '--pace', String(kPace),
+                                   '--operator', kOperator, '--quiet'],
+                    { stdio: ['ignore', 'pipe', 'pipe'] });
+    station.stdout.on('data', (d) => { stationLog += d; });
+    station.stderr.on('data', (d) => { stationLog += d; });
+    const stationDone = new Promise((resolve) => station.on('exit', (code) => resolve(code)));
+
+    // Rows appear, one per unit, and their samples grow.
+    await waitFor(page, `${kUnits} unit rows`, 40, (n) =>
+      document.querySelectorAll('#units tbody tr.first').length === n, kUnits);
+    const samplesOf = () => page.evaluate(() => Object.fromEntries(
+      [...document.querySelectorAll('#units tbody tr.first')].map((tr) => [tr.dataset.serial, Number(tr.cells[9].textContent)])));
+    const first = await samplesOf();
+    await page.waitForTimeout(3000);
+    const later = await samplesOf();
+    for (const [serial, n] of Object.entries(first)) {
+      if (!(later[serial] > n)) fail(`unit ${serial}: samples did not grow (${n} -> ${later[serial]})`);
+    }
+    const operator = await page.evaluate(() => document.getElementById('operator').textContent);
+    if (operator !== kOperator) fail(`operator shown as '${operator}'`);
+    // Curves drawn for every unit, and they grow (more samples behind them).
+    await waitFor(page, 'a curve for every unit', 40, (n) =>
+      [...document.querySelectorAll('#curves figure')].filter((f) => f.querySelector('polyline')).length === n, kUnits);
+    const curveSamples = () => page.evaluate(() => [...document.querySelectorAll('#curves polyline title')]
+      .map((t) => Number(/(\d+) samples/.exec(t.textContent)?.[1] || 0)).reduce((a, b) => a + b, 0));
+    const before = await curveSamples();
+    await page.waitForTimeout(4000);
+    if (!(await curveSamples() > before)) fail('the curves did not grow');
+
+    // The store killed: the station restarts it, the page says so.
+    const storePid = Number(execFileSync('pgrep', ['-P', String(station.pid), '-x', 'imuqual-store'],
+                                         { encoding: 'utf8' }).trim().split('\n')[0]);
+    if (!(storePid > 0)) {
+      fail('no imuqual-store child of the station found');
+    } else {
+      process.kill(storePid, 'SIGKILL');
+      if (!await waitFor(page, 'the killed store shown restarted', 30, () =>
+        /store up \(restarted 1x\)/.test(document.getElementById('processes').textContent))) {
+        fail(`processes shown: '${await page.evaluate(() => document.getElementById('processes').textContent)}'`);
+      }
+    }
+
+    // The end: final verdicts equal to the archive's, the tally, the report link.
+    const code = await stationDone;
+    if (code !== 0) fail(`imuqual run exited ${code}: ${stationLog.slice(-2000)}`);
+    await waitFor(page, 'every unit final and archived (report link shown)', 60, () =>
+      !document.getElementById('done').hidden);
+    const shown = await page.evaluate(() => [...document.querySelectorAll('#units tbody tr.first')]
+      .map((tr) => ({ serial: tr.dataset.serial, verdict: tr.cells[2].textContent, state: tr.cells[4].textContent })));
+    const archived = sqlite(db, `SELECT serial, verdict FROM runs WHERE lot = '${kLot}' ORDER BY serial`);
+    if (archived.length !== kUnits) fail(`${archived.length} runs archived, ${kUnits} expected`);
+    for (const a of archived) {
+      const row = shown.find((s) => s.serial === a.serial);
+      if (!row) { fail(`unit ${a.serial} not shown at the end`); continue; }
+      if (row.verdict !== a.verdict) fail(`unit ${a.serial}: page verdict '${row.verdict}', archive '${a.verdict}'`);
+      if (row.state !== 'done') fail(`unit ${a.serial}: state '${row.state}' at the end`);
+    }
+    const tally = await page.evaluate(() => document.getElementById('tally').textContent);
+    if (!/^final: /.test(tally)) fail(`no tally at the end: '${tally}'`);
+    const report = await page.evaluate(() => document.getElementById('report').getAttribute('href'));
+    if (report !== `/lot/${kLot}`) fail(`report link '${report}'`);
+    const latencies = await page.evaluate(() => window.imuqualLive?.latencies_ms || []);
+    console.log(`live_check: update latency over ${latencies.length} updates: p50 ` +
+                `${percentile(latencies, 0.5).toFixed(0)} ms, p99 ${percentile(latencies, 0.99).toFixed(0)} ms`);
+    const lotPage = await page.goto(new URL(report, origin).href, { waitUntil: 'load' });
+    if (lotPage?.status() !== 200 || !(await page.title()).startsWith(`Lot ${kLot}`)) {
+      fail(`the report link did not lead to the lot's report (${lotPage?.status()})`);
+    }
+    if (await page.evaluate(() => window.injected !== undefined)) fail('a hostile string ran');
+  } finally {
+    await context.close();
+    if (station && station.exitCode === null) station.kill('SIGINT');
+    server.kill('SIGTERM');
+  }
+  const seconds = ((Date.now() - started) / 1000).toFixed(1);
+  if (failures.length > 0) {
+    for (const f of failures) console.error(`live_check: FAIL: ${f}`);
+    console.error(`live_check: ${failures.length} failure(s); the files are kept in ${work}`);
+    process.exit(1);
+  }
+  console.log(`live_check: OK: ${kUnits} units appeared and grew, curves drawn, the killed store ` +
+              `shown restarted, final verdicts equal to the archive's, report link (${seconds} s)`);
+  fs.rmSync(work, { recursive: true, force: true });
+}
+
+main().catch((e) => {
+  console.error(`live_check: FAIL: ${e.message}`);
+  process.exit(1);
+});
