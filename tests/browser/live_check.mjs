@@ -21,7 +21,9 @@ import { execFileSync, spawn } from 'node:child_process';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { chromium } from 'playwright-core';
+import {
+  fail, finish, launch, parseArgs, percentile, serve, sqlite, waitFor, watchedPage,
+} from './check_lib.mjs';
 
 const kLot = 'LIVE';
 const kUnits = 4;
@@ -29,91 +31,20 @@ const kDurationS = 3660;  // the plan's warm-up + minimum: judged, not too short
 const kPace = 60;         // about a minute of wall time
 const kOperator = 'op"><img src=x onerror="window.injected=3">';
 
-function parseArgs(argv) {
-  const args = { chromium: '/usr/bin/chromium' };
-  for (let i = 0; i < argv.length; i += 2) {
-    const key = argv[i].replace(/^--/, '');
-    if (!['imuqual', 'chromium'].includes(key) || i + 1 >= argv.length) {
-      throw new Error(`unknown or incomplete argument '${argv[i]}'`);
-    }
-    args[key] = argv[i + 1];
-  }
-  if (!args.imuqual) throw new Error('--imuqual BIN is required');
-  return args;
-}
-
-function sqlite(db, sql) {
-  const out = execFileSync('sqlite3', ['-json', '-bail', '-readonly', db, sql], { encoding: 'utf8' }).trim();
-  return out === '' ? [] : JSON.parse(out);
-}
-
-const failures = [];
-function fail(message) { failures.push(message); }
-
-function serve(imuqual, db, bus) {
-  const child = spawn(imuqual, ['serve', '--db', db, '--bus', bus, '--listen', '127.0.0.1:0'],
-                      { stdio: ['ignore', 'pipe', 'pipe'] });
-  return new Promise((resolve, reject) => {
-    let out = '';
-    const timer = setTimeout(() => reject(new Error(`serve printed no live URL: ${out}`)), 20000);
-    child.stdout.on('data', (d) => {
-      out += d;
-      const m = /live station \(bus [^)]*\): (http:\/\/127\.0\.0\.1:\d+\/live)/.exec(out);
-      if (m) {
-        clearTimeout(timer);
-        resolve({ child, live: m[1] });
-      }
-    });
-    child.on('exit', (code) => reject(new Error(`serve exited ${code}: ${out}`)));
-  });
-}
-
-// Resolves when `predicate` (run in the page) is true; fails after `seconds`.
-async function waitFor(page, what, seconds, predicate, arg) {
-  const deadline = Date.now() + seconds * 1000;
-  for (;;) {
-    if (await page.evaluate(predicate, arg)) return true;
-    if (Date.now() > deadline) {
-      fail(`${what}: not seen within ${seconds} s`);
-      return false;
-    }
-    await new Promise((r) => setTimeout(r, 200));
-  }
-}
-
-function percentile(values, p) {
-  if (values.length === 0) return NaN;
-  const sorted = [...values].sort((a, b) => a - b);
-  return sorted[Math.min(sorted.length - 1, Math.ceil(p * sorted.length) - 1)];
-}
-
 async function main() {
   const args = parseArgs(process.argv.slice(2));
   const started = Date.now();
   const work = fs.mkdtempSync(path.join(os.tmpdir(), 'imuqual-live-'));
   const db = path.join(work, 'live.db');
   const bus = `udpm://239.255.76.67:${20000 + (process.pid % 30000)}?ttl=0`;
-  const { child: server, live } = await serve(args.imuqual, db, bus);
+  const { child: server, url: live } = await serve(args.imuqual, ['--db', db, '--bus', bus],
+                                                   /live station \(bus [^)]*\): (http:\/\/127\.0\.0\.1:\d+\/live)/);
   const origin = new URL(live).origin;
-  const context = await chromium.launchPersistentContext(path.join(work, 'profile'), {
-    executablePath: args.chromium,
-    headless: true,
-    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-           '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-    timeout: 60000,
-  });
+  const context = await launch(args, work);
   let station = null;
   let stationLog = '';
   try {
-    const page = context.pages()[0] || await context.newPage();
-    page.on('console', (msg) => {
-      if (msg.type() === 'error' || msg.type() === 'warning') fail(`console ${msg.type()}: ${msg.text()}`);
-    });
-    page.on('pageerror', (err) => fail(`page error: ${err.message}`));
-    page.on('request', (req) => {
-      const u = req.url();
-      if (!u.startsWith(origin + '/') && !u.startsWith('data:')) fail(`request outside the server: ${u}`);
-    });
+    const page = await watchedPage(context, origin);
     const response = await page.goto(live, { waitUntil: 'load', timeout: 30000 });
     if (!response || response.status() !== 200) fail(`${live}: status ${response?.status()}`);
     await waitFor(page, 'the page connected', 20, () => window.imuqualLive?.updates > 0);
@@ -194,14 +125,9 @@ async function main() {
     server.kill('SIGTERM');
   }
   const seconds = ((Date.now() - started) / 1000).toFixed(1);
-  if (failures.length > 0) {
-    for (const f of failures) console.error(`live_check: FAIL: ${f}`);
-    console.error(`live_check: ${failures.length} failure(s); the files are kept in ${work}`);
-    process.exit(1);
-  }
-  console.log(`live_check: OK: ${kUnits} units appeared and grew, curves drawn, the killed store ` +
-              `shown restarted, final verdicts equal to the archive's, report link (${seconds} s)`);
-  fs.rmSync(work, { recursive: true, force: true });
+  finish('live_check', `${kUnits} units appeared and grew, curves drawn, the killed store shown ` +
+         `restarted, final verdicts equal to the archive's, report link (${seconds} s)`,
+         work, () => fs.rmSync(work, { recursive: true, force: true }));
 }
 
 main().catch((e) => {

@@ -19,12 +19,12 @@
 //          (checks an existing report against its archive; nothing generated)
 // Exit status 0 when every check passes, 1 otherwise (each failure is one
 // line on stderr).
-import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import { pathToFileURL } from 'node:url';
 import { chromium } from 'playwright-core';
+import { fail, failures, run, sqlite, sqlText } from './check_lib.mjs';
 
 // Mean, sd and capability are recomputed here in double precision from the
 // same values; the summation order may differ from imuqual's, which moves the
@@ -55,27 +55,6 @@ function parseArgs(argv) {
   }
   return args;
 }
-
-function run(file, args) {
-  try {
-    return execFileSync(file, args, { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'] });
-  } catch (e) {
-    throw new Error(`${path.basename(file)} ${args.join(' ')} failed (exit ${e.status}): ` +
-                    `${(e.stderr || '').trim()}`);
-  }
-}
-
-// An SQL string literal.
-function sqlText(s) { return `'${s.replace(/'/g, "''")}'`; }
-
-// Rows as objects; sqlite3 -json prints reals with 17+ digits (exact).
-function sqlite(db, sql) {
-  const out = run('sqlite3', ['-json', '-bail', '-readonly', db, sql]).trim();
-  return out === '' ? [] : JSON.parse(out);
-}
-
-const failures = [];
-function fail(message) { failures.push(message); }
 
 // Exact equality of a page value (data-v text) with an archive value (number
 // or null): the page writes the shortest text that parses back to the same double.

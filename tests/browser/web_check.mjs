@@ -16,11 +16,12 @@
 // Usage: node web_check.mjs --imuqual BIN [--chromium PATH]
 // Exit status 0 when every check passes, 1 otherwise (each failure is one
 // line on stderr).
-import { execFileSync, spawn } from 'node:child_process';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { chromium } from 'playwright-core';
+import {
+  fail, finish, launch, parseArgs, run, serve, sqlite, sqlText, watchedPage,
+} from './check_lib.mjs';
 
 const kLot = 'WEB';
 const kUnits = 4;
@@ -28,59 +29,9 @@ const kPlanSource = new URL('../../plans/vg700ca.textproto', import.meta.url);
 const kPlanName = 'vg700 <script>window.injected = 1</script> & "q"';
 const kOperator = 'ana"><img src=x onerror="window.injected=2">';
 
-function parseArgs(argv) {
-  const args = { chromium: '/usr/bin/chromium' };
-  for (let i = 0; i < argv.length; i += 2) {
-    const key = argv[i].replace(/^--/, '');
-    if (!['imuqual', 'chromium'].includes(key) || i + 1 >= argv.length) {
-      throw new Error(`unknown or incomplete argument '${argv[i]}'`);
-    }
-    args[key] = argv[i + 1];
-  }
-  if (!args.imuqual) throw new Error('--imuqual BIN is required');
-  return args;
-}
-
-function run(file, args) {
-  try {
-    return execFileSync(file, args, { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'] });
-  } catch (e) {
-    throw new Error(`${path.basename(file)} ${args.join(' ')} failed (exit ${e.status}): ` +
-                    `${(e.stderr || '').trim()}`);
-  }
-}
-
-function sqlText(s) { return `'${s.replace(/'/g, "''")}'`; }
-function sqlite(db, sql) {
-  const out = run('sqlite3', ['-json', '-bail', '-readonly', db, sql]).trim();
-  return out === '' ? [] : JSON.parse(out);
-}
-
-const failures = [];
-function fail(message) { failures.push(message); }
-
 function sameExact(pageText, dbValue) {
   if (dbValue === null || dbValue === undefined) return pageText === null || pageText === '';
   return pageText !== null && pageText !== '' && Number(pageText) === dbValue;
-}
-
-// Starts `imuqual serve` on a free loopback port; resolves to its base URL.
-function serve(imuqual, db) {
-  const child = spawn(imuqual, ['serve', '--db', db, '--listen', '127.0.0.1:0'],
-                      { stdio: ['ignore', 'pipe', 'pipe'] });
-  return new Promise((resolve, reject) => {
-    let out = '';
-    const timer = setTimeout(() => reject(new Error(`serve printed no URL: ${out}`)), 20000);
-    child.stdout.on('data', (d) => {
-      out += d;
-      const m = /at (http:\/\/127\.0\.0\.1:\d+\/)/.exec(out);
-      if (m) {
-        clearTimeout(timer);
-        resolve({ child, base: m[1] });
-      }
-    });
-    child.on('exit', (code) => reject(new Error(`serve exited ${code}: ${out}`)));
-  });
 }
 
 async function main() {
@@ -93,25 +44,11 @@ async function main() {
       .replace(/^name: .*$/m, `name: ${JSON.stringify(kPlanName)}`));
   run(args.imuqual, ['run', '--sim', String(kUnits), '--duration', '600', '--lot', kLot, '--db', db,
                      '--plan', plan, '--operator', kOperator, '--short-soak', '--quiet']);
-  const { child, base } = await serve(args.imuqual, db);
+  const { child, url: base } = await serve(args.imuqual, ['--db', db]);
   const origin = new URL(base).origin;
-  const context = await chromium.launchPersistentContext(path.join(work, 'profile'), {
-    executablePath: args.chromium,
-    headless: true,
-    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-           '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-    timeout: 60000,
-  });
+  const context = await launch(args, work);
   try {
-    const page = context.pages()[0] || await context.newPage();
-    page.on('console', (msg) => {
-      if (msg.type() === 'error' || msg.type() === 'warning') fail(`console ${msg.type()}: ${msg.text()}`);
-    });
-    page.on('pageerror', (err) => fail(`page error: ${err.message}`));
-    page.on('request', (req) => {
-      const u = req.url();
-      if (!u.startsWith(origin + '/') && !u.startsWith('data:')) fail(`request outside the server: ${u}`);
-    });
+    const page = await watchedPage(context, origin);
     const visit = async (url) => {
       const response = await page.goto(url, { waitUntil: 'load', timeout: 30000 });
       if (!response || response.status() !== 200) fail(`${url}: status ${response?.status()}`);
@@ -191,14 +128,9 @@ async function main() {
     child.kill('SIGTERM');
   }
   const seconds = ((Date.now() - started) / 1000).toFixed(1);
-  if (failures.length > 0) {
-    for (const f of failures) console.error(`web_check: FAIL: ${f}`);
-    console.error(`web_check: ${failures.length} failure(s); the files are kept in ${work}`);
-    process.exit(1);
-  }
-  console.log(`web_check: OK: lots page, report, ${kUnits} units and runs against the archive, ` +
-              `no console error, no outside request (${seconds} s)`);
-  fs.rmSync(work, { recursive: true, force: true });
+  finish('web_check', `lots page, report, ${kUnits} units and runs against the archive, ` +
+         `no console error, no outside request (${seconds} s)`,
+         work, () => fs.rmSync(work, { recursive: true, force: true }));
 }
 
 main().catch((e) => {

@@ -1,0 +1,117 @@
+// What the browser checks share: arguments, running the imuqual command and
+// sqlite3, collecting failures, Chromium with a page that reports console
+// errors and requests outside the server, and `imuqual serve` started on a
+// free loopback port.
+import { execFileSync, spawn } from 'node:child_process';
+import path from 'node:path';
+import { chromium } from 'playwright-core';
+
+// --imuqual BIN [--chromium PATH]
+export function parseArgs(argv) {
+  const args = { chromium: '/usr/bin/chromium' };
+  for (let i = 0; i < argv.length; i += 2) {
+    const key = argv[i].replace(/^--/, '');
+    if (!['imuqual', 'chromium'].includes(key) || i + 1 >= argv.length) {
+      throw new Error(`unknown or incomplete argument '${argv[i]}'`);
+    }
+    args[key] = argv[i + 1];
+  }
+  if (!args.imuqual) throw new Error('--imuqual BIN is required');
+  return args;
+}
+
+export function run(file, args) {
+  try {
+    return execFileSync(file, args, { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'] });
+  } catch (e) {
+    throw new Error(`${path.basename(file)} ${args.join(' ')} failed (exit ${e.status}): ` +
+                    `${(e.stderr || '').trim()}`);
+  }
+}
+
+export function sqlText(s) { return `'${s.replace(/'/g, "''")}'`; }
+export function sqlite(db, sql) {
+  const out = run('sqlite3', ['-json', '-bail', '-readonly', db, sql]).trim();
+  return out === '' ? [] : JSON.parse(out);
+}
+
+export const failures = [];
+export function fail(message) { failures.push(message); }
+
+// Prints the failures (exit 1) or the success line; `work` is kept on failure.
+export function finish(name, okLine, work, removeWork) {
+  if (failures.length > 0) {
+    for (const f of failures) console.error(`${name}: FAIL: ${f}`);
+    console.error(`${name}: ${failures.length} failure(s); the files are kept in ${work}`);
+    process.exit(1);
+  }
+  console.log(`${name}: OK: ${okLine}`);
+  removeWork();
+}
+
+// Headless Chromium with a profile under `work`.
+export function launch(args, work) {
+  return chromium.launchPersistentContext(path.join(work, 'profile'), {
+    executablePath: args.chromium,
+    headless: true,
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+           '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+    timeout: 60000,
+  });
+}
+
+// The context's page, failing on console errors and warnings, page errors
+// and any request outside `origin` (or data: URLs).
+export async function watchedPage(context, origin) {
+  const page = context.pages()[0] || await context.newPage();
+  page.on('console', (msg) => {
+    if (msg.type() === 'error' || msg.type() === 'warning') fail(`console ${msg.type()}: ${msg.text()}`);
+  });
+  page.on('pageerror', (err) => fail(`page error: ${err.message}`));
+  page.on('request', (req) => {
+    const u = req.url();
+    if (origin && !u.startsWith(origin + '/') && !u.startsWith('data:')) fail(`request outside the server: ${u}`);
+  });
+  return page;
+}
+
+// Starts `imuqual serve --listen 127.0.0.1:0 EXTRA...`; resolves to
+// { child, url } once it prints a line matching `pattern` (its group 1).
+export function serve(imuqual, extra, pattern = /at (http:\/\/127\.0\.0\.1:\d+\/)/) {
+  const child = spawn(imuqual, ['serve', ...extra, '--listen', '127.0.0.1:0'],
+                      { stdio: ['ignore', 'pipe', 'pipe'] });
+  return new Promise((resolve, reject) => {
+    let out = '';
+    const timer = setTimeout(() => reject(new Error(`serve printed no URL: ${out}`)), 20000);
+    child.stdout.on('data', (d) => {
+      out += d;
+      const m = pattern.exec(out);
+      if (m) {
+        clearTimeout(timer);
+        resolve({ child, url: m[1] });
+      }
+    });
+    child.on('exit', (code) => reject(new Error(`serve exited ${code}: ${out}`)));
+  });
+}
+
+// Resolves true when `predicate` (run in the page with `arg`) holds; false,
+// with a failure, after `seconds`.
+export async function waitFor(page, what, seconds, predicate, arg) {
+  const deadline = Date.now() + seconds * 1000;
+  for (;;) {
+    if (await page.evaluate(predicate, arg)) return true;
+    if (Date.now() > deadline) {
+      fail(`${what}: not seen within ${seconds} s`);
+      return false;
+    }
+    await new Promise((r) => setTimeout(r, 200));
+  }
+}
+
+// The p-quantile (0..1) of `values`, nearest rank; NaN when empty.
+export function percentile(values, p) {
+  if (values.length === 0) return NaN;
+  const sorted = [...values].sort((a, b) => a - b);
+  return sorted[Math.min(sorted.length - 1, Math.max(0, Math.ceil(p * sorted.length) - 1))];
+}
