@@ -5,7 +5,10 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <atomic>
+#include <mutex>
+#include <optional>
 #include <map>
 #include <string>
 
@@ -93,8 +96,44 @@ Status ParseListen(const std::string& text, ServeOptions* o) {
   return Status::Ok();
 }
 
+// Lot reports of lots whose runs are all finished, kept while the archive
+// says they are unchanged (LotReportFingerprint): a 100-unit lot's report
+// fits a noise model per axis, too slow to redo for every view.
+class ReportCache {
+ public:
+  std::optional<Page> Find(const std::string& lot, const std::string& fingerprint) {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = entries_.find(lot);
+    if (it == entries_.end() || it->second.fingerprint != fingerprint) return std::nullopt;
+    it->second.used = ++clock_;
+    return it->second.page;
+  }
+  void Put(const std::string& lot, const std::string& fingerprint, const Page& page) {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (entries_.size() >= kMaxLots && entries_.count(lot) == 0) {
+      auto oldest = std::min_element(entries_.begin(), entries_.end(), [](const auto& a, const auto& b) {
+        return a.second.used < b.second.used;
+      });
+      entries_.erase(oldest);
+    }
+    entries_[lot] = {fingerprint, page, ++clock_};
+  }
+
+ private:
+  static constexpr size_t kMaxLots = 8;
+  struct Entry {
+    std::string fingerprint;
+    Page page;
+    uint64_t used = 0;
+  };
+  std::mutex mu_;
+  std::map<std::string, Entry> entries_;
+  uint64_t clock_ = 0;
+};
+
 struct WebServer::Impl {
   ServeOptions options;
+  ReportCache reports;
   std::unique_ptr<LiveFeed> feed;  // with a bus
   std::atomic<bool> stopping{false};
   std::atomic<int> streams{0};
@@ -259,7 +298,7 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
         },
         [state](bool) { state->streams.fetch_sub(1); });
   });
-  s.Get(".*", [opts](const httplib::Request& req, httplib::Response& res) {
+  s.Get(".*", [opts, state](const httplib::Request& req, httplib::Response& res) {
     std::map<std::string, std::string> query;
     for (const auto& [k, v] : req.params) query.emplace(k, v);
     struct stat info {};
@@ -277,6 +316,19 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
     Page page;
     if (!archive.ok()) {
       page = {500, "text/plain; charset=utf-8", archive.status().message() + "\n"};
+    } else if (req.path.rfind("/lot/", 0) == 0 && req.path.size() > 5) {
+      // A finished lot's report, kept while the archive leaves it unchanged.
+      const std::string lot = req.path.substr(5);
+      auto fingerprint = LotReportFingerprint(**archive, lot);
+      std::optional<Page> kept;
+      if (fingerprint.ok() && !fingerprint->empty()) kept = state->reports.Find(lot, *fingerprint);
+      if (kept) {
+        page = std::move(*kept);
+      } else {
+        page = Route(**archive, opts.db_path, req.path, query);
+        if (page.status == 200 && fingerprint.ok() && !fingerprint->empty())
+          state->reports.Put(lot, *fingerprint, page);
+      }
     } else {
       page = Route(**archive, opts.db_path, req.path, query);
     }

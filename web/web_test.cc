@@ -322,6 +322,63 @@ TEST(WebServerTest, AnAddressBeyondThisHostNeedsAToken) {
   EXPECT_FALSE(missing.ok());
 }
 
+// A finished lot's report is kept, and made again once the archive changes it.
+TEST_F(WebTest, AFinishedLotsReportIsKeptUntilTheArchiveChangesIt) {
+  Serve();
+  const std::string path = "/lot/" + Encode(kLot);
+  auto first = client_->Get(path);
+  ASSERT_TRUE(first);
+  ASSERT_EQ(first->status, 200);
+  auto again = client_->Get(path);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->body, first->body);  // the same page (kept: even its "generated" time)
+  auto fingerprint = [&] {
+    auto a = store::Archive::Open(db_, store::Archive::Mode::kRead);
+    EXPECT_TRUE(a.ok());
+    auto f = LotReportFingerprint(**a, kLot);
+    EXPECT_TRUE(f.ok());
+    return *f;
+  };
+  const std::string before = fingerprint();
+  EXPECT_FALSE(before.empty());
+  // A second unit's run in the lot, open: nothing is kept while it runs.
+  auto a = store::Archive::Open(db_, store::Archive::Mode::kWrite);
+  ASSERT_TRUE(a.ok());
+  store::RunInfo r;
+  r.run_id = "R-2";
+  r.serial = "SECOND-UNIT";
+  r.lot = kLot;
+  r.station = "bench";
+  r.slot = "A2";
+  r.start_utime = 1'800'000'100'000'000;
+  r.nominal_rate_hz = 100;
+  r.axes = {{"gx", pb::GYRO}};
+  r.state = "running";
+  auto key = (*a)->UpsertRun(r);
+  ASSERT_TRUE(key.ok());
+  EXPECT_EQ(fingerprint(), "");
+  auto running = client_->Get(path);
+  ASSERT_TRUE(running);
+  EXPECT_NE(running->body.find("SECOND-UNIT"), std::string::npos);
+  // Finished: a new fingerprint, a new report.
+  store::ResultRecord res;
+  res.verdict = "PASS";
+  res.result_utime = r.start_utime + 2'000'000;
+  r.state = "complete";
+  r.end_utime = r.start_utime + 1'000'000;
+  ASSERT_TRUE((*a)->UpsertRun(r).ok());
+  res.record = store::BuildRunRecord(r, res, 0).SerializeAsString();
+  ASSERT_TRUE((*a)->PutResult(*key, res).ok());
+  ASSERT_TRUE((*a)->MarkFinalized(*key, res.result_utime).ok());
+  const std::string after = fingerprint();
+  EXPECT_FALSE(after.empty());
+  EXPECT_NE(after, before);
+  auto finished = client_->Get(path);
+  ASSERT_TRUE(finished);
+  EXPECT_NE(finished->body.find("SECOND-UNIT"), std::string::npos);
+  EXPECT_NE(finished->body, first->body);
+}
+
 // The live page: a station bus heard, its runs, verdicts and curves served
 // as JSON and as server-sent events; the archive may come later.
 TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
