@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <future>
 #include <map>
 #include <optional>
 #include <set>
@@ -924,7 +925,7 @@ void LotModelSection(const std::vector<AxisLotModel>& models, std::string* out) 
 Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
                                        const std::string& archive_label) {
   ReportData d;
-  auto lots = store::QueryLots(archive);
+  auto lots = store::QueryLots(archive, lot);
   if (!lots.ok()) return lots.status();
   auto lot_row = std::find_if(lots->begin(), lots->end(),
                               [&](const store::LotRow& l) { return l.lot == lot; });
@@ -956,6 +957,9 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
     d.runs.push_back(std::move(*run));
   }
 
+  // The lot noise models (a fit per axis, the slowest part) meanwhile.
+  std::future<std::vector<AxisLotModel>> lot_models =
+      std::async(std::launch::async, [&d] { return ComputeLotModels(d.runs); });
   // Plots first: the attention list links to the unit plots.
   const std::vector<AllanPlot> lot_plots = LotAllanPlots(lot, d.runs, "");
   const std::vector<const RunPlotData*> flagged = NeedALook(d.runs);
@@ -1012,7 +1016,7 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
   Attention(d, plot_anchor, &html);
   Results(d, &html);
   Statistics(d, &html);
-  LotModelSection(ComputeLotModels(d.runs), &html);
+  LotModelSection(lot_models.get(), &html);
   html += "<section id=\"lot-plots\">\n<h2>Allan deviation: the lot, per axis</h2>\n";
   if (lot_plots.empty()) {
     html += "<p class=\"note\">No Allan curve stored for this lot.</p>\n";

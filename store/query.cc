@@ -244,12 +244,14 @@ LIMIT ?6)sql");
   }
 }
 
-Result<std::vector<LotRow>> QueryLots(Archive& archive) {
+Result<std::vector<LotRow>> QueryLots(Archive& archive, const std::optional<std::string>& only) {
   auto s = archive.db().Prepare(
-      "SELECT lot, runs, units, pass, marginal, fail, unjudged, final_yield, first_start_utime, "
-      "last_start_utime, inconclusive, aborted, error, first_pass_yield, retests, "
-      "retest_candidates FROM lot_overview ORDER BY last_start_utime DESC, lot");
+      std::string("SELECT lot, runs, units, pass, marginal, fail, unjudged, final_yield, "
+                  "first_start_utime, last_start_utime, inconclusive, aborted, error, "
+                  "first_pass_yield, retests, retest_candidates FROM lot_overview ") +
+      (only ? "WHERE lot = ? " : "") + "ORDER BY last_start_utime DESC, lot");
   if (!s.ok()) return s.status();
+  if (only) s->Bind(1, *only);
   std::vector<LotRow> rows;
   for (;;) {
     auto row = s->Step();

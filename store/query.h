@@ -4,6 +4,7 @@
 #define IMUQUAL_STORE_QUERY_H_
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -77,7 +78,9 @@ struct LotRow {
   int64_t first_start_utime = 0, last_start_utime = 0;
 };
 
-Result<std::vector<LotRow>> QueryLots(Archive& archive);
+// Every lot, newest first; `only`: that lot's row alone (none if absent).
+Result<std::vector<LotRow>> QueryLots(Archive& archive,
+                                      const std::optional<std::string>& only = std::nullopt);
 
 // The runs of one unit (serial) across lots, oldest first, per axis.
 Result<std::vector<AxisRow>> QueryUnitHistory(Archive& archive, const std::string& serial);
