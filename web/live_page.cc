@@ -57,6 +57,9 @@ constexpr char kLiveScript[] = R"js(
     return s >= 3600 ? `${Math.floor(s / 3600)}:${pad(Math.floor(s / 60) % 60)}:${pad(s % 60)}`
                      : `${Math.floor(s / 60)}:${pad(s % 60)}`;
   };
+  // "/prefix/NAME", or "/prefix?key=NAME" for "." and ".." (a browser resolves those away).
+  const nameLink = (prefix, key, name) => (name === '.' || name === '..')
+    ? `${prefix}?${key}=${encodeURIComponent(name)}` : `${prefix}/${encodeURIComponent(name)}`;
   const curves = new Map();   // run id -> Map(axis -> curve)
   const figures = new Map();  // run id -> {figure, caption, svg}
   let newest = 0;
@@ -70,11 +73,11 @@ constexpr char kLiveScript[] = R"js(
     const serial = el('td');
     if (first) {
       const a = el('a', u.serial);
-      a.href = '/unit/' + encodeURIComponent(u.serial);
+      a.href = nameLink('/unit', 'serial', u.serial);
       serial.append(a);
       if (u.archived && u.run_id) {
         const r = el('a', 'run');
-        r.href = '/run/' + encodeURIComponent(u.run_id);
+        r.href = nameLink('/run', 'id', u.run_id);
         r.className = 'runlink';
         serial.append(' ', r);
       }
@@ -111,7 +114,7 @@ constexpr char kLiveScript[] = R"js(
     $('tally').textContent = s.tally;
     const done = $('done');
     done.hidden = !(s.all_done && s.lot);
-    if (!done.hidden) $('report').href = '/lot/' + encodeURIComponent(s.lot);
+    if (!done.hidden) $('report').href = nameLink('/lot', 'name', s.lot);
     const body = document.createElement('tbody');
     for (const u of s.units) {
       const axes = u.axes.length ? u.axes : [null];

@@ -79,12 +79,19 @@ std::string PathSegment(const std::string& s) {
   return out;
 }
 
+// "/prefix/NAME", or "/prefix?key=NAME" for a name that is a dot segment
+// ("." or "..", valid identifiers), which a browser would resolve away.
+std::string NameLink(const std::string& prefix, const std::string& key, const std::string& name) {
+  if (name == "." || name == "..") return prefix + "?" + key + "=" + PathSegment(name);
+  return prefix + "/" + PathSegment(name);
+}
+
 // The pages' links: a lot to its report, a run to its page, a unit to its history.
 cli::TableLinks Links() {
   cli::TableLinks l;
-  l.lot = [](const std::string& lot) { return "/lot/" + PathSegment(lot); };
-  l.run = [](const std::string& run) { return "/run/" + PathSegment(run); };
-  l.serial = [](const std::string& serial) { return "/unit/" + PathSegment(serial); };
+  l.lot = [](const std::string& lot) { return NameLink("/lot", "name", lot); };
+  l.run = [](const std::string& run) { return NameLink("/run", "id", run); };
+  l.serial = [](const std::string& serial) { return NameLink("/unit", "serial", serial); };
   return l;
 }
 
@@ -178,10 +185,11 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
   auto field = [&](const char* name, const std::string& value_html) {
     body += "<dt>" + std::string(name) + "</dt><dd>" + value_html + "</dd>\n";
   };
-  field("unit", "<a href=\"/unit/" + HtmlEscape(PathSegment(r.serial)) + "\">" +
+  field("unit", "<a href=\"" + HtmlEscape(NameLink("/unit", "serial", r.serial)) + "\">" +
                     HtmlEscape(r.serial) + "</a>");
   field("lot",
-        "<a href=\"/lot/" + HtmlEscape(PathSegment(r.lot)) + "\">" + HtmlEscape(r.lot) + "</a>");
+        "<a href=\"" + HtmlEscape(NameLink("/lot", "name", r.lot)) + "\">" + HtmlEscape(r.lot) +
+            "</a>");
   field("station / slot", HtmlEscape(r.station) + " / " + HtmlEscape(r.slot));
   field("operator", r.operator_name.empty() ? "(not recorded)" : HtmlEscape(r.operator_name));
   field("source", HtmlEscape(r.source));
@@ -209,7 +217,7 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
   }
   auto series = cli::RunTimeSeriesSvg(archive, run_id);
   if (series.ok()) body += "<h2>Raw samples against time</h2>\n<figure>" + *series + "</figure>\n";
-  body += "<p class=\"note\">JSON: <a href=\"/api/run/" + HtmlEscape(PathSegment(run_id)) +
+  body += "<p class=\"note\">JSON: <a href=\"" + HtmlEscape(NameLink("/api/run", "id", run_id)) +
           "\">/api/run/" + HtmlEscape(run_id) + "</a>.</p>\n";
   return {200, "text/html; charset=utf-8", PageHtml("run " + run_id, body)};
 }
@@ -265,7 +273,9 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
            const std::map<std::string, std::string>& query) {
   std::string rest;
   if (path == "/") return Home(archive, archive_label);
-  if (Under(path, "/lot/", &rest)) {
+  if (path == "/lot" || Under(path, "/lot/", &rest)) {
+    if (path == "/lot") rest = Param(query, "name");
+    if (rest.empty()) return NotFound("give a lot: /lot/LOT or /lot?name=LOT");
     auto html = cli::BuildLotReportHtml(archive, rest, archive_label);
     if (!html.ok()) {
       return html.status().code() == Status::Code::kNotFound ? NotFound(html.status().message())
@@ -282,12 +292,18 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
   if (path == "/compare") return Compare(archive, Param(query, "a"), Param(query, "b"), false);
   if (path == "/api/compare") return Compare(archive, Param(query, "a"), Param(query, "b"), true);
   if (Under(path, "/run/", &rest)) return RunPage(archive, rest, /*json=*/false);
+  if (path == "/run") {
+    const std::string id = Param(query, "id");
+    if (id.empty()) return NotFound("give a run: /run/RUN_ID or /run?id=RUN_ID");
+    return RunPage(archive, id, /*json=*/false);
+  }
   if (path == "/api/lots") {
     auto lots = store::QueryLots(archive);
     if (!lots.ok()) return Failed(lots.status());
     return Json(cli::LotsTable(*lots, /*for_people=*/false).Render(Format::kJson));
   }
-  if (Under(path, "/api/lot/", &rest)) {
+  if (path == "/api/lot" || Under(path, "/api/lot/", &rest)) {
+    if (path == "/api/lot") rest = Param(query, "name");
     store::AxisRowFilter filter;
     filter.lot = rest;
     auto rows = store::QueryAxisRows(archive, filter);
@@ -303,7 +319,8 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
     if (!runs.ok()) return Failed(runs.status());
     return Json(cli::RunsTable(*runs).Render(Format::kJson));
   }
-  if (Under(path, "/api/run/", &rest)) {
+  if (path == "/api/run" || Under(path, "/api/run/", &rest)) {
+    if (path == "/api/run") rest = Param(query, "id");
     Page p = RunPage(archive, rest, /*json=*/true);
     if (p.status == 404) return {404, "application/json", "{\"error\": \"no such run\"}\n"};
     return p;

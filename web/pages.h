@@ -30,6 +30,9 @@ std::string PageHtml(const std::string& title, const std::string& body);
 // `query` parameters. `archive_label` names the archive on the pages.
 //   /                      the lots (yield, dates) and a search by serial
 //   /lot/LOT               the lot's report (report/report.h), as `imuqual report` writes it
+//                          (/lot?name=LOT, /run?id=ID, /api/lot?name=, /api/run?id= the
+//                          same: links to a name "." or ".." take that form, since a
+//                          browser resolves such a path segment away)
 //   /unit/SERIAL           the unit's runs across lots
 //   /unit?serial=S         the same (the search form)
 //   /compare?a=LOT&b=LOT   two lots compared (`imuqual compare`: Welch, F, Fisher; Holm)

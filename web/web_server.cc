@@ -316,9 +316,10 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
     Page page;
     if (!archive.ok()) {
       page = {500, "text/plain; charset=utf-8", archive.status().message() + "\n"};
-    } else if (req.path.rfind("/lot/", 0) == 0 && req.path.size() > 5) {
+    } else if ((req.path.rfind("/lot/", 0) == 0 && req.path.size() > 5) ||
+               (req.path == "/lot" && !req.get_param_value("name").empty())) {
       // A finished lot's report, kept while the archive leaves it unchanged.
-      const std::string lot = req.path.substr(5);
+      const std::string lot = req.path == "/lot" ? req.get_param_value("name") : req.path.substr(5);
       auto fingerprint = LotReportFingerprint(**archive, lot);
       std::optional<Page> kept;
       if (fingerprint.ok() && !fingerprint->empty()) kept = state->reports.Find(lot, *fingerprint);

@@ -379,6 +379,51 @@ TEST_F(WebTest, AFinishedLotsReportIsKeptUntilTheArchiveChangesIt) {
   EXPECT_NE(finished->body, first->body);
 }
 
+// Names that are dot segments ("." and "..": valid identifiers) are linked
+// in the query form, which a browser does not resolve away, and served.
+TEST(WebPagesTest, DotNamesAreLinkedAndServedInTheQueryForm) {
+  testing::TempDir dir("web_dots");
+  const std::string db = dir.path("dots.db");
+  {
+    auto a = store::Archive::Open(db, store::Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok());
+    store::RunInfo r;
+    r.run_id = ".";
+    r.serial = "..";
+    r.lot = "..";
+    r.station = "s";
+    r.start_utime = 1'800'000'000'000'000;
+    r.end_utime = r.start_utime + 1'000'000;
+    r.nominal_rate_hz = 100;
+    r.axes = {{"gx", pb::GYRO}};
+    r.state = "complete";
+    auto key = (*a)->UpsertRun(r);
+    ASSERT_TRUE(key.ok());
+    store::ResultRecord res;
+    res.verdict = "PASS";
+    res.result_utime = *r.end_utime;
+    res.record = store::BuildRunRecord(r, res, 0).SerializeAsString();
+    ASSERT_TRUE((*a)->PutResult(*key, res).ok());
+    ASSERT_TRUE((*a)->MarkFinalized(*key, res.result_utime).ok());
+  }
+  auto archive = store::Archive::Open(db, store::Archive::Mode::kRead);
+  ASSERT_TRUE(archive.ok());
+  const Page home = Route(**archive, db, "/", {});
+  EXPECT_NE(home.body.find("href=\"/lot?name=..\""), std::string::npos) << home.body;
+  const Page lot = Route(**archive, db, "/lot", {{"name", ".."}});
+  EXPECT_EQ(lot.status, 200);
+  const Page unit = Route(**archive, db, "/unit", {{"serial", ".."}});
+  EXPECT_EQ(unit.status, 200);
+  EXPECT_NE(unit.body.find("href=\"/run?id=.\""), std::string::npos) << unit.body;
+  const Page run = Route(**archive, db, "/run", {{"id", "."}});
+  EXPECT_EQ(run.status, 200);
+  EXPECT_NE(run.body.find("href=\"/unit?serial=..\""), std::string::npos);
+  EXPECT_NE(run.body.find("href=\"/api/run?id=.\""), std::string::npos);
+  EXPECT_EQ(Route(**archive, db, "/api/run", {{"id", "."}}).status, 200);
+  EXPECT_EQ(Route(**archive, db, "/api/lot", {{"name", ".."}}).status, 200);
+  EXPECT_EQ(Route(**archive, db, "/lot", {}).status, 404);
+}
+
 // The live page: a station bus heard, its runs, verdicts and curves served
 // as JSON and as server-sent events; the archive may come later.
 TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
