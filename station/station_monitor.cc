@@ -93,33 +93,42 @@ ConsoleUnit* StationMonitor::UnitOfRun(const std::string& run_id, const std::str
     return nullptr;  // another station run
   }
   auto it = index_.find(serial);
+  const bool fresh_run = options_.discover_units && announcement != nullptr &&
+                         announcement->announcer == "acquire" &&
+                         announcement->state == imuqual::run_t::STATE_RUNNING &&
+                         (it == index_.end() || model_.units[it->second].run_id != run_id);
+  if (fresh_run) {
+    // A new soak: every unit shown is done (archived with its final result)
+    // and started before this run. They leave, and so do the last soak's
+    // processes (those still running report again within a second).
+    const bool all_done =
+        std::all_of(model_.units.begin(), model_.units.end(), [&](const ConsoleUnit& v) {
+          return v.archived && v.final_result &&
+                 tracks_[v.serial].start_utime < announcement->start_utime;
+        });
+    if (all_done && !model_.units.empty()) {
+      RemoveUnits([](const ConsoleUnit&) { return true; });
+      instances_.clear();
+      most_alive_.clear();
+      superseded_seen_.clear();
+      forgotten_restarts_.clear();
+      problems_.clear();
+    }
+    // A new unit in a fixture slot whose unit is done: it takes the row.
+    RemoveUnits([&](const ConsoleUnit& v) {
+      const Track& t = tracks_[v.serial];
+      return v.serial != serial && v.slot == announcement->slot &&
+             t.station == announcement->station && v.archived && v.final_result &&
+             t.start_utime < announcement->start_utime;
+    });
+    it = index_.find(serial);
+  }
   if (it == index_.end()) {
     // Discovered from its run's announcement only (a result or a decision
-    // names no slot).
+    // names no slot); at most kMaxUnits (a bus flooded with announcements
+    // cannot grow the monitor without bound).
     if (!options_.discover_units || announcement == nullptr) return nullptr;
-    const bool fresh_run = announcement->announcer == "acquire" &&
-                           announcement->state == imuqual::run_t::STATE_RUNNING;
-    if (fresh_run) {
-      // A new soak: every unit shown is done (archived with its final
-      // result) and started before this run. They leave, and so do the
-      // processes of the last soak.
-      const bool all_done =
-          std::all_of(model_.units.begin(), model_.units.end(), [&](const ConsoleUnit& v) {
-            return v.archived && v.final_result &&
-                   tracks_[v.serial].start_utime < announcement->start_utime;
-          });
-      if (all_done && !model_.units.empty()) {
-        RemoveUnits([](const ConsoleUnit&) { return true; });
-        std::erase_if(instances_, [](const auto& entry) { return entry.second.gone; });
-        most_alive_.clear();
-      }
-      // A new unit in a fixture slot whose unit is done: it takes the row.
-      RemoveUnits([&](const ConsoleUnit& v) {
-        const Track& t = tracks_[v.serial];
-        return v.slot == announcement->slot && t.station == announcement->station &&
-               v.archived && v.final_result && t.start_utime < announcement->start_utime;
-      });
-    }
+    if (model_.units.size() >= kMaxUnits) return nullptr;
     ConsoleUnit u;
     u.slot = announcement->slot;
     u.serial = serial;
@@ -149,9 +158,14 @@ ConsoleUnit* StationMonitor::UnitOfRun(const std::string& run_id, const std::str
     fresh.slot = announcement->slot.empty() ? u.slot : announcement->slot;
     fresh.serial = serial;
     fresh.run_id = run_id;
+    for (auto c = curves_.begin(); c != curves_.end();) {
+      c = c->first.first == u.run_id ? curves_.erase(c) : std::next(c);
+    }
+    const std::string station = track.station;
     u = std::move(fresh);
     track = Track{};
     track.start_utime = announcement->start_utime;
+    track.station = station;
     end_reasons_.erase(serial);
     Changed();
   }
@@ -159,7 +173,16 @@ ConsoleUnit* StationMonitor::UnitOfRun(const std::string& run_id, const std::str
 }
 
 void StationMonitor::OnStatus(const imuqual::status_t& s, double now) {
-  Instance& in = instances_[s.process + "/" + s.instance];
+  const std::string key = s.process + "/" + s.instance;
+  if (instances_.count(key) == 0 && instances_.size() >= kMaxInstances) {
+    // Room for the newcomer: the instance heard longest ago leaves.
+    auto oldest = std::min_element(instances_.begin(), instances_.end(), [](const auto& a, const auto& b) {
+      return a.second.last_heard < b.second.last_heard;
+    });
+    Forget(oldest->first, oldest->second.kind);
+    instances_.erase(oldest);
+  }
+  Instance& in = instances_[key];
   if (in.kind.empty()) {
     in.kind = s.process;
     in.first_heard = now;
@@ -167,15 +190,15 @@ void StationMonitor::OnStatus(const imuqual::status_t& s, double now) {
   }
   in.last_heard = now;
   if (s.process == "acquire") {
+    // Each acquire process's own list (several may share a bus).
     std::set<std::string> reconnecting;
     const std::string_view prefix = channels::kReconnectingCounterPrefix;
     for (size_t i = 0; i < s.counter_names.size() && i < s.counter_values.size(); ++i) {
       if (s.counter_names[i].rfind(prefix, 0) == 0 && s.counter_values[i] > 0)
         reconnecting.insert(s.counter_names[i].substr(prefix.size()));
     }
-    if (reconnecting != reconnecting_) Changed();
-    reconnecting_ = std::move(reconnecting);
-    reconnecting_heard_s = now;
+    if (reconnecting != in.reconnecting) Changed();
+    in.reconnecting = std::move(reconnecting);
   }
   if (s.healthy) {
     if (problems_.erase({s.process, s.instance}) > 0) Changed();
@@ -249,6 +272,11 @@ void StationMonitor::OnAck(const imuqual::ack_t& a) {
   // The store's latest word: a run it opens again (judged anew) is no
   // longer archived.
   if (a.process != "store") return;
+  if (options_.discover_units &&
+      std::none_of(model_.units.begin(), model_.units.end(),
+                   [&](const ConsoleUnit& u) { return u.run_id == a.run_id; })) {
+    return;  // not a run shown (a bus may carry any number of them)
+  }
   if (a.run_done) {
     archived_runs_.insert(a.run_id);
   } else {
@@ -303,8 +331,16 @@ void StationMonitor::OnResult(const imuqual::unit_result_t& r) {
 }
 
 void StationMonitor::OnCurve(const imuqual::allan_curve_t& c) {
-  if (UnitOfRun(c.run_id, c.unit_serial, nullptr) == nullptr) return;
-  LiveCurve& live = curves_[{c.run_id, c.axis}][c.estimator];
+  const ConsoleUnit* u = UnitOfRun(c.run_id, c.unit_serial, nullptr);
+  if (u == nullptr) return;
+  // Only the run's announced axes, and a few estimators each.
+  if (std::none_of(u->axes.begin(), u->axes.end(),
+                   [&](const ConsoleAxis& x) { return x.name == c.axis; })) {
+    return;
+  }
+  auto& estimators = curves_[{c.run_id, c.axis}];
+  if (estimators.count(c.estimator) == 0 && estimators.size() >= kMaxEstimators) return;
+  LiveCurve& live = estimators[c.estimator];
   if (live.is_final && !c.is_final) return;  // a late interim curve
   const size_t n = std::min<size_t>({static_cast<size_t>(std::max(0, c.num_points)),
                                      c.tau_s.size(), c.dev.size(), c.lo.size(), c.hi.size()});
@@ -386,8 +422,11 @@ void StationMonitor::Refresh(double now, bool processes_from_status) {
     }
     const bool waiting = u.state == 0 || u.state == imuqual::run_t::STATE_RUNNING;
     const double silent = t.device_paced && waiting && !u.archived ? now - t.grew_at : 0;
-    const bool reconnecting = silent > 0 && now - reconnecting_heard_s < kComplaintS &&
-                              reconnecting_.count(u.run_id) > 0;
+    bool reconnecting = false;
+    for (const auto& [key, in] : instances_) {
+      reconnecting = reconnecting || (silent > 0 && now - in.last_heard < kComplaintS &&
+                                      in.reconnecting.count(u.run_id) > 0);
+    }
     // Shown to the second: a change of a whole second is a change.
     if (std::floor(silent) != std::floor(u.silent_s) || reconnecting != u.reconnecting) Changed();
     u.silent_s = silent;
@@ -406,6 +445,13 @@ void StationMonitor::Refresh(double now, bool processes_from_status) {
     if (start > 0 && (first_start == 0 || start < first_start)) first_start = start;
   }
   model_.wall_s = first_start > 0 ? static_cast<double>(NowUtime() - first_start) / 1e6 : 0;
+  // Instances silent for long and complaints long past are forgotten.
+  std::erase_if(instances_, [&](const auto& e) {
+    if (now - e.second.last_heard <= kForgetProcessS) return false;
+    Forget(e.first, e.second.kind);
+    return true;
+  });
+  std::erase_if(problems_, [&](const auto& e) { return now - e.second.heard_s > kComplaintS; });
   for (auto& [key, in] : instances_) in.gone = now - in.last_heard >= kGoneS;
   for (const char* kind : {"store", "analyze", "acquire"}) {
     ConsoleProcess p;
@@ -420,10 +466,15 @@ void StationMonitor::Refresh(double now, bool processes_from_status) {
       }
       if (superseded) {
         ++p.restarts;
+        // Found superseded only now, it may have counted as running beside
+        // its successor (a restart within a status period): not one more
+        // process expected.
+        if (superseded_seen_.insert(key).second && most_alive_[kind] > 1) --most_alive_[kind];
       } else if (!in.gone) {
         ++p.running;
       }
     }
+    p.restarts += forgotten_restarts_[kind];
     int& most = most_alive_[kind];
     most = std::max(most, p.running);
     p.expected = std::max(1, most);
@@ -439,6 +490,11 @@ void StationMonitor::Refresh(double now, bool processes_from_status) {
     Changed();
   }
   model_.processes = std::move(processes);
+}
+
+void StationMonitor::Forget(const std::string& key, const std::string& kind) {
+  // A restart stays counted after its instance is forgotten.
+  if (superseded_seen_.erase(key) > 0) ++forgotten_restarts_[kind];
 }
 
 bool StationMonitor::Reported(const std::string& kind, int pid) const {

@@ -110,6 +110,12 @@ class StationMonitor {
   static constexpr double kComplaintS = 3;
   static constexpr double kGoneS = 3.5;
   static constexpr double kStatusPeriodS = 1.0;
+  // Bounds: what a bus (flooded, or forged: its seal is a checksum, not a
+  // signature) can make the monitor keep.
+  static constexpr size_t kMaxUnits = 2000;       // discovered units
+  static constexpr size_t kMaxInstances = 256;    // processes heard
+  static constexpr size_t kMaxEstimators = 4;     // curves per axis
+  static constexpr double kForgetProcessS = 600;  // a process silent this long is forgotten
 
  private:
   struct Track {
@@ -124,11 +130,13 @@ class StationMonitor {
     std::string kind;
     double first_heard = 0, last_heard = 0;
     bool gone = false;  // silent kGoneS at the last Refresh
+    std::set<std::string> reconnecting;  // acquire: run ids whose device it is reconnecting
   };
   ConsoleUnit* UnitOfRun(const std::string& run_id, const std::string& serial,
                          const imuqual::run_t* announcement);
   void Changed(int64_t utime = 0);
   void RemoveUnits(const std::function<bool(const ConsoleUnit&)>& which);
+  void Forget(const std::string& instance_key, const std::string& kind);
 
   MonitorOptions options_;
   ConsoleModel model_;
@@ -143,8 +151,8 @@ class StationMonitor {
     double heard_s = 0;
   };
   std::map<std::pair<std::string, std::string>, Complaint> problems_;  // (kind, instance) ->
-  std::set<std::string> reconnecting_;  // run ids, as acquire last said
-  double reconnecting_heard_s = -1;
+  std::set<std::string> superseded_seen_;          // instance keys found superseded
+  std::map<std::string, int> forgotten_restarts_;  // kind -> restarts of forgotten instances
   // (run id, axis) -> estimator -> curve
   std::map<std::pair<std::string, std::string>, std::map<std::string, LiveCurve>> curves_;
   uint64_t version_ = 0;

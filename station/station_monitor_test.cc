@@ -151,6 +151,7 @@ TEST(StationMonitorTest, ANewSoakReplacesTheDoneOneAndItsProcesses) {
   m.OnRun(RunMsg("S3-E", "E", "1", imuqual::run_t::STATE_RUNNING, 10, 3000));
   ASSERT_EQ(m.model().units.size(), 1u);
   EXPECT_EQ(m.model().units[0].serial, "E");
+  m.OnStatus(StatusMsg("store", "h:2"), 21);  // the running store reports again
   m.Refresh(21, true);
   EXPECT_EQ(m.model().processes[0].restarts, 0);
   EXPECT_EQ(m.model().processes[0].running, 1);
@@ -160,6 +161,98 @@ TEST(StationMonitorTest, ANewSoakReplacesTheDoneOneAndItsProcesses) {
   m.OnRun(old);
   EXPECT_EQ(m.model().units.size(), 2u);  // shown (its analysis is not finished), E kept
   EXPECT_EQ(m.model().units[1].serial, "E");
+}
+
+TEST(StationMonitorTest, TheSameUnitsSoakedAgainStartANewSoak) {
+  MonitorOptions o;
+  o.discover_units = true;
+  StationMonitor m(o);
+  m.OnStatus(StatusMsg("store", "h:1"), 0);
+  m.OnRun(RunMsg("S1-A", "A", "1", imuqual::run_t::STATE_RUNNING, 10, 1000));
+  m.OnRun(RunMsg("S1-B", "B", "2", imuqual::run_t::STATE_RUNNING, 10, 1000));
+  Finish(m, "S1-A", "A");
+  Finish(m, "S1-B", "B");
+  m.Refresh(1, true);
+  // The station's store exits 2 s before the next soak's first run; the
+  // next soak's store reports after it.
+  m.OnStatus(StatusMsg("store", "h:2"), 3.5);
+  m.OnRun(RunMsg("S2-A", "A", "1", imuqual::run_t::STATE_RUNNING, 10, 2000));
+  m.OnStatus(StatusMsg("store", "h:2"), 4);
+  m.Refresh(4, true);
+  ASSERT_EQ(m.model().units.size(), 1u);  // B left with the last soak
+  EXPECT_EQ(m.model().units[0].run_id, "S2-A");
+  EXPECT_EQ(m.model().processes[0].restarts, 0);
+  EXPECT_EQ(m.model().processes[0].running, 1);
+  m.Refresh(10, true);
+  EXPECT_EQ(m.model().processes[0].restarts, 0);
+}
+
+TEST(StationMonitorTest, AQuickRestartIsOneProcessExpected) {
+  StationMonitor m;
+  // A store restarted at once (no delay): its successor is heard within a
+  // status period of its last word, so for a few seconds both look alive.
+  for (double t = 0; t <= 2; t += 1) m.OnStatus(StatusMsg("store", "h:1"), t);
+  for (double t = 2.5; t <= 12; t += 1) {
+    m.OnStatus(StatusMsg("store", "h:2"), t);
+    m.Refresh(t + 0.1, true);
+  }
+  EXPECT_EQ(m.model().processes[0].running, 1);
+  EXPECT_EQ(m.model().processes[0].expected, 1);
+  EXPECT_EQ(m.model().processes[0].restarts, 1);
+  EXPECT_NE(ConsoleProcessesLine(m.model()).find("store up (restarted 1x)"), std::string::npos);
+  // Forgotten after long silence, the restart still counts.
+  for (double t = 13; t <= 700; t += 1) m.OnStatus(StatusMsg("store", "h:2"), t);
+  m.Refresh(700.5, true);
+  EXPECT_EQ(m.model().processes[0].restarts, 1);
+}
+
+TEST(StationMonitorTest, ReconnectingIsHeardFromEachAcquireProcess) {
+  MonitorOptions o;
+  o.discover_units = true;
+  StationMonitor m(o);
+  imuqual::run_t r = RunMsg("R-U1", "U1", "A1");
+  r.source = "serial:/dev/ttyUSB0,protocol=text";
+  m.OnRun(r);
+  m.Refresh(10.0, false);
+  imuqual::status_t a = StatusMsg("acquire", "h:1");
+  a.counter_names = {std::string(channels::kReconnectingCounterPrefix) + "R-U1"};
+  a.counter_values = {1};
+  a.num_counters = 1;
+  const imuqual::status_t b = StatusMsg("acquire", "h:2");  // another station's acquire
+  for (double t = 11; t <= 20; t += 0.5) {
+    m.OnStatus(a, t);
+    m.OnStatus(b, t + 0.1);
+    m.Refresh(t + 0.2, false);
+    EXPECT_TRUE(m.model().units[0].reconnecting) << t;
+  }
+}
+
+TEST(StationMonitorTest, CurvesOnlyForTheRunsAxes) {
+  MonitorOptions o;
+  o.discover_units = true;
+  o.keep_curves = true;
+  StationMonitor m(o);
+  m.OnRun(RunMsg("R-U1", "U1", "A1"));
+  imuqual::allan_curve_t c{};
+  c.run_id = "R-U1";
+  c.unit_serial = "U1";
+  c.axis_kind = imuqual::rate_batch_t::KIND_GYRO;
+  c.tau_s = {1};
+  c.dev = {1};
+  c.lo = {1};
+  c.hi = {1};
+  c.num_points = 1;
+  c.axis = "not-an-axis";
+  c.estimator = "oadev";
+  m.OnCurve(c);
+  EXPECT_TRUE(m.Curves("R-U1").empty());
+  c.axis = "gx";
+  for (int i = 0; i < 10; ++i) {
+    c.estimator = "e" + std::to_string(i);
+    m.OnCurve(c);
+  }
+  ASSERT_EQ(m.Curves("R-U1").size(), 1u);
+  EXPECT_EQ(m.Curves("R-U1")[0].estimator, "e0");
 }
 
 TEST(StationMonitorTest, ForgetsUnitsArchivedLongAgo) {

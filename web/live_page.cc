@@ -217,17 +217,31 @@ constexpr char kLiveScript[] = R"js(
     });
   }
 
-  const source = new EventSource('/live/events');
-  source.addEventListener('open', () => { $('conn').textContent = 'live: listening to the station bus'; $('conn').className = 'note'; });
-  source.addEventListener('error', () => { $('conn').textContent = 'connection to the server lost: retrying'; $('conn').className = 'lost'; });
-  source.addEventListener('status', (e) => renderStatus(JSON.parse(e.data)));
-  source.addEventListener('curve', (e) => {
-    const c = JSON.parse(e.data);
-    live.curveEvents++;
-    if (!curves.has(c.run_id)) curves.set(c.run_id, new Map());
-    curves.get(c.run_id).set(c.axis, c);
-    draw(c.run_id);
-  });
+  // The event stream. The browser reconnects a dropped stream by itself; a
+  // refused one (503: too many pages open, or the server restarting) is
+  // closed for good, so the page opens a new one after a while.
+  function connect() {
+    const source = new EventSource('/live/events');
+    source.addEventListener('open', () => { $('conn').textContent = 'live: listening to the station bus'; $('conn').className = 'note'; });
+    source.addEventListener('error', () => {
+      $('conn').className = 'lost';
+      if (source.readyState === EventSource.CLOSED) {
+        $('conn').textContent = 'the server refused the live stream: trying again in 10 s';
+        setTimeout(connect, 10000);
+      } else {
+        $('conn').textContent = 'connection to the server lost: retrying';
+      }
+    });
+    source.addEventListener('status', (e) => renderStatus(JSON.parse(e.data)));
+    source.addEventListener('curve', (e) => {
+      const c = JSON.parse(e.data);
+      live.curveEvents++;
+      if (!curves.has(c.run_id)) curves.set(c.run_id, new Map());
+      curves.get(c.run_id).set(c.axis, c);
+      draw(c.run_id);
+    });
+  }
+  connect();
 })();
 </script>
 )js";

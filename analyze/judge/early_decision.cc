@@ -10,7 +10,6 @@
 namespace imuqual::judge {
 namespace {
 
-constexpr double kDefaultLookPeriodS = 60.0;
 // A decided PASS must keep the marginal flag the full-length record would
 // read with this probability (one-sided normal quantile of 0.99).
 constexpr double kFlagZ = 2.3263478740408408;
@@ -229,7 +228,7 @@ LookSchedule MakeLookSchedule(const pb::TestPlan& plan) {
   s.risk = e.risk();
   const double period = e.has_look_period_s() ? e.look_period_s() : kDefaultLookPeriodS;
   if (!(period > 0) || !(s.horizon_s > 0) || !(e.min_duration_s() > 0)) return s;
-  for (int k = 0;; ++k) {
+  for (int k = 0; k < kMaxLooks; ++k) {
     const double t = e.min_duration_s() + k * period;
     if (t >= s.horizon_s * (1 - 1e-12)) break;
     s.times_s.push_back(t);

@@ -117,7 +117,11 @@ struct LookSchedule {
   double horizon_s = 0;
   double risk = 0;
 };
-// Empty (no looks) when the plan has no early_decision.
+// Empty (no looks) when the plan has no early_decision. At most kMaxLooks
+// (a plan asking for more is refused by ValidatePlan; a plan that bypassed
+// it, e.g. forged on the bus, gets the first kMaxLooks).
+inline constexpr int kMaxLooks = 1000;
+inline constexpr double kDefaultLookPeriodS = 60.0;  // early_decision.look_period_s unset
 LookSchedule MakeLookSchedule(const pb::TestPlan& plan);
 
 enum class Decision { kPending, kPass, kFail };

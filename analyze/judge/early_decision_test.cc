@@ -150,6 +150,20 @@ TEST(PlanValidation, EarlyDecisionFieldsAreCheckedWithTheirLine) {
       "p.textproto");
   ASSERT_FALSE(short_horizon.ok());
   EXPECT_NE(short_horizon.status().message().find("horizon"), std::string::npos);
+  // Looks beyond kMaxLooks are refused; a plan that got past the check
+  // (forged on the bus) gets the first kMaxLooks, not an endless schedule.
+  auto too_many = ParsePlanText(
+      "name: \"t\" axes { name: \"x\" kind: GYRO } nominal_rate_hz: 100 min_duration_s: 600\n"
+      "early_decision { risk: 0.01 min_duration_s: 1 look_period_s: 0.5 }\n",
+      "p.textproto");
+  ASSERT_FALSE(too_many.ok());
+  EXPECT_NE(too_many.status().message().find("look_period_s"), std::string::npos)
+      << too_many.status().message();
+  pb::TestPlan forged = Plan();
+  forged.mutable_early_decision()->set_min_duration_s(1);
+  forged.mutable_early_decision()->set_look_period_s(1e-9);
+  forged.mutable_early_decision()->set_horizon_s(1e6);
+  EXPECT_EQ(MakeLookSchedule(forged).times_s.size(), static_cast<size_t>(kMaxLooks));
 }
 
 TEST(EarlyDecider, ClearlyGoodUnitPassesAtTheFirstLook) {

@@ -10,6 +10,7 @@
 #include <set>
 
 #include "analyze/judge/builtin_plans.h"
+#include "analyze/judge/early_decision.h"
 #include "analyze/judge/measurements.h"
 #include "common/strings.h"
 #include "proto/text_proto.h"
@@ -192,6 +193,12 @@ Status Validate(const pb::TestPlan& plan, const Locator& where) {
       return bad(e.has_horizon_s() ? "horizon_s" : "min_duration_s",
                  "the horizon (horizon_s, else the plan's min_duration_s, " +
                      std::to_string(horizon) + " s) must exceed early_decision.min_duration_s");
+    }
+    const double period = e.has_look_period_s() ? e.look_period_s() : kDefaultLookPeriodS;
+    if ((horizon - e.min_duration_s()) / period >= kMaxLooks) {
+      return bad(e.has_look_period_s() ? "look_period_s" : "horizon_s",
+                 "more than " + std::to_string(kMaxLooks) +
+                     " looks between min_duration_s and the horizon: take a longer look_period_s");
     }
   }
   return ValidateLimits(plan, where);

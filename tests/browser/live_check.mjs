@@ -111,6 +111,7 @@ async function main() {
     if (!/^final: /.test(tally)) fail(`no tally at the end: '${tally}'`);
     const report = await page.evaluate(() => document.getElementById('report').getAttribute('href'));
     if (report !== `/lot/${kLot}`) fail(`report link '${report}'`);
+    if (await page.evaluate(() => window.injected !== undefined)) fail('a hostile string ran on the live page');
     const latencies = await page.evaluate(() => window.imuqualLive?.latencies_ms || []);
     console.log(`live_check: update latency over ${latencies.length} updates: p50 ` +
                 `${percentile(latencies, 0.5).toFixed(0)} ms, p99 ${percentile(latencies, 0.99).toFixed(0)} ms`);
@@ -118,7 +119,6 @@ async function main() {
     if (lotPage?.status() !== 200 || !(await page.title()).startsWith(`Lot ${kLot}`)) {
       fail(`the report link did not lead to the lot's report (${lotPage?.status()})`);
     }
-    if (await page.evaluate(() => window.injected !== undefined)) fail('a hostile string ran');
   } finally {
     await context.close();
     if (station && station.exitCode === null) station.kill('SIGINT');
