@@ -250,7 +250,7 @@ int main(int argc, char** argv) {
       int64_t early_end = -1;
       const double snap_s[] = {600, 900, 1200, 1800, 2400};
       size_t next_snap = 0;
-      cli::FeedSimulatedRecord(*simulator, rate, total, [&](const analyze::BatchView& view) {
+      offline::FeedSimulatedRecord(*simulator, rate, total, [&](const analyze::BatchView& view) {
         (void)full->AddBatch(view);
         const double analysed_s =
             static_cast<double>(full->analysed_end_counter()) * tau0 - warmup_s;

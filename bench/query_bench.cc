@@ -27,7 +27,7 @@ void LotSummary(benchmark::State& state) {
     f.lot = lot;
     auto units = store::QueryAxisRows(**archive, f);
     auto rows = store::QueryLotMeasurements(**archive, lot);
-    auto stats = cli::ComputeLotStatistics(*rows);
+    auto stats = report::ComputeLotStatistics(*rows);
     benchmark::DoNotOptimize(units->size() + stats.size());
   }
 }
@@ -41,7 +41,8 @@ void LotCompare(benchmark::State& state) {
     const std::string& b = g_lots[(i * 37) % g_lots.size()];
     auto ra = store::QueryLotMeasurements(**archive, a);
     auto rb = store::QueryLotMeasurements(**archive, b);
-    auto c = cli::CompareLots(cli::ComputeLotStatistics(*ra), cli::ComputeLotStatistics(*rb), 0.05);
+    auto c = report::CompareLots(report::ComputeLotStatistics(*ra),
+                                 report::ComputeLotStatistics(*rb), 0.05);
     benchmark::DoNotOptimize(c.size());
   }
 }

@@ -17,6 +17,21 @@
 #include "store/query.h"
 
 namespace imuqual::cli {
+using report::BuildLotReportHtml;
+using report::Cell;
+using report::DecisionTimeText;
+using report::EarlyDecisionLine;
+using report::Format;
+using report::LotAxisTable;
+using report::LotsTable;
+using report::MarkedValue;
+using report::MarkLegend;
+using report::QueryEarlyDecisions;
+using report::StationOperatorLines;
+using report::TableWriter;
+using station::RunStation;
+using station::StationRunOptions;
+
 namespace {
 
 // The table people read; `by_slot` (a station's final table): in slot

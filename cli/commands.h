@@ -48,14 +48,15 @@ std::string LotYieldLines(store::Archive& archive, const std::string& lot);
 
 // imuqual run: a station end to end, then the result table. Returns one of
 // the kRunExit* codes.
-int RunCommand(const StationRunOptions& options);
+int RunCommand(const station::StationRunOptions& options);
 
 // imuqual lots: every lot in the archive with counts and yield.
-int LotsCommand(const std::string& db_path, Format format);
+int LotsCommand(const std::string& db_path, report::Format format);
 
 // imuqual lot LOT: per unit and axis results of a lot (each unit's latest
 // run unless all_runs).
-int LotCommand(const std::string& db_path, const std::string& lot, Format format, bool all_runs);
+int LotCommand(const std::string& db_path, const std::string& lot, report::Format format,
+               bool all_runs);
 
 }  // namespace imuqual::cli
 

@@ -29,6 +29,13 @@
 #include "store/query.h"
 
 namespace imuqual::cli {
+using report::Cell;
+using report::Format;
+using report::QualifierWord;
+using report::RunSampleVisitor;
+using report::TableWriter;
+using report::WalkRunSamples;
+
 namespace {
 
 constexpr double kRadPerDeg = std::numbers::pi / 180.0;

@@ -17,6 +17,27 @@
 #include "store/outcome.h"
 
 namespace imuqual::cli {
+using report::AddLotModelRows;
+using report::AxisLotModel;
+using report::Cell;
+using report::CompareLots;
+using report::Comparison;
+using report::ComparisonTable;
+using report::ComputeLotModels;
+using report::DecisionTimeText;
+using report::Format;
+using report::InconsistentUnitsTable;
+using report::LoadLatestRuns;
+using report::LotModelTable;
+using report::LotStatistics;
+using report::MarkedValue;
+using report::MarkLegend;
+using report::MeasurementStats;
+using report::QualifierWord;
+using report::RunsTable;
+using report::StationOperatorLines;
+using report::TableWriter;
+
 namespace {
 
 Result<std::unique_ptr<store::Archive>> OpenArchive(const std::string& db_path) {

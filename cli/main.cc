@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", kSoftwareVersion);
   app.require_subcommand(1);
 
-  cli::StationRunOptions run;
+  station::StationRunOptions run;
   bool quiet = false;
   std::string station_file;
   CLI::App* run_cmd =
@@ -163,7 +163,7 @@ int main(int argc, char** argv) {
   export_cmd->add_flag("--upper-bounds", ex.kalibr_upper_bounds,
                        "kalibr: export a term the noise model only bounds (its 95 % upper bound)");
 
-  cli::AnalyzeFileOptions an;
+  offline::AnalyzeFileOptions an;
   CLI::App* analyze_cmd =
       app.add_subcommand("analyze", "offline Allan analysis of a recorded series");
   analyze_cmd->add_option("file", an.path, "one value per line, or CSV with a header")->required();
@@ -199,7 +199,7 @@ int main(int argc, char** argv) {
   analyze_cmd->add_option("--format", an.format, "table, csv or json")->capture_default_str();
   analyze_cmd->add_option("--plot", an.plot_path, "write an SVG plot of the curves");
 
-  cli::ReanalyzeOptions re;
+  offline::ReanalyzeOptions re;
   CLI::App* reanalyze_cmd = app.add_subcommand("reanalyze", "analyse an archived run again");
   reanalyze_cmd->add_option("run", re.run_id, "run id")->required();
   reanalyze_cmd->add_option("--db", re.db_path, "archive file")->required();
@@ -238,7 +238,7 @@ int main(int argc, char** argv) {
       "verify", "check an archive for damage: SQLite's integrity check and every stored checksum");
   verify_cmd->add_option("--db", verify_db, "archive file")->required();
 
-  cli::PlanSoakOptions soak;
+  offline::PlanSoakOptions soak;
   CLI::App* soak_cmd = app.add_subcommand(
       "plan-soak",
       "predict, by simulating records through the station's analysis, how long a plan with "
@@ -336,14 +336,14 @@ int main(int argc, char** argv) {
   }
   if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
   if (plot_cmd->parsed()) return cli::PlotCommand(plot);
-  if (soak_cmd->parsed()) return cli::PlanSoakCommand(soak);
+  if (soak_cmd->parsed()) return offline::PlanSoakCommand(soak);
   if (report_cmd->parsed()) return cli::ReportCommand(report);
   if (serve_cmd->parsed()) return cli::ServeCommand(serve);
-  if (reanalyze_cmd->parsed()) return cli::ReanalyzeCommand(re);
+  if (reanalyze_cmd->parsed()) return offline::ReanalyzeCommand(re);
   if (verify_cmd->parsed()) return cli::VerifyCommand(verify_db);
-  if (analyze_cmd->parsed()) return cli::AnalyzeFileCommand(an);
+  if (analyze_cmd->parsed()) return offline::AnalyzeFileCommand(an);
 
-  auto fmt = cli::ParseFormat(format);
+  auto fmt = report::ParseFormat(format);
   if (!fmt.ok()) {
     LogError(fmt.status().message());
     return 2;
@@ -360,13 +360,13 @@ int main(int argc, char** argv) {
         }
       }
       std::vector<int> slot_lines;
-      auto config = cli::LoadStationConfig(station_file, &slot_lines);
+      auto config = station::LoadStationConfig(station_file, &slot_lines);
       if (!config.ok()) {
         LogError(config.status().message());
         return 2;
       }
-      cli::StationRunOptions from_file =
-          cli::StationRunFromConfig(*config, station_file, slot_lines);
+      station::StationRunOptions from_file =
+          station::StationRunFromConfig(*config, station_file, slot_lines);
       // What the command line may still set: pacing, fault injection, patience, shards, report.
       if (run_cmd->count("--pace") > 0) from_file.pace = run.pace;
       if (run_cmd->count("--analyze-shards") > 0) from_file.analyze_shards = run.analyze_shards;

@@ -15,6 +15,14 @@
 #include "store/query.h"
 
 namespace imuqual::cli {
+using report::AllanPlot;
+using report::AxisPlotData;
+using report::LoadRunPlotData;
+using report::LotAllanPlots;
+using report::RunAllanPlots;
+using report::RunPlotData;
+using report::RunTimeSeriesSvg;
+
 namespace {
 
 std::string Sanitize(const std::string& key) {

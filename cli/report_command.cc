@@ -10,6 +10,7 @@
 #include "store/archive.h"
 
 namespace imuqual::cli {
+using report::BuildLotReportHtml;
 
 int ReportCommand(const ReportOptions& options) {
   if (options.lot.empty() || options.output.empty() || options.db_path.empty()) {

@@ -21,7 +21,16 @@
 #include "report/svg_plot.h"
 #include "report/table_writer.h"
 
-namespace imuqual::cli {
+namespace imuqual::offline {
+using report::AddModelSeries;
+using report::Cell;
+using report::Format;
+using report::LogLogPlot;
+using report::PaletteColor;
+using report::ParseFormat;
+using report::PlotSeries;
+using report::TableWriter;
+
 namespace {
 
 using allan::Curve;
@@ -320,4 +329,4 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   return 0;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::offline

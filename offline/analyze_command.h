@@ -8,7 +8,7 @@
 
 #include <string>
 
-namespace imuqual::cli {
+namespace imuqual::offline {
 
 struct AnalyzeFileOptions {
   std::string path;
@@ -33,6 +33,6 @@ struct AnalyzeFileOptions {
 
 int AnalyzeFileCommand(const AnalyzeFileOptions& options);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::offline
 
 #endif  // IMUQUAL_OFFLINE_ANALYZE_COMMAND_H_

@@ -6,7 +6,9 @@
 #include "analyze/allan/estimators.h"
 #include "common/strings.h"
 
-namespace imuqual::cli {
+namespace imuqual::offline {
+using report::Cell;
+using report::TableWriter;
 
 Result<CurveRequest> ParseCurveRequest(const std::string& devs, const std::string& grid,
                                        const std::string& stop, const std::string& ci,
@@ -87,4 +89,4 @@ TableWriter CurveTable(const std::vector<LabeledCurve>& curves, bool with_ci, bo
   return t;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::offline

@@ -14,7 +14,7 @@
 #include "common/status.h"
 #include "report/table_writer.h"
 
-namespace imuqual::cli {
+namespace imuqual::offline {
 
 struct CurveRequest {
   std::vector<allan::Deviation> devs;
@@ -38,9 +38,9 @@ std::vector<allan::Curve> ComputeCurves(const allan::PhaseRecord& phase,
 using LabeledCurve = std::pair<std::string, allan::Curve>;
 
 // Columns [axis,] [dev_type,] m, tau, n, dev [, lo, hi, edf, alpha].
-TableWriter CurveTable(const std::vector<LabeledCurve>& curves, bool with_ci, bool with_dev_type,
-                       bool with_axis);
+report::TableWriter CurveTable(const std::vector<LabeledCurve>& curves, bool with_ci,
+                               bool with_dev_type, bool with_axis);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::offline
 
 #endif  // IMUQUAL_OFFLINE_CURVE_REQUEST_H_

@@ -16,11 +16,17 @@
 #include "analyze/judge/early_decision.h"
 #include "analyze/judge/plan_file.h"
 #include "analyze/service/run_analyzer.h"
-#include "report/lot_model_view.h"
 #include "report/allan_plots.h"
+#include "report/lot_model_view.h"
 #include "store/archive.h"
 
-namespace imuqual::cli {
+namespace imuqual::offline {
+using report::ArchivedModel;
+using report::AxisPlotData;
+using report::LoadArchivedModel;
+using report::LoadLatestRuns;
+using report::RunPlotData;
+
 namespace {
 
 std::optional<allan::SensorKind> Sensor(pb::AxisKind kind) {
@@ -425,4 +431,4 @@ int PlanSoakCommand(const PlanSoakOptions& o) {
   return 0;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::offline

@@ -33,7 +33,7 @@
 #include "imuqual/plan.pb.h"
 #include "imuqual/sim.pb.h"
 
-namespace imuqual::cli {
+namespace imuqual::offline {
 
 struct PlanSoakOptions {
   std::string plan;   // "builtin:NAME" or a .textproto file (must have early_decision)
@@ -70,6 +70,6 @@ int64_t FeedSimulatedRecord(sim::ImuSimulator& simulator, double rate_hz, int64_
 
 int PlanSoakCommand(const PlanSoakOptions& options);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::offline
 
 #endif  // IMUQUAL_OFFLINE_PLAN_SOAK_COMMAND_H_

@@ -11,7 +11,7 @@
 #include "offline/plan_soak_command.h"
 #include "store/archive.h"
 
-namespace imuqual::cli {
+namespace imuqual::offline {
 namespace {
 
 // A one-axis plan limiting the angle random walk only.
@@ -172,4 +172,4 @@ TEST(PlanSoak, LotUsesEachUnitsLatestAdequateModel) {
 }
 
 }  // namespace
-}  // namespace imuqual::cli
+}  // namespace imuqual::offline

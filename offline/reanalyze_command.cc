@@ -18,7 +18,12 @@
 #include "store/outcome.h"
 #include "store/reanalysis.h"
 
-namespace imuqual::cli {
+namespace imuqual::offline {
+using report::DecisionTimeText;
+using report::Format;
+using report::LooksTable;
+using report::ParseFormat;
+
 namespace {
 
 int Exact(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
@@ -327,4 +332,4 @@ int ReanalyzeCommand(const ReanalyzeOptions& o) {
   return o.exact ? Exact(**archive, o, *format) : Live(**archive, o, *format);
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::offline

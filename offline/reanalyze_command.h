@@ -14,7 +14,7 @@
 
 #include <string>
 
-namespace imuqual::cli {
+namespace imuqual::offline {
 
 struct ReanalyzeOptions {
   std::string db_path;
@@ -33,6 +33,6 @@ struct ReanalyzeOptions {
 
 int ReanalyzeCommand(const ReanalyzeOptions& options);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::offline
 
 #endif  // IMUQUAL_OFFLINE_REANALYZE_COMMAND_H_

@@ -20,7 +20,7 @@
 #include "store/outcome.h"
 #include "store/query.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 namespace {
 
 using allan::NoiseTerm;
@@ -573,4 +573,4 @@ std::vector<AllanPlot> LotAllanPlots(const std::string& lot, const std::vector<R
   return plots;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

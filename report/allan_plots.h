@@ -34,7 +34,7 @@
 #include "imuqual/record.pb.h"
 #include "store/archive.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 // One axis of a run as the plots need it.
 struct AxisPlotData {
@@ -82,6 +82,6 @@ std::vector<AllanPlot> RunAllanPlots(const RunPlotData& run, const std::string& 
 std::vector<AllanPlot> LotAllanPlots(const std::string& lot, const std::vector<RunPlotData>& runs,
                                      const std::string& axis);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_ALLAN_PLOTS_H_

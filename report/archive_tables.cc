@@ -6,7 +6,7 @@
 #include "common/clock.h"
 #include "report/marks.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 namespace {
 
 double Pick(bool take, double v) { return take ? v : allan::kNaN; }
@@ -142,4 +142,4 @@ Result<std::vector<MeasurementStats>> LotStatistics(store::Archive& archive,
   return ComputeLotStatistics(*rows);
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

@@ -12,7 +12,7 @@
 #include "report/table_writer.h"
 #include "store/query.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 // Where a lot's, a run's or a unit's name links to in an HTML table (web
 // pages); unset: no link.
@@ -48,6 +48,6 @@ TableWriter ComparisonTable(const std::vector<Comparison>& rows);
 Result<std::vector<MeasurementStats>> LotStatistics(store::Archive& archive,
                                                     const std::string& lot);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_ARCHIVE_TABLES_H_

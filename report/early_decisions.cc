@@ -7,7 +7,7 @@
 #include "analyze/judge/early_decision.h"
 #include "analyze/judge/measurements.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 Result<EarlyDecisionSummary> QueryEarlyDecisions(store::Archive& archive, const std::string& lot,
                                                  const std::string& run_prefix) {
@@ -104,4 +104,4 @@ TableWriter LooksTable(const std::vector<judge::Look>& looks) {
   return t;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

@@ -16,7 +16,7 @@
 #include "report/table_writer.h"
 #include "store/archive.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 struct DecidedRun {
   std::string unit, run_id, verdict;
@@ -66,6 +66,6 @@ std::string EarlyDecisionLine(const EarlyDecisionSummary& summary);
 // verdict bit for bit; the looks themselves are not archived).
 TableWriter LooksTable(const std::vector<judge::Look>& looks);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_EARLY_DECISIONS_H_

@@ -7,7 +7,7 @@
 #include "analyze/allan/model_quantities.h"
 #include "store/query.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 namespace {
 
 allan::SensorKind Sensor(pb::AxisKind kind) {
@@ -61,8 +61,8 @@ std::vector<AxisLotModel> ComputeLotModels(const std::vector<RunPlotData>& runs)
   std::vector<std::future<Result<allan::LotModel>>> fits;
   for (const AxisLotModel& m : out) {
     const std::vector<allan::UnitCurve>* axis_curves = &curves[m.axis];
-    fits.push_back(std::async(std::launch::async,
-                              [axis_curves] { return allan::FitLotModel(*axis_curves); }));
+    fits.push_back(
+        std::async(std::launch::async, [axis_curves] { return allan::FitLotModel(*axis_curves); }));
   }
   for (size_t i = 0; i < out.size(); ++i) out[i].model = fits[i].get();
   return out;
@@ -159,4 +159,4 @@ TableWriter InconsistentUnitsTable(const std::vector<AxisLotModel>& models) {
   return t;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

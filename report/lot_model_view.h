@@ -12,7 +12,7 @@
 #include "report/table_writer.h"
 #include "store/archive.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 struct AxisLotModel {
   std::string axis;
@@ -39,6 +39,6 @@ TableWriter LotModelTable(bool with_lot);
 // One row per unit inconsistent with its lot on some axis.
 TableWriter InconsistentUnitsTable(const std::vector<AxisLotModel>& models);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_LOT_MODEL_VIEW_H_

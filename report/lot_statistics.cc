@@ -6,7 +6,7 @@
 #include "analyze/judge/measurements.h"
 #include "store/outcome.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 std::vector<MeasurementStats> ComputeLotStatistics(const std::vector<store::MeasurementRow>& rows) {
   struct Group {
@@ -81,4 +81,4 @@ std::vector<Comparison> CompareLots(const std::vector<MeasurementStats>& a,
   return out;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

@@ -11,7 +11,7 @@
 #include "analyze/judge/statistics.h"
 #include "store/query.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 struct MeasurementStats {
   std::string axis;  // "" for run-level measurements
@@ -38,6 +38,6 @@ struct Comparison {
 std::vector<Comparison> CompareLots(const std::vector<MeasurementStats>& a,
                                     const std::vector<MeasurementStats>& b, double alpha);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_LOT_STATISTICS_H_

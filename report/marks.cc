@@ -7,7 +7,7 @@
 
 #include "store/outcome.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 namespace {
 
 std::string Digits(double v, int digits) {
@@ -154,4 +154,4 @@ std::string StationOperatorLines(const std::vector<store::AxisRow>& rows) {
   return out;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

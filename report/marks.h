@@ -21,7 +21,7 @@
 #include "imuqual/record.pb.h"
 #include "store/query.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 inline constexpr char kUpperBoundMark[] = "\u2264 ";         // "≤ " before the value
 inline constexpr char kMinimumNotResolvedMark[] = "\u2020";  // "†" after it
@@ -71,6 +71,6 @@ const char* QualifierExplanation(pb::Qualifier qualifier);
 // 12 runs" ("(not recorded)" for an empty one), in order of appearance.
 std::string StationOperatorLines(const std::vector<store::AxisRow>& rows);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_MARKS_H_

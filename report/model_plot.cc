@@ -3,7 +3,7 @@
 #include <cmath>
 #include <string>
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 void AddModelSeries(const allan::CompositeModel& model, double tau0_s, double tau_lo, double tau_hi,
                     bool adequate, LogLogPlot* plot) {
@@ -38,4 +38,4 @@ void AddModelSeries(const allan::CompositeModel& model, double tau0_s, double ta
   plot->series[plot->series.size() - model.terms.size()].label = "model terms";
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

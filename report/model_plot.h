@@ -7,11 +7,11 @@
 #include "analyze/allan/composite_model.h"
 #include "report/svg_plot.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 void AddModelSeries(const allan::CompositeModel& model, double tau0_s, double tau_lo, double tau_hi,
                     bool adequate, LogLogPlot* plot);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_MODEL_PLOT_H_

@@ -28,7 +28,7 @@
 #include "store/outcome.h"
 #include "store/query.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 namespace {
 
 // Appends every part to *out (no temporaries of "literal" + std::string).
@@ -1055,4 +1055,4 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
   return html;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

@@ -29,13 +29,13 @@
 #include "common/status.h"
 #include "store/archive.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 // The report's HTML. NotFound names the lot when the archive has no run of
 // it. `archive_label` is how the page names the archive (e.g. its path).
 Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
                                        const std::string& archive_label);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_REPORT_H_

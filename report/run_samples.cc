@@ -2,7 +2,7 @@
 
 #include <string>
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 Result<RunSampleWalk> WalkRunSamples(store::Archive& archive, int64_t run_key,
                                      const store::RunInfo& info, const RunSampleVisitor& visitor) {
@@ -39,4 +39,4 @@ Result<RunSampleWalk> WalkRunSamples(store::Archive& archive, int64_t run_key,
   return walk;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

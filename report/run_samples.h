@@ -13,7 +13,7 @@
 #include "store/archive.h"
 #include "store/chunk_codec.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 struct RunSampleVisitor {
   // Counters [from, from + count) that no archived chunk holds. `first` is
@@ -40,6 +40,6 @@ inline constexpr double kLongestFilledGapS = 86400.0;
 Result<RunSampleWalk> WalkRunSamples(store::Archive& archive, int64_t run_key,
                                      const store::RunInfo& info, const RunSampleVisitor& visitor);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_RUN_SAMPLES_H_

@@ -11,7 +11,7 @@
 
 #include "common/text_util.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 namespace {
 
 std::string Esc(const std::string& s) { return HtmlEscape(s); }
@@ -399,4 +399,4 @@ std::string LogLogPlot::ToSvg() const {
   return svg;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 struct PlotSeries {
   std::string label;
@@ -78,6 +78,6 @@ std::string PaletteColor(size_t i);
 // A coordinate in px, 2 decimals.
 std::string SvgPx(double v);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_SVG_PLOT_H_

@@ -5,7 +5,7 @@
 #include <regex>
 #include <string>
 
-namespace imuqual::cli {
+namespace imuqual::report {
 namespace {
 
 int SvgWidth(const std::string& svg) {
@@ -99,4 +99,4 @@ TEST(LogLogPlotTest, AReferenceMarkerOutsideTheRangeIsNotDrawn) {
 }
 
 }  // namespace
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

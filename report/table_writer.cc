@@ -7,7 +7,7 @@
 #include "common/strings.h"
 #include "common/text_util.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 namespace {
 
 // digits 17: for programs, the shortest text that reads back exactly.
@@ -213,4 +213,4 @@ std::string TableWriter::RenderHtml() const {
   return out + "</tbody>\n</table>\n";
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

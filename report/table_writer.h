@@ -12,7 +12,7 @@
 
 #include "common/status.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 enum class Format { kTable, kCsv, kJson, kHtml };
 // "table", "csv", "json" (HTML is for the web pages, not a --format).
@@ -65,6 +65,6 @@ class TableWriter {
   int digits_;
 };
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_TABLE_WRITER_H_

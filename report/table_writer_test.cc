@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-namespace imuqual::cli {
+namespace imuqual::report {
 namespace {
 
 TableWriter Sample() {
@@ -69,4 +69,4 @@ TEST(TableWriterTest, ParseFormat) {
 }
 
 }  // namespace
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

@@ -14,7 +14,7 @@
 #include "report/run_samples.h"
 #include "report/svg_plot.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 EnvelopeBuilder::EnvelopeBuilder(size_t channels, size_t max_bins)
     : channels_(channels), max_bins_(std::max<size_t>(max_bins, 2)) {}
@@ -316,4 +316,4 @@ Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string&
   return plot.ToSvg(builder);
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

@@ -15,7 +15,7 @@
 #include "common/status.h"
 #include "store/archive.h"
 
-namespace imuqual::cli {
+namespace imuqual::report {
 
 // One bin of consecutive device counters [first, first + width).
 struct EnvelopeBin {
@@ -80,6 +80,6 @@ struct TimeSeriesPlot {
 // has no archived sample.
 Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string& run_id);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_TIME_SERIES_H_

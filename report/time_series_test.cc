@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace imuqual::cli {
+namespace imuqual::report {
 namespace {
 
 constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
@@ -134,4 +134,4 @@ TEST(TimeSeriesPlotTest, PanelsBandsAndEscapedText) {
 }
 
 }  // namespace
-}  // namespace imuqual::cli
+}  // namespace imuqual::report

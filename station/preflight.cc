@@ -6,7 +6,7 @@
 #include "acquire/source_spec.h"
 #include "common/strings.h"
 
-namespace imuqual::cli {
+namespace imuqual::station {
 namespace {
 
 // How long a unit records, when its source says before it runs: simulated
@@ -105,4 +105,4 @@ PreflightResult Preflight(const StationRunOptions& o, const pb::TestPlan* plan) 
   return out;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::station

@@ -13,7 +13,7 @@
 #include "imuqual/plan.pb.h"
 #include "station/station_runner.h"
 
-namespace imuqual::cli {
+namespace imuqual::station {
 
 struct PreflightResult {
   // One line each: "[FILE:LINE: ]slot NAME (unit SERIAL): problem" for a
@@ -32,6 +32,6 @@ struct PreflightResult {
 // station file. Pure apart from opening the sources.
 PreflightResult Preflight(const StationRunOptions& options, const pb::TestPlan* plan);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::station
 
 #endif  // IMUQUAL_STATION_PREFLIGHT_H_

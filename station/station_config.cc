@@ -9,7 +9,7 @@
 #include "common/text_util.h"
 #include "proto/text_proto.h"
 
-namespace imuqual::cli {
+namespace imuqual::station {
 namespace {
 
 constexpr int kMaxShards = 64;
@@ -148,4 +148,4 @@ StationRunOptions StationRunFromConfig(const pb::StationConfig& c, const std::st
   return o;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::station

@@ -11,7 +11,7 @@
 #include "imuqual/station.pb.h"
 #include "station/station_runner.h"
 
-namespace imuqual::cli {
+namespace imuqual::station {
 
 // Parses and checks the configuration text; `path` names it in errors and
 // anchors its relative paths (archive, plan, report, csv: and archive:
@@ -30,6 +30,6 @@ StationRunOptions StationRunFromConfig(const pb::StationConfig& config,
                                        const std::string& path = "",
                                        const std::vector<int>& slot_lines = {});
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::station
 
 #endif  // IMUQUAL_STATION_STATION_CONFIG_H_

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <string>
 
-namespace imuqual::cli {
+namespace imuqual::station {
 namespace {
 
 const char kGood[] =
@@ -21,7 +21,7 @@ const char kGood[] =
          slot { name: "A1" unit_serial: "SN-1" source: "sim:tactical,index=0" }
          slot { name: "A2" unit_serial: "SN-2" source: "csv:rec/sn2.csv,rate=200,counter=count" }
          slot { unit_serial: "SN-3" source: "serial:/dev/ttyUSB0,protocol=xsens,baud=921600" }
-)pb";
+    )pb";
 
 std::string Replace(std::string text, const std::string& from, const std::string& to) {
   const size_t at = text.find(from);
@@ -143,4 +143,4 @@ TEST(StationConfigTest, MissingFileIsOneLine) {
 }
 
 }  // namespace
-}  // namespace imuqual::cli
+}  // namespace imuqual::station

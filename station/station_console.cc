@@ -16,7 +16,16 @@
 #include "report/table_writer.h"
 #include "store/outcome.h"
 
-namespace imuqual::cli {
+namespace imuqual::station {
+using report::Cell;
+using report::DecisionTimeText;
+using report::DisplayWidth;
+using report::Format;
+using report::kMinimumNotResolvedMark;
+using report::kModelInadequateMark;
+using report::MarkedValue;
+using report::TableWriter;
+
 namespace {
 
 using imuqual::decision_t;
@@ -529,4 +538,4 @@ std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int hei
   return out;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::station

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-namespace imuqual::cli {
+namespace imuqual::station {
 
 struct ConsoleAxis {
   std::string name;
@@ -140,6 +140,6 @@ std::string ConsoleProcessesLine(const ConsoleModel& model);
 // "1:02:03" (h:mm:ss) or "2:03" (m:ss).
 std::string FormatDuration(double seconds);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::station
 
 #endif  // IMUQUAL_STATION_STATION_CONSOLE_H_

@@ -10,12 +10,13 @@
 #include "imuqual/run_t.hpp"
 #include "report/table_writer.h"
 
-namespace imuqual::cli {
+namespace imuqual::station {
 namespace {
 
 using imuqual::decision_t;
 using imuqual::measurement_t;
 using imuqual::run_t;
+using report::DisplayWidth;
 
 std::string Screen(const std::vector<std::string>& lines) {
   std::string out;
@@ -410,4 +411,4 @@ TEST(StationConsoleTest, Durations) {
 }
 
 }  // namespace
-}  // namespace imuqual::cli
+}  // namespace imuqual::station

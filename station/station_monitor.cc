@@ -14,7 +14,7 @@
 #include "imuqual/rate_batch_t.hpp"
 #include "store/outcome.h"
 
-namespace imuqual::cli {
+namespace imuqual::station {
 namespace {
 
 // The worse of two outcomes: FAIL > INCONCLUSIVE > MARGINAL > PASS (not the
@@ -176,9 +176,9 @@ void StationMonitor::OnStatus(const imuqual::status_t& s, double now) {
   const std::string key = s.process + "/" + s.instance;
   if (instances_.count(key) == 0 && instances_.size() >= kMaxInstances) {
     // Room for the newcomer: the instance heard longest ago leaves.
-    auto oldest = std::min_element(instances_.begin(), instances_.end(), [](const auto& a, const auto& b) {
-      return a.second.last_heard < b.second.last_heard;
-    });
+    auto oldest = std::min_element(
+        instances_.begin(), instances_.end(),
+        [](const auto& a, const auto& b) { return a.second.last_heard < b.second.last_heard; });
     Forget(oldest->first, oldest->second.kind);
     instances_.erase(oldest);
   }
@@ -234,7 +234,8 @@ void StationMonitor::OnRun(const imuqual::run_t& r) {
                      why->second != kShutdownEndReason;
   u->samples = std::max(u->samples, r.samples_published);
   if (r.nominal_rate_hz > 0) u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
-  if (r.announcer == "acquire") tracks_[r.unit_serial].device_paced = r.source.rfind("serial:", 0) == 0;
+  if (r.announcer == "acquire")
+    tracks_[r.unit_serial].device_paced = r.source.rfind("serial:", 0) == 0;
   if (u->axes.empty()) {
     for (const std::string& name : r.axis_names) {
       ConsoleAxis x;
@@ -342,8 +343,8 @@ void StationMonitor::OnCurve(const imuqual::allan_curve_t& c) {
   if (estimators.count(c.estimator) == 0 && estimators.size() >= kMaxEstimators) return;
   LiveCurve& live = estimators[c.estimator];
   if (live.is_final && !c.is_final) return;  // a late interim curve
-  const size_t n = std::min<size_t>({static_cast<size_t>(std::max(0, c.num_points)),
-                                     c.tau_s.size(), c.dev.size(), c.lo.size(), c.hi.size()});
+  const size_t n = std::min<size_t>({static_cast<size_t>(std::max(0, c.num_points)), c.tau_s.size(),
+                                     c.dev.size(), c.lo.size(), c.hi.size()});
   const bool gyro = c.axis_kind == imuqual::rate_batch_t::KIND_GYRO;
   const double scale = gyro ? 3600.0 : 1.0 / allan::kMicroGInMetersPerSecSq;
   LiveCurve next;
@@ -516,4 +517,4 @@ std::string StationMonitor::Problem(const std::string& kind, double now) const {
   return out;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::station

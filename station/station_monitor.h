@@ -30,7 +30,7 @@
 #include "imuqual/unit_result_t.hpp"
 #include "station/station_console.h"
 
-namespace imuqual::cli {
+namespace imuqual::station {
 
 struct MonitorOptions {
   // Only runs "<run_prefix>-<serial>" ("": every run on the bus).
@@ -123,13 +123,13 @@ class StationMonitor {
     double grew_at = -1;        // monotonic s (-1: not yet)
     bool device_paced = false;  // a serial source: silence means no data
     int64_t start_utime = 0;
-    double done_at = -1;        // archived with its final result (monotonic s)
-    std::string station;        // of its run (discovered units)
+    double done_at = -1;  // archived with its final result (monotonic s)
+    std::string station;  // of its run (discovered units)
   };
   struct Instance {
     std::string kind;
     double first_heard = 0, last_heard = 0;
-    bool gone = false;  // silent kGoneS at the last Refresh
+    bool gone = false;                   // silent kGoneS at the last Refresh
     std::set<std::string> reconnecting;  // acquire: run ids whose device it is reconnecting
   };
   ConsoleUnit* UnitOfRun(const std::string& run_id, const std::string& serial,
@@ -159,6 +159,6 @@ class StationMonitor {
   int64_t newest_utime_ = 0;
 };
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::station
 
 #endif  // IMUQUAL_STATION_STATION_MONITOR_H_

@@ -8,12 +8,12 @@
 #include "imuqual/measurement_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
 
-namespace imuqual::cli {
+namespace imuqual::station {
 namespace {
 
 imuqual::run_t RunMsg(const std::string& run_id, const std::string& serial, const std::string& slot,
-                   int8_t state = imuqual::run_t::STATE_RUNNING, int64_t samples = 1000,
-                   int64_t start_utime = 1'000'000) {
+                      int8_t state = imuqual::run_t::STATE_RUNNING, int64_t samples = 1000,
+                      int64_t start_utime = 1'000'000) {
   imuqual::run_t r{};
   r.run_id = run_id;
   r.unit_serial = serial;
@@ -33,7 +33,7 @@ imuqual::run_t RunMsg(const std::string& run_id, const std::string& serial, cons
 }
 
 imuqual::status_t StatusMsg(const std::string& process, const std::string& instance,
-                         bool healthy = true, const std::string& message = "") {
+                            bool healthy = true, const std::string& message = "") {
   imuqual::status_t s{};
   s.process = process;
   s.instance = instance;
@@ -43,7 +43,7 @@ imuqual::status_t StatusMsg(const std::string& process, const std::string& insta
 }
 
 imuqual::unit_result_t ResultMsg(const std::string& run_id, const std::string& serial, bool final,
-                              double gx_bi, int8_t gx_outcome) {
+                                 double gx_bi, int8_t gx_outcome) {
   imuqual::unit_result_t r{};
   r.run_id = run_id;
   r.unit_serial = serial;
@@ -445,4 +445,4 @@ TEST(StationMonitorTest, CurvesInDatasheetUnitsThinnedFinalKept) {
 }
 
 }  // namespace
-}  // namespace imuqual::cli
+}  // namespace imuqual::station

@@ -39,7 +39,7 @@
 #include "store/outcome.h"
 #include "store/store_service.h"
 
-namespace imuqual::cli {
+namespace imuqual::station {
 namespace {
 
 constexpr double kStartTimeoutS = 20;    // store/analyze must report by then
@@ -635,4 +635,4 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
   return result;
 }
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::station

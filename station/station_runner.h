@@ -17,7 +17,7 @@
 
 #include "common/status.h"
 
-namespace imuqual::cli {
+namespace imuqual::station {
 
 struct StationRunOptions {
   int sim_units = 0;               // simulated units
@@ -75,6 +75,6 @@ struct StationRunResult {
 
 Result<StationRunResult> RunStation(const StationRunOptions& options);
 
-}  // namespace imuqual::cli
+}  // namespace imuqual::station
 
 #endif  // IMUQUAL_STATION_STATION_RUNNER_H_

@@ -31,14 +31,15 @@ json Rounded(double v) {
 
 }  // namespace
 
-std::string LiveStatusJson(const cli::ConsoleModel& m, int64_t newest_utime) {
+std::string LiveStatusJson(const station::ConsoleModel& m, int64_t newest_utime) {
   json units = json::array();
   bool all_done = !m.units.empty();
-  for (const cli::ConsoleUnit& u : m.units) {
-    const cli::ConsoleUnitCells cells = cli::DescribeUnit(m, u);
+  for (const station::ConsoleUnit& u : m.units) {
+    const station::ConsoleUnitCells cells = station::DescribeUnit(m, u);
     json axes = json::array();
-    for (const cli::ConsoleAxisCells& x : cells.axes) {
-      axes.push_back({{"name", x.name}, {"verdict", x.verdict}, {"bias_instability", x.bias_instability}});
+    for (const station::ConsoleAxisCells& x : cells.axes) {
+      axes.push_back(
+          {{"name", x.name}, {"verdict", x.verdict}, {"bias_instability", x.bias_instability}});
     }
     all_done = all_done && u.archived && u.final_result;
     units.push_back({{"slot", u.slot},
@@ -57,7 +58,7 @@ std::string LiveStatusJson(const cli::ConsoleModel& m, int64_t newest_utime) {
                      {"axes", std::move(axes)}});
   }
   json processes = json::array();
-  for (const cli::ConsoleProcess& p : m.processes) {
+  for (const station::ConsoleProcess& p : m.processes) {
     processes.push_back({{"name", p.name},
                          {"running", p.running},
                          {"expected", p.expected},
@@ -71,10 +72,10 @@ std::string LiveStatusJson(const cli::ConsoleModel& m, int64_t newest_utime) {
               {"bus", m.bus},
               {"archive", m.archive},
               {"wall_s", Rounded(m.wall_s)},
-              {"progress", Rounded(cli::ConsoleProgress(m))},
-              {"processes_line", cli::ConsoleProcessesLine(m)},
+              {"progress", Rounded(station::ConsoleProgress(m))},
+              {"processes_line", station::ConsoleProcessesLine(m)},
               {"processes", std::move(processes)},
-              {"tally", cli::ConsoleTally(m)},
+              {"tally", station::ConsoleTally(m)},
               {"newest_utime", newest_utime},
               {"sent_utime", NowUtime()},
               {"all_done", all_done},
@@ -83,7 +84,7 @@ std::string LiveStatusJson(const cli::ConsoleModel& m, int64_t newest_utime) {
 }
 
 std::string LiveCurveJson(const std::string& serial, const std::string& run_id,
-                          const cli::LiveCurve& c) {
+                          const station::LiveCurve& c) {
   json tau = json::array(), dev = json::array(), lo = json::array(), hi = json::array();
   for (size_t i = 0; i < c.tau_s.size(); ++i) {
     tau.push_back(Rounded(c.tau_s[i]));
@@ -106,7 +107,7 @@ std::string LiveCurveJson(const std::string& serial, const std::string& run_id,
 
 struct LiveFeed::Impl {
   std::unique_ptr<LcmBus> bus;
-  std::unique_ptr<cli::StationMonitor> monitor;
+  std::unique_ptr<station::StationMonitor> monitor;
   std::thread thread;
   std::atomic<bool> stop{false};
   mutable std::mutex mu;
@@ -140,9 +141,9 @@ struct LiveFeed::Impl {
       std::map<std::string, Curve> next;
       {
         std::lock_guard<std::mutex> lock(mu);
-        for (const cli::ConsoleUnit& u : monitor->model().units) {
+        for (const station::ConsoleUnit& u : monitor->model().units) {
           if (u.run_id.empty()) continue;
-          for (const cli::LiveCurve& c : monitor->Curves(u.run_id)) {
+          for (const station::LiveCurve& c : monitor->Curves(u.run_id)) {
             const std::string key = u.run_id + "\n" + c.axis;
             auto old = curves.find(key);
             if (old != curves.end() && old->second.stamp == c.host_utime &&
@@ -177,11 +178,11 @@ Result<std::unique_ptr<LiveFeed>> LiveFeed::Open(const std::string& bus_url,
   if (!bus.ok()) return Status::InvalidArgument("--bus " + bus_url + ": " + bus.status().message());
   auto impl = std::make_unique<Impl>();
   impl->bus = std::move(*bus);
-  cli::MonitorOptions o;
+  station::MonitorOptions o;
   o.discover_units = true;
   o.keep_curves = true;
   o.forget_after_s = 3600;
-  impl->monitor = std::make_unique<cli::StationMonitor>(o);
+  impl->monitor = std::make_unique<station::StationMonitor>(o);
   impl->monitor->model().bus = bus_url;
   impl->monitor->model().archive = archive_label;
   impl->monitor->Attach(*impl->bus);
@@ -224,8 +225,7 @@ std::string LiveFeed::NextEvents(Cursor* cursor, std::chrono::milliseconds timeo
     auto sent = cursor->curve_stamps.find(key);
     if (sent != cursor->curve_stamps.end() && sent->second == c.stamp * 2 + c.final) continue;
     auto at = cursor->curve_sent_at.find(key);
-    if (!c.final && at != cursor->curve_sent_at.end() && now - at->second < kCurvePeriodS)
-      continue;
+    if (!c.final && at != cursor->curve_sent_at.end() && now - at->second < kCurvePeriodS) continue;
     cursor->curve_stamps[key] = c.stamp * 2 + c.final;
     cursor->curve_sent_at[key] = now;
     out += "event: curve\ndata: " + c.json + "\n\n";

@@ -34,9 +34,9 @@
 namespace imuqual::web {
 
 // The JSON documents above, from a model (pure).
-std::string LiveStatusJson(const cli::ConsoleModel& model, int64_t newest_utime);
+std::string LiveStatusJson(const station::ConsoleModel& model, int64_t newest_utime);
 std::string LiveCurveJson(const std::string& serial, const std::string& run_id,
-                          const cli::LiveCurve& curve);
+                          const station::LiveCurve& curve);
 
 class LiveFeed {
  public:
@@ -62,7 +62,7 @@ class LiveFeed {
   std::string CurvesJson(const std::string& run_id) const;
   bool stopping() const;
 
-  static constexpr double kSnapshotS = 0.2;    // at most this often
+  static constexpr double kSnapshotS = 0.2;  // at most this often
   static constexpr double kCurvePeriodS = 2.0;
 
  private:

@@ -18,11 +18,15 @@
 #include "store/query.h"
 
 namespace imuqual::web {
+using report::Cell;
+using report::Format;
+using report::TableWriter;
+
 namespace {
 
-using cli::Cell;
-using cli::Format;
-using cli::TableWriter;
+using report::Cell;
+using report::Format;
+using report::TableWriter;
 
 constexpr char kStyle[] = R"css(
 body { margin: 0; font: 14px/1.45 system-ui, sans-serif; color: #1d2329; }
@@ -87,8 +91,8 @@ std::string NameLink(const std::string& prefix, const std::string& key, const st
 }
 
 // The pages' links: a lot to its report, a run to its page, a unit to its history.
-cli::TableLinks Links() {
-  cli::TableLinks l;
+report::TableLinks Links() {
+  report::TableLinks l;
   l.lot = [](const std::string& lot) { return NameLink("/lot", "name", lot); };
   l.run = [](const std::string& run) { return NameLink("/run", "id", run); };
   l.serial = [](const std::string& serial) { return NameLink("/unit", "serial", serial); };
@@ -102,8 +106,8 @@ Page NotFound(const std::string& what) {
 
 Page Failed(const Status& st) {
   return {500, "text/html; charset=utf-8",
-          PageHtml("error", "<h1>The archive could not be read</h1>\n<p>" + HtmlEscape(st.message()) +
-                            "</p>\n")};
+          PageHtml("error", "<h1>The archive could not be read</h1>\n<p>" +
+                                HtmlEscape(st.message()) + "</p>\n")};
 }
 
 Page Json(const std::string& body) { return {200, "application/json; charset=utf-8", body}; }
@@ -125,7 +129,7 @@ std::string Param(const std::map<std::string, std::string>& q, const std::string
 Page Home(store::Archive& archive, const std::string& label) {
   auto lots = store::QueryLots(archive);
   if (!lots.ok()) return Failed(lots.status());
-  const TableWriter linked = cli::LotsTable(*lots, /*for_people=*/true, Links());
+  const TableWriter linked = report::LotsTable(*lots, /*for_people=*/true, Links());
   std::string body = "<h1>Lots in " + HtmlEscape(label) + "</h1>\n";
   body += lots->empty() ? "<p>No run archived yet.</p>\n" : linked.Render(Format::kHtml);
   body +=
@@ -142,7 +146,7 @@ Page UnitHistory(store::Archive& archive, const std::string& serial) {
   auto runs = store::QueryRuns(archive, f);
   if (!runs.ok()) return Failed(runs.status());
   if (runs->empty()) return NotFound("no unit with serial '" + serial + "' in the archive");
-  const TableWriter t = cli::RunsTable(*runs, Links());
+  const TableWriter t = report::RunsTable(*runs, Links());
   const std::string body = "<h1>Unit " + HtmlEscape(serial) + ": " + std::to_string(runs->size()) +
                            (runs->size() == 1 ? " run" : " runs") + ", newest first</h1>\n" +
                            t.Render(Format::kHtml);
@@ -160,7 +164,7 @@ TableWriter MeasurementTable(const std::vector<pb::Measurement>& ms) {
               Cell::Text(m.unit()), opt(m.has_low(), m.low()), opt(m.has_high(), m.high()),
               opt(m.has_marginal_low(), m.marginal_low()),
               opt(m.has_marginal_high(), m.marginal_high()),
-              Cell::Text(cli::QualifierWord(m.qualifier(), m.value())),
+              Cell::Text(report::QualifierWord(m.qualifier(), m.value())),
               Cell::Text(m.outcome() == pb::OUTCOME_UNSET ? "not_judged"
                                                           : store::OutcomeText(m.outcome())),
               Cell::Text(m.note())});
@@ -187,9 +191,8 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
   };
   field("unit", "<a href=\"" + HtmlEscape(NameLink("/unit", "serial", r.serial)) + "\">" +
                     HtmlEscape(r.serial) + "</a>");
-  field("lot",
-        "<a href=\"" + HtmlEscape(NameLink("/lot", "name", r.lot)) + "\">" + HtmlEscape(r.lot) +
-            "</a>");
+  field("lot", "<a href=\"" + HtmlEscape(NameLink("/lot", "name", r.lot)) + "\">" +
+                   HtmlEscape(r.lot) + "</a>");
   field("station / slot", HtmlEscape(r.station) + " / " + HtmlEscape(r.slot));
   field("operator", r.operator_name.empty() ? "(not recorded)" : HtmlEscape(r.operator_name));
   field("source", HtmlEscape(r.source));
@@ -209,13 +212,13 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
   body += "<h2>Measurements</h2>\n";
   body += ms.empty() ? "<p>No measurement archived (not judged yet).</p>\n"
                      : MeasurementTable(ms).Render(Format::kHtml);
-  auto plots = cli::LoadRunPlotData(archive, run_id);
+  auto plots = report::LoadRunPlotData(archive, run_id);
   if (plots.ok()) {
-    const std::vector<cli::AllanPlot> allan = cli::RunAllanPlots(*plots, "");
+    const std::vector<report::AllanPlot> allan = report::RunAllanPlots(*plots, "");
     if (!allan.empty()) body += "<h2>Allan deviation</h2>\n";
-    for (const cli::AllanPlot& p : allan) body += "<figure>" + p.svg + "</figure>\n";
+    for (const report::AllanPlot& p : allan) body += "<figure>" + p.svg + "</figure>\n";
   }
-  auto series = cli::RunTimeSeriesSvg(archive, run_id);
+  auto series = report::RunTimeSeriesSvg(archive, run_id);
   if (series.ok()) body += "<h2>Raw samples against time</h2>\n<figure>" + *series + "</figure>\n";
   body += "<p class=\"note\">JSON: <a href=\"" + HtmlEscape(NameLink("/api/run", "id", run_id)) +
           "\">/api/run/" + HtmlEscape(run_id) + "</a>.</p>\n";
@@ -235,8 +238,8 @@ Page Compare(store::Archive& archive, const std::string& lot_a, const std::strin
     if (json) return {404, "application/json", "{\"error\": \"give a and b\"}\n"};
     return {200, "text/html; charset=utf-8", PageHtml("compare", body)};
   }
-  auto a = cli::LotStatistics(archive, lot_a);
-  auto b = a.ok() ? cli::LotStatistics(archive, lot_b) : a;
+  auto a = report::LotStatistics(archive, lot_a);
+  auto b = a.ok() ? report::LotStatistics(archive, lot_b) : a;
   if (!a.ok() || !b.ok()) {
     const Status& st = a.ok() ? b.status() : a.status();
     if (st.code() != Status::Code::kNotFound) return Failed(st);
@@ -244,8 +247,8 @@ Page Compare(store::Archive& archive, const std::string& lot_a, const std::strin
     return NotFound(st.message());
   }
   constexpr double kAlpha = 0.05;
-  const std::vector<cli::Comparison> rows = cli::CompareLots(*a, *b, kAlpha);
-  const TableWriter t = cli::ComparisonTable(rows);
+  const std::vector<report::Comparison> rows = report::CompareLots(*a, *b, kAlpha);
+  const TableWriter t = report::ComparisonTable(rows);
   if (json) return Json(t.Render(Format::kJson));
   body += "<p>" + HtmlEscape(lot_a) + " (a) against " + HtmlEscape(lot_b) +
           " (b): each unit by its latest run; Welch t (mean), F (sd), Fisher exact (yield); "
@@ -276,7 +279,7 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
   if (path == "/lot" || Under(path, "/lot/", &rest)) {
     if (path == "/lot") rest = Param(query, "name");
     if (rest.empty()) return NotFound("give a lot: /lot/LOT or /lot?name=LOT");
-    auto html = cli::BuildLotReportHtml(archive, rest, archive_label);
+    auto html = report::BuildLotReportHtml(archive, rest, archive_label);
     if (!html.ok()) {
       return html.status().code() == Status::Code::kNotFound ? NotFound(html.status().message())
                                                              : Failed(html.status());
@@ -300,7 +303,7 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
   if (path == "/api/lots") {
     auto lots = store::QueryLots(archive);
     if (!lots.ok()) return Failed(lots.status());
-    return Json(cli::LotsTable(*lots, /*for_people=*/false).Render(Format::kJson));
+    return Json(report::LotsTable(*lots, /*for_people=*/false).Render(Format::kJson));
   }
   if (path == "/api/lot" || Under(path, "/api/lot/", &rest)) {
     if (path == "/api/lot") rest = Param(query, "name");
@@ -309,7 +312,7 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
     auto rows = store::QueryAxisRows(archive, filter);
     if (!rows.ok()) return Failed(rows.status());
     if (rows->empty()) return {404, "application/json", "{\"error\": \"no such lot\"}\n"};
-    return Json(cli::LotAxisTable(*rows).Render(Format::kJson));
+    return Json(report::LotAxisTable(*rows).Render(Format::kJson));
   }
   if (path == "/api/runs") {
     store::RunFilter f;
@@ -317,7 +320,7 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
     f.unit = Param(query, "serial");
     auto runs = store::QueryRuns(archive, f);
     if (!runs.ok()) return Failed(runs.status());
-    return Json(cli::RunsTable(*runs).Render(Format::kJson));
+    return Json(report::RunsTable(*runs).Render(Format::kJson));
   }
   if (path == "/api/run" || Under(path, "/api/run/", &rest)) {
     if (path == "/api/run") rest = Param(query, "id");

@@ -2,14 +2,13 @@
 
 #include <arpa/inet.h>
 #include <httplib.h>
-
 #include <sys/stat.h>
 
 #include <algorithm>
 #include <atomic>
+#include <map>
 #include <mutex>
 #include <optional>
-#include <map>
 #include <string>
 
 #include "common/text_util.h"
@@ -111,9 +110,9 @@ class ReportCache {
   void Put(const std::string& lot, const std::string& fingerprint, const Page& page) {
     std::lock_guard<std::mutex> lock(mu_);
     if (entries_.size() >= kMaxLots && entries_.count(lot) == 0) {
-      auto oldest = std::min_element(entries_.begin(), entries_.end(), [](const auto& a, const auto& b) {
-        return a.second.used < b.second.used;
-      });
+      auto oldest = std::min_element(
+          entries_.begin(), entries_.end(),
+          [](const auto& a, const auto& b) { return a.second.used < b.second.used; });
       entries_.erase(oldest);
     }
     entries_[lot] = {fingerprint, page, ++clock_};
@@ -304,12 +303,12 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
     struct stat info {};
     if (!opts.bus_url.empty() && ::stat(opts.db_path.c_str(), &info) != 0) {
       res.status = 503;
-      res.set_content(PageHtml("no archive yet", "<h1>No archive yet</h1>\n<p>" +
-                                                     HtmlEscape(opts.db_path) +
-                                                     " does not exist yet: the station creates it "
-                                                     "when its soak starts. <a href=\"/live\">The "
-                                                     "live station</a>.</p>\n"),
-                      "text/html; charset=utf-8");
+      res.set_content(
+          PageHtml("no archive yet", "<h1>No archive yet</h1>\n<p>" + HtmlEscape(opts.db_path) +
+                                         " does not exist yet: the station creates it "
+                                         "when its soak starts. <a href=\"/live\">The "
+                                         "live station</a>.</p>\n"),
+          "text/html; charset=utf-8");
       return;
     }
     auto archive = store::Archive::Open(opts.db_path, store::Archive::Mode::kRead);

@@ -4,28 +4,27 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 
+#include "common/channels.h"
+#include "common/lcm_bus.h"
 #include "common/strings.h"
+#include "imuqual/allan_curve_t.hpp"
+#include "imuqual/rate_batch_t.hpp"
+#include "imuqual/run_t.hpp"
+#include "imuqual/status_t.hpp"
+#include "imuqual/unit_result_t.hpp"
 #include "report/report.h"
 #include "store/archive.h"
 #include "store/chunk_codec.h"
 #include "store/outcome.h"
 #include "store/run_record.h"
 #include "tests/test_util.h"
-#include "common/channels.h"
-#include "common/lcm_bus.h"
-#include "imuqual/allan_curve_t.hpp"
-#include "imuqual/rate_batch_t.hpp"
-#include "imuqual/run_t.hpp"
-#include "imuqual/status_t.hpp"
-#include "imuqual/unit_result_t.hpp"
 #include "web/live_feed.h"
 #include "web/pages.h"
 #include "web/web_server.h"
-
-#include <nlohmann/json.hpp>
 
 namespace imuqual::web {
 namespace {
@@ -34,7 +33,8 @@ namespace {
 // failed ASSERT returns early: a joinable thread would terminate the binary).
 class ServingThread {
  public:
-  explicit ServingThread(WebServer& server) : server_(server), thread_([&server] { server.Run(); }) {}
+  explicit ServingThread(WebServer& server)
+      : server_(server), thread_([&server] { server.Run(); }) {}
   ~ServingThread() {
     server_.Stop();
     thread_.join();
@@ -149,7 +149,7 @@ TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
   EXPECT_EQ(lot->status, 200);
   auto archive = store::Archive::Open(db_, store::Archive::Mode::kRead);
   ASSERT_TRUE(archive.ok());
-  auto report = cli::BuildLotReportHtml(**archive, kLot, db_);
+  auto report = report::BuildLotReportHtml(**archive, kLot, db_);
   ASSERT_TRUE(report.ok());
   auto strip_time = [](std::string s) {  // the report says when it was generated
     const size_t at = s.find(" on 20");
@@ -349,7 +349,8 @@ TEST_F(WebTest, AFinishedLotsReportIsKeptUntilTheArchiveChangesIt) {
   {
     auto w = store::Archive::Open(db_, store::Archive::Mode::kWrite);
     ASSERT_TRUE(w.ok());
-    ASSERT_TRUE((*w)->db().Exec("UPDATE runs SET operator = 'CHANGED-OP' WHERE run_id = 'R-1'").ok());
+    ASSERT_TRUE(
+        (*w)->db().Exec("UPDATE runs SET operator = 'CHANGED-OP' WHERE run_id = 'R-1'").ok());
   }
   auto again = client_->Get(path);
   ASSERT_TRUE(again);
@@ -541,7 +542,8 @@ TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
     auto got = client.Get("/api/live");
     ASSERT_TRUE(got);
     live = nlohmann::json::parse(got->body);
-    if (!live["units"].empty() && !live["units"][0]["axes"][0]["verdict"].get<std::string>().empty())
+    if (!live["units"].empty() &&
+        !live["units"][0]["axes"][0]["verdict"].get<std::string>().empty())
       break;
   }
   ASSERT_EQ(live["units"].size(), 1u) << live.dump();
