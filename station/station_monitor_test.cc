@@ -66,6 +66,57 @@ imuqual::unit_result_t ResultMsg(const std::string& run_id, const std::string& s
   return r;
 }
 
+// A monitor that discovers units and keeps curves, with run R-U1 (unit U1,
+// axes gx and gy) announced.
+StationMonitor CurveMonitor() {
+  MonitorOptions o;
+  o.discover_units = true;
+  o.keep_curves = true;
+  StationMonitor m(o);
+  m.OnRun(RunMsg("R-U1", "U1", "A1"));
+  return m;
+}
+
+// A gyro curve of R-U1's `axis`: dev = 1e-3 / sqrt(tau) deg/s at the `n`
+// taus 0.01, 0.02, ... s, +-10 %.
+imuqual::allan_curve_t Curve(const std::string& axis, int n) {
+  imuqual::allan_curve_t c{};
+  c.run_id = "R-U1";
+  c.unit_serial = "U1";
+  c.axis = axis;
+  c.axis_kind = imuqual::rate_batch_t::KIND_GYRO;
+  c.estimator = "oadev";
+  c.samples = 5000;
+  c.host_utime = 99;
+  for (int i = 0; i < n; ++i) {
+    const double tau = 0.01 * (i + 1);
+    c.m.push_back(i + 1);
+    c.tau_s.push_back(tau);
+    c.dev.push_back(1e-3 / std::sqrt(tau));
+    c.lo.push_back(0.9e-3 / std::sqrt(tau));
+    c.hi.push_back(1.1e-3 / std::sqrt(tau));
+  }
+  c.num_points = n;
+  return c;
+}
+
+// Run R-U1 of unit U1 on a serial line.
+imuqual::run_t SerialRun() {
+  imuqual::run_t r = RunMsg("R-U1", "U1", "A1");
+  r.source = "serial:/dev/ttyUSB0,protocol=text";
+  return r;
+}
+
+// A discovering monitor that heard `r` and was refreshed at 10 s.
+StationMonitor MonitorOf(const imuqual::run_t& r) {
+  MonitorOptions o;
+  o.discover_units = true;
+  StationMonitor m(o);
+  m.OnRun(r);
+  m.Refresh(10.0, false);
+  return m;
+}
+
 TEST(StationMonitorTest, DiscoversUnitsInSlotOrderAndTakesTheHeaderFromTheirRuns) {
   MonitorOptions o;
   o.discover_units = true;
@@ -125,7 +176,9 @@ void Finish(StationMonitor& m, const std::string& run_id, const std::string& ser
   m.OnAck(a);
 }
 
-TEST(StationMonitorTest, ANewSoakReplacesTheDoneOneAndItsProcesses) {
+// A discovering monitor: a store heard at 0 s, units A (slot 1) and B (slot
+// 2) running in soak S1, A finished.
+StationMonitor SoakWithAFinished() {
   MonitorOptions o;
   o.discover_units = true;
   StationMonitor m(o);
@@ -133,6 +186,11 @@ TEST(StationMonitorTest, ANewSoakReplacesTheDoneOneAndItsProcesses) {
   m.OnRun(RunMsg("S1-A", "A", "1", imuqual::run_t::STATE_RUNNING, 10, 1000));
   m.OnRun(RunMsg("S1-B", "B", "2", imuqual::run_t::STATE_RUNNING, 10, 1000));
   Finish(m, "S1-A", "A");
+  return m;
+}
+
+TEST(StationMonitorTest, ANewSoakReplacesTheDoneOneAndItsProcesses) {
+  StationMonitor m = SoakWithAFinished();
   // Not all done: a new unit in another slot is added beside them.
   m.OnRun(RunMsg("S2-C", "C", "3", imuqual::run_t::STATE_RUNNING, 10, 2000));
   EXPECT_EQ(m.model().units.size(), 3u);
@@ -164,13 +222,7 @@ TEST(StationMonitorTest, ANewSoakReplacesTheDoneOneAndItsProcesses) {
 }
 
 TEST(StationMonitorTest, TheSameUnitsSoakedAgainStartANewSoak) {
-  MonitorOptions o;
-  o.discover_units = true;
-  StationMonitor m(o);
-  m.OnStatus(StatusMsg("store", "h:1"), 0);
-  m.OnRun(RunMsg("S1-A", "A", "1", imuqual::run_t::STATE_RUNNING, 10, 1000));
-  m.OnRun(RunMsg("S1-B", "B", "2", imuqual::run_t::STATE_RUNNING, 10, 1000));
-  Finish(m, "S1-A", "A");
+  StationMonitor m = SoakWithAFinished();
   Finish(m, "S1-B", "B");
   m.Refresh(1, true);
   // The station's store exits 2 s before the next soak's first run; the
@@ -207,13 +259,8 @@ TEST(StationMonitorTest, AQuickRestartIsOneProcessExpected) {
 }
 
 TEST(StationMonitorTest, ReconnectingIsHeardFromEachAcquireProcess) {
-  MonitorOptions o;
-  o.discover_units = true;
-  StationMonitor m(o);
-  imuqual::run_t r = RunMsg("R-U1", "U1", "A1");
-  r.source = "serial:/dev/ttyUSB0,protocol=text";
-  m.OnRun(r);
-  m.Refresh(10.0, false);
+  imuqual::run_t r = SerialRun();
+  StationMonitor m = MonitorOf(r);
   imuqual::status_t a = StatusMsg("acquire", "h:1");
   a.counter_names = {std::string(channels::kReconnectingCounterPrefix) + "R-U1"};
   a.counter_values = {1};
@@ -228,22 +275,9 @@ TEST(StationMonitorTest, ReconnectingIsHeardFromEachAcquireProcess) {
 }
 
 TEST(StationMonitorTest, CurvesOnlyForTheRunsAxes) {
-  MonitorOptions o;
-  o.discover_units = true;
-  o.keep_curves = true;
-  StationMonitor m(o);
-  m.OnRun(RunMsg("R-U1", "U1", "A1"));
-  imuqual::allan_curve_t c{};
-  c.run_id = "R-U1";
-  c.unit_serial = "U1";
-  c.axis_kind = imuqual::rate_batch_t::KIND_GYRO;
-  c.tau_s = {1};
-  c.dev = {1};
-  c.lo = {1};
-  c.hi = {1};
-  c.num_points = 1;
+  StationMonitor m = CurveMonitor();
+  imuqual::allan_curve_t c = Curve("gx", 1);
   c.axis = "not-an-axis";
-  c.estimator = "oadev";
   m.OnCurve(c);
   EXPECT_TRUE(m.Curves("R-U1").empty());
   c.axis = "gx";
@@ -357,13 +391,8 @@ TEST(StationMonitorTest, ProcessesFromStatusCountAliveAndRestartedInstances) {
 }
 
 TEST(StationMonitorTest, ASilentSerialUnitShowsNoDataThenReconnecting) {
-  MonitorOptions o;
-  o.discover_units = true;
-  StationMonitor m(o);
-  imuqual::run_t r = RunMsg("R-U1", "U1", "A1");
-  r.source = "serial:/dev/ttyUSB0,protocol=text";
-  m.OnRun(r);
-  m.Refresh(10.0, false);
+  imuqual::run_t r = SerialRun();
+  StationMonitor m = MonitorOf(r);
   m.Refresh(17.0, false);
   EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).state, "no data 0:07");
   imuqual::status_t s = StatusMsg("acquire", "h:1");
@@ -386,30 +415,8 @@ TEST(StationMonitorTest, ASilentSerialUnitShowsNoDataThenReconnecting) {
 }
 
 TEST(StationMonitorTest, CurvesInDatasheetUnitsThinnedFinalKept) {
-  MonitorOptions o;
-  o.discover_units = true;
-  o.keep_curves = true;
-  StationMonitor m(o);
-  m.OnRun(RunMsg("R-U1", "U1", "A1"));
-  imuqual::allan_curve_t c{};
-  c.run_id = "R-U1";
-  c.unit_serial = "U1";
-  c.axis = "gy";
-  c.axis_kind = imuqual::rate_batch_t::KIND_GYRO;
-  c.estimator = "oadev";
-  c.is_final = false;
-  c.samples = 5000;
-  c.host_utime = 99;
-  const int n = 1000;
-  for (int i = 0; i < n; ++i) {
-    const double tau = 0.01 * (i + 1);
-    c.m.push_back(i + 1);
-    c.tau_s.push_back(tau);
-    c.dev.push_back(1e-3 / std::sqrt(tau));
-    c.lo.push_back(0.9e-3 / std::sqrt(tau));
-    c.hi.push_back(1.1e-3 / std::sqrt(tau));
-  }
-  c.num_points = n;
+  StationMonitor m = CurveMonitor();
+  imuqual::allan_curve_t c = Curve("gy", 1000);
   m.OnCurve(c);
   std::vector<LiveCurve> curves = m.Curves("R-U1");
   ASSERT_EQ(curves.size(), 1u);

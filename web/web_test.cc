@@ -29,20 +29,32 @@
 namespace imuqual::web {
 namespace {
 
-// Runs a server on a thread, stopped and joined however the test ends (a
-// failed ASSERT returns early: a joinable thread would terminate the binary).
-class ServingThread {
+// A server started from `o` and served on a thread until the test ends
+// (however it ends: a failed ASSERT returns early, and a joinable thread
+// would terminate the binary); `client` answers once it serves.
+class TestServer {
  public:
-  explicit ServingThread(WebServer& server)
-      : server_(server), thread_([&server] { server.Run(); }) {}
-  ~ServingThread() {
-    server_.Stop();
-    thread_.join();
+  explicit TestServer(const ServeOptions& o) {
+    auto s = WebServer::Start(o);
+    EXPECT_TRUE(s.ok()) << s.status().ToString();
+    if (!s.ok()) return;
+    server_ = std::move(*s);
+    thread_ = std::thread([this] { server_->Run(); });
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", server_->port());
+    for (int i = 0; i < 200 && !client_->Get("/live"); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
+  ~TestServer() {
+    if (server_) server_->Stop();
+    if (thread_.joinable()) thread_.join();
+  }
+  bool ok() const { return client_ != nullptr; }
+  httplib::Client& client() { return *client_; }
 
  private:
-  WebServer& server_;
+  std::unique_ptr<WebServer> server_;
   std::thread thread_;
+  std::unique_ptr<httplib::Client> client_;
 };
 
 // A lot and a unit whose names try to break out of HTML, attributes and JSON.
@@ -50,28 +62,46 @@ const std::string kLot = "L<script>alert(1)</script>\"'&";
 const std::string kSerial = "S\"><img src=x onerror=alert(2)>";
 const std::string kRun = "R-1";
 
+// A run of one gyro axis at 100 Hz, started at `start_utime`.
+store::RunInfo OneAxisRun(const std::string& run_id, const std::string& serial,
+                          const std::string& lot, int64_t start_utime) {
+  store::RunInfo r;
+  r.run_id = run_id;
+  r.serial = serial;
+  r.lot = lot;
+  r.station = "bench";
+  r.start_utime = start_utime;
+  r.nominal_rate_hz = 100;
+  r.axes = {{"gx", pb::GYRO}};
+  r.state = "running";
+  return r;
+}
+
+// Ends run `r` (archived as `key`) complete 1 s after its start, with result
+// `res` judged 2 s after it, and finalizes it.
+void Finish(store::Archive& a, int64_t key, store::RunInfo r, store::ResultRecord res) {
+  r.state = "complete";
+  r.end_utime = r.start_utime + 1'000'000;
+  ASSERT_TRUE(a.UpsertRun(r).ok());
+  res.result_utime = r.start_utime + 2'000'000;
+  res.record = store::BuildRunRecord(r, res, 0).SerializeAsString();
+  ASSERT_TRUE(a.PutResult(key, res).ok());
+  ASSERT_TRUE(a.MarkFinalized(key, res.result_utime).ok());
+}
+
 std::string MakeArchive(const testing::TempDir& dir) {
   const std::string db = dir.path("web.db");
   auto a = store::Archive::Open(db, store::Archive::Mode::kWrite);
   EXPECT_TRUE(a.ok()) << a.status().ToString();
-  store::RunInfo r;
-  r.run_id = kRun;
-  r.serial = kSerial;
-  r.lot = kLot;
+  store::RunInfo r = OneAxisRun(kRun, kSerial, kLot, 1'800'000'000'000'000);
   r.station = "bench<1>";
   r.slot = "A1";
   r.operator_name = "ana </td><script>x</script>";
-  r.start_utime = 1'800'000'000'000'000;
-  r.end_utime = r.start_utime + 1'000'000;
-  r.nominal_rate_hz = 100;
-  r.axes = {{"gx", pb::GYRO}};
-  r.state = "complete";
   auto key = (*a)->UpsertRun(r);
   EXPECT_TRUE(key.ok());
   store::ResultRecord res;
   res.verdict = "FAIL";
   res.reasons = {"gx: bias_instability 9.25 deg/h above high limit 5 <b>"};
-  res.result_utime = *r.end_utime;
   pb::Measurement m;
   m.set_axis("gx");
   m.set_name("bias_instability");
@@ -81,9 +111,7 @@ std::string MakeArchive(const testing::TempDir& dir) {
   m.set_high(5);
   m.set_outcome(pb::FAIL);
   res.measurements.push_back(m);
-  res.record = store::BuildRunRecord(r, res, 0).SerializeAsString();
-  EXPECT_TRUE((*a)->PutResult(*key, res).ok());
-  EXPECT_TRUE((*a)->MarkFinalized(*key, res.result_utime).ok());
+  Finish(**a, *key, r, res);
   return db;
 }
 
@@ -110,24 +138,14 @@ class WebTest : public ::testing::Test {
     o.db_path = db_;
     o.port = 0;
     o.token = token;
-    auto s = WebServer::Start(o);
-    ASSERT_TRUE(s.ok()) << s.status().ToString();
-    server_ = std::move(*s);
-    thread_ = std::thread([this] { server_->Run(); });
-    client_ = std::make_unique<httplib::Client>("127.0.0.1", server_->port());
-    // Serving starts in the thread: wait until it answers.
-    for (int i = 0; i < 200 && !client_->Get("/favicon-probe"); ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  void TearDown() override {
-    if (server_) server_->Stop();
-    if (thread_.joinable()) thread_.join();
+    server_ = std::make_unique<TestServer>(o);
+    ASSERT_TRUE(server_->ok());
+    client_ = &server_->client();
   }
   testing::TempDir dir_{"web_test"};
   std::string db_;
-  std::unique_ptr<WebServer> server_;
-  std::thread thread_;
-  std::unique_ptr<httplib::Client> client_;
+  std::unique_ptr<TestServer> server_;
+  httplib::Client* client_ = nullptr;
 };
 
 // Every page from the archive is there, agrees with it, and renders the
@@ -368,16 +386,8 @@ TEST_F(WebTest, AFinishedLotsReportIsKeptUntilTheArchiveChangesIt) {
   // A second unit's run in the lot, open: nothing is kept while it runs.
   auto a = store::Archive::Open(db_, store::Archive::Mode::kWrite);
   ASSERT_TRUE(a.ok());
-  store::RunInfo r;
-  r.run_id = "R-2";
-  r.serial = "SECOND-UNIT";
-  r.lot = kLot;
-  r.station = "bench";
+  store::RunInfo r = OneAxisRun("R-2", "SECOND-UNIT", kLot, 1'800'000'100'000'000);
   r.slot = "A2";
-  r.start_utime = 1'800'000'100'000'000;
-  r.nominal_rate_hz = 100;
-  r.axes = {{"gx", pb::GYRO}};
-  r.state = "running";
   auto key = (*a)->UpsertRun(r);
   ASSERT_TRUE(key.ok());
   EXPECT_EQ(fingerprint(), "");
@@ -387,13 +397,7 @@ TEST_F(WebTest, AFinishedLotsReportIsKeptUntilTheArchiveChangesIt) {
   // Finished: a new fingerprint, a new report.
   store::ResultRecord res;
   res.verdict = "PASS";
-  res.result_utime = r.start_utime + 2'000'000;
-  r.state = "complete";
-  r.end_utime = r.start_utime + 1'000'000;
-  ASSERT_TRUE((*a)->UpsertRun(r).ok());
-  res.record = store::BuildRunRecord(r, res, 0).SerializeAsString();
-  ASSERT_TRUE((*a)->PutResult(*key, res).ok());
-  ASSERT_TRUE((*a)->MarkFinalized(*key, res.result_utime).ok());
+  Finish(**a, *key, r, res);
   const std::string after = fingerprint();
   EXPECT_FALSE(after.empty());
   EXPECT_NE(after, before);
@@ -411,24 +415,12 @@ TEST(WebPagesTest, DotNamesAreLinkedAndServedInTheQueryForm) {
   {
     auto a = store::Archive::Open(db, store::Archive::Mode::kWrite);
     ASSERT_TRUE(a.ok());
-    store::RunInfo r;
-    r.run_id = ".";
-    r.serial = "..";
-    r.lot = "..";
-    r.station = "s";
-    r.start_utime = 1'800'000'000'000'000;
-    r.end_utime = r.start_utime + 1'000'000;
-    r.nominal_rate_hz = 100;
-    r.axes = {{"gx", pb::GYRO}};
-    r.state = "complete";
+    const store::RunInfo r = OneAxisRun(".", "..", "..", 1'800'000'000'000'000);
     auto key = (*a)->UpsertRun(r);
     ASSERT_TRUE(key.ok());
     store::ResultRecord res;
     res.verdict = "PASS";
-    res.result_utime = *r.end_utime;
-    res.record = store::BuildRunRecord(r, res, 0).SerializeAsString();
-    ASSERT_TRUE((*a)->PutResult(*key, res).ok());
-    ASSERT_TRUE((*a)->MarkFinalized(*key, res.result_utime).ok());
+    Finish(**a, *key, r, res);
   }
   auto archive = store::Archive::Open(db, store::Archive::Mode::kRead);
   ASSERT_TRUE(archive.ok());
@@ -458,13 +450,9 @@ TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
   o.db_path = dir.path("not-yet.db");  // the station creates it later
   o.port = 0;
   o.bus_url = url;
-  auto s = WebServer::Start(o);
-  ASSERT_TRUE(s.ok()) << s.status().ToString();
-  std::unique_ptr<WebServer> server = std::move(*s);
-  ServingThread serving(*server);
-  httplib::Client client("127.0.0.1", server->port());
-  for (int i = 0; i < 200 && !client.Get("/live"); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  TestServer server(o);
+  ASSERT_TRUE(server.ok());
+  httplib::Client& client = server.client();
   auto page = client.Get("/live");
   ASSERT_TRUE(page);
   EXPECT_EQ(page->status, 200);
@@ -582,13 +570,9 @@ TEST(LiveServeTest, WithoutABusTheLivePageSaysHowToStartIt) {
   ServeOptions o;
   o.db_path = MakeArchive(dir);
   o.port = 0;
-  auto s = WebServer::Start(o);
-  ASSERT_TRUE(s.ok());
-  std::unique_ptr<WebServer> server = std::move(*s);
-  ServingThread serving(*server);
-  httplib::Client client("127.0.0.1", server->port());
-  for (int i = 0; i < 200 && !client.Get("/live"); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  TestServer server(o);
+  ASSERT_TRUE(server.ok());
+  httplib::Client& client = server.client();
   auto page = client.Get("/live");
   ASSERT_TRUE(page);
   EXPECT_NE(page->body.find("--bus URL"), std::string::npos);
