@@ -1,5 +1,6 @@
 #include "web/live_feed.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <condition_variable>
@@ -122,6 +123,7 @@ struct LiveFeed::Impl {
     std::string json;
   };
   std::map<std::string, Curve> curves;  // "run\naxis" ->
+  std::string done_lot;
 
   void Loop() {
     uint64_t shown_version = ~0ull;
@@ -156,6 +158,11 @@ struct LiveFeed::Impl {
         }
         curves = std::move(next);
         status_json = std::move(status);
+        const auto& units = monitor->model().units;
+        const bool done = !units.empty() &&
+                          std::all_of(units.begin(), units.end(),
+                                      [](const auto& u) { return u.archived && u.final_result; });
+        done_lot = done ? monitor->model().lot : "";
         ++status_seq;
       }
       cv.notify_all();
@@ -193,6 +200,11 @@ Result<std::unique_ptr<LiveFeed>> LiveFeed::Open(const std::string& bus_url,
 }
 
 bool LiveFeed::stopping() const { return impl_->stop; }
+
+std::string LiveFeed::DoneLot() const {
+  std::lock_guard<std::mutex> lock(impl_->mu);
+  return impl_->done_lot;
+}
 
 std::string LiveFeed::StatusJson() const {
   std::lock_guard<std::mutex> lock(impl_->mu);

@@ -61,6 +61,9 @@ class LiveFeed {
   std::string StatusJson() const;
   std::string CurvesJson(const std::string& run_id) const;
   bool stopping() const;
+  // The lot of the latest snapshot when every unit shown is archived with
+  // its final result (the soak is over), else "".
+  std::string DoneLot() const;
 
   static constexpr double kSnapshotS = 0.2;  // at most this often
   static constexpr double kCurvePeriodS = 2.0;

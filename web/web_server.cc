@@ -6,10 +6,13 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <map>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 
 #include "common/text_util.h"
 #include "store/archive.h"
@@ -107,6 +110,10 @@ class ReportCache {
     it->second.used = ++clock_;
     return it->second.page;
   }
+  size_t size() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return entries_.size();
+  }
   void Put(const std::string& lot, const std::string& fingerprint, const Page& page) {
     std::lock_guard<std::mutex> lock(mu_);
     if (entries_.size() >= kMaxLots && entries_.count(lot) == 0) {
@@ -138,15 +145,48 @@ struct WebServer::Impl {
   std::atomic<int> streams{0};
   httplib::Server server;
   int port = 0;
+  // With a bus: builds the report of a soak's lot once the soak is over.
+  std::thread warmer;
+  std::mutex warm_mu;
+  std::condition_variable warm_cv;
+
+  void WarmReports() {
+    std::string kept;  // the lot whose report was last kept
+    while (!stopping) {
+      {
+        std::unique_lock<std::mutex> lock(warm_mu);
+        warm_cv.wait_for(lock, std::chrono::seconds(1), [&] { return stopping.load(); });
+      }
+      const std::string lot = feed->DoneLot();
+      struct stat info {};
+      if (stopping || lot.empty() || lot == kept || ::stat(options.db_path.c_str(), &info) != 0)
+        continue;
+      auto archive = store::Archive::Open(options.db_path, store::Archive::Mode::kRead);
+      if (!archive.ok()) continue;
+      // Not kept while a run of it is still open (the store finalizes last).
+      auto fingerprint = LotReportFingerprint(**archive, lot);
+      if (!fingerprint.ok() || fingerprint->empty()) continue;
+      if (!reports.Find(lot, *fingerprint)) {
+        const Page page = Route(**archive, options.db_path, "/lot/" + lot, {});
+        if (page.status != 200) continue;
+        reports.Put(lot, *fingerprint, page);
+      }
+      kept = lot;
+    }
+  }
 };
 
 WebServer::WebServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 WebServer::~WebServer() { Stop(); }
 int WebServer::port() const { return impl_->port; }
+size_t WebServer::ReportsKept() const { return impl_->reports.size(); }
 void WebServer::Run() { impl_->server.listen_after_bind(); }
 void WebServer::Stop() {
   impl_->stopping = true;  // event streams end within a second
+  impl_->warm_cv.notify_all();
   impl_->server.stop();
+  if (impl_->warmer.joinable() && impl_->warmer.get_id() != std::this_thread::get_id())
+    impl_->warmer.join();
 }
 
 Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
@@ -341,6 +381,7 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
     return Status::Unavailable("serve: cannot listen on " + o.host + ":" + std::to_string(o.port) +
                                " (address in use, or not an address of this host)");
   }
+  if (impl->feed) impl->warmer = std::thread([state] { state->WarmReports(); });
   return std::unique_ptr<WebServer>(new WebServer(std::move(impl)));
 }
 

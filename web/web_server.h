@@ -19,6 +19,11 @@
 // its server-sent events (at most 16 streams at once; 503 beyond),
 // /api/live the latest status document and /api/live/curves?run=ID the
 // latest curves of a run (JSON arrays).
+//
+// A finished lot's report (no run of it open) is kept while the archive
+// leaves its runs and results unchanged (8 lots); with a bus, the report of
+// a soak's lot is built as soon as the soak is over (every unit archived
+// with its final result), so that the live page's report link opens at once.
 #ifndef IMUQUAL_WEB_WEB_SERVER_H_
 #define IMUQUAL_WEB_WEB_SERVER_H_
 
@@ -56,6 +61,8 @@ class WebServer {
   // Serves until Stop() (from another thread or a signal handler's thread).
   void Run();
   void Stop();
+  // Finished lots' reports kept (see below); for tests.
+  size_t ReportsKept() const;
 
  private:
   struct Impl;

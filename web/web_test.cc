@@ -11,6 +11,7 @@
 #include "common/channels.h"
 #include "common/lcm_bus.h"
 #include "common/strings.h"
+#include "imuqual/ack_t.hpp"
 #include "imuqual/allan_curve_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/run_t.hpp"
@@ -50,6 +51,7 @@ class TestServer {
   }
   bool ok() const { return client_ != nullptr; }
   httplib::Client& client() { return *client_; }
+  WebServer& server() { return *server_; }
 
  private:
   std::unique_ptr<WebServer> server_;
@@ -563,6 +565,43 @@ TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
   });
   EXPECT_NE(stream.find("event: status\ndata: {"), std::string::npos) << stream;
   EXPECT_NE(stream.find("event: curve\ndata: {"), std::string::npos) << stream;
+}
+
+// A soak heard to its end: its lot's report is built before anyone asks.
+TEST(LiveServeTest, TheReportOfASoakOverIsBuiltAtOnce) {
+  testing::TempDir dir("web_warm");
+  ServeOptions o;
+  o.db_path = MakeArchive(dir);  // lot kLot: run kRun finished
+  o.port = 0;
+  o.bus_url = "udpm://239.255.76.67:" + std::to_string(33000 + ::getpid() % 2000) + "?ttl=0";
+  TestServer server(o);
+  ASSERT_TRUE(server.ok());
+  auto bus = LcmBus::Open(o.bus_url);
+  ASSERT_TRUE(bus.ok());
+  imuqual::run_t r{};
+  r.run_id = kRun;
+  r.unit_serial = kSerial;
+  r.lot = kLot;
+  r.announcer = "acquire";
+  r.state = imuqual::run_t::STATE_COMPLETE;
+  r.start_utime = 1;
+  imuqual::unit_result_t res{};
+  res.run_id = kRun;
+  res.unit_serial = kSerial;
+  res.is_final = true;
+  res.verdict = imuqual::measurement_t::OUTCOME_FAIL;
+  imuqual::ack_t ack{};
+  ack.process = "store";
+  ack.run_id = kRun;
+  ack.run_done = true;
+  EXPECT_EQ(server.server().ReportsKept(), 0u);
+  for (int i = 0; i < 100 && server.server().ReportsKept() == 0; ++i) {
+    ASSERT_TRUE((*bus)->Publish(channels::kRun, r).ok());
+    ASSERT_TRUE((*bus)->Publish(channels::Result(kSerial), res).ok());
+    ASSERT_TRUE((*bus)->Publish(channels::kAck, ack).ok());
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_EQ(server.server().ReportsKept(), 1u);
 }
 
 TEST(LiveServeTest, WithoutABusTheLivePageSaysHowToStartIt) {
