@@ -98,7 +98,7 @@ std::string MakeArchive(const testing::TempDir& dir) {
   store::RunInfo r = OneAxisRun(kRun, kSerial, kLot, 1'800'000'000'000'000);
   r.station = "bench<1>";
   r.slot = "A1";
-  r.operator_name = "ana </td><script>x</script>";
+  r.operator_name = "Ana M\u00fcller \u2014 \u6d4b\u8bd5 </td><script>x</script>";
   auto key = (*a)->UpsertRun(r);
   EXPECT_TRUE(key.ok());
   store::ResultRecord res;
@@ -185,7 +185,10 @@ TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
       << run->body;
   EXPECT_NE(run->body.find("data-v=\"0.125\""), std::string::npos);
   EXPECT_NE(run->body.find("above high limit 5 &lt;b&gt;"), std::string::npos);
-  EXPECT_NE(run->body.find("ana &lt;/td&gt;&lt;script&gt;x&lt;/script&gt;"), std::string::npos);
+  // Unicode passes through as UTF-8; markup is escaped.
+  EXPECT_NE(run->body.find(
+                "Ana M\u00fcller \u2014 \u6d4b\u8bd5 &lt;/td&gt;&lt;script&gt;x&lt;/script&gt;"),
+            std::string::npos);
   for (const auto* body : {&home->body, &lot->body, &run->body}) {
     EXPECT_EQ(body->find("<script>alert"), std::string::npos);
     EXPECT_EQ(body->find("<img src=x"), std::string::npos);
