@@ -273,21 +273,21 @@ void StationMonitor::OnAck(const imuqual::ack_t& a) {
   // The store's latest word: a run it opens again (judged anew) is no
   // longer archived.
   if (a.process != "store") return;
-  if (options_.discover_units &&
-      std::none_of(model_.units.begin(), model_.units.end(),
-                   [&](const ConsoleUnit& u) { return u.run_id == a.run_id; })) {
-    return;  // not a run shown (a bus may carry any number of them)
-  }
+  // Acknowledgements carry no serial: the run's unit by its run id.
+  auto shown = std::find_if(model_.units.begin(), model_.units.end(),
+                            [&](const ConsoleUnit& u) { return u.run_id == a.run_id; });
+  // A discovering monitor keeps only the runs it shows (a bus may carry any
+  // number of them); the station's own keeps every run (runs left open by
+  // an earlier station process are waited for by their id).
+  if (options_.discover_units && shown == model_.units.end()) return;
   if (a.run_done) {
     archived_runs_.insert(a.run_id);
   } else {
     archived_runs_.erase(a.run_id);
   }
-  for (ConsoleUnit& u : model_.units) {
-    if (u.run_id == a.run_id && u.archived != a.run_done) {
-      u.archived = a.run_done;
-      Changed(a.host_utime);
-    }
+  if (shown != model_.units.end() && shown->archived != a.run_done) {
+    shown->archived = a.run_done;
+    Changed(a.host_utime);
   }
 }
 
@@ -366,18 +366,10 @@ void StationMonitor::OnCurve(const imuqual::allan_curve_t& c) {
   Changed(c.host_utime);
 }
 
-std::vector<LiveCurve> StationMonitor::Curves(const std::string& run_id) const {
+std::vector<LiveCurve> StationMonitor::Curves(const ConsoleUnit& unit) const {
   std::vector<LiveCurve> out;
-  std::vector<std::string> axes;
-  auto unit = index_.end();
-  for (auto it = index_.begin(); it != index_.end(); ++it) {
-    if (model_.units[it->second].run_id == run_id) unit = it;
-  }
-  if (unit != index_.end()) {
-    for (const ConsoleAxis& x : model_.units[unit->second].axes) axes.push_back(x.name);
-  }
-  for (const std::string& axis : axes) {
-    auto it = curves_.find({run_id, axis});
+  for (const ConsoleAxis& x : unit.axes) {
+    auto it = curves_.find({unit.run_id, x.name});
     if (it == curves_.end() || it->second.empty()) continue;
     // The overlapping Allan deviation when there is one, else the first.
     auto oadev = it->second.find("oadev");

@@ -97,8 +97,8 @@ class StationMonitor {
   const std::map<std::string, std::string>& end_reasons() const { return end_reasons_; }
   // Whether the store's latest word on `run_id` is that it is wholly archived.
   bool RunArchived(const std::string& run_id) const { return archived_runs_.count(run_id) > 0; }
-  // The latest curve of each axis of `run_id` (keep_curves), axis order.
-  std::vector<LiveCurve> Curves(const std::string& run_id) const;
+  // The latest curve of each axis of `unit`'s run (keep_curves), axis order.
+  std::vector<LiveCurve> Curves(const ConsoleUnit& unit) const;
   // Raised by every message that changed what is shown.
   uint64_t version() const { return version_; }
   // host_utime of the newest result, decision or store acknowledgement

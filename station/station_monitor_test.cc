@@ -279,14 +279,14 @@ TEST(StationMonitorTest, CurvesOnlyForTheRunsAxes) {
   imuqual::allan_curve_t c = Curve("gx", 1);
   c.axis = "not-an-axis";
   m.OnCurve(c);
-  EXPECT_TRUE(m.Curves("R-U1").empty());
+  EXPECT_TRUE(m.Curves(m.model().units[0]).empty());
   c.axis = "gx";
   for (int i = 0; i < 10; ++i) {
     c.estimator = "e" + std::to_string(i);
     m.OnCurve(c);
   }
-  ASSERT_EQ(m.Curves("R-U1").size(), 1u);
-  EXPECT_EQ(m.Curves("R-U1")[0].estimator, "e0");
+  ASSERT_EQ(m.Curves(m.model().units[0]).size(), 1u);
+  EXPECT_EQ(m.Curves(m.model().units[0])[0].estimator, "e0");
 }
 
 TEST(StationMonitorTest, ForgetsUnitsArchivedLongAgo) {
@@ -418,7 +418,7 @@ TEST(StationMonitorTest, CurvesInDatasheetUnitsThinnedFinalKept) {
   StationMonitor m = CurveMonitor();
   imuqual::allan_curve_t c = Curve("gy", 1000);
   m.OnCurve(c);
-  std::vector<LiveCurve> curves = m.Curves("R-U1");
+  std::vector<LiveCurve> curves = m.Curves(m.model().units[0]);
   ASSERT_EQ(curves.size(), 1u);
   const LiveCurve& live = curves[0];
   EXPECT_EQ(live.axis, "gy");
@@ -436,7 +436,7 @@ TEST(StationMonitorTest, CurvesInDatasheetUnitsThinnedFinalKept) {
   c.is_final = false;
   c.dev[0] = 5e-3;
   m.OnCurve(c);
-  curves = m.Curves("R-U1");
+  curves = m.Curves(m.model().units[0]);
   EXPECT_TRUE(curves[0].is_final);
   EXPECT_DOUBLE_EQ(curves[0].dev.front(), 2e-3 / std::sqrt(0.01) * 3600);
   // An accelerometer's curve in ug.
@@ -444,7 +444,7 @@ TEST(StationMonitorTest, CurvesInDatasheetUnitsThinnedFinalKept) {
   c.axis_kind = imuqual::rate_batch_t::KIND_ACCEL;
   c.dev[0] = 9.80665e-6;
   m.OnCurve(c);
-  curves = m.Curves("R-U1");
+  curves = m.Curves(m.model().units[0]);
   ASSERT_EQ(curves.size(), 2u);
   EXPECT_EQ(curves[0].axis, "gx");  // the run's axis order
   EXPECT_EQ(curves[0].unit, "ug");

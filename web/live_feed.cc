@@ -145,7 +145,7 @@ struct LiveFeed::Impl {
         std::lock_guard<std::mutex> lock(mu);
         for (const station::ConsoleUnit& u : monitor->model().units) {
           if (u.run_id.empty()) continue;
-          for (const station::LiveCurve& c : monitor->Curves(u.run_id)) {
+          for (const station::LiveCurve& c : monitor->Curves(u)) {
             const std::string key = u.run_id + "\n" + c.axis;
             auto old = curves.find(key);
             if (old != curves.end() && old->second.stamp == c.host_utime &&
