@@ -5,6 +5,7 @@
 
 #include "cli/commands.h"
 #include "cli/export_command.h"
+#include "cli/keygen_command.h"
 #include "cli/lot_commands.h"
 #include "cli/plot_command.h"
 #include "cli/report_command.h"
@@ -238,6 +239,23 @@ int main(int argc, char** argv) {
       "verify", "check an archive for damage: SQLite's integrity check and every stored checksum");
   verify_cmd->add_option("--db", verify_db, "archive file")->required();
 
+  cli::KeygenOptions keygen;
+  CLI::App* keygen_cmd = app.add_subcommand(
+      "keygen",
+      "make a station key (MACs on the bus) or, with --role, a role's signing key pair "
+      "(signatures on the bus and on the archive's records)");
+  keygen_cmd->add_option("--out", keygen.out, "key file to create (never overwritten; mode 0600)")
+      ->required();
+  keygen_cmd
+      ->add_option("--role", keygen.role,
+                   "acquire, analyze or store: a signing key pair (FILE and FILE.pub) instead of "
+                   "the station key")
+      ->check(CLI::IsMember({"acquire", "analyze", "store"}));
+  keygen_cmd->footer(
+      "Examples:\n  imuqual keygen --out station.key\n  imuqual keygen --role store --out "
+      "store.key   # store.key and store.key.pub\n  cat acquire.key.pub analyze.key.pub "
+      "store.key.pub > station.trust");
+
   offline::PlanSoakOptions soak;
   CLI::App* soak_cmd = app.add_subcommand(
       "plan-soak",
@@ -341,6 +359,7 @@ int main(int argc, char** argv) {
   if (serve_cmd->parsed()) return cli::ServeCommand(serve);
   if (reanalyze_cmd->parsed()) return offline::ReanalyzeCommand(re);
   if (verify_cmd->parsed()) return cli::VerifyCommand(verify_db);
+  if (keygen_cmd->parsed()) return cli::KeygenCommand(keygen);
   if (analyze_cmd->parsed()) return offline::AnalyzeFileCommand(an);
 
   auto fmt = report::ParseFormat(format);
