@@ -12,12 +12,14 @@
 #include "acquire/random.h"
 #include "acquire/retention.h"
 #include "acquire/source_spec.h"
+#include "analyze/judge/plan.h"
 #include "common/batch_integrity.h"
 #include "common/channels.h"
 #include "common/clock.h"
 #include "common/lcm_bus.h"
 #include "common/log.h"
 #include "common/process_status.h"
+#include "common/resend_budget.h"
 #include "common/shutdown.h"
 #include "common/text_util.h"
 #include "common/version.h"
@@ -46,12 +48,6 @@ constexpr int kLocalBatchBytes = 8191;
 constexpr int kLocalWarpedBatchBytes = 16383;
 constexpr int kMaxBatchSamples = 4096;
 
-// The bus's ttl (0 when the URL says nothing: LCM's default).
-int UrlTtl(const std::string& url) {
-  const size_t at = url.find("ttl=");
-  if (at == std::string::npos || (at > 0 && url[at - 1] != '?' && url[at - 1] != '&')) return 0;
-  return std::atoi(url.c_str() + at + 4);
-}
 constexpr int kMaxResendRange = 4096;
 constexpr int kBatchesPerRunPerRound = 8;
 constexpr int kFinalAnnouncements = 3;  // an end is said more than once (datagrams get lost)
@@ -106,6 +102,7 @@ std::string DecidedEndReason(const imuqual::decision_t& d) {
 
 Status AcquireOptions::Validate() const {
   if (lcm_url.empty()) return Status::InvalidArgument("lcm_url: required");
+  IMUQUAL_RETURN_IF_ERROR(LcmBus::CheckSecurity(lcm_url, security));
   IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("lot", lot));
   IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("station", station));
   if (!run_prefix.empty()) IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("run_prefix", run_prefix));
@@ -145,12 +142,17 @@ struct AcquireService::Impl {
   std::unique_ptr<LcmBus> bus;
   sim::Random drop_rng{1};
   sim::Random bitflip_rng{2};
-  std::deque<imuqual::resend_t> resend_queue;
+  // Resend requests with the sender instance of their seal, for the loop.
+  std::deque<std::pair<imuqual::resend_t, uint64_t>> resend_queue;
+  std::unique_ptr<ResendBudget> resend_budget;  // per requester
+  double resend_bytes_per_s = 0;
   std::deque<imuqual::decision_t> decision_queue;  // PASS/FAIL decisions for the loop
   // Counters.
   int64_t published = 0, resent = 0, resend_misses = 0, injected_drops = 0, injected_bitflips = 0,
           acks = 0, resend_requests = 0, publish_errors = 0, evicted_unacknowledged = 0,
-          runs_decided = 0, decisions_ignored = 0, decisions_dropped = 0;
+          runs_decided = 0, decisions_ignored = 0, decisions_dropped = 0, acks_refused = 0,
+          resends_throttled = 0;
+  ThrottledLog refusal_log;
   double last_resend_request_s = 0;
   ThrottledLog publish_log;
   ThrottledLog retention_log;
@@ -172,7 +174,8 @@ struct AcquireService::Impl {
   Status SendBatch(const RunState& run, const std::vector<uint8_t>& bytes);
   // Publishes the run's announcement `times` times; failures are counted.
   void Announce(RunState& run, int times = 1);
-  void OnAck(const imuqual::ack_t& ack);
+  // An acknowledgement, from a sender of role `sender`.
+  void OnAck(const imuqual::ack_t& ack, BusRole sender);
   // A store's announcement: the judgement round of one of our runs.
   void OnStoreRun(const imuqual::run_t& run);
   Status ServeResends();
@@ -257,11 +260,7 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
     }
     // The run's plan: the one given, completed from the source where it is
     // silent (a run without a plan is measured, not judged).
-    pb::TestPlan plan = options.plan;
-    if (!(plan.nominal_rate_hz() > 0)) plan.set_nominal_rate_hz(info.nominal_rate_hz);
-    if (plan.axes_size() == 0) {
-      for (const pb::Axis& axis : info.axes) *plan.add_axes() = axis;
-    }
+    const pb::TestPlan plan = judge::CompletedPlan(options.plan, info.nominal_rate_hz, info.axes);
     const std::string plan_bytes = plan.SerializeAsString();
     a.plan_size = static_cast<int32_t>(plan_bytes.size());
     a.plan.assign(plan_bytes.begin(), plan_bytes.end());
@@ -289,10 +288,12 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
       const int header = probe.getEncodedSize();
       const bool warped = options.pace == 0 && !info.paced_by_device;
       const int message_bytes = options.batch_bytes > 0        ? options.batch_bytes
-                                : UrlTtl(options.lcm_url) != 0 ? kDatagramPayloadBytes
+                                : BusTtl(options.lcm_url) != 0 ? kDatagramPayloadBytes
                                 : warped                       ? kLocalWarpedBatchBytes
                                                                : kLocalBatchBytes;
-      const int budget = message_bytes - static_cast<int>(run.channel.size()) - 1 - header;
+      // The seal (common/bus_seal.h) rides in the same datagram.
+      const int budget = message_bytes - static_cast<int>(run.channel.size()) - 1 - header -
+                         static_cast<int>(kMaxUnsignedTrailerBytes);
       run.batch_samples =
           std::clamp(budget / (4 * static_cast<int>(info.axes.size())), 1, kMaxBatchSamples);
     }
@@ -323,16 +324,38 @@ void AcquireService::Impl::Announce(RunState& run, int times) {
   }
 }
 
-void AcquireService::Impl::OnAck(const imuqual::ack_t& ack) {
-  if (std::find(options.await.begin(), options.await.end(), ack.process) == options.await.end()) {
-    return;
-  }
+// The store's acknowledgements free retained batches, whether or not it is
+// awaited; an awaited consumer's also open the flow-control window. An
+// acknowledgement must come from the role it names, and cannot cover
+// batches never published (except the store's "run done", which says the
+// whole run is archived).
+void AcquireService::Impl::OnAck(const imuqual::ack_t& ack, BusRole sender) {
+  const bool awaited =
+      std::find(options.await.begin(), options.await.end(), ack.process) != options.await.end();
+  if (ack.process != "store" && !awaited) return;
   for (RunState& run : runs) {
     if (run.run_id != ack.run_id) continue;
+    int64_t next_seq = ack.next_seq;
+    if (ack.process != RoleName(sender)) {
+      ++acks_refused;
+      refusal_log.Warning("run " + run.run_id + ": refused an acknowledgement naming " +
+                          ack.process.substr(0, 32) + " sent by " + RoleName(sender));
+      return;
+    }
+    if (next_seq > run.next_seq) {
+      if (!(ack.process == "store" && ack.run_done)) {
+        ++acks_refused;
+        refusal_log.Warning("run " + run.run_id + ": refused an acknowledgement from " + ack.process +
+                            " of batches up to " + std::to_string(next_seq) + ", beyond the " +
+                            std::to_string(run.next_seq) + " published");
+        return;
+      }
+      next_seq = run.next_seq;  // the store archived the whole run
+    }
     ++acks;
     auto it = run.acked.find(ack.process);
-    if (it == run.acked.end() || ack.next_seq > it->second) {
-      run.acked[ack.process] = ack.next_seq;
+    if (it == run.acked.end() || next_seq > it->second) {
+      run.acked[ack.process] = next_seq;
       run.last_ack_progress_s = MonotonicSeconds();
     }
     return;
@@ -360,12 +383,16 @@ void AcquireService::Impl::EndDecidedRuns() {
       if (run.run_id != d.run_id || run.state != imuqual::run_t::STATE_RUNNING || run.source_done) {
         continue;
       }
-      if (d.revision < run.revision_heard || !options.plan.has_early_decision()) {
+      if (d.revision < run.revision_heard || !options.plan.has_early_decision() ||
+          d.end_sample > run.end_counter) {
         ++decisions_ignored;
-        const std::string why = options.plan.has_early_decision()
-                                    ? "judgement round " + std::to_string(d.revision) +
-                                          ", the run is at " + std::to_string(run.revision_heard)
-                                    : std::string("the run's plan has no early_decision");
+        const std::string why =
+            !options.plan.has_early_decision() ? std::string("the run's plan has no early_decision")
+            : d.end_sample > run.end_counter
+                ? "it claims samples up to device counter " + std::to_string(d.end_sample) +
+                      ", beyond the " + std::to_string(run.end_counter) + " published"
+                : "judgement round " + std::to_string(d.revision) + ", the run is at " +
+                      std::to_string(run.revision_heard);
         decision_log.Warning("run " + run.run_id + ": decision ignored (" + why + ")");
         continue;
       }
@@ -510,9 +537,12 @@ Status AcquireService::Impl::PublishOneBatch(RunState& run, double now_s, bool* 
   return Status::Ok();
 }
 
+// Requests are answered within each requester's budget (ResendBudget):
+// beyond it the rest of a request is dropped and counted; a requester that
+// still needs it asks again, with back-off.
 Status AcquireService::Impl::ServeResends() {
   while (!resend_queue.empty()) {
-    imuqual::resend_t req = std::move(resend_queue.front());
+    auto [req, requester] = std::move(resend_queue.front());
     resend_queue.pop_front();
     for (RunState& run : runs) {
       if (run.run_id != req.run_id) continue;
@@ -526,6 +556,13 @@ Status AcquireService::Impl::ServeResends() {
         }
         const double now = MonotonicSeconds();
         if (now - it->resent_s < kResendDedupS) continue;
+        if (!resend_budget->Take(requester, static_cast<double>(it->bytes.size()), now)) {
+          resends_throttled += std::min(last, run.next_seq - 1) - seq + 1;
+          refusal_log.Warning("resend requests beyond a requester's budget (" +
+                              std::to_string(static_cast<int>(resend_bytes_per_s / 1e6)) +
+                              " MB/s): the rest dropped, counted in resends_throttled");
+          break;
+        }
         it->resent_s = now;
         ++resent;
         Status st = SendBatch(run, it->bytes);
@@ -539,10 +576,10 @@ Status AcquireService::Impl::ServeResends() {
   return Status::Ok();
 }
 
-// Acknowledged batches are kept for the window plus retention_s of data;
-// unacknowledged ones until the awaited consumers have them (a store that
-// cannot write yet), within retention_mb over all runs; beyond, the oldest
-// go, counted and warned about in the log, status_t and the console.
+// Batches the store acknowledged are kept for the window plus retention_s
+// of data; the others until the store has them (a store that cannot write
+// yet), within retention_mb over all runs; beyond, the oldest go, counted
+// and warned about in the log, status_t and the console.
 void AcquireService::Impl::Prune(double now_s) {
   for (RunState& run : runs) {
     // Device-paced sources publish part-filled batches: size by the average.
@@ -554,11 +591,10 @@ void AcquireService::Impl::Prune(double now_s) {
     const double batches_per_s = run.unit.source->info().nominal_rate_hz / std::max(batch, 1.0);
     const size_t cap = static_cast<size_t>(options.window_batches) +
                        static_cast<size_t>(std::ceil(options.retention_s * batches_per_s));
-    int64_t acked_all = std::numeric_limits<int64_t>::max();
-    for (const std::string& role : options.await) {
-      auto it = run.acked.find(role);
-      acked_all = std::min(acked_all, it == run.acked.end() ? int64_t{0} : it->second);
-    }
+    // Only the store's acknowledgement frees a batch: it says the batch is
+    // archived (an analyze's says only that it was analysed).
+    auto store_acked = run.acked.find("store");
+    const int64_t acked_all = store_acked == run.acked.end() ? 0 : store_acked->second;
     const int64_t max_bytes =
         (int64_t{options.retention_mb} << 20) / static_cast<int64_t>(runs.size());
     const Retention::Pruned pruned = run.retained.Prune(cap, acked_all, max_bytes);
@@ -618,8 +654,9 @@ Counters AcquireService::Impl::StatusCounters() const {
                   {"runs_decided", runs_decided},
                   {"decisions_ignored", decisions_ignored},
                   {"decisions_dropped", decisions_dropped},
-                  {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
-                  {"messages_damaged", static_cast<int64_t>(bus->damaged())}};
+                  {"acks_refused", acks_refused},
+                  {"resends_throttled", resends_throttled},
+                  {"decode_errors", static_cast<int64_t>(bus->decode_errors())}};
   for (const auto& [name, value] : sources) out.emplace_back(name, value);
   // Per run: a unit whose device is gone, for the station console.
   for (const std::string& id : ReconnectingRuns())
@@ -629,20 +666,26 @@ Counters AcquireService::Impl::StatusCounters() const {
 
 Status AcquireService::Run() {
   Impl& s = *impl_;
-  auto bus = LcmBus::Open(s.options.lcm_url);
+  BusSecurity security = s.options.security;
+  security.role = BusRole::kAcquire;
+  auto bus = LcmBus::Open(s.options.lcm_url, std::move(security));
   if (!bus.ok()) return bus.status();
   s.bus = std::move(*bus);
   // Acks and resend requests: small messages, many in flight at full speed.
-  s.bus->Subscribe<imuqual::ack_t>(
-      channels::kAck, 10000,
-      [&s](const std::string&, imuqual::ack_t&& ack, int64_t) { s.OnAck(ack); });
-  s.bus->Subscribe<imuqual::resend_t>(channels::kResend, 1000,
-                                      [&s](const std::string&, imuqual::resend_t&& req, int64_t) {
-                                        ++s.resend_requests;
-                                        s.last_resend_request_s = MonotonicSeconds();
-                                        if (s.resend_queue.size() < 10000)
-                                          s.resend_queue.push_back(std::move(req));
-                                      });
+  s.bus->SubscribeWithOrigin<imuqual::ack_t>(
+      channels::kAck, 10000, nullptr,
+      [&s](const std::string&, imuqual::ack_t&& ack, const MessageOrigin& from) {
+        s.OnAck(ack, from.role);
+      });
+  s.resend_bytes_per_s = BusTtl(s.options.lcm_url) > 0 ? kLanResendBytesPerS : kLocalResendBytesPerS;
+  s.resend_budget = std::make_unique<ResendBudget>(s.resend_bytes_per_s, 2 * s.resend_bytes_per_s);
+  s.bus->SubscribeWithOrigin<imuqual::resend_t>(
+      channels::kResend, 1000, nullptr,
+      [&s](const std::string&, imuqual::resend_t&& req, const MessageOrigin& from) {
+        ++s.resend_requests;
+        s.last_resend_request_s = MonotonicSeconds();
+        if (s.resend_queue.size() < 10000) s.resend_queue.emplace_back(std::move(req), from.instance);
+      });
   // Early decisions (plans with early_decision): a decided unit's source stops.
   s.bus->Subscribe<imuqual::decision_t>(
       channels::kDecisionAll, 1000, [&s](const std::string&, imuqual::decision_t&& d, int64_t) {

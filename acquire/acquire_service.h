@@ -1,20 +1,26 @@
 // The acquire process's work: one run per unit, batches of consecutive
-// samples published on IMUQUAL4_RAW.<serial>, the run announced and
-// re-announced (heartbeat) on IMUQUAL4_RUN, resend requests answered from a
+// samples published on IMUQUAL5_RAW.<serial>, the run announced and
+// re-announced (heartbeat) on IMUQUAL5_RUN, resend requests answered from a
 // retention window.
 //
 // Flow control: a time-warped source (simulator, file replay) is read only
 // as fast as the awaited consumers (store, analyze) acknowledge, keeping at
 // most `window_batches` unacknowledged batches in flight per run, so a
 // station never overruns its own bus. Device-paced sources (serial) are
-// never held back. Acknowledged batches are kept for the window plus
-// retention_s of data per run (older ones are served by the store from its
-// archive; run_t.retained_first_seq says where acquire's memory starts);
-// unacknowledged ones until the awaited consumers acknowledge them, within
-// retention_mb (acquire/retention.h).
+// never held back. Batches the store has acknowledged (archived) are kept
+// for the window plus retention_s of data per run (older ones are served by
+// the store from its archive; run_t.retained_first_seq says where acquire's
+// memory starts); the others until the store's acknowledgement covers them,
+// within retention_mb (acquire/retention.h). An acknowledgement counts only
+// from the role it names (the seal says who sent it) and only for batches
+// published.
+//
+// Resend requests are answered within a budget per requester (the sender
+// instance of the request's seal; common/resend_budget.h): 64 MB/s on one
+// host, 4 MB/s beyond it; the rest is dropped and counted.
 //
 // Early decisions: a run whose unit the analysis decided PASS or FAIL
-// (decision_t on IMUQUAL4_DECISION.<serial>, of the run's current judgement
+// (decision_t on IMUQUAL5_DECISION.<serial>, of the run's current judgement
 // round as the store announces it) needs no more samples: its source is
 // stopped and the run ends COMPLETE with end_reason "decided PASS at T s
 // (early decision)". Every batch published up to then stays published and
@@ -31,6 +37,7 @@
 #include <vector>
 
 #include "acquire/source.h"
+#include "common/bus_seal.h"
 #include "common/status.h"
 #include "imuqual/plan.pb.h"
 #include "imuqual/rate_batch_t.hpp"
@@ -39,6 +46,7 @@ namespace imuqual::acquire {
 
 struct AcquireOptions {
   std::string lcm_url;                // station bus
+  BusSecurity security;               // keys and choices on the bus (role: acquire)
   std::string lot;                    // production lot of every unit here
   std::string station = "station";    // station id
   std::string operator_name;

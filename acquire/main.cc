@@ -6,6 +6,7 @@
 #include "acquire/acquire_service.h"
 #include "acquire/units.h"
 #include "analyze/judge/plan_file.h"
+#include "common/bus_flags.h"
 #include "common/command_line.h"
 #include "common/log.h"
 #include "common/shutdown.h"
@@ -73,9 +74,17 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--inject-seed", opt.inject_seed, "seed of the injected drops and bit flips")
       ->capture_default_str();
+  BusSecurityFiles bus_files;
+  AddBusSecurityFlags(app, &bus_files, /*signs=*/true, /*replays=*/false);
   if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
-
   SetLogProgramName("imuqual-acquire");
+  if (auto security = bus_files.Load(BusRole::kAcquire); security.ok()) {
+    opt.security = std::move(*security);
+  } else {
+    LogError(security.status().message());
+    return 2;
+  }
+
   // sim.rate_hz = 0 means "the profile's": a given --rate must be a rate.
   if (rate_opt->count() > 0 && !(sim.rate_hz > 0 && std::isfinite(sim.rate_hz))) {
     LogError("--rate " + rate_opt->as<std::string>() + ": must be a positive, finite rate in Hz");

@@ -11,6 +11,7 @@
 #include "cli/report_command.h"
 #include "cli/serve_command.h"
 #include "cli/verify_command.h"
+#include "common/bus_flags.h"
 #include "common/command_line.h"
 #include "common/log.h"
 #include "common/shutdown.h"
@@ -56,6 +57,23 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   run_cmd->add_option("--lcm-url", run.lcm_url, "station bus (default: a private port, ttl=0)");
   run_cmd->add_option("--station-id", run.station, "station id")->capture_default_str();
+  run_cmd
+      ->add_option("--key-file", run.key_file,
+                   "the station key (imuqual keygen): every process gets it, every message "
+                   "carries a MAC; needed for a bus beyond this host")
+      ->check(CLI::ExistingFile);
+  run_cmd
+      ->add_option("--trust", run.trust_file,
+                   "the roles' public keys in one file: verdict-bearing messages must be signed "
+                   "by their role (with --sign-key for each role)")
+      ->check(CLI::ExistingFile);
+  std::vector<std::string> sign_keys;
+  run_cmd->add_option("--sign-key", sign_keys,
+                      "ROLE=FILE, repeatable: a role's signing key (acquire, analyze, store), "
+                      "given to that process only; the store's also signs the archive's runs");
+  run_cmd->add_flag("--insecure-bus", run.insecure_bus,
+                    "run on a bus beyond this host without a station key (unauthenticated; "
+                    "every run records it)");
   run_cmd->add_option("--operator", run.operator_name, "operator name");
   run_cmd
       ->add_option("--inject-drop", run.inject_drop,
@@ -314,6 +332,7 @@ int main(int argc, char** argv) {
   serve_cmd->add_option("--token-file", serve.token_file, "a file whose first line is the token");
   serve_cmd->add_option("--bus", serve.bus_url,
                         "a station's bus (the LCM URL its console shows): the live page /live");
+  AddBusSecurityFlags(*serve_cmd, &serve.bus_security, /*signs=*/false, /*replays=*/false);
 
   // `imuqual help [COMMAND]` is `imuqual [COMMAND] --help` (git's and
   // cargo's habit).
@@ -369,9 +388,23 @@ int main(int argc, char** argv) {
   }
   if (run_cmd->parsed()) {
     if (run_cmd->count("--rate") > 0) run.rate_hz = rate_hz;
+    for (const std::string& spec : sign_keys) {
+      const size_t eq = spec.find('=');
+      const std::string role = spec.substr(0, eq);
+      std::string* slot = role == "acquire"   ? &run.acquire_sign_key
+                          : role == "analyze" ? &run.analyze_sign_key
+                          : role == "store"   ? &run.store_sign_key
+                                              : nullptr;
+      if (eq == std::string::npos || slot == nullptr || eq + 1 == spec.size()) {
+        LogError("--sign-key " + spec + ": must be ROLE=FILE with ROLE acquire, analyze or store");
+        return 2;
+      }
+      *slot = spec.substr(eq + 1);
+    }
     if (!station_file.empty()) {
       for (const char* flag : {"--sim", "--unit", "--lot", "--db", "--plan", "--duration", "--rate",
-                               "--operator", "--lcm-url", "--station-id", "--profile"}) {
+                               "--operator", "--lcm-url", "--station-id", "--profile",
+                               "--key-file", "--trust", "--sign-key", "--insecure-bus"}) {
         if (run_cmd->count(flag) > 0) {
           LogError(std::string("--station ") + station_file +
                    " holds the station's setup: do not also give " + flag);

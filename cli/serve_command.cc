@@ -17,6 +17,14 @@ int ServeCommand(const ServeCommandOptions& options) {
   o.db_path = options.db_path;
   o.token = options.token;
   o.bus_url = options.bus_url;
+  if (!o.bus_url.empty()) {
+    auto security = options.bus_security.Load(BusRole::kMonitor);
+    if (!security.ok()) {
+      LogError("serve: " + security.status().message());
+      return kExitUsage;
+    }
+    o.bus_security = std::move(*security);
+  }
   if (!options.token_file.empty()) {
     if (!options.token.empty()) {
       LogError("serve: give --token or --token-file, not both");

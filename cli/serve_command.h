@@ -5,6 +5,8 @@
 
 #include <string>
 
+#include "common/bus_seal.h"
+
 namespace imuqual::cli {
 
 struct ServeCommandOptions {
@@ -13,6 +15,7 @@ struct ServeCommandOptions {
   std::string token;                      // --token (required beyond loopback)
   std::string token_file;                 // --token-file: the token's first line (not in `ps`)
   std::string bus_url;                    // --bus: a station bus for the live page
+  BusSecurityFiles bus_security;          // its keys (--key-file, --trust, ...)
 };
 
 // Prints the URL, serves until interrupted. Returns 0 when stopped by a

@@ -40,7 +40,7 @@ class AckPacer {
   double last_s_ = -1e9;
 };
 
-// Publishes one ack_t on IMUQUAL4_ACK.
+// Publishes one ack_t on IMUQUAL5_ACK.
 Status PublishAck(LcmBus& bus, const std::string& role, const std::string& instance,
                   const std::string& run_id, int64_t next_seq, bool run_done);
 

@@ -3,6 +3,7 @@
 #include <poll.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 
 #include "common/crc32c.h"
@@ -15,10 +16,21 @@ std::string BusAddress::ToUrl() const {
          "&recv_buf_size=" + std::to_string(recv_buf_bytes);
 }
 
-LcmBus::LcmBus(std::string url) : url_(std::move(url)) {}
+int BusTtl(const std::string& url) {
+  for (size_t at = url.find("ttl="); at != std::string::npos; at = url.find("ttl=", at + 1)) {
+    if (at > 0 && (url[at - 1] == '?' || url[at - 1] == '&')) return std::atoi(url.c_str() + at + 4);
+  }
+  return 0;
+}
+
+LcmBus::LcmBus(std::string url, const BusSecurity& security)
+    : url_(std::move(url)),
+      security_description_(security.Describe(BusTtl(url_) > 0)),
+      sealer_(std::make_unique<BusSealer>(security)),
+      opener_(security) {}
 LcmBus::~LcmBus() = default;
 
-Result<std::unique_ptr<LcmBus>> LcmBus::Open(const std::string& url) {
+Result<std::unique_ptr<LcmBus>> LcmBus::Open(const std::string& url, BusSecurity security) {
   if (url.rfind("udpm://", 0) != 0 && url.rfind("file://", 0) != 0 &&
       url.rfind("memq://", 0) != 0) {
     return Status::InvalidArgument("LCM URL must start with udpm://, file:// or memq://: '" + url +
@@ -31,13 +43,25 @@ Result<std::unique_ptr<LcmBus>> LcmBus::Open(const std::string& url) {
     effective += (url.find('?') == std::string::npos ? "?" : "&");
     effective += "recv_buf_size=" + std::to_string(BusAddress{}.recv_buf_bytes);
   }
-  std::unique_ptr<LcmBus> bus(new LcmBus(effective));
+  IMUQUAL_RETURN_IF_ERROR(CheckSecurity(url, security));
+  std::unique_ptr<LcmBus> bus(new LcmBus(effective, security));
   bus->lcm_ = std::make_unique<lcm::LCM>(effective);
   if (!bus->lcm_->good()) {
     return Status::Unavailable("cannot open LCM bus '" + url +
                                "' (is multicast routed on this interface?)");
   }
   return bus;
+}
+
+Status LcmBus::CheckSecurity(const std::string& url, const BusSecurity& security) {
+  if (url.rfind("udpm://", 0) == 0 && BusTtl(url) > 0 && !security.station_key &&
+      !security.insecure_bus) {
+    return Status::InvalidArgument("the bus " + url +
+                                   " reaches beyond this host (ttl > 0): give the station key "
+                                   "(--key-file; make one with imuqual keygen), or say "
+                                   "--insecure-bus to run unauthenticated (every run records it)");
+  }
+  return Status::Ok();
 }
 
 Status LcmBus::HandleFor(int timeout_ms) {
@@ -54,6 +78,7 @@ Status LcmBus::HandleFor(int timeout_ms) {
       return Status::IoError(std::string("poll on LCM bus: ") + std::strerror(errno));
     }
     if (rc == 0) return Status::Ok();
+    ++dispatch_;  // handle() dispatches one message to every matching subscription
     if (lcm_->handle() != 0) return Status::IoError("LCM handle() failed on " + url_);
   }
   return Status::Ok();
@@ -71,17 +96,8 @@ void LcmBus::SubscribeRaw(const std::string& channel_regex, int queue_capacity,
   subscriptions_.push_back(std::move(sub));
 }
 
-uint32_t MessageSeal(const std::string& channel, const void* data, size_t size) {
-  return Crc32cExtend(Crc32c(channel.c_str(), channel.size() + 1), data, size);
-}
-
-void AppendSeal(const std::string& channel, std::vector<uint8_t>* bytes) {
-  const uint32_t seal = MessageSeal(channel, bytes->data(), bytes->size());
-  for (int shift = 24; shift >= 0; shift -= 8) bytes->push_back(static_cast<uint8_t>(seal >> shift));
-}
-
 Status LcmBus::PublishBytes(const std::string& channel, std::vector<uint8_t> bytes) {
-  AppendSeal(channel, &bytes);
+  sealer_->Seal(channel, &bytes);
   if (lcm_->publish(channel, bytes.data(), static_cast<unsigned>(bytes.size())) != 0) {
     ++publish_errors_;
     return Status::IoError("LCM publish failed on channel " + channel);
@@ -99,25 +115,34 @@ void LcmBus::NoteDecodeError(const std::string& channel, const std::string& type
   }
 }
 
-bool LcmBus::Unseal(const lcm_recv_buf_t* rbuf, const char* channel) {
-  const char* why = nullptr;
-  if (rbuf->data_size < kSealBytes) {
-    why = "shorter than its seal";
-  } else {
-    const auto* bytes = static_cast<const uint8_t*>(rbuf->data);
-    const size_t size = rbuf->data_size - kSealBytes;
-    uint32_t sent = 0;
-    for (size_t i = 0; i < kSealBytes; ++i) sent = (sent << 8) | bytes[size + i];
-    if (sent == MessageSeal(channel, bytes, size)) return true;
-    why = "its CRC-32C seal does not match (damaged in flight, or not sealed by this station)";
+const BusOpener::Opened* LcmBus::Unseal(const lcm_recv_buf_t* rbuf, const char* channel) {
+  if (opened_dispatch_ != dispatch_) {
+    opened_ = opener_.Open(channel, static_cast<const uint8_t*>(rbuf->data), rbuf->data_size,
+                           rbuf->recv_utime);
+    opened_dispatch_ = dispatch_;
+    int kind = -1;
+    switch (opened_.verdict) {
+      case BusOpener::Verdict::kOk: break;
+      case BusOpener::Verdict::kDamaged: ++damaged_; kind = 0; break;
+      case BusOpener::Verdict::kUnauthenticated: ++unauthenticated_; kind = 1; break;
+      case BusOpener::Verdict::kReplayed: ++replayed_; kind = 2; break;
+    }
+    if (kind >= 0) {
+      static constexpr const char* kWhat[] = {"a damaged", "an unauthenticated", "a replayed"};
+      static constexpr const char* kCounted[] = {"damaged", "unauthenticated", "replayed"};
+      std::lock_guard<std::mutex> lock(warned_mu_);
+      if (refused_channels_[kind].insert(channel).second) {
+        std::string from;
+        if (opened_.origin.instance != 0) {
+          from = " (says it is from " + std::string(RoleName(opened_.origin.role)) + ")";
+        }
+        LogWarning(std::string("dropped ") + kWhat[kind] + " message on " + channel + from + ": " +
+                   opened_.why + " (further " + kCounted[kind] +
+                   " messages on this channel are counted, not logged)");
+      }
+    }
   }
-  ++damaged_;
-  std::lock_guard<std::mutex> lock(warned_mu_);
-  if (damaged_channels_.insert(channel).second) {
-    LogWarning(std::string("dropped a damaged message on ") + channel + ": " + why +
-               " (further damaged messages on this channel are counted, not logged)");
-  }
-  return false;
+  return opened_.verdict == BusOpener::Verdict::kOk ? &opened_ : nullptr;
 }
 
 void LcmBus::NoteHandlerError(const std::string& channel, const std::string& what) {

@@ -1,7 +1,8 @@
-// The bus seal: every message carries a CRC-32C of its channel and encoding,
-// and a message whose seal does not hold never reaches a handler. Over real
-// UDP multicast (private network namespace), with damaged datagrams put on
-// the wire by a plain LCM instance beside the bus.
+// The bus seal (common/bus_seal.h) over real UDP multicast (private network
+// namespace): a message whose seal does not hold never reaches a handler,
+// and is counted as damaged, unauthenticated or replayed. Damaged, forged
+// and replayed datagrams are put on the wire by a plain LCM instance beside
+// the bus.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -26,19 +27,23 @@ imuqual::ack_t Ack(int64_t seq) {
   return a;
 }
 
-std::vector<uint8_t> Sealed(const std::string& channel, const imuqual::ack_t& msg) {
+std::vector<uint8_t> Sealed(const std::string& channel, const imuqual::ack_t& msg,
+                            const BusSecurity& as = BusSecurity{}) {
   std::vector<uint8_t> bytes;
   EXPECT_TRUE(EncodeMessage(msg, &bytes).ok());
-  AppendSeal(channel, &bytes);
+  BusSealer(as).Seal(channel, &bytes);
   return bytes;
 }
 
 class LcmBusSealTest : public ::testing::Test {
  protected:
-  void SetUp() override {
+  void SetUp() override { Connect(BusSecurity{}); }
+  void Connect(const BusSecurity& security) {
     // A port of this process's own (ttl=0: never leaves the host).
     url_ = "udpm://239.255.76.67:" + std::to_string(7300 + getpid() % 500) + "?ttl=0";
-    auto bus = LcmBus::Open(url_);
+    bus_.reset();
+    received_.clear();
+    auto bus = LcmBus::Open(url_, security);
     ASSERT_TRUE(bus.ok()) << bus.status().ToString();
     bus_ = std::move(*bus);
     raw_ = std::make_unique<lcm::LCM>(url_);
@@ -56,19 +61,28 @@ class LcmBusSealTest : public ::testing::Test {
     ASSERT_EQ(raw_->publish(kChannel, bytes.data(), static_cast<unsigned>(bytes.size())), 0);
   }
 
-  static constexpr char kChannel[] = "IMUQUAL4_ACK";
+  static constexpr char kChannel[] = "IMUQUAL5_TEST";
   std::string url_;
   std::unique_ptr<LcmBus> bus_;
   std::unique_ptr<lcm::LCM> raw_;
   std::vector<int64_t> received_;
 };
 
-TEST_F(LcmBusSealTest, ASealedMessageRoundTrips) {
+TEST_F(LcmBusSealTest, ASealedMessageRoundTripsOnceToEverySubscription) {
+  std::vector<MessageOrigin> origins;
+  bus_->SubscribeWithOrigin<imuqual::ack_t>(
+      kChannel, 100, nullptr,
+      [&](const std::string&, imuqual::ack_t&&, const MessageOrigin& o) { origins.push_back(o); });
   ASSERT_TRUE(bus_->Publish(kChannel, Ack(42)).ok());
-  SendRaw(Sealed(kChannel, Ack(43)));  // sealed by hand: the documented wire format
-  PumpUntilSeen(2);
+  SendRaw(Sealed(kChannel, Ack(43)));  // sealed by another sender
+  PumpUntilSeen(4);  // two subscriptions see each message
   EXPECT_EQ(received_, (std::vector<int64_t>{42, 43}));
+  ASSERT_EQ(origins.size(), 2u);
+  EXPECT_EQ(origins[0].instance, bus_->instance());
+  EXPECT_EQ(origins[0].role, BusRole::kTool);
+  EXPECT_NE(origins[1].instance, bus_->instance());
   EXPECT_EQ(bus_->damaged(), 0u);
+  EXPECT_EQ(bus_->replayed(), 0u);  // one message, two subscriptions: opened once
   EXPECT_EQ(bus_->decode_errors(), 0u);
 }
 
@@ -88,11 +102,56 @@ TEST_F(LcmBusSealTest, EveryFlippedBitIsDroppedAsDamaged) {
   EXPECT_EQ(bus_->damaged(), sent);
 }
 
+TEST_F(LcmBusSealTest, ADatagramPlayedAgainIsCountedAsReplayed) {
+  const std::vector<uint8_t> once = Sealed(kChannel, Ack(5));
+  SendRaw(once);
+  SendRaw(once);
+  SendRaw(once);
+  PumpUntilSeen(3);
+  EXPECT_EQ(received_, (std::vector<int64_t>{5}));
+  EXPECT_EQ(bus_->replayed(), 2u);
+}
+
+TEST_F(LcmBusSealTest, WithAStationKeyOnlyItsHoldersAreHeard) {
+  BusSecurity keyed;
+  keyed.role = BusRole::kTool;
+  keyed.station_key = *GenerateStationKey();
+  Connect(keyed);
+  ASSERT_TRUE(bus_->Publish(kChannel, Ack(1)).ok());      // this station's
+  SendRaw(Sealed(kChannel, Ack(2)));                       // no key: refused
+  BusSecurity other = keyed;
+  other.station_key = *GenerateStationKey();
+  SendRaw(Sealed(kChannel, Ack(3), other));                // another station's key: refused
+  SendRaw(Sealed(kChannel, Ack(4), keyed));                // another holder of this key
+  PumpUntilSeen(4);
+  EXPECT_EQ(received_, (std::vector<int64_t>{1, 4}));
+  EXPECT_EQ(bus_->unauthenticated(), 2u);
+  EXPECT_EQ(bus_->damaged(), 0u);
+  EXPECT_NE(bus_->security_description().find("station key " + keyed.station_key->Id()),
+            std::string::npos);
+}
+
+TEST(LcmBusOpenTest, ABusBeyondThisHostNeedsAKeyOrAnExplicitChoice) {
+  const std::string url = "udpm://239.255.76.67:" + std::to_string(7900 + getpid() % 50) + "?ttl=1";
+  auto refused = LcmBus::Open(url, BusSecurity{});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("--insecure-bus"), std::string::npos)
+      << refused.status().message();
+  BusSecurity insecure;
+  insecure.insecure_bus = true;
+  auto open = LcmBus::Open(url, insecure);
+  ASSERT_TRUE(open.ok()) << open.status().message();
+  EXPECT_NE((*open)->security_description().find("--insecure-bus"), std::string::npos);
+  BusSecurity keyed;
+  keyed.station_key = *GenerateStationKey();
+  EXPECT_TRUE(LcmBus::Open(url, keyed).ok());
+}
+
 TEST_F(LcmBusSealTest, UnsealedOrForeignChannelMessagesAreRefused) {
   std::vector<uint8_t> unsealed;
   ASSERT_TRUE(EncodeMessage(Ack(1), &unsealed).ok());  // an older station's message
   SendRaw(unsealed);
-  SendRaw(Sealed("IMUQUAL4_RESEND", Ack(2)));  // sealed for another channel
+  SendRaw(Sealed("IMUQUAL5_RESEND", Ack(2)));  // sealed for another channel
   SendRaw({1, 2});                             // shorter than a seal
   PumpUntilSeen(3);
   EXPECT_TRUE(received_.empty());

@@ -26,8 +26,13 @@ Status PublishStatus(LcmBus& bus, const std::string& process, bool healthy,
   msg.instance = InstanceName();
   msg.healthy = healthy ? 1 : 0;
   msg.message = message;
-  msg.num_counters = static_cast<int16_t>(counters.size());
-  for (const auto& [name, value] : counters) {
+  // Every process says what its bus refused (README, "Trust").
+  Counters all = counters;
+  all.emplace_back("messages_damaged", static_cast<int64_t>(bus.damaged()));
+  all.emplace_back("messages_unauthenticated", static_cast<int64_t>(bus.unauthenticated()));
+  all.emplace_back("messages_replayed", static_cast<int64_t>(bus.replayed()));
+  msg.num_counters = static_cast<int16_t>(all.size());
+  for (const auto& [name, value] : all) {
     msg.counter_names.push_back(name);
     msg.counter_values.push_back(value);
   }

@@ -1,5 +1,5 @@
 // status_t publishing: every process reports its counters (received,
-// dropped, gaps, queue depth, ...) about once a second on IMUQUAL4_STATUS,
+// dropped, gaps, queue depth, ...) about once a second on IMUQUAL5_STATUS,
 // so drops are visible, not silent.
 #ifndef IMUQUAL_COMMON_PROCESS_STATUS_H_
 #define IMUQUAL_COMMON_PROCESS_STATUS_H_
@@ -18,6 +18,8 @@ std::string InstanceName();
 
 using Counters = std::vector<std::pair<std::string, int64_t>>;
 
+// Publishes `counters` and the bus's refusals: messages_damaged,
+// messages_unauthenticated, messages_replayed.
 Status PublishStatus(LcmBus& bus, const std::string& process, bool healthy,
                      const std::string& message, const Counters& counters);
 

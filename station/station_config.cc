@@ -136,6 +136,12 @@ StationRunOptions StationRunFromConfig(const pb::StationConfig& c, const std::st
   o.pace = c.pace();
   if (c.has_rate_hz()) o.rate_hz = c.rate_hz();
   if (c.stale_after_s() > 0) o.stale_after_s = c.stale_after_s();
+  o.key_file = c.key_file();
+  o.trust_file = c.trust_file();
+  o.acquire_sign_key = c.acquire_sign_key();
+  o.analyze_sign_key = c.analyze_sign_key();
+  o.store_sign_key = c.store_sign_key();
+  o.insecure_bus = c.insecure_bus();
   for (int i = 0; i < c.slot_size(); ++i) {
     const pb::Slot& s = c.slot(i);
     o.units.push_back(s.unit_serial() + "=" + s.source());

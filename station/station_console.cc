@@ -473,6 +473,13 @@ std::string ConsoleProcessesLine(const ConsoleModel& m) {
     procs += p.expected > 1 ? std::to_string(p.running) + "/" + std::to_string(p.expected)
                             : std::string(p.running > 0 ? "up" : "down");
     if (p.restarts > 0) procs += " (restarted " + std::to_string(p.restarts) + "x)";
+    if (p.unauthenticated > 0 || p.replayed > 0) {
+      procs += " (refused ";
+      if (p.unauthenticated > 0) procs += std::to_string(p.unauthenticated) + " unauthenticated";
+      if (p.unauthenticated > 0 && p.replayed > 0) procs += ", ";
+      if (p.replayed > 0) procs += std::to_string(p.replayed) + " replayed";
+      procs += ")";
+    }
     if (!p.problem.empty()) procs += " [" + p.problem + "]";
   }
   return procs;

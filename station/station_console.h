@@ -81,6 +81,9 @@ struct ConsoleProcess {
   int expected = 1;
   int restarts = 0;
   std::string problem;  // last unhealthy message, "" when healthy
+  // Messages its bus refused: forged (no or a wrong MAC, a role that may not
+  // say it, a missing or wrong signature) and replayed (README, "Trust").
+  int64_t unauthenticated = 0, replayed = 0;
 };
 
 struct ConsoleModel {
@@ -134,7 +137,9 @@ struct ConsoleUnitCells {
 ConsoleUnitCells DescribeUnit(const ConsoleModel& model, const ConsoleUnit& unit,
                               size_t reason_width = 200);
 
-// The process line: "store 1/1 (1 restart)  analyze 2/2  acquire 1/1".
+// The process line: "store 1/1 (1 restart)  analyze 2/2  acquire 1/1"; a
+// process whose bus refused messages says how many: "store up (refused 4
+// unauthenticated, 2 replayed)".
 std::string ConsoleProcessesLine(const ConsoleModel& model);
 
 // "1:02:03" (h:mm:ss) or "2:03" (m:ss).

@@ -189,6 +189,15 @@ void StationMonitor::OnStatus(const imuqual::status_t& s, double now) {
     Changed();
   }
   in.last_heard = now;
+  for (size_t i = 0; i < s.counter_names.size() && i < s.counter_values.size(); ++i) {
+    int64_t* counter = s.counter_names[i] == "messages_unauthenticated" ? &in.unauthenticated
+                       : s.counter_names[i] == "messages_replayed"      ? &in.replayed
+                                                                        : nullptr;
+    if (counter != nullptr && *counter != s.counter_values[i]) {
+      *counter = s.counter_values[i];
+      Changed();
+    }
+  }
   if (s.process == "acquire") {
     // Each acquire process's own list (several may share a bus).
     std::set<std::string> reconnecting;
@@ -451,6 +460,8 @@ void StationMonitor::Refresh(double now, bool processes_from_status) {
     p.name = kind;
     for (const auto& [key, in] : instances_) {
       if (in.kind != kind) continue;
+      p.unauthenticated += in.unauthenticated;  // every instance's, restarted ones too
+      p.replayed += in.replayed;
       bool superseded = false;
       for (const auto& [other_key, other] : instances_) {
         superseded = superseded ||

@@ -131,6 +131,8 @@ class StationMonitor {
     double first_heard = 0, last_heard = 0;
     bool gone = false;                   // silent kGoneS at the last Refresh
     std::set<std::string> reconnecting;  // acquire: run ids whose device it is reconnecting
+    // Messages its bus refused as forged, and as replayed (its latest status).
+    int64_t unauthenticated = 0, replayed = 0;
   };
   ConsoleUnit* UnitOfRun(const std::string& run_id, const std::string& serial,
                          const imuqual::run_t* announcement);

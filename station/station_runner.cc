@@ -158,6 +158,49 @@ class LiveScreen {
 
 }  // namespace
 
+namespace {
+
+// The station's own keys on its bus (it listens as "station"), after every
+// role's keys were read and checked against the trust file: a bad key file
+// stops the station before any process starts.
+Result<BusSecurity> LoadStationSecurity(const StationRunOptions& o) {
+  BusSecurityFiles files;
+  files.key_file = o.key_file;
+  files.trust_file = o.trust_file;
+  files.insecure_bus = o.insecure_bus;
+  const std::pair<BusRole, const std::string*> roles[] = {{BusRole::kAcquire, &o.acquire_sign_key},
+                                                          {BusRole::kAnalyze, &o.analyze_sign_key},
+                                                          {BusRole::kStore, &o.store_sign_key}};
+  for (const auto& [role, key] : roles) {
+    if (key->empty()) {
+      if (!o.trust_file.empty()) {
+        return Status::InvalidArgument(std::string("a trust file is given (") + o.trust_file + "): the " +
+                                       RoleName(role) + " process needs its signing key too (" +
+                                       RoleName(role) + "_sign_key, or --sign-key " + RoleName(role) +
+                                       "=FILE)");
+      }
+      continue;
+    }
+    files.sign_key = *key;
+    auto loaded = files.Load(role);
+    if (!loaded.ok()) return loaded.status();
+  }
+  files.sign_key.clear();
+  return files.Load(BusRole::kStation);
+}
+
+// The flags that give a child process its keys and choices on the bus.
+std::vector<std::string> SecurityArgs(const StationRunOptions& o, const std::string& sign_key) {
+  std::vector<std::string> args;
+  if (!o.key_file.empty()) args.insert(args.end(), {"--key-file", o.key_file});
+  if (!o.trust_file.empty()) args.insert(args.end(), {"--trust", o.trust_file});
+  if (!sign_key.empty()) args.insert(args.end(), {"--sign-key", sign_key});
+  if (o.insecure_bus) args.push_back("--insecure-bus");
+  return args;
+}
+
+}  // namespace
+
 Status StationRunOptions::Validate() const {
   if (sim_units < 0 || sim_units > 1000) return Status::InvalidArgument("--sim must be 0..1000");
   if (sim_units == 0 && units.empty()) {
@@ -192,6 +235,8 @@ Status StationRunOptions::Validate() const {
 
 Result<StationRunResult> RunStation(const StationRunOptions& given) {
   IMUQUAL_RETURN_IF_ERROR(given.Validate());
+  auto security = LoadStationSecurity(given);
+  if (!security.ok()) return security.status();
   auto profile = sim::LotProfileByName(given.profile);
   if (!profile.ok()) return profile.status();
   std::string plan_spec = given.plan_spec;
@@ -321,7 +366,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
     address.port = PickPort();
     url = address.ToUrl();
   }
-  auto bus_or = LcmBus::Open(url);
+  auto bus_or = LcmBus::Open(url, std::move(*security));
   if (!bus_or.ok()) return bus_or.status();
   LcmBus& bus = **bus_or;
 
@@ -369,10 +414,15 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
       {dir + "/imuqual-store", "--lcm-url", url, "--db", o.db_path, "--stale-after",
        std::to_string(o.stale_after_s), "--give-up", std::to_string(o.give_up_s), "--write-give-up",
        std::to_string(o.archive_timeout_s), "--station", o.station});
+  for (std::string& a : SecurityArgs(o, o.store_sign_key)) children.store->argv.push_back(std::move(a));
+  // The plan this station runs is the only one its store and analyze take.
+  if (!plan_spec.empty()) children.store->argv.insert(children.store->argv.end(), {"--accept-plan", plan_spec});
   for (int k = 0; k < o.analyze_shards; ++k) {
     Supervised a =
         supervised_process("imuqual-analyze", "analyze",
                            {dir + "/imuqual-analyze", "--lcm-url", url, "--station", o.station});
+    for (std::string& arg : SecurityArgs(o, o.analyze_sign_key)) a.argv.push_back(std::move(arg));
+    if (!plan_spec.empty()) a.argv.insert(a.argv.end(), {"--accept-plan", plan_spec});
     if (o.analyze_shards > 1) {
       const std::string shard = std::to_string(k) + "/" + std::to_string(o.analyze_shards);
       a.name += " " + shard;
@@ -440,6 +490,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& given) {
     acquire_args.insert(acquire_args.end(), {"--inject-drop", std::to_string(o.inject_drop)});
   }
   if (o.pace > 0) acquire_args.insert(acquire_args.end(), {"--pace", std::to_string(o.pace)});
+  for (std::string& a : SecurityArgs(o, o.acquire_sign_key)) acquire_args.push_back(std::move(a));
   {
     auto started = Subprocess::Start(acquire_args, result.log_path);
     if (!started.ok()) return started.status();

@@ -56,6 +56,12 @@ struct StationRunOptions {
   double give_up_s = 30;          // store: a batch that never arrived is a gap after this
   bool show_progress = true;      // live console on a terminal, else a progress line (stderr)
   int max_restarts = 5;           // a store/analyze process dying more often in a minute: give up
+  // Trust (common/bus_seal.h): the station key and the roles' public keys
+  // go to every process, each role's signing key to its own process only.
+  std::string key_file;    // "" = no station key (this host only, ttl=0, or insecure_bus)
+  std::string trust_file;  // "" = roles not signed
+  std::string acquire_sign_key, analyze_sign_key, store_sign_key;
+  bool insecure_bus = false;  // a bus beyond this host without a key, by choice
   Status Validate() const;
 };
 

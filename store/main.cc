@@ -4,6 +4,8 @@
 // acknowledged).
 #include <CLI/CLI.hpp>
 
+#include "analyze/judge/plan_file.h"
+#include "common/bus_flags.h"
 #include "common/command_line.h"
 #include "common/log.h"
 #include "common/shutdown.h"
@@ -35,9 +37,29 @@ int main(int argc, char** argv) {
   app.add_option("--write-give-up", opt.write_give_up_s,
                  "seconds of failing writes after which the store stops (exit 4)")
       ->capture_default_str();
+  std::vector<std::string> accept_plans;
+  app.add_option("--accept-plan", accept_plans,
+                 "a plan this station runs (file or builtin:NAME), repeatable: a run announced "
+                 "with any other plan is refused (default: any plan whose digest holds)");
+  BusSecurityFiles bus_files;
+  AddBusSecurityFlags(app, &bus_files, /*signs=*/true, /*replays=*/true);
   if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
-
   SetLogProgramName("imuqual-store");
+  for (const std::string& spec : accept_plans) {
+    auto plan = judge::LoadPlan(spec);
+    if (!plan.ok()) {
+      LogError("--accept-plan " + spec + ": " + plan.status().message());
+      return 2;
+    }
+    opt.accepted_plans.push_back(std::move(*plan));
+  }
+  if (auto security = bus_files.Load(BusRole::kStore); security.ok()) {
+    opt.security = std::move(*security);
+  } else {
+    LogError(security.status().message());
+    return 2;
+  }
+
   InstallShutdownHandlers();
   auto service = store::StoreService::Create(opt);
   if (!service.ok()) {

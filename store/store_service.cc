@@ -11,6 +11,7 @@
 #include <thread>
 #include <variant>
 
+#include "analyze/judge/run_admission.h"
 #include "common/listening_clock.h"
 #include "common/ack.h"
 #include "common/batch_integrity.h"
@@ -21,12 +22,14 @@
 #include "common/lcm_bus.h"
 #include "common/log.h"
 #include "common/process_status.h"
+#include "common/resend_budget.h"
 #include "common/seq_tracker.h"
 #include "common/shutdown.h"
 #include "common/strings.h"
 #include "imuqual/rate_batch_t.hpp"
 #include "imuqual/resend_t.hpp"
 #include "common/text_util.h"
+#include "store/outcome.h"
 #include "store/records.h"
 
 namespace imuqual::store {
@@ -43,6 +46,7 @@ constexpr double kRetryPeriodS = 1.0;          // a failed result/curve write is
 constexpr double kFirstWriteRetryS = 0.1;      // a failed transaction is retried after this,
 constexpr double kMaxWriteRetryS = 2.0;        // doubling up to this
 constexpr int64_t kBatchOverheadBytes = 256;   // a held batch's size beyond its samples
+constexpr size_t kMaxRefusedRuns = 10000;  // refused run ids remembered (beyond: refused again)
 constexpr int kMaxRevisions = 3;               // judgement rounds before the store settles
 
 // Adds `seq` to a set of ranges (kept short: consecutive seqs extend the last).
@@ -77,6 +81,9 @@ struct StoreRun {
   // loses nothing: these stay until they are durable).
   std::vector<CurveRecord> curves_pending;
   std::optional<ResultRecord> result;  // the final result, once received
+  // The encoding of that result's message as received (host_utime zeroed):
+  // the same result published again is recognized ("" after a restart).
+  std::string result_message;
   bool result_stored = false;
   std::set<std::string> curves_stored;  // axes whose final curve is durable
   // A run is archived when its samples, a final curve of every axis and its
@@ -130,6 +137,7 @@ struct Staged {
 
 Status StoreOptions::Validate() const {
   if (lcm_url.empty()) return Status::InvalidArgument("lcm_url: required");
+  IMUQUAL_RETURN_IF_ERROR(LcmBus::CheckSecurity(lcm_url, security));
   if (db_path.empty()) return Status::InvalidArgument("db_path: required");
   if (queue_capacity < 16) return Status::InvalidArgument("queue_capacity: must be >= 16");
   if (max_transaction < 1) return Status::InvalidArgument("max_transaction: must be >= 1");
@@ -165,6 +173,20 @@ struct StoreService::Impl {
           unwritten_dropped = 0, damaged = 0, judgements_superseded = 0, stale_results = 0;
   ThrottledLog damage_log;
   std::set<std::string> foreign_runs;  // runs of other stations (writer thread)
+  // Runs whose announcement was refused (judge::RunAdmission): never
+  // archived, their messages dropped (writer thread).
+  judge::RunAdmission admission;
+  std::set<std::string> refused_runs;
+  std::unique_ptr<ResendBudget> resend_budget;  // per requester
+  int64_t resends_throttled = 0;
+  int64_t runs_refused = 0, announcements_refused = 0, messages_of_refused_runs = 0,
+          results_conflicting = 0, settled_messages = 0;
+  ThrottledLog refusal_log;
+  // "" if `msg` announces the run `known` describes, else the field it changes.
+  static std::string IdentityChange(const RunInfo& known, const imuqual::run_t& msg);
+  void RefuseChange(const std::string& run_id, const std::string& field);
+  // Takes a final result of the run's current round (Apply); false if refused.
+  bool TakeResult(StoreRun& r, const imuqual::unit_result_t& res);
   // Runs and batches of failed transactions, written again (before anything
   // newer) once the back-off allows; bounded by max_unwritten_mb.
   std::vector<Item> held;
@@ -183,7 +205,8 @@ struct StoreService::Impl {
   // timing.
   LatencyHistogram sent_to_archive;
 
-  explicit Impl(const StoreOptions& o) : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
+  explicit Impl(const StoreOptions& o)
+      : options(o), queue(static_cast<size_t>(o.queue_capacity)), admission(o.accepted_plans) {
     tracker_options.give_up_after_s = o.hole_give_up_s;
     tracker_options.max_ahead = kMaxAhead;
   }
@@ -303,11 +326,13 @@ bool StoreService::Impl::ReopenIfResumed(const imuqual::run_t& msg, double now) 
   if (ended == final_ends.end()) {
     auto archived = archive->LoadRun(msg.run_id);
     if (!archived.ok()) return false;
-    archived->plan.clear();  // kept only to decide; the plan is not needed
-    archived->truth.clear();
     ended = final_ends.emplace(msg.run_id, std::move(*archived)).first;
   }
   const RunInfo& info = ended->second;
+  if (const std::string field = IdentityChange(info, msg); !field.empty()) {
+    RefuseChange(msg.run_id, field);
+    return false;
+  }
   if (info.state != "incomplete") return false;
   if (msg.state != imuqual::run_t::STATE_RUNNING && msg.last_seq <= info.last_seq) return false;
   auto key = archive->FindRunKey(msg.run_id);
@@ -459,8 +484,11 @@ void StoreService::Impl::RecordGivenUp(StoreRun& r, const std::vector<SeqRange>&
 
 // Resends from the archive what acquire cannot: batches it no longer
 // retains, or all of them once it is gone.
+// `req.requester` is the sender instance the request's seal names (the
+// handler put it there), in decimal: each requester is served within its
+// budget (common/resend_budget.h); the rest is dropped and counted.
 Status StoreService::Impl::ServeResend(const imuqual::resend_t& req) {
-  if (req.requester == instance) return Status::Ok();
+  const uint64_t requester = std::strtoull(req.requester.c_str(), nullptr, 10);
   auto it = runs.find(req.run_id);
   if (it == runs.end() || it->second.key < 0) return Status::Ok();
   StoreRun& r = it->second;
@@ -479,6 +507,10 @@ Status StoreService::Impl::ServeResend(const imuqual::resend_t& req) {
                            " from the archive: " + sealed.message());
           return Status::Ok();  // serve the rest
         }
+        if (!resend_budget->Take(requester, static_cast<double>(bytes.size()), ListeningSeconds())) {
+          ++resends_throttled;
+          return Status::Ok();  // the requester asks again, with back-off
+        }
         ++batches_served;
         return bus->PublishEncoded(channels::Raw(r.info.serial), bytes);
       },
@@ -494,6 +526,12 @@ Status StoreService::Impl::ApplyRun(const imuqual::run_t& msg, Staged* staged) {
   }
   StoreRun& r = *found;
   const bool first = r.key < 0;
+  if (!first) {
+    if (const std::string field = IdentityChange(r.info, msg); !field.empty()) {
+      RefuseChange(msg.run_id, field);
+      return Status::Ok();
+    }
+  }
   r.acquire_retained_first = msg.retained_first_seq;
   if (r.acquire_gone && msg.state == imuqual::run_t::STATE_RUNNING) {
     // Back after the store found it silent: the run goes on, and whatever
@@ -630,6 +668,48 @@ void AmendForUnarchived(const StoreRun& r, const std::vector<GapRecord>& gaps,
 
 }  // namespace
 
+std::string StoreService::Impl::IdentityChange(const RunInfo& known, const imuqual::run_t& msg) {
+  return judge::RunIdentityDifference(MessageFromRunInfo(known), msg);
+}
+
+void StoreService::Impl::RefuseChange(const std::string& run_id, const std::string& field) {
+  ++announcements_refused;
+  refusal_log.Warning("refused an announcement of run " + run_id + " that changes its " + field +
+                      " (fixed at its first announcement)");
+}
+
+// The same final result again (analyze republishes until confirmed) is
+// taken as it is; another one of the same round only if it judged more of
+// the run (analyze ended it early, then heard it go on): a judgement on
+// less of the data, or a different one on the same data, is refused.
+bool StoreService::Impl::TakeResult(StoreRun& r, const imuqual::unit_result_t& res) {
+  imuqual::unit_result_t plain = res;
+  plain.host_utime = 0;
+  std::vector<uint8_t> encoded;
+  if (!EncodeMessage(plain, &encoded).ok()) return false;
+  std::string message(encoded.begin(), encoded.end());
+  if (message == r.result_message) return false;  // already taken
+  if (!r.result_message.empty() && r.result && r.result->revision == res.revision) {
+    const int64_t had_last = r.result->last_seq.value_or(-1);
+    const int64_t had_gaps = r.result->gap_batches.value_or(0);
+    const bool covers_more = res.last_seq > had_last ||
+                             (res.last_seq == had_last && res.gap_batches < had_gaps);
+    if (!covers_more) {
+      ++results_conflicting;
+      refusal_log.Warning("run " + res.run_id + ": refused a final result (" +
+                          OutcomeText(OutcomeFromNumber(res.verdict)) + ") that disagrees with the one taken for "
+                          "the same data of round " + std::to_string(res.revision));
+      return false;
+    }
+    LogInfo("run " + res.run_id + ": a final result on more of the run (to batch " +
+            std::to_string(res.last_seq) + ") replaces the one to batch " + std::to_string(had_last));
+  }
+  r.result = ResultFromMessage(res);
+  r.result_message = std::move(message);
+  r.result_stored = false;
+  return true;
+}
+
 // Writes the run's pending curves and result (if any) into the current
 // transaction.
 Status StoreService::Impl::WritePending(StoreRun& r, Staged* staged) {
@@ -666,7 +746,22 @@ Status StoreService::Impl::Apply(Item& item, Staged* staged) {
     ++foreign_messages;
     return Status::Ok();
   }
+  if (refused_runs.count(run_id)) {
+    ++messages_of_refused_runs;
+    return Status::Ok();
+  }
   if (auto* run = std::get_if<imuqual::run_t>(&item)) {
+    if (run->announcer == "store") return Status::Ok();  // a store's own re-announcement
+    if (Status st = admission.Admit(*run); !st.ok()) {
+      ++runs_refused;
+      if (refused_runs.size() < kMaxRefusedRuns) refused_runs.insert(run_id);
+      if (auto waiting = runs.find(run_id); waiting != runs.end() && waiting->second.key < 0) {
+        runs.erase(waiting);  // batches that came before the announcement go too
+      }
+      refusal_log.Warning("refused run " + run_id.substr(0, 160) + ": " + st.message() +
+                          "; it is not archived");
+      return Status::Ok();
+    }
     if (OfAnotherStation(*run)) {
       // Another station's run on this bus: its own store archives it.
       foreign_runs.insert(run_id);
@@ -689,6 +784,13 @@ Status StoreService::Impl::Apply(Item& item, Staged* staged) {
     return Status::Ok();
   }
   if (auto* b = std::get_if<imuqual::rate_batch_t>(&item)) return ApplyBatch(*r, *b, staged);
+  if (r->done) {
+    // Finalized: settled. Nothing a message says changes it; its analyze
+    // hears the confirmation again.
+    ++settled_messages;
+    (void)PublishAck(*bus, "store", instance, run_id, std::numeric_limits<int64_t>::max(), true);
+    return Status::Ok();
+  }
   if (RoundOf(item) != r->info.revision) {
     ++stale_results;  // answers an earlier judgement round (or a store that forgot one)
     return Status::Ok();
@@ -696,8 +798,7 @@ Status StoreService::Impl::Apply(Item& item, Staged* staged) {
   if (auto* c = std::get_if<imuqual::allan_curve_t>(&item)) {
     r->curves_pending.push_back(CurveFromMessage(*c));
   } else if (auto* res = std::get_if<imuqual::unit_result_t>(&item)) {
-    r->result = ResultFromMessage(*res);
-    r->result_stored = false;
+    if (!TakeResult(*r, *res)) return Status::Ok();
   }
   return r->key < 0 ? Status::Ok() : WritePending(*r, staged);
 }
@@ -1030,6 +1131,11 @@ Counters StoreService::Impl::StatusCounters() const {
           {"late_messages", late_messages},
           {"judgements_superseded", judgements_superseded},
           {"stale_results", stale_results},
+          {"runs_refused", runs_refused},
+          {"announcements_refused", announcements_refused},
+          {"messages_of_refused_runs", messages_of_refused_runs},
+          {"results_conflicting", results_conflicting},
+          {"settled_messages", settled_messages},
           {"foreign_runs", static_cast<int64_t>(foreign_runs.size())},
           {"stopped_ms", std::llround(ListeningPausedSeconds() * 1e3)},
           {"foreign_messages", foreign_messages},
@@ -1045,12 +1151,12 @@ Counters StoreService::Impl::StatusCounters() const {
           {"unwritten_bytes", held_bytes},
           {"unwritten_dropped", unwritten_dropped},
           {"batches_served", batches_served},
+          {"resends_throttled", resends_throttled},
           {"runs_taken_over", runs_taken_over},
           {"queue_depth", static_cast<int64_t>(queue.size())},
           {"queue_high_water", static_cast<int64_t>(queue.high_water())},
           {"queue_dropped", static_cast<int64_t>(queue.dropped())},
           {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
-          {"messages_damaged", static_cast<int64_t>(bus->damaged())},
           {"values_archived", values_archived},
           {"cpu_ms", std::llround(ProcessCpuSeconds() * 1e3)},
           {"latency_batches", sample_to_archive.count()},
@@ -1078,7 +1184,9 @@ void StoreService::Impl::LogSummary() const {
 
 Status StoreService::Run() {
   Impl& s = *impl_;
-  auto bus = LcmBus::Open(s.options.lcm_url);
+  BusSecurity security = s.options.security;
+  security.role = BusRole::kStore;
+  auto bus = LcmBus::Open(s.options.lcm_url, std::move(security));
   if (!bus.ok()) return bus.status();
   s.bus = std::move(*bus);
   auto enqueue = [&s](auto&& msg) {
@@ -1093,10 +1201,17 @@ Status StoreService::Run() {
   s.bus->Subscribe<imuqual::rate_batch_t>(
       channels::kRawAll, s.options.queue_capacity,
       [enqueue](const std::string&, imuqual::rate_batch_t&& m, int64_t) { enqueue(std::move(m)); });
-  s.bus->Subscribe<imuqual::resend_t>(channels::kResend, 1000,
-                                      [enqueue](const std::string&, imuqual::resend_t&& m, int64_t) {
-                                        enqueue(std::move(m));
-                                      });
+  const double resend_rate =
+      BusTtl(s.options.lcm_url) > 0 ? kLanResendBytesPerS : kLocalResendBytesPerS;
+  s.resend_budget = std::make_unique<ResendBudget>(resend_rate, 2 * resend_rate);
+  // A request's requester is who its seal says sent it, not what it writes.
+  s.bus->SubscribeWithOrigin<imuqual::resend_t>(
+      channels::kResend, 1000, nullptr,
+      [enqueue, &s](const std::string&, imuqual::resend_t&& m, const MessageOrigin& from) {
+        if (from.instance == s.bus->instance()) return;  // its own
+        m.requester = std::to_string(from.instance);
+        enqueue(std::move(m));
+      });
   s.bus->Subscribe<imuqual::allan_curve_t>(
       channels::kCurveAll, 10000, [enqueue](const std::string&, imuqual::allan_curve_t&& m, int64_t) {
         if (m.is_final) enqueue(std::move(m));
@@ -1133,6 +1248,9 @@ Status StoreService::Run() {
     }
     (void)PublishStatus(*s.bus, "store", s.health_message.empty(), "stopped", s.StatusCounters());
   });
+  LogInfo("bus: " + s.bus->security_description() + "; plans accepted: " +
+          (s.admission.restricts_plans() ? s.admission.AcceptedNames()
+                                         : std::string("any (give --accept-plan to name them)")));
   LogInfo("archiving " + s.options.lcm_url + " into " + s.options.db_path);
   Status result;
   while (!ShutdownRequested() && !s.gave_up_writing) {

@@ -14,6 +14,16 @@
 // process that restarts can still finish the run. It also answers requests
 // for batches acquire no longer retains.
 //
+// Settled records: a run's identity and plan are fixed at its first
+// announcement (a later one that differs is refused and counted); a run
+// whose plan is not one the station accepts, or whose names are not
+// identifiers, is refused and never archived; a judgement the store has
+// finalized is never replaced by a message (only by a new judgement round
+// the store itself opens); before that, a final result of the same round
+// replaces an earlier one only if it covers more of the run (a later last
+// batch, or fewer gaps), and one that disagrees on the same data is refused
+// and counted (results_conflicting).
+//
 // Write failures (a full disk): a batch that arrived but could not be
 // written is held in memory (bounded, max_unwritten_mb) and written again
 // with back-off before anything newer; it is neither acknowledged nor taken
@@ -30,8 +40,11 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
+#include "common/bus_seal.h"
 #include "common/status.h"
+#include "imuqual/plan.pb.h"
 
 namespace imuqual::store {
 
@@ -41,6 +54,7 @@ inline constexpr int kStoreExitUnwritable = 4;
 
 struct StoreOptions {
   std::string lcm_url;
+  BusSecurity security;           // keys and choices on the bus (role: store)
   std::string db_path;
   int queue_capacity = 100000;    // messages waiting for the writer
   int max_transaction = 4000;     // messages per transaction at most
@@ -50,6 +64,10 @@ struct StoreOptions {
   // The station whose runs this store archives (run_t.station); other
   // stations' runs on the same bus are ignored and counted. "": every run.
   std::string station;
+  // The plans this station runs (their files): a run announced with any
+  // other plan is refused, never archived (judge/run_admission.h). Empty:
+  // any plan whose digest holds (said in the log at start).
+  std::vector<pb::TestPlan> accepted_plans;
   int max_unwritten_mb = 256;     // batches held while the archive cannot write (MB of samples);
                                // beyond, the newest are left unacknowledged for acquire to resend
   double write_give_up_s = 300;  // the archive failing every write this long: Run() fails

@@ -49,7 +49,9 @@ class StoreUnderTest {
       return Status::Ok();
     };
     db_ = options.db_path;
-    auto bus = LcmBus::Open(options.lcm_url);
+    BusSecurity as_acquire;  // the test plays acquire
+    as_acquire.role = BusRole::kAcquire;
+    auto bus = LcmBus::Open(options.lcm_url, as_acquire);
     EXPECT_TRUE(bus.ok());
     bus_ = std::move(*bus);
     bus_->Subscribe<imuqual::ack_t>(channels::kAck, 1000,

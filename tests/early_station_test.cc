@@ -420,7 +420,7 @@ TEST(EarlyDecisionTest, ReplayedRecordingGetsTheSameVerdictAndSaysWhenItWasDecid
       const double end = MonotonicSeconds() + kRunTimeoutS;
       while (!h.WaitRunsDone(done, 0.2) && MonotonicSeconds() < end) {
         forged.host_utime = NowUtime();
-        ASSERT_TRUE(h.bus().Publish(channels::Decision("R1"), forged).ok());
+        ASSERT_TRUE(h.BusAs(BusRole::kAnalyze).Publish(channels::Decision("R1"), forged).ok());
       }
     }
     ASSERT_TRUE(h.WaitRunsDone(done, kRunTimeoutS)) << h.Logs();

@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "acquire/imu_simulator.h"
+#include "common/clock.h"
 #include "common/strings.h"
 #include "common/subprocess.h"
 #include "common/text_util.h"
@@ -226,7 +227,7 @@ TEST(ReplayTest, StoredRunsReplayedFromTheArchiveGiveTheSameResults) {
 TEST(ReplayTest, LoggedStationReplayedWithLcmLogplayerGivesTheLiveResults) {
   const std::string logger = Which("lcm-logger"), player = Which("lcm-logplayer");
   ASSERT_FALSE(logger.empty() || player.empty()) << "lcm-logger and lcm-logplayer (liblcm-bin) are needed";
-  const std::string acquire_channels = "IMUQUAL4_(RUN|RAW\\..*)";
+  const std::string acquire_channels = "IMUQUAL5_(RUN|RAW\\..*)";
   // GIVEN a live station whose acquire traffic the standard logger records
   testing::StationHarness live("replay_live");
   const std::string log = live.path("station.lcmlog");
@@ -245,12 +246,30 @@ TEST(ReplayTest, LoggedStationReplayedWithLcmLogplayerGivesTheLiveResults) {
     EXPECT_EQ(acquire.Wait(30), 0);
     EXPECT_EQ(rec->Stop(10), 0);  // SIGTERM: the logger closes its file
   }
-  // WHEN the log is played into a fresh analyze and store on another bus
-  // (at half speed, and with the patience a log's pauses need: nobody is
-  // there to resend what a busy host drops).
+  // WHEN the log is played, older than the freshness window, into a fresh
+  // analyze and store that were not told to take a replay
+  const double logged_at = MonotonicSeconds();
+  {
+    testing::StationHarness unasked("replay_unasked");
+    Subprocess store = unasked.StartStore({"--stale-after", "30", "--max-message-age", "2"});
+    Subprocess analyze = unasked.StartAnalyze({"--stale-after", "30", "--max-message-age", "2"});
+    while (MonotonicSeconds() < logged_at + 3) unasked.Pump(100);  // the log is 3 s old at least
+    auto play = Subprocess::Start({player, "--lcm-url=" + unasked.url(), "--regexp=" + acquire_channels, log},
+                                  unasked.log());
+    ASSERT_TRUE(play.ok());
+    EXPECT_EQ(play->Wait(60), 0);
+    // THEN nothing of it is taken: every message refused as replayed, counted
+    EXPECT_GT(unasked.WaitCounter("store", "messages_replayed", 100, 10), 100) << unasked.Logs();
+    EXPECT_GT(unasked.WaitCounter("analyze", "messages_replayed", 100, 10), 100) << unasked.Logs();
+    EXPECT_TRUE(unasked.runs_done().empty());
+    EXPECT_EQ(unasked.Counter("store", "runs_active"), 0);
+  }
+  // WHEN it is played into a fresh analyze and store told to take it
+  // (--accept-replay), at half speed, and with the patience a log's pauses
+  // need: nobody is there to resend what a busy host drops.
   testing::StationHarness replay("replay_played");
-  Subprocess store = replay.StartStore({"--stale-after", "30"});
-  Subprocess analyze = replay.StartAnalyze({"--stale-after", "30"});
+  Subprocess store = replay.StartStore({"--stale-after", "30", "--accept-replay"});
+  Subprocess analyze = replay.StartAnalyze({"--stale-after", "30", "--accept-replay"});
   auto play = Subprocess::Start({player, "--lcm-url=" + replay.url(), "--speed=0.5",
                                  "--regexp=" + acquire_channels, log},
                                 replay.log());

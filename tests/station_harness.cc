@@ -15,13 +15,25 @@
 
 namespace imuqual::testing {
 
-StationHarness::StationHarness(const std::string& tag) : dir_(tag) {
+StationHarness::StationHarness(const std::string& tag, HarnessKeys keys) : dir_(tag), keys_(keys) {
   std::random_device rd;
   BusAddress address;
   address.port = 20000 + static_cast<int>((rd() ^ static_cast<unsigned>(::getpid())) % 40000);
   url_ = address.ToUrl();
   db_ = dir_.path("station.db");
-  auto bus = LcmBus::Open(url_);
+  if (keys_ != HarnessKeys::kNone) {
+    EXPECT_TRUE(WriteStationKeyFile(key_file(), *GenerateStationKey()).ok());
+  }
+  if (keys_ == HarnessKeys::kStationAndRoles) {
+    std::string trust;
+    for (BusRole role : {BusRole::kAcquire, BusRole::kAnalyze, BusRole::kStore}) {
+      auto key = GenerateSigningKey(RoleName(role));
+      EXPECT_TRUE(WriteSigningKeyFiles(sign_key(role), *key).ok());
+      trust += key->Public().ToText() + "\n";
+    }
+    EXPECT_TRUE(WriteStringToFile(trust_file(), trust).ok());
+  }
+  auto bus = LcmBus::Open(url_, Security(BusRole::kTool));
   EXPECT_TRUE(bus.ok()) << bus.status().ToString();
   bus_ = std::move(*bus);
   bus_->Subscribe<imuqual::status_t>(channels::kStatus, 1000,
@@ -47,8 +59,56 @@ StationHarness::StationHarness(const std::string& tag) : dir_(tag) {
                                   });
 }
 
+std::string StationHarness::key_file() const {
+  return keys_ == HarnessKeys::kNone ? "" : dir_.path("station.key");
+}
+
+std::string StationHarness::trust_file() const {
+  return keys_ == HarnessKeys::kStationAndRoles ? dir_.path("station.trust") : "";
+}
+
+std::string StationHarness::sign_key(BusRole role) const {
+  if (keys_ != HarnessKeys::kStationAndRoles || !IsSigningRole(RoleName(role))) return "";
+  return dir_.path(std::string(RoleName(role)) + ".key");
+}
+
+std::vector<std::string> StationHarness::SecurityArgs(BusRole role) const {
+  std::vector<std::string> args;
+  if (!key_file().empty()) args.insert(args.end(), {"--key-file", key_file()});
+  if (!trust_file().empty()) args.insert(args.end(), {"--trust", trust_file()});
+  if (!sign_key(role).empty()) args.insert(args.end(), {"--sign-key", sign_key(role)});
+  return args;
+}
+
+BusSecurity StationHarness::Security(BusRole role) const {
+  BusSecurityFiles files;
+  files.key_file = key_file();
+  files.trust_file = trust_file();
+  files.sign_key = sign_key(role);
+  auto security = files.Load(role);
+  EXPECT_TRUE(security.ok()) << security.status().message();
+  return security.ok() ? *security : BusSecurity{};
+}
+
+LcmBus& StationHarness::BusAs(BusRole role) {
+  std::unique_ptr<LcmBus>& bus = role_buses_[role];
+  if (!bus) {
+    auto opened = LcmBus::Open(url_, Security(role));
+    EXPECT_TRUE(opened.ok()) << opened.status().ToString();
+    bus = std::move(*opened);
+  }
+  return *bus;
+}
+
 Subprocess StationHarness::Start(const std::string& program, const std::vector<std::string>& args) {
   std::vector<std::string> argv = {Bin(program), "--lcm-url", url_};
+  const BusRole role = program == "imuqual-acquire"   ? BusRole::kAcquire
+                       : program == "imuqual-analyze" ? BusRole::kAnalyze
+                       : program == "imuqual-store"   ? BusRole::kStore
+                                                      : BusRole::kUnknown;
+  if (role != BusRole::kUnknown) {
+    for (std::string& a : SecurityArgs(role)) argv.push_back(std::move(a));
+  }
   argv.insert(argv.end(), args.begin(), args.end());
   auto p = Subprocess::Start(argv, log());
   EXPECT_TRUE(p.ok()) << p.status().ToString();

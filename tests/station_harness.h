@@ -16,10 +16,20 @@
 
 namespace imuqual::testing {
 
+// What a harness station authenticates its bus with.
+enum class HarnessKeys {
+  kNone,             // no station key (one host, ttl=0)
+  kStation,          // a station key for every process
+  kStationAndRoles,  // and a signing key per role, with the trust file
+};
+
 class StationHarness {
  public:
   // A temp dir (archive, logs) and a bus of its own (fresh port, ttl=0).
-  explicit StationHarness(const std::string& tag);
+  // With keys, they are made in the temp dir, every imuqual-acquire,
+  // -analyze and -store started here gets its flags, and the harness's bus
+  // listens with them.
+  explicit StationHarness(const std::string& tag, HarnessKeys keys = HarnessKeys::kNone);
 
   const std::string& url() const { return url_; }
   const std::string& db() const { return db_; }
@@ -50,8 +60,19 @@ class StationHarness {
   const std::set<std::string>& runs_seen() const { return runs_seen_; }
   // The processes' combined output, for failure messages.
   std::string Logs() const;
-  // The harness's own connection to the bus (to play a process).
+  // The harness's own connection to the bus (a tool: it listens, and may
+  // publish on channels outside the station's contract).
   LcmBus& bus() { return *bus_; }
+  // A connection that plays `role` with the station's keys (that role's
+  // signing key too): an insider, or a test's stand-in for a process.
+  LcmBus& BusAs(BusRole role);
+  // The key files ("" without keys) and the flags a process of `role` gets.
+  std::string key_file() const;
+  std::string trust_file() const;
+  std::string sign_key(BusRole role) const;
+  std::vector<std::string> SecurityArgs(BusRole role) const;
+  // This station's keys as a process of `role` holds them.
+  BusSecurity Security(BusRole role) const;
   // Highest next_seq the store acknowledged for a run (-1 if none).
   int64_t StoreAcked(const std::string& run_id) const {
     auto it = store_acked_.find(run_id);
@@ -60,7 +81,9 @@ class StationHarness {
 
  private:
   TempDir dir_;
+  HarnessKeys keys_;
   std::string url_;
+  std::map<BusRole, std::unique_ptr<LcmBus>> role_buses_;
   std::string db_;
   std::unique_ptr<LcmBus> bus_;
   std::set<std::string> runs_done_;

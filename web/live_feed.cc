@@ -61,6 +61,8 @@ std::string LiveStatusJson(const station::ConsoleModel& m, int64_t newest_utime)
   json processes = json::array();
   for (const station::ConsoleProcess& p : m.processes) {
     processes.push_back({{"name", p.name},
+                         {"messages_unauthenticated", p.unauthenticated},
+                         {"messages_replayed", p.replayed},
                          {"running", p.running},
                          {"expected", p.expected},
                          {"restarts", p.restarts},
@@ -180,8 +182,10 @@ LiveFeed::~LiveFeed() {
 }
 
 Result<std::unique_ptr<LiveFeed>> LiveFeed::Open(const std::string& bus_url,
-                                                 const std::string& archive_label) {
-  auto bus = LcmBus::Open(bus_url);
+                                                 const std::string& archive_label,
+                                                 BusSecurity security) {
+  security.role = BusRole::kMonitor;
+  auto bus = LcmBus::Open(bus_url, std::move(security));
   if (!bus.ok()) return Status::InvalidArgument("--bus " + bus_url + ": " + bus.status().message());
   auto impl = std::make_unique<Impl>();
   impl->bus = std::move(*bus);

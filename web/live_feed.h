@@ -40,10 +40,12 @@ std::string LiveCurveJson(const std::string& serial, const std::string& run_id,
 
 class LiveFeed {
  public:
-  // Listens on `bus_url` (an LCM URL); `archive_label` names the archive on
-  // the page. The error names the URL.
+  // Listens on `bus_url` (an LCM URL) with `security`'s keys (as the
+  // monitor role); `archive_label` names the archive on the page. The error
+  // names the URL.
   static Result<std::unique_ptr<LiveFeed>> Open(const std::string& bus_url,
-                                                const std::string& archive_label);
+                                                const std::string& archive_label,
+                                                BusSecurity security = {});
   ~LiveFeed();  // stops the thread
 
   // What one reader (an event stream) has seen.

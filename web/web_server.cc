@@ -215,7 +215,7 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
   auto impl = std::make_unique<Impl>();
   impl->options = o;
   if (!o.bus_url.empty()) {
-    auto feed = LiveFeed::Open(o.bus_url, o.db_path);
+    auto feed = LiveFeed::Open(o.bus_url, o.db_path, o.bus_security);
     if (!feed.ok()) return feed.status();
     impl->feed = std::move(*feed);
   }

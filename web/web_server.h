@@ -30,6 +30,8 @@
 #include <memory>
 #include <string>
 
+#include "common/bus_seal.h"
+
 #include "common/status.h"
 
 namespace imuqual::web {
@@ -43,6 +45,7 @@ struct ServeOptions {
   // /api/live); "" without one. With a bus the archive may not exist yet
   // (the station creates it): its pages say so until it does.
   std::string bus_url;
+  BusSecurity bus_security;  // keys to listen with (role: monitor)
 };
 
 // Whether `host` is a loopback address (127.0.0.0/8, ::1, localhost).

@@ -5,6 +5,7 @@
 #include <httplib.h>
 
 #include <nlohmann/json.hpp>
+#include <map>
 #include <string>
 #include <thread>
 
@@ -152,6 +153,24 @@ class WebTest : public ::testing::Test {
 
 // Every page from the archive is there, agrees with it, and renders the
 // hostile names as text.
+// Connections to `url` that speak as acquire, analyze and the store.
+struct RoleBuses {
+  explicit RoleBuses(const std::string& url) {
+    for (BusRole role : {BusRole::kAcquire, BusRole::kAnalyze, BusRole::kStore}) {
+      BusSecurity as;
+      as.role = role;
+      auto bus = LcmBus::Open(url, as);
+      EXPECT_TRUE(bus.ok()) << bus.status().ToString();
+      if (bus.ok()) buses[role] = std::move(*bus);
+    }
+  }
+  bool ok() const { return buses.size() == 3; }
+  LcmBus& acquire() { return *buses.at(BusRole::kAcquire); }
+  LcmBus& analyze() { return *buses.at(BusRole::kAnalyze); }
+  LcmBus& store() { return *buses.at(BusRole::kStore); }
+  std::map<BusRole, std::unique_ptr<LcmBus>> buses;
+};
+
 TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
   Serve();
   auto home = client_->Get("/");
@@ -471,8 +490,8 @@ TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
 
   // A station on the bus: a unit whose serial tries HTML, its run, a
   // provisional result and an interim curve, and the processes' status.
-  auto bus = LcmBus::Open(url);
-  ASSERT_TRUE(bus.ok()) << bus.status().ToString();
+  RoleBuses bus(url);
+  ASSERT_TRUE(bus.ok());
   const std::string serial = "U<b>1";
   imuqual::run_t r{};
   r.run_id = "P-" + serial;
@@ -527,10 +546,10 @@ TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
   st.healthy = 1;
   nlohmann::json live;
   for (int i = 0; i < 100; ++i) {
-    ASSERT_TRUE((*bus)->Publish(channels::kRun, r).ok());
-    ASSERT_TRUE((*bus)->Publish(channels::Result(serial), res).ok());
-    ASSERT_TRUE((*bus)->Publish(channels::Curve(serial), c).ok());
-    ASSERT_TRUE((*bus)->Publish(channels::kStatus, st).ok());
+    ASSERT_TRUE(bus.acquire().Publish(channels::kRun, r).ok());
+    ASSERT_TRUE(bus.analyze().Publish(channels::Result(serial), res).ok());
+    ASSERT_TRUE(bus.analyze().Publish(channels::Curve(serial), c).ok());
+    ASSERT_TRUE(bus.acquire().Publish(channels::kStatus, st).ok());
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     auto got = client.Get("/api/live");
     ASSERT_TRUE(got);
@@ -579,7 +598,7 @@ TEST(LiveServeTest, TheReportOfASoakOverIsBuiltAtOnce) {
   o.bus_url = "udpm://239.255.76.67:" + std::to_string(33000 + ::getpid() % 2000) + "?ttl=0";
   TestServer server(o);
   ASSERT_TRUE(server.ok());
-  auto bus = LcmBus::Open(o.bus_url);
+  RoleBuses bus(o.bus_url);
   ASSERT_TRUE(bus.ok());
   imuqual::run_t r{};
   r.run_id = kRun;
@@ -599,9 +618,9 @@ TEST(LiveServeTest, TheReportOfASoakOverIsBuiltAtOnce) {
   ack.run_done = true;
   EXPECT_EQ(server.server().ReportsKept(), 0u);
   for (int i = 0; i < 100 && server.server().ReportsKept() == 0; ++i) {
-    ASSERT_TRUE((*bus)->Publish(channels::kRun, r).ok());
-    ASSERT_TRUE((*bus)->Publish(channels::Result(kSerial), res).ok());
-    ASSERT_TRUE((*bus)->Publish(channels::kAck, ack).ok());
+    ASSERT_TRUE(bus.acquire().Publish(channels::kRun, r).ok());
+    ASSERT_TRUE(bus.analyze().Publish(channels::Result(kSerial), res).ok());
+    ASSERT_TRUE(bus.store().Publish(channels::kAck, ack).ok());
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   EXPECT_EQ(server.server().ReportsKept(), 1u);

@@ -1,5 +1,7 @@
 #include "analyze/judge/plan.h"
 
+#include <google/protobuf/util/message_differencer.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -237,6 +239,22 @@ Result<pb::TestPlan> BuiltinPlan(std::string_view name) {
   }
   return Status::NotFound("no built-in plan '" + std::string(name) + "' (built in: " +
                           Join(BuiltinPlanNames(), ", ") + ")");
+}
+
+pb::TestPlan CompletedPlan(const pb::TestPlan& plan, double source_rate_hz,
+                           const std::vector<pb::Axis>& source_axes) {
+  pb::TestPlan completed = plan;
+  if (!(completed.nominal_rate_hz() > 0)) completed.set_nominal_rate_hz(source_rate_hz);
+  if (completed.axes_size() == 0) {
+    for (const pb::Axis& axis : source_axes) *completed.add_axes() = axis;
+  }
+  return completed;
+}
+
+bool IsCompletionOf(const pb::TestPlan& announced, const pb::TestPlan& accepted) {
+  const std::vector<pb::Axis> axes(announced.axes().begin(), announced.axes().end());
+  return google::protobuf::util::MessageDifferencer::Equals(
+      CompletedPlan(accepted, announced.nominal_rate_hz(), axes), announced);
 }
 
 std::string_view PlanStopRule(const pb::TestPlan& plan) {

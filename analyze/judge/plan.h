@@ -28,6 +28,16 @@ Status ValidatePlan(const pb::TestPlan& plan);
 std::vector<std::string> BuiltinPlanNames();
 Result<pb::TestPlan> BuiltinPlan(std::string_view name);
 
+// The plan a run carries: `plan` completed where it is silent from the
+// unit's source (its nominal rate and axes), as acquire announces it.
+pb::TestPlan CompletedPlan(const pb::TestPlan& plan, double source_rate_hz,
+                           const std::vector<pb::Axis>& source_axes);
+
+// Whether `announced` is `accepted` completed where `accepted` is silent
+// (CompletedPlan with the announced rate and axes): the plan a station that
+// accepts `accepted` may analyse and archive.
+bool IsCompletionOf(const pb::TestPlan& announced, const pb::TestPlan& accepted);
+
 // The stop rule named by the plan ("" means the default, bins9).
 std::string_view PlanStopRule(const pb::TestPlan& plan);
 

@@ -12,6 +12,7 @@
 #include <variant>
 
 #include "analyze/judge/plan.h"
+#include "analyze/judge/run_admission.h"
 #include "analyze/service/run_analyzer.h"
 #include "common/ack.h"
 #include "common/batch_integrity.h"
@@ -46,6 +47,7 @@ constexpr double kFirstRepublishS = 2.0;
 constexpr double kMaxRepublishPeriodS = 30.0;
 constexpr double kResultRetentionS = 1800.0;
 constexpr size_t kMaxHeldBeforeRunInfo = 4096;
+constexpr size_t kMaxRefusedRuns = 10000;  // refused run ids remembered (beyond: refused again)
 // decision_t's pending reasons: at most this many, each at most this long,
 // so that the message stays well within one 64 KB datagram (a plan judges a
 // few measurements per axis).
@@ -100,6 +102,7 @@ struct RunEntry {
 // What is kept of a finished run: enough to tell whether an announcement
 // opens it again.
 struct FinishedRun {
+  imuqual::run_t identity;  // as first announced, plan dropped (its digest stays)
   int revision = 0;
   int64_t last_seq = -1;        // the last batch the analysis covered
   bool end_by_acquire = false;  // acquire itself announced the end
@@ -107,6 +110,12 @@ struct FinishedRun {
 
 FinishedRun SummaryOf(const RunEntry& e) {
   FinishedRun f;
+  if (e.info) {
+    f.identity = *e.info;
+    f.identity.plan.clear();  // compared by digest
+    f.identity.truth.clear();
+    f.identity.plan_size = f.identity.truth_size = 0;
+  }
   f.revision = e.revision;
   f.last_seq = e.tracker.next_seq() - 1;
   f.end_by_acquire = e.info && e.info->announcer == "acquire" &&
@@ -194,6 +203,7 @@ bool InShard(std::string_view serial, int shard_index, int shard_count) {
 
 Status AnalyzeOptions::Validate() const {
   if (lcm_url.empty()) return Status::InvalidArgument("lcm_url: required");
+  IMUQUAL_RETURN_IF_ERROR(LcmBus::CheckSecurity(lcm_url, security));
   if (shard_count < 1 || shard_index < 0 || shard_index >= shard_count) {
     return Status::InvalidArgument("shard: must be K/N with 0 <= K < N");
   }
@@ -227,10 +237,20 @@ struct AnalyzeService::Impl {
           results_republished = 0, results_abandoned = 0, results_dropped_on_purpose = 0,
           damaged = 0, runs_reopened = 0, decisions_published = 0, runs_decided = 0;
   std::set<std::string> foreign_ids;  // runs of other stations (worker thread)
+  // Runs whose announcement was refused (judge::RunAdmission): never
+  // analysed, their batches dropped; at most kMaxRefusedRuns remembered.
+  judge::RunAdmission admission;
+  std::set<std::string> refused_ids;
+  int64_t runs_refused = 0, announcements_refused = 0, messages_of_refused_runs = 0;
+  ThrottledLog refusal_log;
+  // Refuses a run's announcement for `why` (logged, counted).
+  void Refuse(const std::string& run_id, const std::string& why);
+  // Refuses an announcement that changes what a run is (`field`).
+  void RefuseChange(const std::string& run_id, const std::string& field);
   ThrottledLog damage_log;
 
   explicit Impl(const AnalyzeOptions& o)
-      : options(o), queue(static_cast<size_t>(o.queue_capacity)) {
+      : options(o), queue(static_cast<size_t>(o.queue_capacity)), admission(o.accepted_plans) {
     tracker_options.give_up_after_s = o.hole_give_up_s;
     tracker_options.max_ahead = 8192;
   }
@@ -284,13 +304,40 @@ void AnalyzeService::Impl::Handle(Work&& work, double now) {
   }
 }
 
+void AnalyzeService::Impl::Refuse(const std::string& run_id, const std::string& why) {
+  ++runs_refused;
+  if (refused_ids.size() < kMaxRefusedRuns) refused_ids.insert(run_id);
+  runs.erase(run_id);  // batches held before the announcement go too
+  refusal_log.Warning("refused run " + run_id.substr(0, 160) + ": " + why +
+                      "; it is not analysed");
+}
+
+void AnalyzeService::Impl::RefuseChange(const std::string& run_id, const std::string& field) {
+  ++announcements_refused;
+  refusal_log.Warning("refused an announcement of run " + run_id + " that changes its " + field +
+                      " (fixed at its first announcement)");
+}
+
 void AnalyzeService::Impl::OnRun(imuqual::run_t&& run, double now) {
+  if (refused_ids.count(run.run_id)) {
+    ++messages_of_refused_runs;
+    return;
+  }
   std::optional<FinishedRun> finished;
   if (auto f = finished_ids.find(run.run_id); f != finished_ids.end()) finished = f->second;
   if (auto r = runs.find(run.run_id); r != runs.end() && r->second.finished) {
     finished = SummaryOf(r->second);
   }
   if (finished) {
+    imuqual::run_t announced = run;
+    announced.plan.clear();
+    announced.truth.clear();
+    announced.plan_size = announced.truth_size = 0;
+    if (const std::string field = judge::RunIdentityDifference(finished->identity, announced);
+        !field.empty()) {
+      RefuseChange(run.run_id, field);
+      return;
+    }
     if (!Reopens(*finished, run)) return;
     LogWarning("run " + run.run_id + " is analysed again from its first batch: " +
                (run.revision > finished->revision
@@ -313,9 +360,19 @@ void AnalyzeService::Impl::OnRun(imuqual::run_t&& run, double now) {
     runs.erase(run.run_id);
     return;
   }
+  if (Status st = admission.Admit(run); !st.ok()) {
+    Refuse(run.run_id, st.message());
+    return;
+  }
   auto [it, inserted] = runs.try_emplace(run.run_id, tracker_options);
   RunEntry& e = it->second;
   (void)inserted;
+  if (e.info) {
+    if (const std::string field = judge::RunIdentityDifference(*e.info, run); !field.empty()) {
+      RefuseChange(run.run_id, field);
+      return;
+    }
+  }
   e.revision = std::max<int>(e.revision, run.revision);
   if (e.info && e.info->announcer == "acquire" && run.announcer == "store" &&
       run.state == imuqual::run_t::STATE_RUNNING) {
@@ -376,6 +433,10 @@ void AnalyzeService::Impl::OnBatch(imuqual::rate_batch_t&& batch, double now) {
   }
   if (foreign_ids.count(batch.run_id)) {
     ++foreign_messages;
+    return;
+  }
+  if (refused_ids.count(batch.run_id)) {
+    ++messages_of_refused_runs;
     return;
   }
   if (finished_ids.count(batch.run_id)) {
@@ -725,7 +786,6 @@ Counters AnalyzeService::Impl::StatusCounters() {
           {"queue_high_water", static_cast<int64_t>(queue.high_water())},
           {"queue_dropped", static_cast<int64_t>(queue.dropped())},
           {"decode_errors", static_cast<int64_t>(bus->decode_errors())},
-          {"messages_damaged", static_cast<int64_t>(bus->damaged())},
           {"out_of_shard", out_of_shard.load()},
           {"foreign_runs", static_cast<int64_t>(foreign_ids.size())},
           {"results_republished", results_republished},
@@ -734,12 +794,17 @@ Counters AnalyzeService::Impl::StatusCounters() {
           {"results_abandoned", results_abandoned},
           {"results_dropped_on_purpose", results_dropped_on_purpose},
           {"stopped_ms", std::llround(ListeningPausedSeconds() * 1e3)},
-          {"foreign_messages", foreign_messages}};
+          {"foreign_messages", foreign_messages},
+          {"runs_refused", runs_refused},
+          {"announcements_refused", announcements_refused},
+          {"messages_of_refused_runs", messages_of_refused_runs}};
 }
 
 Status AnalyzeService::Run() {
   Impl& s = *impl_;
-  auto bus = LcmBus::Open(s.options.lcm_url);
+  BusSecurity security = s.options.security;
+  security.role = BusRole::kAnalyze;
+  auto bus = LcmBus::Open(s.options.lcm_url, std::move(security));
   if (!bus.ok()) return bus.status();
   s.bus = std::move(*bus);
   const AnalyzeOptions& o = s.options;
@@ -799,6 +864,9 @@ Status AnalyzeService::Run() {
     }
     (void)PublishStatus(*s.bus, "analyze", true, "stopped", s.StatusCounters());
   });
+  LogInfo("bus: " + s.bus->security_description() + "; plans accepted: " +
+          (s.admission.restricts_plans() ? s.admission.AcceptedNames()
+                                         : std::string("any (give --accept-plan to name them)")));
   LogInfo("analyzing on " + o.lcm_url + " (shard " + std::to_string(o.shard_index) + "/" +
           std::to_string(o.shard_count) + ")");
   Status result;

@@ -20,13 +20,17 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
+#include "common/bus_seal.h"
 #include "common/status.h"
+#include "imuqual/plan.pb.h"
 
 namespace imuqual::analyze {
 
 struct AnalyzeOptions {
   std::string lcm_url;
+  BusSecurity security;             // keys and choices on the bus (role: analyze)
   int shard_index = 0;              // this process takes units whose serial hashes to
   int shard_count = 1;              //   shard_index modulo shard_count
   int density = 8;                  // streaming engine: averaging factors per octave
@@ -37,6 +41,11 @@ struct AnalyzeOptions {
   // The station whose runs this process analyses (run_t.station); other
   // stations' runs on the same bus are ignored and counted. "": every run.
   std::string station;
+  // The plans this station runs (their files; a run carries one completed
+  // from its source). A run announced with any other plan is refused,
+  // never analysed (judge/run_admission.h). Empty: any plan whose digest
+  // holds (said in the log at start).
+  std::vector<pb::TestPlan> accepted_plans;
   // Fault injection (tests): drop this fraction of the final curves and
   // results the first time they are published, in [0, 1).
   double inject_result_drop = 0.0;

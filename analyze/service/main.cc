@@ -5,6 +5,8 @@
 #include <cstdio>
 
 #include "analyze/service/analyze_service.h"
+#include "analyze/judge/plan_file.h"
+#include "common/bus_flags.h"
 #include "common/command_line.h"
 #include "common/log.h"
 #include "common/shutdown.h"
@@ -37,9 +39,29 @@ int main(int argc, char** argv) {
   app.add_option("--stale-after", opt.stale_after_s,
                  "seconds without any announcement before a running run is ended as incomplete")
       ->capture_default_str();
+  std::vector<std::string> accept_plans;
+  app.add_option("--accept-plan", accept_plans,
+                 "a plan this station runs (file or builtin:NAME), repeatable: a run announced "
+                 "with any other plan is refused (default: any plan whose digest holds)");
+  BusSecurityFiles bus_files;
+  AddBusSecurityFlags(app, &bus_files, /*signs=*/true, /*replays=*/true);
   if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
-
   SetLogProgramName("imuqual-analyze");
+  for (const std::string& spec : accept_plans) {
+    auto plan = judge::LoadPlan(spec);
+    if (!plan.ok()) {
+      LogError("--accept-plan " + spec + ": " + plan.status().message());
+      return 2;
+    }
+    opt.accepted_plans.push_back(std::move(*plan));
+  }
+  if (auto security = bus_files.Load(BusRole::kAnalyze); security.ok()) {
+    opt.security = std::move(*security);
+  } else {
+    LogError(security.status().message());
+    return 2;
+  }
+
   InstallShutdownHandlers();
   if (std::sscanf(shard.c_str(), "%d/%d", &opt.shard_index, &opt.shard_count) != 2) {
     LogError("--shard must be K/N, e.g. 0/3, got '" + shard + "'");
