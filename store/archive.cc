@@ -9,6 +9,8 @@
 #include <thread>
 
 #include "common/clock.h"
+#include "store/canonical.h"
+#include "store/chain.h"
 #include "store/checksums.h"
 #include "store/outcome.h"
 #include "store/schema.h"
@@ -51,6 +53,7 @@ Result<std::unique_ptr<Archive>> Archive::Open(const std::string& path, Mode mod
                              std::strerror(errno));
     }
   }
+  IMUQUAL_RETURN_IF_ERROR(InitCrypto());  // chunk digests, the chain's hashes and signatures
   auto db = Db::Open(path, mode == Mode::kWrite ? Db::Mode::kReadWrite : Db::Mode::kReadOnly);
   if (!db.ok()) return db.status();
   std::unique_ptr<Archive> archive(new Archive(std::move(*db)));
@@ -159,8 +162,8 @@ RETURNING run_key)sql");
 Status Archive::InsertChunk(int64_t run_key, const ChunkRecord& c, bool* inserted) {
   auto st = Cached(kInsertChunk,
                    "INSERT OR IGNORE INTO raw_chunks(run_key, seq, first_sample, num_samples, "
-                   "host_utime, temperature_c, codec, data, sample_utime, crc32c) "
-                   "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+                   "host_utime, temperature_c, codec, data, sample_utime, crc32c, digest) "
+                   "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (!st.ok()) return st.status();
   Stmt& s = **st;
   s.Bind(1, run_key).Bind(2, c.seq).Bind(3, c.first_sample).Bind(4, c.num_samples);
@@ -169,7 +172,8 @@ Status Archive::InsertChunk(int64_t run_key, const ChunkRecord& c, bool* inserte
       .Bind(7, c.codec)
       .BindBlob(8, c.data)
       .Bind(9, c.sample_utime)
-      .Bind(10, static_cast<int64_t>(ChunkChecksum(c)));
+      .Bind(10, static_cast<int64_t>(ChunkChecksum(c)))
+      .BindBlob(11, ChunkDigest(c));
   IMUQUAL_RETURN_IF_ERROR(s.Run());
   if (inserted) *inserted = sqlite3_changes(db_->handle()) > 0;
   return Status::Ok();
@@ -376,10 +380,28 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
   return SealResults(*db_, run_key);
 }
 
+Status Archive::SetSigningKey(const SigningKey& key) {
+  if (key.role != "store") {
+    return Status::InvalidArgument("the archive is signed with a key of role 'store', not '" +
+                                   key.role + "'");
+  }
+  signing_key_ = key;
+  return Status::Ok();
+}
+
 Status Archive::MarkFinalized(int64_t run_key, int64_t utime) {
+  IMUQUAL_RETURN_IF_ERROR(db_->Exec("SAVEPOINT mark_finalized"));
   auto up = db_->Prepare("UPDATE runs SET finalized_utime = ? WHERE run_key = ?");
-  if (!up.ok()) return up.status();
-  return up->Bind(1, utime).Bind(2, run_key).Run();
+  Status st = up.ok() ? up->Bind(1, utime).Bind(2, run_key).Run() : up.status();
+  if (st.ok()) {
+    st = AppendRunEntry(*db_, run_key, kEntryFinalized, signing_key_ ? &*signing_key_ : nullptr,
+                        utime);
+  }
+  if (!st.ok()) {
+    (void)db_->Exec("ROLLBACK TO mark_finalized; RELEASE mark_finalized");
+    return st;
+  }
+  return db_->Exec("RELEASE mark_finalized");
 }
 
 Result<int> Archive::SupersedeJudgement(int64_t run_key, int64_t utime, const std::string& cause) {
@@ -403,6 +425,8 @@ Result<int> Archive::SupersedeJudgement(int64_t run_key, int64_t utime, const st
     IMUQUAL_RETURN_IF_ERROR(s->Bind(1, run_key).Run());
   }
   IMUQUAL_RETURN_IF_ERROR(SealResults(*db_, run_key));
+  IMUQUAL_RETURN_IF_ERROR(AppendRunEntry(*db_, run_key, kEntryReopened,
+                                         signing_key_ ? &*signing_key_ : nullptr, utime));
   auto revision = db_->Prepare("SELECT revision FROM runs WHERE run_key = ?");
   if (!revision.ok()) return revision.status();
   revision->Bind(1, run_key);

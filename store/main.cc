@@ -21,6 +21,9 @@ int main(int argc, char** argv) {
   app.add_option("--lcm-url", opt.lcm_url, "station bus, e.g. udpm://239.255.76.67:7701?ttl=0")
       ->required();
   app.add_option("--db", opt.db_path, "archive file (created if missing)")->required();
+  app.add_option("--sign-key", opt.sign_key_path,
+                 "signing key of role store (imuqual keygen --role store), kept outside the "
+                 "archive: every finalised run is signed with it (imuqual verify --pubkey)");
   app.add_option("--queue", opt.queue_capacity, "messages waiting for the writer")
       ->capture_default_str();
   app.add_option("--give-up", opt.hole_give_up_s, "seconds before a lost batch becomes a gap")

@@ -230,6 +230,12 @@ Result<std::unique_ptr<StoreService>> StoreService::Create(const StoreOptions& o
   auto archive = Archive::Open(options.db_path, Archive::Mode::kWrite);
   if (!archive.ok()) return archive.status();
   impl->archive = std::move(*archive);
+  if (!options.sign_key_path.empty()) {
+    auto key = ReadSigningKeyFile(options.sign_key_path);
+    if (!key.ok()) return key.status().WithContext("--sign-key");
+    Status st = impl->archive->SetSigningKey(*key);
+    if (!st.ok()) return st.WithContext("--sign-key " + options.sign_key_path);
+  }
   auto unfinished = impl->archive->UnfinishedRunIds();
   if (!unfinished.ok()) return unfinished.status();
   for (const std::string& id : *unfinished) {

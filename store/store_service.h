@@ -14,6 +14,10 @@
 // process that restarts can still finish the run. It also answers requests
 // for batches acquire no longer retains.
 //
+// Signing: with a signing key (sign_key_path), each run is signed when it
+// is finalised, on the writer thread in the finalising transaction, from
+// digests kept as the chunks are written (its samples are not read again).
+//
 // Write failures (a full disk): a batch that arrived but could not be
 // written is held in memory (bounded, max_unwritten_mb) and written again
 // with back-off before anything newer; it is neither acknowledged nor taken
@@ -53,6 +57,12 @@ struct StoreOptions {
   int max_unwritten_mb = 256;     // batches held while the archive cannot write (MB of samples);
                                // beyond, the newest are left unacknowledged for acquire to resend
   double write_give_up_s = 300;  // the archive failing every write this long: Run() fails
+  // A signing key file of role "store" (imuqual keygen --role store), kept
+  // outside the archive: each finalised run's record and each judgement
+  // round opened again is signed with it in the archive's chain
+  // (store/chain.h). "": the chain's entries are unsigned (verify lists such
+  // runs as unsigned).
+  std::string sign_key_path;
   // Test seam: called before each COMMIT; a non-ok Status fails the
   // transaction as a full disk would (empty: none).
   std::function<Status()> before_commit;
