@@ -165,10 +165,11 @@ class ArchiveAttackTest : public ::testing::Test {
   void Edit(const std::string& sql) {
     auto d = store::Db::Open(copy_, store::Db::Mode::kReadWrite);
     ASSERT_TRUE(d.ok());
-    ASSERT_TRUE((*d)->Exec("PRAGMA foreign_keys = OFF; DROP TRIGGER IF EXISTS archive_chain_no_update; "
-                           "DROP TRIGGER IF EXISTS archive_chain_no_delete; " +
-                           sql)
-                    .ok())
+    ASSERT_TRUE(
+        (*d)->Exec("PRAGMA foreign_keys = OFF; DROP TRIGGER IF EXISTS archive_chain_no_update; "
+                   "DROP TRIGGER IF EXISTS archive_chain_no_delete; " +
+                   sql)
+            .ok())
         << sql;
   }
 
