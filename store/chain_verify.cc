@@ -38,6 +38,7 @@ struct Walk {
   ChainHead head;
   std::map<std::string, LastEntry> last;  // by run id
   std::set<std::string> legacy;           // runs listed by a migration entry
+  int64_t migration_entry = 0;
 };
 
 const PublicKey* FindKey(const std::vector<PublicKey>& keys, const std::string& id) {
@@ -134,6 +135,7 @@ Status WalkChain(Db& db, const ChainVerifyOptions& o, bool links_only,
       report(label + ": its record is malformed");
       sound = false;
     } else if (migration) {
+      w->migration_entry = e.entry;
       auto it = record->items.find("legacy_runs");
       const std::string listed = it == record->items.end() ? "" : it->second.bytes;
       for (size_t start = 0; start < listed.size();) {
@@ -311,6 +313,7 @@ Result<ChainVerifyReport> VerifyChain(Db& db, const ChainVerifyOptions& o,
     const std::vector<uint8_t> plan = runs->Blob(3);
     const std::string plan_sha256 = runs->Text(4);
     const int64_t before = problems;
+    const bool legacy = w.legacy.erase(run_id) > 0;  // listed by the migration, still there
     if (!plan_sha256.empty()) {  // empty: no digest claimed (imuqual-history-gen's runs)
       uint8_t sha[crypto_hash_sha256_BYTES];
       crypto_hash_sha256(sha, plan.data(), plan.size());
@@ -320,7 +323,7 @@ Result<ChainVerifyReport> VerifyChain(Db& db, const ChainVerifyOptions& o,
     }
     auto last = w.last.find(run_id);
     const bool chained = last != w.last.end();
-    if (!chained && finalized && w.legacy.count(run_id)) {
+    if (!chained && finalized && legacy) {
       out.unsigned_legacy.push_back(run_id);  // nothing signed to compare with
       continue;
     }
@@ -377,6 +380,12 @@ Result<ChainVerifyReport> VerifyChain(Db& db, const ChainVerifyOptions& o,
   for (const auto& [run_id, entry] : w.last) {
     report("run " + run_id + ": deleted from the archive (chain entry " +
            std::to_string(entry.entry) + " records it)");
+  }
+  for (const std::string& run_id : w.legacy) {
+    report("run " + run_id +
+           ": deleted from the archive (listed by the migration to schema 7, "
+           "chain entry " +
+           std::to_string(w.migration_entry) + ")");
   }
   out.problems = problems;
   return out;

@@ -9,9 +9,9 @@
 //    with the trusted key of role "store" its key id names;
 //  - every run: its record recomputed from what the archive holds now (each
 //    chunk's digest from its bytes) equals the record of its last chain
-//    entry, item by item; a run signed in the chain but gone from runs, and
-//    a finalised run the chain does not know, are named; the plan's bytes
-//    hash to plan_sha256.
+//    entry, item by item; a run signed in the chain (or listed by the
+//    migration to schema 7) but gone from runs, and a finalised run the
+//    chain does not know, are named; the plan's bytes hash to plan_sha256.
 // Problems go one line each to `problem`, naming the run or the entry and
 // what broke. Reads only (any read connection).
 #ifndef IMUQUAL_STORE_CHAIN_VERIFY_H_
