@@ -15,22 +15,28 @@
 // noise, codec 3).
 // Transactions: 64 batches (a writer behind its queue takes up to 4000) and
 // 1 (an idle store commits each batch as it comes).
+// Also the cost of schema 7's tamper evidence: the BLAKE2b-256 digest the
+// store computes for each chunk it writes (ChunkDigestCost), and finalising
+// and signing a run of 20000 chunks (Finalize/Sign: from the chunk digests'
+// covering index) against reading its samples back (Finalize/ReadBack).
 // Usage: store_ingest_bench --db SCRATCH.db [benchmark flags]; the file is
 // replaced.
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstring>
 #include <map>
 #include <string>
 #include <vector>
 
-#include <unistd.h>
-
 #include "acquire/acquire_service.h"
 #include "acquire/source_spec.h"
 #include "bench/bench_summary.h"
+#include "common/keys.h"
 #include "common/lcm_bus.h"
 #include "imuqual/rate_batch_t.hpp"
 #include "store/archive.h"
+#include "store/canonical.h"
 #include "store/records.h"
 
 namespace {
@@ -174,6 +180,89 @@ BENCHMARK(Ingest)
     ->Iterations(5)
     ->Repetitions(3);
 
+// The digest the store computes for each chunk it writes (schema 7,
+// store/canonical.h ChunkDigest: BLAKE2b-256 of the chunk's canonical row),
+// over the float32 workload's chunks as the store encodes them.
+void ChunkDigestCost(benchmark::State& state) {
+  static const Workload w = MakeWorkload(kFloat32);
+  std::map<std::string, std::vector<double>> scales;
+  std::vector<store::ChunkRecord> chunks;
+  for (const std::vector<uint8_t>& bytes : w.messages) {
+    imuqual::rate_batch_t b;
+    Check(DecodeExactly(bytes.data(), static_cast<int>(bytes.size()), &b), state);
+    chunks.push_back(store::ChunkFromBatch(b, &scales[b.run_id]));
+  }
+  uint8_t sink = 0;
+  for (auto _ : state) {
+    for (const store::ChunkRecord& c : chunks) sink ^= store::ChunkDigest(c)[0];
+  }
+  benchmark::DoNotOptimize(sink);
+  state.counters["values_per_iteration"] = static_cast<double>(w.values);
+  state.counters["chunks_per_iteration"] = static_cast<double>(chunks.size());
+}
+BENCHMARK(ChunkDigestCost)->Unit(benchmark::kMillisecond)->Iterations(20)->Repetitions(3);
+
+// Finalising (and signing) one long run: range(0) chunks of the float32
+// workload (8 KB each) in one run, then each iteration MarkFinalized (its
+// record from the chunk digests' covering index, an Ed25519 signature, the
+// chain entry) and COMMIT. Reading the run's samples back, what signing
+// without per-chunk digests would need, is ReadBack.
+void Finalize(benchmark::State& state, bool read_back) {
+  static const Workload w = MakeWorkload(kFloat32);
+  const int64_t chunks = state.range(0);
+  for (const char* suffix : {"", "-wal", "-shm"}) ::unlink((g_db + suffix).c_str());
+  auto archive_or = store::Archive::Open(g_db, store::Archive::Mode::kWrite);
+  if (!archive_or.ok()) {
+    state.SkipWithError(archive_or.status().message().c_str());
+    return;
+  }
+  store::Archive& archive = **archive_or;
+  auto key_pair = GenerateSigningKey("store");
+  if (!key_pair.ok()) {
+    state.SkipWithError(key_pair.status().message().c_str());
+    return;
+  }
+  Check(archive.SetSigningKey(*key_pair), state);
+  Check(archive.Begin(), state);
+  store::RunInfo info = w.runs[0];
+  info.run_id = "LONG";
+  const int64_t key = *archive.UpsertRun(info);
+  std::vector<double> scales;
+  for (int64_t seq = 0; seq < chunks; ++seq) {
+    const std::vector<uint8_t>& bytes = w.messages[static_cast<size_t>(seq) % w.messages.size()];
+    imuqual::rate_batch_t b;
+    Check(DecodeExactly(bytes.data(), static_cast<int>(bytes.size()), &b), state);
+    b.seq = seq;
+    Check(archive.InsertChunk(key, store::ChunkFromBatch(b, &scales), nullptr), state);
+    if (seq % 1000 == 999) {
+      Check(archive.Commit(), state);
+      Check(archive.Begin(), state);
+    }
+  }
+  Check(archive.Commit(), state);
+  int64_t bytes_read = 0;
+  for (auto _ : state) {
+    if (read_back) {
+      Check(archive.ForEachChunk(key,
+                                 [&](const store::ChunkRecord& c) {
+                                   bytes_read += static_cast<int64_t>(c.data.size());
+                                   return Status::Ok();
+                                 }),
+            state);
+    } else {
+      Check(archive.Begin(), state);
+      Check(archive.MarkFinalized(key, 1), state);
+      Check(archive.Commit(), state);
+    }
+  }
+  benchmark::DoNotOptimize(bytes_read);
+}
+BENCHMARK_CAPTURE(Finalize, Sign, false)->Arg(20000)->Unit(benchmark::kMillisecond)->Iterations(5);
+BENCHMARK_CAPTURE(Finalize, ReadBack, true)
+    ->Arg(20000)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -204,5 +293,15 @@ int main(int argc, char** argv) {
                      "samples/s");
   bench::PrintFigure("store_ingest_samples_per_s_commit_each", rate("Ingest/1/0/iterations:5/repeats:3"),
                      "samples/s");
+  const std::string digest = "ChunkDigestCost/iterations:20/repeats:3";
+  bench::PrintFigure(
+      "store_chunk_digest_us",
+      reporter.BestRealSeconds(digest) * 1e6 / reporter.Counter(digest, "chunks_per_iteration"),
+      "us/chunk");
+  bench::PrintFigure("store_chunk_digest_values_per_s", rate(digest), "samples/s");
+  bench::PrintFigure("store_finalize_sign_20k_chunks_ms",
+                     reporter.BestRealSeconds("Finalize/Sign/20000/iterations:5") * 1e3, "ms");
+  bench::PrintFigure("store_read_back_20k_chunks_ms",
+                     reporter.BestRealSeconds("Finalize/ReadBack/20000/iterations:3") * 1e3, "ms");
   return 0;
 }

@@ -252,10 +252,8 @@ int main(int argc, char** argv) {
       ->excludes(exact_flag);
   reanalyze_cmd->add_option("--format", re.format, "table, csv or json")->capture_default_str();
 
-  std::string verify_db;
-  CLI::App* verify_cmd = app.add_subcommand(
-      "verify", "check an archive for damage: SQLite's integrity check and every stored checksum");
-  verify_cmd->add_option("--db", verify_db, "archive file")->required();
+  cli::VerifyOptions verify;
+  CLI::App* verify_cmd = cli::AddVerifyCommand(app, &verify);
 
   cli::KeygenOptions keygen;
   CLI::App* keygen_cmd = app.add_subcommand(
@@ -377,7 +375,7 @@ int main(int argc, char** argv) {
   if (report_cmd->parsed()) return cli::ReportCommand(report);
   if (serve_cmd->parsed()) return cli::ServeCommand(serve);
   if (reanalyze_cmd->parsed()) return offline::ReanalyzeCommand(re);
-  if (verify_cmd->parsed()) return cli::VerifyCommand(verify_db);
+  if (verify_cmd->parsed()) return cli::VerifyCommand(verify);
   if (keygen_cmd->parsed()) return cli::KeygenCommand(keygen);
   if (analyze_cmd->parsed()) return offline::AnalyzeFileCommand(an);
 

@@ -9,6 +9,8 @@
 #include <thread>
 
 #include "common/clock.h"
+#include "store/canonical.h"
+#include "store/chain.h"
 #include "store/checksums.h"
 #include "store/outcome.h"
 #include "store/schema.h"
@@ -51,6 +53,7 @@ Result<std::unique_ptr<Archive>> Archive::Open(const std::string& path, Mode mod
                              std::strerror(errno));
     }
   }
+  IMUQUAL_RETURN_IF_ERROR(InitCrypto());  // chunk digests, the chain's hashes and signatures
   auto db = Db::Open(path, mode == Mode::kWrite ? Db::Mode::kReadWrite : Db::Mode::kReadOnly);
   if (!db.ok()) return db.status();
   std::unique_ptr<Archive> archive(new Archive(std::move(*db)));
@@ -103,9 +106,14 @@ Result<int64_t> Archive::UpsertRun(const RunInfo& run) {
   auto up = Cached(kUpsertRun, R"sql(
 INSERT INTO runs(run_id, serial, lot, station, slot, operator, source, software_version,
                  start_utime, end_utime, state, nominal_rate_hz, last_seq, samples_announced,
-                 plan, plan_sha256, truth, first_sample, end_sample, end_reason)
-VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20)
+                 plan, plan_sha256, truth, first_sample, end_sample, end_reason, bus_auth)
+VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20,
+       NULLIF(?21, ''))
 ON CONFLICT(run_id) DO UPDATE SET
+  bus_auth = CASE WHEN excluded.bus_auth IS NULL THEN runs.bus_auth
+                  WHEN runs.bus_auth IS NULL THEN excluded.bus_auth
+                  WHEN instr(runs.bus_auth, excluded.bus_auth) > 0 THEN runs.bus_auth
+                  ELSE runs.bus_auth || '; then ' || excluded.bus_auth END,
   state = CASE WHEN runs.state IN ('complete', 'aborted') THEN runs.state ELSE excluded.state END,
   end_reason = CASE WHEN runs.state IN ('complete', 'aborted') OR excluded.end_reason = ''
                     THEN runs.end_reason ELSE excluded.end_reason END,
@@ -131,6 +139,7 @@ RETURNING run_key)sql");
   s.Bind(16, run.plan_sha256);
   s.BindBlob(17, {reinterpret_cast<const uint8_t*>(run.truth.data()), run.truth.size()});
   s.Bind(18, run.first_sample).Bind(19, run.end_sample).Bind(20, run.end_reason);
+  s.Bind(21, run.bus_auth);
   auto row = s.Step();
   if (!row.ok()) return row.status();
   if (!*row) {
@@ -159,8 +168,8 @@ RETURNING run_key)sql");
 Status Archive::InsertChunk(int64_t run_key, const ChunkRecord& c, bool* inserted) {
   auto st = Cached(kInsertChunk,
                    "INSERT OR IGNORE INTO raw_chunks(run_key, seq, first_sample, num_samples, "
-                   "host_utime, temperature_c, codec, data, sample_utime, crc32c) "
-                   "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+                   "host_utime, temperature_c, codec, data, sample_utime, crc32c, digest) "
+                   "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (!st.ok()) return st.status();
   Stmt& s = **st;
   s.Bind(1, run_key).Bind(2, c.seq).Bind(3, c.first_sample).Bind(4, c.num_samples);
@@ -169,7 +178,8 @@ Status Archive::InsertChunk(int64_t run_key, const ChunkRecord& c, bool* inserte
       .Bind(7, c.codec)
       .BindBlob(8, c.data)
       .Bind(9, c.sample_utime)
-      .Bind(10, static_cast<int64_t>(ChunkChecksum(c)));
+      .Bind(10, static_cast<int64_t>(ChunkChecksum(c)))
+      .BindBlob(11, ChunkDigest(c));
   IMUQUAL_RETURN_IF_ERROR(s.Run());
   if (inserted) *inserted = sqlite3_changes(db_->handle()) > 0;
   return Status::Ok();
@@ -376,10 +386,28 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
   return SealResults(*db_, run_key);
 }
 
+Status Archive::SetSigningKey(const SigningKey& key) {
+  if (key.role != "store") {
+    return Status::InvalidArgument("the archive is signed with a key of role 'store', not '" +
+                                   key.role + "'");
+  }
+  signing_key_ = key;
+  return Status::Ok();
+}
+
 Status Archive::MarkFinalized(int64_t run_key, int64_t utime) {
+  IMUQUAL_RETURN_IF_ERROR(db_->Exec("SAVEPOINT mark_finalized"));
   auto up = db_->Prepare("UPDATE runs SET finalized_utime = ? WHERE run_key = ?");
-  if (!up.ok()) return up.status();
-  return up->Bind(1, utime).Bind(2, run_key).Run();
+  Status st = up.ok() ? up->Bind(1, utime).Bind(2, run_key).Run() : up.status();
+  if (st.ok()) {
+    st = AppendRunEntry(*db_, run_key, kEntryFinalized, signing_key_ ? &*signing_key_ : nullptr,
+                        utime);
+  }
+  if (!st.ok()) {
+    (void)db_->Exec("ROLLBACK TO mark_finalized; RELEASE mark_finalized");
+    return st;
+  }
+  return db_->Exec("RELEASE mark_finalized");
 }
 
 Result<int> Archive::SupersedeJudgement(int64_t run_key, int64_t utime, const std::string& cause) {
@@ -403,6 +431,8 @@ Result<int> Archive::SupersedeJudgement(int64_t run_key, int64_t utime, const st
     IMUQUAL_RETURN_IF_ERROR(s->Bind(1, run_key).Run());
   }
   IMUQUAL_RETURN_IF_ERROR(SealResults(*db_, run_key));
+  IMUQUAL_RETURN_IF_ERROR(AppendRunEntry(*db_, run_key, kEntryReopened,
+                                         signing_key_ ? &*signing_key_ : nullptr, utime));
   auto revision = db_->Prepare("SELECT revision FROM runs WHERE run_key = ?");
   if (!revision.ok()) return revision.status();
   revision->Bind(1, run_key);
@@ -523,7 +553,7 @@ Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
   auto s = db_->Prepare(
       "SELECT run_key, serial, lot, station, slot, operator, source, software_version, "
       "start_utime, end_utime, state, nominal_rate_hz, last_seq, samples_announced, plan, "
-      "plan_sha256, truth, first_sample, end_sample, end_reason, revision FROM runs "
+      "plan_sha256, truth, first_sample, end_sample, end_reason, revision, bus_auth FROM runs "
       "WHERE run_id = ?");
   if (!s.ok()) return s.status();
   s->Bind(1, run_id);
@@ -555,6 +585,7 @@ Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
   r.end_sample = s->Int(18);
   r.end_reason = s->Text(19);
   r.revision = static_cast<int>(s->Int(20));
+  r.bus_auth = s->IsNull(21) ? "" : s->Text(21);
   auto ax = db_->Prepare("SELECT axis, kind FROM run_axes WHERE run_key = ? ORDER BY axis_index");
   if (!ax.ok()) return ax.status();
   ax->Bind(1, key);

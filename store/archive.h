@@ -6,8 +6,8 @@
 #ifndef IMUQUAL_STORE_ARCHIVE_H_
 #define IMUQUAL_STORE_ARCHIVE_H_
 
-#include <cstdint>
 #include <climits>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "analyze/allan/curve.h"
+#include "common/keys.h"
 #include "common/status.h"
 #include "imuqual/plan.pb.h"
 #include "imuqual/record.pb.h"
@@ -53,6 +54,11 @@ struct RunInfo {
   // The judgement round (run_t.revision), kept by the store: read from the
   // archive, never written by UpsertRun (SupersedeJudgement raises it).
   int revision = 0;
+  // What authenticated the messages the run was archived from
+  // (BusSecurity::Describe of the store's bus); "" unknown (archived before
+  // schema 7). UpsertRun keeps the first and appends a different one ("...;
+  // then ...": a store restarted with other keys or choices mid-run).
+  std::string bus_auth;
 };
 
 struct ChunkRecord {
@@ -126,7 +132,8 @@ class Archive {
   // to running. Returns the run's key.
   Result<int64_t> UpsertRun(const RunInfo& run);
   // Idempotent on (run, seq): a duplicate or resent chunk changes nothing.
-  // *inserted says whether the row is new.
+  // *inserted says whether the row is new. The row carries its CRC-32C and
+  // its BLAKE2b-256 digest (store/canonical.h ChunkDigest), computed here.
   Status InsertChunk(int64_t run_key, const ChunkRecord& chunk, bool* inserted);
   // Replaces the run's gap rows with the holes in seq 0..last_seq and the
   // jumps in the device counter between consecutive archived chunks.
@@ -141,12 +148,16 @@ class Archive {
   Status PutCurve(int64_t run_key, const CurveRecord& curve);
   Status PutResult(int64_t run_key, const ResultRecord& result);
   // The run is archived for good: every batch is in or recorded as a gap,
-  // and its final result is stored.
+  // and its final result is stored. Appends the run's entry to the chain
+  // (store/chain.h), its record as the archive holds it now, signed with the
+  // signing key if one is set; atomic (a savepoint), in the caller's
+  // transaction if there is one.
   Status MarkFinalized(int64_t run_key, int64_t utime);
   // Opens the run's judgement again (in the caller's transaction): the
   // archived judgement, if any, moves to superseded_judgements with `cause`;
   // its result, measurements and curves are removed; the run is no longer
-  // finalized and its revision is raised. Returns the new revision.
+  // finalized and its revision is raised; a "reopened" chain entry records
+  // (and signs) the superseded judgement. Returns the new revision.
   Result<int> SupersedeJudgement(int64_t run_key, int64_t utime, const std::string& cause);
 
   // --- reads ---
@@ -170,6 +181,10 @@ class Archive {
   Result<std::vector<GapRecord>> LoadGaps(int64_t run_key);
   Result<std::vector<CurveRecord>> LoadCurves(int64_t run_key);
 
+  // Signs the chain entries this connection appends from now on (a key of
+  // role "store"; InvalidArgument otherwise). Without one they are unsigned.
+  Status SetSigningKey(const SigningKey& key);
+
   Db& db() { return *db_; }
   const std::string& path() const { return db_->path(); }
 
@@ -179,6 +194,7 @@ class Archive {
 
   std::unique_ptr<Db> db_;
   std::vector<std::unique_ptr<Stmt>> cache_;
+  std::optional<SigningKey> signing_key_;
 };
 
 const char* AxisKindName(pb::AxisKind kind);  // "gyro" / "accel"

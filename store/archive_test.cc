@@ -18,11 +18,14 @@
 namespace imuqual::store {
 namespace {
 
-// What migrations 3 -> 4 and 5 -> 6 added (the views that read the new
+// What migrations 3 -> 4, 5 -> 6 and 6 -> 7 added (the views that read the new
 // columns go; migration 4 -> 5 and 5 -> 6 make them again), to make a file
 // of an older schema. The wider CHECKs of schema 6 stay: the migration finds
 // them done.
 constexpr char kUndoSchema4[] =
+    // what migration 6 -> 7 added
+    "DROP TABLE archive_chain; DROP INDEX raw_chunks_digests; "
+    "ALTER TABLE raw_chunks DROP COLUMN digest; ALTER TABLE runs DROP COLUMN bus_auth; "
     "DROP VIEW lot_statistics; DROP VIEW lot_overview; DROP VIEW lot_measurements; "
     "DROP VIEW all_runs_measurements; DROP VIEW final_runs; DROP VIEW retest_reasons; "
     "ALTER TABLE measurements DROP COLUMN qualifier; "

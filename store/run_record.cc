@@ -19,6 +19,7 @@ pb::RunRecord BuildRunRecord(const RunInfo& run, const ResultRecord& result, int
   rec.set_state(run.state);
   rec.mutable_plan()->ParseFromString(run.plan);
   rec.set_plan_sha256(run.plan_sha256);
+  rec.set_bus_auth(run.bus_auth);
   for (const pb::Measurement& m : result.measurements) *rec.add_measurements() = m;
   rec.set_verdict(OutcomeFromText(result.verdict));
   for (const std::string& reason : result.reasons) rec.add_reasons(reason);

@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "common/clock.h"
+#include "store/chain.h"
 #include "store/checksums.h"
 
 namespace imuqual::store {
@@ -500,6 +502,38 @@ FROM (SELECT lot, kind, name, unit, COUNT(x) AS n, AVG(x) AS mean, MIN(x) AS min
             FROM lot_measurements WHERE substr(name, 1, 6) <> 'model_')
       GROUP BY lot, kind, name, unit) g;
 )sql",
+      // 6 -> 7: a tamper-evident archive (store/chain.h). Each raw chunk
+      // gets a BLAKE2b-256 digest when it is written (chunks archived before
+      // keep NULL: their runs are unsigned); the covering index lets the
+      // store read a run's chunk digests at finalisation without reading
+      // its samples. archive_chain holds one entry per finalised run and per
+      // judgement round opened again, each linked to the one before and
+      // signed with the store's key; it is append-only (the triggers stop
+      // honest tools; verify finds dishonest ones).
+      // runs.bus_auth: what authenticated the messages the run was archived
+      // from (the store's bus: station key, role signatures, replays taken
+      // by choice; or an unauthenticated bus, and why).
+      R"sql(
+ALTER TABLE runs ADD COLUMN bus_auth TEXT;
+ALTER TABLE raw_chunks ADD COLUMN digest BLOB;
+CREATE INDEX raw_chunks_digests ON raw_chunks(run_key, seq, digest);
+CREATE TABLE archive_chain (
+  entry          INTEGER PRIMARY KEY CHECK (entry >= 1),  -- 1, 2, ... without gaps
+  kind           TEXT NOT NULL CHECK (kind IN ('finalized', 'reopened', 'migrated')),
+  run_id         TEXT NOT NULL,         -- '' for the migration entry
+  revision       INTEGER NOT NULL,      -- the run's judgement round
+  record         BLOB NOT NULL,         -- the run's signed record (SCHEMA.md)
+  created_utime  INTEGER NOT NULL,
+  key_id         TEXT NOT NULL DEFAULT '',  -- the signer's public key id; '' unsigned
+  signature      BLOB,                  -- Ed25519 over the entry's body; NULL unsigned
+  prev_hash      BLOB NOT NULL,         -- entry_hash of entry - 1 (zeros for entry 1)
+  entry_hash     BLOB NOT NULL
+);
+CREATE TRIGGER archive_chain_no_update BEFORE UPDATE ON archive_chain
+BEGIN SELECT RAISE(ABORT, 'archive_chain is append-only'); END;
+CREATE TRIGGER archive_chain_no_delete BEFORE DELETE ON archive_chain
+BEGIN SELECT RAISE(ABORT, 'archive_chain is append-only'); END;
+)sql",
   };
   return kMigrations;
 }
@@ -681,6 +715,8 @@ static Status MigrateSteps(Db& db) {
     if (st.ok()) st = db.Exec("PRAGMA user_version = " + std::to_string(v + 1));
     if (st.ok() && v == 0)
       st = db.Exec("PRAGMA application_id = " + std::to_string(kApplicationId));
+    // The runs an older archive holds enter the chain as unsigned, listed.
+    if (st.ok() && v == 6) st = AppendMigrationEntry(db, NowUtime());
     // Checksums of rows archived before schema 3, with today's definition.
     if (st.ok() && v + 1 == SchemaVersion() && v >= 2) st = ComputeMissingChecksums(db);
     if (!st.ok()) {

@@ -253,6 +253,9 @@ Result<std::unique_ptr<StoreService>> StoreService::Create(const StoreOptions& o
   auto archive = Archive::Open(options.db_path, Archive::Mode::kWrite);
   if (!archive.ok()) return archive.status();
   impl->archive = std::move(*archive);
+  if (options.security.signing_key) {
+    IMUQUAL_RETURN_IF_ERROR(impl->archive->SetSigningKey(*options.security.signing_key));
+  }
   auto unfinished = impl->archive->UnfinishedRunIds();
   if (!unfinished.ok()) return unfinished.status();
   for (const std::string& id : *unfinished) {
@@ -544,6 +547,7 @@ Status StoreService::Impl::ApplyRun(const imuqual::run_t& msg, Staged* staged) {
   const int revision = r.info.revision;  // the store's, not in acquire's announcements
   r.info = RunInfoFromMessage(msg);
   r.info.revision = revision;
+  r.info.bus_auth = bus->security_description();
   auto key = archive->UpsertRun(r.info);
   if (!key.ok()) return key.status();
   if (first) {

@@ -24,6 +24,11 @@
 // batch, or fewer gaps), and one that disagrees on the same data is refused
 // and counted (results_conflicting).
 //
+// Signing: with the store role's signing key (security.signing_key, also
+// its key on the bus), each run is signed when it
+// is finalised, on the writer thread in the finalising transaction, from
+// digests kept as the chunks are written (its samples are not read again).
+//
 // Write failures (a full disk): a batch that arrived but could not be
 // written is held in memory (bounded, max_unwritten_mb) and written again
 // with back-off before anything newer; it is neither acknowledged nor taken
@@ -54,7 +59,12 @@ inline constexpr int kStoreExitUnwritable = 4;
 
 struct StoreOptions {
   std::string lcm_url;
-  BusSecurity security;           // keys and choices on the bus (role: store)
+  // Keys and choices on the bus (role: store). Its signing key (imuqual
+  // keygen --role store, kept outside the archive) also signs each
+  // finalised run's record and each judgement round opened again in the
+  // archive's chain (store/chain.h); without one the chain's entries are
+  // unsigned (verify lists such runs as unsigned).
+  BusSecurity security;
   std::string db_path;
   int queue_capacity = 100000;    // messages waiting for the writer
   int max_transaction = 4000;     // messages per transaction at most

@@ -252,6 +252,10 @@ TEST_F(ViewsTest, MigrationFromSchema4ReplacesEveryView) {
         std::string("ALTER TABLE measurements DROP COLUMN guard_band"),
         std::string("ALTER TABLE curve_points DROP COLUMN alpha"),
         std::string("ALTER TABLE curve_points DROP COLUMN alpha_from"),
+        // what schema 7 added
+        std::string("DROP TABLE archive_chain"), std::string("DROP INDEX raw_chunks_digests"),
+        std::string("ALTER TABLE raw_chunks DROP COLUMN digest"),
+        std::string("ALTER TABLE runs DROP COLUMN bus_auth"),
         std::string("PRAGMA user_version = 4")}) {
     ASSERT_TRUE(archive_->db().Exec(sql).ok()) << sql;
   }
@@ -314,7 +318,7 @@ TEST_F(ViewsTest, MigrationFromSchema5KeepsDataAndChecksums) {
 
   // THEN it is at schema 6, intact, and schema 5's checksums all verify
   EXPECT_EQ(*archive_->db().QueryInt("PRAGMA user_version"), SchemaVersion());
-  EXPECT_EQ(SchemaVersion(), 6);
+  EXPECT_EQ(SchemaVersion(), 7);
   std::vector<std::string> problems;
   auto checked = CheckChecksums(archive_->db(), -1,
                                 [&](const std::string& p) { problems.push_back(p); });

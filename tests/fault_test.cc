@@ -277,7 +277,11 @@ TEST(FaultTest, ADiskFullForAMinuteAndThenFreedLosesNothing) {
 
 TEST(FaultTest, StoreKilledMidRunRestartsWithoutLosingABatch) {
   StationHarness h("fault_store");
-  Subprocess store = h.StartStore();
+  // The store signs what it archives (imuqual-store --sign-key).
+  const std::string key = h.path("store.key");
+  ASSERT_EQ(RunCommand(Bin("imuqual") + " keygen --role store --out " + key + " 2>&1").exit_code,
+            0);
+  Subprocess store = h.StartStore({"--sign-key", key});
   Subprocess analyze = h.StartAnalyze();
   Subprocess acquire = h.Start("imuqual-acquire", AcquireArgs("FSTORE", 2, 1200, 200, "P1"));
   // GIVEN a soak under way with data committed
@@ -290,7 +294,7 @@ TEST(FaultTest, StoreKilledMidRunRestartsWithoutLosingABatch) {
   for (const auto& [id, c] : CheckArchive(h.db())) committed += c.chunks;
   EXPECT_GT(committed, 0);
   // AND a restarted store catches up: every batch, no gap.
-  Subprocess store2 = h.StartStore();
+  Subprocess store2 = h.StartStore({"--sign-key", key});
   ASSERT_TRUE(h.WaitRunsDone(2, kRunTimeoutS)) << h.Logs();
   const auto runs = CheckArchive(h.db());
   ExpectEveryRunWhole(runs);
@@ -298,6 +302,12 @@ TEST(FaultTest, StoreKilledMidRunRestartsWithoutLosingABatch) {
   for (const auto& [id, c] : runs) total += c.chunks;
   EXPECT_GE(total, committed);
   EXPECT_EQ(acquire.Wait(30), 0);
+  // AND the restarted store signed both runs, each in one chain, whole.
+  const auto verify =
+      RunCommand(Bin("imuqual") + " verify --db " + h.db() + " --pubkey " + key + ".pub 2>&1");
+  EXPECT_EQ(verify.exit_code, 0) << verify.output;
+  EXPECT_NE(verify.output.find("chain: 2 entries"), std::string::npos) << verify.output;
+  EXPECT_NE(verify.output.find("signed and verified: 2 runs"), std::string::npos) << verify.output;
 }
 
 TEST(FaultTest, AnalyzeKilledMidRunGivesTheUninterruptedResult) {
