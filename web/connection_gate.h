@@ -67,9 +67,9 @@ struct GateOptions {
   double head_deadline_s = 5;      // accept -> TLS handshake and whole request head
   int max_per_client = 16;         // connections open at once per client (ClientKey)
   size_t max_waiting = 256;        // connections still sending their head, all clients
-  size_t max_open = 1024;       // connections open in all (beyond: not accepted until some close)
-  double read_timeout_s = 3;    // a worker's wait for more of the request, per read
-  double write_timeout_s = 30;  // a worker's wait for room to write, per write
+  size_t max_open = 1024;          // open in all (beyond: none accepted until some close)
+  double read_timeout_s = 3;       // a worker's wait for more of the request, per read
+  double write_timeout_s = 30;     // a worker's wait for room to write, per write
 };
 
 class ConnectionGate {
