@@ -328,6 +328,15 @@ int main(int argc, char** argv) {
                         "required on a non-loopback address: Authorization: Bearer TOKEN or "
                         "?token=TOKEN (visible to local users in ps: prefer --token-file)");
   serve_cmd->add_option("--token-file", serve.token_file, "a file whose first line is the token");
+  serve_cmd->add_flag("--new-token", serve.new_token,
+                      "make a new random token and write it to --token-file (created 0600, "
+                      "never overwritten)");
+  serve_cmd->add_option("--tls-cert", serve.tls_cert,
+                        "HTTPS: PEM certificate chain (with --tls-key; TLS 1.2 or 1.3)");
+  serve_cmd->add_option("--tls-key", serve.tls_key, "HTTPS: the certificate's PEM private key");
+  serve_cmd->add_flag("--insecure-http", serve.insecure_http,
+                      "plain HTTP on a non-loopback address (the token crosses the network in "
+                      "clear)");
   serve_cmd->add_option("--bus", serve.bus_url,
                         "a station's bus (the LCM URL its console shows): the live page /live");
   AddBusSecurityFlags(*serve_cmd, &serve.bus_security, /*signs=*/false, /*replays=*/false);

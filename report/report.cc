@@ -1055,4 +1055,6 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
   return html;
 }
 
+std::string_view LotReportScript() { return kScript; }
+
 }  // namespace imuqual::report

@@ -25,6 +25,7 @@
 #define IMUQUAL_REPORT_REPORT_H_
 
 #include <string>
+#include <string_view>
 
 #include "common/status.h"
 #include "store/archive.h"
@@ -35,6 +36,11 @@ namespace imuqual::report {
 // it. `archive_label` is how the page names the archive (e.g. its path).
 Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
                                        const std::string& archive_label);
+
+// The report's only script (sortable tables), which BuildLotReportHtml puts
+// inline as "<script>" + LotReportScript() + "</script>": a server whose
+// policy forbids inline scripts serves it as a file instead (web/).
+std::string_view LotReportScript();
 
 }  // namespace imuqual::report
 

@@ -22,9 +22,7 @@ table.data tr.first td { border-top: 2px solid #c9d1d9; }
 
 // The page's script: an EventSource on /live/events; "status" redraws the
 // header and the table, "curve" one unit's plot. Text only via textContent.
-constexpr char kLiveScript[] = R"js(
-<script>
-(() => {
+constexpr char kLiveScript[] = R"js((() => {
   'use strict';
   const live = window.imuqualLive = { updates: 0, curveEvents: 0, latencies_ms: [], status: null };
   const $ = (id) => document.getElementById(id);
@@ -243,7 +241,6 @@ constexpr char kLiveScript[] = R"js(
   }
   connect();
 })();
-</script>
 )js";
 
 }  // namespace
@@ -277,8 +274,10 @@ std::string LivePageHtml(const std::string& bus_url) {
       "\u2021 noise model failed its fit, n/m not measurable. JSON: <a "
       "href=\"/api/live\">/api/live</a>.</p>\n"
       "<h2>Allan deviation as it grows</h2>\n<div id=\"curves\" class=\"cards\"></div>\n";
-  body += kLiveScript;
+  body += "<script src=\"/assets/live.js\"></script>\n";
   return PageHtml("live station", body);
 }
+
+std::string LivePageScript() { return kLiveScript; }
 
 }  // namespace imuqual::web

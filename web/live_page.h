@@ -15,8 +15,12 @@
 namespace imuqual::web {
 
 // `bus_url`: the bus the server listens to; "" when it was started without
-// --bus (the page then says how to start it).
+// --bus (the page then says how to start it). The page runs LivePageScript
+// from /assets/live.js (no inline script: the server's policy forbids them).
 std::string LivePageHtml(const std::string& bus_url);
+
+// The page's script (JavaScript), served as /assets/live.js.
+std::string LivePageScript();
 
 }  // namespace imuqual::web
 

@@ -2,36 +2,52 @@
 
 #include <arpa/inet.h>
 #include <httplib.h>
+#include <sodium.h>
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
+#include <csignal>
 #include <map>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
 
+#include "common/clock.h"
+#include "common/keys.h"
+#include "common/log.h"
 #include "common/text_util.h"
+#include "report/report.h"
 #include "store/archive.h"
+#include "web/access.h"
+#include "web/connection_gate.h"
 #include "web/live_feed.h"
 #include "web/live_page.h"
 #include "web/pages.h"
+#include "web/tls.h"
 
 namespace imuqual::web {
 namespace {
 
-// Compares in time independent of where the strings differ.
-bool SameSecret(const std::string& a, const std::string& b) {
-  unsigned diff = a.size() != b.size();
-  for (size_t i = 0; i < a.size() && i < b.size(); ++i)
-    diff |= static_cast<unsigned char>(a[i]) ^ static_cast<unsigned char>(b[i]);
-  return diff == 0;
+// A token's BLAKE2b digest: requests' tokens are compared with the right
+// one's digest in constant time (sodium_memcmp), whatever their lengths.
+using TokenDigest = std::array<unsigned char, crypto_generichash_BYTES>;
+TokenDigest DigestOf(const std::string& token) {
+  TokenDigest d{};
+  crypto_generichash(d.data(), d.size(), reinterpret_cast<const unsigned char*>(token.data()),
+                     token.size(), nullptr, 0);
+  return d;
+}
+bool IsToken(const std::string& given, const TokenDigest& token) {
+  const TokenDigest d = DigestOf(given);
+  return sodium_memcmp(d.data(), token.data(), d.size()) == 0;
 }
 
-constexpr size_t kWorkers = 32;
 constexpr int kMaxStreams = 16;  // live event streams at once (each holds a worker)
 constexpr int kKeepAliveS = 15;  // a comment line this often on a quiet stream
 constexpr char kTokenCookie[] = "imuqual_token";
@@ -64,9 +80,40 @@ std::string CookieValue(const std::string& header, const std::string& name) {
 }
 
 constexpr char kSecurityPolicy[] =
-    "default-src 'none'; style-src 'unsafe-inline'; script-src 'unsafe-inline'; img-src data:; "
-    "connect-src 'self'; "
-    "form-action 'self'; base-uri 'none'; frame-ancestors 'none'";
+    "default-src 'none'; script-src 'self'; style-src 'unsafe-inline'; img-src data:; "
+    "connect-src 'self'; form-action 'self'; base-uri 'none'; frame-ancestors 'none'";
+constexpr char kReportScriptPath[] = "/assets/report.js";
+constexpr char kLiveScriptPath[] = "/assets/live.js";
+
+// A page from Route with the lot report's inline script (the only inline
+// script Route makes) replaced by the same script as a file of this server,
+// which the policy above lets run.
+Page WithScriptAsFile(Page page) {
+  if (page.content_type.rfind("text/html", 0) != 0) return page;
+  const std::string inline_script =
+      "<script>" + std::string(report::LotReportScript()) + "</script>";
+  const size_t at = page.body.rfind(inline_script);
+  if (at != std::string::npos) {
+    page.body.replace(at, inline_script.size(),
+                      std::string("<script src=\"") + kReportScriptPath + "\"></script>");
+  }
+  return page;
+}
+
+// cpp-httplib's server, answering the requests that the gate hands it.
+class GatedServer : public httplib::Server {
+ public:
+  // Parses the request at the head of `stream`, routes it, writes the
+  // response with "Connection: close".
+  void Answer(httplib::Stream& stream) {
+    bool closed = true;
+    process_request(stream, /*close_connection=*/true, closed, nullptr);
+  }
+  // cpp-httplib streams a response (an event stream) only while it believes
+  // that it listens (a valid svr_sock_): the gate's socket while serving,
+  // none once stopping, which ends every stream.
+  void SetListening(int fd) { svr_sock_ = fd; }
+};
 
 }  // namespace
 
@@ -143,8 +190,12 @@ struct WebServer::Impl {
   std::unique_ptr<LiveFeed> feed;  // with a bus
   std::atomic<bool> stopping{false};
   std::atomic<int> streams{0};
-  httplib::Server server;
-  int port = 0;
+  std::unique_ptr<TlsContext> tls;  // with HTTPS
+  std::unique_ptr<ClientLog> client_log;
+  TokenThrottle throttle;
+  TokenDigest token_digest{};  // of options.token
+  GatedServer server;
+  std::unique_ptr<ConnectionGate> gate;  // after tls and client_log: it uses both
   // With a bus: builds the report of a soak's lot once the soak is over.
   std::thread warmer;
   std::mutex warm_mu;
@@ -167,7 +218,7 @@ struct WebServer::Impl {
       auto fingerprint = LotReportFingerprint(**archive, lot);
       if (!fingerprint.ok() || fingerprint->empty()) continue;
       if (!reports.Find(lot, *fingerprint)) {
-        const Page page = Route(**archive, options.db_path, "/lot/" + lot, {});
+        const Page page = WithScriptAsFile(Route(**archive, options.db_path, "/lot/" + lot, {}));
         if (page.status != 200) continue;
         reports.Put(lot, *fingerprint, page);
       }
@@ -178,33 +229,49 @@ struct WebServer::Impl {
 
 WebServer::WebServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 WebServer::~WebServer() { Stop(); }
-int WebServer::port() const { return impl_->port; }
+int WebServer::port() const { return impl_->gate->port(); }
+bool WebServer::tls() const { return impl_->tls != nullptr; }
 size_t WebServer::ReportsKept() const { return impl_->reports.size(); }
-void WebServer::Run() { impl_->server.listen_after_bind(); }
+ConnectionGate::Counts WebServer::GateCounts() const { return impl_->gate->counts(); }
+
+void WebServer::Run() {
+  Impl* state = impl_.get();
+  if (!state->stopping) state->server.SetListening(state->gate->listen_fd());
+  state->gate->Run([state](httplib::Stream& stream) { state->server.Answer(stream); },
+                   [state] { state->client_log->Flush(MonotonicSeconds(), /*all=*/false); });
+  state->client_log->Flush(MonotonicSeconds(), /*all=*/true);
+}
+
 void WebServer::Stop() {
   impl_->stopping = true;  // event streams end within a second
+  impl_->server.SetListening(INVALID_SOCKET);
   impl_->warm_cv.notify_all();
-  impl_->server.stop();
+  impl_->gate->Stop();
   if (impl_->warmer.joinable() && impl_->warmer.get_id() != std::this_thread::get_id())
     impl_->warmer.join();
 }
 
 Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
+  const std::string where = o.host.find(':') == std::string::npos ? o.host : "[" + o.host + "]";
   if (!IsLoopback(o.host) && o.token.empty()) {
-    return Status::InvalidArgument("serve: listening on " + o.host +
-                                   " (not a loopback address) needs --token TOKEN: anyone who "
-                                   "can reach it could read the archive");
+    return Status::InvalidArgument("serve: listening on " + where +
+                                   " (not a loopback address) needs a token (--token-file FILE, "
+                                   "--new-token, or --token TOKEN): anyone who can reach it "
+                                   "could read the archive");
   }
-  if (!o.token.empty()) {
-    const bool plain =
-        o.token.find_first_not_of(
-            "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-._~+/=") ==
-        std::string::npos;
-    if (!plain || o.token.size() < 12) {
-      return Status::InvalidArgument(
-          "serve: the token must be at least 12 characters of letters, digits and -._~+/= "
-          "(it travels in a header, a URL and a cookie)");
-    }
+  if (!o.token.empty()) IMUQUAL_RETURN_IF_ERROR(CheckToken(o.token));
+  IMUQUAL_RETURN_IF_ERROR(InitCrypto());
+  const bool tls = !o.tls_cert_path.empty() || !o.tls_key_path.empty();
+  if (tls && (o.tls_cert_path.empty() || o.tls_key_path.empty()))
+    return Status::InvalidArgument("serve: --tls-cert FILE and --tls-key FILE go together");
+  if (tls && o.insecure_http) {
+    return Status::InvalidArgument(
+        "serve: --insecure-http and --tls-cert/--tls-key contradict each other: give one");
+  }
+  if (!IsLoopback(o.host) && !tls && !o.insecure_http) {
+    return Status::InvalidArgument("serve: listening on " + where +
+                                   " (not a loopback address) needs --tls-cert FILE --tls-key "
+                                   "FILE, or --insecure-http to send the token in clear");
   }
   struct stat info {};
   const bool exists = ::stat(o.db_path.c_str(), &info) == 0;
@@ -214,24 +281,33 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
   }
   auto impl = std::make_unique<Impl>();
   impl->options = o;
+  impl->token_digest = DigestOf(o.token);
   if (!o.bus_url.empty()) {
     auto feed = LiveFeed::Open(o.bus_url, o.db_path, o.bus_security);
     if (!feed.ok()) return feed.status();
     impl->feed = std::move(*feed);
   }
+  if (tls) {
+    auto loaded = TlsContext::Load(o.tls_cert_path, o.tls_key_path);
+    if (!loaded.ok()) return loaded.status();
+    impl->tls = std::move(*loaded);
+  }
+  impl->client_log = std::make_unique<ClientLog>(
+      o.client_log_sink ? o.client_log_sink : [](const std::string& line) { LogWarning(line); });
+  GateOptions gate;
+  gate.host = o.host;
+  gate.port = o.port;
+  gate.tls = impl->tls ? impl->tls->get() : nullptr;
+  auto bound = ConnectionGate::Bind(gate, impl->client_log.get());
+  if (!bound.ok()) return bound.status();
+  impl->gate = std::move(*bound);
+  std::signal(SIGPIPE, SIG_IGN);  // a client gone mid-answer fails the write, not the process
   Impl* state = impl.get();
-  httplib::Server& s = impl->server;
+  GatedServer& s = impl->server;
   s.set_payload_max_length(1024);  // nothing here takes a body
-  // One request per connection: a body the server does not read can never
-  // be parsed as a second request. A slow client holds a worker for at most
-  // the read timeout; 32 workers (cpp-httplib's default is 8).
-  s.set_keep_alive_max_count(1);
-  s.set_read_timeout(3, 0);
-  s.set_write_timeout(30, 0);
-  s.new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
   const ServeOptions opts = o;
   // Before any route: methods, the token, then the page.
-  s.set_pre_routing_handler([opts](const httplib::Request& req, httplib::Response& res) {
+  s.set_pre_routing_handler([opts, state](const httplib::Request& req, httplib::Response& res) {
     res.set_header("Content-Security-Policy", kSecurityPolicy);
     res.set_header("X-Content-Type-Options", "nosniff");
     res.set_header("Referrer-Policy", "no-referrer");
@@ -260,6 +336,19 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
         return httplib::Server::HandlerResponse::Handled;
       }
     } else {
+      // A client backing off is refused before its token is looked at, so
+      // that a guess made meanwhile tests nothing.
+      const std::string client = ClientKey(req.remote_addr);
+      const double now_s = MonotonicSeconds();
+      if (const double wait_s = state->throttle.WaitS(client, now_s); wait_s > 0) {
+        state->client_log->Note(client, ClientLog::Event::kRefusedBackingOff, now_s);
+        const std::string seconds = std::to_string(static_cast<long>(std::ceil(wait_s)));
+        res.status = 429;
+        res.set_header("Retry-After", seconds);
+        res.set_content("too many wrong tokens from this address: try again in " + seconds + " s\n",
+                        "text/plain; charset=utf-8");
+        return httplib::Server::HandlerResponse::Handled;
+      }
       // The token: a Bearer header, ?token= (which also sets a cookie, so
       // that a browser's next pages need not carry it), or that cookie.
       std::string given;
@@ -273,19 +362,32 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
       } else {
         given = CookieValue(req.get_header_value("Cookie"), kTokenCookie);
       }
-      if (!SameSecret(given, opts.token)) {
+      if (!IsToken(given, state->token_digest)) {
+        if (!given.empty()) {  // a request without any token guesses nothing
+          state->throttle.Failed(client, now_s);
+          state->client_log->Note(client, ClientLog::Event::kWrongToken, now_s);
+        }
         res.status = 401;
         res.set_header("WWW-Authenticate", "Bearer");
         res.set_content("a token is needed: Authorization: Bearer TOKEN, or ?token=TOKEN\n",
                         "text/plain; charset=utf-8");
         return httplib::Server::HandlerResponse::Handled;
       }
+      if (state->throttle.Failures(client) > 0) state->throttle.Succeeded(client);
       if (from_query) {
         res.set_header("Set-Cookie", std::string(kTokenCookie) + "=" + given +
-                                         "; Path=/; HttpOnly; SameSite=Strict");
+                                         "; Path=/; HttpOnly; SameSite=Strict" +
+                                         (state->tls ? "; Secure" : ""));
       }
     }
     return httplib::Server::HandlerResponse::Unhandled;
+  });
+  // The pages' scripts, the only ones that run (script-src 'self').
+  s.Get(kLiveScriptPath, [](const httplib::Request&, httplib::Response& res) {
+    res.set_content(LivePageScript(), "text/javascript; charset=utf-8");
+  });
+  s.Get(kReportScriptPath, [](const httplib::Request&, httplib::Response& res) {
+    res.set_content(std::string(report::LotReportScript()), "text/javascript; charset=utf-8");
   });
   // The live station (with a bus).
   s.Get("/live", [opts](const httplib::Request&, httplib::Response& res) {
@@ -365,22 +467,16 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
       if (kept) {
         page = std::move(*kept);
       } else {
-        page = Route(**archive, opts.db_path, req.path, query);
+        page = WithScriptAsFile(Route(**archive, opts.db_path, req.path, query));
         if (page.status == 200 && fingerprint.ok() && !fingerprint->empty())
           state->reports.Put(lot, *fingerprint, page);
       }
     } else {
-      page = Route(**archive, opts.db_path, req.path, query);
+      page = WithScriptAsFile(Route(**archive, opts.db_path, req.path, query));
     }
     res.status = page.status;
     res.set_content(page.body, page.content_type.c_str());
   });
-  impl->port = o.port == 0 ? s.bind_to_any_port(o.host.c_str()) : o.port;
-  if (o.port != 0 && !s.bind_to_port(o.host.c_str(), o.port)) impl->port = -1;
-  if (impl->port < 0) {
-    return Status::Unavailable("serve: cannot listen on " + o.host + ":" + std::to_string(o.port) +
-                               " (address in use, or not an address of this host)");
-  }
   if (impl->feed) impl->warmer = std::thread([state] { state->WarmReports(); });
   return std::unique_ptr<WebServer>(new WebServer(std::move(impl)));
 }

@@ -1,17 +1,28 @@
 // imuqual serve, in-process on a loopback port: the pages agree with the
 // archive and with the report's own code, hostile strings are inert, the
-// server only reads, and a token guards it when asked.
+// server only reads, a token guards it when asked (also over TLS), no
+// inline script runs, a port in use is an error, a request head that never
+// ends is cut; the back-off of token guessers and the log of what clients
+// did, on a simulated clock.
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <nlohmann/json.hpp>
 #include <map>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "common/channels.h"
 #include "common/lcm_bus.h"
 #include "common/strings.h"
+#include "common/text_util.h"
 #include "imuqual/ack_t.hpp"
 #include "imuqual/allan_curve_t.hpp"
 #include "imuqual/rate_batch_t.hpp"
@@ -24,7 +35,9 @@
 #include "store/outcome.h"
 #include "store/run_record.h"
 #include "tests/test_util.h"
+#include "web/access.h"
 #include "web/live_feed.h"
+#include "web/live_page.h"
 #include "web/pages.h"
 #include "web/web_server.h"
 
@@ -194,7 +207,14 @@ TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
     const size_t at = s.find(" on 20");
     return at == std::string::npos ? s : s.substr(0, at);
   };
-  EXPECT_EQ(strip_time(lot->body), strip_time(*report));
+  // ... its script served as a file (no inline script runs here).
+  std::string served = *report;
+  const std::string inline_script =
+      "<script>" + std::string(report::LotReportScript()) + "</script>";
+  ASSERT_NE(served.find(inline_script), std::string::npos);
+  served.replace(served.find(inline_script), inline_script.size(),
+                 "<script src=\"/assets/report.js\"></script>");
+  EXPECT_EQ(strip_time(lot->body), strip_time(served));
   // The run page: the value exactly (data-v), its limit, outcome and reasons.
   auto run = client_->Get("/run/" + kRun);
   ASSERT_TRUE(run);
@@ -351,7 +371,9 @@ TEST(WebServerTest, AnAddressBeyondThisHostNeedsAToken) {
   ASSERT_TRUE(ParseListen("0.0.0.0:0", &o).ok());
   auto s = WebServer::Start(o);
   ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.status().message().find("needs --token"), std::string::npos);
+  EXPECT_NE(s.status().message().find("needs a token (--token-file FILE, --new-token, or --token"),
+            std::string::npos)
+      << s.status().message();
   EXPECT_TRUE(IsLoopback("127.0.0.1"));
   EXPECT_TRUE(IsLoopback("127.1.2.3"));
   EXPECT_TRUE(IsLoopback("::1"));
@@ -480,7 +502,7 @@ TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
   auto page = client.Get("/live");
   ASSERT_TRUE(page);
   EXPECT_EQ(page->status, 200);
-  EXPECT_NE(page->body.find("new EventSource('/live/events')"), std::string::npos);
+  EXPECT_NE(page->body.find("<script src=\"/assets/live.js\">"), std::string::npos);
   EXPECT_NE(page->get_header_value("Content-Security-Policy").find("connect-src 'self'"),
             std::string::npos);
   auto home = client.Get("/");
@@ -644,6 +666,337 @@ TEST(LiveServeTest, WithoutABusTheLivePageSaysHowToStartIt) {
   auto events = client.Get("/live/events");
   ASSERT_TRUE(events);
   EXPECT_EQ(events->status, 404);
+}
+
+// A self-signed certificate for 127.0.0.1 and its key, made by the openssl
+// command (the test's, not the server's code).
+struct TestCertificate {
+  std::string cert, key;
+};
+TestCertificate MakeCertificate(const testing::TempDir& dir, const std::string& name) {
+  TestCertificate c{dir.path(name + "-cert.pem"), dir.path(name + "-key.pem")};
+  const auto made = testing::RunCommand(
+      "openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -days 2 -subj "
+      "/CN=127.0.0.1 -addext subjectAltName=IP:127.0.0.1 -keyout " +
+      c.key + " -out " + c.cert + " 2>&1 && chmod 600 " + c.key);
+  EXPECT_EQ(made.exit_code, 0) << made.output;
+  return c;
+}
+
+// The policy: scripts from this server only, nothing from elsewhere, no
+// inline script; the pages' scripts are served as files and still there.
+TEST_F(WebTest, NoInlineScriptRunsAndThePagesScriptsAreFiles) {
+  Serve();
+  auto home = client_->Get("/");
+  ASSERT_TRUE(home);
+  EXPECT_EQ(home->get_header_value("Content-Security-Policy"),
+            "default-src 'none'; script-src 'self'; style-src 'unsafe-inline'; img-src data:; "
+            "connect-src 'self'; form-action 'self'; base-uri 'none'; frame-ancestors 'none'");
+  // The lot page: the report, its script as a file (the report file keeps it inline).
+  auto lot = client_->Get("/lot/" + Encode(kLot));
+  ASSERT_TRUE(lot);
+  ASSERT_EQ(lot->status, 200);
+  EXPECT_NE(lot->body.find("<script src=\"/assets/report.js\"></script>"), std::string::npos);
+  EXPECT_EQ(lot->body.find("<script>"), std::string::npos);
+  auto report_js = client_->Get("/assets/report.js");
+  ASSERT_TRUE(report_js);
+  EXPECT_EQ(report_js->status, 200);
+  EXPECT_EQ(report_js->get_header_value("Content-Type"), "text/javascript; charset=utf-8");
+  EXPECT_EQ(report_js->body, std::string(report::LotReportScript()));
+  EXPECT_NE(report_js->body.find("table.sortable"), std::string::npos);
+  auto archive = store::Archive::Open(db_, store::Archive::Mode::kRead);
+  ASSERT_TRUE(archive.ok());
+  auto file = report::BuildLotReportHtml(**archive, kLot, db_);
+  ASSERT_TRUE(file.ok());
+  EXPECT_NE(file->find("<script>" + std::string(report::LotReportScript()) + "</script>"),
+            std::string::npos);
+}
+
+TEST(LiveServeTest, TheLivePagesScriptIsAFile) {
+  testing::TempDir dir("web_live_js");
+  ServeOptions o;
+  o.db_path = MakeArchive(dir);
+  o.port = 0;
+  o.bus_url = "udpm://239.255.76.67:" + std::to_string(35000 + ::getpid() % 2000) + "?ttl=0";
+  TestServer server(o);
+  ASSERT_TRUE(server.ok());
+  auto page = server.client().Get("/live");
+  ASSERT_TRUE(page);
+  EXPECT_NE(page->body.find("<script src=\"/assets/live.js\"></script>"), std::string::npos);
+  EXPECT_EQ(page->body.find("<script>"), std::string::npos);
+  auto js = server.client().Get("/assets/live.js");
+  ASSERT_TRUE(js);
+  EXPECT_EQ(js->status, 200);
+  EXPECT_EQ(js->body, LivePageScript());
+  EXPECT_NE(js->body.find("new EventSource('/live/events')"), std::string::npos);
+}
+
+// Over TLS with a token: the right token by header, by ?token= (which sets
+// a Secure, HttpOnly, SameSite=Strict cookie) and by that cookie; nothing
+// without it; plain HTTP to the TLS port gets a hint, not the archive.
+TEST_F(WebTest, OverTlsTheTokenWorksByHeaderQueryAndSecureCookie) {
+  const TestCertificate c = MakeCertificate(dir_, "tls");
+  ServeOptions o;
+  o.db_path = db_;
+  o.port = 0;
+  o.token = "tls-token-0123456789";
+  o.tls_cert_path = c.cert;
+  o.tls_key_path = c.key;
+  auto s = WebServer::Start(o);
+  ASSERT_TRUE(s.ok()) << s.status().ToString();
+  EXPECT_TRUE((*s)->tls());
+  std::thread serving([&] { (*s)->Run(); });
+  struct Joiner {
+    WebServer* server;
+    std::thread* thread;
+    ~Joiner() {
+      server->Stop();
+      thread->join();
+    }
+  } joiner{s->get(), &serving};
+  httplib::SSLClient client("127.0.0.1", (*s)->port());
+  client.set_ca_cert_path(c.cert.c_str());
+  client.enable_server_certificate_verification(true);
+  auto none = client.Get("/api/lots");
+  ASSERT_TRUE(none) << httplib::to_string(none.error());
+  EXPECT_EQ(none->status, 401);
+  auto header = client.Get("/api/lots", {{"Authorization", "Bearer tls-token-0123456789"}});
+  ASSERT_TRUE(header);
+  EXPECT_EQ(header->status, 200);
+  EXPECT_NE(header->body.find("\"lot\""), std::string::npos) << header->body;
+  auto query = client.Get("/?token=tls-token-0123456789");
+  ASSERT_TRUE(query);
+  EXPECT_EQ(query->status, 200);
+  const std::string cookie = query->get_header_value("Set-Cookie");
+  EXPECT_EQ(cookie,
+            "imuqual_token=tls-token-0123456789; Path=/; HttpOnly; SameSite=Strict; Secure");
+  auto with_cookie = client.Get("/run/" + kRun, {{"Cookie", "imuqual_token=tls-token-0123456789"}});
+  ASSERT_TRUE(with_cookie);
+  EXPECT_EQ(with_cookie->status, 200);
+  auto script = client.Get("/assets/report.js", {{"Cookie", "imuqual_token=tls-token-0123456789"}});
+  ASSERT_TRUE(script);
+  EXPECT_EQ(script->status, 200);
+  // Someone typing http:// for https://: a hint in plain text, nothing else.
+  httplib::Client plain("127.0.0.1", (*s)->port());
+  auto hint = plain.Get("/api/lots", {{"Authorization", "Bearer tls-token-0123456789"}});
+  ASSERT_TRUE(hint);
+  EXPECT_EQ(hint->status, 400);
+  EXPECT_NE(hint->body.find("https://"), std::string::npos);
+  EXPECT_EQ(hint->body.find("lot"), std::string::npos);
+}
+
+// Plain HTTP keeps the cookie without Secure (loopback: no TLS to mark it for).
+TEST_F(WebTest, WithoutTlsTheCookieIsNotSecure) {
+  Serve("plain-token-0123456789");
+  auto query = client_->Get("/?token=plain-token-0123456789");
+  ASSERT_TRUE(query);
+  EXPECT_EQ(query->get_header_value("Set-Cookie"),
+            "imuqual_token=plain-token-0123456789; Path=/; HttpOnly; SameSite=Strict");
+}
+
+// Every option error is one line naming what is wrong, before anything binds.
+TEST(WebServerTest, TlsAndTransportErrorsNameTheFileOrOption) {
+  testing::TempDir dir("web_tls_errors");
+  const TestCertificate good = MakeCertificate(dir, "good");
+  const TestCertificate other = MakeCertificate(dir, "other");
+  ServeOptions o;
+  o.db_path = MakeArchive(dir);
+  o.port = 0;
+  auto error = [&](const ServeOptions& opts) {
+    auto s = WebServer::Start(opts);
+    EXPECT_FALSE(s.ok());
+    const std::string m = s.ok() ? "" : s.status().message();
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    return m;
+  };
+  // Beyond loopback: plain HTTP only when asked for, naming both ways.
+  o.host = "0.0.0.0";
+  o.token = "lan-token-0123456789";
+  std::string m = error(o);
+  EXPECT_NE(m.find("--tls-cert FILE --tls-key FILE"), std::string::npos) << m;
+  EXPECT_NE(m.find("--insecure-http"), std::string::npos) << m;
+  o.host = "127.0.0.1";
+  o.tls_cert_path = good.cert;
+  m = error(o);
+  EXPECT_NE(m.find("go together"), std::string::npos) << m;
+  o.tls_key_path = good.key;
+  o.insecure_http = true;
+  m = error(o);
+  EXPECT_NE(m.find("contradict"), std::string::npos) << m;
+  o.insecure_http = false;
+  o.tls_cert_path = dir.path("missing.pem");
+  m = error(o);
+  EXPECT_NE(m.find("--tls-cert " + dir.path("missing.pem")), std::string::npos) << m;
+  EXPECT_NE(m.find("No such file"), std::string::npos) << m;
+  o.tls_cert_path = o.db_path;  // not PEM
+  m = error(o);
+  EXPECT_NE(m.find("--tls-cert " + o.db_path + ": not a PEM certificate"), std::string::npos) << m;
+  o.tls_cert_path = good.cert;
+  ASSERT_EQ(::chmod(good.cert.c_str(), 0600), 0);  // owner-only, as a key must be
+  o.tls_key_path = good.cert;                      // a certificate, not a key
+  m = error(o);
+  EXPECT_NE(m.find("--tls-key " + good.cert + ": not an unencrypted PEM private key"),
+            std::string::npos)
+      << m;
+  o.tls_key_path = other.key;
+  m = error(o);
+  EXPECT_NE(m.find("--tls-key " + other.key + ": not the key of the certificate in " + good.cert),
+            std::string::npos)
+      << m;
+  ASSERT_EQ(::chmod(good.key.c_str(), 0644), 0);
+  o.tls_key_path = good.key;
+  m = error(o);
+  EXPECT_NE(m.find("--tls-key " + good.key + ": a private key readable by anyone (mode 0644)"),
+            std::string::npos)
+      << m;
+  ASSERT_EQ(::chmod(good.key.c_str(), 0600), 0);
+  auto fine = WebServer::Start(o);
+  EXPECT_TRUE(fine.ok()) << fine.status().ToString();
+}
+
+// A port in use is an error, never a second listener.
+TEST(WebServerTest, APortInUseIsAnError) {
+  testing::TempDir dir("web_port");
+  ServeOptions o;
+  o.db_path = MakeArchive(dir);
+  o.port = 0;
+  auto first = WebServer::Start(o);
+  ASSERT_TRUE(first.ok()) << first.status().ToString();
+  o.port = (*first)->port();
+  auto second = WebServer::Start(o);
+  ASSERT_FALSE(second.ok());
+  EXPECT_EQ(second.status().code(), Status::Code::kUnavailable);
+  EXPECT_EQ(second.status().message(),
+            "serve: cannot listen on 127.0.0.1:" + std::to_string(o.port) +
+                ": the port is in use (another server listens there: stop it, or choose another "
+                "--listen port)");
+}
+
+// GIVEN a connection that sends a header line every 100 ms, never the end
+// WHEN  the head deadline passes
+// THEN  the server closes it although it never stopped sending, and another
+//       client is answered meanwhile.
+TEST_F(WebTest, AConnectionThatNeverFinishesItsRequestIsClosed) {
+  Serve();
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<uint16_t>(server_->server().port()));
+  inet_pton(AF_INET, "127.0.0.1", &to.sin_addr);
+  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&to), sizeof(to)), 0);
+  const std::string opening = "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n";
+  ASSERT_GT(::send(fd, opening.data(), opening.size(), MSG_NOSIGNAL), 0);
+  auto other = client_->Get("/api/lots");
+  ASSERT_TRUE(other);
+  EXPECT_EQ(other->status, 200);
+  bool closed = false;
+  // The deadline is 5 s after the accept; 30 s bounds the wait on a loaded machine.
+  for (int i = 0; i < 300 && !closed; ++i) {
+    const std::string line = "X-Slow: " + std::to_string(i) + "\r\n";
+    (void)!::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
+    pollfd p{fd, POLLIN | POLLRDHUP, 0};
+    closed = ::poll(&p, 1, 100) > 0;
+  }
+  ::close(fd);
+  EXPECT_TRUE(closed);
+  EXPECT_EQ(server_->server().GateCounts().closed_at_deadline, 1u);
+}
+
+// The back-off of a client guessing tokens, on a simulated clock: the
+// guesses that are looked at collapse; another client is unaffected.
+TEST(TokenThrottleTest, GuessesCollapseToTheBackoffSchedule) {
+  TokenThrottle t;
+  // GIVEN guesses every millisecond for 1000 s (a million attempts)
+  // WHEN  each one is looked at only when the client need not wait
+  // THEN  5 free ones, then one per back-off: 1, 2, 4, ... 256, then 300 s.
+  int looked_at = 0;
+  std::vector<double> waits;
+  for (int ms = 0; ms < 1'000'000; ++ms) {
+    const double now_s = ms / 1000.0;
+    if (t.WaitS("10.0.0.9", now_s) > 0) continue;
+    ++looked_at;
+    const double wait_s = t.Failed("10.0.0.9", now_s);
+    if (wait_s > 0) waits.push_back(wait_s);
+  }
+  // Waits 1..256 s sum to 511 s; the rest of the 1000 s goes in 300 s steps.
+  const std::vector<double> expected = {1, 2, 4, 8, 16, 32, 64, 128, 256, 300, 300};
+  EXPECT_EQ(waits, expected);
+  EXPECT_EQ(looked_at, 5 + static_cast<int>(expected.size()));
+  EXPECT_EQ(t.Failures("10.0.0.9"), looked_at);
+  // Another client is looked at at once; the guessing one still waits.
+  EXPECT_EQ(t.WaitS("10.0.0.10", 999.0), 0);
+  EXPECT_GT(t.WaitS("10.0.0.9", 999.0), 0);
+  // A right token clears the count; a client quiet for kForgetS is forgotten.
+  t.Succeeded("10.0.0.9");
+  EXPECT_EQ(t.Failures("10.0.0.9"), 0);
+  t.Failed("10.0.0.11", 0);
+  t.Failed("10.0.0.12", TokenThrottle::kForgetS + 1);
+  EXPECT_EQ(t.Failures("10.0.0.11"), 0);
+  EXPECT_EQ(t.Failures("10.0.0.12"), 1);
+}
+
+TEST(ClientLogTest, OneLinePerClientAndPeriodWithCountsAndNoToken) {
+  std::vector<std::string> lines;
+  ClientLog log([&](const std::string& line) { lines.push_back(line); });
+  // The first event at once.
+  log.Note("10.0.0.7", ClientLog::Event::kWrongToken, 100);
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_EQ(lines[0], "serve: client 10.0.0.7: 1 wrong token");
+  // Then summed for the period, per client.
+  for (int i = 0; i < 5; ++i) log.Note("10.0.0.7", ClientLog::Event::kWrongToken, 101 + i);
+  for (int i = 0; i < 290; ++i)
+    log.Note("10.0.0.7", ClientLog::Event::kRefusedBackingOff, 110 + i * 0.1);
+  log.Note("10.0.0.8", ClientLog::Event::kOverConnectionCap, 120);
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_EQ(lines[1], "serve: client 10.0.0.8: 1 connection refused at once (too many open)");
+  log.Flush(150, /*all=*/false);  // not a period since the last line
+  EXPECT_EQ(lines.size(), 2u);
+  log.Flush(160, /*all=*/false);
+  ASSERT_EQ(lines.size(), 3u);
+  EXPECT_EQ(lines[2],
+            "serve: client 10.0.0.7: 5 wrong tokens, 290 requests refused while it backs off "
+            "(429) within 59 s");
+  // On stop, whatever is counted.
+  log.Note("10.0.0.7", ClientLog::Event::kHeadDeadline, 170);
+  log.Note("10.0.0.7", ClientLog::Event::kTlsFailed, 171);
+  log.Flush(172, /*all=*/true);
+  ASSERT_EQ(lines.size(), 4u);
+  EXPECT_EQ(lines[3],
+            "serve: client 10.0.0.7: 1 connection closed without a complete request in time, "
+            "1 TLS handshake failed within 2 s");
+}
+
+TEST(AccessTest, ClientKeysTokensAndTokenFiles) {
+  EXPECT_EQ(ClientKey("10.1.2.3"), "10.1.2.3");
+  EXPECT_EQ(ClientKey("::ffff:10.1.2.3"), "10.1.2.3");
+  EXPECT_EQ(ClientKey("2001:db8:1:2:aaaa:bbbb:cccc:dddd"), "2001:db8:1:2::/64");
+  EXPECT_EQ(ClientKey("2001:db8:1:2::5"), ClientKey("2001:db8:1:2:ffff::1"));
+  EXPECT_NE(ClientKey("2001:db8:1:2::5"), ClientKey("2001:db8:1:3::5"));
+  auto a = NewToken();
+  auto b = NewToken();
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->size(), 43u);  // 256 bits in base64url without padding
+  EXPECT_EQ(
+      a->find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_"),
+      std::string::npos);
+  EXPECT_NE(*a, *b);
+  EXPECT_TRUE(CheckToken(*a).ok());
+  EXPECT_FALSE(CheckToken("short").ok());
+  EXPECT_FALSE(CheckToken("has;semicolon-in-it").ok());
+  testing::TempDir dir("web_token_file");
+  const std::string path = dir.path("token");
+  ::umask(022);
+  ASSERT_TRUE(WriteNewTokenFile(path, *a).ok());
+  struct stat info {};
+  ASSERT_EQ(::stat(path.c_str(), &info), 0);
+  EXPECT_EQ(info.st_mode & 0777, 0600u);
+  auto text = ReadFileToString(path);
+  ASSERT_TRUE(text.ok());
+  EXPECT_EQ(*text, *a + "\n");
+  const Status again = WriteNewTokenFile(path, *b);
+  EXPECT_FALSE(again.ok());
+  EXPECT_NE(again.message().find(path + " exists already"), std::string::npos) << again.message();
+  EXPECT_EQ(*ReadFileToString(path), *a + "\n");  // untouched
 }
 
 }  // namespace

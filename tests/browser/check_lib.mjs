@@ -1,8 +1,9 @@
 // What the browser checks share: arguments, running the imuqual command and
 // sqlite3, collecting failures, Chromium with a page that reports console
-// errors and requests outside the server, and `imuqual serve` started on a
-// free loopback port.
+// errors and requests outside the server, a self-signed certificate for
+// 127.0.0.1, and `imuqual serve` started on a free loopback port.
 import { execFileSync, spawn } from 'node:child_process';
+import fs from 'node:fs';
 import path from 'node:path';
 import { chromium } from 'playwright-core';
 
@@ -49,21 +50,35 @@ export function finish(name, okLine, work, removeWork) {
   removeWork();
 }
 
-// Headless Chromium with a profile under `work`.
+// Headless Chromium with a profile under `work`. It accepts the test's
+// self-signed certificate (ignoreHTTPSErrors), and so does context.request.
 export function launch(args, work) {
   return chromium.launchPersistentContext(path.join(work, 'profile'), {
     executablePath: args.chromium,
     headless: true,
+    ignoreHTTPSErrors: true,
     args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
            '--disable-background-networking', '--disable-component-update', '--disable-sync'],
     timeout: 60000,
   });
 }
 
-// The context's page, failing on console errors and warnings, page errors
-// and any request outside `origin` (or data: URLs).
-export async function watchedPage(context, origin) {
-  const page = context.pages()[0] || await context.newPage();
+// A self-signed certificate for 127.0.0.1 (P-256, two days) and its key
+// (owner-only, as serve wants it), made by the openssl command in `work`.
+export function makeCertificate(work) {
+  const cert = path.join(work, 'cert.pem');
+  const key = path.join(work, 'key.pem');
+  run('openssl', ['req', '-x509', '-newkey', 'ec', '-pkeyopt', 'ec_paramgen_curve:P-256', '-nodes',
+                  '-days', '2', '-subj', '/CN=127.0.0.1', '-addext', 'subjectAltName=IP:127.0.0.1',
+                  '-keyout', key, '-out', cert]);
+  fs.chmodSync(key, 0o600);
+  return { cert, key };
+}
+
+// The context's page (a new one when `fresh`), failing on console errors and
+// warnings, page errors and any request outside `origin` (or data: URLs).
+export async function watchedPage(context, origin, { fresh = false } = {}) {
+  const page = (!fresh && context.pages()[0]) || await context.newPage();
   page.on('console', (msg) => {
     if (msg.type() === 'error' || msg.type() === 'warning') fail(`console ${msg.type()}: ${msg.text()}`);
   });
@@ -77,7 +92,7 @@ export async function watchedPage(context, origin) {
 
 // Starts `imuqual serve --listen 127.0.0.1:0 EXTRA...`; resolves to
 // { child, url } once it prints a line matching `pattern` (its group 1).
-export function serve(imuqual, extra, pattern = /at (http:\/\/127\.0\.0\.1:\d+\/)/) {
+export function serve(imuqual, extra, pattern = /at (https?:\/\/127\.0\.0\.1:\d+\/)/) {
   const child = spawn(imuqual, ['serve', ...extra, '--listen', '127.0.0.1:0'],
                       { stdio: ['ignore', 'pipe', 'pipe'] });
   return new Promise((resolve, reject) => {

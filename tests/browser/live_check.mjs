@@ -1,11 +1,13 @@
 // The live station page of `imuqual serve --bus` in a real browser, during
 // a real soak.
 //
-// GIVEN `imuqual serve --db DB --bus URL` started before the station (the
+// GIVEN `imuqual serve --db DB --bus URL` over TLS with a token (a
+//       self-signed certificate made here) started before the station (the
 //       archive does not exist yet), and `imuqual run` soaking 4 simulated
 //       VG700-like gyros on that bus, paced so that the soak lasts about a
 //       minute, with an operator name that is hostile HTML,
-// WHEN  headless Chromium opens /live and watches the soak; halfway the
+// WHEN  headless Chromium opens /live?token=... once (the cookie carries the
+//       event stream and every page after it) and watches the soak; halfway the
 //       station's store process is killed (the station restarts it),
 // THEN  a row appears for every unit and its samples grow; each unit's Allan
 //       curves are drawn and grow; the killed store is shown restarted
@@ -22,7 +24,7 @@ import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import {
-  fail, finish, launch, parseArgs, percentile, serve, sqlite, waitFor, watchedPage,
+  fail, finish, launch, makeCertificate, parseArgs, percentile, serve, sqlite, waitFor, watchedPage,
 } from './check_lib.mjs';
 
 const kLot = 'LIVE';
@@ -37,15 +39,20 @@ async function main() {
   const work = fs.mkdtempSync(path.join(os.tmpdir(), 'imuqual-live-'));
   const db = path.join(work, 'live.db');
   const bus = `udpm://239.255.76.67:${20000 + (process.pid % 30000)}?ttl=0`;
-  const { child: server, url: live } = await serve(args.imuqual, ['--db', db, '--bus', bus],
-                                                   /live station \(bus [^)]*\): (http:\/\/127\.0\.0\.1:\d+\/live)/);
+  const { cert, key } = makeCertificate(work);
+  const tokenFile = path.join(work, 'token');
+  fs.writeFileSync(tokenFile, 'live-check-token-0123456789\n', { mode: 0o600 });
+  const { child: server, url: live } = await serve(
+    args.imuqual, ['--db', db, '--bus', bus, '--tls-cert', cert, '--tls-key', key, '--token-file', tokenFile],
+    /live station \(bus [^)]*\): (https:\/\/127\.0\.0\.1:\d+\/live)/);
   const origin = new URL(live).origin;
   const context = await launch(args, work);
   let station = null;
   let stationLog = '';
   try {
     const page = await watchedPage(context, origin);
-    const response = await page.goto(live, { waitUntil: 'load', timeout: 30000 });
+    const response = await page.goto(`${live}?token=live-check-token-0123456789`,
+                                      { waitUntil: 'load', timeout: 30000 });
     if (!response || response.status() !== 200) fail(`${live}: status ${response?.status()}`);
     await waitFor(page, 'the page connected', 20, () => window.imuqualLive?.updates > 0);
 
@@ -125,7 +132,7 @@ async function main() {
     server.kill('SIGTERM');
   }
   const seconds = ((Date.now() - started) / 1000).toFixed(1);
-  finish('live_check', `${kUnits} units appeared and grew, curves drawn, the killed store shown ` +
+  finish('live_check', `over TLS with a token: ${kUnits} units appeared and grew, curves drawn, the killed store shown ` +
          `restarted, final verdicts equal to the archive's, report link (${seconds} s)`,
          work, () => fs.rmSync(work, { recursive: true, force: true }));
 }

@@ -22,6 +22,7 @@ node_major="$(node -p 'process.versions.node.split(".")[0]')"
 [ -f "$here/node_modules/playwright-core/package.json" ] ||
   die "playwright-core is not installed in tests/browser; $deps (npm ci)"
 command -v sqlite3 >/dev/null 2>&1 || die "the sqlite3 shell is not installed; scripts/bootstrap installs it"
+command -v openssl >/dev/null 2>&1 || die "the openssl command is not installed; scripts/bootstrap installs it"
 [ -x "$imuqual" ] || die "no imuqual binary at $imuqual"
 
 [ -f "$here/$check" ] || die "no check $here/$check"

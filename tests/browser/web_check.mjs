@@ -3,15 +3,22 @@
 // GIVEN a small real archive (4 simulated VG700-like gyros, a short soak on
 //       purpose so that every unit FAILs with reasons) whose plan name and
 //       operator are hostile HTML,
-// WHEN  `imuqual serve` serves it on a loopback port and headless Chromium
-//       walks it: the lots page, the lot's report, each unit's history and
-//       each run's page,
-// THEN  every page loads with no console error, no page error and no
-//       request to anything but the server; the lots row equals the
-//       lot_overview view; each run page's measurements equal the archive's
-//       (sqlite3) value for value, bit for bit (data-v); the hostile strings
-//       show as text and run nothing; links lead lot -> report, unit -> runs,
-//       run -> run page; a POST is refused.
+// WHEN  `imuqual serve` serves it over TLS (a self-signed certificate made
+//       here) with a new token (--new-token) on a loopback port, and
+//       headless Chromium opens it once with ?token= and walks it: the lots
+//       page, the lot's report, each unit's history and each run's page,
+// THEN  the token cookie is Secure, HttpOnly and SameSite=Strict and carries
+//       every page after the first; without it the server answers 401;
+//       every page loads with no console error (a script refused by the
+//       Content-Security-Policy is one), no page error and no request to
+//       anything but the server; the lots row equals the lot_overview view;
+//       the report's tables sort (its script, served as a file, runs); each
+//       run page's measurements equal the archive's (sqlite3) value for
+//       value, bit for bit (data-v); the hostile strings show as text and
+//       run nothing; links lead lot -> report, unit -> runs, run -> run
+//       page; a POST is refused. Then the same server in plain HTTP on
+//       loopback without a token (the local default): the lots page and the
+//       sorting report.
 //
 // Usage: node web_check.mjs --imuqual BIN [--chromium PATH]
 // Exit status 0 when every check passes, 1 otherwise (each failure is one
@@ -20,7 +27,7 @@ import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import {
-  fail, finish, launch, parseArgs, run, serve, sqlite, sqlText, watchedPage,
+  fail, finish, launch, makeCertificate, parseArgs, run, serve, sqlite, sqlText, watchedPage,
 } from './check_lib.mjs';
 
 const kLot = 'WEB';
@@ -44,9 +51,16 @@ async function main() {
       .replace(/^name: .*$/m, `name: ${JSON.stringify(kPlanName)}`));
   run(args.imuqual, ['run', '--sim', String(kUnits), '--duration', '600', '--lot', kLot, '--db', db,
                      '--plan', plan, '--operator', kOperator, '--short-soak', '--quiet']);
-  const { child, url: base } = await serve(args.imuqual, ['--db', db]);
+  const { cert, key } = makeCertificate(work);
+  const tokenFile = path.join(work, 'token');
+  const { child, url: base } = await serve(args.imuqual, ['--db', db, '--tls-cert', cert, '--tls-key', key,
+                                                          '--new-token', '--token-file', tokenFile]);
+  if (!base.startsWith('https://')) fail(`served at ${base}, not over TLS`);
+  const token = fs.readFileSync(tokenFile, 'utf8').trim();
+  if ((fs.statSync(tokenFile).mode & 0o777) !== 0o600) fail('the token file is not owner-only');
   const origin = new URL(base).origin;
   const context = await launch(args, work);
+  let plain = null;
   try {
     const page = await watchedPage(context, origin);
     const visit = async (url) => {
@@ -54,7 +68,29 @@ async function main() {
       if (!response || response.status() !== 200) fail(`${url}: status ${response?.status()}`);
       if (await page.evaluate(() => window.injected !== undefined)) fail(`${url}: a hostile string ran`);
     };
+    // The report's tables sort on a click: its script ran.
+    const sorts = async (where) => {
+      const sorted = await page.evaluate(() => {
+        const th = document.querySelector('table.sortable thead th');
+        if (!th) return 'no sortable table';
+        th.click();
+        return th.getAttribute('aria-sort');
+      });
+      if (sorted !== 'ascending') fail(`${where}: the report's table did not sort (${sorted})`);
+    };
 
+    // Without the token: 401 and nothing else.
+    const stranger = await context.request.get(`${base}api/lots`);
+    if (stranger.status() !== 401) fail(`without the token: status ${stranger.status()}`);
+
+    // The lots page, opened once with the token: it leaves the cookie.
+    await visit(`${base}?token=${token}`);
+    const cookie = (await context.cookies(origin)).find((c) => c.name === 'imuqual_token');
+    if (!cookie) {
+      fail('no token cookie after ?token=');
+    } else if (!cookie.secure || !cookie.httpOnly || cookie.sameSite !== 'Strict') {
+      fail(`the token cookie is not Secure, HttpOnly, SameSite=Strict: ${JSON.stringify(cookie)}`);
+    }
     // The lots page: the lot's row equals the lot_overview view.
     await visit(base);
     const overview = sqlite(db, `SELECT * FROM lot_overview WHERE lot = ${sqlText(kLot)}`)[0];
@@ -79,6 +115,7 @@ async function main() {
       if (!title.startsWith(`Lot ${kLot}`)) fail(`lot page title '${title}'`);
       const planText = await page.evaluate(() => document.querySelector('[data-field="plan"]')?.textContent);
       if (!planText?.includes(kPlanName)) fail(`the plan's name is not shown as text: '${planText}'`);
+      await sorts('the lot page over TLS');
     }
 
     // Each unit: its history links to its run, whose measurements equal the archive's.
@@ -121,15 +158,31 @@ async function main() {
     }
 
     // Read-only.
-    const post = await fetch(base, { method: 'POST', body: 'x=1' });
-    if (post.status !== 405) fail(`POST answered ${post.status}`);
+    const post = await context.request.post(base, { data: 'x=1' });
+    if (post.status() !== 405) fail(`POST answered ${post.status()}`);
+
+    // Plain HTTP on loopback, no token: the local default.
+    child.kill('SIGTERM');
+    const local = await serve(args.imuqual, ['--db', db]);
+    plain = local.child;
+    if (!local.url.startsWith('http://')) fail(`the plain server is at ${local.url}`);
+    const plainPage = await watchedPage(context, new URL(local.url).origin, { fresh: true });
+    const plainLot = await plainPage.goto(`${local.url}lot/${kLot}`, { waitUntil: 'load', timeout: 30000 });
+    if (plainLot?.status() !== 200) fail(`plain HTTP lot page: status ${plainLot?.status()}`);
+    const sortedPlain = await plainPage.evaluate(() => {
+      const th = document.querySelector('table.sortable thead th');
+      th?.click();
+      return th?.getAttribute('aria-sort');
+    });
+    if (sortedPlain !== 'ascending') fail(`plain HTTP lot page: the table did not sort (${sortedPlain})`);
   } finally {
     await context.close();
     child.kill('SIGTERM');
+    plain?.kill('SIGTERM');
   }
   const seconds = ((Date.now() - started) / 1000).toFixed(1);
-  finish('web_check', `lots page, report, ${kUnits} units and runs against the archive, ` +
-         `no console error, no outside request (${seconds} s)`,
+  finish('web_check', `over TLS with a token: lots page, report, ${kUnits} units and runs against ` +
+         `the archive, no console error, no outside request; plain HTTP on loopback (${seconds} s)`,
          work, () => fs.rmSync(work, { recursive: true, force: true }));
 }
 
