@@ -127,6 +127,9 @@ Status AcquireOptions::Validate() const {
   if (!(pace >= 0) || !std::isfinite(pace)) return Status::InvalidArgument("pace: must be >= 0");
   if (!(consumer_timeout_s > 0)) return Status::InvalidArgument("consumer_timeout_s: must be > 0");
   if (!(linger_s >= 0)) return Status::InvalidArgument("linger_s: must be >= 0");
+  if (!(resend_budget_mb_s >= 0) || !std::isfinite(resend_budget_mb_s)) {
+    return Status::InvalidArgument("resend_budget_mb_s: must be >= 0");
+  }
   if (!(inject_drop >= 0 && inject_drop < 1)) {
     return Status::InvalidArgument("inject_drop: must be in [0, 1)");
   }
@@ -559,7 +562,7 @@ Status AcquireService::Impl::ServeResends() {
         if (!resend_budget->Take(requester, static_cast<double>(it->bytes.size()), now)) {
           resends_throttled += std::min(last, run.next_seq - 1) - seq + 1;
           refusal_log.Warning("resend requests beyond a requester's budget (" +
-                              std::to_string(static_cast<int>(resend_bytes_per_s / 1e6)) +
+                              ShortestReal(resend_bytes_per_s / 1e6) +
                               " MB/s): the rest dropped, counted in resends_throttled");
           break;
         }
@@ -677,7 +680,7 @@ Status AcquireService::Run() {
       [&s](const std::string&, imuqual::ack_t&& ack, const MessageOrigin& from) {
         s.OnAck(ack, from.role);
       });
-  s.resend_bytes_per_s = BusTtl(s.options.lcm_url) > 0 ? kLanResendBytesPerS : kLocalResendBytesPerS;
+  s.resend_bytes_per_s = ResendBytesPerS(s.options.resend_budget_mb_s, BusTtl(s.options.lcm_url));
   s.resend_budget = std::make_unique<ResendBudget>(s.resend_bytes_per_s, 2 * s.resend_bytes_per_s);
   s.bus->SubscribeWithOrigin<imuqual::resend_t>(
       channels::kResend, 1000, nullptr,

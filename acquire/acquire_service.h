@@ -65,6 +65,7 @@ struct AcquireOptions {
   double consumer_timeout_s = 120.0;  // no ack progress this long while waiting: fail (well
                                       // beyond the consumers' 30 s give-up on a lost batch)
   double linger_s = 60.0;             // after the last batch, wait this long for final acks
+  double resend_budget_mb_s = 0;      // resent per requester, MB/s; 0: 64 on one host, 4 beyond
   double inject_drop = 0.0;           // fault injection: drop this fraction of first publications
   // Test only (fault injection): flip one random bit of this fraction of the
   // datagrams sent (first publications and resends), after the checksum was

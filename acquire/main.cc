@@ -74,6 +74,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--inject-seed", opt.inject_seed, "seed of the injected drops and bit flips")
       ->capture_default_str();
+  app.add_option("--resend-budget-mb", opt.resend_budget_mb_s,
+                 "MB/s resent to one requester at most (0: 64 on one host, 4 beyond it); the rest "
+                 "of its requests is dropped and counted (resends_throttled)")
+      ->capture_default_str();
   BusSecurityFiles bus_files;
   AddBusSecurityFlags(app, &bus_files, /*signs=*/true, /*replays=*/false);
   if (const auto code = ParseCommandLine(app, argc, argv)) return *code;

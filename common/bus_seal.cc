@@ -108,7 +108,7 @@ ChannelPolicy PolicyOf(std::string_view channel) {
     return {analyze, analyze};
   }
   if (channel == channels::kAck) return {analyze | store, store};
-  if (channel == channels::kResend) return {analyze | store, 0};
+  if (channel == channels::kResend) return {analyze | store, analyze | store};
   if (channel == channels::kStatus) {
     return {acquire | analyze | store | Bit(BusRole::kStation) | Bit(BusRole::kMonitor), 0};
   }

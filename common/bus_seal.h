@@ -82,8 +82,9 @@ inline constexpr size_t kMaxUnsignedTrailerBytes = kSealHeaderBytes + kSealCrcBy
 // analyze; resend requests from analyze and the store; status from any
 // process. Where the roles' public keys are known, the verdict-bearing
 // messages must be signed: run announcements, curves, results, decisions
-// and the store's acknowledgements. Channels outside the station's
-// contract carry no policy.
+// and the store's acknowledgements; and so must resend requests (a host
+// with the station key alone cannot make the station resend). Channels
+// outside the station's contract carry no policy.
 struct ChannelPolicy {
   uint32_t allowed = 0;  // bit (1 << role) per role that may publish
   uint32_t signed_ = 0;  // roles whose messages here must be signed

@@ -61,6 +61,13 @@ class ResendBudget {
 inline constexpr double kLocalResendBytesPerS = 64e6;
 inline constexpr double kLanResendBytesPerS = 4e6;
 
+// The budget per requester in bytes/s: `configured_mb_per_s` when > 0, else
+// the default for a bus of that ttl.
+inline double ResendBytesPerS(double configured_mb_per_s, int bus_ttl) {
+  if (configured_mb_per_s > 0) return configured_mb_per_s * 1e6;
+  return bus_ttl > 0 ? kLanResendBytesPerS : kLocalResendBytesPerS;
+}
+
 }  // namespace imuqual
 
 #endif  // IMUQUAL_COMMON_RESEND_BUDGET_H_

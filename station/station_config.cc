@@ -6,6 +6,7 @@
 
 #include "acquire/source_spec.h"
 #include "analyze/judge/plan_file.h"
+#include "common/keys.h"
 #include "common/text_util.h"
 #include "proto/text_proto.h"
 
@@ -65,6 +66,36 @@ Result<pb::StationConfig> ParseStationConfig(const std::string& text, const std:
   if (c.archive().empty()) return fail("archive", 0, "archive: required (the SQLite file)");
   c.set_archive(Resolve(DirOf(path), c.archive()));
   if (!c.report().empty()) c.set_report(Resolve(DirOf(path), c.report()));
+  // Trust: each key file resolved and read now, so that a wrong one is
+  // named with its line before any process starts.
+  if (!c.key_file().empty()) {
+    c.set_key_file(Resolve(DirOf(path), c.key_file()));
+    if (auto key = ReadStationKeyFile(c.key_file()); !key.ok())
+      return fail("key_file", 0, "key_file: " + key.status().message());
+  }
+  if (!c.trust_file().empty()) {
+    c.set_trust_file(Resolve(DirOf(path), c.trust_file()));
+    if (auto keys = ReadPublicKeyFile(c.trust_file()); !keys.ok())
+      return fail("trust_file", 0, "trust_file: " + keys.status().message());
+    if (c.key_file().empty())
+      return fail("trust_file", 0, "trust_file: needs key_file too (role signatures ride on an "
+                                   "authenticated bus)");
+  }
+  const std::pair<const char*, std::string*> sign_keys[] = {
+      {"acquire_sign_key", c.mutable_acquire_sign_key()},
+      {"analyze_sign_key", c.mutable_analyze_sign_key()},
+      {"store_sign_key", c.mutable_store_sign_key()}};
+  for (const auto& [field, value] : sign_keys) {
+    if (value->empty()) continue;
+    *value = Resolve(DirOf(path), *value);
+    auto key = ReadSigningKeyFile(*value);
+    if (!key.ok()) return fail(field, 0, std::string(field) + ": " + key.status().message());
+    const std::string role = std::string(field).substr(0, std::string(field).find('_'));
+    if (key->role != role) {
+      return fail(field, 0, std::string(field) + ": " + *value + " is the " + key->role +
+                                " role's key, not " + role + "'s");
+    }
+  }
   if (c.analyze_shards() < 0 || c.analyze_shards() > kMaxShards) {
     return fail("analyze_shards", 0, "analyze_shards: must be 1.." + std::to_string(kMaxShards));
   }

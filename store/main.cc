@@ -41,6 +41,10 @@ int main(int argc, char** argv) {
   app.add_option("--accept-plan", accept_plans,
                  "a plan this station runs (file or builtin:NAME), repeatable: a run announced "
                  "with any other plan is refused (default: any plan whose digest holds)");
+  app.add_option("--resend-budget-mb", opt.resend_budget_mb_s,
+                 "MB/s resent to one requester at most (0: 64 on one host, 4 beyond it); the rest "
+                 "of its requests is dropped and counted (resends_throttled)")
+      ->capture_default_str();
   BusSecurityFiles bus_files;
   AddBusSecurityFlags(app, &bus_files, /*signs=*/true, /*replays=*/true);
   if (const auto code = ParseCommandLine(app, argc, argv)) return *code;

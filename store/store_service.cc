@@ -499,9 +499,19 @@ Status StoreService::Impl::ServeResend(const imuqual::resend_t& req) {
   int64_t last = std::min(req.last_seq, first + kMaxServedPerRequest - 1);
   if (!r.acquire_gone) last = std::min(last, r.acquire_retained_first - 1);
   if (last < first) return Status::Ok();
-  return archive->ForEachChunk(
+  const double now = ListeningSeconds();
+  // Served in seq order until the requester's budget is spent: the rest of
+  // the request is counted, not read.
+  const Status kSpent = Status::Unavailable("resend budget spent");
+  bool spent = false;
+  Status st = archive->ForEachChunk(
       r.key,
       [&](const ChunkRecord& c) -> Status {
+        if (!resend_budget->Take(requester, static_cast<double>(c.data.size()), now)) {
+          resends_throttled += last - c.seq + 1;
+          spent = true;
+          return kSpent;  // the requester asks again, with back-off
+        }
         auto batch = BatchFromChunk(r.info, c);
         std::vector<uint8_t> bytes;
         Status sealed = batch.ok() ? EncodeSealedBatch(&*batch, &bytes) : batch.status();
@@ -510,14 +520,11 @@ Status StoreService::Impl::ServeResend(const imuqual::resend_t& req) {
                            " from the archive: " + sealed.message());
           return Status::Ok();  // serve the rest
         }
-        if (!resend_budget->Take(requester, static_cast<double>(bytes.size()), ListeningSeconds())) {
-          ++resends_throttled;
-          return Status::Ok();  // the requester asks again, with back-off
-        }
         ++batches_served;
         return bus->PublishEncoded(channels::Raw(r.info.serial), bytes);
       },
       first, last);
+  return spent ? Status::Ok() : st;
 }
 
 Status StoreService::Impl::ApplyRun(const imuqual::run_t& msg, Staged* staged) {
@@ -1205,8 +1212,7 @@ Status StoreService::Run() {
   s.bus->Subscribe<imuqual::rate_batch_t>(
       channels::kRawAll, s.options.queue_capacity,
       [enqueue](const std::string&, imuqual::rate_batch_t&& m, int64_t) { enqueue(std::move(m)); });
-  const double resend_rate =
-      BusTtl(s.options.lcm_url) > 0 ? kLanResendBytesPerS : kLocalResendBytesPerS;
+  const double resend_rate = ResendBytesPerS(s.options.resend_budget_mb_s, BusTtl(s.options.lcm_url));
   s.resend_budget = std::make_unique<ResendBudget>(resend_rate, 2 * resend_rate);
   // A request's requester is who its seal says sent it, not what it writes.
   s.bus->SubscribeWithOrigin<imuqual::resend_t>(

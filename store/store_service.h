@@ -78,6 +78,7 @@ struct StoreOptions {
   // other plan is refused, never archived (judge/run_admission.h). Empty:
   // any plan whose digest holds (said in the log at start).
   std::vector<pb::TestPlan> accepted_plans;
+  double resend_budget_mb_s = 0;  // resent per requester, MB/s; 0: 64 on one host, 4 beyond
   int max_unwritten_mb = 256;     // batches held while the archive cannot write (MB of samples);
                                // beyond, the newest are left unacknowledged for acquire to resend
   double write_give_up_s = 300;  // the archive failing every write this long: Run() fails

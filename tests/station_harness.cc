@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <random>
 
 #include "common/channels.h"
@@ -15,16 +16,27 @@
 
 namespace imuqual::testing {
 
-StationHarness::StationHarness(const std::string& tag, HarnessKeys keys) : dir_(tag), keys_(keys) {
+StationHarness::StationHarness(const std::string& tag, HarnessKeys keys,
+                               const StationHarness* keys_of)
+    : dir_(tag), keys_(keys_of ? keys_of->keys_ : keys) {
   std::random_device rd;
   BusAddress address;
   address.port = 20000 + static_cast<int>((rd() ^ static_cast<unsigned>(::getpid())) % 40000);
   url_ = address.ToUrl();
   db_ = dir_.path("station.db");
-  if (keys_ != HarnessKeys::kNone) {
+  if (keys_of != nullptr) {
+    for (BusRole role : {BusRole::kAcquire, BusRole::kAnalyze, BusRole::kStore}) {
+      if (keys_of->sign_key(role).empty()) continue;
+      std::filesystem::copy_file(keys_of->sign_key(role), sign_key(role));
+      std::filesystem::copy_file(keys_of->sign_key(role) + ".pub", sign_key(role) + ".pub");
+    }
+    if (!keys_of->key_file().empty()) std::filesystem::copy_file(keys_of->key_file(), key_file());
+    if (!keys_of->trust_file().empty())
+      std::filesystem::copy_file(keys_of->trust_file(), trust_file());
+  } else if (keys_ != HarnessKeys::kNone) {
     EXPECT_TRUE(WriteStationKeyFile(key_file(), *GenerateStationKey()).ok());
   }
-  if (keys_ == HarnessKeys::kStationAndRoles) {
+  if (keys_of == nullptr && keys_ == HarnessKeys::kStationAndRoles) {
     std::string trust;
     for (BusRole role : {BusRole::kAcquire, BusRole::kAnalyze, BusRole::kStore}) {
       auto key = GenerateSigningKey(RoleName(role));

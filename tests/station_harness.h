@@ -29,7 +29,10 @@ class StationHarness {
   // With keys, they are made in the temp dir, every imuqual-acquire,
   // -analyze and -store started here gets its flags, and the harness's bus
   // listens with them.
-  explicit StationHarness(const std::string& tag, HarnessKeys keys = HarnessKeys::kNone);
+  // `keys_of`: take that station's keys instead of making new ones (a
+  // station whose recorded traffic is played to this one).
+  explicit StationHarness(const std::string& tag, HarnessKeys keys = HarnessKeys::kNone,
+                          const StationHarness* keys_of = nullptr);
 
   const std::string& url() const { return url_; }
   const std::string& db() const { return db_; }
