@@ -7,6 +7,7 @@
 #include <boost/math/special_functions/gamma.hpp>
 #include <boost/math/special_functions/trigamma.hpp>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -106,50 +107,163 @@ int ParameterCount(const std::vector<TermKind>& kinds) {
 
 double Sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 
+// The term of kind `kind` whose parameters start at theta(i).
+ModelTerm ToTerm(TermKind kind, const Eigen::VectorXd& theta, int i, const Problem& p) {
+  ModelTerm t;
+  t.kind = kind;
+  t.scale = std::exp(theta(i));
+  if (kind == TermKind::kGaussMarkov) {
+    t.correlation_time_s = std::exp(std::clamp(theta(i + 1), p.ln_t_min, p.ln_t_max));
+  } else if (kind == TermKind::kSinusoid) {
+    t.frequency_hz = 0.5 / p.tau0_s * Sigmoid(theta(i + 1));
+  }
+  return t;
+}
+
 CompositeModel ToModel(const std::vector<TermKind>& kinds, const Eigen::VectorXd& theta,
                        const Problem& p) {
   CompositeModel model;
+  model.terms.reserve(kinds.size());
   int i = 0;
   for (TermKind kind : kinds) {
-    ModelTerm t;
-    t.kind = kind;
-    t.scale = std::exp(theta(i++));
-    if (kind == TermKind::kGaussMarkov) {
-      t.correlation_time_s = std::exp(std::clamp(theta(i++), p.ln_t_min, p.ln_t_max));
-    } else if (kind == TermKind::kSinusoid) {
-      t.frequency_hz = 0.5 / p.tau0_s * Sigmoid(theta(i++));
-    }
-    model.terms.push_back(t);
+    model.terms.push_back(ToTerm(kind, theta, i, p));
+    i += ParameterCount(kind);
   }
   return model;
 }
 
+// ln(AVAR of the model + the fixed term) at the problem's points, from the
+// model's AVAR at each point.
+double LogAvar(double model_avar, const Problem& p, int j) {
+  const double fixed = p.fixed_avar.size() > 0 ? p.fixed_avar(j) : 0.0;
+  return std::log(std::max(model_avar + fixed, 1e-300));
+}
+
 Eigen::VectorXd LogModel(const CompositeModel& model, const Problem& p) {
+  const ModelEvaluator ev(model, p.tau0_s);
   Eigen::VectorXd v(p.points());
-  for (int j = 0; j < p.points(); ++j) {
-    const double fixed = p.fixed_avar.size() > 0 ? p.fixed_avar(j) : 0.0;
-    v(j) = std::log(std::max(model.Avar(p.m[j], p.tau0_s) + fixed, 1e-300));
-  }
+  for (int j = 0; j < p.points(); ++j) v(j) = LogAvar(ev.Avar(p.m[j]), p, j);
   return v;
 }
 
-struct ResidualFunctor {
+// The whitened residuals r(theta) = L^-1 (y - ln nu(theta)) of one estimation,
+// as Eigen's Levenberg-Marquardt asks for them. The minimizer asks again for
+// points it has evaluated (the forward-difference Jacobian starts with f at
+// the point just accepted) and varies one parameter at a time (every other
+// term's AVAR is unchanged), so the functor remembers the last evaluations
+// and each term's AVAR at the points for its last parameters: a remembered
+// value is the value the evaluation would compute again, bit for bit (the
+// same function of the same bits), and each point's AVAR is still the sum of
+// the terms in model order. Eigen copies the functor into NumericalDiff; the
+// memory is per estimation, never shared.
+class ResidualFunctor {
+ public:
   using Scalar = double;
   enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
   using InputType = Eigen::VectorXd;
   using ValueType = Eigen::VectorXd;
   using JacobianType = Eigen::MatrixXd;
 
-  const Problem* problem;
-  const std::vector<TermKind>* kinds;
-  int n_in;
+  ResidualFunctor(const Problem* problem, const std::vector<TermKind>* kinds, int n_in)
+      : problem_(problem), kinds_(kinds), n_in_(n_in) {
+    const int n = problem->points();
+    ev_.Resize(kinds->size(), problem->tau0_s);
+    slots_.resize(kinds->size());
+    for (TermSlots& t : slots_) {
+      for (Slot& s : t.slot) s.avar.resize(n);
+    }
+    log_avar_.resize(n);
+    diff_.resize(n);
+  }
 
-  int inputs() const { return n_in; }
-  int values() const { return problem->points(); }
+  int inputs() const { return n_in_; }
+  int values() const { return problem_->points(); }
+
   int operator()(const Eigen::VectorXd& theta, Eigen::VectorXd& r) const {
-    r = problem->whitener * (problem->y - LogModel(ToModel(*kinds, theta, *problem), *problem));
+    for (const Evaluation& e : memo_) {
+      if (e.theta.size() == theta.size() && SameBits(e.theta.data(), theta.data(), theta.size())) {
+        r = e.r;
+        return 0;
+      }
+    }
+    const Problem& p = *problem_;
+    const int n = p.points();
+    // Each term's AVAR at every point, from its slots or computed.
+    ++clock_;
+    int offset = 0;
+    for (size_t t = 0; t < kinds_->size(); ++t) {
+      const TermKind kind = (*kinds_)[t];
+      const int width = ParameterCount(kind);
+      TermSlots& ts = slots_[t];
+      Slot* found = nullptr;
+      for (Slot& s : ts.slot) {
+        if (s.used > 0 && SameBits(s.key.data(), theta.data() + offset, width)) found = &s;
+      }
+      if (found == nullptr) {
+        found = &ts.slot[0];
+        for (Slot& s : ts.slot) {
+          if (s.used < found->used) found = &s;
+        }
+        std::copy(theta.data() + offset, theta.data() + offset + width, found->key.begin());
+        ev_.SetTerm(t, ToTerm(kind, theta, offset, p));
+        for (int j = 0; j < n; ++j) found->avar[j] = ev_.TermAvar(t, p.m[j]);
+      }
+      found->used = clock_;
+      current_[t] = found;
+      offset += width;
+    }
+    for (int j = 0; j < n; ++j) {
+      double v = 0;  // ModelEvaluator::Avar: the terms in order
+      for (size_t t = 0; t < kinds_->size(); ++t) v += current_[t]->avar[j];
+      log_avar_(j) = LogAvar(v, p, j);
+    }
+    diff_ = p.y - log_avar_;
+    r.noalias() = p.whitener * diff_;
+    Evaluation& e = memo_[next_memo_];
+    next_memo_ = (next_memo_ + 1) % kMemo;
+    e.theta = theta;
+    e.r = r;
     return 0;
   }
+
+ private:
+  static constexpr int kSlots = 3;  // the point, a perturbed parameter, a trial step
+  static constexpr int kMemo = 16;  // more than a Jacobian's evaluations
+  static constexpr int kMaxTerms = 16;
+
+  static bool SameBits(const double* a, const double* b, int64_t count) {
+    for (int64_t i = 0; i < count; ++i) {
+      uint64_t x, y;
+      std::memcpy(&x, a + i, sizeof x);
+      std::memcpy(&y, b + i, sizeof y);
+      if (x != y) return false;
+    }
+    return true;
+  }
+
+  struct Slot {
+    std::array<double, 2> key{};  // the term's parameters (1 or 2)
+    std::vector<double> avar;     // its AVAR at every point
+    uint64_t used = 0;            // 0: empty; else the evaluation that last used it
+  };
+  struct TermSlots {
+    std::array<Slot, kSlots> slot;
+  };
+  struct Evaluation {
+    Eigen::VectorXd theta;
+    Eigen::VectorXd r;
+  };
+
+  const Problem* problem_;
+  const std::vector<TermKind>* kinds_;
+  int n_in_;
+  mutable ModelEvaluator ev_;
+  mutable std::vector<TermSlots> slots_;
+  mutable std::array<const Slot*, kMaxTerms> current_{};
+  mutable uint64_t clock_ = 0;
+  mutable Eigen::VectorXd log_avar_, diff_;
+  mutable std::array<Evaluation, kMemo> memo_;
+  mutable int next_memo_ = 0;
 };
 
 struct Candidate {
@@ -184,7 +298,7 @@ Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, co
   c.kinds = kinds;
   const int k = ParameterCount(kinds);
   if (k + 2 > p.points()) return c;
-  ResidualFunctor f{&p, &kinds, k};
+  ResidualFunctor f(&p, &kinds, k);
   Eigen::NumericalDiff<ResidualFunctor> diff(f);
   Eigen::LevenbergMarquardt<Eigen::NumericalDiff<ResidualFunctor>> lm(diff);
   lm.parameters.maxfev = 400 * (k + 1);
@@ -354,9 +468,12 @@ double StandardNormal(std::mt19937_64& rng) {
 // The standard deviation of each of `count` quantities over bootstrap
 // replicates of the moments (see FitCompositeModel); NaN where fewer than 10
 // replicates could be refitted.
-template <typename Quantities>
-std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int replicates,
-                                    size_t count, Quantities quantities) {
+// The bootstrap's draws in the moments, replicates x points: row r is
+// replicate r's deviation of each ln avar from its model value (see
+// FitCompositeModel). Seeded, so the first k rows are the same whatever the
+// number of rows: every candidate's bootstrap on the same problem shares
+// them (a candidate with k replicates uses the first k).
+Eigen::MatrixXd BootstrapNoise(const Problem& p, int replicates) {
   const int n = p.points();
   const Eigen::VectorXd sd = p.sigma.diagonal().array().sqrt();
   const Eigen::MatrixXd corr =
@@ -364,11 +481,8 @@ std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int
   Eigen::LLT<Eigen::MatrixXd> llt(corr);
   const Eigen::MatrixXd l = llt.info() == Eigen::Success ? Eigen::MatrixXd(llt.matrixL())
                                                          : Eigen::MatrixXd::Identity(n, n);
-  const Eigen::VectorXd base = LogModel(ToModel(best.kinds, best.theta, p), p);
   std::mt19937_64 rng(0x1dca5e5eedULL);
-  Problem replicate = p;
-  std::vector<double> sum(count, 0.0), sum2(count, 0.0);
-  std::vector<int> used(count, 0);
+  Eigen::MatrixXd noise(replicates, n);
   Eigen::VectorXd e(n);
   for (int r = 0; r < replicates; ++r) {
     for (int j = 0; j < n; ++j) e(j) = StandardNormal(rng);
@@ -377,10 +491,25 @@ std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int
       const double u = std::clamp(0.5 * std::erfc(-z(j) / std::numbers::sqrt2), 1e-12, 1 - 1e-12);
       const double half = p.edf(j) / 2.0;
       // ln(chi2_nu / nu) - its mean, chi2_nu = 2 Gamma(nu/2) quantile.
-      const double x = std::log(boost::math::gamma_p_inv(half, u) / half) -
-                       (boost::math::digamma(half) - std::log(half));
-      replicate.y(j) = base(j) + x;
+      noise(r, j) = std::log(boost::math::gamma_p_inv(half, u) / half) -
+                    (boost::math::digamma(half) - std::log(half));
     }
+  }
+  return noise;
+}
+
+// `noise`: BootstrapNoise(p, k) with k >= replicates.
+template <typename Quantities>
+std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int replicates,
+                                    const Eigen::MatrixXd& noise, size_t count,
+                                    Quantities quantities) {
+  const int n = p.points();
+  const Eigen::VectorXd base = LogModel(ToModel(best.kinds, best.theta, p), p);
+  Problem replicate = p;
+  std::vector<double> sum(count, 0.0), sum2(count, 0.0);
+  std::vector<int> used(count, 0);
+  for (int r = 0; r < replicates; ++r) {
+    for (int j = 0; j < n; ++j) replicate.y(j) = base(j) + noise(r, j);
     const Candidate c = Estimate(best.kinds, best.theta, replicate);
     if (!std::isfinite(c.criterion)) continue;
     const std::vector<double> q = quantities(c.theta);
@@ -401,10 +530,9 @@ std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int
 }
 
 // d ln AVAR / d ln m of the model at m.
-double ModelAvarSlope(const CompositeModel& model, double m, double tau0_s) {
+double ModelAvarSlope(const ModelEvaluator& model, double m) {
   constexpr double kStep = 1.1;
-  return std::log(model.Avar(m * kStep, tau0_s) / model.Avar(m / kStep, tau0_s)) /
-         (2.0 * std::log(kStep));
+  return std::log(model.Avar(m * kStep) / model.Avar(m / kStep)) / (2.0 * std::log(kStep));
 }
 
 // Mean over theta of sin^4(theta) sin^4(r theta).
@@ -449,11 +577,11 @@ double LogMidpoint(F g, double lo, double hi, int per_octave) {
 // W_m = 1/(m^2 sin^2(pi f)). Where a sin^4 factor oscillates much faster than
 // the rest of the integrand it is replaced by its mean (3/8, or the joint mean
 // of both factors), which keeps every pair to a few thousand evaluations.
-double SpectralOverlap(const CompositeModel& model, double tau0_s, double ma, double mb) {
+double SpectralOverlap(const ModelEvaluator& model, double ma, double mb) {
   constexpr double kFine = 8;     // samples per period of the fastest factor
   constexpr double kCycles = 32;  // periods before a factor counts as fast
   auto s2w = [&](double f) {
-    const double s = model.Psd(f, tau0_s), d = std::sin(kPi * f);
+    const double d = std::sin(kPi * f), s = model.Psd(f, d);
     return s * s / (ma * ma * mb * mb * d * d * d * d);
   };
   auto sin4 = [](double x) {
@@ -502,7 +630,9 @@ Figures ComputeFigures(const CompositeModel& model, double tau0_s, double tau_lo
   f.white_asymptote = std::sqrt(white2);
   // Minimum of the model deviation: a log grid, then golden-section refinement.
   constexpr int kGrid = 240;
-  auto dev = [&](double ln_tau) { return model.Deviation(std::exp(ln_tau) / tau0_s, tau0_s); };
+  const ModelEvaluator ev(model, tau0_s);
+  // CompositeModel::Deviation at m = tau / tau0.
+  auto dev = [&](double ln_tau) { return std::sqrt(ev.Avar(std::exp(ln_tau) / tau0_s)); };
   const double a = std::log(tau_lo), b = std::log(tau_hi);
   int best = 0;
   double best_dev = std::numeric_limits<double>::infinity(), prev = kNaN;
@@ -617,17 +747,18 @@ double AvarCorrelation(const CompositeModel& model, double tau0_s, int64_t m_a, 
 std::vector<double> AvarCorrelationMatrix(const CompositeModel& model, double tau0_s,
                                           const std::vector<int64_t>& m) {
   const size_t n = m.size();
+  const ModelEvaluator ev(model, tau0_s);
   std::vector<double> self(n), out(n * n, 0.0);
   for (size_t j = 0; j < n; ++j) {
     const double mj = static_cast<double>(m[j]);
-    self[j] = SpectralOverlap(model, tau0_s, mj, mj);
+    self[j] = SpectralOverlap(ev, mj, mj);
     out[j * n + j] = 1.0;
   }
   for (size_t j = 0; j < n; ++j) {
     for (size_t k = j + 1; k < n; ++k) {
       const double lo = static_cast<double>(std::min(m[j], m[k]));
       const double hi = static_cast<double>(std::max(m[j], m[k]));
-      const double r = SpectralOverlap(model, tau0_s, lo, hi) / std::sqrt(self[j] * self[k]);
+      const double r = SpectralOverlap(ev, lo, hi) / std::sqrt(self[j] * self[k]);
       out[j * n + k] = out[k * n + j] = std::isfinite(r) ? std::clamp(r, -1.0, 1.0) : 0.0;
     }
   }
@@ -666,10 +797,11 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
 
   // Pass 2: the covariance of the pilot, full.
   const CompositeModel pilot_model = ToModel(pilot.kinds, pilot.theta, p1);
+  const ModelEvaluator pilot_evaluator(pilot_model, tau0);
   Eigen::VectorXd edf2(n);
   std::vector<int64_t> ms;
   for (int j = 0; j < n; ++j) {
-    edf2(j) = FitRowEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_model, p1.m[j], tau0)), rows[j]);
+    edf2(j) = FitRowEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_evaluator, p1.m[j])), rows[j]);
     ms.push_back(rows[j].m);
   }
   const std::vector<double> corr_values = AvarCorrelationMatrix(pilot_model, tau0, ms);
@@ -761,8 +893,11 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
     return q;
   };
   const std::vector<double> q_best = own(best.theta);
+  // One set of draws for every candidate's bootstrap (the same seed gave each
+  // the same draws when each drew its own).
+  const Eigen::MatrixXd noise = BootstrapNoise(p2, options.bootstrap_replicates);
   const std::vector<double> sd_best =
-      BootstrapSigmas(best, p2, options.bootstrap_replicates, q_best.size(), own);
+      BootstrapSigmas(best, p2, options.bootstrap_replicates, noise, q_best.size(), own);
   const size_t own_count = q_best.size() - kShared;
   size_t qi = 0;
   for (const ModelTerm& t : fit.model.terms) {
@@ -792,7 +927,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
         return out;
       };
       q = of(cand.theta);
-      sd = BootstrapSigmas(cand, p2, options.bootstrap_replicates / 2, kShared, of);
+      sd = BootstrapSigmas(cand, p2, options.bootstrap_replicates / 2, noise, kShared, of);
     }
     fit.candidates[c].weight = w;
     weight_sum += w;
