@@ -573,36 +573,112 @@ double LogMidpoint(F g, double lo, double hi, int per_octave) {
   return sum * step;
 }
 
+// The spectrum on the midpoint grid of one of SpectralOverlap's integrals,
+// at the points Midpoint (linear) or LogMidpoint (logarithmic) would take:
+// each point's f, sin(pi f) and the model's PSD, and, on a linear grid of a
+// factor m, sin^4(pi f m). Integrals whose grid depends on one factor alone
+// are shared by every pair with that factor (the values are the ones the
+// integrand would compute, so the sums are the same).
+struct SpectrumGrid {
+  bool empty = true;  // !(hi > lo): the integral is 0
+  double step = 0;    // h (linear) or the step in ln f (logarithmic)
+  std::vector<double> f, sin_pi_f, psd, sin4_m;
+};
+
+double Sin4(double x) {
+  const double s = std::sin(x);
+  return s * s * s * s;
+}
+
+SpectrumGrid LinearSpectrumGrid(const ModelEvaluator& model, double lo, double hi, double step,
+                                double m) {
+  SpectrumGrid g;
+  if (!(hi > lo)) return g;
+  g.empty = false;
+  const int n = std::max(1, static_cast<int>(std::ceil((hi - lo) / step)));
+  g.step = (hi - lo) / n;
+  for (int i = 0; i < n; ++i) {
+    const double f = lo + (i + 0.5) * g.step;
+    const double d = std::sin(kPi * f);
+    g.f.push_back(f);
+    g.sin_pi_f.push_back(d);
+    g.psd.push_back(model.Psd(f, d));
+    g.sin4_m.push_back(Sin4(kPi * f * m));
+  }
+  return g;
+}
+
+SpectrumGrid LogSpectrumGrid(const ModelEvaluator& model, double lo, double hi, int per_octave) {
+  SpectrumGrid g;
+  if (!(hi > lo)) return g;
+  g.empty = false;
+  const int n = std::max(1, static_cast<int>(std::ceil(per_octave * std::log2(hi / lo))));
+  g.step = std::log(hi / lo) / n;
+  for (int i = 0; i < n; ++i) {
+    const double f = lo * std::exp((i + 0.5) * g.step);
+    const double d = std::sin(kPi * f);
+    g.f.push_back(f);
+    g.sin_pi_f.push_back(d);
+    g.psd.push_back(model.Psd(f, d));
+  }
+  return g;
+}
+
+constexpr double kOverlapFine = 8;     // samples per period of the fastest factor
+constexpr double kOverlapCycles = 32;  // periods before a factor counts as fast
+
+// The first integral's grid of SpectralOverlap(., m_b) and its last one's of
+// SpectralOverlap(m_a, .), for m_b = m_a = m.
+SpectrumGrid FirstOverlapGrid(const ModelEvaluator& model, double m) {
+  return LinearSpectrumGrid(model, 0, std::min(0.5, kOverlapCycles / m), 1 / (kOverlapFine * m), m);
+}
+SpectrumGrid LastOverlapGrid(const ModelEvaluator& model, double m) {
+  return LogSpectrumGrid(model, std::min(0.5, kOverlapCycles / m), 0.5, 16);
+}
+
 // I_ab = int_0^1/2 S(f)^2 H_a(f) H_b(f) df, m_a <= m_b. H_m = sin^4(pi f m) W_m,
 // W_m = 1/(m^2 sin^2(pi f)). Where a sin^4 factor oscillates much faster than
 // the rest of the integrand it is replaced by its mean (3/8, or the joint mean
 // of both factors), which keeps every pair to a few thousand evaluations.
-double SpectralOverlap(const ModelEvaluator& model, double ma, double mb) {
-  constexpr double kFine = 8;     // samples per period of the fastest factor
-  constexpr double kCycles = 32;  // periods before a factor counts as fast
+// `first`: FirstOverlapGrid(model, mb); `last`: LastOverlapGrid(model, ma);
+// `mean_fast(r)`: MeanFastFactor(r).
+template <typename MeanFast>
+double SpectralOverlap(const ModelEvaluator& model, double ma, double mb, const SpectrumGrid& first,
+                       const SpectrumGrid& last, MeanFast mean_fast) {
+  auto s2w_of = [&](double s, double d) { return s * s / (ma * ma * mb * mb * d * d * d * d); };
   auto s2w = [&](double f) {
     const double d = std::sin(kPi * f), s = model.Psd(f, d);
-    return s * s / (ma * ma * mb * mb * d * d * d * d);
+    return s2w_of(s, d);
   };
-  auto sin4 = [](double x) {
-    const double s = std::sin(x);
-    return s * s * s * s;
-  };
-  const double f1 = std::min(0.5, kCycles / mb);
-  const double f2 = std::min(0.5, kCycles / ma);
-  double total =
-      Midpoint([&](double f) { return s2w(f) * sin4(kPi * f * ma) * sin4(kPi * f * mb); }, 0, f1,
-               1 / (kFine * mb));
+  const double f1 = std::min(0.5, kOverlapCycles / mb);
+  const double f2 = std::min(0.5, kOverlapCycles / ma);
+  // Midpoint(s2w(f) sin^4(pi f ma) sin^4(pi f mb), 0, f1, 1 / (kFine mb)).
+  double total = 0;
+  if (!first.empty) {
+    double sum = 0;
+    for (size_t i = 0; i < first.f.size(); ++i) {
+      const double f = first.f[i];
+      sum += s2w_of(first.psd[i], first.sin_pi_f[i]) * Sin4(kPi * f * ma) * first.sin4_m[i];
+    }
+    total = sum * first.step;
+  }
   const double r = mb / ma;
   if (r >= 8) {
-    total += Midpoint([&](double f) { return s2w(f) * sin4(kPi * f * ma) * 0.375; }, f1, f2,
-                      1 / (kFine * ma));
+    total += Midpoint([&](double f) { return s2w(f) * Sin4(kPi * f * ma) * 0.375; }, f1, f2,
+                      1 / (kOverlapFine * ma));
   } else {
-    total += Midpoint([&](double f) { return s2w(f) * sin4(kPi * f * ma) * sin4(kPi * f * mb); },
-                      f1, f2, 1 / (kFine * mb));
+    total += Midpoint([&](double f) { return s2w(f) * Sin4(kPi * f * ma) * Sin4(kPi * f * mb); },
+                      f1, f2, 1 / (kOverlapFine * mb));
   }
-  const double mean = r >= 8 ? 0.375 * 0.375 : MeanFastFactor(r);
-  total += LogMidpoint([&](double f) { return s2w(f) * mean; }, f2, 0.5, 16);
+  const double mean = r >= 8 ? 0.375 * 0.375 : mean_fast(r);
+  // LogMidpoint(s2w(f) mean, f2, 0.5, 16).
+  if (!last.empty) {
+    double sum = 0;
+    for (size_t i = 0; i < last.f.size(); ++i) {
+      sum += s2w_of(last.psd[i], last.sin_pi_f[i]) * mean * last.f[i];
+    }
+    total += sum * last.step;
+  }
   return total;
 }
 
@@ -615,8 +691,26 @@ struct Figures {
   bool minimum_at_edge = false;
 };
 
-Figures ComputeFigures(const CompositeModel& model, double tau0_s, double tau_lo, double tau_hi,
-                       const GmwmOptions& options) {
+// The log-tau grid on which ComputeFigures looks for the model's minimum:
+// ln tau from ln tau_lo to ln tau_hi in kGrid steps, and each point's
+// averaging factor, the same for every model of one fit.
+struct MinimumGrid {
+  static constexpr int kGrid = 240;
+  MinimumGrid(double tau0_s, double tau_lo, double tau_hi)
+      : tau0_s(tau0_s), a(std::log(tau_lo)), b(std::log(tau_hi)) {
+    for (int i = 0; i <= kGrid; ++i) m[i] = std::exp(x(i)) / tau0_s;
+  }
+  double x(int i) const { return a + (b - a) * i / kGrid; }
+
+  double tau0_s, a, b;
+  std::array<double, kGrid + 1> m;  // exp(x(i)) / tau0
+};
+
+// `white_region`: whether to look for a white-noise region (has_white_region;
+// the bootstrap's replicates do not read it).
+Figures ComputeFigures(const CompositeModel& model, const MinimumGrid& grid,
+                       const GmwmOptions& options, bool white_region = true) {
+  const double tau0_s = grid.tau0_s;
   Figures f;
   double white2 = 0;
   for (const ModelTerm& t : model.terms) {
@@ -629,21 +723,20 @@ Figures ComputeFigures(const CompositeModel& model, double tau0_s, double tau_lo
   }
   f.white_asymptote = std::sqrt(white2);
   // Minimum of the model deviation: a log grid, then golden-section refinement.
-  constexpr int kGrid = 240;
+  constexpr int kGrid = MinimumGrid::kGrid;
   const ModelEvaluator ev(model, tau0_s);
   // CompositeModel::Deviation at m = tau / tau0.
   auto dev = [&](double ln_tau) { return std::sqrt(ev.Avar(std::exp(ln_tau) / tau0_s)); };
-  const double a = std::log(tau_lo), b = std::log(tau_hi);
+  const double a = grid.a, b = grid.b;
   int best = 0;
   double best_dev = std::numeric_limits<double>::infinity(), prev = kNaN;
   for (int i = 0; i <= kGrid; ++i) {
-    const double x = a + (b - a) * i / kGrid;
-    const double d = dev(x);
+    const double d = std::sqrt(ev.Avar(grid.m[i]));  // dev(grid.x(i))
     if (d < best_dev) {
       best_dev = d;
       best = i;
     }
-    if (i > 0) {
+    if (white_region && i > 0) {
       const double slope = std::log(d / prev) / ((b - a) / kGrid);
       if (std::fabs(slope + 0.5) <= 0.1) f.has_white_region = true;
     }
@@ -748,17 +841,32 @@ std::vector<double> AvarCorrelationMatrix(const CompositeModel& model, double ta
                                           const std::vector<int64_t>& m) {
   const size_t n = m.size();
   const ModelEvaluator ev(model, tau0_s);
+  // The grids that depend on one factor, and MeanFastFactor per ratio
+  // (octave neighbours share a handful of ratios; each costs 8192 sines).
+  std::vector<SpectrumGrid> first(n), last(n);
+  for (size_t j = 0; j < n; ++j) {
+    first[j] = FirstOverlapGrid(ev, static_cast<double>(m[j]));
+    last[j] = LastOverlapGrid(ev, static_cast<double>(m[j]));
+  }
+  std::map<double, double> mean_fast_of;
+  auto mean_fast = [&](double r) {
+    auto it = mean_fast_of.find(r);
+    if (it == mean_fast_of.end()) it = mean_fast_of.emplace(r, MeanFastFactor(r)).first;
+    return it->second;
+  };
   std::vector<double> self(n), out(n * n, 0.0);
   for (size_t j = 0; j < n; ++j) {
     const double mj = static_cast<double>(m[j]);
-    self[j] = SpectralOverlap(ev, mj, mj);
+    self[j] = SpectralOverlap(ev, mj, mj, first[j], last[j], mean_fast);
     out[j * n + j] = 1.0;
   }
   for (size_t j = 0; j < n; ++j) {
     for (size_t k = j + 1; k < n; ++k) {
+      const size_t a = m[j] <= m[k] ? j : k, b = m[j] <= m[k] ? k : j;
       const double lo = static_cast<double>(std::min(m[j], m[k]));
       const double hi = static_cast<double>(std::max(m[j], m[k]));
-      const double r = SpectralOverlap(ev, lo, hi) / std::sqrt(self[j] * self[k]);
+      const double r =
+          SpectralOverlap(ev, lo, hi, first[b], last[a], mean_fast) / std::sqrt(self[j] * self[k]);
       out[j * n + k] = out[k * n + j] = std::isfinite(r) ? std::clamp(r, -1.0, 1.0) : 0.0;
     }
   }
@@ -869,6 +977,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   // candidates carry weight and the sigmas say how unsure the split is,
   // instead of one model's confident, biased value.
   const double tau_lo = rows.front().tau_s, tau_hi = rows.back().tau_s;
+  const MinimumGrid grid(tau0, tau_lo, tau_hi);
   constexpr int kShared = 8;  // Q, N, B, K, R scales (0 if absent); ARW, minimum, its tau
   auto shared = [&](const CompositeModel& m, std::vector<double>* q) {
     for (TermKind k : kIeeeKinds) {
@@ -878,7 +987,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
       }
       q->push_back(v);
     }
-    const Figures f = ComputeFigures(m, tau0, tau_lo, tau_hi, options);
+    const Figures f = ComputeFigures(m, grid, options, /*white_region=*/false);
     for (double v : {f.white_asymptote, f.curve_minimum, f.tau_at_minimum}) q->push_back(v);
   };
   auto own = [&](const Eigen::VectorXd& theta) {  // the selected model: its terms first
@@ -952,7 +1061,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
           AbsentTermUpperBound(best, kIeeeKinds[i], p2, rows, options.absent_term_bound_delta_j);
     }
   }
-  const Figures f0 = ComputeFigures(fit.model, tau0, tau_lo, tau_hi, options);
+  const Figures f0 = ComputeFigures(fit.model, grid, options);
   fit.white_asymptote = avg[5];
   fit.curve_minimum = avg[6];
   fit.tau_at_minimum = avg[7];
