@@ -31,8 +31,22 @@ class Hasher {
     Int(static_cast<int64_t>(size));
     Bytes(data, size);
   }
-  void Bytes(const void* data, size_t size) { crc_ = Crc32cExtend(crc_, data, size); }
-  uint32_t value() const { return crc_; }
+  // The bytes go through the CRC a buffer at a time, not a value at a time
+  // (a result's rows are thousands of 8-byte values): the CRC of the same
+  // byte stream, whatever the pieces (Crc32cExtend).
+  void Bytes(const void* data, size_t size) {
+    if (fill_ + size > sizeof buffer_) Flush();
+    if (size > sizeof buffer_) {
+      crc_ = Crc32cExtend(crc_, data, size);
+      return;
+    }
+    std::memcpy(buffer_ + fill_, data, size);
+    fill_ += size;
+  }
+  uint32_t value() {
+    Flush();
+    return crc_;
+  }
 
   // One column of the current row of `stmt`, by its SQLite storage class.
   void Column(sqlite3_stmt* stmt, int col) {
@@ -57,7 +71,14 @@ class Hasher {
   }
 
  private:
+  void Flush() {
+    crc_ = Crc32cExtend(crc_, buffer_, fill_);
+    fill_ = 0;
+  }
+
   uint32_t crc_ = 0;
+  uint8_t buffer_[4096];
+  size_t fill_ = 0;
 };
 
 // The result rows of a run, table by table, in primary-key order. An
