@@ -6,6 +6,7 @@
 #include <boost/math/special_functions/digamma.hpp>
 #include <boost/math/special_functions/gamma.hpp>
 #include <boost/math/special_functions/trigamma.hpp>
+#include <cassert>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -166,6 +167,7 @@ class ResidualFunctor {
 
   ResidualFunctor(const Problem* problem, const std::vector<TermKind>* kinds, int n_in)
       : problem_(problem), kinds_(kinds), n_in_(n_in) {
+    assert(kinds->size() <= kMaxTerms);
     const int n = problem->points();
     ev_.Resize(kinds->size(), problem->tau0_s);
     slots_.resize(kinds->size());
@@ -180,15 +182,45 @@ class ResidualFunctor {
   int values() const { return problem_->points(); }
 
   int operator()(const Eigen::VectorXd& theta, Eigen::VectorXd& r) const {
-    for (const Evaluation& e : memo_) {
+    // Newest first: the point just accepted is the last one evaluated.
+    for (int i = 1; i <= kMemo; ++i) {
+      const Evaluation& e = memo_[(next_memo_ + kMemo - i) % kMemo];
       if (e.theta.size() == theta.size() && SameBits(e.theta.data(), theta.data(), theta.size())) {
         r = e.r;
         return 0;
       }
     }
     const Problem& p = *problem_;
+    LogAvarFromTerms(theta);
+    diff_ = p.y - log_avar_;
+    r.noalias() = p.whitener * diff_;
+    Evaluation& e = memo_[next_memo_];
+    next_memo_ = (next_memo_ + 1) % kMemo;
+    e.theta = theta;
+    e.r = r;
+    return 0;
+  }
+
+ private:
+  static constexpr int kSlots = 3;  // the point, a perturbed parameter, a trial step
+  static constexpr int kMemo = 16;  // more than a Jacobian's evaluations
+  static constexpr size_t kMaxTerms = 16;
+
+  static bool SameBits(const double* a, const double* b, int64_t count) {
+    for (int64_t i = 0; i < count; ++i) {
+      uint64_t x, y;
+      std::memcpy(&x, a + i, sizeof x);
+      std::memcpy(&y, b + i, sizeof y);
+      if (x != y) return false;
+    }
+    return true;
+  }
+
+  // log_avar_ = ln(AVAR of the model + the fixed term) at every point, each
+  // term's AVAR from its slots or computed.
+  void LogAvarFromTerms(const Eigen::VectorXd& theta) const {
+    const Problem& p = *problem_;
     const int n = p.points();
-    // Each term's AVAR at every point, from its slots or computed.
     ++clock_;
     int offset = 0;
     for (size_t t = 0; t < kinds_->size(); ++t) {
@@ -217,28 +249,6 @@ class ResidualFunctor {
       for (size_t t = 0; t < kinds_->size(); ++t) v += current_[t]->avar[j];
       log_avar_(j) = LogAvar(v, p, j);
     }
-    diff_ = p.y - log_avar_;
-    r.noalias() = p.whitener * diff_;
-    Evaluation& e = memo_[next_memo_];
-    next_memo_ = (next_memo_ + 1) % kMemo;
-    e.theta = theta;
-    e.r = r;
-    return 0;
-  }
-
- private:
-  static constexpr int kSlots = 3;  // the point, a perturbed parameter, a trial step
-  static constexpr int kMemo = 16;  // more than a Jacobian's evaluations
-  static constexpr int kMaxTerms = 16;
-
-  static bool SameBits(const double* a, const double* b, int64_t count) {
-    for (int64_t i = 0; i < count; ++i) {
-      uint64_t x, y;
-      std::memcpy(&x, a + i, sizeof x);
-      std::memcpy(&y, b + i, sizeof y);
-      if (x != y) return false;
-    }
-    return true;
   }
 
   struct Slot {
@@ -298,15 +308,14 @@ Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, co
   c.kinds = kinds;
   const int k = ParameterCount(kinds);
   if (k + 2 > p.points()) return c;
-  ResidualFunctor f(&p, &kinds, k);
-  Eigen::NumericalDiff<ResidualFunctor> diff(f);
+  Eigen::NumericalDiff<ResidualFunctor> diff(ResidualFunctor(&p, &kinds, k));
   Eigen::LevenbergMarquardt<Eigen::NumericalDiff<ResidualFunctor>> lm(diff);
   lm.parameters.maxfev = 400 * (k + 1);
   lm.parameters.xtol = tolerance;
   lm.parameters.ftol = tolerance * 1e-3;
   lm.minimize(theta);
   Eigen::VectorXd r;
-  f(theta, r);
+  diff(theta, r);  // the functor LM used: its last evaluations are remembered
   if (!r.allFinite()) return c;
   c.theta = theta;
   c.objective = r.squaredNorm();
@@ -483,6 +492,12 @@ Eigen::MatrixXd BootstrapNoise(const Problem& p, int replicates) {
                                                          : Eigen::MatrixXd::Identity(n, n);
   std::mt19937_64 rng(0x1dca5e5eedULL);
   Eigen::MatrixXd noise(replicates, n);
+  // The mean of ln(chi2_nu / nu) at each point, the same in every replicate.
+  std::vector<double> mean(n);
+  for (int j = 0; j < n; ++j) {
+    const double half = p.edf(j) / 2.0;
+    mean[j] = boost::math::digamma(half) - std::log(half);
+  }
   Eigen::VectorXd e(n);
   for (int r = 0; r < replicates; ++r) {
     for (int j = 0; j < n; ++j) e(j) = StandardNormal(rng);
@@ -491,8 +506,7 @@ Eigen::MatrixXd BootstrapNoise(const Problem& p, int replicates) {
       const double u = std::clamp(0.5 * std::erfc(-z(j) / std::numbers::sqrt2), 1e-12, 1 - 1e-12);
       const double half = p.edf(j) / 2.0;
       // ln(chi2_nu / nu) - its mean, chi2_nu = 2 Gamma(nu/2) quantile.
-      noise(r, j) = std::log(boost::math::gamma_p_inv(half, u) / half) -
-                    (boost::math::digamma(half) - std::log(half));
+      noise(r, j) = std::log(boost::math::gamma_p_inv(half, u) / half) - mean[j];
     }
   }
   return noise;
