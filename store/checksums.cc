@@ -163,10 +163,9 @@ Result<uint32_t> ResultsChecksum(Db& db, int64_t run_key) {
     ++table;
     if (!query.optional) h.Tag(table);
     // The statement's columns through the C API: Stmt hides storage classes.
-    sqlite3_stmt* raw = nullptr;
-    if (sqlite3_prepare_v2(db.handle(), query.sql, -1, &raw, nullptr) != SQLITE_OK) {
-      return Status::IoError(db.path() + ": " + db.ErrorMessage());
-    }
+    auto stmt = db.Prepare(query.sql);
+    if (!stmt.ok()) return Status::IoError(stmt.status().message());
+    sqlite3_stmt* raw = stmt->handle();
     sqlite3_bind_int64(raw, 1, run_key);
     int rc;
     bool first = true;
@@ -176,9 +175,9 @@ Result<uint32_t> ResultsChecksum(Db& db, int64_t run_key) {
       h.Tag(0xFF);  // row separator
       for (int col = 0; col < sqlite3_column_count(raw); ++col) h.Column(raw, col);
     }
-    const std::string error = rc == SQLITE_DONE ? "" : db.ErrorMessage();
-    sqlite3_finalize(raw);
-    if (!error.empty()) return Status::IoError(db.path() + ": reading results: " + error);
+    if (rc != SQLITE_DONE) {
+      return Status::IoError(db.path() + ": reading results: " + db.ErrorMessage());
+    }
   }
   return h.value();
 }
