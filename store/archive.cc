@@ -90,9 +90,28 @@ Result<Stmt*> Archive::Cached(int id, const char* sql) {
   return cache_[id].get();
 }
 
-Status Archive::Begin() { return db_->Exec("BEGIN IMMEDIATE"); }
-Status Archive::Commit() { return db_->Exec("COMMIT"); }
-Status Archive::Rollback() { return db_->Exec("ROLLBACK"); }
+Status Archive::Begin() {
+  unsealed_.clear();
+  return db_->Exec("BEGIN IMMEDIATE");
+}
+
+Status Archive::Commit() {
+  // Each run's results checksum once per transaction, over its final rows.
+  for (int64_t run_key : unsealed_) IMUQUAL_RETURN_IF_ERROR(SealResults(*db_, run_key));
+  unsealed_.clear();
+  return db_->Exec("COMMIT");
+}
+
+Status Archive::Rollback() {
+  unsealed_.clear();
+  return db_->Exec("ROLLBACK");
+}
+
+Status Archive::SealResultsOf(int64_t run_key) {
+  if (sqlite3_get_autocommit(db_->handle())) return SealResults(*db_, run_key);  // no transaction
+  unsealed_.insert(run_key);
+  return Status::Ok();
+}
 
 Result<int64_t> Archive::UpsertRun(const RunInfo& run) {
   auto lot = Cached(kInsertLot, "INSERT OR IGNORE INTO lots(lot, first_seen_utime) VALUES(?, ?)");
@@ -300,7 +319,7 @@ Status Archive::PutCurve(int64_t run_key, const CurveRecord& rec) {
                                 .Bind(13, AlphaFrom(p))
                                 .Run());
   }
-  return SealResults(*db_, run_key);
+  return SealResultsOf(run_key);
 }
 
 Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
@@ -383,7 +402,7 @@ Status Archive::PutResult(int64_t run_key, const ResultRecord& r) {
     }
     IMUQUAL_RETURN_IF_ERROR(axes->Bind(2, run_key).Bind(3, a).Run());
   }
-  return SealResults(*db_, run_key);
+  return SealResultsOf(run_key);
 }
 
 Status Archive::SetSigningKey(const SigningKey& key) {

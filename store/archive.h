@@ -11,6 +11,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -195,6 +196,11 @@ class Archive {
   std::unique_ptr<Db> db_;
   std::vector<std::unique_ptr<Stmt>> cache_;
   std::optional<SigningKey> signing_key_;
+  // Runs whose result rows changed in the open transaction: their results
+  // checksum is computed once, at Commit() (SealResultsOf).
+  std::set<int64_t> unsealed_;
+  // Seals now outside a transaction, else at Commit().
+  Status SealResultsOf(int64_t run_key);
 };
 
 const char* AxisKindName(pb::AxisKind kind);  // "gyro" / "accel"

@@ -31,8 +31,22 @@ class Hasher {
     Int(static_cast<int64_t>(size));
     Bytes(data, size);
   }
-  void Bytes(const void* data, size_t size) { crc_ = Crc32cExtend(crc_, data, size); }
-  uint32_t value() const { return crc_; }
+  // The bytes go through the CRC a buffer at a time, not a value at a time
+  // (a result's rows are thousands of 8-byte values): the CRC of the same
+  // byte stream, whatever the pieces (Crc32cExtend).
+  void Bytes(const void* data, size_t size) {
+    if (fill_ + size > sizeof buffer_) Flush();
+    if (size > sizeof buffer_) {
+      crc_ = Crc32cExtend(crc_, data, size);
+      return;
+    }
+    std::memcpy(buffer_ + fill_, data, size);
+    fill_ += size;
+  }
+  uint32_t value() {
+    Flush();
+    return crc_;
+  }
 
   // One column of the current row of `stmt`, by its SQLite storage class.
   void Column(sqlite3_stmt* stmt, int col) {
@@ -57,7 +71,14 @@ class Hasher {
   }
 
  private:
+  void Flush() {
+    crc_ = Crc32cExtend(crc_, buffer_, fill_);
+    fill_ = 0;
+  }
+
   uint32_t crc_ = 0;
+  uint8_t buffer_[4096];
+  size_t fill_ = 0;
 };
 
 // The result rows of a run, table by table, in primary-key order. An
@@ -142,10 +163,9 @@ Result<uint32_t> ResultsChecksum(Db& db, int64_t run_key) {
     ++table;
     if (!query.optional) h.Tag(table);
     // The statement's columns through the C API: Stmt hides storage classes.
-    sqlite3_stmt* raw = nullptr;
-    if (sqlite3_prepare_v2(db.handle(), query.sql, -1, &raw, nullptr) != SQLITE_OK) {
-      return Status::IoError(db.path() + ": " + db.ErrorMessage());
-    }
+    auto stmt = db.Prepare(query.sql);
+    if (!stmt.ok()) return Status::IoError(stmt.status().message());
+    sqlite3_stmt* raw = stmt->handle();
     sqlite3_bind_int64(raw, 1, run_key);
     int rc;
     bool first = true;
@@ -155,9 +175,9 @@ Result<uint32_t> ResultsChecksum(Db& db, int64_t run_key) {
       h.Tag(0xFF);  // row separator
       for (int col = 0; col < sqlite3_column_count(raw); ++col) h.Column(raw, col);
     }
-    const std::string error = rc == SQLITE_DONE ? "" : db.ErrorMessage();
-    sqlite3_finalize(raw);
-    if (!error.empty()) return Status::IoError(db.path() + ": reading results: " + error);
+    if (rc != SQLITE_DONE) {
+      return Status::IoError(db.path() + ": reading results: " + db.ErrorMessage());
+    }
   }
   return h.value();
 }

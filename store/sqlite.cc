@@ -1,8 +1,54 @@
 #include "store/sqlite.h"
 
 #include <cmath>
+#include <unordered_map>
+#include <vector>
 
 namespace imuqual::store {
+
+// Idle compiled statements of one connection, by SQL text.
+class StatementCache {
+ public:
+  // An idle statement of this text, or nullptr.
+  sqlite3_stmt* Take(const std::string& sql) {
+    auto it = idle_.find(sql);
+    if (it == idle_.end() || it->second.empty()) return nullptr;
+    sqlite3_stmt* stmt = it->second.back();
+    it->second.pop_back();
+    --count_;
+    return stmt;
+  }
+  // Keeps `stmt` reset and unbound for the next Take, or finalizes it (the
+  // connection is closed, or enough statements are idle).
+  void Give(const std::string& sql, sqlite3_stmt* stmt) {
+    std::vector<sqlite3_stmt*>& idle = idle_[sql];
+    if (closed_ || idle.size() >= kPerText || count_ >= kTotal) {
+      sqlite3_finalize(stmt);
+      return;
+    }
+    sqlite3_reset(stmt);
+    sqlite3_clear_bindings(stmt);
+    idle.push_back(stmt);
+    ++count_;
+  }
+  // Finalizes every idle statement; later ones are finalized when given.
+  void Close() {
+    for (auto& [sql, idle] : idle_) {
+      for (sqlite3_stmt* stmt : idle) sqlite3_finalize(stmt);
+    }
+    idle_.clear();
+    count_ = 0;
+    closed_ = true;
+  }
+
+ private:
+  static constexpr size_t kPerText = 4;  // nested uses of one text are rare
+  static constexpr size_t kTotal = 256;
+  std::unordered_map<std::string, std::vector<sqlite3_stmt*>> idle_;
+  size_t count_ = 0;
+  bool closed_ = false;
+};
+
 namespace {
 
 // The statement's first line, shortened, for error messages.
@@ -17,15 +63,19 @@ std::string Brief(const std::string& sql) {
 Status FromCode(int rc, const std::string& what) {
   switch (rc & 0xff) {
     case SQLITE_NOTADB:
-    case SQLITE_CORRUPT: return Status::Corruption(what);
+    case SQLITE_CORRUPT:
+      return Status::Corruption(what);
     case SQLITE_CANTOPEN:
     case SQLITE_READONLY:
     case SQLITE_FULL:
     case SQLITE_IOERR:
-    case SQLITE_PERM: return Status::IoError(what);
+    case SQLITE_PERM:
+      return Status::IoError(what);
     case SQLITE_BUSY:
-    case SQLITE_LOCKED: return Status::Unavailable(what);
-    default: return Status::InvalidArgument(what);
+    case SQLITE_LOCKED:
+      return Status::Unavailable(what);
+    default:
+      return Status::InvalidArgument(what);
   }
 }
 
@@ -47,7 +97,13 @@ Result<std::unique_ptr<Db>> Db::Open(const std::string& path, Mode mode) {
   return std::unique_ptr<Db>(new Db(raw, path));
 }
 
-Db::~Db() { sqlite3_close_v2(db_); }
+Db::Db(sqlite3* db, std::string path)
+    : db_(db), path_(std::move(path)), cache_(std::make_shared<StatementCache>()) {}
+
+Db::~Db() {
+  cache_->Close();
+  sqlite3_close_v2(db_);
+}
 
 std::string Db::ErrorMessage() const {
   return std::string(sqlite3_errmsg(db_)) + " (" + sqlite3_errstr(sqlite3_extended_errcode(db_)) +
@@ -66,12 +122,13 @@ Status Db::Exec(const std::string& sql) {
 }
 
 Result<Stmt> Db::Prepare(const std::string& sql) {
+  if (sqlite3_stmt* idle = cache_->Take(sql)) return Stmt(idle, this, sql, cache_);
   sqlite3_stmt* stmt = nullptr;
   const int rc = sqlite3_prepare_v2(db_, sql.c_str(), static_cast<int>(sql.size()), &stmt, nullptr);
   if (rc != SQLITE_OK) {
     return FromCode(rc, path_ + ": " + ErrorMessage() + " [" + Brief(sql) + "]");
   }
-  return Stmt(stmt, this, sql);
+  return Stmt(stmt, this, sql, cache_);
 }
 
 Result<int64_t> Db::QueryInt(const std::string& sql) {
@@ -84,32 +141,46 @@ Result<int64_t> Db::QueryInt(const std::string& sql) {
 }
 
 Stmt::Stmt(Stmt&& other) noexcept
-    : stmt_(other.stmt_), db_(other.db_), sql_(std::move(other.sql_)),
+    : stmt_(other.stmt_),
+      db_(other.db_),
+      sql_(std::move(other.sql_)),
+      cache_(std::move(other.cache_)),
       bind_error_(std::move(other.bind_error_)) {
   other.stmt_ = nullptr;
 }
 
 Stmt& Stmt::operator=(Stmt&& other) noexcept {
   if (this != &other) {
-    sqlite3_finalize(stmt_);
+    Release();
     stmt_ = other.stmt_;
     db_ = other.db_;
     sql_ = std::move(other.sql_);
+    cache_ = std::move(other.cache_);
     bind_error_ = std::move(other.bind_error_);
     other.stmt_ = nullptr;
   }
   return *this;
 }
 
-Stmt::~Stmt() { sqlite3_finalize(stmt_); }
+Stmt::~Stmt() { Release(); }
 
-#define IMUQUAL_BIND(call)                                                              \
-  do {                                                                                  \
-    const int rc_ = (call);                                                             \
-    if (rc_ != SQLITE_OK && bind_error_.ok()) {                                         \
-      bind_error_ = FromCode(rc_, "bind " + std::to_string(i) + " of [" + Brief(sql_) + \
-                                      "]: " + sqlite3_errstr(rc_));                     \
-    }                                                                                   \
+void Stmt::Release() {
+  if (stmt_ == nullptr) return;
+  if (cache_) {
+    cache_->Give(sql_, stmt_);
+  } else {
+    sqlite3_finalize(stmt_);
+  }
+  stmt_ = nullptr;
+}
+
+#define IMUQUAL_BIND(call)                                                                         \
+  do {                                                                                             \
+    const int rc_ = (call);                                                                        \
+    if (rc_ != SQLITE_OK && bind_error_.ok()) {                                                    \
+      bind_error_ = FromCode(                                                                      \
+          rc_, "bind " + std::to_string(i) + " of [" + Brief(sql_) + "]: " + sqlite3_errstr(rc_)); \
+    }                                                                                              \
   } while (0)
 
 Stmt& Stmt::Bind(int i, int64_t v) {

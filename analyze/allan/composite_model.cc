@@ -155,6 +155,130 @@ double CompositeModel::Psd(double f, double tau0_s) const {
   return s;
 }
 
+ModelEvaluator::ModelEvaluator(const CompositeModel& model, double tau0_s) { Reset(model, tau0_s); }
+
+void ModelEvaluator::Reset(const CompositeModel& model, double tau0_s) {
+  Resize(model.terms.size(), tau0_s);
+  for (size_t i = 0; i < model.terms.size(); ++i) SetTerm(i, model.terms[i]);
+}
+
+void ModelEvaluator::Resize(size_t terms, double tau0_s) {
+  tau0_s_ = tau0_s;
+  terms_.resize(terms);
+}
+
+void ModelEvaluator::SetTerm(size_t i, const ModelTerm& t) {
+  const double tau0_s = tau0_s_;
+  Term& e = terms_[i];
+  e = Term{};
+  e.kind = t.kind;
+  e.s2 = t.scale * t.scale;
+  // Each constant is the leading subexpression of TermAvar / TermPsd as
+  // written there (C++ evaluates a * b * c as (a * b) * c).
+  switch (t.kind) {
+    case TermKind::kQuantization:
+      e.a = 3.0 * e.s2;
+      e.psd = e.s2 / (tau0_s * tau0_s) * 4.0;
+      break;
+    case TermKind::kWhite:
+      e.psd = e.s2 / tau0_s;
+      break;
+    case TermKind::kFlicker:
+      e.a = kFlickerAvarFactor * e.s2;
+      break;
+    case TermKind::kRandomWalk:
+      e.a = e.s2 * tau0_s;
+      e.psd = e.s2 * tau0_s;
+      break;
+    case TermKind::kDrift:
+      e.a = 0.5 * e.s2;
+      break;
+    case TermKind::kGaussMarkov: {
+      e.x = tau0_s / t.correlation_time_s;
+      e.white = e.x > 30.0;
+      if (!e.white) {
+        const double sh = std::sinh(0.5 * e.x);
+        e.a = SinhMinusX(e.x);
+        e.b = 4.0 * sh * sh;
+      }
+      e.phi = std::exp(-tau0_s / t.correlation_time_s);
+      e.psd = e.s2 * (1.0 - e.phi * e.phi);
+      break;
+    }
+    case TermKind::kSinusoid: {
+      const double f = t.frequency_hz * tau0_s;
+      e.a = kPi * f;
+      e.b = std::sin(kPi * f);
+      break;
+    }
+  }
+}
+
+double ModelEvaluator::TermAvar(size_t i, double m) const {
+  const Term& e = terms_[i];
+  switch (e.kind) {
+    case TermKind::kQuantization: {
+      const double tau = m * tau0_s_;
+      return e.a / (tau * tau);
+    }
+    case TermKind::kWhite:
+      return e.s2 / (m * tau0_s_);
+    case TermKind::kFlicker:
+      return e.a;
+    case TermKind::kRandomWalk:
+      return e.a * (2.0 * m * m + 1.0) / (6.0 * m);
+    case TermKind::kDrift: {
+      const double tau = m * tau0_s_;
+      return e.a * tau * tau;
+    }
+    case TermKind::kGaussMarkov: {
+      // GaussMarkovAvar with sigma^2 = s2.
+      if (e.white) return e.s2 / m;
+      const double f = (2.0 * m * e.a + GaussMarkovG(m * e.x)) / e.b;
+      return e.s2 * f / (m * m);
+    }
+    case TermKind::kSinusoid: {
+      const double s = std::sin(e.a * m), d = e.b;
+      return e.s2 * s * s * s * s / (m * m * d * d);
+    }
+  }
+  return 0;
+}
+
+double ModelEvaluator::Avar(double m) const {
+  double v = 0;
+  for (size_t i = 0; i < terms_.size(); ++i) v += TermAvar(i, m);
+  return v;
+}
+
+double ModelEvaluator::Psd(double f, double sin_pi_f) const {
+  double s = 0;
+  for (const Term& e : terms_) {
+    switch (e.kind) {
+      case TermKind::kQuantization:
+        s += e.psd * sin_pi_f * sin_pi_f;
+        break;
+      case TermKind::kWhite:
+        s += e.psd;
+        break;
+      case TermKind::kFlicker:
+        s += e.s2 / (2.0 * kPi * f);
+        break;
+      case TermKind::kRandomWalk:
+        s += e.psd / (4.0 * sin_pi_f * sin_pi_f);
+        break;
+      case TermKind::kGaussMarkov:
+        s += e.psd / (1.0 - 2.0 * e.phi * std::cos(2.0 * kPi * f) + e.phi * e.phi);
+        break;
+      case TermKind::kDrift:
+      case TermKind::kSinusoid:
+        s += 0;
+        break;
+    }
+  }
+  return s;
+}
+
 int CompositeModel::CountOf(TermKind kind) const {
   int n = 0;
   for (const ModelTerm& t : terms) n += t.kind == kind;

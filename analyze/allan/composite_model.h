@@ -82,6 +82,52 @@ struct CompositeModel {
   int CountOf(TermKind kind) const;
 };
 
+// A model prepared for evaluation at many averaging factors or frequencies
+// (a fit evaluates each candidate at every curve point, a model minimum on a
+// grid of taus, a covariance on thousands of frequencies): what a term's AVAR
+// or PSD needs that depends on neither m nor f is computed once here (its
+// scale squared, a Gauss-Markov term's sinh(x/2), sinh(x) - x and phi, a
+// sinusoid's sin(pi f')). Every value equals TermAvar, CompositeModel::Avar,
+// TermPsd or CompositeModel::Psd of the same model bit for bit: the same
+// operations on the same operands in the same order, only some of them done
+// before the loop. Keeps no reference to the model; thread-compatible.
+class ModelEvaluator {
+ public:
+  ModelEvaluator() = default;
+  ModelEvaluator(const CompositeModel& model, double tau0_s);
+  // Rebuilds for another model, reusing the storage.
+  void Reset(const CompositeModel& model, double tau0_s);
+  // Term by term: Resize(n, tau0_s), then SetTerm(i, term) for every i (a
+  // term may be set again later, the others kept).
+  void Resize(size_t terms, double tau0_s);
+  void SetTerm(size_t i, const ModelTerm& term);
+
+  size_t size() const { return terms_.size(); }
+  // == TermAvar(model.terms[i], m, tau0_s).
+  double TermAvar(size_t i, double m) const;
+  // == model.Avar(m, tau0_s): the terms summed in order from 0.
+  double Avar(double m) const;
+  // == model.Psd(f_cycles, tau0_s), given s = sin(pi f_cycles) (the
+  // quantization and random-walk terms use it; callers that need it too
+  // compute it once).
+  double Psd(double f_cycles, double sin_pi_f) const;
+
+ private:
+  struct Term {
+    TermKind kind = TermKind::kWhite;
+    double s2 = 0;       // scale^2
+    double a = 0;        // AVAR: 3 s2 (Q), kFlicker s2 (B), s2 tau0 (K), s2/2 (R), GM sinh(x) - x,
+                         // sinusoid pi f'
+    double b = 0;        // AVAR: GM 4 sinh^2(x/2), sinusoid sin(pi f')
+    double x = 0;        // GM tau0 / T
+    bool white = false;  // GM x > 30: sigma^2 / m
+    double psd = 0;      // PSD: Q 4 s2/tau0^2, N s2/tau0, K s2 tau0, GM innovation
+    double phi = 0;      // PSD: GM phi
+  };
+  double tau0_s_ = 0;
+  std::vector<Term> terms_;
+};
+
 }  // namespace imuqual::allan
 
 #endif  // IMUQUAL_ANALYZE_ALLAN_COMPOSITE_MODEL_H_

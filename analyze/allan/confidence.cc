@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <unordered_map>
 #include <vector>
 
 #include "analyze/allan/long_tau.h"
@@ -123,15 +125,59 @@ double Sz(double t, double f, int alpha, int d) {
   return sum;
 }
 
-// BS(J, M, S, F) = sz(0)^2 + (1 - J/M) sz(J/S)^2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)^2.
-double BasicSum(double J, double M, double S, double f, int alpha, int d) {
-  const double sz0 = Sz(0.0, f, alpha, d);
-  const double szj = Sz(J / S, f, alpha, d);
-  double sum = sz0 * sz0 + (1.0 - J / M) * szj * szj;
-  for (int j = 1; j < J; ++j) {
-    const double sz = Sz(j / S, f, alpha, d);
-    sum += 2.0 * (1.0 - j / M) * sz * sz;
+// sz(j/S, F) for j = 0, 1, 2, ...: every basic sum of the same (S, F, alpha,
+// d) reads the same values, and few combinations recur (a streaming curve's
+// points have S = c in [C, 2C), and F = inf once m (d + 1) > kJmax), while
+// each value costs fifteen sw evaluations. Each thread keeps the values it
+// computed, up to kMaxEntries combinations (then it starts again): a value
+// read here is the value Sz returns for the same arguments, bit for bit.
+class SzValues {
+ public:
+  // sz(j/S, F) for j = 0..count-1.
+  const double* Get(double s, double f, int alpha, int d, int count) {
+    const Key key{Bits(s), Bits(f), alpha, d};
+    auto it = entries_.find(key);
+    if (it == entries_.end()) {
+      if (entries_.size() >= kMaxEntries) entries_.clear();
+      it = entries_.emplace(key, std::vector<double>()).first;
+    }
+    std::vector<double>& v = it->second;
+    for (int j = static_cast<int>(v.size()); j < count; ++j) v.push_back(Sz(j / s, f, alpha, d));
+    return v.data();
   }
+
+ private:
+  static constexpr size_t kMaxEntries = 1024;
+  static uint64_t Bits(double v) {
+    uint64_t b;
+    std::memcpy(&b, &v, sizeof b);
+    return b;
+  }
+  struct Key {
+    uint64_t s, f;
+    int alpha, d;
+    bool operator==(const Key&) const = default;
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      uint64_t h = k.s * 0x9e3779b97f4a7c15ULL;
+      h ^= k.f + 0x7f4a7c159e3779b9ULL + (h << 6) + (h >> 2);
+      h ^= static_cast<uint64_t>(k.alpha + 8) * 31 + static_cast<uint64_t>(k.d);
+      return static_cast<size_t>(h);
+    }
+  };
+  std::unordered_map<Key, std::vector<double>, KeyHash> entries_;
+};
+
+// BS(J, M, S, F) = sz(0)^2 + (1 - J/M) sz(J/S)^2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)^2.
+// J is a whole number >= 1 (j/S and J/S are then the same quotients).
+double BasicSum(double J, double M, double S, double f, int alpha, int d) {
+  thread_local SzValues values;
+  const double* sz = values.Get(S, f, alpha, d, static_cast<int>(J) + 1);
+  const double sz0 = sz[0];
+  const double szj = sz[static_cast<int>(J)];
+  double sum = sz0 * sz0 + (1.0 - J / M) * szj * szj;
+  for (int j = 1; j < J; ++j) sum += 2.0 * (1.0 - j / M) * sz[j] * sz[j];
   return sum;
 }
 
@@ -423,9 +469,35 @@ std::pair<double, double> Chi2Interval(double dev, double edf, double confidence
       !(confidence < 1.0)) {
     return {nan, nan};
   }
-  const double p = 0.5 * (1.0 - confidence);
-  const double lo = dev * std::sqrt(edf / Chi2Inv(1.0 - p, edf));
-  const double hi = dev * std::sqrt(edf / Chi2Inv(p, edf));
+  // The factors sqrt(edf / chi2inv) depend on (edf, confidence) alone; each
+  // thread keeps the last kMaxFactors it computed (every axis of a station
+  // has the same edf at the same m, and each costs two Chi2Inv iterations).
+  // A kept factor is the one computed again, bit for bit.
+  struct Key {
+    uint64_t edf, confidence;
+    bool operator==(const Key&) const = default;
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      return static_cast<size_t>(k.edf * 0x9e3779b97f4a7c15ULL ^ k.confidence);
+    }
+  };
+  constexpr size_t kMaxFactors = 4096;
+  thread_local std::unordered_map<Key, std::pair<double, double>, KeyHash> factors;
+  Key key;
+  std::memcpy(&key.edf, &edf, sizeof edf);
+  std::memcpy(&key.confidence, &confidence, sizeof confidence);
+  auto it = factors.find(key);
+  if (it == factors.end()) {
+    if (factors.size() >= kMaxFactors) factors.clear();
+    const double p = 0.5 * (1.0 - confidence);
+    it = factors
+             .emplace(key, std::pair{std::sqrt(edf / Chi2Inv(1.0 - p, edf)),
+                                     std::sqrt(edf / Chi2Inv(p, edf))})
+             .first;
+  }
+  const double lo = dev * it->second.first;
+  const double hi = dev * it->second.second;
   return {lo, hi};
 }
 

@@ -10,7 +10,9 @@
 //             var_lo = nu var / chi2inv(1 - p, nu),
 //             var_hi = nu var / chi2inv(p, nu),     p = (1 - CL)/2.
 //
-// Functions are pure and thread-safe.
+// Functions are pure and thread-safe. GreenhallEdf and Chi2Interval keep, per
+// thread, values they computed before (sz terms, chi-square factors) and
+// read them again: the same doubles as computing them anew.
 #ifndef IMUQUAL_ANALYZE_ALLAN_CONFIDENCE_H_
 #define IMUQUAL_ANALYZE_ALLAN_CONFIDENCE_H_
 

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <random>
 #include <string>
+#include <thread>
+#include <type_traits>
 #include <vector>
 
 #include "analyze/allan/estimators.h"
@@ -223,6 +225,51 @@ double MonteCarloRelativeVariance(const MonteCarloCase& c, int64_t n_rate, int t
   return var / (mean * mean);
 }
 
+TEST(GreenhallEdf, SameValueWhateverWasAskedBefore) {
+  // GIVEN edf of every case asked in one order (each thread keeps the sz
+  // values and chi-square factors it computed), then in the reverse order
+  // and again from another thread
+  struct Args {
+    int alpha, d;
+    int64_t m, n;
+    double f, s;
+  };
+  std::vector<Args> args;
+  for (int alpha = -2; alpha <= 2; ++alpha) {
+    for (int64_t m : {1, 3, 8, 12, 40, 96, 512, 4096}) {
+      for (int64_t n : {200, 1000, 65537}) {
+        args.push_back({alpha, 2, m, n, static_cast<double>(m), static_cast<double>(m)});
+        args.push_back({alpha, 2, m, n, static_cast<double>(m), static_cast<double>(8 + m % 8)});
+        args.push_back({alpha, 3, m, n, 1.0, 1.0});
+      }
+    }
+  }
+  auto all = [&](bool reverse) {
+    std::vector<std::optional<double>> out(args.size());
+    std::vector<std::pair<double, double>> ci(args.size());
+    for (size_t k = 0; k < args.size(); ++k) {
+      const size_t i = reverse ? args.size() - 1 - k : k;
+      const Args& a = args[i];
+      out[i] = GreenhallEdf(a.alpha, a.d, a.m, a.n, a.f, a.s);
+      if (out[i]) ci[i] = Chi2Interval(1.0, *out[i], kOneSigmaConfidence);
+    }
+    return std::pair{out, ci};
+  };
+  const auto first = all(false);
+  const auto second = all(true);
+  std::remove_const_t<decltype(first)> third;
+  std::thread([&] { third = all(false); }).join();
+  // THEN every value is the same double each time.
+  for (size_t i = 0; i < args.size(); ++i) {
+    ASSERT_EQ(first.first[i].has_value(), second.first[i].has_value()) << i;
+    if (!first.first[i]) continue;
+    EXPECT_EQ(*first.first[i], *second.first[i]) << i;
+    EXPECT_EQ(*first.first[i], *third.first[i]) << i;
+    EXPECT_EQ(first.second[i], second.second[i]) << i;
+    EXPECT_EQ(first.second[i], third.second[i]) << i;
+  }
+}
+
 TEST(GreenhallEdf, MatchesMonteCarloSpreadOfTheEstimators) {
   constexpr int64_t kRate = 1024;
   constexpr int kTrials = 4000;
@@ -303,7 +350,8 @@ TEST(ReferenceCi, NoiseIdentifiedIntervalsOfEveryDataset) {
     ASSERT_EQ(curve.points.size(), table.rows.size());
     // The reference's identified alphas, for the nearest-identified rule.
     std::vector<double> ref_alpha;
-    for (const std::vector<double>& row : table.rows) ref_alpha.push_back(row[table.Column("alpha")]);
+    for (const std::vector<double>& row : table.rows)
+      ref_alpha.push_back(row[table.Column("alpha")]);
     auto nearest_identified = [&](size_t k) {
       for (size_t d = 1; d < ref_alpha.size(); ++d) {
         if (k >= d && !std::isnan(ref_alpha[k - d])) return ref_alpha[k - d];

@@ -6,7 +6,9 @@
 #include <boost/math/special_functions/digamma.hpp>
 #include <boost/math/special_functions/gamma.hpp>
 #include <boost/math/special_functions/trigamma.hpp>
+#include <cassert>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -106,50 +108,172 @@ int ParameterCount(const std::vector<TermKind>& kinds) {
 
 double Sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 
+// The term of kind `kind` whose parameters start at theta(i).
+ModelTerm ToTerm(TermKind kind, const Eigen::VectorXd& theta, int i, const Problem& p) {
+  ModelTerm t;
+  t.kind = kind;
+  t.scale = std::exp(theta(i));
+  if (kind == TermKind::kGaussMarkov) {
+    t.correlation_time_s = std::exp(std::clamp(theta(i + 1), p.ln_t_min, p.ln_t_max));
+  } else if (kind == TermKind::kSinusoid) {
+    t.frequency_hz = 0.5 / p.tau0_s * Sigmoid(theta(i + 1));
+  }
+  return t;
+}
+
 CompositeModel ToModel(const std::vector<TermKind>& kinds, const Eigen::VectorXd& theta,
                        const Problem& p) {
   CompositeModel model;
+  model.terms.reserve(kinds.size());
   int i = 0;
   for (TermKind kind : kinds) {
-    ModelTerm t;
-    t.kind = kind;
-    t.scale = std::exp(theta(i++));
-    if (kind == TermKind::kGaussMarkov) {
-      t.correlation_time_s = std::exp(std::clamp(theta(i++), p.ln_t_min, p.ln_t_max));
-    } else if (kind == TermKind::kSinusoid) {
-      t.frequency_hz = 0.5 / p.tau0_s * Sigmoid(theta(i++));
-    }
-    model.terms.push_back(t);
+    model.terms.push_back(ToTerm(kind, theta, i, p));
+    i += ParameterCount(kind);
   }
   return model;
 }
 
+// ln(AVAR of the model + the fixed term) at the problem's points, from the
+// model's AVAR at each point.
+double LogAvar(double model_avar, const Problem& p, int j) {
+  const double fixed = p.fixed_avar.size() > 0 ? p.fixed_avar(j) : 0.0;
+  return std::log(std::max(model_avar + fixed, 1e-300));
+}
+
 Eigen::VectorXd LogModel(const CompositeModel& model, const Problem& p) {
+  const ModelEvaluator ev(model, p.tau0_s);
   Eigen::VectorXd v(p.points());
-  for (int j = 0; j < p.points(); ++j) {
-    const double fixed = p.fixed_avar.size() > 0 ? p.fixed_avar(j) : 0.0;
-    v(j) = std::log(std::max(model.Avar(p.m[j], p.tau0_s) + fixed, 1e-300));
-  }
+  for (int j = 0; j < p.points(); ++j) v(j) = LogAvar(ev.Avar(p.m[j]), p, j);
   return v;
 }
 
-struct ResidualFunctor {
+// The whitened residuals r(theta) = L^-1 (y - ln nu(theta)) of one estimation,
+// as Eigen's Levenberg-Marquardt asks for them. The minimizer asks again for
+// points it has evaluated (the forward-difference Jacobian starts with f at
+// the point just accepted) and varies one parameter at a time (every other
+// term's AVAR is unchanged), so the functor remembers the last evaluations
+// and each term's AVAR at the points for its last parameters: a remembered
+// value is the value the evaluation would compute again, bit for bit (the
+// same function of the same bits), and each point's AVAR is still the sum of
+// the terms in model order. Eigen copies the functor into NumericalDiff; the
+// memory is per estimation, never shared.
+class ResidualFunctor {
+ public:
   using Scalar = double;
   enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
   using InputType = Eigen::VectorXd;
   using ValueType = Eigen::VectorXd;
   using JacobianType = Eigen::MatrixXd;
 
-  const Problem* problem;
-  const std::vector<TermKind>* kinds;
-  int n_in;
+  ResidualFunctor(const Problem* problem, const std::vector<TermKind>* kinds, int n_in)
+      : problem_(problem), kinds_(kinds), n_in_(n_in) {
+    assert(kinds->size() <= kMaxTerms);
+    const int n = problem->points();
+    ev_.Resize(kinds->size(), problem->tau0_s);
+    slots_.resize(kinds->size());
+    for (TermSlots& t : slots_) {
+      for (Slot& s : t.slot) s.avar.resize(n);
+    }
+    log_avar_.resize(n);
+    diff_.resize(n);
+  }
 
-  int inputs() const { return n_in; }
-  int values() const { return problem->points(); }
+  int inputs() const { return n_in_; }
+  int values() const { return problem_->points(); }
+
   int operator()(const Eigen::VectorXd& theta, Eigen::VectorXd& r) const {
-    r = problem->whitener * (problem->y - LogModel(ToModel(*kinds, theta, *problem), *problem));
+    // Newest first: the point just accepted is the last one evaluated.
+    for (int i = 1; i <= kMemo; ++i) {
+      const Evaluation& e = memo_[(next_memo_ + kMemo - i) % kMemo];
+      if (e.theta.size() == theta.size() && SameBits(e.theta.data(), theta.data(), theta.size())) {
+        r = e.r;
+        return 0;
+      }
+    }
+    const Problem& p = *problem_;
+    LogAvarFromTerms(theta);
+    diff_ = p.y - log_avar_;
+    r.noalias() = p.whitener * diff_;
+    Evaluation& e = memo_[next_memo_];
+    next_memo_ = (next_memo_ + 1) % kMemo;
+    e.theta = theta;
+    e.r = r;
     return 0;
   }
+
+ private:
+  static constexpr int kSlots = 3;  // the point, a perturbed parameter, a trial step
+  static constexpr int kMemo = 16;  // more than a Jacobian's evaluations
+  static constexpr size_t kMaxTerms = 16;
+
+  static bool SameBits(const double* a, const double* b, int64_t count) {
+    for (int64_t i = 0; i < count; ++i) {
+      uint64_t x, y;
+      std::memcpy(&x, a + i, sizeof x);
+      std::memcpy(&y, b + i, sizeof y);
+      if (x != y) return false;
+    }
+    return true;
+  }
+
+  // log_avar_ = ln(AVAR of the model + the fixed term) at every point, each
+  // term's AVAR from its slots or computed.
+  void LogAvarFromTerms(const Eigen::VectorXd& theta) const {
+    const Problem& p = *problem_;
+    const int n = p.points();
+    ++clock_;
+    int offset = 0;
+    for (size_t t = 0; t < kinds_->size(); ++t) {
+      const TermKind kind = (*kinds_)[t];
+      const int width = ParameterCount(kind);
+      TermSlots& ts = slots_[t];
+      Slot* found = nullptr;
+      for (Slot& s : ts.slot) {
+        if (s.used > 0 && SameBits(s.key.data(), theta.data() + offset, width)) found = &s;
+      }
+      if (found == nullptr) {
+        found = &ts.slot[0];
+        for (Slot& s : ts.slot) {
+          if (s.used < found->used) found = &s;
+        }
+        std::copy(theta.data() + offset, theta.data() + offset + width, found->key.begin());
+        ev_.SetTerm(t, ToTerm(kind, theta, offset, p));
+        for (int j = 0; j < n; ++j) found->avar[j] = ev_.TermAvar(t, p.m[j]);
+      }
+      found->used = clock_;
+      current_[t] = found;
+      offset += width;
+    }
+    for (int j = 0; j < n; ++j) {
+      double v = 0;  // ModelEvaluator::Avar: the terms in order
+      for (size_t t = 0; t < kinds_->size(); ++t) v += current_[t]->avar[j];
+      log_avar_(j) = LogAvar(v, p, j);
+    }
+  }
+
+  struct Slot {
+    std::array<double, 2> key{};  // the term's parameters (1 or 2)
+    std::vector<double> avar;     // its AVAR at every point
+    uint64_t used = 0;            // 0: empty; else the evaluation that last used it
+  };
+  struct TermSlots {
+    std::array<Slot, kSlots> slot;
+  };
+  struct Evaluation {
+    Eigen::VectorXd theta;
+    Eigen::VectorXd r;
+  };
+
+  const Problem* problem_;
+  const std::vector<TermKind>* kinds_;
+  int n_in_;
+  mutable ModelEvaluator ev_;
+  mutable std::vector<TermSlots> slots_;
+  mutable std::array<const Slot*, kMaxTerms> current_{};
+  mutable uint64_t clock_ = 0;
+  mutable Eigen::VectorXd log_avar_, diff_;
+  mutable std::array<Evaluation, kMemo> memo_;
+  mutable int next_memo_ = 0;
 };
 
 struct Candidate {
@@ -184,15 +308,14 @@ Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, co
   c.kinds = kinds;
   const int k = ParameterCount(kinds);
   if (k + 2 > p.points()) return c;
-  ResidualFunctor f{&p, &kinds, k};
-  Eigen::NumericalDiff<ResidualFunctor> diff(f);
+  Eigen::NumericalDiff<ResidualFunctor> diff(ResidualFunctor(&p, &kinds, k));
   Eigen::LevenbergMarquardt<Eigen::NumericalDiff<ResidualFunctor>> lm(diff);
   lm.parameters.maxfev = 400 * (k + 1);
   lm.parameters.xtol = tolerance;
   lm.parameters.ftol = tolerance * 1e-3;
   lm.minimize(theta);
   Eigen::VectorXd r;
-  f(theta, r);
+  diff(theta, r);  // the functor LM used: its last evaluations are remembered
   if (!r.allFinite()) return c;
   c.theta = theta;
   c.objective = r.squaredNorm();
@@ -354,9 +477,12 @@ double StandardNormal(std::mt19937_64& rng) {
 // The standard deviation of each of `count` quantities over bootstrap
 // replicates of the moments (see FitCompositeModel); NaN where fewer than 10
 // replicates could be refitted.
-template <typename Quantities>
-std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int replicates,
-                                    size_t count, Quantities quantities) {
+// The bootstrap's draws in the moments, replicates x points: row r is
+// replicate r's deviation of each ln avar from its model value (see
+// FitCompositeModel). Seeded, so the first k rows are the same whatever the
+// number of rows: every candidate's bootstrap on the same problem shares
+// them (a candidate with k replicates uses the first k).
+Eigen::MatrixXd BootstrapNoise(const Problem& p, int replicates) {
   const int n = p.points();
   const Eigen::VectorXd sd = p.sigma.diagonal().array().sqrt();
   const Eigen::MatrixXd corr =
@@ -364,11 +490,14 @@ std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int
   Eigen::LLT<Eigen::MatrixXd> llt(corr);
   const Eigen::MatrixXd l = llt.info() == Eigen::Success ? Eigen::MatrixXd(llt.matrixL())
                                                          : Eigen::MatrixXd::Identity(n, n);
-  const Eigen::VectorXd base = LogModel(ToModel(best.kinds, best.theta, p), p);
   std::mt19937_64 rng(0x1dca5e5eedULL);
-  Problem replicate = p;
-  std::vector<double> sum(count, 0.0), sum2(count, 0.0);
-  std::vector<int> used(count, 0);
+  Eigen::MatrixXd noise(replicates, n);
+  // The mean of ln(chi2_nu / nu) at each point, the same in every replicate.
+  std::vector<double> mean(n);
+  for (int j = 0; j < n; ++j) {
+    const double half = p.edf(j) / 2.0;
+    mean[j] = boost::math::digamma(half) - std::log(half);
+  }
   Eigen::VectorXd e(n);
   for (int r = 0; r < replicates; ++r) {
     for (int j = 0; j < n; ++j) e(j) = StandardNormal(rng);
@@ -377,10 +506,24 @@ std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int
       const double u = std::clamp(0.5 * std::erfc(-z(j) / std::numbers::sqrt2), 1e-12, 1 - 1e-12);
       const double half = p.edf(j) / 2.0;
       // ln(chi2_nu / nu) - its mean, chi2_nu = 2 Gamma(nu/2) quantile.
-      const double x = std::log(boost::math::gamma_p_inv(half, u) / half) -
-                       (boost::math::digamma(half) - std::log(half));
-      replicate.y(j) = base(j) + x;
+      noise(r, j) = std::log(boost::math::gamma_p_inv(half, u) / half) - mean[j];
     }
+  }
+  return noise;
+}
+
+// `noise`: BootstrapNoise(p, k) with k >= replicates.
+template <typename Quantities>
+std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int replicates,
+                                    const Eigen::MatrixXd& noise, size_t count,
+                                    Quantities quantities) {
+  const int n = p.points();
+  const Eigen::VectorXd base = LogModel(ToModel(best.kinds, best.theta, p), p);
+  Problem replicate = p;
+  std::vector<double> sum(count, 0.0), sum2(count, 0.0);
+  std::vector<int> used(count, 0);
+  for (int r = 0; r < replicates; ++r) {
+    for (int j = 0; j < n; ++j) replicate.y(j) = base(j) + noise(r, j);
     const Candidate c = Estimate(best.kinds, best.theta, replicate);
     if (!std::isfinite(c.criterion)) continue;
     const std::vector<double> q = quantities(c.theta);
@@ -401,10 +544,9 @@ std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int
 }
 
 // d ln AVAR / d ln m of the model at m.
-double ModelAvarSlope(const CompositeModel& model, double m, double tau0_s) {
+double ModelAvarSlope(const ModelEvaluator& model, double m) {
   constexpr double kStep = 1.1;
-  return std::log(model.Avar(m * kStep, tau0_s) / model.Avar(m / kStep, tau0_s)) /
-         (2.0 * std::log(kStep));
+  return std::log(model.Avar(m * kStep) / model.Avar(m / kStep)) / (2.0 * std::log(kStep));
 }
 
 // Mean over theta of sin^4(theta) sin^4(r theta).
@@ -445,36 +587,112 @@ double LogMidpoint(F g, double lo, double hi, int per_octave) {
   return sum * step;
 }
 
+// The spectrum on the midpoint grid of one of SpectralOverlap's integrals,
+// at the points Midpoint (linear) or LogMidpoint (logarithmic) would take:
+// each point's f, sin(pi f) and the model's PSD, and, on a linear grid of a
+// factor m, sin^4(pi f m). Integrals whose grid depends on one factor alone
+// are shared by every pair with that factor (the values are the ones the
+// integrand would compute, so the sums are the same).
+struct SpectrumGrid {
+  bool empty = true;  // !(hi > lo): the integral is 0
+  double step = 0;    // h (linear) or the step in ln f (logarithmic)
+  std::vector<double> f, sin_pi_f, psd, sin4_m;
+};
+
+double Sin4(double x) {
+  const double s = std::sin(x);
+  return s * s * s * s;
+}
+
+SpectrumGrid LinearSpectrumGrid(const ModelEvaluator& model, double lo, double hi, double step,
+                                double m) {
+  SpectrumGrid g;
+  if (!(hi > lo)) return g;
+  g.empty = false;
+  const int n = std::max(1, static_cast<int>(std::ceil((hi - lo) / step)));
+  g.step = (hi - lo) / n;
+  for (int i = 0; i < n; ++i) {
+    const double f = lo + (i + 0.5) * g.step;
+    const double d = std::sin(kPi * f);
+    g.f.push_back(f);
+    g.sin_pi_f.push_back(d);
+    g.psd.push_back(model.Psd(f, d));
+    g.sin4_m.push_back(Sin4(kPi * f * m));
+  }
+  return g;
+}
+
+SpectrumGrid LogSpectrumGrid(const ModelEvaluator& model, double lo, double hi, int per_octave) {
+  SpectrumGrid g;
+  if (!(hi > lo)) return g;
+  g.empty = false;
+  const int n = std::max(1, static_cast<int>(std::ceil(per_octave * std::log2(hi / lo))));
+  g.step = std::log(hi / lo) / n;
+  for (int i = 0; i < n; ++i) {
+    const double f = lo * std::exp((i + 0.5) * g.step);
+    const double d = std::sin(kPi * f);
+    g.f.push_back(f);
+    g.sin_pi_f.push_back(d);
+    g.psd.push_back(model.Psd(f, d));
+  }
+  return g;
+}
+
+constexpr double kOverlapFine = 8;     // samples per period of the fastest factor
+constexpr double kOverlapCycles = 32;  // periods before a factor counts as fast
+
+// The first integral's grid of SpectralOverlap(., m_b) and its last one's of
+// SpectralOverlap(m_a, .), for m_b = m_a = m.
+SpectrumGrid FirstOverlapGrid(const ModelEvaluator& model, double m) {
+  return LinearSpectrumGrid(model, 0, std::min(0.5, kOverlapCycles / m), 1 / (kOverlapFine * m), m);
+}
+SpectrumGrid LastOverlapGrid(const ModelEvaluator& model, double m) {
+  return LogSpectrumGrid(model, std::min(0.5, kOverlapCycles / m), 0.5, 16);
+}
+
 // I_ab = int_0^1/2 S(f)^2 H_a(f) H_b(f) df, m_a <= m_b. H_m = sin^4(pi f m) W_m,
 // W_m = 1/(m^2 sin^2(pi f)). Where a sin^4 factor oscillates much faster than
 // the rest of the integrand it is replaced by its mean (3/8, or the joint mean
 // of both factors), which keeps every pair to a few thousand evaluations.
-double SpectralOverlap(const CompositeModel& model, double tau0_s, double ma, double mb) {
-  constexpr double kFine = 8;     // samples per period of the fastest factor
-  constexpr double kCycles = 32;  // periods before a factor counts as fast
+// `first`: FirstOverlapGrid(model, mb); `last`: LastOverlapGrid(model, ma);
+// `mean_fast(r)`: MeanFastFactor(r).
+template <typename MeanFast>
+double SpectralOverlap(const ModelEvaluator& model, double ma, double mb, const SpectrumGrid& first,
+                       const SpectrumGrid& last, MeanFast mean_fast) {
+  auto s2w_of = [&](double s, double d) { return s * s / (ma * ma * mb * mb * d * d * d * d); };
   auto s2w = [&](double f) {
-    const double s = model.Psd(f, tau0_s), d = std::sin(kPi * f);
-    return s * s / (ma * ma * mb * mb * d * d * d * d);
+    const double d = std::sin(kPi * f), s = model.Psd(f, d);
+    return s2w_of(s, d);
   };
-  auto sin4 = [](double x) {
-    const double s = std::sin(x);
-    return s * s * s * s;
-  };
-  const double f1 = std::min(0.5, kCycles / mb);
-  const double f2 = std::min(0.5, kCycles / ma);
-  double total =
-      Midpoint([&](double f) { return s2w(f) * sin4(kPi * f * ma) * sin4(kPi * f * mb); }, 0, f1,
-               1 / (kFine * mb));
+  const double f1 = std::min(0.5, kOverlapCycles / mb);
+  const double f2 = std::min(0.5, kOverlapCycles / ma);
+  // Midpoint(s2w(f) sin^4(pi f ma) sin^4(pi f mb), 0, f1, 1 / (kFine mb)).
+  double total = 0;
+  if (!first.empty) {
+    double sum = 0;
+    for (size_t i = 0; i < first.f.size(); ++i) {
+      const double f = first.f[i];
+      sum += s2w_of(first.psd[i], first.sin_pi_f[i]) * Sin4(kPi * f * ma) * first.sin4_m[i];
+    }
+    total = sum * first.step;
+  }
   const double r = mb / ma;
   if (r >= 8) {
-    total += Midpoint([&](double f) { return s2w(f) * sin4(kPi * f * ma) * 0.375; }, f1, f2,
-                      1 / (kFine * ma));
+    total += Midpoint([&](double f) { return s2w(f) * Sin4(kPi * f * ma) * 0.375; }, f1, f2,
+                      1 / (kOverlapFine * ma));
   } else {
-    total += Midpoint([&](double f) { return s2w(f) * sin4(kPi * f * ma) * sin4(kPi * f * mb); },
-                      f1, f2, 1 / (kFine * mb));
+    total += Midpoint([&](double f) { return s2w(f) * Sin4(kPi * f * ma) * Sin4(kPi * f * mb); },
+                      f1, f2, 1 / (kOverlapFine * mb));
   }
-  const double mean = r >= 8 ? 0.375 * 0.375 : MeanFastFactor(r);
-  total += LogMidpoint([&](double f) { return s2w(f) * mean; }, f2, 0.5, 16);
+  const double mean = r >= 8 ? 0.375 * 0.375 : mean_fast(r);
+  // LogMidpoint(s2w(f) mean, f2, 0.5, 16).
+  if (!last.empty) {
+    double sum = 0;
+    for (size_t i = 0; i < last.f.size(); ++i) {
+      sum += s2w_of(last.psd[i], last.sin_pi_f[i]) * mean * last.f[i];
+    }
+    total += sum * last.step;
+  }
   return total;
 }
 
@@ -487,8 +705,26 @@ struct Figures {
   bool minimum_at_edge = false;
 };
 
-Figures ComputeFigures(const CompositeModel& model, double tau0_s, double tau_lo, double tau_hi,
-                       const GmwmOptions& options) {
+// The log-tau grid on which ComputeFigures looks for the model's minimum:
+// ln tau from ln tau_lo to ln tau_hi in kGrid steps, and each point's
+// averaging factor, the same for every model of one fit.
+struct MinimumGrid {
+  static constexpr int kGrid = 240;
+  MinimumGrid(double tau0_s, double tau_lo, double tau_hi)
+      : tau0_s(tau0_s), a(std::log(tau_lo)), b(std::log(tau_hi)) {
+    for (int i = 0; i <= kGrid; ++i) m[i] = std::exp(x(i)) / tau0_s;
+  }
+  double x(int i) const { return a + (b - a) * i / kGrid; }
+
+  double tau0_s, a, b;
+  std::array<double, kGrid + 1> m;  // exp(x(i)) / tau0
+};
+
+// `white_region`: whether to look for a white-noise region (has_white_region;
+// the bootstrap's replicates do not read it).
+Figures ComputeFigures(const CompositeModel& model, const MinimumGrid& grid,
+                       const GmwmOptions& options, bool white_region = true) {
+  const double tau0_s = grid.tau0_s;
   Figures f;
   double white2 = 0;
   for (const ModelTerm& t : model.terms) {
@@ -501,19 +737,20 @@ Figures ComputeFigures(const CompositeModel& model, double tau0_s, double tau_lo
   }
   f.white_asymptote = std::sqrt(white2);
   // Minimum of the model deviation: a log grid, then golden-section refinement.
-  constexpr int kGrid = 240;
-  auto dev = [&](double ln_tau) { return model.Deviation(std::exp(ln_tau) / tau0_s, tau0_s); };
-  const double a = std::log(tau_lo), b = std::log(tau_hi);
+  constexpr int kGrid = MinimumGrid::kGrid;
+  const ModelEvaluator ev(model, tau0_s);
+  // CompositeModel::Deviation at m = tau / tau0.
+  auto dev = [&](double ln_tau) { return std::sqrt(ev.Avar(std::exp(ln_tau) / tau0_s)); };
+  const double a = grid.a, b = grid.b;
   int best = 0;
   double best_dev = std::numeric_limits<double>::infinity(), prev = kNaN;
   for (int i = 0; i <= kGrid; ++i) {
-    const double x = a + (b - a) * i / kGrid;
-    const double d = dev(x);
+    const double d = std::sqrt(ev.Avar(grid.m[i]));  // dev(grid.x(i))
     if (d < best_dev) {
       best_dev = d;
       best = i;
     }
-    if (i > 0) {
+    if (white_region && i > 0) {
       const double slope = std::log(d / prev) / ((b - a) / kGrid);
       if (std::fabs(slope + 0.5) <= 0.1) f.has_white_region = true;
     }
@@ -617,17 +854,33 @@ double AvarCorrelation(const CompositeModel& model, double tau0_s, int64_t m_a, 
 std::vector<double> AvarCorrelationMatrix(const CompositeModel& model, double tau0_s,
                                           const std::vector<int64_t>& m) {
   const size_t n = m.size();
+  const ModelEvaluator ev(model, tau0_s);
+  // The grids that depend on one factor, and MeanFastFactor per ratio
+  // (octave neighbours share a handful of ratios; each costs 8192 sines).
+  std::vector<SpectrumGrid> first(n), last(n);
+  for (size_t j = 0; j < n; ++j) {
+    first[j] = FirstOverlapGrid(ev, static_cast<double>(m[j]));
+    last[j] = LastOverlapGrid(ev, static_cast<double>(m[j]));
+  }
+  std::map<double, double> mean_fast_of;
+  auto mean_fast = [&](double r) {
+    auto it = mean_fast_of.find(r);
+    if (it == mean_fast_of.end()) it = mean_fast_of.emplace(r, MeanFastFactor(r)).first;
+    return it->second;
+  };
   std::vector<double> self(n), out(n * n, 0.0);
   for (size_t j = 0; j < n; ++j) {
     const double mj = static_cast<double>(m[j]);
-    self[j] = SpectralOverlap(model, tau0_s, mj, mj);
+    self[j] = SpectralOverlap(ev, mj, mj, first[j], last[j], mean_fast);
     out[j * n + j] = 1.0;
   }
   for (size_t j = 0; j < n; ++j) {
     for (size_t k = j + 1; k < n; ++k) {
+      const size_t a = m[j] <= m[k] ? j : k, b = m[j] <= m[k] ? k : j;
       const double lo = static_cast<double>(std::min(m[j], m[k]));
       const double hi = static_cast<double>(std::max(m[j], m[k]));
-      const double r = SpectralOverlap(model, tau0_s, lo, hi) / std::sqrt(self[j] * self[k]);
+      const double r =
+          SpectralOverlap(ev, lo, hi, first[b], last[a], mean_fast) / std::sqrt(self[j] * self[k]);
       out[j * n + k] = out[k * n + j] = std::isfinite(r) ? std::clamp(r, -1.0, 1.0) : 0.0;
     }
   }
@@ -666,10 +919,11 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
 
   // Pass 2: the covariance of the pilot, full.
   const CompositeModel pilot_model = ToModel(pilot.kinds, pilot.theta, p1);
+  const ModelEvaluator pilot_evaluator(pilot_model, tau0);
   Eigen::VectorXd edf2(n);
   std::vector<int64_t> ms;
   for (int j = 0; j < n; ++j) {
-    edf2(j) = FitRowEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_model, p1.m[j], tau0)), rows[j]);
+    edf2(j) = FitRowEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_evaluator, p1.m[j])), rows[j]);
     ms.push_back(rows[j].m);
   }
   const std::vector<double> corr_values = AvarCorrelationMatrix(pilot_model, tau0, ms);
@@ -737,6 +991,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   // candidates carry weight and the sigmas say how unsure the split is,
   // instead of one model's confident, biased value.
   const double tau_lo = rows.front().tau_s, tau_hi = rows.back().tau_s;
+  const MinimumGrid grid(tau0, tau_lo, tau_hi);
   constexpr int kShared = 8;  // Q, N, B, K, R scales (0 if absent); ARW, minimum, its tau
   auto shared = [&](const CompositeModel& m, std::vector<double>* q) {
     for (TermKind k : kIeeeKinds) {
@@ -746,7 +1001,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
       }
       q->push_back(v);
     }
-    const Figures f = ComputeFigures(m, tau0, tau_lo, tau_hi, options);
+    const Figures f = ComputeFigures(m, grid, options, /*white_region=*/false);
     for (double v : {f.white_asymptote, f.curve_minimum, f.tau_at_minimum}) q->push_back(v);
   };
   auto own = [&](const Eigen::VectorXd& theta) {  // the selected model: its terms first
@@ -761,8 +1016,11 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
     return q;
   };
   const std::vector<double> q_best = own(best.theta);
+  // One set of draws for every candidate's bootstrap (the same seed gave each
+  // the same draws when each drew its own).
+  const Eigen::MatrixXd noise = BootstrapNoise(p2, options.bootstrap_replicates);
   const std::vector<double> sd_best =
-      BootstrapSigmas(best, p2, options.bootstrap_replicates, q_best.size(), own);
+      BootstrapSigmas(best, p2, options.bootstrap_replicates, noise, q_best.size(), own);
   const size_t own_count = q_best.size() - kShared;
   size_t qi = 0;
   for (const ModelTerm& t : fit.model.terms) {
@@ -792,7 +1050,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
         return out;
       };
       q = of(cand.theta);
-      sd = BootstrapSigmas(cand, p2, options.bootstrap_replicates / 2, kShared, of);
+      sd = BootstrapSigmas(cand, p2, options.bootstrap_replicates / 2, noise, kShared, of);
     }
     fit.candidates[c].weight = w;
     weight_sum += w;
@@ -817,7 +1075,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
           AbsentTermUpperBound(best, kIeeeKinds[i], p2, rows, options.absent_term_bound_delta_j);
     }
   }
-  const Figures f0 = ComputeFigures(fit.model, tau0, tau_lo, tau_hi, options);
+  const Figures f0 = ComputeFigures(fit.model, grid, options);
   fit.white_asymptote = avg[5];
   fit.curve_minimum = avg[6];
   fit.tau_at_minimum = avg[7];

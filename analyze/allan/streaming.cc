@@ -370,19 +370,30 @@ Curve StreamingAllan::Oadev(StreamGrid grid, StopRule stop, CiMethod ci, double 
   // identified point, the shorter tau on a tie (alpha_inherited).
   std::vector<std::optional<int>> alphas(tracked.size());
   if (ci == CiMethod::kChi2) {
+    // ln m and ln AVAR of every tracked point, taken once.
+    std::vector<double> ln_m(tracked.size()), ln_avar(tracked.size());
+    for (size_t u = 0; u < tracked.size(); ++u) {
+      ln_m[u] = std::log(static_cast<double>(tracked[u].point.m));
+      if (tracked[u].point.dev > 0) ln_avar[u] = 2.0 * std::log(tracked[u].point.dev);
+    }
+    std::vector<double> log_m, log_avar;
     for (size_t i = 0; i < tracked.size(); ++i) {
       const CurvePoint& point = tracked[i].point;
       if (valid_samples / point.m < kMinNoiseIdClusters) continue;
-      std::vector<double> log_m, log_avar;
-      const double center = std::log(static_cast<double>(point.m));
-      for (const Tracked& u : tracked) {
-        const double lm = std::log(static_cast<double>(u.point.m));
-        if (std::fabs(lm - center) > std::log(2.0) * (1 + 1e-9) || !(u.point.dev > 0)) continue;
+      log_m.clear();
+      log_avar.clear();
+      const double center = ln_m[i];
+      for (size_t u = 0; u < tracked.size(); ++u) {
+        const double lm = ln_m[u];
+        if (std::fabs(lm - center) > std::log(2.0) * (1 + 1e-9) || !(tracked[u].point.dev > 0)) {
+          continue;
+        }
         log_m.push_back(lm);
-        log_avar.push_back(2.0 * std::log(u.point.dev));
+        log_avar.push_back(ln_avar[u]);
       }
       const double mu = log_m.size() >= 2 ? Slope(log_m, log_avar) : kNaN;
-      if (std::isfinite(mu)) alphas[i] = static_cast<int>(std::clamp(std::lround(-mu - 1.0), -2L, 1L));
+      if (std::isfinite(mu))
+        alphas[i] = static_cast<int>(std::clamp(std::lround(-mu - 1.0), -2L, 1L));
     }
   }
   for (size_t i = 0; i < tracked.size(); ++i) {

@@ -1,7 +1,6 @@
 // imuqual-analyze: Allan analysis of every run on a station bus (or one
 // shard of the units). Flags -> options -> AnalyzeService -> exit code.
 #include <CLI/CLI.hpp>
-
 #include <cstdio>
 
 #include "analyze/service/analyze_service.h"
@@ -9,6 +8,7 @@
 #include "common/bus_flags.h"
 #include "common/command_line.h"
 #include "common/log.h"
+#include "common/process_status.h"
 #include "common/shutdown.h"
 #include "common/version.h"
 
@@ -18,8 +18,9 @@ int main(int argc, char** argv) {
   std::string shard = "0/1";
   CLI::App app{"imuqual-analyze: Allan curves, noise terms and verdicts for every run on a bus"};
   app.set_version_flag("--version", kSoftwareVersion);
-  app.add_option("--inject-result-drop", opt.inject_result_drop,
-                 "fault injection: drop this fraction of final curves and results when first published")
+  app.add_option(
+         "--inject-result-drop", opt.inject_result_drop,
+         "fault injection: drop this fraction of final curves and results when first published")
       ->capture_default_str();
   app.add_option("--station", opt.station,
                  "serve only this station's runs (run_t.station); others on the bus are ignored")
@@ -73,6 +74,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   Status st = (*service)->Run();
+  // Its CPU, for the station benchmark (as acquire and store report theirs).
+  char cpu[64];
+  std::snprintf(cpu, sizeof cpu, "stopped; cpu %.2f s", ProcessCpuSeconds());
+  LogInfo(cpu);
   if (!st.ok()) {
     LogError(st.message());
     return 1;

@@ -1,7 +1,10 @@
 #include "analyze/service/run_analyzer.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <functional>
+#include <thread>
 
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/tau_grid.h"
@@ -63,6 +66,22 @@ pb::Measurement DecisionTime(const judge::EarlyDecider& d, const pb::TestPlan& p
   }
   m.set_note(buf);
   return m;
+}
+
+// Runs work(0) .. work(count - 1), each once, on up to as many threads as
+// the machine has cores (this one included); returns when all are done.
+// Each call must touch only its own outputs.
+void ForEachInParallel(size_t count, const std::function<void(size_t)>& work) {
+  const size_t cores = std::max<size_t>(std::thread::hardware_concurrency(), 1);
+  const size_t threads = std::min(count, cores);
+  std::atomic<size_t> next{0};
+  const auto take = [&] {
+    for (size_t i = next++; i < count; i = next++) work(i);
+  };
+  std::vector<std::thread> helpers;
+  for (size_t t = 1; t < threads; ++t) helpers.emplace_back(take);
+  take();
+  for (std::thread& t : helpers) t.join();
 }
 
 }  // namespace
@@ -329,7 +348,27 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
   const allan::StreamGrid grid = plan.grid().kind() == pb::TauGrid::OCTAVE
                                      ? allan::StreamGrid::kOctave
                                      : allan::StreamGrid::kDense;
-  for (size_t a = 0; a < desc_.axes.size(); ++a) {
+  // The measurements read the dense points without intervals (the noise
+  // model weighs them by its own edf, gmwm.h); the intervals are computed
+  // only for the curve published.
+  const size_t axes = desc_.axes.size();
+  std::vector<allan::Curve> dense_of(axes);
+  for (size_t a = 0; a < axes; ++a) {
+    dense_of[a] = engines_[a].Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
+  }
+  // The noise model once the run has ended (a fit costs 20-500 ms per axis;
+  // interim looks judge the read-offs only), every axis on its own thread.
+  std::vector<std::vector<pb::Measurement>> model_of(axes);
+  if (final) {
+    judge::NoiseModelOptions model_options;
+    model_options.judge_inadequate_values =
+        plan.on_inadequate_model() == pb::TestPlan::JUDGE_INADEQUATE_VALUE;
+    ForEachInParallel(axes, [&](size_t a) {
+      model_of[a] = judge::MeasureNoiseModel(desc_.axes[a].name, desc_.axes[a].kind, dense_of[a],
+                                             model_options);
+    });
+  }
+  for (size_t a = 0; a < axes; ++a) {
     const allan::StreamingAllan& e = engines_[a];
     // The judged curve is the dense grid (every tracked averaging factor, a
     // superset of the octave grid): the final result publishes it, so the
@@ -337,10 +376,7 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
     // publish the plan's grid. Both with chi-square intervals (Greenhall edf,
     // noise identified from the local slope; the long-tau rule in
     // streaming.h).
-    // The measurements read the dense points without intervals (the noise
-    // model weighs them by its own edf, gmwm.h); the intervals are computed
-    // only for the curve published.
-    allan::Curve dense = e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
+    allan::Curve& dense = dense_of[a];
     if (curves) {
       curves->emplace_back(desc_.axes[a].name,
                            e.Oadev(final ? allan::StreamGrid::kDense : grid, stop,
@@ -351,17 +387,7 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
          judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, mean)) {
       out.push_back(std::move(m));
     }
-    // The noise model once the run has ended (a fit costs 50-500 ms per axis;
-    // interim looks judge the read-offs only).
-    if (final) {
-      judge::NoiseModelOptions model_options;
-      model_options.judge_inadequate_values =
-          plan.on_inadequate_model() == pb::TestPlan::JUDGE_INADEQUATE_VALUE;
-      for (pb::Measurement& m :
-           judge::MeasureNoiseModel(desc_.axes[a].name, desc_.axes[a].kind, dense, model_options)) {
-        out.push_back(std::move(m));
-      }
-    }
+    for (pb::Measurement& m : model_of[a]) out.push_back(std::move(m));
     if (dense_curves) dense_curves->push_back(std::move(dense));
   }
   const int64_t samples = engines_.front().samples();

@@ -114,7 +114,9 @@ class RunAnalyzer {
   // `ending` (the run did not end normally) makes it ABORTED or ERROR with
   // its reason first, never FAIL; a final analysis that refused an absurd
   // announced range (Finish) is ERROR with that reason (ERROR wins over
-  // ABORTED; both reasons are kept).
+  // ABORTED; both reasons are kept). The final outcome fits each axis's
+  // noise model on its own thread, up to one per core, and returns when all
+  // are done (the same values as one after another: the fits share nothing).
   RunOutcome Outcome(bool final, const RunEnding& ending = {}) const;
 
   const RunDescription& description() const { return desc_; }
