@@ -145,7 +145,7 @@ struct AcquireService::Impl {
   std::unique_ptr<LcmBus> bus;
   sim::Random drop_rng{1};
   sim::Random bitflip_rng{2};
-  // Resend requests with the sender instance of their seal, for the loop.
+  // Resend requests with the sender role of their seal, for the loop.
   std::deque<std::pair<imuqual::resend_t, uint64_t>> resend_queue;
   std::unique_ptr<ResendBudget> resend_budget;  // per requester
   double resend_bytes_per_s = 0;
@@ -177,8 +177,11 @@ struct AcquireService::Impl {
   Status SendBatch(const RunState& run, const std::vector<uint8_t>& bytes);
   // Publishes the run's announcement `times` times; failures are counted.
   void Announce(RunState& run, int times = 1);
-  // An acknowledgement, from a sender of role `sender`.
+  // An acknowledgement message, from a sender of role `sender`, and one
+  // run's word in it.
   void OnAck(const imuqual::ack_t& ack, BusRole sender);
+  void OnRunAck(const std::string& process, const std::string& run_id, int64_t next_seq,
+                bool run_done);
   // A store's announcement: the judgement round of one of our runs.
   void OnStoreRun(const imuqual::run_t& run);
   Status ServeResends();
@@ -336,19 +339,24 @@ void AcquireService::Impl::OnAck(const imuqual::ack_t& ack, BusRole sender) {
   const bool awaited =
       std::find(options.await.begin(), options.await.end(), ack.process) != options.await.end();
   if (ack.process != "store" && !awaited) return;
+  if (ack.process != RoleName(sender)) {
+    ++acks_refused;
+    refusal_log.Warning("refused an acknowledgement naming " + ack.process.substr(0, 32) +
+                        " sent by " + RoleName(sender));
+    return;
+  }
+  for (int i = 0; i < ack.num_runs; ++i) OnRunAck(ack.process, ack.run_ids[i], ack.next_seq[i], ack.run_done[i]);
+}
+
+void AcquireService::Impl::OnRunAck(const std::string& process, const std::string& run_id,
+                                    int64_t acked_seq, bool run_done) {
   for (RunState& run : runs) {
-    if (run.run_id != ack.run_id) continue;
-    int64_t next_seq = ack.next_seq;
-    if (ack.process != RoleName(sender)) {
-      ++acks_refused;
-      refusal_log.Warning("run " + run.run_id + ": refused an acknowledgement naming " +
-                          ack.process.substr(0, 32) + " sent by " + RoleName(sender));
-      return;
-    }
+    if (run.run_id != run_id) continue;
+    int64_t next_seq = acked_seq;
     if (next_seq > run.next_seq) {
-      if (!(ack.process == "store" && ack.run_done)) {
+      if (!(process == "store" && run_done)) {
         ++acks_refused;
-        refusal_log.Warning("run " + run.run_id + ": refused an acknowledgement from " + ack.process +
+        refusal_log.Warning("run " + run.run_id + ": refused an acknowledgement from " + process +
                             " of batches up to " + std::to_string(next_seq) + ", beyond the " +
                             std::to_string(run.next_seq) + " published");
         return;
@@ -356,9 +364,9 @@ void AcquireService::Impl::OnAck(const imuqual::ack_t& ack, BusRole sender) {
       next_seq = run.next_seq;  // the store archived the whole run
     }
     ++acks;
-    auto it = run.acked.find(ack.process);
+    auto it = run.acked.find(process);
     if (it == run.acked.end() || next_seq > it->second) {
-      run.acked[ack.process] = next_seq;
+      run.acked[process] = next_seq;
       run.last_ack_progress_s = MonotonicSeconds();
     }
     return;
@@ -687,7 +695,10 @@ Status AcquireService::Run() {
       [&s](const std::string&, imuqual::resend_t&& req, const MessageOrigin& from) {
         ++s.resend_requests;
         s.last_resend_request_s = MonotonicSeconds();
-        if (s.resend_queue.size() < 10000) s.resend_queue.emplace_back(std::move(req), from.instance);
+        // The budget is the requesting role's (its seal names it): a new
+        // instance of a role gets no budget of its own.
+        if (s.resend_queue.size() < 10000)
+          s.resend_queue.emplace_back(std::move(req), static_cast<uint64_t>(from.role));
       });
   // Early decisions (plans with early_decision): a decided unit's source stops.
   s.bus->Subscribe<imuqual::decision_t>(

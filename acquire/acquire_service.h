@@ -15,8 +15,8 @@
 // from the role it names (the seal says who sent it) and only for batches
 // published.
 //
-// Resend requests are answered within a budget per requester (the sender
-// instance of the request's seal; common/resend_budget.h): 64 MB/s on one
+// Resend requests are answered within a budget per requesting role (the
+// role the request's seal names; common/resend_budget.h): 64 MB/s on one
 // host, 4 MB/s beyond it; the rest is dropped and counted.
 //
 // Early decisions: a run whose unit the analysis decided PASS or FAIL

@@ -68,6 +68,10 @@ CLI::App* AddVerifyCommand(CLI::App& app, VerifyOptions* o) {
       cmd->add_option("--expect-head", o->expect_head,
                       "N:HEX printed by an earlier --head and kept elsewhere: the chain must "
                       "still hold that entry (finds the newest runs deleted with their entries)");
+  cmd->add_flag("--allow-unsigned", o->allow_unsigned,
+                "with --pubkey: runs a store archived without --sign-key are listed as unsigned "
+                "(exit 3) instead of breaking the chain (exit 1)")
+      ->needs(pubkey);
   cmd->add_flag("--head", o->head,
                 "print the chain's head (N:HEX: its entry count and last hash) to keep outside "
                 "the archive, after checking the chain's links")
@@ -76,8 +80,10 @@ CLI::App* AddVerifyCommand(CLI::App& app, VerifyOptions* o) {
   cmd->footer(
       "Prints one line per problem (naming the run or chain entry and what broke) and a summary "
       "on stderr. Exit 0 clean, 1 damaged or tampered, 2 usage error, 3 (with --pubkey) "
-      "nothing broken but some runs unsigned (archived before schema 7 or by a store without "
-      "--sign-key): listed, never reported verified.\n"
+      "nothing broken but not all verified: runs archived before schema 7 (or, with "
+      "--allow-unsigned, by a store without --sign-key) or runs not finalised that carry a "
+      "verdict: listed, never reported verified. With --pubkey an unsigned chain entry is "
+      "broken (signatures stripped, or a store without --sign-key) unless --allow-unsigned.\n"
       "The chain protects against edits, swaps and deletions by anyone without the store's "
       "signing key; whoever holds that key can re-sign an edited archive, and deleting the "
       "newest runs with their entries is found only against a head kept elsewhere.\n"
@@ -106,6 +112,7 @@ int VerifyCommand(const VerifyOptions& o) {
     chain.trusted.insert(chain.trusted.end(), keys->begin(), keys->end());
   }
   chain.check_signatures = !o.pubkey_paths.empty();
+  chain.require_signatures = chain.check_signatures && !o.allow_unsigned;
 
   auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
   if (!archive.ok()) {
@@ -124,6 +131,11 @@ int VerifyCommand(const VerifyOptions& o) {
   if (!checksums.ok()) {
     // A file damaged enough stops the reading itself: that is a finding too.
     print("checksums: " + checksums.status().message());
+    return kExitBroken;
+  }
+  auto schema = store::CheckSchema(db, print);
+  if (!schema.ok()) {
+    print("schema: " + schema.status().message());
     return kExitBroken;
   }
   auto report = store::VerifyChain(db, chain, print);
@@ -158,7 +170,13 @@ int VerifyCommand(const VerifyOptions& o) {
     std::fprintf(stderr, "open (not finalised, signed when they are): %s\n",
                  RunList(r.open).c_str());
   }
-  const int64_t problems = *integrity + *checksums + r.problems;
+  if (!r.open_judged.empty()) {
+    std::fprintf(stderr,
+                 "open runs that carry a verdict (not finalised: not evidence yet; a store still "
+                 "writing them, or rows written behind its back): %s\n",
+                 RunList(r.open_judged).c_str());
+  }
+  const int64_t problems = *integrity + *checksums + *schema + r.problems;
   if (problems > 0) {
     LogError(o.db_path + ": " + std::to_string(problems) + " problems");
     return kExitBroken;
@@ -166,6 +184,11 @@ int VerifyCommand(const VerifyOptions& o) {
   if (chain.check_signatures && !unsigned_runs.empty()) {
     LogError(o.db_path + ": nothing broken, but " + RunList(unsigned_runs) +
              " unsigned: not verified");
+    return kExitUnsigned;
+  }
+  if (chain.check_signatures && !r.open_judged.empty()) {
+    LogError(o.db_path + ": nothing broken, but " + RunList(r.open_judged) +
+             " carry a verdict without being finalised: not verified");
     return kExitUnsigned;
   }
   std::fprintf(stderr, "%s: ok (integrity check, every checksum, every record and the chain%s)\n",

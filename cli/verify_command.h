@@ -6,11 +6,19 @@
 // every signature. One line per problem on stdout, naming the run or the
 // chain entry and what broke; a summary on stderr (runs verified, unsigned
 // with their ids, open, the chain's head).
+// With --pubkey, signatures are required: a chain entry without one (after
+// the migration's) is broken, unless --allow-unsigned (a station that ran
+// without a signing key on purpose): an attacker without the key can
+// rebuild the chain unsigned, and that must not read as a configuration.
+// Views and triggers must be this version's (an edited view changes every
+// lot answer without touching a row).
 // Exit: 0 clean (without --pubkey: signatures present but not checked, and
 // it says so); 1 anything damaged or broken (or the file cannot be read as
-// an archive); 2 a usage error; 3 with --pubkey, nothing broken but some
-// finalised runs unsigned (archived before schema 7 or by a store without
-// --sign-key): they are listed, never reported verified.
+// an archive); 2 a usage error; 3 with --pubkey, nothing broken but not all
+// verified: runs archived before schema 7 (or, with --allow-unsigned, by a
+// store without --sign-key), or runs not finalised that carry a verdict (a
+// store still writing them, or rows written behind its back): listed,
+// never reported verified.
 // `imuqual verify --db FILE --head` prints the chain's head "N:HEX" (after
 // checking the chain's links), to keep outside the archive (a ticket, a
 // WORM store) and give back later as --expect-head.
@@ -28,6 +36,7 @@ struct VerifyOptions {
   std::vector<std::string> pubkey_paths;  // trusted public keys; none: not checked
   bool head = false;                      // print the chain head only
   std::string expect_head;                // "N:HEX" kept from an earlier --head
+  bool allow_unsigned = false;            // with --pubkey: unsigned entries are not broken
 };
 
 // Registers `verify` and its options on `app`; the options land in `o`.

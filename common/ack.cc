@@ -1,21 +1,51 @@
 #include "common/ack.h"
 
+#include <algorithm>
+
 #include "common/channels.h"
 #include "common/clock.h"
-#include "imuqual/ack_t.hpp"
 
 namespace imuqual {
 
+void AckBatch::Add(const std::string& run_id, int64_t next_seq, bool run_done) {
+  for (size_t i = 0; i < run_ids_.size(); ++i) {
+    if (run_ids_[i] == run_id) {  // said twice before a flush: the furthest word
+      next_seq_[i] = std::max(next_seq_[i], next_seq);
+      run_done_[i] = run_done_[i] || run_done;
+      return;
+    }
+  }
+  run_ids_.push_back(run_id);
+  next_seq_.push_back(next_seq);
+  run_done_.push_back(run_done);
+}
+
+Status AckBatch::Flush(LcmBus& bus) {
+  Status first_error;
+  for (size_t at = 0; at < run_ids_.size(); at += kMaxAckRuns) {
+    const size_t n = std::min<size_t>(kMaxAckRuns, run_ids_.size() - at);
+    imuqual::ack_t ack;
+    ack.host_utime = NowUtime();
+    ack.process = role_;
+    ack.instance = instance_;
+    ack.num_runs = static_cast<int16_t>(n);
+    ack.run_ids.assign(run_ids_.begin() + static_cast<long>(at), run_ids_.begin() + static_cast<long>(at + n));
+    ack.next_seq.assign(next_seq_.begin() + static_cast<long>(at), next_seq_.begin() + static_cast<long>(at + n));
+    ack.run_done.assign(run_done_.begin() + static_cast<long>(at), run_done_.begin() + static_cast<long>(at + n));
+    Status st = bus.Publish(channels::kAck, ack);
+    if (!st.ok() && first_error.ok()) first_error = st;
+  }
+  run_ids_.clear();
+  next_seq_.clear();
+  run_done_.clear();
+  return first_error;
+}
+
 Status PublishAck(LcmBus& bus, const std::string& role, const std::string& instance,
                   const std::string& run_id, int64_t next_seq, bool run_done) {
-  imuqual::ack_t ack;
-  ack.host_utime = NowUtime();
-  ack.process = role;
-  ack.instance = instance;
-  ack.run_id = run_id;
-  ack.next_seq = next_seq;
-  ack.run_done = run_done;
-  return bus.Publish(channels::kAck, ack);
+  AckBatch batch(role, instance);
+  batch.Add(run_id, next_seq, run_done);
+  return batch.Flush(bus);
 }
 
 }  // namespace imuqual

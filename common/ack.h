@@ -1,7 +1,9 @@
 // Acknowledgements for flow control (ack_t): consumers tell acquire how far
-// each run has been durably handled. AckPacer decides when to send: soon
-// after progress (but not per batch), and periodically anyway because an ack
-// can be lost like any datagram.
+// each run has been durably handled. AckPacer decides when a run's
+// acknowledgement is due: soon after progress (but not per batch), and
+// periodically anyway because an ack can be lost like any datagram. A
+// consumer gathers its due acknowledgements in an AckBatch and sends them
+// together (several runs per message).
 #ifndef IMUQUAL_COMMON_ACK_H_
 #define IMUQUAL_COMMON_ACK_H_
 
@@ -9,6 +11,7 @@
 #include <string>
 
 #include "common/lcm_bus.h"
+#include "imuqual/ack_t.hpp"
 
 namespace imuqual {
 
@@ -40,7 +43,34 @@ class AckPacer {
   double last_s_ = -1e9;
 };
 
-// Publishes one ack_t on IMUQUAL5_ACK.
+// Runs per ack_t message: with run ids of up to 160 bytes, one 1400-byte
+// datagram holds 7 (a station LAN loses a fragmented message whole if any
+// fragment is lost).
+inline constexpr int kMaxAckRuns = 7;
+
+// A consumer's acknowledgements of several runs, sent as one or a few
+// ack_t messages. Not thread-safe: one owner thread.
+class AckBatch {
+ public:
+  AckBatch(std::string role, std::string instance)
+      : role_(std::move(role)), instance_(std::move(instance)) {}
+  // A run added twice before a flush keeps the furthest word (the higher
+  // next_seq; done if either said so).
+  void Add(const std::string& run_id, int64_t next_seq, bool run_done);
+  bool empty() const { return run_ids_.empty(); }
+  size_t size() const { return run_ids_.size(); }
+  // Publishes what was added (kMaxAckRuns runs per message) and clears it;
+  // the first publish error, if any (the rest is still sent).
+  Status Flush(LcmBus& bus);
+
+ private:
+  std::string role_, instance_;
+  std::vector<std::string> run_ids_;
+  std::vector<int64_t> next_seq_;
+  std::vector<bool> run_done_;
+};
+
+// Publishes one ack_t of one run on IMUQUAL5_ACK.
 Status PublishAck(LcmBus& bus, const std::string& role, const std::string& instance,
                   const std::string& run_id, int64_t next_seq, bool run_done);
 

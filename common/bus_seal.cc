@@ -3,6 +3,7 @@
 #include <sodium.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 #include "common/channels.h"
@@ -101,17 +102,16 @@ ChannelPolicy PolicyOf(std::string_view channel) {
   const uint32_t acquire = Bit(BusRole::kAcquire), analyze = Bit(BusRole::kAnalyze),
                  store = Bit(BusRole::kStore);
   auto starts = [&](const char* prefix) { return channel.starts_with(prefix); };
+  // Who may publish where; with role keys, all of it signed but raw batches.
   if (channel == channels::kRun) return {acquire | store, acquire | store};
   if (starts(channels::kRawPrefix)) return {acquire | store, 0};
   if (starts(channels::kCurvePrefix) || starts(channels::kResultPrefix) ||
       starts(channels::kDecisionPrefix)) {
     return {analyze, analyze};
   }
-  if (channel == channels::kAck) return {analyze | store, store};
+  if (channel == channels::kAck) return {analyze | store, analyze | store};
   if (channel == channels::kResend) return {analyze | store, analyze | store};
-  if (channel == channels::kStatus) {
-    return {acquire | analyze | store | Bit(BusRole::kStation) | Bit(BusRole::kMonitor), 0};
-  }
+  if (channel == channels::kStatus) return {acquire | analyze | store, acquire | analyze | store};
   return {~0u, 0};  // not a station channel: no policy
 }
 
@@ -137,7 +137,8 @@ std::string BusSecurity::Describe(bool beyond_host) const {
   } else if (beyond_host) {
     out = "no station key: unauthenticated bus beyond this host (--insecure-bus)";
   } else {
-    out = "no station key: unauthenticated, this host only (ttl=0)";
+    out = "no station key: unauthenticated (ttl=0 keeps what it sends on this host, but any host "
+          "that reaches its port can speak on it)";
   }
   if (accept_replay) out += "; replayed messages accepted (--accept-replay)";
   return out;
@@ -169,10 +170,13 @@ Result<BusSecurity> BusSecurityFiles::Load(BusRole role) const {
     if (!keys.ok()) return keys.status();
     s.trusted = std::move(*keys);
   }
-  if (!s.trusted.empty() && !s.station_key) {
+  if (!s.trusted.empty() && !s.station_key && role != BusRole::kMonitor) {
     return Status::InvalidArgument("a trust file (" + trust_file +
                                    ") needs a station key too (--key-file): role signatures "
                                    "ride on an authenticated bus");
+  }
+  if (!std::isfinite(max_age_s) || max_age_s > 86400) {
+    return Status::InvalidArgument("max message age: must be a number of seconds up to a day");
   }
   if (s.signing_key) {
     if (const PublicKey* mine = s.TrustedKeyOf(role);
@@ -266,7 +270,7 @@ BusOpener::Opened BusOpener::Open(std::string_view channel, const uint8_t* data,
       return out;
     }
     out.origin.authenticated = true;
-  } else if (keyed) {
+  } else if (keyed && security_.trusted.empty()) {
     out.why = "it carries a MAC under a station key this process does not hold (--key-file)";
     return out;
   }
@@ -282,7 +286,10 @@ BusOpener::Opened BusOpener::Open(std::string_view channel, const uint8_t* data,
     out.why = "its sender's role may not publish on this channel";
     return out;
   }
-  if (!security_.trusted.empty() && policy.MustSign(out.origin.role)) {
+  // A listener without the station key takes only what a role's key signed.
+  const bool must_sign = !security_.trusted.empty() &&
+                         (policy.MustSign(out.origin.role) || !security_.station_key);
+  if (must_sign) {
     const PublicKey* key = security_.TrustedKeyOf(out.origin.role);
     if (key == nullptr) {
       out.why = "the trust file has no public key for its sender's role";
@@ -310,18 +317,23 @@ BusOpener::Verdict BusOpener::Remember(const MessageOrigin& o, int64_t now_utime
                                        const char** why) {
   const int64_t max_age_us = static_cast<int64_t>(security_.max_age_s * 1e6);
   if (!security_.accept_replay) {
-    if (now_utime - o.sent_utime > max_age_us) {
+    // A sent time chosen by a forger cannot overflow the difference: one that
+    // does is as far outside the window as a time can be.
+    int64_t age = 0;
+    const bool overflow = __builtin_sub_overflow(now_utime, o.sent_utime, &age);
+    if (overflow ? o.sent_utime < 0 : age > max_age_us) {
       *why = "it is older than the freshness window (a replay, or the hosts' clocks differ)";
       return Verdict::kReplayed;
     }
-    if (o.sent_utime - now_utime > max_age_us) {
+    if (overflow || age < -max_age_us) {
       *why =
           "it is dated ahead of this host's clock beyond the freshness window (the hosts' clocks "
           "differ?)";
       return Verdict::kReplayed;
     }
   }
-  auto it = senders_.find(o.instance);
+  const SenderKey key{o.instance, o.role, o.signed_by_role};
+  auto it = senders_.find(key);
   if (it == senders_.end()) {
     if (senders_.size() >= kMaxSenders) {
       // Forget senders silent beyond the window: anything they sent is
@@ -340,48 +352,52 @@ BusOpener::Verdict BusOpener::Remember(const MessageOrigin& o, int64_t now_utime
         return Verdict::kUnauthenticated;
       }
     }
-    Sender s;
-    s.role = o.role;
-    s.highest = o.counter;
-    s.window[0] = 1;
-    s.last_sent_utime = o.sent_utime;
-    senders_.emplace(o.instance, s);
-    return Verdict::kOk;
+    it = senders_.emplace(key, Sender{}).first;
+    it->second.last_sent_utime = o.sent_utime;
   }
   Sender& s = it->second;
-  if (s.role != o.role) {
-    *why = "its sender instance spoke as another role before";
-    return Verdict::kUnauthenticated;
+  const Verdict v = Take(s.window, o.counter, why);
+  if (v != Verdict::kOk) return v;
+  s.last_sent_utime = std::max(s.last_sent_utime, o.sent_utime);
+  return Verdict::kOk;
+}
+
+BusOpener::Verdict BusOpener::Take(Window& w, uint64_t counter, const char** why) {
+  if (!w.any) {
+    w.any = true;
+    w.highest = counter;
+    w.bits.fill(0);
+    w.bits[0] = 1;
+    return Verdict::kOk;
   }
-  if (o.counter > s.highest) {
-    const uint64_t shift = o.counter - s.highest;
+  if (counter > w.highest) {
+    const uint64_t shift = counter - w.highest;
     if (shift >= kReplayWindow) {
-      s.window.fill(0);
+      w.bits.fill(0);
     } else {
       const size_t words = shift / 64, bits = shift % 64;
-      for (size_t j = s.window.size(); j-- > 0;) {
-        uint64_t v = j >= words ? s.window[j - words] << bits : 0;
-        if (bits != 0 && j >= words + 1) v |= s.window[j - words - 1] >> (64 - bits);
-        s.window[j] = v;
+      for (size_t j = w.bits.size(); j-- > 0;) {
+        uint64_t v = j >= words ? w.bits[j - words] << bits : 0;
+        if (bits != 0 && j >= words + 1) v |= w.bits[j - words - 1] >> (64 - bits);
+        w.bits[j] = v;
       }
     }
-    s.window[0] |= 1;
-    s.highest = o.counter;
-  } else {
-    const uint64_t behind = s.highest - o.counter;
-    if (behind >= kReplayWindow) {
-      *why = "its counter is far behind what its sender sent since (a replay)";
-      return Verdict::kReplayed;
-    }
-    uint64_t& word = s.window[behind / 64];
-    const uint64_t bit = uint64_t{1} << (behind % 64);
-    if (word & bit) {
-      *why = "the same message was received before (a replay)";
-      return Verdict::kReplayed;
-    }
-    word |= bit;
+    w.bits[0] |= 1;
+    w.highest = counter;
+    return Verdict::kOk;
   }
-  s.last_sent_utime = std::max(s.last_sent_utime, o.sent_utime);
+  const uint64_t behind = w.highest - counter;
+  if (behind >= kReplayWindow) {
+    *why = "its counter is far behind what its sender sent since (a replay)";
+    return Verdict::kReplayed;
+  }
+  uint64_t& word = w.bits[behind / 64];
+  const uint64_t bit = uint64_t{1} << (behind % 64);
+  if (word & bit) {
+    *why = "the same message was received before (a replay)";
+    return Verdict::kReplayed;
+  }
+  word |= bit;
   return Verdict::kOk;
 }
 

@@ -27,7 +27,10 @@
 //    MAC where it has none: unauthenticated);
 // 2. the sender's role may publish on the channel (ChannelPolicy), and,
 //    where this process holds the roles' public keys, the message is signed
-//    by its role's key if the channel requires it: else unauthenticated;
+//    by its role's key if the channel requires it: else unauthenticated. A
+//    listener that holds the public keys but not the station key (imuqual
+//    serve --bus on a host that should not speak) takes signed messages
+//    only, by their signatures;
 // 3. freshness: sent_utime within max_age_s of the receive time (unless
 //    replays were asked for), and the (instance, counter) not seen before
 //    (a sliding window per sender): else replayed.
@@ -40,6 +43,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -80,11 +84,12 @@ inline constexpr size_t kMaxUnsignedTrailerBytes = kSealHeaderBytes + kSealCrcBy
 // acquire (and from the store resending what it archived); archive
 // acknowledgements from the store, flow-control acknowledgements from
 // analyze; resend requests from analyze and the store; status from any
-// process. Where the roles' public keys are known, the verdict-bearing
-// messages must be signed: run announcements, curves, results, decisions
-// and the store's acknowledgements; and so must resend requests (a host
-// with the station key alone cannot make the station resend). Channels
-// outside the station's contract carry no policy.
+// process. Where the roles' public keys are known, every message of those
+// roles must carry its role's signature (run announcements with their
+// plans, curves, results, decisions, acknowledgements, resend requests,
+// status) except raw batches, whose rate makes a signature each too dear:
+// they carry the station key's MAC only (README, "Trust": what that leaves
+// open). Channels outside the station's contract carry no policy.
 struct ChannelPolicy {
   uint32_t allowed = 0;  // bit (1 << role) per role that may publish
   uint32_t signed_ = 0;  // roles whose messages here must be signed
@@ -107,7 +112,9 @@ struct MessageOrigin {
 // The keys and choices of one process on a bus (common/keys.h).
 struct BusSecurity {
   BusRole role = BusRole::kTool;
-  std::optional<StationKey> station_key;  // none: CRC only, one host (ttl=0) or --insecure-bus
+  // none: CRC only (one host, or --insecure-bus), or, for a listener with
+  // `trusted` keys, signed messages only
+  std::optional<StationKey> station_key;
   std::optional<SigningKey> signing_key;  // this role's key: signs its verdict-bearing messages
   std::vector<PublicKey> trusted;         // roles' public keys: their messages must be signed
   bool insecure_bus = false;              // a bus beyond this host without a station key, by choice
@@ -170,17 +177,36 @@ class BusOpener {
 
  private:
   // What a sender has sent: the highest counter and a window of those below.
-  struct Sender {
-    BusRole role = BusRole::kUnknown;
+  // The counters seen of one kind of message of a sender.
+  struct Window {
+    bool any = false;
     uint64_t highest = 0;
-    std::array<uint64_t, 32> window{};  // bit i: highest - i was seen (2048 counters)
+    std::array<uint64_t, 32> bits{};  // bit i: highest - i was seen (2048 counters)
+  };
+  // A sender is its instance, its role and whether its role's key signed:
+  // a message only the station key vouches for (a raw batch) can never move
+  // the window of messages a role's key signed, nor of another role.
+  struct SenderKey {
+    uint64_t instance = 0;
+    BusRole role = BusRole::kUnknown;
+    bool signed_ = false;
+    bool operator==(const SenderKey&) const = default;
+  };
+  struct SenderKeyHash {
+    size_t operator()(const SenderKey& k) const {
+      return std::hash<uint64_t>()(k.instance) ^ (static_cast<size_t>(k.role) << 1 | k.signed_);
+    }
+  };
+  struct Sender {
+    Window window;
     int64_t last_sent_utime = 0;
   };
+  static Verdict Take(Window& w, uint64_t counter, const char** why);
   // kOk, or why (instance, counter) is refused.
   Verdict Remember(const MessageOrigin& o, int64_t now_utime, const char** why);
 
   BusSecurity security_;
-  std::unordered_map<uint64_t, Sender> senders_;
+  std::unordered_map<SenderKey, Sender, SenderKeyHash> senders_;
 };
 
 // Bounds of the replay memory.

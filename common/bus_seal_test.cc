@@ -194,15 +194,83 @@ TEST(BusSealTest, WithRoleKeysAHostHoldingTheStationKeyCannotSpeakForAnotherRole
   const auto batch = OpenNow(store, kRaw, Sealed(acquire, kRaw, "samples"));
   EXPECT_EQ(batch.verdict, Verdict::kOk);
   EXPECT_FALSE(batch.origin.signed_by_role);
-  // Analyze's flow-control acks need no signature, the store's do.
+  // Everything else of a role with a key must be signed: acknowledgements
+  // (the store's and analyze's), status.
   BusSealer store_unsigned(st.As(BusRole::kStore));
-  EXPECT_EQ(
-      OpenNow(acquire_side, channels::kAck, Sealed(store_unsigned, channels::kAck, "a")).verdict,
-      Verdict::kUnauthenticated);
+  EXPECT_EQ(OpenNow(acquire_side, channels::kAck, Sealed(store_unsigned, channels::kAck, "a")).verdict,
+            Verdict::kUnauthenticated);
   BusSealer analyze_unsigned(st.As(BusRole::kAnalyze));
-  EXPECT_EQ(
-      OpenNow(acquire_side, channels::kAck, Sealed(analyze_unsigned, channels::kAck, "a")).verdict,
-      Verdict::kOk);
+  EXPECT_EQ(OpenNow(acquire_side, channels::kAck, Sealed(analyze_unsigned, channels::kAck, "a")).verdict,
+            Verdict::kUnauthenticated);
+  EXPECT_EQ(OpenNow(acquire_side, channels::kStatus, Sealed(analyze_unsigned, channels::kStatus, "s")).verdict,
+            Verdict::kUnauthenticated);
+  EXPECT_EQ(OpenNow(acquire_side, channels::kStatus, Sealed(analyze, channels::kStatus, "s")).verdict,
+            Verdict::kOk);
+}
+
+TEST(BusSealTest, AListenerWithThePublicKeysAloneTakesWhatTheRolesSigned) {
+  Station st;
+  BusSecurity listener;
+  listener.role = BusRole::kMonitor;
+  listener.trusted = {st.acquire.Public(), st.analyze.Public(), st.store.Public()};
+  BusOpener monitor(listener);
+  BusSealer analyze(st.As(BusRole::kAnalyze, true));
+  const auto result = OpenNow(monitor, kResult, Sealed(analyze, kResult, "verdict FAIL"));
+  EXPECT_EQ(result.verdict, Verdict::kOk) << result.why;
+  EXPECT_TRUE(result.origin.signed_by_role);
+  EXPECT_FALSE(result.origin.authenticated);  // no MAC checked: it holds no station key
+  // What only the station key vouches for it cannot check, so it refuses it.
+  BusSealer acquire(st.As(BusRole::kAcquire, true));
+  EXPECT_EQ(OpenNow(monitor, kRaw, Sealed(acquire, kRaw, "samples")).verdict, Verdict::kUnauthenticated);
+  BusSealer insider(st.As(BusRole::kAnalyze));  // the station key, no role key
+  EXPECT_EQ(OpenNow(monitor, kResult, Sealed(insider, kResult, "verdict PASS")).verdict,
+            Verdict::kUnauthenticated);
+}
+
+TEST(BusSealTest, AnUnsignedMessageCannotMoveASignedSendersWindow) {
+  // An insider with the station key but no role key reads acquire's instance
+  // off the wire and sends a raw batch with it and a counter far ahead: the
+  // raw window of that instance moves, acquire's signed messages do not.
+  Station st;
+  BusSealer acquire(st.As(BusRole::kAcquire, true));
+  BusOpener store(st.As(BusRole::kStore, true));
+  const auto first = Sealed(acquire, channels::kRun, "announce 1");
+  const auto second = Sealed(acquire, channels::kRun, "announce 2");
+  ASSERT_EQ(OpenNow(store, channels::kRun, first).verdict, Verdict::kOk);
+  // The forgery: a raw batch with acquire's instance and a counter of 2^62.
+  BusSecurity insider_sec = st.As(BusRole::kAcquire);
+  BusSealer insider(insider_sec);
+  auto forged = Sealed(insider, kRaw, "b");
+  const size_t header = forged.size() - 2 - kSealCrcBytes - kMacBytes - kSealHeaderBytes;
+  for (int i = 0; i < 8; ++i) forged[header + 2 + i] = static_cast<uint8_t>(acquire.instance() >> (56 - 8 * i));
+  for (int i = 0; i < 8; ++i) forged[header + 10 + i] = static_cast<uint8_t>((uint64_t{1} << 62) >> (56 - 8 * i));
+  // ... MAC'd again with the station key it holds (CRC after it).
+  {
+    std::vector<uint8_t> body(forged.begin(), forged.begin() + static_cast<long>(header + kSealHeaderBytes));
+    const uint8_t fv[2] = {forged[forged.size() - 2], forged[forged.size() - 1]};
+    uint8_t mac[kMacBytes];
+    crypto_generichash_state h;
+    crypto_generichash_init(&h, st.key.bytes.data(), st.key.bytes.size(), kMacBytes);
+    crypto_generichash_update(&h, reinterpret_cast<const unsigned char*>(kRaw.data()), kRaw.size());
+    const unsigned char zero = 0;
+    crypto_generichash_update(&h, &zero, 1);
+    crypto_generichash_update(&h, body.data(), body.size());
+    crypto_generichash_update(&h, fv, 2);
+    crypto_generichash_final(&h, mac, kMacBytes);
+    std::copy(mac, mac + kMacBytes, forged.begin() + static_cast<long>(header + kSealHeaderBytes));
+    std::string covered = kRaw;
+    covered.push_back('\0');
+    covered.append(forged.begin(), forged.end() - 2 - static_cast<long>(kSealCrcBytes));
+    covered.append(forged.end() - 2, forged.end());
+    const uint32_t crc = Crc32c(covered);
+    const size_t crc_at = forged.size() - 2 - kSealCrcBytes;
+    for (int i = 0; i < 4; ++i) forged[crc_at + i] = static_cast<uint8_t>(crc >> (24 - 8 * i));
+  }
+  const auto poisoned = OpenNow(store, kRaw, forged);
+  ASSERT_EQ(poisoned.verdict, Verdict::kOk) << poisoned.why;  // a raw batch the key vouches for
+  EXPECT_EQ(poisoned.origin.instance, acquire.instance());
+  // acquire's next signed announcement still passes.
+  EXPECT_EQ(OpenNow(store, channels::kRun, second).verdict, Verdict::kOk);
 }
 
 TEST(BusSealTest, ReplaysAreRefusedAndReorderingIsNot) {
@@ -276,17 +344,9 @@ void SetSentUtime(int64_t utime, size_t body_size, std::vector<uint8_t>* wire) {
     (*wire)[body_size + 18 + i] = static_cast<uint8_t>(utime >> (56 - 8 * i));
 }
 
-TEST(BusSealTest, AnInstanceKeepsItsRoleAndSendersAreBounded) {
+TEST(BusSealTest, SendersAreBounded) {
   BusSecurity as_acquire;
   as_acquire.role = BusRole::kAcquire;
-  BusSealer sealer(as_acquire);
-  BusOpener opener(BusSecurity{});
-  ASSERT_EQ(OpenNow(opener, kRaw, Sealed(sealer, kRaw, "b")).verdict, Verdict::kOk);
-  auto second = Sealed(sealer, kRaw, "b");
-  second[1] = static_cast<uint8_t>(BusRole::kStore);  // the header's role byte (body: 1 byte)
-  Reseal(kRaw, &second);
-  EXPECT_EQ(OpenNow(opener, kRaw, second).verdict, Verdict::kUnauthenticated);
-
   // At most kMaxSenders remembered; those silent beyond the window are
   // forgotten to make room (anything they sent is stale by then).
   const int64_t now = NowUtime();

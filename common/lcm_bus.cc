@@ -54,8 +54,11 @@ Result<std::unique_ptr<LcmBus>> LcmBus::Open(const std::string& url, BusSecurity
 }
 
 Status LcmBus::CheckSecurity(const std::string& url, const BusSecurity& security) {
+  // A listener holding the roles' public keys takes signed messages only: it
+  // needs no station key anywhere.
+  const bool signed_listener = security.role == BusRole::kMonitor && !security.trusted.empty();
   if (url.rfind("udpm://", 0) == 0 && BusTtl(url) > 0 && !security.station_key &&
-      !security.insecure_bus) {
+      !security.insecure_bus && !signed_listener) {
     return Status::InvalidArgument("the bus " + url +
                                    " reaches beyond this host (ttl > 0): give the station key "
                                    "(--key-file; make one with imuqual keygen), or say "

@@ -21,9 +21,10 @@ imuqual::ack_t Ack(int64_t seq) {
   a.host_utime = 1;
   a.process = "store";
   a.instance = "host:1";
-  a.run_id = "RUN-1";
-  a.next_seq = seq;
-  a.run_done = false;
+  a.num_runs = 1;
+  a.run_ids = {"RUN-1"};
+  a.next_seq = {seq};
+  a.run_done = {false};
   return a;
 }
 
@@ -50,7 +51,7 @@ class LcmBusSealTest : public ::testing::Test {
     ASSERT_TRUE(raw_->good());
     bus_->Subscribe<imuqual::ack_t>(
         kChannel, 10000,
-        [this](const std::string&, imuqual::ack_t&& a, int64_t) { received_.push_back(a.next_seq); });
+        [this](const std::string&, imuqual::ack_t&& a, int64_t) { received_.push_back(a.next_seq[0]); });
   }
   // Dispatches until `n` datagrams were seen by the bus (bounded).
   void PumpUntilSeen(uint64_t n) {

@@ -1,9 +1,10 @@
 // ResendBudget: how much a requester may have resent, a token bucket per
-// requester (the sender instance its request's seal names, not a name it
-// writes itself), so that one process asking again and again (a bug, or an
-// insider flooding the bus) cannot make a station resend faster than the
-// bus should carry, while a process catching up after a restart gets the
-// full rate. Bytes, not requests, are counted: a resent batch costs its
+// requester (the stations key it by the requesting role its request's seal
+// names, not by a name it writes itself, nor by its instance, which a flooder
+// could renew at will), so that one process asking again and again (a bug,
+// or a compromised host flooding the bus) cannot make a station resend
+// faster than the bus should carry, while a process catching up after a
+// restart gets the full rate. Bytes, not requests, are counted: a resent batch costs its
 // size. Requesters idle longest are forgotten beyond `max_requesters`.
 //
 // Time is passed in (monotonic seconds). Not thread-safe: one owner thread.

@@ -26,11 +26,11 @@ struct Cell {
   std::string text;
   double real = 0;
   int64_t integer = 0;
-  static Cell Text(std::string t) { return {Kind::kText, std::move(t), 0, 0}; }
-  static Cell Real(double v) { return {Kind::kReal, "", v, 0}; }
-  static Cell Int(int64_t v) { return {Kind::kInt, "", 0, v}; }
-  static Cell NumText(std::string t) { return {Kind::kNumText, std::move(t), 0, 0}; }
-  static Cell Bool(bool b) { return {Kind::kBool, "", 0, b ? 1 : 0}; }
+  static Cell Text(std::string t) { return {Kind::kText, std::move(t), 0, 0, {}}; }
+  static Cell Real(double v) { return {Kind::kReal, "", v, 0, {}}; }
+  static Cell Int(int64_t v) { return {Kind::kInt, "", 0, v, {}}; }
+  static Cell NumText(std::string t) { return {Kind::kNumText, std::move(t), 0, 0, {}}; }
+  static Cell Bool(bool b) { return {Kind::kBool, "", 0, b ? 1 : 0, {}}; }
   // A link target for the HTML table (escaped there; ignored elsewhere).
   std::string href;
   Cell Linked(std::string target) && {

@@ -280,7 +280,9 @@ TEST(StationConsoleTest, ColourOnlyInVerdictAndStateCellsAndReconnectingShown) {
   const std::string small = Screen(RenderConsole(m, 80, 24));
   const size_t reconnecting = small.find("FAIL-03"), other = small.find("SN-4 ");
   ASSERT_NE(reconnecting, std::string::npos) << small;
-  if (other != std::string::npos) EXPECT_LT(reconnecting, other) << small;
+  if (other != std::string::npos) {
+    EXPECT_LT(reconnecting, other) << small;
+  }
 }
 
 // The provisional values carry the marks measurement_t gives them.

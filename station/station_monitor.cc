@@ -66,17 +66,23 @@ void StationMonitor::Changed(int64_t utime) {
 }
 
 void StationMonitor::Attach(LcmBus& bus) {
-  bus.Subscribe<imuqual::status_t>(channels::kStatus, 1000,
-                                   [this](const std::string&, imuqual::status_t&& s, int64_t) {
-                                     OnStatus(s, MonotonicSeconds());
-                                   });
+  bus.SubscribeWithOrigin<imuqual::status_t>(
+      channels::kStatus, 1000, nullptr,
+      [this](const std::string&, imuqual::status_t&& s, const MessageOrigin& from) {
+        // A process speaks for itself only (its seal names its role).
+        if (s.process != RoleName(from.role)) return;
+        OnStatus(s, MonotonicSeconds());
+      });
   bus.Subscribe<imuqual::run_t>(
       channels::kRun, 1000, [this](const std::string&, imuqual::run_t&& r, int64_t) { OnRun(r); });
   bus.Subscribe<imuqual::decision_t>(
       channels::kDecisionAll, 1000,
       [this](const std::string&, imuqual::decision_t&& d, int64_t) { OnDecision(d); });
-  bus.Subscribe<imuqual::ack_t>(
-      channels::kAck, 20000, [this](const std::string&, imuqual::ack_t&& a, int64_t) { OnAck(a); });
+  bus.SubscribeWithOrigin<imuqual::ack_t>(
+      channels::kAck, 20000, nullptr,
+      [this](const std::string&, imuqual::ack_t&& a, const MessageOrigin& from) {
+        if (a.process == RoleName(from.role)) OnAck(a);
+      });
   bus.Subscribe<imuqual::unit_result_t>(
       channels::kResultAll, 1000,
       [this](const std::string&, imuqual::unit_result_t&& r, int64_t) { OnResult(r); });
@@ -282,21 +288,25 @@ void StationMonitor::OnAck(const imuqual::ack_t& a) {
   // The store's latest word: a run it opens again (judged anew) is no
   // longer archived.
   if (a.process != "store") return;
-  // Acknowledgements carry no serial: the run's unit by its run id.
-  auto shown = std::find_if(model_.units.begin(), model_.units.end(),
-                            [&](const ConsoleUnit& u) { return u.run_id == a.run_id; });
-  // A discovering monitor keeps only the runs it shows (a bus may carry any
-  // number of them); the station's own keeps every run (runs left open by
-  // an earlier station process are waited for by their id).
-  if (options_.discover_units && shown == model_.units.end()) return;
-  if (a.run_done) {
-    archived_runs_.insert(a.run_id);
-  } else {
-    archived_runs_.erase(a.run_id);
-  }
-  if (shown != model_.units.end() && shown->archived != a.run_done) {
-    shown->archived = a.run_done;
-    Changed(a.host_utime);
+  for (int i = 0; i < a.num_runs; ++i) {
+    const std::string& run_id = a.run_ids[i];
+    const bool done = a.run_done[i];
+    // Acknowledgements carry no serial: the run's unit by its run id.
+    auto shown = std::find_if(model_.units.begin(), model_.units.end(),
+                              [&](const ConsoleUnit& u) { return u.run_id == run_id; });
+    // A discovering monitor keeps only the runs it shows (a bus may carry
+    // any number of them); the station's own keeps every run (runs left
+    // open by an earlier station process are waited for by their id).
+    if (options_.discover_units && shown == model_.units.end()) continue;
+    if (done) {
+      archived_runs_.insert(run_id);
+    } else {
+      archived_runs_.erase(run_id);
+    }
+    if (shown != model_.units.end() && shown->archived != done) {
+      shown->archived = done;
+      Changed(a.host_utime);
+    }
   }
 }
 

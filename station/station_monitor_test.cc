@@ -171,8 +171,10 @@ void Finish(StationMonitor& m, const std::string& run_id, const std::string& ser
   m.OnResult(ResultMsg(run_id, serial, true, 5, imuqual::measurement_t::OUTCOME_PASS));
   imuqual::ack_t a{};
   a.process = "store";
-  a.run_id = run_id;
-  a.run_done = true;
+  a.num_runs = 1;
+  a.run_ids = {run_id};
+  a.next_seq = {0};
+  a.run_done = {true};
   m.OnAck(a);
 }
 
@@ -299,8 +301,10 @@ TEST(StationMonitorTest, ForgetsUnitsArchivedLongAgo) {
   m.OnResult(ResultMsg("R-U1", "U1", true, 12, imuqual::measurement_t::OUTCOME_FAIL));
   imuqual::ack_t a{};
   a.process = "store";
-  a.run_id = "R-U1";
-  a.run_done = true;
+  a.num_runs = 1;
+  a.run_ids = {"R-U1"};
+  a.next_seq = {0};
+  a.run_done = {true};
   m.OnAck(a);
   m.Refresh(100, true);
   m.Refresh(150, true);
@@ -337,8 +341,10 @@ TEST(StationMonitorTest, ResultsSetProvisionalAndFinalVerdictsAndRaiseTheVersion
   EXPECT_TRUE(m.model().units[0].final_result);
   imuqual::ack_t a{};
   a.process = "store";
-  a.run_id = "R-U1";
-  a.run_done = true;
+  a.num_runs = 1;
+  a.run_ids = {"R-U1"};
+  a.next_seq = {0};
+  a.run_done = {true};
   m.OnAck(a);
   EXPECT_TRUE(m.RunArchived("R-U1"));
   EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).state, "done");

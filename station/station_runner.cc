@@ -4,11 +4,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <map>
 #include <optional>
 #include <random>
@@ -21,6 +23,7 @@
 #include "analyze/judge/plan_file.h"
 #include "common/channels.h"
 #include "common/clock.h"
+#include "common/keys.h"
 #include "common/lcm_bus.h"
 #include "common/log.h"
 #include "common/shutdown.h"
@@ -233,8 +236,53 @@ Status StationRunOptions::Validate() const {
   return Status::Ok();
 }
 
-Result<StationRunResult> RunStation(const StationRunOptions& given) {
-  IMUQUAL_RETURN_IF_ERROR(given.Validate());
+namespace {
+
+// A station key made for one soak when none is configured (and the bus is
+// this host's): LCM's socket takes datagrams from any host that can reach
+// its port, whatever the ttl, so even a one-host station authenticates its
+// messages. Kept in a directory only this user can read, removed with it.
+class SoakKey {
+ public:
+  static Result<SoakKey> Make() {
+    char tmpl[] = "/tmp/imuqual-soak-key-XXXXXX";
+    if (::mkdtemp(tmpl) == nullptr) {
+      return Status::IoError(std::string("cannot make a directory for the soak's key: ") +
+                             std::strerror(errno));
+    }
+    SoakKey k(tmpl);
+    auto key = GenerateStationKey();
+    if (!key.ok()) return key.status();
+    IMUQUAL_RETURN_IF_ERROR(WriteStationKeyFile(k.path(), *key));
+    return k;
+  }
+  SoakKey(SoakKey&& o) noexcept : dir_(std::move(o.dir_)) { o.dir_.clear(); }
+  SoakKey(const SoakKey&) = delete;
+  ~SoakKey() {
+    if (dir_.empty()) return;
+    ::unlink(path().c_str());
+    ::rmdir(dir_.c_str());
+  }
+  std::string path() const { return dir_ + "/station.key"; }
+
+ private:
+  explicit SoakKey(std::string dir) : dir_(std::move(dir)) {}
+  std::string dir_;
+};
+
+}  // namespace
+
+Result<StationRunResult> RunStation(const StationRunOptions& options) {
+  IMUQUAL_RETURN_IF_ERROR(options.Validate());
+  StationRunOptions given = options;
+  std::optional<SoakKey> soak_key;
+  if (given.key_file.empty() && !given.insecure_bus &&
+      (given.lcm_url.empty() || BusTtl(given.lcm_url) == 0)) {
+    auto key = SoakKey::Make();
+    if (!key.ok()) return key.status();
+    soak_key.emplace(std::move(*key));
+    given.key_file = soak_key->path();
+  }
   auto security = LoadStationSecurity(given);
   if (!security.ok()) return security.status();
   auto profile = sim::LotProfileByName(given.profile);

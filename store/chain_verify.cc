@@ -1,5 +1,7 @@
 #include "store/chain_verify.h"
 
+#include "store/schema.h"
+
 #include <algorithm>
 #include <map>
 #include <set>
@@ -98,7 +100,12 @@ Status WalkChain(Db& db, const ChainVerifyOptions& o, bool links_only,
     const bool has_id = !e.key_id.empty(), has_signature = !e.signature.empty();
     const std::string who = migration ? label : "run " + e.run_id;
     if (!has_id && !has_signature) {
-      if (last_signed > 0) {
+      if (o.require_signatures && !migration) {
+        report(label + " (run " + e.run_id +
+               ") is unsigned, and signatures are required (signatures stripped, or a store "
+               "without --sign-key: verify --allow-unsigned accepts such runs as unsigned)");
+        sound = false;
+      } else if (last_signed > 0) {
         report(label + " is unsigned although entry " + std::to_string(last_signed) +
                " before it is signed (signatures stripped, or a writer without the store key)");
         sound = false;
@@ -282,6 +289,61 @@ void CompareRecords(const std::string& run_id, const SignedRecord& was, const Si
 
 }  // namespace
 
+namespace {
+
+// The views and triggers of a schema, by "type name", their SQL with runs
+// of whitespace made one space.
+Result<std::map<std::string, std::string>> SchemaObjects(Db& db) {
+  auto s = db.Prepare(
+      "SELECT type, name, COALESCE(sql, '') FROM sqlite_schema WHERE type IN ('view', 'trigger')");
+  if (!s.ok()) return s.status();
+  std::map<std::string, std::string> out;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    std::string sql, text = s->Text(2);
+    for (char c : text) {
+      const bool space = c == ' ' || c == '\n' || c == '\t' || c == '\r';
+      if (space && (sql.empty() || sql.back() == ' ')) continue;
+      sql += space ? ' ' : c;
+    }
+    while (!sql.empty() && sql.back() == ' ') sql.pop_back();
+    out[s->Text(0) + " " + s->Text(1)] = std::move(sql);
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<int64_t> CheckSchema(Db& db, const std::function<void(const std::string&)>& problem) {
+  auto fresh = Db::Open(":memory:", Db::Mode::kReadWrite);
+  if (!fresh.ok()) return fresh.status();
+  IMUQUAL_RETURN_IF_ERROR(Migrate(**fresh));
+  auto want = SchemaObjects(**fresh);
+  if (!want.ok()) return want.status();
+  auto have = SchemaObjects(db);
+  if (!have.ok()) return have.status();
+  int64_t problems = 0;
+  for (const auto& [name, sql] : *have) {
+    auto it = want->find(name);
+    if (it == want->end()) {
+      problem("schema: " + name + " is not this version's (added to the file)");
+      ++problems;
+    } else if (it->second != sql) {
+      problem("schema: " + name + " differs from this version's definition (edited)");
+      ++problems;
+    }
+  }
+  for (const auto& [name, sql] : *want) {
+    if (have->count(name) == 0) {
+      problem("schema: " + name + " is missing (dropped from the file)");
+      ++problems;
+    }
+  }
+  return problems;
+}
+
 Result<int64_t> CheckChainLinks(Db& db, const std::function<void(const std::string&)>& problem) {
   Walk w;
   IMUQUAL_RETURN_IF_ERROR(WalkChain(db, ChainVerifyOptions(), /*links_only=*/true, problem, &w));
@@ -300,8 +362,8 @@ Result<ChainVerifyReport> VerifyChain(Db& db, const ChainVerifyOptions& o,
     problem(line);
   };
   auto runs = db.Prepare(
-      "SELECT run_key, run_id, finalized_utime IS NOT NULL, plan, COALESCE(plan_sha256, '') "
-      "FROM runs ORDER BY run_id");
+      "SELECT run_key, run_id, finalized_utime IS NOT NULL, plan, COALESCE(plan_sha256, ''), "
+      "verdict IS NOT NULL FROM runs ORDER BY run_id");
   if (!runs.ok()) return runs.status();
   for (;;) {
     auto row = runs->Step();
@@ -338,6 +400,7 @@ Result<ChainVerifyReport> VerifyChain(Db& db, const ChainVerifyOptions& o,
     if (!chained) {
       if (!finalized) {
         out.open.push_back(run_id);
+        if (runs->Int(5) != 0) out.open_judged.push_back(run_id);
       } else {
         report("run " + run_id +
                ": finalised but not in the chain (its chain entry was deleted, or the run was "

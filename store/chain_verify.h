@@ -38,6 +38,9 @@ struct ChainVerifyOptions {
   // A head kept elsewhere (imuqual verify --head): the chain must still hold
   // that entry with that hash.
   std::optional<ChainHead> expect_head;
+  // Every entry but the migration's must be signed: an unsigned one is a
+  // problem (signatures stripped, or a store without a signing key).
+  bool require_signatures = false;
 };
 
 struct ChainVerifyReport {
@@ -48,12 +51,19 @@ struct ChainVerifyReport {
   // checked (no keys given); unsigned, archived before schema 7 (listed at
   // the migration) or by a writer without a signing key.
   std::vector<std::string> verified, signed_unchecked, unsigned_legacy, unsigned_keyless;
-  // Runs not finalised (their chain entry comes when they are).
-  std::vector<std::string> open;
+  // Runs not finalised (their chain entry comes when they are); of them,
+  // those that carry a verdict (a store writing them now, or rows written
+  // behind the store's back: not evidence until finalised).
+  std::vector<std::string> open, open_judged;
 };
 
 Result<ChainVerifyReport> VerifyChain(Db& db, const ChainVerifyOptions& options,
                                       const std::function<void(const std::string&)>& problem);
+
+// Views and triggers against this version's own (those of a fresh archive,
+// whitespace aside): one problem per object added, removed or changed.
+// Returns the number of problems.
+Result<int64_t> CheckSchema(Db& db, const std::function<void(const std::string&)>& problem);
 
 // The chain's links alone (numbering, prev_hash, each entry's hash), cheap:
 // what `verify --head` checks before printing a head. Returns the number of

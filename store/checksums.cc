@@ -35,6 +35,7 @@ class Hasher {
   // (a result's rows are thousands of 8-byte values): the CRC of the same
   // byte stream, whatever the pieces (Crc32cExtend).
   void Bytes(const void* data, size_t size) {
+    if (size == 0) return;  // SQLite gives a null pointer for an empty text or blob
     if (fill_ + size > sizeof buffer_) Flush();
     if (size > sizeof buffer_) {
       crc_ = Crc32cExtend(crc_, data, size);

@@ -162,6 +162,8 @@ struct StoreService::Impl {
   LastHeard acquire_heard;          // acquire's run_t arrivals, noted by the handler
   SeqTracker::Options tracker_options;
   std::string instance = InstanceName();
+  // The acknowledgements due, sent together at the end of each Tick.
+  AckBatch acks{"store", instance};
   std::string health_message;
   ThrottledLog write_errors;
   ThrottledLog rejections;
@@ -487,9 +489,9 @@ void StoreService::Impl::RecordGivenUp(StoreRun& r, const std::vector<SeqRange>&
 
 // Resends from the archive what acquire cannot: batches it no longer
 // retains, or all of them once it is gone.
-// `req.requester` is the sender instance the request's seal names (the
-// handler put it there), in decimal: each requester is served within its
-// budget (common/resend_budget.h); the rest is dropped and counted.
+// `req.requester` is the role the request's seal names (the handler put it
+// there), in decimal: each requesting role is served within its budget
+// (common/resend_budget.h); the rest is dropped and counted.
 Status StoreService::Impl::ServeResend(const imuqual::resend_t& req) {
   const uint64_t requester = std::strtoull(req.requester.c_str(), nullptr, 10);
   auto it = runs.find(req.run_id);
@@ -790,18 +792,24 @@ Status StoreService::Impl::Apply(Item& item, Staged* staged) {
     // the confirmation; say it again.
     if (finalized.count(run_id) && (std::holds_alternative<imuqual::unit_result_t>(item) ||
                                     std::holds_alternative<imuqual::allan_curve_t>(item))) {
-      (void)PublishAck(*bus, "store", instance, run_id, std::numeric_limits<int64_t>::max(), true);
+      acks.Add(run_id, std::numeric_limits<int64_t>::max(), true);
     }
     return Status::Ok();
   }
-  if (auto* b = std::get_if<imuqual::rate_batch_t>(&item)) return ApplyBatch(*r, *b, staged);
   if (r->done) {
-    // Finalized: settled. Nothing a message says changes it; its analyze
-    // hears the confirmation again.
+    // Finalized: settled. A batch is not added to it (acquire back after a
+    // take-over opens the run again first, ReopenIfResumed, and the batches
+    // are asked for again).
+    if (std::holds_alternative<imuqual::rate_batch_t>(item)) {
+      ++late_messages;
+      return Status::Ok();
+    }
+    // Nothing a message says changes it; its analyze hears the confirmation again.
     ++settled_messages;
-    (void)PublishAck(*bus, "store", instance, run_id, std::numeric_limits<int64_t>::max(), true);
+    acks.Add(run_id, std::numeric_limits<int64_t>::max(), true);
     return Status::Ok();
   }
+  if (auto* b = std::get_if<imuqual::rate_batch_t>(&item)) return ApplyBatch(*r, *b, staged);
   if (RoundOf(item) != r->info.revision) {
     ++stale_results;  // answers an earlier judgement round (or a store that forgot one)
     return Status::Ok();
@@ -1114,9 +1122,8 @@ void StoreService::Impl::Tick(double now) {
       }
     }
     if (r.key >= 0 && r.ack.Due(r.tracker.next_seq(), r.done, now, false)) {
-      if (PublishAck(*bus, "store", instance, id, r.tracker.next_seq(), r.done).ok()) {
-        r.ack.Sent(r.tracker.next_seq(), r.done, now);
-      }
+      acks.Add(id, r.tracker.next_seq(), r.done);
+      r.ack.Sent(r.tracker.next_seq(), r.done, now);  // a lost one is said again within 0.5 s
     }
     if (r.done && now - r.done_s > kDoneAckForS) {
       acquire_heard.Forget(id);
@@ -1125,6 +1132,7 @@ void StoreService::Impl::Tick(double now) {
       ++it;
     }
   }
+  (void)acks.Flush(*bus);  // a lost acknowledgement is said again (AckPacer)
 }
 
 Counters StoreService::Impl::StatusCounters() const {
@@ -1219,7 +1227,9 @@ Status StoreService::Run() {
       channels::kResend, 1000, nullptr,
       [enqueue, &s](const std::string&, imuqual::resend_t&& m, const MessageOrigin& from) {
         if (from.instance == s.bus->instance()) return;  // its own
-        m.requester = std::to_string(from.instance);
+        // The budget is the requesting role's (its seal names it): a new
+        // instance of a role gets no budget of its own.
+        m.requester = std::to_string(static_cast<int>(from.role));
         enqueue(std::move(m));
       });
   s.bus->Subscribe<imuqual::allan_curve_t>(

@@ -57,7 +57,7 @@ class StoreUnderTest {
     bus_->Subscribe<imuqual::ack_t>(channels::kAck, 1000,
                                     [this](const std::string&, imuqual::ack_t&& a, int64_t) {
                                       if (a.process == "store")
-                                        acked_ = std::max(acked_, a.next_seq);
+                                        for (int64_t seq : a.next_seq) acked_ = std::max(acked_, seq);
                                     });
     bus_->Subscribe<imuqual::status_t>(channels::kStatus, 1000,
                                        [this](const std::string&, imuqual::status_t&& s, int64_t) {

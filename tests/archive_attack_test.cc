@@ -162,13 +162,27 @@ class ArchiveAttackTest : public ::testing::Test {
   }
 
   // An attacker's SQL on the copy, with what stops honest tools set aside.
+  // The edit an attacker with write access makes: the chain's guard
+  // triggers dropped for it and put back as they were, so that the schema
+  // check has nothing to say and what is found is found in the records.
   void Edit(const std::string& sql) {
+    std::string guards;
+    {
+      auto r = store::Db::Open(copy_, store::Db::Mode::kReadOnly);
+      ASSERT_TRUE(r.ok());
+      auto stmt = (*r)->Prepare(
+          "SELECT sql FROM sqlite_master WHERE type = 'trigger' AND name LIKE 'archive_chain_%'");
+      ASSERT_TRUE(stmt.ok());
+      for (auto row = stmt->Step(); row.ok() && *row; row = stmt->Step()) {
+        guards += stmt->Text(0) + ";\n";
+      }
+    }
     auto d = store::Db::Open(copy_, store::Db::Mode::kReadWrite);
     ASSERT_TRUE(d.ok());
     ASSERT_TRUE(
         (*d)->Exec("PRAGMA foreign_keys = OFF; DROP TRIGGER IF EXISTS archive_chain_no_update; "
                    "DROP TRIGGER IF EXISTS archive_chain_no_delete; " +
-                   sql)
+                   sql + "; " + guards)
             .ok())
         << sql;
   }
@@ -231,6 +245,34 @@ TEST_F(ArchiveAttackTest, AnUneditedCopyVerifiesCleanAndEveryRunReanalysesBitFor
   EXPECT_NE(wrong.output.find("run " + SignedSoak().bad_run + ": signed by an unknown key"),
             std::string::npos)
       << wrong.output;
+}
+
+// A view redefined (every lot answer changes without a row touched) and a
+// run slipped in unfinalised with a PASS (the views would count it): named,
+// never verified.
+TEST_F(ArchiveAttackTest, AViewRedefinedIsNamed) {
+  Edit("DROP VIEW run_archive; CREATE VIEW run_archive AS SELECT run_id, 'complete' AS state FROM runs");
+  const CommandResult v = Verify("2>&1");
+  EXPECT_EQ(v.exit_code, 1);
+  EXPECT_NE(v.output.find("schema: view run_archive differs from this version's definition"),
+            std::string::npos)
+      << v.output;
+}
+
+TEST_F(ArchiveAttackTest, ARunSlippedInWithAVerdictIsNotVerified) {
+  const std::string bad = SignedSoak().bad_run;
+  Edit("INSERT INTO runs(run_id, serial, lot, station, slot, operator, source, software_version, "
+       "start_utime, state, nominal_rate_hz, last_seq, samples_announced, plan, plan_sha256, "
+       "first_sample, end_sample, end_reason, verdict, reasons) SELECT 'A9-BAD', serial, lot, "
+       "station, slot, operator, source, software_version, start_utime + 1000000, 'complete', "
+       "nominal_rate_hz, last_seq, samples_announced, plan, plan_sha256, first_sample, end_sample, "
+       "'', 'PASS', '' FROM runs WHERE run_id = '" + bad + "'");
+  const CommandResult v = Verify("2>&1");
+  EXPECT_EQ(v.exit_code, 3) << v.output;
+  EXPECT_NE(v.output.find("open runs that carry a verdict (not finalised: not evidence yet"),
+            std::string::npos)
+      << v.output;
+  EXPECT_NE(v.output.find("A9-BAD"), std::string::npos) << v.output;
 }
 
 TEST_F(ArchiveAttackTest, AVerdictEditedWithItsChecksumRecomputedIsNamed) {
@@ -353,8 +395,17 @@ TEST(ArchiveUnsignedTest, AnArchiveMadeWithoutAKeyReportsItsRunsUnsigned) {
   ASSERT_EQ(RunCommand(Bin("imuqual") + " keygen --role store --out " + key + " 2>&1").exit_code,
             0);
   const std::string id = QueryText(db, "SELECT run_id FROM runs");
-  const CommandResult v =
+  // With --pubkey signatures are required: an unsigned entry is broken (an
+  // attacker could have rebuilt the chain unsigned) ...
+  const CommandResult required =
       RunCommand(Bin("imuqual") + " verify --db " + db + " --pubkey " + key + ".pub 2>&1");
+  EXPECT_EQ(required.exit_code, 1) << required.output;
+  EXPECT_NE(required.output.find("(run " + id + ") is unsigned, and signatures are required"),
+            std::string::npos)
+      << required.output;
+  // ... unless the station ran without a signing key on purpose.
+  const CommandResult v = RunCommand(Bin("imuqual") + " verify --db " + db + " --pubkey " + key +
+                                     ".pub --allow-unsigned 2>&1");
   EXPECT_EQ(v.exit_code, 3) << v.output;
   EXPECT_NE(v.output.find("by a store without --sign-key; not verified): 1 run: " + id),
             std::string::npos)

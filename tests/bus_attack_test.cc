@@ -389,8 +389,10 @@ TEST(BusAttackTest, NoForgedReplayedOrFloodedMessageChangesAVerdictOrLosesASampl
       ack.host_utime = NowUtime();
       ack.process = "store";
       ack.instance = "forger:1";
-      ack.run_id = run_id;
-      ack.next_seq = int64_t{1} << 40;
+      ack.num_runs = 1;
+      ack.run_ids = {run_id};
+      ack.next_seq = {int64_t{1} << 40};
+      ack.run_done = {false};
       for (Forger& f : as_analyze) {
         (void)f.bus->Publish(channels::Decision(serial), d);
         (void)f.bus->Publish(channels::Result(serial), ForgedPass(run_id, serial));

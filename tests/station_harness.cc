@@ -58,12 +58,15 @@ StationHarness::StationHarness(const std::string& tag, HarnessKeys keys,
                                          mine[s.counter_names[i]] = s.counter_values[i];
                                        }
                                      });
-  bus_->Subscribe<imuqual::ack_t>(channels::kAck, 50000,
-                                  [this](const std::string&, imuqual::ack_t&& a, int64_t) {
-                                    if (a.process != "store") return;
-                                    if (a.run_done) runs_done_.insert(a.run_id);
-                                    int64_t& acked = store_acked_[a.run_id];
-                                    acked = std::max(acked, a.next_seq);
+  bus_->SubscribeWithOrigin<imuqual::ack_t>(
+      channels::kAck, 50000, nullptr,
+      [this](const std::string&, imuqual::ack_t&& a, const MessageOrigin& from) {
+                                    if (a.process != "store" || from.role != BusRole::kStore) return;
+                                    for (int i = 0; i < a.num_runs; ++i) {
+                                      if (a.run_done[i]) runs_done_.insert(a.run_ids[i]);
+                                      int64_t& acked = store_acked_[a.run_ids[i]];
+                                      acked = std::max(acked, a.next_seq[i]);
+                                    }
                                   });
   bus_->Subscribe<imuqual::run_t>(channels::kRun, 1000,
                                   [this](const std::string&, imuqual::run_t&& r, int64_t) {

@@ -571,7 +571,7 @@ TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
     ASSERT_TRUE(bus.acquire().Publish(channels::kRun, r).ok());
     ASSERT_TRUE(bus.analyze().Publish(channels::Result(serial), res).ok());
     ASSERT_TRUE(bus.analyze().Publish(channels::Curve(serial), c).ok());
-    ASSERT_TRUE(bus.acquire().Publish(channels::kStatus, st).ok());
+    ASSERT_TRUE(bus.store().Publish(channels::kStatus, st).ok());
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     auto got = client.Get("/api/live");
     ASSERT_TRUE(got);
@@ -636,8 +636,10 @@ TEST(LiveServeTest, TheReportOfASoakOverIsBuiltAtOnce) {
   res.verdict = imuqual::measurement_t::OUTCOME_FAIL;
   imuqual::ack_t ack{};
   ack.process = "store";
-  ack.run_id = kRun;
-  ack.run_done = true;
+  ack.num_runs = 1;
+  ack.run_ids = {kRun};
+  ack.next_seq = {0};
+  ack.run_done = {true};
   EXPECT_EQ(server.server().ReportsKept(), 0u);
   for (int i = 0; i < 100 && server.server().ReportsKept() == 0; ++i) {
     ASSERT_TRUE(bus.acquire().Publish(channels::kRun, r).ok());

@@ -229,6 +229,8 @@ struct AnalyzeService::Impl {
   std::map<std::string, FinishedRun> finished_ids;
   LastHeard heard;  // run_t arrivals, noted by the handler
   std::string instance = InstanceName();
+  // The acknowledgements due, sent together after each round of work.
+  AckBatch acks{"analyze", instance};
   SeqTracker::Options tracker_options;
   // Counters (worker thread, except where atomic).
   std::atomic<int64_t> batches_received{0}, out_of_shard{0};
@@ -544,9 +546,8 @@ void AnalyzeService::Impl::Ack(const std::string& run_id, RunEntry& e, double no
       e.held.empty() ? e.tracker.next_seq() : std::min(e.held.begin()->first, e.tracker.next_seq());
   if (e.finished) seq = std::max(seq, e.acked_after_finish);
   if (!e.ack.Due(seq, e.finished, now, force)) return;
-  if (PublishAck(*bus, "analyze", instance, run_id, seq, e.finished).ok()) {
-    e.ack.Sent(seq, e.finished, now);
-  }
+  acks.Add(run_id, seq, e.finished);  // sent with the others after this round of work
+  e.ack.Sent(seq, e.finished, now);   // a lost one is said again within 0.5 s
 }
 
 void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& out, bool final,
@@ -633,9 +634,11 @@ void AnalyzeService::Impl::PublishOutcome(const RunEntry& e, const RunOutcome& o
 
 void AnalyzeService::Impl::OnStoreAck(const imuqual::ack_t& ack, double now) {
   (void)now;
-  if (!ack.run_done) return;
-  auto it = runs.find(ack.run_id);
-  if (it != runs.end() && it->second.finished) it->second.final_outcome.reset();
+  for (int i = 0; i < ack.num_runs; ++i) {
+    if (!ack.run_done[i]) continue;
+    auto it = runs.find(ack.run_ids[i]);
+    if (it != runs.end() && it->second.finished) it->second.final_outcome.reset();
+  }
 }
 
 // A finished run's final curves and result, published again while no store
@@ -840,10 +843,17 @@ Status AnalyzeService::Run() {
       });
 
   // Stores' confirmations that a run is archived (its final result too).
-  s.bus->Subscribe<imuqual::ack_t>(channels::kAck, 1000,
-                                   [&s](const std::string&, imuqual::ack_t&& ack, int64_t) {
-                                     if (ack.process == "store" && ack.run_done)
-                                       s.queue.TryPush(std::move(ack));
+  s.bus->SubscribeWithOrigin<imuqual::ack_t>(
+      channels::kAck, 1000, nullptr,
+      [&s](const std::string&, imuqual::ack_t&& ack, const MessageOrigin& from) {
+                                     // The store's own word (its seal says who sent it).
+                                     if (ack.process != "store" || from.role != BusRole::kStore) return;
+                                     for (bool done : ack.run_done) {
+                                       if (done) {
+                                         s.queue.TryPush(std::move(ack));
+                                         return;
+                                       }
+                                     }
                                    });
 
   std::atomic<bool> stop{false};
@@ -855,8 +865,12 @@ Status AnalyzeService::Run() {
       // that was frozen does not end the runs it was analysing as silent.
       double now = ListeningSeconds();
       for (Work& w : items) s.Handle(std::move(w), now);
-      if (items.empty() && stop.load() && s.queue.size() == 0) break;
+      if (items.empty() && stop.load() && s.queue.size() == 0) {
+        (void)s.acks.Flush(*s.bus);
+        break;
+      }
       s.Tick(now);
+      (void)s.acks.Flush(*s.bus);  // a lost acknowledgement is said again (AckPacer)
       if (now >= next_status) {
         (void)PublishStatus(*s.bus, "analyze", true, "", s.StatusCounters());
         next_status = now + 1.0;

@@ -75,6 +75,29 @@ export function makeCertificate(work) {
   return { cert, key };
 }
 
+// A station's keys made by `imuqual keygen` in `work` (README, "Trust"):
+// { station, trust, runArgs }. runArgs: the flags that give `imuqual run`
+// the station key, the roles' public keys and each role its signing key; a
+// live page needs only `--trust` (it takes what the roles signed).
+export function makeStationKeys(imuqual, work) {
+  const dir = path.join(work, 'keys');
+  fs.mkdirSync(dir, { mode: 0o700 });
+  const station = path.join(dir, 'station.key');
+  run(imuqual, ['keygen', '--out', station]);
+  const runArgs = ['--key-file', station];
+  let trust = '';
+  for (const role of ['acquire', 'analyze', 'store']) {
+    const key = path.join(dir, `${role}.key`);
+    run(imuqual, ['keygen', '--role', role, '--out', key]);
+    trust += fs.readFileSync(`${key}.pub`, 'utf8');
+    runArgs.push('--sign-key', `${role}=${key}`);
+  }
+  const trustFile = path.join(dir, 'station.trust');
+  fs.writeFileSync(trustFile, trust);
+  runArgs.push('--trust', trustFile);
+  return { station, trust: trustFile, runArgs };
+}
+
 // The context's page (a new one when `fresh`), failing on console errors and
 // warnings, page errors and any request outside `origin` (or data: URLs).
 export async function watchedPage(context, origin, { fresh = false } = {}) {

@@ -24,7 +24,8 @@ import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import {
-  fail, finish, launch, makeCertificate, parseArgs, percentile, serve, sqlite, waitFor, watchedPage,
+  fail, finish, launch, makeCertificate, makeStationKeys, parseArgs, percentile, serve, sqlite, waitFor,
+  watchedPage,
 } from './check_lib.mjs';
 
 const kLot = 'LIVE';
@@ -40,10 +41,13 @@ async function main() {
   const db = path.join(work, 'live.db');
   const bus = `udpm://239.255.76.67:${20000 + (process.pid % 30000)}?ttl=0`;
   const { cert, key } = makeCertificate(work);
+  // A keyed station; the page's server holds only the roles' public keys.
+  const keys = makeStationKeys(args.imuqual, work);
   const tokenFile = path.join(work, 'token');
   fs.writeFileSync(tokenFile, 'live-check-token-0123456789\n', { mode: 0o600 });
   const { child: server, url: live } = await serve(
-    args.imuqual, ['--db', db, '--bus', bus, '--tls-cert', cert, '--tls-key', key, '--token-file', tokenFile],
+    args.imuqual, ['--db', db, '--bus', bus, '--trust', keys.trust, '--tls-cert', cert, '--tls-key', key,
+                   '--token-file', tokenFile],
     /live station \(bus [^)]*\): (https:\/\/127\.0\.0\.1:\d+\/live)/);
   const origin = new URL(live).origin;
   const context = await launch(args, work);
@@ -58,7 +62,7 @@ async function main() {
 
     station = spawn(args.imuqual, ['run', '--sim', String(kUnits), '--duration', String(kDurationS),
                                    '--lot', kLot, '--db', db, '--lcm-url', bus, '--pace', String(kPace),
-                                   '--operator', kOperator, '--quiet'],
+                                   '--operator', kOperator, '--quiet', ...keys.runArgs],
                     { stdio: ['ignore', 'pipe', 'pipe'] });
     station.stdout.on('data', (d) => { stationLog += d; });
     station.stderr.on('data', (d) => { stationLog += d; });

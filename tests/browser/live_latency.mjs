@@ -12,7 +12,9 @@ import { spawn } from 'node:child_process';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { launch, parseArgs, percentile, serve, waitFor, watchedPage, failures } from './check_lib.mjs';
+import {
+  failures, launch, makeStationKeys, parseArgs, percentile, serve, waitFor, watchedPage,
+} from './check_lib.mjs';
 
 const kUnits = Number(process.env.UNITS || 16);
 const kPace = Number(process.env.PACE || 60);
@@ -23,7 +25,8 @@ async function main() {
   const work = fs.mkdtempSync(path.join(os.tmpdir(), 'imuqual-live-bench-'));
   const db = path.join(work, 'bench.db');
   const bus = `udpm://239.255.76.67:${20000 + (process.pid % 30000)}?ttl=0`;
-  const { child: server, url: live } = await serve(args.imuqual, ['--db', db, '--bus', bus],
+  const keys = makeStationKeys(args.imuqual, work);  // a keyed station, the page with its public keys
+  const { child: server, url: live } = await serve(args.imuqual, ['--db', db, '--bus', bus, '--trust', keys.trust],
                                                    /live station \(bus [^)]*\): (http:\/\/127\.0\.0\.1:\d+\/live)/);
   const context = await launch(args, work);
   try {
@@ -32,7 +35,8 @@ async function main() {
     await waitFor(page, 'the page connected', 20, () => window.imuqualLive?.updates > 0);
     const station = spawn(args.imuqual, ['run', '--sim', String(kUnits), '--duration', String(kDurationS),
                                          '--lot', 'BENCH', '--db', db, '--lcm-url', bus, '--pace', String(kPace),
-                                         '--analyze-shards', '2', '--quiet'], { stdio: 'ignore' });
+                                         '--analyze-shards', '2', '--quiet', ...keys.runArgs],
+                          { stdio: 'ignore' });
     const code = await new Promise((resolve) => station.on('exit', resolve));
     if (code !== 0) throw new Error(`imuqual run exited ${code}`);
     await waitFor(page, 'the end of the soak', 60, () => !document.getElementById('done').hidden);

@@ -53,8 +53,10 @@ int main(int argc, char** argv) {
   Write(dir, "run", 1, r);
   imuqual::ack_t a{};
   a.process = "store";
-  a.run_id = "R";
-  a.next_seq = 7;
+  a.num_runs = 2;
+  a.run_ids = {"R", "S"};
+  a.next_seq = {7, 9};
+  a.run_done = {false, true};
   Write(dir, "ack", 2, a);
   imuqual::resend_t s{};
   s.run_id = "R";
