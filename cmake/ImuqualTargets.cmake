@@ -56,7 +56,7 @@ endfunction()
 # imuqual_benchmark(NAME SOURCES ... DEPS ...): Google Benchmark binary in build/bench/.
 function(imuqual_benchmark name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
-  if(NOT TARGET benchmark::benchmark)
+  if(NOT TARGET benchmark::benchmark OR NOT IMUQUAL_BENCHMARKS)
     return()
   endif()
   add_executable(${name} ${ARG_SOURCES})
