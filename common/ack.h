@@ -43,10 +43,18 @@ class AckPacer {
   double last_s_ = -1e9;
 };
 
-// Runs per ack_t message: with run ids of up to 160 bytes, one 1400-byte
-// datagram holds 7 (a station LAN loses a fragmented message whole if any
-// fragment is lost).
-inline constexpr int kMaxAckRuns = 7;
+// The run entries of one ack_t message fill at most this many encoded
+// bytes (a run id's length word, its bytes and NUL, next_seq, run_done), so
+// that the message, its seal and signature included, goes in one 1400-byte
+// datagram (a station LAN loses a fragmented message whole if any fragment
+// is lost): about 20 runs of the usual 30-byte ids, 5 of the longest (160).
+inline constexpr size_t kAckEntryBytes = 900;
+// A consumer's acknowledgements go out together at most this often (runs
+// done at once): every message is signed and every listener verifies it, so
+// one message for the runs that progressed in 50 ms, not one per tick. The
+// flow-control window (acquire's window_batches, 64 per run) covers far
+// more than 50 ms of any run's batches.
+inline constexpr double kAckFlushPeriodS = 0.05;
 
 // A consumer's acknowledgements of several runs, sent as one or a few
 // ack_t messages. Not thread-safe: one owner thread.
@@ -59,15 +67,22 @@ class AckBatch {
   void Add(const std::string& run_id, int64_t next_seq, bool run_done);
   bool empty() const { return run_ids_.empty(); }
   size_t size() const { return run_ids_.size(); }
-  // Publishes what was added (kMaxAckRuns runs per message) and clears it;
-  // the first publish error, if any (the rest is still sent).
+  // Publishes what was added (as many runs per message as kAckEntryBytes
+  // holds) and clears it; the first publish error, if any (the rest is
+  // still sent).
   Status Flush(LcmBus& bus);
+  // Flush when kAckFlushPeriodS has passed since the last flush, or at once
+  // when a run is done; otherwise keeps what was added for a later call.
+  // `now_s`: a monotonic clock.
+  Status FlushIfDue(LcmBus& bus, double now_s);
 
  private:
   std::string role_, instance_;
   std::vector<std::string> run_ids_;
   std::vector<int64_t> next_seq_;
   std::vector<bool> run_done_;
+  bool urgent_ = false;
+  double last_flush_s_ = -1e9;
 };
 
 // Publishes one ack_t of one run on IMUQUAL5_ACK.

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "common/ack.h"
+#include "common/channels.h"
 #include "common/lcm_bus.h"
 #include "imuqual/ack_t.hpp"
 
@@ -130,6 +132,58 @@ TEST_F(LcmBusSealTest, WithAStationKeyOnlyItsHoldersAreHeard) {
   EXPECT_EQ(bus_->damaged(), 0u);
   EXPECT_NE(bus_->security_description().find("station key " + keyed.station_key->Id()),
             std::string::npos);
+}
+
+// Acknowledgements go out together: the runs that progressed within
+// kAckFlushPeriodS in as few messages as fit one datagram each, the furthest
+// word of each run, a done run at once.
+TEST_F(LcmBusSealTest, AcknowledgementsOfManyRunsGoOutTogether) {
+  BusSecurity store;  // acknowledgements are the store's (and analyze's) word
+  store.role = BusRole::kStore;
+  Connect(store);
+  std::vector<imuqual::ack_t> got;
+  bus_->Subscribe<imuqual::ack_t>(channels::kAck, 1000,
+                                  [&](const std::string&, imuqual::ack_t&& a, int64_t) {
+                                    got.push_back(std::move(a));
+                                  });
+  AckBatch acks("store", "host:1");
+  auto id = [](int i) { return "20261128T101500-bench-SIM-" + std::to_string(1000 + i); };
+  for (int i = 0; i < 64; ++i) acks.Add(id(i), 10, false);
+  acks.Add(id(3), 12, false);  // said again before the flush: the furthest word
+  acks.Add(id(3), 11, false);
+  ASSERT_TRUE(acks.FlushIfDue(*bus_, 100.0).ok());  // the first: due
+  EXPECT_TRUE(acks.empty());
+  uint64_t seen = bus_->received();
+  for (int i = 0; i < 100 && got.empty(); ++i) ASSERT_TRUE(bus_->HandleFor(20).ok());
+  PumpUntilSeen(seen);
+  size_t runs = 0;
+  for (const imuqual::ack_t& a : got) {
+    size_t entry_bytes = 0;
+    for (const std::string& r : a.run_ids) entry_bytes += 4 + r.size() + 1 + 8 + 1;
+    EXPECT_LE(entry_bytes, kAckEntryBytes);
+    std::vector<uint8_t> encoded;
+    ASSERT_TRUE(EncodeMessage(a, &encoded).ok());
+    EXPECT_LT(encoded.size() + 200, 1400u) << "one datagram, seal and signature included";
+    for (int i = 0; i < a.num_runs; ++i) {
+      EXPECT_EQ(a.next_seq[i], a.run_ids[i] == id(3) ? 12 : 10) << a.run_ids[i];
+    }
+    runs += a.run_ids.size();
+  }
+  EXPECT_EQ(runs, 64u);
+  EXPECT_LE(got.size(), 4u) << "64 runs of 43-byte ids: 20 per message";
+  // Within the period, progress waits for the next flush...
+  got.clear();
+  acks.Add(id(0), 20, false);
+  ASSERT_TRUE(acks.FlushIfDue(*bus_, 100.0 + kAckFlushPeriodS / 2).ok());
+  EXPECT_EQ(acks.size(), 1u);
+  // ...and a run done goes at once, with what waited.
+  acks.Add(id(1), 30, true);
+  ASSERT_TRUE(acks.FlushIfDue(*bus_, 100.0 + kAckFlushPeriodS / 2).ok());
+  EXPECT_TRUE(acks.empty());
+  for (int i = 0; i < 100 && got.empty(); ++i) ASSERT_TRUE(bus_->HandleFor(20).ok());
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].run_ids, (std::vector<std::string>{id(0), id(1)}));
+  EXPECT_EQ(got[0].run_done, (std::vector<int8_t>{0, 1}));
 }
 
 TEST(LcmBusOpenTest, ABusBeyondThisHostNeedsAKeyOrAnExplicitChoice) {

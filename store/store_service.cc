@@ -1132,7 +1132,9 @@ void StoreService::Impl::Tick(double now) {
       ++it;
     }
   }
-  (void)acks.Flush(*bus);  // a lost acknowledgement is said again (AckPacer)
+  // Together every kAckFlushPeriodS (a done run's at once); a lost one is
+  // said again (AckPacer).
+  (void)acks.FlushIfDue(*bus, now);
 }
 
 Counters StoreService::Impl::StatusCounters() const {
@@ -1257,6 +1259,7 @@ Status StoreService::Run() {
         // A last attempt at what is held, then the acks of what it wrote.
         if (!s.held.empty()) s.Transaction(items, now, /*force=*/true);
         s.Tick(ListeningSeconds());
+        (void)s.acks.Flush(*s.bus);
         break;
       }
       s.Tick(now);

@@ -870,7 +870,9 @@ Status AnalyzeService::Run() {
         break;
       }
       s.Tick(now);
-      (void)s.acks.Flush(*s.bus);  // a lost acknowledgement is said again (AckPacer)
+      // Together every kAckFlushPeriodS (a done run's at once); a lost one
+      // is said again (AckPacer).
+      (void)s.acks.FlushIfDue(*s.bus, now);
       if (now >= next_status) {
         (void)PublishStatus(*s.bus, "analyze", true, "", s.StatusCounters());
         next_status = now + 1.0;
