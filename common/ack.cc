@@ -7,19 +7,18 @@
 
 namespace imuqual {
 
-void AckBatch::Add(const std::string& run_id, int64_t next_seq, bool run_done) {
+void AckBatch::Add(const std::string& run_id, int64_t next_seq, bool run_done, bool urgent) {
+  urgent_ = urgent_ || urgent;
   for (size_t i = 0; i < run_ids_.size(); ++i) {
     if (run_ids_[i] == run_id) {  // said twice before a flush: the furthest word
       next_seq_[i] = std::max(next_seq_[i], next_seq);
       run_done_[i] = run_done_[i] || run_done;
-      urgent_ = urgent_ || run_done;
       return;
     }
   }
   run_ids_.push_back(run_id);
   next_seq_.push_back(next_seq);
   run_done_.push_back(run_done);
-  urgent_ = urgent_ || run_done;
 }
 
 Status AckBatch::Flush(LcmBus& bus) {

@@ -27,6 +27,12 @@ class AckPacer {
     }
     return since >= (done ? kDoneRepeatS : kRepeatS);
   }
+  // Whether the ack Due() allowed cannot wait for its batch's next flush
+  // (AckBatch::FlushIfDue): a run newly done, or progress of a flow-control
+  // window's quarter (a time-warped source waits on it).
+  bool Urgent(int64_t next_seq, bool done) const {
+    return (done && !last_done_) || next_seq - last_seq_ >= kProgressBatches;
+  }
   void Sent(int64_t next_seq, bool done, double now_s) {
     last_seq_ = next_seq;
     last_done_ = done;
@@ -49,11 +55,11 @@ class AckPacer {
 // datagram (a station LAN loses a fragmented message whole if any fragment
 // is lost): about 20 runs of the usual 30-byte ids, 5 of the longest (160).
 inline constexpr size_t kAckEntryBytes = 900;
-// A consumer's acknowledgements go out together at most this often (runs
-// done at once): every message is signed and every listener verifies it, so
-// one message for the runs that progressed in 50 ms, not one per tick. The
-// flow-control window (acquire's window_batches, 64 per run) covers far
-// more than 50 ms of any run's batches.
+// A consumer's acknowledgements go out together at most this often, except
+// urgent ones (AckPacer::Urgent: a run newly done, or a time-warped run's
+// progress that its flow-control window waits on): every message is signed
+// and every listener verifies it, so in a paced soak one message carries the
+// runs that progressed in 50 ms, not one message per run per batch.
 inline constexpr double kAckFlushPeriodS = 0.05;
 
 // A consumer's acknowledgements of several runs, sent as one or a few
@@ -63,8 +69,9 @@ class AckBatch {
   AckBatch(std::string role, std::string instance)
       : role_(std::move(role)), instance_(std::move(instance)) {}
   // A run added twice before a flush keeps the furthest word (the higher
-  // next_seq; done if either said so).
-  void Add(const std::string& run_id, int64_t next_seq, bool run_done);
+  // next_seq; done if either said so). `urgent`: the next FlushIfDue sends
+  // at once (AckPacer::Urgent).
+  void Add(const std::string& run_id, int64_t next_seq, bool run_done, bool urgent = false);
   bool empty() const { return run_ids_.empty(); }
   size_t size() const { return run_ids_.size(); }
   // Publishes what was added (as many runs per message as kAckEntryBytes
@@ -72,7 +79,8 @@ class AckBatch {
   // still sent).
   Status Flush(LcmBus& bus);
   // Flush when kAckFlushPeriodS has passed since the last flush, or at once
-  // when a run is done; otherwise keeps what was added for a later call.
+  // when something urgent was added; otherwise keeps what was added for a
+  // later call.
   // `now_s`: a monotonic clock.
   Status FlushIfDue(LcmBus& bus, double now_s);
 

@@ -1122,7 +1122,7 @@ void StoreService::Impl::Tick(double now) {
       }
     }
     if (r.key >= 0 && r.ack.Due(r.tracker.next_seq(), r.done, now, false)) {
-      acks.Add(id, r.tracker.next_seq(), r.done);
+      acks.Add(id, r.tracker.next_seq(), r.done, r.ack.Urgent(r.tracker.next_seq(), r.done));
       r.ack.Sent(r.tracker.next_seq(), r.done, now);  // a lost one is said again within 0.5 s
     }
     if (r.done && now - r.done_s > kDoneAckForS) {

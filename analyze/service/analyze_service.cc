@@ -546,7 +546,8 @@ void AnalyzeService::Impl::Ack(const std::string& run_id, RunEntry& e, double no
       e.held.empty() ? e.tracker.next_seq() : std::min(e.held.begin()->first, e.tracker.next_seq());
   if (e.finished) seq = std::max(seq, e.acked_after_finish);
   if (!e.ack.Due(seq, e.finished, now, force)) return;
-  acks.Add(run_id, seq, e.finished);  // sent with the others after this round of work
+  // Sent with the others (AckBatch::FlushIfDue).
+  acks.Add(run_id, seq, e.finished, force || e.ack.Urgent(seq, e.finished));
   e.ack.Sent(seq, e.finished, now);   // a lost one is said again within 0.5 s
 }
 
