@@ -162,7 +162,7 @@ struct StoreService::Impl {
   LastHeard acquire_heard;          // acquire's run_t arrivals, noted by the handler
   SeqTracker::Options tracker_options;
   std::string instance = InstanceName();
-  // The acknowledgements due, sent together at the end of each Tick.
+  // The acknowledgements due, sent together (AckBatch::FlushIfDue, end of Tick).
   AckBatch acks{"store", instance};
   std::string health_message;
   ThrottledLog write_errors;
@@ -1132,8 +1132,8 @@ void StoreService::Impl::Tick(double now) {
       ++it;
     }
   }
-  // Together every kAckFlushPeriodS (a done run's at once); a lost one is
-  // said again (AckPacer).
+  // Together every kAckFlushPeriodS (urgent ones at once, AckPacer::Urgent);
+  // a lost one is said again (AckPacer).
   (void)acks.FlushIfDue(*bus, now);
 }
 

@@ -1,5 +1,6 @@
 #include "analyze/service/analyze_service.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -229,7 +230,7 @@ struct AnalyzeService::Impl {
   std::map<std::string, FinishedRun> finished_ids;
   LastHeard heard;  // run_t arrivals, noted by the handler
   std::string instance = InstanceName();
-  // The acknowledgements due, sent together after each round of work.
+  // The acknowledgements due, sent together (AckBatch::FlushIfDue, after each round of work).
   AckBatch acks{"analyze", instance};
   SeqTracker::Options tracker_options;
   // Counters (worker thread, except where atomic).
@@ -847,15 +848,11 @@ Status AnalyzeService::Run() {
   s.bus->SubscribeWithOrigin<imuqual::ack_t>(
       channels::kAck, 1000, nullptr,
       [&s](const std::string&, imuqual::ack_t&& ack, const MessageOrigin& from) {
-                                     // The store's own word (its seal says who sent it).
-                                     if (ack.process != "store" || from.role != BusRole::kStore) return;
-                                     for (bool done : ack.run_done) {
-                                       if (done) {
-                                         s.queue.TryPush(std::move(ack));
-                                         return;
-                                       }
-                                     }
-                                   });
+        // The store's own word (its seal says who sent it), naming a run done.
+        if (ack.process != "store" || from.role != BusRole::kStore) return;
+        if (std::any_of(ack.run_done.begin(), ack.run_done.end(), [](int8_t d) { return d != 0; }))
+          s.queue.TryPush(std::move(ack));
+      });
 
   std::atomic<bool> stop{false};
   std::thread worker([&s, &stop] {
@@ -871,8 +868,8 @@ Status AnalyzeService::Run() {
         break;
       }
       s.Tick(now);
-      // Together every kAckFlushPeriodS (a done run's at once); a lost one
-      // is said again (AckPacer).
+      // Together every kAckFlushPeriodS (urgent ones at once, AckPacer::Urgent);
+      // a lost one is said again (AckPacer).
       (void)s.acks.FlushIfDue(*s.bus, now);
       if (now >= next_status) {
         (void)PublishStatus(*s.bus, "analyze", true, "", s.StatusCounters());
