@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "acquire/imu_simulator.h"
+#include "acquire/lot_profile.h"
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/estimators.h"
 #include "analyze/allan/gmwm.h"
@@ -48,6 +49,29 @@ void AddGaussMarkov(pb::AxisTruth* a, double sigma, double t_s) {
   pb::GaussMarkov* g = a->add_gauss_markov();
   g->set_sigma(sigma);
   g->set_correlation_time_s(t_s);
+}
+
+// The octave OADEV with chi-square intervals of a simulated record, its
+// values multiplied by `unit` (the same record read in another unit).
+allan::Curve SimulatedCurve(const pb::AxisTruth& axis, uint64_t seed, double unit = 1.0) {
+  pb::SimTruth truth;
+  truth.set_seed(seed);
+  truth.set_actual_rate_hz(kRateHz);
+  *truth.add_axes() = axis;
+  auto sim = sim::ImuSimulator::Create(truth);
+  EXPECT_TRUE(sim.ok());
+  std::vector<std::vector<float>> out(1);
+  out[0].reserve(kSamples);
+  sim->Generate(kSamples, out);
+  std::vector<double> rate(out[0].begin(), out[0].end());
+  for (double& v : rate) v *= unit;
+  const allan::PhaseRecord phase = allan::PhaseFromRate(rate, 1.0 / kRateHz);
+  const std::vector<int64_t> m =
+      allan::AveragingFactors(allan::TauGridSpec{}, phase.tau0_s, phase.size(),
+                              allan::Deviation::kOadev, allan::StopRule::kBins9);
+  allan::Curve curve = allan::ComputeDeviation(phase, allan::Deviation::kOadev, m);
+  allan::AttachConfidence(phase, allan::CiMethod::kChi2, allan::kOneSigmaConfidence, &curve);
+  return curve;
 }
 
 Result<CompositeFit> FitSimulated(const pb::AxisTruth& axis, uint64_t seed,
@@ -304,6 +328,113 @@ TEST(CompositeFitTest, UpperBoundsOfTermsLeftOutCoverTheTruth) {
         k, absent, covered, ratio_sum / absent);
     ASSERT_GT(absent, 20) << k;  // not vacuous
     EXPECT_GE(covered, kMinBoundCoverage * absent) << k;
+  }
+}
+
+// The octave OADEV (chi-square edf, identified alpha) of the x accelerometer
+// of the public ADIS16405 recording (1e6 samples at 100 Hz, in g): 1-LSB
+// steps, a bump at 0.64 s. The fit used to end in a different minimum for
+// each unit it was read in (J = 31 in g, 4124 in m/s^2 at scale 1).
+allan::Curve AdisAccelCurve(double unit) {
+  struct Row {
+    int64_t m, n;
+    double dev, edf;
+    int alpha;
+    bool inherited;
+  };
+  constexpr Row kRows[] = {
+      {1, 999999, 0.0035965790855898164, 782608.1172023216, 0, false},
+      {2, 999997, 0.0029502521714321697, 541804.894777925, 0, false},
+      {4, 999993, 0.002336699099391609, 307637.09839043615, 0, false},
+      {8, 999985, 0.0015679870834257458, 167832.05777992654, 0, false},
+      {16, 999969, 0.00118747333640442, 73051.35081387861, -1, false},
+      {32, 999937, 0.0009666659795029748, 36623.142506490374, -1, false},
+      {64, 999873, 0.0009193419934074948, 83907.79995048247, 1, false},
+      {128, 999745, 0.0005136782504483014, 9167.779317076831, -1, false},
+      {256, 999489, 0.0004065955803787326, 5857.130955436383, 0, false},
+      {512, 998977, 0.00030760395128895445, 2290.5718230994303, -1, false},
+      {1024, 997953, 0.00029234558466851565, 903.5260912823551, -2, false},
+      {2048, 995905, 0.00030903002698946916, 450.9944709777114, -2, false},
+      {4096, 991809, 0.00032233213571249955, 224.72882922310376, -2, false},
+      {8192, 983617, 0.00032804000147406987, 111.5963509033897, -2, false},
+      {16384, 967233, 0.00037298929079869903, 55.03082076921167, -2, false},
+      {32768, 934465, 0.0004655088739970508, 26.749576845267242, -2, false},
+      {65536, 868929, 0.0006725061035525405, 12.612479598392481, -2, true},
+  };
+  allan::Curve c;
+  c.deviation = allan::Deviation::kOadev;
+  c.tau0_s = 0.01;
+  c.n_phase = 1000001;
+  c.ci = allan::CiMethod::kChi2;
+  for (const Row& r : kRows) {
+    allan::CurvePoint p;
+    p.m = r.m;
+    p.tau_s = 0.01 * static_cast<double>(r.m);
+    p.n = r.n;
+    p.stride = 1;
+    p.dev = r.dev * unit;
+    p.edf = r.edf;
+    p.alpha = r.alpha;
+    p.alpha_inherited = r.inherited;
+    c.points.push_back(p);
+  }
+  return c;
+}
+
+TEST(CompositeFitTest, ARealAccelerometerCurveFitsAlikeInEveryUnit) {
+  allan::GmwmOptions options;
+  options.bootstrap_replicates = 20;
+  auto base = allan::FitCompositeModel(AdisAccelCurve(1.0), options);
+  ASSERT_TRUE(base.ok()) << base.status().message();
+  for (double unit : {0.5, 3.0, 9.80665, 1000.0}) {  // ... m/s^2, mg
+    auto fit = allan::FitCompositeModel(AdisAccelCurve(unit), options);
+    ASSERT_TRUE(fit.ok()) << fit.status().message();
+    EXPECT_EQ(fit->model.Name(), base->model.Name()) << "unit " << unit;
+    EXPECT_NEAR(fit->objective, base->objective, 1e-6 * (1 + base->objective)) << "unit " << unit;
+    EXPECT_NEAR(fit->curve_minimum.value / unit, base->curve_minimum.value,
+                1e-4 * base->curve_minimum.value)
+        << "unit " << unit;
+  }
+  // Not a wrong minimum: within a few times its degrees of freedom.
+  EXPECT_LT(base->objective, 5.0 * std::max(base->dof, 1)) << base->model.Name();
+}
+
+// The same record read in another unit (g or m/s^2, deg/s or rad/s) is the
+// same fit: the same model, the same J, every figure in proportion (to
+// 1e-4). The
+// search had worked in absolute logs of the scales, and one accelerometer
+// record read at four scales ended in four different minima (J from 31 to
+// 4124).
+TEST(CompositeFitTest, TheFitDoesNotDependOnTheUnitTheRecordIsReadIn) {
+  // Axes like the public ADIS16405 recording's (band-limited white, LSB
+  // steps, Gauss-Markov, a line on gz).
+  const auto profile = sim::LotProfileByName("mems-real");
+  ASSERT_TRUE(profile.ok());
+  for (const auto& axis : profile->axes) {
+    if (axis.name != "gz" && axis.name != "ax") continue;
+    const pb::AxisTruth& a = axis.typical;
+  allan::GmwmOptions options;
+  options.bootstrap_replicates = 20;
+  for (uint64_t seed : {11u, 12u}) {
+    auto base = allan::FitCompositeModel(SimulatedCurve(a, seed), options);
+    ASSERT_TRUE(base.ok()) << base.status().message();
+    for (double unit : {0.5, 3.0, 1 / 9.80665, 1 / 57.29577951308232, 1e-4}) {
+      auto fit = allan::FitCompositeModel(SimulatedCurve(a, seed, unit), options);
+      ASSERT_TRUE(fit.ok()) << fit.status().message();
+      EXPECT_EQ(fit->model.Name(), base->model.Name())
+          << axis.name << " seed " << seed << " unit " << unit;
+      EXPECT_NEAR(fit->objective, base->objective, 1e-6 * (1 + base->objective))
+          << axis.name << " seed " << seed << " unit " << unit;
+      // The input differs in its last bits and the search stops within a
+      // relative step of 1e-7: figures agree to a few 1e-6.
+      EXPECT_NEAR(fit->curve_minimum.value / unit, base->curve_minimum.value,
+                  1e-4 * base->curve_minimum.value)
+          << "seed " << seed << " unit " << unit;
+      EXPECT_NEAR(fit->white_asymptote.sigma / unit, base->white_asymptote.sigma,
+                  2e-2 * base->white_asymptote.sigma)
+          << "seed " << seed << " unit " << unit;
+    }
+  }
   }
 }
 

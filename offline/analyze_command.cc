@@ -271,6 +271,10 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
           allan::TauGridSpec{}, tau0, phase.size(), Deviation::kOadev, p.curves.stop);
       fit_curve = allan::ComputeDeviation(phase, Deviation::kOadev, m);
     }
+    // The fit's first pass weighs each point by the edf of its identified
+    // noise: identify it whatever --ci shows (as the station's final curves
+    // do), so that the interval option never changes the model.
+    allan::AttachConfidence(phase, allan::CiMethod::kChi2, allan::kOneSigmaConfidence, &fit_curve);
     allan::GmwmOptions fo;
     fo.stop = allan::StopRule::kNone;  // the curve is already cut by --stop
     auto f = allan::FitCompositeModel(fit_curve, fo);

@@ -25,17 +25,27 @@
 //          (m^2 sin^2(pi f)) (the asymptotic covariance of the squared Allan
 //          differences of a Gaussian process). Neighbouring octave AVARs of
 //          white noise correlate by ~0.5, of a random walk by ~0.9.
+// Parameters: each term's scale relative to the curve's mean deviation (in
+// log), a correlation time relative to tau0 (in log), a frequency as a logit
+// of Nyquist: the search is the same whatever unit the record is read in.
+// Starts: the model is linear in the squared scales, so for given
+// correlation times and frequencies the scales that minimize the linearized
+// objective (non-negative least squares) start every estimation (variable
+// projection).
 // Model selection: forward-backward search from the best subset of the IEEE
-// 952 terms (Q, N, B, K, R), adding one Gauss-Markov term (several starting
-// correlation times), one sinusoid (several starting frequencies) or a
+// 952 terms (Q, N, B, K, R), adding one Gauss-Markov term (from the minima of
+// the linearized objective over a grid of correlation times, 2 per octave,
+// and an even spread), one sinusoid (an even spread of frequencies) or a
 // missing IEEE term while the criterion improves, and dropping any term whose
-// removal improves it. Criterion: corrected Akaike on the objective,
+// removal improves it; after each step every correlation time and frequency
+// of the model is searched again over its grid, the others held. Criterion: corrected Akaike on the objective,
 //   AICc = J + 2k + 2k(k+1)/(p-k-1)   (k parameters, p points),
 // the GMWM information criterion with Sigma^-1 weights plus the small-sample
 // correction (16 points do not carry 12 parameters), except that a
 // one-parameter IEEE term costs 3.84 instead of 2 (see GmwmOptions). The eight best
-// candidates of pass 1 are re-estimated in pass 2, and the search goes on
-// from the best of them under the full covariance.
+// candidates of pass 1 are re-estimated in pass 2 (from their pass-1
+// parameters and from scales re-solved under the full covariance, the better
+// kept), and the search goes on from the best of them.
 // Adequacy: with Sigma^-1 weights J is asymptotically chi-square with p - k
 // degrees of freedom (Hansen's J test); p-value below the level: inadequate.
 // Uncertainty: a parametric bootstrap in the moments (replicates drawn with
