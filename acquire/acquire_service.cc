@@ -122,6 +122,9 @@ Status AcquireOptions::Validate() const {
     return Status::InvalidArgument("batch_bytes: must be 0 (auto) or 256..65536");
   }
   if (!(heartbeat_s > 0)) return Status::InvalidArgument("heartbeat_s: must be > 0");
+  if (!(heartbeat_runs_per_s > 0)) {
+    return Status::InvalidArgument("heartbeat_runs_per_s: must be > 0");
+  }
   if (!(retention_s >= 0)) return Status::InvalidArgument("retention_s: must be >= 0");
   if (retention_mb < 1) return Status::InvalidArgument("retention_mb: must be >= 1");
   if (!(pace >= 0) || !std::isfinite(pace)) return Status::InvalidArgument("pace: must be >= 0");
@@ -725,7 +728,10 @@ Status AcquireService::Run() {
             run.unit.source->info().description + ", " + std::to_string(run.batch_samples) +
             " samples per batch");
   }
-  double next_heartbeat = now + s.options.heartbeat_s;
+  const double heartbeat_s =
+      std::max(s.options.heartbeat_s,
+               static_cast<double>(s.runs.size()) / s.options.heartbeat_runs_per_s);
+  double next_heartbeat = now + heartbeat_s;
   double next_status = now;
   double all_done_since = -1;
 
@@ -757,7 +763,7 @@ Status AcquireService::Run() {
 
     if (now >= next_heartbeat) {
       for (RunState& run : s.runs) s.Announce(run);
-      next_heartbeat = now + s.options.heartbeat_s;
+      next_heartbeat = now + heartbeat_s;
     }
     std::vector<std::string> reconnecting = s.ReconnectingRuns();
     if (now >= next_status || reconnecting != s.reconnecting_published) {

@@ -58,6 +58,10 @@ struct AcquireOptions {
   int batch_bytes = 0;                // message budget; 0 = on one host (ttl=0) 8 KB, 16 KB when
                                       // time-warped (pace 0); else one datagram
   double heartbeat_s = 1.0;           // run_t period
+  // At most this many run_t heartbeats a second (each signed with role
+  // keys, checked by every listener): with more runs the period grows (64
+  // runs: 2 s). A run's changes of state are announced at once regardless.
+  double heartbeat_runs_per_s = 32.0;
   double retention_s = 120.0;  // seconds of acknowledged data kept for resends (plus the window)
   int retention_mb = 512;      // memory for retained batches over all runs; unacknowledged
                                // ones are kept up to it (beyond: dropped, warned, a gap)

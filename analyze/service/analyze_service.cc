@@ -212,6 +212,7 @@ Status AnalyzeOptions::Validate() const {
     return Status::InvalidArgument("density: must be a power of two in 1..64");
   }
   if (!(interim_period_s > 0)) return Status::InvalidArgument("interim_period_s: must be > 0");
+  if (!(interim_runs_per_s > 0)) return Status::InvalidArgument("interim_runs_per_s: must be > 0");
   if (queue_capacity < 16) return Status::InvalidArgument("queue_capacity: must be >= 16");
   if (!(hole_give_up_s > 0)) return Status::InvalidArgument("hole_give_up_s: must be > 0");
   if (!(stale_after_s > 0)) return Status::InvalidArgument("stale_after_s: must be > 0");
@@ -224,6 +225,9 @@ Status AnalyzeOptions::Validate() const {
 
 struct AnalyzeService::Impl {
   AnalyzeOptions options;
+  // Each run's interim period now (Tick): options.interim_period_s, longer
+  // with more active runs than options.interim_runs_per_s.
+  double interim_period_s = 2.0;
   std::unique_ptr<LcmBus> bus;
   BoundedQueue<Work> queue;
   std::map<std::string, RunEntry> runs;
@@ -536,7 +540,7 @@ void AnalyzeService::Impl::AnnounceDecision(RunEntry& e, double now) {
               judge::DecisionName(e.analyzer->decider()->unit_decision()) + at);
     }
     e.decision_announced = true;
-    e.next_decision_s = now + options.interim_period_s;
+    e.next_decision_s = now + interim_period_s;
   }
 }
 
@@ -746,7 +750,7 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
   }
   Ack(run_id, e, now, false);
   if (e.analyzer && e.processed_since_interim > 0 &&
-      now - e.last_interim_s >= options.interim_period_s) {
+      now - e.last_interim_s >= interim_period_s) {
     PublishOutcome(e, e.analyzer->Outcome(false), false);
     e.processed_since_interim = 0;
     e.last_interim_s = now;
@@ -754,6 +758,10 @@ void AnalyzeService::Impl::TickRun(const std::string& run_id, RunEntry& e, doubl
 }
 
 void AnalyzeService::Impl::Tick(double now) {
+  const auto active = std::count_if(runs.begin(), runs.end(),
+                                    [](const auto& kv) { return !kv.second.finished; });
+  interim_period_s = std::max(options.interim_period_s,
+                              static_cast<double>(active) / options.interim_runs_per_s);
   for (auto it = runs.begin(); it != runs.end();) {
     TickRun(it->first, it->second, now);
     // A finished run stays while its result waits for a store's confirmation.

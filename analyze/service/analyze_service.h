@@ -6,7 +6,7 @@
 // run goes on and the final curves and unit_result_t when it ends. A run
 // whose plan has early_decision gets its decision_t after every look, at
 // once when its unit is decided, and the decided state again every
-// interim_period_s until the run ends (acquire stops a decided unit's
+// interim period until the run ends (acquire stops a decided unit's
 // source on it; a lost message must not leave the unit soaking). The
 // batches that arrive after the decision are acknowledged and counted, not
 // analysed.
@@ -35,6 +35,11 @@ struct AnalyzeOptions {
   int shard_count = 1;              //   shard_index modulo shard_count
   int density = 8;                  // streaming engine: averaging factors per octave
   double interim_period_s = 2.0;    // wall seconds between interim publications per run
+  // At most this many runs' interim publications (6 curves and a result,
+  // each signed with role keys) a second: with more active runs each run's
+  // period grows (64 runs: 4 s), so the bus and every listener's signature
+  // checks stay bounded however many units soak.
+  double interim_runs_per_s = 16.0;
   int queue_capacity = 50000;       // batches waiting for the worker
   double hole_give_up_s = 30.0;     // a missing batch not resent by then is a gap
   double stale_after_s = 15.0;      // a running run not announced this long is incomplete
