@@ -156,16 +156,18 @@ Eigen::VectorXd LogModel(const CompositeModel& model, const Problem& p) {
   return v;
 }
 
-// The whitened residuals r(theta) = L^-1 (y - ln nu(theta)) of one estimation,
-// as Eigen's Levenberg-Marquardt asks for them. The minimizer asks again for
-// points it has evaluated (the forward-difference Jacobian starts with f at
-// the point just accepted) and varies one parameter at a time (every other
-// term's AVAR is unchanged), so the functor remembers the last evaluations
-// and each term's AVAR at the points for its last parameters: a remembered
-// value is the value the evaluation would compute again, bit for bit (the
-// same function of the same bits), and each point's AVAR is still the sum of
-// the terms in model order. Eigen copies the functor into NumericalDiff; the
-// memory is per estimation, never shared.
+// The whitened residuals r(theta) = L^-1 (y - ln nu(theta)) of one estimation
+// and their Jacobian, as Eigen's Levenberg-Marquardt asks for them. The
+// minimizer asks again for points it has evaluated, so the functor remembers
+// the last evaluations and each term's AVAR at the points for its last
+// parameters: a remembered value is the value the evaluation would compute
+// again, bit for bit (the same function of the same bits), and each point's
+// AVAR is still the sum of the terms in model order.
+// Jacobian: dr/dtheta_i = -L^-1 diag(1 / nu) dnu/dtheta_i. A term's AVAR is
+// its squared scale times a shape, so d/d(log scale) = 2 AVAR_t exactly; a
+// correlation time's or frequency's column is a forward difference of that
+// term alone (step 1e-6 in theta; 0 where a correlation time is clamped).
+// The memory is per estimation, never shared.
 class ResidualFunctor {
  public:
   using Scalar = double;
@@ -207,6 +209,40 @@ class ResidualFunctor {
     next_memo_ = (next_memo_ + 1) % kMemo;
     e.theta = theta;
     e.r = r;
+    return 0;
+  }
+
+  int df(const Eigen::VectorXd& theta, Eigen::MatrixXd& jac) const {
+    constexpr double kStep = 1e-6;
+    const Problem& p = *problem_;
+    const int n = p.points();
+    LogAvarFromTerms(theta);
+    d_.resize(n, n_in_);
+    int offset = 0;
+    for (size_t t = 0; t < kinds_->size(); ++t) {
+      const TermKind kind = (*kinds_)[t];
+      const std::vector<double>& avar = current_[t]->avar;
+      for (int j = 0; j < n; ++j) d_(j, offset) = 2.0 * avar[j] / total_[j];
+      if (ParameterCount(kind) == 2) {
+        const double second = theta(offset + 1);
+        const bool clamped = kind == TermKind::kGaussMarkov &&
+                             (second < p.ln_t_min || second + kStep > p.ln_t_max);
+        if (clamped) {
+          d_.col(offset + 1).setZero();
+        } else {
+          Eigen::VectorXd moved = theta;
+          moved(offset + 1) += kStep;
+          const double h = moved(offset + 1) - second;  // the step as represented
+          step_ev_.Resize(1, p.tau0_s);
+          step_ev_.SetTerm(0, ToTerm(kind, moved, offset, p));
+          for (int j = 0; j < n; ++j) {
+            d_(j, offset + 1) = (step_ev_.TermAvar(0, p.m[j]) - avar[j]) / (h * total_[j]);
+          }
+        }
+      }
+      offset += ParameterCount(kind);
+    }
+    jac.noalias() = -p.whitener * d_;
     return 0;
   }
 
@@ -253,10 +289,12 @@ class ResidualFunctor {
       current_[t] = found;
       offset += width;
     }
+    total_.resize(n);
     for (int j = 0; j < n; ++j) {
       double v = 0;  // ModelEvaluator::Avar: the terms in order
       for (size_t t = 0; t < kinds_->size(); ++t) v += current_[t]->avar[j];
       log_avar_(j) = LogAvar(v, p, j);
+      total_[j] = std::exp(log_avar_(j));  // with the fixed term, as ln nu
     }
   }
 
@@ -281,6 +319,9 @@ class ResidualFunctor {
   mutable std::array<const Slot*, kMaxTerms> current_{};
   mutable uint64_t clock_ = 0;
   mutable Eigen::VectorXd log_avar_, diff_;
+  mutable std::vector<double> total_;  // nu at every point (the last evaluation)
+  mutable Eigen::MatrixXd d_;          // d nu / d theta / nu
+  mutable ModelEvaluator step_ev_;     // a term at a moved parameter (df)
   mutable std::array<Evaluation, kMemo> memo_;
   mutable int next_memo_ = 0;
 };
@@ -317,8 +358,8 @@ Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, co
   c.kinds = kinds;
   const int k = ParameterCount(kinds);
   if (k + 2 > p.points()) return c;
-  Eigen::NumericalDiff<ResidualFunctor> diff(ResidualFunctor(&p, &kinds, k));
-  Eigen::LevenbergMarquardt<Eigen::NumericalDiff<ResidualFunctor>> lm(diff);
+  ResidualFunctor diff(&p, &kinds, k);
+  Eigen::LevenbergMarquardt<ResidualFunctor> lm(diff);
   lm.parameters.maxfev = 400 * (k + 1);
   lm.parameters.xtol = tolerance;
   lm.parameters.ftol = tolerance * 1e-3;
