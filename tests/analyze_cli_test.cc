@@ -247,6 +247,28 @@ TEST(AnalyzeCliTest, FitAndPlot) {
   EXPECT_NE(text->find("model "), std::string::npos);  // the dashed model
 }
 
+// The interval shown beside the curve never changes the noise model: --fit
+// identifies the fitted curve's noise whatever --ci and --confidence say
+// (the first pass weighs each point by the edf of its identified noise).
+TEST(AnalyzeCliTest, TheFitIsTheSameWithEveryIntervalOption) {
+  const std::string base = Bin("imuqual") + " analyze " + ReferencePath("data/rw_1e4.txt") +
+                           " --fit --format json";
+  auto fit_of = [&](const std::string& args) {
+    const auto r = RunCommand(base + " " + args);
+    EXPECT_EQ(r.exit_code, 0) << args;
+    const size_t at = r.output.find("\"fit\": {");
+    EXPECT_NE(at, std::string::npos) << args;
+    // The fit's object up to its candidates: model, J, p and every term.
+    const size_t end = r.output.find("\"candidates\"", at);
+    return at == std::string::npos ? std::string() : r.output.substr(at, end - at);
+  };
+  const std::string none = fit_of("--ci none");
+  EXPECT_NE(none.find("\"model\": "), std::string::npos);
+  EXPECT_EQ(fit_of("--ci simple"), none);
+  EXPECT_EQ(fit_of("--ci chi2"), none);
+  EXPECT_EQ(fit_of("--ci chi2 --confidence 0.95"), none);
+}
+
 // Every binary says which software it is (an auditor's first question
 // about a record) and exits 0; a bad flag exits 2 (README, "Exit codes").
 TEST(AnalyzeCliTest, EveryBinaryTellsItsVersionAndExitsTwoOnABadFlag) {
