@@ -294,7 +294,8 @@ class ResidualFunctor {
       double v = 0;  // ModelEvaluator::Avar: the terms in order
       for (size_t t = 0; t < kinds_->size(); ++t) v += current_[t]->avar[j];
       log_avar_(j) = LogAvar(v, p, j);
-      total_[j] = std::exp(log_avar_(j));  // with the fixed term, as ln nu
+      const double fixed = p.fixed_avar.size() > 0 ? p.fixed_avar(j) : 0.0;
+      total_[j] = std::max(v + fixed, 1e-300);  // nu, as LogAvar takes it
     }
   }
 
@@ -776,6 +777,10 @@ Eigen::MatrixXd BootstrapNoise(const Problem& p, int replicates) {
   return noise;
 }
 
+// A replicate's refit stops at a relative step of 1e-5 in theta: its
+// quantities move by ~1e-5 of themselves, far below the spread it measures.
+constexpr double kBootstrapTolerance = 1e-5;
+
 // `noise`: BootstrapNoise(p, k) with k >= replicates.
 template <typename Quantities>
 std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int replicates,
@@ -788,7 +793,7 @@ std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int
   std::vector<int> used(count, 0);
   for (int r = 0; r < replicates; ++r) {
     for (int j = 0; j < n; ++j) replicate.y(j) = base(j) + noise(r, j);
-    const Candidate c = Estimate(best.kinds, best.theta, replicate);
+    const Candidate c = Estimate(best.kinds, best.theta, replicate, kBootstrapTolerance);
     if (!std::isfinite(c.criterion)) continue;
     const std::vector<double> q = quantities(c.theta);
     for (size_t i = 0; i < count; ++i) {
