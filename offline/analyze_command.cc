@@ -274,7 +274,10 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     // The fit's first pass weighs each point by the edf of its identified
     // noise: identify it whatever --ci shows (as the station's final curves
     // do), so that the interval option never changes the model.
-    allan::AttachConfidence(phase, allan::CiMethod::kChi2, allan::kOneSigmaConfidence, &fit_curve);
+    if (fit_curve.ci != allan::CiMethod::kChi2) {  // chi2 at any level: the same edf
+      allan::AttachConfidence(phase, allan::CiMethod::kChi2, allan::kOneSigmaConfidence,
+                              &fit_curve);
+    }
     allan::GmwmOptions fo;
     fo.stop = allan::StopRule::kNone;  // the curve is already cut by --stop
     auto f = allan::FitCompositeModel(fit_curve, fo);

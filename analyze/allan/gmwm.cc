@@ -15,7 +15,6 @@
 #include <optional>
 #include <random>
 #include <unsupported/Eigen/NonLinearOptimization>
-#include <unsupported/Eigen/NumericalDiff>
 
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/fit_rows.h"
@@ -379,12 +378,12 @@ std::string NameOf(const std::vector<TermKind>& kinds, const Eigen::VectorXd& th
   return ToModel(kinds, theta, p).Name();
 }
 
-// Starting value of a new term's parameters from the measured curve's
-// tangent bounds (ALGORITHMS.md §3), a fraction below them.
-// The parameters (theta, see Problem) a term of kind `kind` starts from;
-// `start`: a Gauss-Markov term's correlation time (s), a sinusoid's frequency
-// (cycles per sample).
-std::vector<double> StartParameters(TermKind kind, double start, const std::vector<FitRow>& rows,
+// The parameters (theta, see Problem) a new term of kind `kind` starts from:
+// an IEEE 952 term's scale a fraction below the measured curve's tangent
+// bound (ALGORITHMS.md §3); a Gauss-Markov term's or a sinusoid's scale at
+// the shortest tau's level, its second parameter 0 (the search sets it with
+// WithSecond; LinearStart re-solves every scale).
+std::vector<double> StartParameters(TermKind kind, const std::vector<FitRow>& rows,
                                     const Problem& p) {
   double bound = std::numeric_limits<double>::infinity();
   for (const FitRow& r : rows) {
@@ -411,19 +410,10 @@ std::vector<double> StartParameters(TermKind kind, double start, const std::vect
     }
   }
   if (kind == TermKind::kGaussMarkov) {
-    // sigma from the measured deviation near tau = 2T, where a GM bump peaks.
-    const FitRow* nearest = &rows.front();
-    for (const FitRow& r : rows) {
-      if (std::fabs(std::log(r.tau_s / (2 * start))) <
-          std::fabs(std::log(nearest->tau_s / (2 * start)))) {
-        nearest = &r;
-      }
-    }
-    return {std::log(std::sqrt(nearest->avar)) - p.ln_ref, std::log(start / p.tau0_s)};
+    return {std::log(std::sqrt(rows.front().avar)) - p.ln_ref, 0.0};
   }
   if (kind == TermKind::kSinusoid) {
-    const double f = std::clamp(start * 2.0, 1e-6, 1 - 1e-6);  // of Nyquist
-    return {std::log(0.3 * std::sqrt(2.0 * rows.front().avar)) - p.ln_ref, std::log(f / (1 - f))};
+    return {std::log(0.3 * std::sqrt(2.0 * rows.front().avar)) - p.ln_ref, 0.0};
   }
   return {std::log(0.5 * bound) - p.ln_ref};
 }
@@ -616,7 +606,7 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
     for (size_t t = 0; t < kIeeeKinds.size(); ++t) {
       if (!(mask & (1u << t))) continue;
       kinds.push_back(kIeeeKinds[t]);
-      theta = Append(theta, StartParameters(kIeeeKinds[t], 0, rows, p));
+      theta = Append(theta, StartParameters(kIeeeKinds[t], rows, p));
     }
     const Candidate c = Estimate(kinds, LinearStart(kinds, theta, p), p);
     record(c);
@@ -665,7 +655,7 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
     auto propose = [&](TermKind kind) {
       std::vector<TermKind> kinds = current.kinds;
       kinds.push_back(kind);
-      const Eigen::VectorXd theta = Append(current.theta, StartParameters(kind, 0, rows, p));
+      const Eigen::VectorXd theta = Append(current.theta, StartParameters(kind, rows, p));
       if (kind == TermKind::kGaussMarkov) {
         // Correlation times: the minima of the linearized J over the grid,
         // and times spread evenly whatever the linearization says.
@@ -734,19 +724,16 @@ double StandardNormal(std::mt19937_64& rng) {
   return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
 }
 
-// The standard deviation of each of `count` quantities over bootstrap
-// replicates of the moments (see FitCompositeModel); NaN where fewer than 10
-// replicates could be refitted.
-// The bootstrap's draws in the moments, replicates x points: row r is
-// replicate r's deviation of each ln avar from its model value (see
-// FitCompositeModel). Seeded, so the first k rows are the same whatever the
-// number of rows: every candidate's bootstrap on the same problem shares
-// them (a candidate with k replicates uses the first k).
 // The bootstrap's quantiles in double precision (Boost's default promotes
 // to long double: twice the time, for digits no replicate needs).
 constexpr auto kDoublePolicy =
     boost::math::policies::policy<boost::math::policies::promote_double<false>>();
 
+// The bootstrap's draws in the moments, replicates x points: row r is
+// replicate r's deviation of each ln avar from its model value (see
+// FitCompositeModel). Seeded, so the first k rows are the same whatever the
+// number of rows: every candidate's bootstrap on the same problem shares
+// them (a candidate with k replicates uses the first k).
 Eigen::MatrixXd BootstrapNoise(const Problem& p, int replicates) {
   const int n = p.points();
   const Eigen::VectorXd sd = p.sigma.diagonal().array().sqrt();
@@ -781,6 +768,9 @@ Eigen::MatrixXd BootstrapNoise(const Problem& p, int replicates) {
 // quantities move by ~1e-5 of themselves, far below the spread it measures.
 constexpr double kBootstrapTolerance = 1e-5;
 
+// The standard deviation of each of `count` quantities over bootstrap
+// replicates of the moments (see FitCompositeModel); NaN where fewer than 10
+// replicates could be refitted.
 // `noise`: BootstrapNoise(p, k) with k >= replicates.
 template <typename Quantities>
 std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int replicates,

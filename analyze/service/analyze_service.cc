@@ -227,7 +227,7 @@ struct AnalyzeService::Impl {
   AnalyzeOptions options;
   // Each run's interim period now (Tick): options.interim_period_s, longer
   // with more active runs than options.interim_runs_per_s.
-  double interim_period_s = 2.0;
+  double interim_period_s;
   std::unique_ptr<LcmBus> bus;
   BoundedQueue<Work> queue;
   std::map<std::string, RunEntry> runs;
@@ -257,7 +257,10 @@ struct AnalyzeService::Impl {
   ThrottledLog damage_log;
 
   explicit Impl(const AnalyzeOptions& o)
-      : options(o), queue(static_cast<size_t>(o.queue_capacity)), admission(o.accepted_plans) {
+      : options(o),
+        interim_period_s(o.interim_period_s),
+        queue(static_cast<size_t>(o.queue_capacity)),
+        admission(o.accepted_plans) {
     tracker_options.give_up_after_s = o.hole_give_up_s;
     tracker_options.max_ahead = 8192;
   }
