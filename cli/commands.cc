@@ -261,19 +261,13 @@ int RunCommand(const StationRunOptions& options) {
   if (!run->left_open.empty()) {
     // Runs an earlier station process left open (a crash): judged now.
     std::printf("%zu run(s) left open by an earlier station process:\n", run->left_open.size());
-    auto s = (*archive)->db().Prepare(
-        "SELECT state, COALESCE(verdict, 'not judged'), COALESCE(reasons, ''), "
-        "finalized_utime IS NOT NULL FROM runs WHERE run_id = ?");
-    for (const std::string& id : run->left_open) {
-      if (!s.ok()) break;
-      s->Reset();
-      s->Bind(1, id);
-      auto row = s->Step();
-      if (!row.ok() || !*row) continue;
-      const std::string reasons = s->Text(2);
-      std::printf("  %s: %s, %s%s%s\n", id.c_str(), s->Text(0).c_str(), s->Text(1).c_str(),
-                  reasons.empty() ? "" : ": ", reasons.substr(0, reasons.find('\n')).c_str());
-      if (s->Int(3) == 0) std::printf("    (not finished yet: the next station run settles it)\n");
+    auto status = store::QueryRunStatus(**archive, run->left_open);
+    if (!status.ok()) LogError("runs left open not read: " + status.status().message());
+    for (const store::RunStatusRow& r : status.ok() ? *status : std::vector<store::RunStatusRow>{}) {
+      std::printf("  %s: %s, %s%s%s\n", r.run_id.c_str(), r.state.c_str(),
+                  r.verdict.empty() ? "not judged" : r.verdict.c_str(), r.reasons.empty() ? "" : ": ",
+                  r.reasons.substr(0, r.reasons.find('\n')).c_str());
+      if (!r.finalized) std::printf("    (not finished yet: the next station run settles it)\n");
     }
   }
   if (!run->run_ids.empty()) {

@@ -6,41 +6,30 @@
 
 #include "analyze/judge/early_decision.h"
 #include "analyze/judge/measurements.h"
+#include "store/query.h"
 
 namespace imuqual::report {
 
 Result<EarlyDecisionSummary> QueryEarlyDecisions(store::Archive& archive, const std::string& lot,
                                                  const std::string& run_prefix) {
-  auto s = archive.db().Prepare(R"sql(
-SELECT r.serial, r.run_id, r.verdict, r.start_utime, r.plan, m.value, m.note
-FROM runs r
-JOIN measurements m ON m.run_key = r.run_key AND m.axis = '' AND m.name = ?2
-WHERE r.lot = ?1 AND r.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
-  AND substr(r.run_id, 1, length(?3)) = ?3
-ORDER BY r.start_utime, r.run_id)sql");
-  if (!s.ok()) return s.status();
-  s->Bind(1, lot).Bind(2, std::string(judge::kDecisionTime)).Bind(3, run_prefix);
+  auto found = store::QueryDecisionTimes(archive, lot, run_prefix);
+  if (!found.ok()) return found.status();
   EarlyDecisionSummary out;
   std::vector<double> ratios;
-  for (;;) {
-    auto row = s->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
+  for (store::DecisionTimeRow& row : *found) {
     DecidedRun r;
-    r.unit = s->Text(0);
-    r.run_id = s->Text(1);
-    r.verdict = s->Text(2);
-    r.start_utime = s->Int(3);
+    r.unit = std::move(row.unit);
+    r.run_id = std::move(row.run_id);
+    r.verdict = std::move(row.verdict);
+    r.start_utime = row.start_utime;
     pb::TestPlan plan;
-    const std::vector<uint8_t> bytes = s->Blob(4);
-    if (!plan.ParseFromArray(bytes.data(), static_cast<int>(bytes.size())) ||
-        !plan.has_early_decision()) {
+    if (!plan.ParseFromString(row.plan) || !plan.has_early_decision()) {
       return Status::Corruption(
           "run " + r.run_id + ": has a decision time, but its archived plan has no early_decision");
     }
     r.horizon_s = judge::MakeLookSchedule(plan).horizon_s;
-    r.decision_time_s = s->Real(5);
-    r.note = s->Text(6);
+    r.decision_time_s = row.decision_time_s;
+    r.note = std::move(row.note);
     const bool decided = std::isfinite(r.decision_time_s);
     out.decided += decided;
     out.horizon_total_s += r.horizon_s;

@@ -251,18 +251,7 @@ std::string IntCell(int64_t v, std::string_view key_attr, std::string_view key) 
   return out;
 }
 
-using MeasurementKey = std::tuple<std::string, std::string, std::string>;  // run, axis, name
-
-struct ReportData {
-  store::LotRow lot;
-  std::vector<store::AxisRow> rows;  // latest run per unit, per axis
-  std::vector<store::MeasurementRow> measurements;
-  std::map<MeasurementKey, const store::MeasurementRow*> by_key;
-  std::vector<MeasurementStats> stats;
-  std::vector<RunPlotData> runs;  // one per unit, in the rows' order
-  std::vector<store::RetestRow> retests;
-  EarlyDecisionSummary early;  // every judged run with early decisions
-};
+using ReportData = LotReportData;
 
 // ---- sections -------------------------------------------------------------
 
@@ -922,9 +911,8 @@ void LotModelSection(const std::vector<AxisLotModel>& models, std::string* out) 
 
 }  // namespace
 
-Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
-                                       const std::string& archive_label) {
-  ReportData d;
+Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& lot) {
+  LotReportData d;
   auto lots = store::QueryLots(archive, lot);
   if (!lots.ok()) return lots.status();
   auto lot_row = std::find_if(lots->begin(), lots->end(),
@@ -956,7 +944,24 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
     if (!run.ok()) return run.status();
     d.runs.push_back(std::move(*run));
   }
+  // The raw samples of the units the report shows on their own.
+  for (const RunPlotData* r : NeedALook(d.runs)) {
+    auto series = RunTimeSeriesSvg(archive, r->info.run_id);
+    d.series[r->info.run_id] = series.ok() ? LotReportData::Series{*series, Status::Ok()}
+                                           : LotReportData::Series{"", series.status()};
+  }
+  return d;
+}
 
+Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
+                                       const std::string& archive_label) {
+  auto d = LoadLotReport(archive, lot);
+  if (!d.ok()) return d.status();
+  return RenderLotReportHtml(*d, archive_label);
+}
+
+std::string RenderLotReportHtml(const LotReportData& d, const std::string& archive_label) {
+  const std::string& lot = d.lot.lot;
   // The lot noise models (a fit per axis, the slowest part) meanwhile.
   std::future<std::vector<AxisLotModel>> lot_models =
       std::async(std::launch::async, [&d] { return ComputeLotModels(d.runs); });
@@ -979,17 +984,18 @@ Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::strin
       Figure(plots[i], Attr("id", id) + Attr("data-run", r->info.run_id), caption, &unit_figures);
     }
     // Its raw samples against time: where a step, a drift or a burst shows.
-    auto series = RunTimeSeriesSvg(archive, r->info.run_id);
-    if (series.ok()) {
-      AllanPlot plot{"series", "raw samples", std::move(*series)};
+    const auto series = d.series.find(r->info.run_id);
+    if (series == d.series.end()) continue;
+    if (series->second.status.ok()) {
+      AllanPlot plot{"series", "raw samples", series->second.svg};
       Figure(plot, Attr("data-run", r->info.run_id) + Attr("data-plot", "series"),
              "<strong>" + Esc(r->info.serial) + "</strong>: raw samples against time",
              &unit_figures);
-    } else if (series.status().code() != Status::Code::kNotFound) {
+    } else if (series->second.status.code() != Status::Code::kNotFound) {
       // A damaged chunk costs this plot only, not the lot's report.
       Add(&unit_figures, "<figure", Attr("data-run", r->info.run_id), Attr("data-plot", "series"),
           "><figcaption><strong>", Esc(r->info.serial),
-          "</strong>: raw samples not plotted: ", Esc(series.status().message()),
+          "</strong>: raw samples not plotted: ", Esc(series->second.status.message()),
           "</figcaption></figure>\n");
     }
   }

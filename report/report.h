@@ -24,15 +24,58 @@
 #ifndef IMUQUAL_REPORT_REPORT_H_
 #define IMUQUAL_REPORT_REPORT_H_
 
+#include <map>
 #include <string>
 #include <string_view>
+#include <tuple>
+#include <vector>
 
 #include "common/status.h"
+#include "report/allan_plots.h"
+#include "report/early_decisions.h"
+#include "report/lot_statistics.h"
 #include "store/archive.h"
+#include "store/query.h"
 
 namespace imuqual::report {
 
-// The report's HTML. NotFound names the lot when the archive has no run of
+// Everything a lot's report shows, read from the archive once: the report
+// is rendered from these values without a database. Move-only (by_key
+// points into measurements).
+struct LotReportData {
+  LotReportData() = default;
+  LotReportData(LotReportData&&) = default;
+  LotReportData& operator=(LotReportData&&) = default;
+  LotReportData(const LotReportData&) = delete;
+  LotReportData& operator=(const LotReportData&) = delete;
+
+  store::LotRow lot;
+  std::vector<store::AxisRow> rows;  // latest run per unit, per axis
+  std::vector<store::MeasurementRow> measurements;
+  using MeasurementKey = std::tuple<std::string, std::string, std::string>;  // run, axis, name
+  std::map<MeasurementKey, const store::MeasurementRow*> by_key;
+  std::vector<MeasurementStats> stats;
+  std::vector<RunPlotData> runs;  // one per unit, in the rows' order
+  std::vector<store::RetestRow> retests;
+  EarlyDecisionSummary early;  // every judged run with early decisions
+  // The raw-sample plot of each unit shown on its own (FAIL, INCONCLUSIVE,
+  // MARGINAL ...), by run id: its SVG, or why it could not be drawn.
+  struct Series {
+    std::string svg;
+    Status status;
+  };
+  std::map<std::string, Series> series;
+};
+
+// Reads the lot's report data. NotFound names the lot when the archive has
+// no run of it.
+Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& lot);
+
+// The report's HTML from its data; `archive_label` is how the page names
+// the archive (e.g. its path).
+std::string RenderLotReportHtml(const LotReportData& data, const std::string& archive_label);
+
+// LoadLotReport, then RenderLotReportHtml. NotFound names the lot when the archive has no run of
 // it. `archive_label` is how the page names the archive (e.g. its path).
 Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
                                        const std::string& archive_label);

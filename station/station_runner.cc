@@ -40,6 +40,7 @@
 #include "station/station_monitor.h"
 #include "store/archive.h"
 #include "store/outcome.h"
+#include "store/query.h"
 #include "store/store_service.h"
 
 namespace imuqual::station {
@@ -368,34 +369,23 @@ Result<StationRunResult> RunStation(const StationRunOptions& options) {
     // A bad archive file fails before any process starts.
     auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kWrite);
     if (!archive.ok()) return archive.status();
-    auto open_runs = (*archive)->db().Prepare(
-        "SELECT run_id FROM runs WHERE station = ? AND finalized_utime IS NULL ORDER BY run_id");
+    auto open_runs = store::QueryOpenRunIds(**archive, o.station);
     if (!open_runs.ok()) return open_runs.status();
-    open_runs->Bind(1, o.station);
-    for (;;) {
-      auto row = open_runs->Step();
-      if (!row.ok()) return row.status();
-      if (!*row) break;
-      left_open.insert(open_runs->Text(0));
-    }
+    left_open.insert(open_runs->begin(), open_runs->end());
     // The station in every run id: two stations never mint the same one.
     // The same station started again within the second of its last start
     // (a script's quick retest) would: it waits for the next second.
     std::vector<std::string> serials;
     for (int i = 0; i < o.sim_units; ++i) serials.push_back(acquire::SimSerial(o.lot, i));
     for (const std::string& u : o.units) serials.push_back(u.substr(0, u.find('=')));
-    auto taken = (*archive)->db().Prepare("SELECT 1 FROM runs WHERE run_id = ?");
-    if (!taken.ok()) return taken.status();
     for (int attempt = 0;; ++attempt) {
       const int64_t now = NowUtime();
       result.run_prefix = CompactUtc(now) + "-" + o.station;
       bool collides = false;
       for (const std::string& serial : serials) {
-        taken->Reset();
-        taken->Bind(1, result.run_prefix + "-" + serial);
-        auto row = taken->Step();
-        if (!row.ok()) return row.status();
-        collides = collides || *row;
+        auto taken = (*archive)->FindRunKey(result.run_prefix + "-" + serial);
+        if (!taken.ok()) return taken.status();
+        collides = collides || taken->has_value();
       }
       if (!collides) break;
       if (attempt >= 5) {

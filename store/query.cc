@@ -1,5 +1,7 @@
 #include "store/query.h"
 
+#include <algorithm>
+
 #include "store/outcome.h"
 
 namespace imuqual::store {
@@ -315,6 +317,89 @@ Result<std::vector<RetestRow>> QueryRetestReasons(Archive& archive, const std::s
     r.next_run_id = s->Text(5);
     rows.push_back(std::move(r));
   }
+}
+
+Result<std::vector<DecisionTimeRow>> QueryDecisionTimes(Archive& archive, const std::string& lot,
+                                                        const std::string& run_prefix) {
+  auto s = archive.db().Prepare(R"sql(
+SELECT r.serial, r.run_id, r.verdict, r.start_utime, r.plan, m.value, m.note
+FROM runs r
+JOIN measurements m ON m.run_key = r.run_key AND m.axis = '' AND m.name = 'decision_time'
+WHERE r.lot = ?1 AND r.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
+  AND substr(r.run_id, 1, length(?2)) = ?2
+ORDER BY r.start_utime, r.run_id)sql");
+  if (!s.ok()) return s.status();
+  s->Bind(1, lot).Bind(2, run_prefix);
+  std::vector<DecisionTimeRow> rows;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return rows;
+    DecisionTimeRow r;
+    r.unit = s->Text(0);
+    r.run_id = s->Text(1);
+    r.verdict = s->Text(2);
+    r.start_utime = s->Int(3);
+    const std::vector<uint8_t> plan = s->Blob(4);
+    r.plan.assign(plan.begin(), plan.end());
+    r.decision_time_s = s->Real(5);
+    r.note = s->Text(6);
+    rows.push_back(std::move(r));
+  }
+}
+
+Result<std::vector<RunStatusRow>> QueryRunStatus(Archive& archive,
+                                                 const std::vector<std::string>& run_ids) {
+  auto s = archive.db().Prepare(
+      "SELECT state, COALESCE(verdict, ''), COALESCE(reasons, ''), finalized_utime IS NOT NULL "
+      "FROM runs WHERE run_id = ?1");
+  if (!s.ok()) return s.status();
+  std::vector<RunStatusRow> rows;
+  for (const std::string& id : run_ids) {
+    s->Bind(1, id);
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (*row) rows.push_back({id, s->Text(0), s->Text(1), s->Text(2), s->Int(3) != 0});
+    s->Reset();
+  }
+  return rows;
+}
+
+Result<std::vector<std::string>> QueryOpenRunIds(Archive& archive, const std::string& station) {
+  auto s = archive.db().Prepare(
+      "SELECT run_id FROM runs WHERE station = ?1 AND finalized_utime IS NULL ORDER BY run_id");
+  if (!s.ok()) return s.status();
+  s->Bind(1, station);
+  std::vector<std::string> ids;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return ids;
+    ids.push_back(s->Text(0));
+  }
+}
+
+Result<std::string> QueryLotFingerprint(Archive& archive, const std::string& lot) {
+  auto s = archive.db().Prepare(
+      "SELECT run_key, finalized_utime IS NULL, COALESCE(result_utime, 0), "
+      "COALESCE(finalized_utime, 0), COALESCE(verdict, '-') FROM runs WHERE lot = ?1 "
+      "ORDER BY run_key");
+  if (!s.ok()) return s.status();
+  s->Bind(1, lot);
+  int64_t runs = 0, newest = 0;
+  std::string times, verdicts;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    if (s->Int(1) != 0) return std::string();  // a run still open
+    ++runs;
+    newest = std::max(newest, s->Int(0));
+    times += std::to_string(s->Int(2)) + "," + std::to_string(s->Int(3)) + ";";
+    verdicts += (verdicts.empty() ? "" : ",") + s->Text(4);
+  }
+  if (runs == 0) return std::string();
+  return std::to_string(runs) + "/" + std::to_string(newest) + "/" + times + "/" + verdicts;
 }
 
 }  // namespace imuqual::store

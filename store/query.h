@@ -126,6 +126,37 @@ Result<std::vector<RetestRow>> QueryRetestReasons(Archive& archive, const std::s
 Result<std::vector<std::pair<std::string, std::string>>> QueryReasons(
     Archive& archive, const std::vector<std::string>& run_ids);
 
+// One judged run with its run-level decision_time measurement (early
+// decisions): the runs of `lot` whose verdict is PASS, MARGINAL, FAIL or
+// INCONCLUSIVE and whose id starts with `run_prefix` ("" = any), oldest
+// first, each with its archived plan (serialized pb::TestPlan).
+struct DecisionTimeRow {
+  std::string unit, run_id, verdict, plan, note;
+  int64_t start_utime = 0;
+  double decision_time_s = allan::kNaN;  // NaN: pending at every look
+};
+Result<std::vector<DecisionTimeRow>> QueryDecisionTimes(Archive& archive, const std::string& lot,
+                                                        const std::string& run_prefix);
+
+// Where a run stands now, for the station's summary of runs an earlier
+// station process left open. Absent runs are left out.
+struct RunStatusRow {
+  std::string run_id, state, verdict, reasons;  // verdict "" when not judged
+  bool finalized = false;
+};
+Result<std::vector<RunStatusRow>> QueryRunStatus(Archive& archive,
+                                                 const std::vector<std::string>& run_ids);
+
+// The runs of `station` not finalized yet (a station process that stopped
+// mid-soak left them open), by run id.
+Result<std::vector<std::string>> QueryOpenRunIds(Archive& archive, const std::string& station);
+
+// What changes whenever anything a lot report shows changes: the lot's run
+// count, newest run key, result and finalisation times and verdicts. ""
+// while a run of the lot is still open (nothing to cache) or the lot has no
+// run. A cache key, not a checksum.
+Result<std::string> QueryLotFingerprint(Archive& archive, const std::string& lot);
+
 }  // namespace imuqual::store
 
 #endif  // IMUQUAL_STORE_QUERY_H_

@@ -259,19 +259,6 @@ Page Compare(store::Archive& archive, const std::string& lot_a, const std::strin
 
 }  // namespace
 
-Result<std::string> LotReportFingerprint(store::Archive& archive, const std::string& lot) {
-  auto q = archive.db().Prepare(
-      "SELECT count(*), sum(finalized_utime IS NULL), max(run_key), total(result_utime), "
-      "total(finalized_utime), group_concat(coalesce(verdict, '-')) FROM runs WHERE lot = ?");
-  if (!q.ok()) return q.status();
-  q->Bind(1, lot);
-  auto row = q->Step();
-  if (!row.ok()) return row.status();
-  if (!*row || q->Int(0) == 0 || q->Int(1) > 0) return std::string();
-  return std::to_string(q->Int(0)) + "/" + std::to_string(q->Int(2)) + "/" +
-         ShortestReal(q->Real(3)) + "/" + ShortestReal(q->Real(4)) + "/" + q->Text(5);
-}
-
 Page Route(store::Archive& archive, const std::string& archive_label, const std::string& path,
            const std::map<std::string, std::string>& query) {
   std::string rest;

@@ -18,11 +18,6 @@ struct Page {
   std::string body;
 };
 
-// What the lot's report depends on that can change: its runs, their
-// results and finalization ("" when the lot has a run still open, or none:
-// its report is not to be kept). Equal fingerprints: the same report.
-Result<std::string> LotReportFingerprint(store::Archive& archive, const std::string& lot);
-
 // A whole page in the site's frame (style, navigation); `body` is HTML.
 std::string PageHtml(const std::string& title, const std::string& body);
 

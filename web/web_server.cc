@@ -24,6 +24,7 @@
 #include "common/text_util.h"
 #include "report/report.h"
 #include "store/archive.h"
+#include "store/query.h"
 #include "web/access.h"
 #include "web/connection_gate.h"
 #include "web/live_feed.h"
@@ -146,7 +147,7 @@ Status ParseListen(const std::string& text, ServeOptions* o) {
 }
 
 // Lot reports of lots whose runs are all finished, kept while the archive
-// says they are unchanged (LotReportFingerprint): a 100-unit lot's report
+// says they are unchanged (store::QueryLotFingerprint): a 100-unit lot's report
 // fits a noise model per axis, too slow to redo for every view.
 class ReportCache {
  public:
@@ -215,7 +216,7 @@ struct WebServer::Impl {
       auto archive = store::Archive::Open(options.db_path, store::Archive::Mode::kRead);
       if (!archive.ok()) continue;
       // Not kept while a run of it is still open (the store finalizes last).
-      auto fingerprint = LotReportFingerprint(**archive, lot);
+      auto fingerprint = store::QueryLotFingerprint(**archive, lot);
       if (!fingerprint.ok() || fingerprint->empty()) continue;
       if (!reports.Find(lot, *fingerprint)) {
         const Page page = WithScriptAsFile(Route(**archive, options.db_path, "/lot/" + lot, {}));
@@ -461,7 +462,7 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
                (req.path == "/lot" && !req.get_param_value("name").empty())) {
       // A finished lot's report, kept while the archive leaves it unchanged.
       const std::string lot = req.path == "/lot" ? req.get_param_value("name") : req.path.substr(5);
-      auto fingerprint = LotReportFingerprint(**archive, lot);
+      auto fingerprint = store::QueryLotFingerprint(**archive, lot);
       std::optional<Page> kept;
       if (fingerprint.ok() && !fingerprint->empty()) kept = state->reports.Find(lot, *fingerprint);
       if (kept) {

@@ -35,6 +35,7 @@
 #include "store/outcome.h"
 #include "store/run_record.h"
 #include "tests/test_util.h"
+#include "store/query.h"
 #include "web/access.h"
 #include "web/live_feed.h"
 #include "web/live_page.h"
@@ -423,7 +424,7 @@ TEST_F(WebTest, AFinishedLotsReportIsKeptUntilTheArchiveChangesIt) {
   auto fingerprint = [&] {
     auto a = store::Archive::Open(db_, store::Archive::Mode::kRead);
     EXPECT_TRUE(a.ok());
-    auto f = LotReportFingerprint(**a, kLot);
+    auto f = store::QueryLotFingerprint(**a, kLot);
     EXPECT_TRUE(f.ok());
     return *f;
   };
