@@ -6,6 +6,7 @@
 #include "cli/commands.h"
 #include "cli/export_command.h"
 #include "cli/keygen_command.h"
+#include "cli/sync_command.h"
 #include "cli/lot_commands.h"
 #include "cli/plot_command.h"
 #include "cli/report_command.h"
@@ -255,6 +256,9 @@ int main(int argc, char** argv) {
   cli::VerifyOptions verify;
   CLI::App* verify_cmd = cli::AddVerifyCommand(app, &verify);
 
+  cli::SyncOptions sync;
+  CLI::App* sync_cmd = cli::AddSyncCommand(app, &sync);
+
   cli::KeygenOptions keygen;
   CLI::App* keygen_cmd = app.add_subcommand(
       "keygen",
@@ -386,6 +390,7 @@ int main(int argc, char** argv) {
   if (reanalyze_cmd->parsed()) return offline::ReanalyzeCommand(re);
   if (verify_cmd->parsed()) return cli::VerifyCommand(verify);
   if (keygen_cmd->parsed()) return cli::KeygenCommand(keygen);
+  if (sync_cmd->parsed()) return cli::SyncCommand(sync);
   if (analyze_cmd->parsed()) return offline::AnalyzeFileCommand(an);
 
   auto fmt = report::ParseFormat(format);

@@ -13,6 +13,7 @@
 #include "store/chain.h"
 #include "store/checksums.h"
 #include "store/outcome.h"
+#include "store/plant_schema.h"
 #include "store/schema.h"
 
 namespace imuqual::store {
@@ -39,6 +40,16 @@ constexpr double kWalSwitchWaitS = 60;
 }  // namespace
 
 Result<std::unique_ptr<Archive>> Archive::Open(const std::string& path, Mode mode) {
+  if (IsPostgresUrl(path)) {
+    IMUQUAL_RETURN_IF_ERROR(InitCrypto());
+    auto db = Db::Open(path, mode == Mode::kWrite ? Db::Mode::kReadWrite : Db::Mode::kReadOnly);
+    if (!db.ok()) return db.status();
+    std::unique_ptr<Archive> archive(new Archive(std::move(*db)));
+    IMUQUAL_RETURN_IF_ERROR(mode == Mode::kWrite ? MigratePlant(*archive->db_)
+                                                 : CheckPlantReadable(*archive->db_));
+    archive->cache_.resize(kNumStmts);
+    return archive;
+  }
   if (mode == Mode::kRead && ::access(path.c_str(), F_OK) != 0) {
     return Status::NotFound("no archive at " + path);
   }
@@ -92,7 +103,7 @@ Result<Stmt*> Archive::Cached(int id, const char* sql) {
 
 Status Archive::Begin() {
   unsealed_.clear();
-  return db_->Exec("BEGIN IMMEDIATE");
+  return db_->BeginWrite();
 }
 
 Status Archive::Commit() {
@@ -108,7 +119,7 @@ Status Archive::Rollback() {
 }
 
 Status Archive::SealResultsOf(int64_t run_key) {
-  if (sqlite3_get_autocommit(db_->handle())) return SealResults(*db_, run_key);  // no transaction
+  if (db_->InAutocommit()) return SealResults(*db_, run_key);  // no transaction
   unsealed_.insert(run_key);
   return Status::Ok();
 }
@@ -200,7 +211,7 @@ Status Archive::InsertChunk(int64_t run_key, const ChunkRecord& c, bool* inserte
       .Bind(10, static_cast<int64_t>(ChunkChecksum(c)))
       .BindBlob(11, ChunkDigest(c));
   IMUQUAL_RETURN_IF_ERROR(s.Run());
-  if (inserted) *inserted = sqlite3_changes(db_->handle()) > 0;
+  if (inserted) *inserted = db_->Changes() > 0;
   return Status::Ok();
 }
 

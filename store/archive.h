@@ -116,6 +116,9 @@ struct ResultRecord {
 class Archive {
  public:
   enum class Mode { kWrite, kRead };
+  // A station's SQLite file, or a plant archive at a postgresql:// URL
+  // (kWrite creates its schema in an empty database; the plant is written
+  // by store/plant_sync.h, read by every query of store/query.h).
   // kWrite creates/migrates the file and sets WAL + synchronous=NORMAL.
   // kRead requires an existing archive at the current schema. Errors name
   // the file and what is wrong with it (missing, not SQLite, not imuqual,
@@ -187,6 +190,7 @@ class Archive {
   Status SetSigningKey(const SigningKey& key);
 
   Db& db() { return *db_; }
+  bool postgres() const { return db_->postgres(); }
   const std::string& path() const { return db_->path(); }
 
  private:

@@ -93,20 +93,17 @@ CanonicalValue CanonicalValue::DigestOf(const Digest& d) {
   return c;
 }
 
-CanonicalValue CanonicalValue::FromColumn(sqlite3_stmt* stmt, int col) {
-  switch (sqlite3_column_type(stmt, col)) {
-    case SQLITE_INTEGER:
-      return Integer(sqlite3_column_int64(stmt, col));
-    case SQLITE_FLOAT:
-      return Real(sqlite3_column_double(stmt, col));
-    case SQLITE_TEXT:
-      return Text({reinterpret_cast<const char*>(sqlite3_column_text(stmt, col)),
-                   static_cast<size_t>(sqlite3_column_bytes(stmt, col))});
-    case SQLITE_BLOB: {
-      const void* data = sqlite3_column_blob(stmt, col);
-      const size_t size = static_cast<size_t>(sqlite3_column_bytes(stmt, col));
-      return Blob(size == 0 ? std::string_view()
-                            : std::string_view(static_cast<const char*>(data), size));
+CanonicalValue CanonicalValue::FromColumn(const Stmt& stmt, int col) {
+  switch (stmt.ColumnType(col)) {
+    case Stmt::Type::kInt:
+      return Integer(stmt.Int(col));
+    case Stmt::Type::kReal:
+      return Real(stmt.Real(col));
+    case Stmt::Type::kText:
+      return Text(stmt.Text(col));
+    case Stmt::Type::kBlob: {
+      const std::vector<uint8_t> bytes = stmt.Blob(col);
+      return Blob(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
     }
     default:
       return CanonicalValue();
@@ -233,11 +230,11 @@ std::string EncodeRow(CanonicalRow row) {
   return out;
 }
 
-CanonicalRow RowFromStatement(sqlite3_stmt* stmt, const std::vector<std::string>& excluded) {
+CanonicalRow RowFromStatement(const Stmt& stmt, const std::vector<std::string>& excluded) {
   CanonicalRow row;
-  const int columns = sqlite3_column_count(stmt);
+  const int columns = stmt.ColumnCount();
   for (int col = 0; col < columns; ++col) {
-    const std::string name = sqlite3_column_name(stmt, col);
+    const std::string name = stmt.ColumnName(col);
     if (std::find(excluded.begin(), excluded.end(), name) != excluded.end()) continue;
     row.emplace_back(name, CanonicalValue::FromColumn(stmt, col));
   }

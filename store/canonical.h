@@ -21,7 +21,6 @@
 #define IMUQUAL_STORE_CANONICAL_H_
 
 #include <sodium.h>
-#include <sqlite3.h>
 
 #include <array>
 #include <cstdint>
@@ -29,6 +28,8 @@
 #include <string_view>
 #include <utility>
 #include <vector>
+
+#include "store/sqlite.h"
 
 namespace imuqual::store {
 
@@ -82,7 +83,7 @@ struct CanonicalValue {
   static CanonicalValue DigestOf(const Digest& d);
   // The value of column `col` of the statement's current row (by its
   // storage class, which the archive's typed columns keep).
-  static CanonicalValue FromColumn(sqlite3_stmt* stmt, int col);
+  static CanonicalValue FromColumn(const Stmt& stmt, int col);
 
   bool is_null() const { return type == Type::kNull; }
   // Appends the encoding (precondition: not NULL).
@@ -104,7 +105,7 @@ std::string EncodeRow(CanonicalRow row);
 
 // Every column of the statement's current row, by name, but those named in
 // `excluded` (NULLs kept as kNull; EncodeRow leaves them out).
-CanonicalRow RowFromStatement(sqlite3_stmt* stmt, const std::vector<std::string>& excluded);
+CanonicalRow RowFromStatement(const Stmt& stmt, const std::vector<std::string>& excluded);
 
 // The columns of raw_chunks left out of a chunk's digest: its run (named by
 // the run's record instead) and the chunk's own checksum and digest.

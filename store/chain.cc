@@ -9,54 +9,49 @@
 namespace imuqual::store {
 namespace {
 
-// A statement over the C API (Stmt hides storage classes and column names),
-// finalized on scope exit.
+// A statement whose rows are read by column name and storage class, on
+// either engine.
 class RawStmt {
  public:
-  RawStmt(Db& db, const std::string& sql) : db_(db) {
-    if (sqlite3_prepare_v2(db.handle(), sql.c_str(), -1, &stmt_, nullptr) != SQLITE_OK) {
-      error_ = Status::IoError(db.path() + ": " + db.ErrorMessage());
+  RawStmt(Db& db, const std::string& sql) {
+    auto s = db.Prepare(sql);
+    if (s.ok()) {
+      stmt_.emplace(std::move(*s));
+    } else {
+      error_ = s.status();
     }
   }
-  ~RawStmt() { sqlite3_finalize(stmt_); }
-  RawStmt(const RawStmt&) = delete;
-  RawStmt& operator=(const RawStmt&) = delete;
-
   const Status& error() const { return error_; }
-  sqlite3_stmt* get() { return stmt_; }
+  RawStmt& Bind(int i, int64_t v) {
+    if (stmt_) stmt_->Bind(i, v);
+    return *this;
+  }
   // Calls fn for each row; fn's error stops the loop.
-  Status ForEach(const std::function<Status(sqlite3_stmt*)>& fn) {
+  Status ForEach(const std::function<Status(const Stmt&)>& fn) {
     IMUQUAL_RETURN_IF_ERROR(error_);
-    int rc;
-    while ((rc = sqlite3_step(stmt_)) == SQLITE_ROW) IMUQUAL_RETURN_IF_ERROR(fn(stmt_));
-    if (rc != SQLITE_DONE) return Status::IoError(db_.path() + ": " + db_.ErrorMessage());
-    return Status::Ok();
+    for (;;) {
+      auto row = stmt_->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) return Status::Ok();
+      IMUQUAL_RETURN_IF_ERROR(fn(*stmt_));
+    }
   }
 
  private:
-  Db& db_;
-  sqlite3_stmt* stmt_ = nullptr;
+  std::optional<Stmt> stmt_;
   Status error_;
 };
 
-std::string_view BlobOf(sqlite3_stmt* s, int col) {
-  const void* data = sqlite3_column_blob(s, col);
-  const size_t size = static_cast<size_t>(sqlite3_column_bytes(s, col));
-  return size == 0 ? std::string_view() : std::string_view(static_cast<const char*>(data), size);
-}
-
-std::string TextOf(sqlite3_stmt* s, int col) {
-  const unsigned char* text = sqlite3_column_text(s, col);
-  return text == nullptr ? std::string()
-                         : std::string(reinterpret_cast<const char*>(text),
-                                       static_cast<size_t>(sqlite3_column_bytes(s, col)));
+std::string BlobOf(const Stmt& s, int col) {
+  const std::vector<uint8_t> b = s.Blob(col);
+  return std::string(b.begin(), b.end());
 }
 
 // A 32-byte digest column (zeros when it is not 32 bytes: then it matches
 // nothing it should).
-Digest DigestOfColumn(sqlite3_stmt* s, int col) {
+Digest DigestOfColumn(const Stmt& s, int col) {
   Digest d{};
-  const std::string_view b = BlobOf(s, col);
+  const std::string b = BlobOf(s, col);
   if (b.size() == d.size()) std::copy(b.begin(), b.end(), reinterpret_cast<char*>(d.data()));
   return d;
 }
@@ -95,10 +90,10 @@ ChunkRecord ChunkFromCanonicalRow(const CanonicalRow& row) {
 Status AddTableItems(Db& db, const std::string& table, int64_t run_key, SignedRecord* record) {
   RawStmt s(db, "SELECT * FROM \"" + table + "\" WHERE run_key = ?");
   IMUQUAL_RETURN_IF_ERROR(s.error());
-  sqlite3_bind_int64(s.get(), 1, run_key);
+  s.Bind(1, run_key);
   static const std::vector<std::string> kExcluded = {"run_key"};
   std::vector<std::string> rows;
-  IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](sqlite3_stmt* row) {
+  IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
     rows.push_back(EncodeRow(RowFromStatement(row, kExcluded)));
     return Status::Ok();
   }));
@@ -124,8 +119,8 @@ Status AddChunkItems(Db& db, int64_t run_key, ChunkDigests how, ChunkFindings* f
     std::vector<std::pair<int64_t, Digest>> missing;
     {
       RawStmt s(db, "SELECT * FROM raw_chunks WHERE run_key = ? AND digest IS NULL");
-      sqlite3_bind_int64(s.get(), 1, run_key);
-      IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](sqlite3_stmt* row) {
+      s.Bind(1, run_key);
+      IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
         const CanonicalRow c = RowFromStatement(row, ChunkDigestExclusions());
         missing.emplace_back(IntColumn(c, "seq"), ChunkRowDigest(c));
         return Status::Ok();
@@ -136,19 +131,19 @@ Status AddChunkItems(Db& db, int64_t run_key, ChunkDigests how, ChunkFindings* f
       if (!up.ok()) return up.status();
       IMUQUAL_RETURN_IF_ERROR(up->BindBlob(1, digest).Bind(2, run_key).Bind(3, seq).Run());
     }
-    RawStmt s(db,
-              "SELECT seq, digest FROM raw_chunks INDEXED BY raw_chunks_digests "
-              "WHERE run_key = ? ORDER BY seq");
-    sqlite3_bind_int64(s.get(), 1, run_key);
-    IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](sqlite3_stmt* row) {
-      seqs.push_back(sqlite3_column_int64(row, 0));
+    RawStmt s(db, db.postgres() ? "SELECT seq, digest FROM raw_chunks WHERE run_key = ? ORDER BY seq"
+                                : "SELECT seq, digest FROM raw_chunks INDEXED BY raw_chunks_digests "
+                                  "WHERE run_key = ? ORDER BY seq");
+    s.Bind(1, run_key);
+    IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
+      seqs.push_back(row.Int(0));
       list.Add(seqs.back(), DigestOfColumn(row, 1));
       return Status::Ok();
     }));
   } else {
     RawStmt s(db, "SELECT * FROM raw_chunks WHERE run_key = ? ORDER BY seq");
-    sqlite3_bind_int64(s.get(), 1, run_key);
-    IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](sqlite3_stmt* row) {
+    s.Bind(1, run_key);
+    IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
       const CanonicalRow all = RowFromStatement(row, {"run_key"});
       CanonicalRow content;
       for (const auto& column : all) {
@@ -192,8 +187,8 @@ Status ChainTail(Db& db, int64_t* entry, Digest* hash) {
   *entry = 0;
   *hash = Digest{};
   RawStmt s(db, "SELECT entry, entry_hash FROM archive_chain ORDER BY entry DESC LIMIT 1");
-  return s.ForEach([&](sqlite3_stmt* row) {
-    *entry = sqlite3_column_int64(row, 0);
+  return s.ForEach([&](const Stmt& row) {
+    *entry = row.Int(0);
     *hash = DigestOfColumn(row, 1);
     return Status::Ok();
   });
@@ -299,11 +294,18 @@ Result<SignedRecord> SignedRecord::Decode(std::string_view in) {
 Result<std::vector<std::string>> RunTables(Db& db) {
   std::vector<std::string> tables;
   RawStmt s(db,
-            "SELECT m.name FROM sqlite_schema m, pragma_table_info(m.name) p "
-            "WHERE m.type = 'table' AND p.name = 'run_key' AND m.name NOT LIKE 'sqlite_%' "
-            "AND m.name NOT IN ('runs', 'raw_chunks', 'archive_chain') ORDER BY m.name");
-  IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](sqlite3_stmt* row) {
-    tables.push_back(TextOf(row, 0));
+            db.postgres()
+                ? "SELECT c.table_name FROM information_schema.columns c "
+                  "JOIN information_schema.tables t USING (table_schema, table_name) "
+                  "WHERE c.table_schema = current_schema() AND t.table_type = 'BASE TABLE' "
+                  "AND c.column_name = 'run_key' "
+                  "AND c.table_name NOT IN ('runs', 'raw_chunks', 'archive_chain') "
+                  "ORDER BY c.table_name COLLATE \"C\""
+                : "SELECT m.name FROM sqlite_schema m, pragma_table_info(m.name) p "
+                  "WHERE m.type = 'table' AND p.name = 'run_key' AND m.name NOT LIKE 'sqlite_%' "
+                  "AND m.name NOT IN ('runs', 'raw_chunks', 'archive_chain') ORDER BY m.name");
+  IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
+    tables.push_back(row.Text(0));
     return Status::Ok();
   }));
   return tables;
@@ -313,12 +315,15 @@ Result<SignedRecord> ComputeRunRecord(Db& db, int64_t run_key, ChunkDigests how,
                                       ChunkFindings* findings) {
   SignedRecord record;
   bool found = false;
+  // A plant archive's runs also say which station archive shipped them.
+  std::vector<std::string> excluded = RunColumnExclusions();
+  if (db.postgres()) excluded.push_back("station_archive");
   {
     RawStmt s(db, "SELECT * FROM runs WHERE run_key = ?");
-    sqlite3_bind_int64(s.get(), 1, run_key);
-    IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](sqlite3_stmt* row) {
+    s.Bind(1, run_key);
+    IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
       found = true;
-      for (auto& [name, value] : RowFromStatement(row, RunColumnExclusions())) {
+      for (auto& [name, value] : RowFromStatement(row, excluded)) {
         if (value.is_null()) continue;
         record.items["runs." + name] = value.type == CanonicalValue::Type::kBlob
                                            ? CanonicalValue::DigestOf(Blake2b256Of(value.bytes))
@@ -359,6 +364,15 @@ Digest ChainEntry::ComputeHash() const {
   return h.Final();
 }
 
+bool EntrySignatureVerifies(const ChainEntry& entry, const PublicKey& key) {
+  Signature signature{};
+  if (entry.signature.size() != signature.size()) return false;
+  std::copy(entry.signature.begin(), entry.signature.end(),
+            reinterpret_cast<char*>(signature.data()));
+  const std::string body = entry.Body();
+  return VerifySignature(key, signature, body.data(), body.size());
+}
+
 Status AppendRunEntry(Db& db, int64_t run_key, const std::string& kind, const SigningKey* key,
                       int64_t utime) {
   ChainEntry e;
@@ -366,12 +380,12 @@ Status AppendRunEntry(Db& db, int64_t run_key, const std::string& kind, const Si
   e.created_utime = utime;
   {
     RawStmt s(db, "SELECT run_id, revision FROM runs WHERE run_key = ?");
-    sqlite3_bind_int64(s.get(), 1, run_key);
+    s.Bind(1, run_key);
     bool found = false;
-    IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](sqlite3_stmt* row) {
+    IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
       found = true;
-      e.run_id = TextOf(row, 0);
-      e.revision = sqlite3_column_int64(row, 1);
+      e.run_id = row.Text(0);
+      e.revision = row.Int(1);
       return Status::Ok();
     }));
     if (!found) return Status::NotFound("no run with key " + std::to_string(run_key));
@@ -385,8 +399,8 @@ Status AppendRunEntry(Db& db, int64_t run_key, const std::string& kind, const Si
 Status AppendMigrationEntry(Db& db, int64_t utime) {
   std::vector<std::string> ids;
   RawStmt s(db, "SELECT run_id FROM runs");
-  IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](sqlite3_stmt* row) {
-    ids.push_back(TextOf(row, 0));
+  IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
+    ids.push_back(row.Text(0));
     return Status::Ok();
   }));
   if (ids.empty()) return Status::Ok();
@@ -405,16 +419,16 @@ Status AppendMigrationEntry(Db& db, int64_t utime) {
 
 namespace {
 
-ChainEntry EntryFromRow(sqlite3_stmt* row) {
+ChainEntry EntryFromRow(const Stmt& row) {
   ChainEntry e;
-  e.entry = sqlite3_column_int64(row, 0);
-  e.kind = TextOf(row, 1);
-  e.run_id = TextOf(row, 2);
-  e.revision = sqlite3_column_int64(row, 3);
-  e.record = std::string(BlobOf(row, 4));
-  e.created_utime = sqlite3_column_int64(row, 5);
-  e.key_id = TextOf(row, 6);
-  e.signature = std::string(BlobOf(row, 7));
+  e.entry = row.Int(0);
+  e.kind = row.Text(1);
+  e.run_id = row.Text(2);
+  e.revision = row.Int(3);
+  e.record = BlobOf(row, 4);
+  e.created_utime = row.Int(5);
+  e.key_id = row.Text(6);
+  e.signature = BlobOf(row, 7);
   e.prev_hash = DigestOfColumn(row, 8);
   e.entry_hash = DigestOfColumn(row, 9);
   return e;
@@ -437,14 +451,14 @@ Result<std::vector<ChainEntry>> ReadChain(Db& db) {
 
 Status ForEachChainEntry(Db& db, const std::function<Status(const ChainEntry&)>& fn) {
   RawStmt s(db, std::string(kEntryColumns) + " ORDER BY entry");
-  return s.ForEach([&](sqlite3_stmt* row) { return fn(EntryFromRow(row)); });
+  return s.ForEach([&](const Stmt& row) { return fn(EntryFromRow(row)); });
 }
 
 Result<std::optional<ChainEntry>> ReadChainEntry(Db& db, int64_t entry) {
   RawStmt s(db, std::string(kEntryColumns) + " WHERE entry = ?");
-  sqlite3_bind_int64(s.get(), 1, entry);
+  s.Bind(1, entry);
   std::optional<ChainEntry> found;
-  IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](sqlite3_stmt* row) {
+  IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
     found = EntryFromRow(row);
     return Status::Ok();
   }));

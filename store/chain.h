@@ -109,6 +109,9 @@ struct ChainEntry {
   Digest ComputeHash() const;
 };
 
+// Whether the entry's signature verifies with `key` (over Body()).
+bool EntrySignatureVerifies(const ChainEntry& entry, const PublicKey& key);
+
 // Appends the run's entry (kEntryFinalized or kEntryReopened) with its
 // record as the archive holds it now, inside the caller's write
 // transaction; signed when `key` is not null (role "store").

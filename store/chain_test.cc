@@ -323,15 +323,13 @@ TEST_F(ChainTest, ChunkDigestAtWriteEqualsTheDigestOfTheRowReadBack) {
         archive_->InsertChunk(key, Chunk(static_cast<int64_t>(i), temperatures[i]), nullptr).ok());
   }
   ASSERT_TRUE(archive_->Commit().ok());
-  sqlite3_stmt* raw = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(archive_->db().handle(), "SELECT * FROM raw_chunks ORDER BY seq", -1,
-                               &raw, nullptr),
-            SQLITE_OK);
+  auto raw = archive_->db().Prepare("SELECT * FROM raw_chunks ORDER BY seq");
+  ASSERT_TRUE(raw.ok());
   size_t rows = 0;
-  while (sqlite3_step(raw) == SQLITE_ROW) {
-    const CanonicalRow row = RowFromStatement(raw, ChunkDigestExclusions());
+  while (*raw->Step()) {
+    const CanonicalRow row = RowFromStatement(*raw, ChunkDigestExclusions());
     const Digest expected = ChunkDigest(Chunk(static_cast<int64_t>(rows), temperatures[rows]));
-    const CanonicalRow all = RowFromStatement(raw, {});
+    const CanonicalRow all = RowFromStatement(*raw, {});
     const CanonicalValue* stored = nullptr;
     for (const auto& [name, value] : all) {
       if (name == "digest") stored = &value;
@@ -341,7 +339,6 @@ TEST_F(ChainTest, ChunkDigestAtWriteEqualsTheDigestOfTheRowReadBack) {
     EXPECT_EQ(stored->bytes, std::string(reinterpret_cast<const char*>(expected.data()), 32));
     ++rows;
   }
-  sqlite3_finalize(raw);
   EXPECT_EQ(rows, temperatures.size());
 }
 

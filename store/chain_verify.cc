@@ -50,13 +50,6 @@ const PublicKey* FindKey(const std::vector<PublicKey>& keys, const std::string& 
   return nullptr;
 }
 
-bool SignatureVerifies(const PublicKey& key, const std::string& bytes, const std::string& body) {
-  Signature signature{};
-  if (bytes.size() != signature.size()) return false;
-  std::copy(bytes.begin(), bytes.end(), reinterpret_cast<char*>(signature.data()));
-  return VerifySignature(key, signature, body.data(), body.size());
-}
-
 Status WalkChain(Db& db, const ChainVerifyOptions& o, bool links_only,
                  const std::function<void(const std::string&)>& problem, Walk* w) {
   auto report = [&](const std::string& line) {
@@ -128,7 +121,7 @@ Status WalkChain(Db& db, const ChainVerifyOptions& o, bool links_only,
           report(who + ": signed by the " + key->role + " key " + e.key_id +
                  ", not a store key (chain " + entry + ")");
           sig = SignatureState::kBad;
-        } else if (!SignatureVerifies(*key, e.signature, e.Body())) {
+        } else if (!EntrySignatureVerifies(e, *key)) {
           report(who + ": the signature of chain " + entry +
                  " does not verify (the entry was changed since it was signed)");
           sig = SignatureState::kBad;

@@ -49,25 +49,33 @@ class Hasher {
     return crc_;
   }
 
-  // One column of the current row of `stmt`, by its SQLite storage class.
-  void Column(sqlite3_stmt* stmt, int col) {
-    const int type = sqlite3_column_type(stmt, col);
-    Tag(static_cast<uint8_t>(type));
-    switch (type) {
-      case SQLITE_INTEGER:
-        Int(sqlite3_column_int64(stmt, col));
+  // One column of the current row of `stmt`, tagged by its SQLite storage
+  // class (the same tags for a plant archive's typed columns).
+  void Column(const Stmt& stmt, int col) {
+    switch (stmt.ColumnType(col)) {
+      case Stmt::Type::kInt:
+        Tag(SQLITE_INTEGER);
+        Int(stmt.Int(col));
         break;
-      case SQLITE_FLOAT:
-        Real(sqlite3_column_double(stmt, col));
+      case Stmt::Type::kReal:
+        Tag(SQLITE_FLOAT);
+        Real(stmt.Real(col));
         break;
-      case SQLITE_TEXT:
-        Sized(sqlite3_column_text(stmt, col), static_cast<size_t>(sqlite3_column_bytes(stmt, col)));
+      case Stmt::Type::kText: {
+        Tag(SQLITE_TEXT);
+        const std::string text = stmt.Text(col);
+        Sized(text.data(), text.size());
         break;
-      case SQLITE_BLOB:
-        Sized(sqlite3_column_blob(stmt, col), static_cast<size_t>(sqlite3_column_bytes(stmt, col)));
+      }
+      case Stmt::Type::kBlob: {
+        Tag(SQLITE_BLOB);
+        const std::vector<uint8_t> blob = stmt.Blob(col);
+        Sized(blob.data(), blob.size());
         break;
-      default:
-        break;  // NULL: the tag alone
+      }
+      case Stmt::Type::kNull:
+        Tag(SQLITE_NULL);  // the tag alone
+        break;
     }
   }
 
@@ -163,21 +171,20 @@ Result<uint32_t> ResultsChecksum(Db& db, int64_t run_key) {
   for (const ResultQuery& query : kResultQueries) {
     ++table;
     if (!query.optional) h.Tag(table);
-    // The statement's columns through the C API: Stmt hides storage classes.
     auto stmt = db.Prepare(query.sql);
     if (!stmt.ok()) return Status::IoError(stmt.status().message());
-    sqlite3_stmt* raw = stmt->handle();
-    sqlite3_bind_int64(raw, 1, run_key);
-    int rc;
+    stmt->Bind(1, run_key);
     bool first = true;
-    while ((rc = sqlite3_step(raw)) == SQLITE_ROW) {
+    for (;;) {
+      auto row = stmt->Step();
+      if (!row.ok()) {
+        return Status::IoError(db.path() + ": reading results: " + row.status().message());
+      }
+      if (!*row) break;
       if (query.optional && first) h.Tag(table);
       first = false;
       h.Tag(0xFF);  // row separator
-      for (int col = 0; col < sqlite3_column_count(raw); ++col) h.Column(raw, col);
-    }
-    if (rc != SQLITE_DONE) {
-      return Status::IoError(db.path() + ": reading results: " + db.ErrorMessage());
+      for (int col = 0; col < stmt->ColumnCount(); ++col) h.Column(*stmt, col);
     }
   }
   return h.value();

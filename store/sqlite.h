@@ -1,7 +1,13 @@
-// A thin RAII layer over the SQLite C API that reports failures as Status
-// values naming the statement and SQLite's message. Bound parameters only:
-// no SQL is ever built from data. A Db is used by one thread at a time, with
-// its statements.
+// A thin RAII layer over the SQLite C API (a station's archive file) and
+// libpq (a plant archive on PostgreSQL, store/postgres.h) that reports
+// failures as Status values naming the statement and the engine's message.
+// Bound parameters only: no SQL is ever built from data. A Db is used by one
+// thread at a time, with its statements.
+//
+// One SQL text serves both engines where the archive's queries are written
+// in their common dialect: parameters are written ?N (or ?) and become $N
+// for PostgreSQL; values come back through the same accessors (a
+// PostgreSQL boolean reads as Int 0/1, bytea as Blob).
 //
 // Compiled statements are reused: a Stmt that ends goes back to its Db reset
 // and unbound (a few per SQL text), and Prepare of the same text takes it
@@ -26,12 +32,20 @@ namespace imuqual::store {
 
 class Stmt;
 class StatementCache;
+struct PgConnection;
+struct PgQuery;
+
+// A plant archive's address: "postgresql://..." or "postgres://..." (libpq
+// connection URIs); anything else is a station's SQLite file.
+bool IsPostgresUrl(std::string_view path);
 
 class Db {
  public:
   enum class Mode { kReadWrite, kReadOnly };
-  // Opens (kReadWrite: creating) the file. The file is not read until the
-  // first statement; Archive::Open checks that it really is a database.
+  // Opens (kReadWrite: creating) the file, or connects to the PostgreSQL
+  // database at a postgresql:// URL (kReadOnly: every transaction read
+  // only). The file is not read until the first statement; Archive::Open
+  // checks that it really is a database.
   static Result<std::unique_ptr<Db>> Open(const std::string& path, Mode mode);
   ~Db();
   Db(const Db&) = delete;
@@ -44,14 +58,26 @@ class Db {
   // Single integer result of a query such as "PRAGMA user_version".
   Result<int64_t> QueryInt(const std::string& sql);
 
-  sqlite3* handle() { return db_; }
+  // Rows changed by the last INSERT, UPDATE or DELETE.
+  int64_t Changes() const;
+  // Whether no transaction is open.
+  bool InAutocommit() const;
+  // Starts a write transaction (SQLite: BEGIN IMMEDIATE, the write lock at
+  // once).
+  Status BeginWrite();
+
+  bool postgres() const { return pg_ != nullptr; }
+  sqlite3* handle() { return db_; }  // nullptr on PostgreSQL
+  // The file, or the URL without its password.
   const std::string& path() const { return path_; }
   // The last error as "<sqlite message> (<extended code name>)".
   std::string ErrorMessage() const;
 
  private:
+  friend class Stmt;
   Db(sqlite3* db, std::string path);
-  sqlite3* db_;
+  sqlite3* db_ = nullptr;
+  std::unique_ptr<PgConnection> pg_;
   std::string path_;
   // Idle statements; shared with the Stmts, which may outlive the Db (then
   // they are finalized when they end).
@@ -84,8 +110,15 @@ class Stmt {
   void Reset();
 
   // The compiled statement, for the C API's column functions (valid while
-  // this Stmt lives; do not finalize it).
+  // this Stmt lives; do not finalize it). nullptr on PostgreSQL.
   sqlite3_stmt* handle() { return stmt_; }
+
+  // What a column of the current row holds, for copying rows between
+  // engines.
+  enum class Type { kNull, kInt, kReal, kText, kBlob };
+  Type ColumnType(int col) const;
+  int ColumnCount() const;
+  std::string ColumnName(int col) const;
 
   int64_t Int(int col) const;
   double Real(int col) const;  // NULL reads as NaN
@@ -95,8 +128,8 @@ class Stmt {
 
  private:
   friend class Db;
-  Stmt(sqlite3_stmt* stmt, Db* db, std::string sql, std::shared_ptr<StatementCache> cache)
-      : stmt_(stmt), db_(db), sql_(std::move(sql)), cache_(std::move(cache)) {}
+  Stmt(sqlite3_stmt* stmt, Db* db, std::string sql, std::shared_ptr<StatementCache> cache);
+  Stmt(std::unique_ptr<PgQuery> pg, Db* db, std::string sql);
   // Gives the statement back to the cache (or finalizes it).
   void Release();
   sqlite3_stmt* stmt_ = nullptr;
@@ -104,6 +137,7 @@ class Stmt {
   std::string sql_;
   std::shared_ptr<StatementCache> cache_;
   Status bind_error_;
+  std::unique_ptr<PgQuery> pg_;
 };
 
 }  // namespace imuqual::store

@@ -1,0 +1,575 @@
+#include "store/plant_sync.h"
+
+#include <algorithm>
+#include <map>
+#include <optional>
+#include <set>
+
+#include "common/clock.h"
+#include "store/canonical.h"
+#include "store/chain.h"
+
+namespace imuqual::store {
+namespace {
+
+// A run's tables besides runs, in the order they are filled (parents
+// first); replaced in the reverse order.
+constexpr const char* kRunTables[] = {"run_axes",     "gaps",         "curves",
+                                      "curve_points", "measurements", "superseded_judgements",
+                                      "raw_chunks"};
+
+// Bounds of one multi-row INSERT.
+constexpr size_t kMaxParams = 2000;
+constexpr size_t kMaxBytes = 8 << 20;
+
+struct Value {
+  Stmt::Type type = Stmt::Type::kNull;
+  int64_t integer = 0;
+  double real = 0;
+  std::string bytes;
+};
+
+Value ValueOf(const Stmt& s, int col) {
+  Value v;
+  v.type = s.ColumnType(col);
+  switch (v.type) {
+    case Stmt::Type::kInt:
+      v.integer = s.Int(col);
+      break;
+    case Stmt::Type::kReal:
+      v.real = s.Real(col);
+      break;
+    case Stmt::Type::kText:
+      v.bytes = s.Text(col);
+      break;
+    case Stmt::Type::kBlob: {
+      const std::vector<uint8_t> b = s.Blob(col);
+      v.bytes.assign(b.begin(), b.end());
+      break;
+    }
+    case Stmt::Type::kNull:
+      break;
+  }
+  return v;
+}
+
+void BindValue(Stmt& s, int i, const Value& v) {
+  switch (v.type) {
+    case Stmt::Type::kInt:
+      s.Bind(i, v.integer);
+      break;
+    case Stmt::Type::kReal:
+      s.Bind(i, v.real);
+      break;
+    case Stmt::Type::kText:
+      s.Bind(i, std::string_view(v.bytes));
+      break;
+    case Stmt::Type::kBlob:
+      s.BindBlob(i, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(v.bytes.data()),
+                                             v.bytes.size()));
+      break;
+    case Stmt::Type::kNull:
+      s.BindNull(i);
+      break;
+  }
+}
+
+std::string Quoted(const std::string& name) { return "\"" + name + "\""; }
+
+std::string ColumnList(const std::vector<std::string>& columns) {
+  std::string out;
+  for (const std::string& c : columns) out += (out.empty() ? "" : ", ") + Quoted(c);
+  return out;
+}
+
+std::string Hex(const Digest& d) { return HexOf(d.data(), d.size()); }
+
+// The items where two records differ, for the refusal ("runs.verdict,
+// measurements").
+std::string DifferingItems(const std::string& signed_bytes, const SignedRecord& held) {
+  auto expected = SignedRecord::Decode(signed_bytes);
+  if (!expected.ok()) return "the signed record does not decode";
+  std::vector<std::string> names;
+  std::set<std::string> all;
+  for (const auto& [n, v] : expected->items) all.insert(n);
+  for (const auto& [n, v] : held.items) all.insert(n);
+  for (const std::string& n : all) {
+    auto a = expected->items.find(n);
+    auto b = held.items.find(n);
+    if (a == expected->items.end() || b == held.items.end() || a->second != b->second) {
+      names.push_back(n);
+    }
+  }
+  std::string out;
+  for (size_t i = 0; i < names.size() && i < 6; ++i) out += (i ? ", " : "") + names[i];
+  if (names.size() > 6) out += ", ... (" + std::to_string(names.size() - 6) + " more)";
+  return out;
+}
+
+class Shipper {
+ public:
+  Shipper(Db& station, Db& plant, SyncReport* report)
+      : station_(station), plant_(plant), report_(report) {}
+
+  // The plant's columns of `table` but its run key and the plant's own.
+  Result<std::vector<std::string>> Columns(const std::string& table) {
+    auto it = columns_.find(table);
+    if (it != columns_.end()) return it->second;
+    auto s = plant_.Prepare(
+        "SELECT column_name FROM information_schema.columns WHERE table_schema = "
+        "current_schema() AND table_name = ?1 ORDER BY ordinal_position");
+    if (!s.ok()) return s.status();
+    s->Bind(1, table);
+    std::vector<std::string> cols;
+    for (;;) {
+      auto row = s->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      const std::string c = s->Text(0);
+      if (c != "run_key" && c != "station_archive") cols.push_back(c);
+    }
+    if (cols.empty()) return Status::Corruption("the plant archive has no table " + table);
+    return columns_[table] = cols;
+  }
+
+  // Copies the run's rows of `table` from the station to the plant's run
+  // `plant_key`, many rows per statement.
+  Status CopyRows(const std::string& table, int64_t station_key, int64_t plant_key) {
+    auto columns = Columns(table);
+    if (!columns.ok()) return columns.status();
+    const std::vector<std::string>& cols = *columns;
+    auto read = station_.Prepare("SELECT " + ColumnList(cols) + " FROM " + Quoted(table) +
+                                 " WHERE run_key = ?1");
+    if (!read.ok()) {
+      return Status::Corruption("station archive: " + table + ": " + read.status().message());
+    }
+    read->Bind(1, station_key);
+    const bool chunks = table == "raw_chunks";
+    std::vector<std::vector<Value>> rows;
+    size_t bytes = 0;
+    auto flush = [&]() -> Status {
+      if (rows.empty()) return Status::Ok();
+      std::string sql = "INSERT INTO " + Quoted(table) + " (run_key, " + ColumnList(cols) +
+                        ") VALUES ";
+      int n = 0;
+      for (size_t r = 0; r < rows.size(); ++r) {
+        sql += (r ? ", (" : "(") + std::to_string(plant_key);
+        for (size_t c = 0; c < cols.size(); ++c) sql += ", ?" + std::to_string(++n);
+        sql += ")";
+      }
+      // A chunk is immutable once archived: one already at the plant is
+      // kept (the run's record check below sees whether it is the same).
+      if (chunks) sql += " ON CONFLICT DO NOTHING";
+      auto w = plant_.Prepare(sql);
+      if (!w.ok()) return w.status();
+      n = 0;
+      for (const auto& row : rows) {
+        for (const Value& v : row) BindValue(*w, ++n, v);
+      }
+      IMUQUAL_RETURN_IF_ERROR(w->Run());
+      const int64_t inserted = plant_.Changes();
+      report_->rows_inserted += inserted;
+      if (chunks) report_->chunks_inserted += inserted;
+      rows.clear();
+      bytes = 0;
+      return Status::Ok();
+    };
+    for (;;) {
+      auto row = read->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      std::vector<Value> values;
+      values.reserve(cols.size());
+      for (size_t c = 0; c < cols.size(); ++c) {
+        values.push_back(ValueOf(*read, static_cast<int>(c)));
+        bytes += values.back().bytes.size();
+        if (chunks && cols[c] == "data") report_->chunk_bytes += values.back().bytes.size();
+      }
+      rows.push_back(std::move(values));
+      if ((rows.size() + 1) * cols.size() > kMaxParams || bytes > kMaxBytes) {
+        IMUQUAL_RETURN_IF_ERROR(flush());
+      }
+    }
+    return flush();
+  }
+
+  // A lot's or unit's row, if the plant lacks it.
+  Status CopyKeyRow(const std::string& table, const std::string& key_column,
+                    const std::string& key) {
+    auto read = station_.Prepare("SELECT first_seen_utime FROM " + Quoted(table) + " WHERE " +
+                                 Quoted(key_column) + " = ?1");
+    if (!read.ok()) return read.status();
+    read->Bind(1, key);
+    auto row = read->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return Status::Corruption("station archive: no " + table + " row for '" + key + "'");
+    auto w = plant_.Prepare("INSERT INTO " + Quoted(table) + " (" + Quoted(key_column) +
+                            ", first_seen_utime) VALUES (?1, ?2) ON CONFLICT DO NOTHING");
+    if (!w.ok()) return w.status();
+    w->Bind(1, key).Bind(2, read->Int(0));
+    IMUQUAL_RETURN_IF_ERROR(w->Run());
+    report_->rows_inserted += plant_.Changes();
+    return Status::Ok();
+  }
+
+  // Copies run `run_id` with everything it holds; the plant's run key, or
+  // a refusal in *refusal (nothing written then).
+  Result<int64_t> CopyRun(const std::string& run_id, const std::string& archive_id,
+                          std::string* refusal) {
+    auto skey_q = station_.Prepare("SELECT run_key, lot, serial FROM runs WHERE run_id = ?1");
+    if (!skey_q.ok()) return skey_q.status();
+    skey_q->Bind(1, run_id);
+    auto found = skey_q->Step();
+    if (!found.ok()) return found.status();
+    if (!*found) {
+      *refusal = "run " + run_id + " is in the station's chain but not in its runs (deleted?)";
+      return 0;
+    }
+    const int64_t skey = skey_q->Int(0);
+    const std::string lot = skey_q->Text(1), serial = skey_q->Text(2);
+    skey_q->Reset();
+
+    auto held = plant_.Prepare("SELECT run_key, station_archive FROM runs WHERE run_id = ?1");
+    if (!held.ok()) return held.status();
+    held->Bind(1, run_id);
+    auto h = held->Step();
+    if (!h.ok()) return h.status();
+    std::optional<int64_t> pkey;
+    if (*h) {
+      if (held->Text(1) != archive_id) {
+        *refusal = "run " + run_id + " is already at the plant from another station archive (" +
+                   held->Text(1).substr(0, 16) +
+                   "...): two stations claim one run id (the same station id on two hosts?)";
+        return 0;
+      }
+      pkey = held->Int(0);
+    }
+    held->Reset();
+
+    IMUQUAL_RETURN_IF_ERROR(CopyKeyRow("lots", "lot", lot));
+    IMUQUAL_RETURN_IF_ERROR(CopyKeyRow("units", "serial", serial));
+
+    auto columns = Columns("runs");
+    if (!columns.ok()) return columns.status();
+    const std::vector<std::string>& cols = *columns;
+    auto read = station_.Prepare("SELECT " + ColumnList(cols) + " FROM runs WHERE run_key = ?1");
+    if (!read.ok()) return Status::Corruption("station archive: runs: " + read.status().message());
+    read->Bind(1, skey);
+    auto row = read->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return Status::Corruption("station archive: run " + run_id + " vanished");
+    std::string sql;
+    if (pkey) {
+      // Judged again since it was shipped: its rows are replaced (the
+      // superseded rounds come with the new ones).
+      for (auto t = std::rbegin(kRunTables); t != std::rend(kRunTables); ++t) {
+        if (std::string(*t) == "raw_chunks") continue;
+        IMUQUAL_RETURN_IF_ERROR(
+            plant_.Exec("DELETE FROM " + Quoted(*t) + " WHERE run_key = " + std::to_string(*pkey)));
+      }
+      sql = "UPDATE runs SET ";
+      for (size_t c = 0; c < cols.size(); ++c) {
+        sql += (c ? ", " : "") + Quoted(cols[c]) + " = ?" + std::to_string(c + 1);
+      }
+      sql += ", station_archive = ?" + std::to_string(cols.size() + 1) +
+             " WHERE run_key = " + std::to_string(*pkey) + " RETURNING run_key";
+      ++report_->runs_replaced;
+    } else {
+      sql = "INSERT INTO runs (" + ColumnList(cols) + ", station_archive) VALUES (";
+      for (size_t c = 0; c <= cols.size(); ++c) sql += (c ? ", ?" : "?") + std::to_string(c + 1);
+      sql += ") RETURNING run_key";
+    }
+    auto w = plant_.Prepare(sql);
+    if (!w.ok()) return w.status();
+    for (size_t c = 0; c < cols.size(); ++c) {
+      BindValue(*w, static_cast<int>(c + 1), ValueOf(*read, static_cast<int>(c)));
+    }
+    read->Reset();
+    w->Bind(static_cast<int>(cols.size() + 1), archive_id);
+    auto written = w->Step();
+    if (!written.ok()) return written.status();
+    if (!*written) return Status::Corruption("plant archive: run " + run_id + " not written");
+    const int64_t key = w->Int(0);
+    w->Reset();
+    report_->rows_inserted += 1;
+    for (const char* t : kRunTables) IMUQUAL_RETURN_IF_ERROR(CopyRows(t, skey, key));
+    ++report_->runs_shipped;
+    return key;
+  }
+
+  // The run's record as the plant now holds it against `expected` (the
+  // record the station signed, or computed from the station's rows): ""
+  // when they are equal, else what differs.
+  Result<std::string> Check(int64_t plant_key, const std::string& expected) {
+    ChunkFindings findings;
+    auto held = ComputeRunRecord(plant_, plant_key, ChunkDigests::kRecomputed, &findings);
+    if (!held.ok()) return held.status();
+    if (held->Encode() == expected) return std::string();
+    return DifferingItems(expected, *held);
+  }
+
+ private:
+  Db& station_;
+  Db& plant_;
+  SyncReport* report_;
+  std::map<std::string, std::vector<std::string>> columns_;
+};
+
+const PublicKey* FindKey(const std::vector<PublicKey>& keys, const std::string& id) {
+  for (const PublicKey& k : keys) {
+    if (k.Id() == id) return &k;
+  }
+  return nullptr;
+}
+
+// "" when the entry links to `prev` and its stored hash and signature hold.
+std::string EntryProblem(const ChainEntry& e, int64_t number, const Digest& prev,
+                         const SyncOptions& o) {
+  const std::string label = "chain entry " + std::to_string(number) +
+                            (e.run_id.empty() ? "" : " (run " + e.run_id + ")");
+  if (e.entry != number) return label + ": numbered " + std::to_string(e.entry);
+  if (e.prev_hash != prev) return label + ": does not link to the entry before it";
+  if (e.ComputeHash() != e.entry_hash) return label + ": its stored hash does not match it";
+  if (o.trusted.empty()) return "";
+  if (e.signature.empty()) {
+    const bool migration = e.kind == kEntryMigrated;
+    return o.require_signatures && !migration ? label + ": unsigned, and signatures are required"
+                                              : "";
+  }
+  const PublicKey* key = FindKey(o.trusted, e.key_id);
+  if (key == nullptr) return label + ": signed by an unknown key (key id " + e.key_id + ")";
+  if (key->role != "store") return label + ": signed by a " + key->role + " key, not a store key";
+  if (!EntrySignatureVerifies(e, *key)) return label + ": its signature does not verify";
+  return "";
+}
+
+// The runs a migration entry lists (archived before the chain).
+std::vector<std::string> LegacyRuns(const ChainEntry& e) {
+  std::vector<std::string> ids;
+  auto record = SignedRecord::Decode(e.record);
+  if (!record.ok()) return ids;
+  auto it = record->items.find("legacy_runs");
+  if (it == record->items.end()) return ids;
+  const std::string& text = it->second.bytes;
+  size_t start = 0;
+  while (start < text.size()) {
+    const size_t end = text.find('\n', start);
+    if (end == std::string::npos) break;
+    ids.push_back(text.substr(start, end - start));
+    start = end + 1;
+  }
+  return ids;
+}
+
+// Keeps the station's reads in one snapshot (a store may be writing).
+class ReadSnapshot {
+ public:
+  explicit ReadSnapshot(Db& db) : db_(db) { open_ = db_.Exec("BEGIN").ok(); }
+  ~ReadSnapshot() {
+    if (open_) (void)db_.Exec("COMMIT");
+  }
+
+ private:
+  Db& db_;
+  bool open_ = false;
+};
+
+}  // namespace
+
+Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
+                               const SyncOptions& o) {
+  if (!plant_archive.postgres()) {
+    return Status::InvalidArgument("the plant archive must be PostgreSQL (postgresql://...), not " +
+                                   plant_archive.path());
+  }
+  if (station_archive.postgres()) {
+    return Status::InvalidArgument("a station archive is an SQLite file, not " +
+                                   station_archive.path());
+  }
+  Db& station = station_archive.db();
+  Db& plant = plant_archive.db();
+  SyncReport report;
+  ReadSnapshot snapshot(station);
+  auto chain = ReadChain(station);
+  if (!chain.ok()) return chain.status();
+  report.station_entries = static_cast<int64_t>(chain->size());
+  if (chain->empty()) return report;  // no finalised run yet
+  report.archive_id = Hex((*chain)[0].entry_hash);
+  // The station's name: its runs' (the first run of the chain).
+  std::string station_name;
+  for (const ChainEntry& e : *chain) {
+    if (e.run_id.empty()) continue;
+    auto info = station_archive.LoadRun(e.run_id);
+    if (info.ok()) station_name = info->station;
+    break;
+  }
+
+  // The run each entry's rows are shipped with: a run's rows go with its
+  // last entry, when that one finalised it (a run open again now ships its
+  // new round when it is finalised again).
+  std::map<std::string, int64_t> last_entry;
+  for (const ChainEntry& e : *chain) {
+    if (e.kind == kEntryMigrated) {
+      for (const std::string& id : LegacyRuns(e)) last_entry[id] = e.entry;
+    } else {
+      last_entry[e.run_id] = e.entry;
+    }
+  }
+
+  Shipper shipper(station, plant, &report);
+  const int64_t total = report.station_entries;
+  bool first_batch = true;
+  for (;;) {
+    IMUQUAL_RETURN_IF_ERROR(plant.BeginWrite());
+    auto fail = [&](const Status& st) {
+      (void)plant.Exec("ROLLBACK");
+      return st;
+    };
+    // The cursor, locked for this batch (two syncs of one archive take
+    // turns).
+    const int64_t now = NowUtime();
+    auto reg = plant.Prepare(
+        "INSERT INTO station_archives (archive_id, station, source, first_synced_utime, "
+        "last_synced_utime) VALUES (?1, ?2, ?3, ?4, ?4) ON CONFLICT DO NOTHING");
+    if (!reg.ok()) return fail(reg.status());
+    reg->Bind(1, report.archive_id).Bind(2, station_name).Bind(3, station_archive.path()).Bind(4, now);
+    if (Status st = reg->Run(); !st.ok()) return fail(st);
+    auto cur = plant.Prepare(
+        "SELECT shipped_entries, head_hash FROM station_archives WHERE archive_id = ?1 FOR UPDATE");
+    if (!cur.ok()) return fail(cur.status());
+    cur->Bind(1, report.archive_id);
+    auto got = cur->Step();
+    if (!got.ok()) return fail(got.status());
+    const int64_t shipped = cur->Int(0);
+    const std::vector<uint8_t> head_bytes = cur->Blob(1);
+    cur->Reset();
+    if (first_batch) report.shipped_before = shipped;
+    first_batch = false;
+    report.shipped_after = shipped;
+
+    if (shipped > 0) {
+      // The plant's entry `n` against the station's.
+      const int64_t n = std::min(shipped, total);
+      auto at = plant.Prepare(
+          "SELECT entry_hash FROM archive_chain WHERE archive_id = ?1 AND entry = ?2");
+      if (!at.ok()) return fail(at.status());
+      at->Bind(1, report.archive_id).Bind(2, n);
+      auto row = at->Step();
+      if (!row.ok()) return fail(row.status());
+      const std::vector<uint8_t> plant_hash = *row ? at->Blob(0) : std::vector<uint8_t>();
+      at->Reset();
+      const Digest& mine = (*chain)[static_cast<size_t>(n - 1)].entry_hash;
+      const bool same = plant_hash.size() == mine.size() &&
+                        std::equal(plant_hash.begin(), plant_hash.end(), mine.begin());
+      if (!same) {
+        report.refusal = "the station's chain entry " + std::to_string(n) +
+                         " is not the one the plant holds: the station archive was edited, or "
+                         "is another archive with the same first entry; nothing shipped";
+        (void)plant.Exec("ROLLBACK");
+        return report;
+      }
+      if (shipped > total) {
+        report.behind = true;
+        (void)plant.Exec("ROLLBACK");
+        return report;
+      }
+      (void)head_bytes;
+    }
+    if (shipped >= total) {
+      (void)plant.Exec("ROLLBACK");
+      return report;
+    }
+
+    const int64_t end = std::min(total, shipped + std::max(1, o.batch_entries));
+    int64_t done = shipped;
+    for (int64_t i = shipped; i < end; ++i) {
+      const ChainEntry& e = (*chain)[static_cast<size_t>(i)];
+      const Digest prev = i == 0 ? Digest{} : (*chain)[static_cast<size_t>(i - 1)].entry_hash;
+      std::string refusal = EntryProblem(e, i + 1, prev, o);
+      if (Status st = plant.Exec("SAVEPOINT entry"); !st.ok()) return fail(st);
+      if (refusal.empty()) {
+        auto ins = plant.Prepare(
+            "INSERT INTO archive_chain (archive_id, entry, kind, run_id, revision, record, "
+            "created_utime, key_id, signature, prev_hash, entry_hash) VALUES "
+            "(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)");
+        if (!ins.ok()) return fail(ins.status());
+        auto blob = [](const std::string& b) {
+          return std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(b.data()), b.size());
+        };
+        ins->Bind(1, report.archive_id).Bind(2, e.entry).Bind(3, e.kind).Bind(4, e.run_id);
+        ins->Bind(5, e.revision).BindBlob(6, blob(e.record)).Bind(7, e.created_utime);
+        ins->Bind(8, e.key_id);
+        if (e.signature.empty()) {
+          ins->BindNull(9);
+        } else {
+          ins->BindBlob(9, blob(e.signature));
+        }
+        ins->BindBlob(10, e.prev_hash).BindBlob(11, e.entry_hash);
+        if (Status st = ins->Run(); !st.ok()) return fail(st);
+        report.rows_inserted += 1;
+      }
+      // The runs whose rows go with this entry.
+      std::vector<std::string> runs;
+      if (refusal.empty() && e.kind == kEntryFinalized && last_entry[e.run_id] == e.entry) {
+        runs.push_back(e.run_id);
+      }
+      if (refusal.empty() && e.kind == kEntryMigrated) {
+        for (const std::string& id : LegacyRuns(e)) {
+          if (last_entry[id] != e.entry) continue;
+          auto fin = station_archive.IsFinalized(id);
+          if (!fin.ok()) return fail(fin.status());
+          if (*fin) runs.push_back(id);
+        }
+      }
+      for (const std::string& id : runs) {
+        if (!refusal.empty()) break;
+        auto key = shipper.CopyRun(id, report.archive_id, &refusal);
+        if (!key.ok()) return fail(key.status());
+        if (!refusal.empty()) break;
+        // What the run's record must be: the signed one, or for a run
+        // archived before the chain the station's own rows.
+        std::string expected = e.record;
+        if (e.kind == kEntryMigrated) {
+          auto skey = station_archive.FindRunKey(id);
+          if (!skey.ok()) return fail(skey.status());
+          auto rec = ComputeRunRecord(station, **skey, ChunkDigests::kRecomputed);
+          if (!rec.ok()) return fail(rec.status());
+          expected = rec->Encode();
+        }
+        auto diff = shipper.Check(*key, expected);
+        if (!diff.ok()) return fail(diff.status());
+        if (!diff->empty()) {
+          refusal = "run " + id + " (chain entry " + std::to_string(e.entry) +
+                    "): the station's rows do not match the record it signed (" + *diff +
+                    "): edited after it was signed";
+        }
+      }
+      if (!refusal.empty()) {
+        if (Status st = plant.Exec("ROLLBACK TO SAVEPOINT entry"); !st.ok()) return fail(st);
+        report.refusal = refusal;
+        break;
+      }
+      if (Status st = plant.Exec("RELEASE SAVEPOINT entry"); !st.ok()) return fail(st);
+      done = i + 1;
+    }
+    if (done > shipped) {
+      auto up = plant.Prepare(
+          "UPDATE station_archives SET shipped_entries = ?2, head_hash = ?3, last_synced_utime = "
+          "?4, station = CASE WHEN station = '' THEN ?5 ELSE station END WHERE archive_id = ?1");
+      if (!up.ok()) return fail(up.status());
+      up->Bind(1, report.archive_id).Bind(2, done);
+      up->BindBlob(3, (*chain)[static_cast<size_t>(done - 1)].entry_hash);
+      up->Bind(4, NowUtime()).Bind(5, station_name);
+      if (Status st = up->Run(); !st.ok()) return fail(st);
+    }
+    if (Status st = plant.Exec("COMMIT"); !st.ok()) return fail(st);
+    report.shipped_after = done;
+    if (o.progress) {
+      o.progress("shipped chain entries " + std::to_string(shipped + 1) + ".." +
+                 std::to_string(done) + " of " + std::to_string(total));
+    }
+    if (!report.refusal.empty()) return report;
+  }
+}
+
+}  // namespace imuqual::store
