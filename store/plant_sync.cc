@@ -193,7 +193,8 @@ class Shipper {
     return flush();
   }
 
-  // A lot's or unit's row, if the plant lacks it.
+  // A lot's or unit's row, if the plant lacks it; first seen at the plant
+  // when the first station saw it.
   Status CopyKeyRow(const std::string& table, const std::string& key_column,
                     const std::string& key) {
     auto read = station_.Prepare("SELECT first_seen_utime FROM " + Quoted(table) + " WHERE " +
@@ -204,7 +205,10 @@ class Shipper {
     if (!row.ok()) return row.status();
     if (!*row) return Status::Corruption("station archive: no " + table + " row for '" + key + "'");
     auto w = plant_.Prepare("INSERT INTO " + Quoted(table) + " (" + Quoted(key_column) +
-                            ", first_seen_utime) VALUES (?1, ?2) ON CONFLICT DO NOTHING");
+                            ", first_seen_utime) VALUES (?1, ?2) ON CONFLICT (" +
+                            Quoted(key_column) +
+                            ") DO UPDATE SET first_seen_utime = EXCLUDED.first_seen_utime WHERE " +
+                            Quoted(table) + ".first_seen_utime > EXCLUDED.first_seen_utime");
     if (!w.ok()) return w.status();
     w->Bind(1, key).Bind(2, read->Int(0));
     IMUQUAL_RETURN_IF_ERROR(w->Run());

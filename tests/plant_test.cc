@@ -1,0 +1,379 @@
+// The plant archive end to end: two stations, each in a network namespace
+// of its own, soak lots (one lot split across both), then ship to a
+// PostgreSQL cluster this test starts (scripts/pg-throwaway: a temporary
+// data directory, a Unix socket only, fsync off, a non-root user). At the
+// plant every run's rows (its runs row, axes, raw chunks, gaps, curves and
+// points, measurements), its lot and unit and its chain entries equal the
+// station's bit for bit; reanalyze --check holds at the plant for every run;
+// shipping again inserts nothing; the query commands print the same tables
+// from the plant as from the station file for a station's own lots, and the
+// split lot's units from both. Then what a plant meets: a station file
+// edited after signing (refused, named, nothing of it stored), a station
+// restored from an old backup (behind: nothing shipped, nothing lost), a
+// run judged again after it was shipped (arrives as its new round, the old
+// one kept).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "store/archive.h"
+#include "store/canonical.h"
+#include "tests/test_util.h"
+
+namespace imuqual {
+namespace {
+
+using testing::Bin;
+using testing::CommandResult;
+using testing::RunCommand;
+
+const std::string kScripts = std::string(IMUQUAL_SOURCE_DIR) + "/scripts";
+
+class PlantTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir("plant");
+    const CommandResult start =
+        RunCommand(kScripts + "/pg-throwaway start " + dir_->path("cluster"));
+    ASSERT_EQ(start.exit_code, 0) << "the throwaway PostgreSQL cluster did not start";
+    admin_url_ = start.output.substr(0, start.output.find('\n'));
+    ASSERT_TRUE(admin_url_.starts_with("postgresql://")) << admin_url_;
+    // Keys of station A's roles: its runs are signed, and checked at the plant.
+    const std::string keys = dir_->path("keys");
+    std::filesystem::create_directories(keys);
+    ASSERT_EQ(RunCommand(Bin("imuqual") + " keygen --out " + keys + "/station.key").exit_code, 0);
+    for (const char* role : {"acquire", "analyze", "store"}) {
+      ASSERT_EQ(RunCommand(Bin("imuqual") + " keygen --role " + role + " --out " + keys + "/" +
+                           role + ".key")
+                    .exit_code,
+                0);
+    }
+    ASSERT_EQ(RunCommand("cat " + keys + "/acquire.key.pub " + keys + "/analyze.key.pub " + keys +
+                         "/store.key.pub > " + keys + "/station.trust")
+                  .exit_code,
+              0);
+    keyed_ = " --key-file " + keys + "/station.key --trust " + keys + "/station.trust" +
+             " --sign-key acquire=" + keys + "/acquire.key --sign-key analyze=" + keys +
+             "/analyze.key --sign-key store=" + keys + "/store.key";
+    trust_ = keys + "/station.trust";
+    // Station A: lot P-ONLY-A (3 units) and 2 units of the split lot; station
+    // B (unsigned): 2 more units of the split lot and lot P-ONLY-B.
+    station_a_ = dir_->path("station-a.db");
+    station_b_ = dir_->path("station-b.db");
+    Soak(station_a_, "st-a", "P-ONLY-A", 3, keyed_);
+    Soak(station_a_, "st-a", "P-SPLIT", 2, keyed_);
+    // A copy of A as it was before its last soak: the old backup.
+    std::filesystem::copy_file(station_a_, dir_->path("station-a-backup.db"));
+    Soak(station_a_, "st-a", "P-ONLY-A2", 1, keyed_);
+    Soak(station_b_, "st-b", "P-SPLIT", 2, "", /*first=*/2);
+    Soak(station_b_, "st-b", "P-ONLY-B", 2, "");
+  }
+  static void TearDownTestSuite() {
+    RunCommand(kScripts + "/pg-throwaway stop " + dir_->path("cluster"));
+    delete dir_;
+  }
+
+  // A soak of `units` simulated VG700-like gyros, in a network namespace of
+  // its own (tests/netns_run) where namespaces are available.
+  // `first` > 0: the units are LOT-U<first>, ... (simulator units first+1...).
+  static void Soak(const std::string& db, const std::string& station, const std::string& lot,
+                   int units, const std::string& keys, int first = 0) {
+    std::string which = " --sim " + std::to_string(units);
+    if (first > 0) {
+      which.clear();
+      for (int i = first; i < first + units; ++i) {
+        char serial[64];
+        std::snprintf(serial, sizeof serial, "%s-U%02d", lot.c_str(), i + 1);
+        which += std::string(" --unit ") + serial + "=sim:vg700,index=" + std::to_string(i);
+      }
+    }
+    const CommandResult r = RunCommand(
+        "env -u IMUQUAL_NETNS " + std::string(IMUQUAL_SOURCE_DIR) + "/tests/netns_run " +
+        Bin("imuqual") + " run --quiet" + which +
+        " --duration 4000 --rate 50 --plan builtin:vg700ca --lot " + lot + " --db " + db +
+        " --station-id " + station + keys + " 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+
+  // A fresh database on the cluster; its URL.
+  static std::string NewDatabase(const std::string& name) {
+    auto admin = store::Db::Open(admin_url_, store::Db::Mode::kReadWrite);
+    EXPECT_TRUE(admin.ok()) << admin.status().message();
+    if (!admin.ok()) return "";
+    EXPECT_TRUE((*admin)->Exec("DROP DATABASE IF EXISTS " + name).ok());
+    EXPECT_TRUE((*admin)->Exec("CREATE DATABASE " + name).ok());
+    std::string url = admin_url_;
+    const std::string from = ":///postgres?";
+    url.replace(url.find(from), from.size(), ":///" + name + "?");
+    return url;
+  }
+
+  static CommandResult Sync(const std::string& station, const std::string& plant,
+                            const std::string& extra = "") {
+    return RunCommand(Bin("imuqual") + " sync --quiet --db " + station + " --to '" + plant + "'" +
+                      extra);
+  }
+
+  static testing::TempDir* dir_;
+  static std::string admin_url_, keyed_, trust_, station_a_, station_b_;
+};
+testing::TempDir* PlantTest::dir_ = nullptr;
+std::string PlantTest::admin_url_, PlantTest::keyed_, PlantTest::trust_, PlantTest::station_a_,
+    PlantTest::station_b_;
+
+// Every row of `table` that belongs to run `run_id` (or, for lots, units and
+// the chain, the rows named by `where`), each as its canonical encoding,
+// sorted: equal lists are equal rows, bit for bit.
+std::vector<std::string> Rows(store::Db& db, const std::string& table, const std::string& where,
+                              const std::string& value) {
+  auto s = db.Prepare("SELECT * FROM " + table + " WHERE " + where);
+  EXPECT_TRUE(s.ok()) << table << ": " << s.status().message();
+  if (!s.ok()) return {};
+  s->Bind(1, value);
+  std::vector<std::string> rows;
+  for (;;) {
+    auto row = s->Step();
+    EXPECT_TRUE(row.ok()) << row.status().message();
+    if (!row.ok() || !*row) break;
+    rows.push_back(store::EncodeRow(
+        store::RowFromStatement(*s, {"run_key", "station_archive", "archive_id"})));
+  }
+  std::sort(rows.begin(), rows.end());
+  return rows;
+}
+
+std::vector<std::string> RunIds(store::Db& db) {
+  auto s = db.Prepare("SELECT run_id FROM runs ORDER BY run_id");
+  std::vector<std::string> ids;
+  while (s.ok() && *s->Step()) ids.push_back(s->Text(0));
+  return ids;
+}
+
+// The plant holds each of the station's runs as the station does.
+void ExpectShippedWhole(const std::string& station_db, const std::string& plant_url,
+                        bool all_check = true) {
+  auto station = store::Archive::Open(station_db, store::Archive::Mode::kRead);
+  ASSERT_TRUE(station.ok()) << station.status().message();
+  auto plant = store::Archive::Open(plant_url, store::Archive::Mode::kRead);
+  ASSERT_TRUE(plant.ok()) << plant.status().message();
+  store::Db& s = (*station)->db();
+  store::Db& p = (*plant)->db();
+  const std::vector<std::string> ids = RunIds(s);
+  ASSERT_FALSE(ids.empty());
+  const std::string by_run = "run_key = (SELECT run_key FROM runs WHERE run_id = ?1)";
+  for (const std::string& id : ids) {
+    for (const char* table : {"runs", "run_axes", "raw_chunks", "gaps", "curves", "curve_points",
+                              "measurements", "superseded_judgements"}) {
+      const auto here = Rows(s, table, by_run, id);
+      const auto there = Rows(p, table, by_run, id);
+      EXPECT_EQ(here.size(), there.size()) << id << " " << table;
+      EXPECT_TRUE(here == there) << id << ": " << table << " differs at the plant";
+    }
+    auto info = (*station)->LoadRun(id);
+    ASSERT_TRUE(info.ok());
+    // A lot soaked on two stations was first seen when the first saw it.
+    auto seen = [&](store::Db& db) {
+      auto q = db.Prepare("SELECT first_seen_utime FROM lots WHERE lot = ?1");
+      EXPECT_TRUE(q.ok());
+      q->Bind(1, info->lot);
+      EXPECT_TRUE(*q->Step()) << info->lot;
+      return q->Int(0);
+    };
+    EXPECT_LE(seen(p), seen(s)) << info->lot;
+    EXPECT_EQ(Rows(s, "units", "serial = ?1", info->serial),
+              Rows(p, "units", "serial = ?1", info->serial));
+    EXPECT_EQ(Rows(s, "archive_chain", "run_id = ?1", id),
+              Rows(p, "archive_chain", "run_id = ?1", id))
+        << id << ": chain entries";
+    // Re-analysed from the plant's raw chunks, the run gives its archived
+    // result bit for bit (as at the station: a run whose result was set by
+    // hand, below, differs at both).
+    auto check = [&](const std::string& db) {
+      return RunCommand(Bin("imuqual") + " reanalyze " + id + " --db '" + db +
+                        "' --check > /dev/null 2>&1")
+          .exit_code;
+    };
+    const int at_station = check(station_db);
+    EXPECT_EQ(check(plant_url), at_station) << id << ": reanalyze --check at the plant";
+    if (all_check) EXPECT_EQ(at_station, 0) << id << ": reanalyze --check at the station";
+  }
+}
+
+// A report's lines but those naming the archive and the time it was made.
+std::string ReportWithoutProvenance(const std::string& path) {
+  std::ifstream in(path);
+  std::string out, line;
+  while (std::getline(in, line)) {
+    if (line.find("Generated by") == std::string::npos && line.find("Archive ") == std::string::npos) {
+      out += line + "\n";
+    }
+  }
+  EXPECT_FALSE(out.empty()) << path;
+  return out;
+}
+
+std::string Imuqual(const std::string& args, const std::string& db) {
+  const CommandResult r = RunCommand(Bin("imuqual") + " " + args + " --db '" + db + "' 2>&1");
+  EXPECT_EQ(r.exit_code, 0) << args << " --db " << db << ": " << r.output;
+  return r.output;
+}
+
+TEST_F(PlantTest, TwoStationsShipEveryRunBitForBitAndShippingAgainInsertsNothing) {
+  const std::string plant = NewDatabase("plant_whole");
+  const CommandResult a = Sync(station_a_, plant, " --pubkey " + trust_);
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  EXPECT_NE(a.output.find("6 runs shipped"), std::string::npos) << a.output;
+  const CommandResult b = Sync(station_b_, plant);
+  ASSERT_EQ(b.exit_code, 0) << b.output;
+  EXPECT_NE(b.output.find("4 runs shipped"), std::string::npos) << b.output;
+  ExpectShippedWhole(station_a_, plant);
+  ExpectShippedWhole(station_b_, plant);
+  for (const std::string& station : {station_a_, station_b_}) {
+    const CommandResult again = Sync(station, plant);
+    ASSERT_EQ(again.exit_code, 0) << again.output;
+    EXPECT_NE(again.output.find("0 runs shipped (0 replaced: judged again), 0 rows inserted"),
+              std::string::npos)
+        << again.output;
+  }
+
+  // The same tables from the plant as from the station, for its own lots.
+  for (const auto& [lot, station] : std::vector<std::pair<std::string, std::string>>{
+           {"P-ONLY-A", station_a_}, {"P-ONLY-A2", station_a_}, {"P-ONLY-B", station_b_}}) {
+    for (const std::string& args : {"lot " + lot, "lot " + lot + " --stats",
+                                    "lot " + lot + " --format csv", "compare " + lot + " " + lot,
+                                    "export --lot " + lot + " --format measurements"}) {
+      EXPECT_EQ(Imuqual(args, station), Imuqual(args, plant)) << args;
+    }
+    auto s = store::Archive::Open(station, store::Archive::Mode::kRead);
+    ASSERT_TRUE(s.ok());
+    for (const std::string& id : RunIds((*s)->db())) {
+      auto info = (*s)->LoadRun(id);
+      ASSERT_TRUE(info.ok());
+      if (info->lot != lot) continue;
+      EXPECT_EQ(Imuqual("unit " + info->serial, station), Imuqual("unit " + info->serial, plant));
+    }
+  }
+  // The split lot: its units from both stations, each as its station has it.
+  const std::string split = Imuqual("lot P-SPLIT --format csv", plant);
+  for (const std::string& station : {station_a_, station_b_}) {
+    const std::string part = Imuqual("lot P-SPLIT --format csv", station);
+    size_t start = part.find('\n') + 1;  // past the header
+    while (start < part.size()) {
+      const size_t end = part.find('\n', start);
+      const std::string line = part.substr(start, end - start);
+      if (!line.empty()) EXPECT_NE(split.find(line), std::string::npos) << line;
+      start = end == std::string::npos ? part.size() : end + 1;
+    }
+  }
+  const std::string lots = Imuqual("lots --format csv", plant);
+  for (const char* lot : {"P-ONLY-A", "P-ONLY-A2", "P-SPLIT", "P-ONLY-B"}) {
+    EXPECT_NE(lots.find(lot), std::string::npos) << lot;
+  }
+  // The report renders from the plant as from the station (the archive's
+  // name aside).
+  const std::string html_a = dir_->path("a.html"), html_p = dir_->path("p.html");
+  Imuqual("report --lot P-ONLY-B -o " + html_a, station_b_);
+  Imuqual("report --lot P-ONLY-B -o " + html_p, plant);
+  EXPECT_EQ(ReportWithoutProvenance(html_a), ReportWithoutProvenance(html_p));
+}
+
+TEST_F(PlantTest, AStationFileEditedAfterSigningIsRefusedAndNamed) {
+  const std::string plant = NewDatabase("plant_tampered");
+  const std::string edited = dir_->path("station-b-edited.db");
+  std::filesystem::copy_file(station_b_, edited, std::filesystem::copy_options::overwrite_existing);
+  // The third run of B's chain reads 10 % better than measured (its results
+  // checksum recomputed, as an editor with the tools would).
+  auto a = store::Archive::Open(edited, store::Archive::Mode::kWrite);
+  ASSERT_TRUE(a.ok());
+  auto third = (*a)->db().Prepare("SELECT run_id FROM archive_chain WHERE entry = 3");
+  ASSERT_TRUE(third.ok() && *third->Step());
+  const std::string victim = third->Text(0);
+  third->Reset();
+  ASSERT_TRUE((*a)->db()
+                  .Exec("UPDATE measurements SET value = value * 0.9 WHERE name = "
+                        "'bias_instability' AND run_key = (SELECT run_key FROM runs WHERE run_id "
+                        "= '" + victim + "')")
+                  .ok());
+  a->reset();
+  const CommandResult r = Sync(edited, plant, " --batch 1");
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  auto plant_archive = store::Archive::Open(plant, store::Archive::Mode::kRead);
+  ASSERT_TRUE(plant_archive.ok());
+  auto key = (*plant_archive)->FindRunKey(victim);
+  ASSERT_TRUE(key.ok());
+  EXPECT_FALSE(key->has_value()) << "the edited run was stored at the plant";
+  // The two entries before it are shipped; nothing after it.
+  auto n = (*plant_archive)->db().QueryInt("SELECT shipped_entries FROM station_archives");
+  ASSERT_TRUE(n.ok());
+  EXPECT_EQ(*n, 2);
+  const CommandResult again = RunCommand(Bin("imuqual") + " sync --db " + edited + " --to '" +
+                                         plant + "' 2>&1 >/dev/null");
+  EXPECT_EQ(again.exit_code, 3);
+  EXPECT_NE(again.output.find("run " + victim), std::string::npos) << again.output;
+  EXPECT_NE(again.output.find("measurements"), std::string::npos) << again.output;
+}
+
+TEST_F(PlantTest, AStationRestoredFromAnOldBackupShipsNothingAndLosesNothing) {
+  const std::string plant = NewDatabase("plant_backup");
+  ASSERT_EQ(Sync(station_a_, plant).exit_code, 0);
+  const CommandResult r = Sync(dir_->path("station-a-backup.db"), plant);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("behind the plant"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("0 rows inserted"), std::string::npos) << r.output;
+  ExpectShippedWhole(station_a_, plant);
+}
+
+TEST_F(PlantTest, ARunJudgedAgainAfterShippingArrivesAsItsNewRoundWithTheOldKept) {
+  const std::string plant = NewDatabase("plant_rejudged");
+  const std::string station = dir_->path("station-b-rejudged.db");
+  std::filesystem::copy_file(station_b_, station,
+                             std::filesystem::copy_options::overwrite_existing);
+  ASSERT_EQ(Sync(station, plant).exit_code, 0);
+  // The station judges one run again (reanalyze --rejudge would, after a
+  // plan correction): its round is superseded, re-judged and finalised.
+  std::string id;
+  {
+    auto a = store::Archive::Open(station, store::Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok());
+    id = RunIds((*a)->db()).front();
+    auto key = (*a)->FindRunKey(id);
+    ASSERT_TRUE(key.ok() && key->has_value());
+    auto result = (*a)->LoadResult(**key);
+    ASSERT_TRUE(result.ok() && result->has_value());
+    auto curves = (*a)->LoadCurves(**key);
+    ASSERT_TRUE(curves.ok());
+    ASSERT_TRUE((*a)->Begin().ok());
+    ASSERT_TRUE((*a)->SupersedeJudgement(**key, 2'000'000'000'000'000, "plan corrected").ok());
+    for (const store::CurveRecord& c : *curves) ASSERT_TRUE((*a)->PutCurve(**key, c).ok());
+    store::ResultRecord again = **result;
+    again.reasons.push_back("judged again: plan corrected");
+    again.revision = 1;
+    ASSERT_TRUE((*a)->PutResult(**key, again).ok());
+    ASSERT_TRUE((*a)->MarkFinalized(**key, 2'000'000'000'000'001).ok());
+    ASSERT_TRUE((*a)->Commit().ok());
+  }
+  const CommandResult r = Sync(station, plant);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("1 runs shipped (1 replaced"), std::string::npos) << r.output;
+  ExpectShippedWhole(station, plant, /*all_check=*/false);
+  auto p = store::Archive::Open(plant, store::Archive::Mode::kRead);
+  ASSERT_TRUE(p.ok());
+  auto rounds = (*p)->db().QueryInt(
+      "SELECT count(*) FROM superseded_judgements WHERE run_key = (SELECT run_key FROM runs "
+      "WHERE run_id = '" + id + "')");
+  ASSERT_TRUE(rounds.ok());
+  EXPECT_EQ(*rounds, 1);
+  auto entries = (*p)->db().QueryInt("SELECT count(*) FROM archive_chain WHERE run_id = '" + id +
+                                     "'");
+  ASSERT_TRUE(entries.ok());
+  EXPECT_EQ(*entries, 3);  // finalised, reopened, finalised again
+}
+
+}  // namespace
+}  // namespace imuqual
