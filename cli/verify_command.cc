@@ -8,6 +8,7 @@
 #include "store/chain.h"
 #include "store/chain_verify.h"
 #include "store/checksums.h"
+#include "store/plant_sync.h"
 
 namespace imuqual::cli {
 namespace {
@@ -49,6 +50,35 @@ int PrintHead(store::Db& db, const std::string& path) {
                path.c_str(), static_cast<long long>(head->entries), path.c_str(),
                head->ToText().c_str());
   return 0;
+}
+
+// A plant archive: every station archive's chain as shipped and every run
+// against its signed record (store/plant_sync.h).
+int VerifyPlantArchive(store::Archive& plant, const VerifyOptions& o,
+                       const store::ChainVerifyOptions& chain) {
+  if (o.head || !o.expect_head.empty()) {
+    LogError("--head and --expect-head are for a station's archive file; a plant archive keeps "
+             "each station's head (verify checks them)");
+    return kExitUsage;
+  }
+  store::SyncOptions options;
+  options.trusted = chain.trusted;
+  options.require_signatures = chain.require_signatures;
+  auto report = store::VerifyPlant(
+      plant, options, [](const std::string& line) { std::printf("%s\n", line.c_str()); });
+  if (!report.ok()) {
+    LogError(report.status().message());
+    return kExitBroken;
+  }
+  std::fprintf(stderr,
+               "%s: %lld station archives, %lld chain entries, %lld runs verified against their "
+               "signed records%s; %lld problems\n",
+               plant.path().c_str(), static_cast<long long>(report->archives),
+               static_cast<long long>(report->entries),
+               static_cast<long long>(report->runs_verified),
+               chain.check_signatures ? " (signatures checked)" : " (signatures not checked: no --pubkey)",
+               static_cast<long long>(report->problems));
+  return report->problems > 0 ? kExitBroken : 0;
 }
 
 }  // namespace
@@ -119,6 +149,7 @@ int VerifyCommand(const VerifyOptions& o) {
     LogError(archive.status().message());
     return kExitBroken;
   }
+  if ((*archive)->postgres()) return VerifyPlantArchive(**archive, o, chain);
   store::Db& db = (*archive)->db();
   if (o.head) return PrintHead(db, o.db_path);
   auto print = [](const std::string& line) { std::printf("%s\n", line.c_str()); };

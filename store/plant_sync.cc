@@ -576,4 +576,116 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
   }
 }
 
+Result<PlantVerifyReport> VerifyPlant(Archive& plant_archive, const SyncOptions& o,
+                                      const std::function<void(const std::string&)>& problem) {
+  if (!plant_archive.postgres()) {
+    return Status::InvalidArgument(plant_archive.path() + " is not a plant archive");
+  }
+  Db& plant = plant_archive.db();
+  PlantVerifyReport report;
+  auto say = [&](const std::string& line) {
+    ++report.problems;
+    problem(line);
+  };
+  struct Cursor {
+    std::string id;
+    int64_t shipped = 0;
+    std::vector<uint8_t> head;
+  };
+  std::vector<Cursor> cursors;
+  {
+    auto s = plant.Prepare(
+        "SELECT archive_id, shipped_entries, head_hash FROM station_archives ORDER BY archive_id");
+    if (!s.ok()) return s.status();
+    for (;;) {
+      auto row = s->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      cursors.push_back({s->Text(0), s->Int(1), s->Blob(2)});
+    }
+  }
+  std::map<std::string, std::pair<std::string, std::string>> last;  // run -> (archive, record)
+  std::set<std::string> accounted;
+  for (const Cursor& c : cursors) {
+    ++report.archives;
+    const std::string who = "station archive " + c.id.substr(0, 16) + "...";
+    auto s = plant.Prepare(
+        "SELECT entry, kind, run_id, revision, record, created_utime, key_id, signature, "
+        "prev_hash, entry_hash FROM archive_chain WHERE archive_id = ?1 ORDER BY entry");
+    if (!s.ok()) return s.status();
+    s->Bind(1, c.id);
+    Digest prev{};
+    int64_t n = 0;
+    for (;;) {
+      auto row = s->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      ChainEntry e;
+      e.entry = s->Int(0);
+      e.kind = s->Text(1);
+      e.run_id = s->Text(2);
+      e.revision = s->Int(3);
+      const std::vector<uint8_t> record = s->Blob(4);
+      e.record.assign(record.begin(), record.end());
+      e.created_utime = s->Int(5);
+      e.key_id = s->Text(6);
+      const std::vector<uint8_t> signature = s->Blob(7);
+      e.signature.assign(signature.begin(), signature.end());
+      auto digest = [&](int col) {
+        Digest d{};
+        const std::vector<uint8_t> b = s->Blob(col);
+        if (b.size() == d.size()) std::copy(b.begin(), b.end(), d.begin());
+        return d;
+      };
+      e.prev_hash = digest(8);
+      e.entry_hash = digest(9);
+      ++n;
+      ++report.entries;
+      if (n == 1 && HexOf(e.entry_hash.data(), e.entry_hash.size()) != c.id) {
+        say(who + ": its first entry is not the one that names it");
+      }
+      if (std::string p = EntryProblem(e, n, prev, o); !p.empty()) say(who + ": " + p);
+      prev = e.entry_hash;
+      if (e.kind == kEntryMigrated) {
+        for (const std::string& id : LegacyRuns(e)) last[id] = {c.id, ""};
+      } else {
+        last[e.run_id] = {c.id, e.kind == kEntryFinalized ? e.record : std::string()};
+      }
+    }
+    if (n != c.shipped ||
+        !std::equal(c.head.begin(), c.head.end(), prev.begin(), prev.end())) {
+      say(who + ": the cursor says " + std::to_string(c.shipped) + " entries shipped, the plant "
+          "holds " + std::to_string(n) + (n == c.shipped ? " ending elsewhere" : ""));
+    }
+  }
+  auto runs = plant.Prepare("SELECT run_key, run_id, station_archive FROM runs ORDER BY run_id");
+  if (!runs.ok()) return runs.status();
+  std::vector<std::tuple<int64_t, std::string, std::string>> all;
+  for (;;) {
+    auto row = runs->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    all.emplace_back(runs->Int(0), runs->Text(1), runs->Text(2));
+  }
+  SyncReport unused;
+  Shipper checker(plant, plant, &unused);
+  for (const auto& [key, id, archive] : all) {
+    auto it = last.find(id);
+    if (it == last.end() || it->second.first != archive) {
+      say("run " + id + ": no chain entry of its station archive accounts for it (inserted at "
+          "the plant behind the sync's back?)");
+      continue;
+    }
+    if (it->second.second.empty()) continue;  // archived before the chain, or open again
+    auto diff = checker.Check(key, it->second.second);
+    if (!diff.ok()) return diff.status();
+    if (!diff->empty()) {
+      say("run " + id + ": the plant's rows do not match its signed record (" + *diff + ")");
+    } else {
+      ++report.runs_verified;
+    }
+  }
+  return report;
+}
+
 }  // namespace imuqual::store

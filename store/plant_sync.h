@@ -74,6 +74,20 @@ struct SyncReport {
 // (what was committed before stays; the next sync resumes from it).
 Result<SyncReport> SyncToPlant(Archive& station, Archive& plant, const SyncOptions& options);
 
+// What `imuqual verify --db postgresql://...` checks of a plant archive:
+// each station archive's chain as shipped (numbering, links, each entry's
+// hash, signatures with trusted keys, the cursor at its last entry), every
+// run's record recomputed from the plant's rows (every chunk's digest from
+// its bytes) against the record of its last finalising entry, and runs
+// that no chain entry accounts for. Problems go one line each to
+// `problem`; returns their number and how many runs were verified.
+struct PlantVerifyReport {
+  int64_t problems = 0;
+  int64_t archives = 0, entries = 0, runs_verified = 0;
+};
+Result<PlantVerifyReport> VerifyPlant(Archive& plant, const SyncOptions& options,
+                                      const std::function<void(const std::string&)>& problem);
+
 }  // namespace imuqual::store
 
 #endif  // IMUQUAL_STORE_PLANT_SYNC_H_

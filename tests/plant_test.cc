@@ -271,6 +271,12 @@ TEST_F(PlantTest, TwoStationsShipEveryRunBitForBitAndShippingAgainInsertsNothing
       start = end == std::string::npos ? part.size() : end + 1;
     }
   }
+  // The plant proves itself: every chain as shipped, every run against its
+  // signed record (A's signatures checked; B signs nothing).
+  const CommandResult verified = RunCommand(Bin("imuqual") + " verify --db '" + plant +
+                                            "' --pubkey " + trust_ + " --allow-unsigned 2>&1");
+  EXPECT_EQ(verified.exit_code, 0) << verified.output;
+  EXPECT_NE(verified.output.find("10 runs verified"), std::string::npos) << verified.output;
   const std::string lots = Imuqual("lots --format csv", plant);
   for (const char* lot : {"P-ONLY-A", "P-ONLY-A2", "P-SPLIT", "P-ONLY-B"}) {
     EXPECT_NE(lots.find(lot), std::string::npos) << lot;
@@ -312,6 +318,19 @@ TEST_F(PlantTest, AStationFileEditedAfterSigningIsRefusedAndNamed) {
   auto n = (*plant_archive)->db().QueryInt("SELECT shipped_entries FROM station_archives");
   ASSERT_TRUE(n.ok());
   EXPECT_EQ(*n, 2);
+  // An edit at the plant itself is found by verify, naming the run.
+  {
+    auto w = store::Db::Open(plant, store::Db::Mode::kReadWrite);
+    ASSERT_TRUE(w.ok());
+    ASSERT_TRUE((*w)->Exec("UPDATE measurements SET value = value * 0.9 WHERE name = "
+                           "'bias_instability' AND run_key = (SELECT min(run_key) FROM runs)")
+                    .ok());
+  }
+  const CommandResult verify =
+      RunCommand(Bin("imuqual") + " verify --db '" + plant + "' 2>/dev/null");
+  EXPECT_EQ(verify.exit_code, 1) << verify.output;
+  EXPECT_NE(verify.output.find("do not match its signed record (measurements)"), std::string::npos)
+      << verify.output;
   const CommandResult again = RunCommand(Bin("imuqual") + " sync --db " + edited + " --to '" +
                                          plant + "' 2>&1 >/dev/null");
   EXPECT_EQ(again.exit_code, 3);
