@@ -295,12 +295,13 @@ Result<std::vector<std::string>> RunTables(Db& db) {
   std::vector<std::string> tables;
   RawStmt s(db,
             db.postgres()
-                ? "SELECT c.table_name FROM information_schema.columns c "
-                  "JOIN information_schema.tables t USING (table_schema, table_name) "
-                  "WHERE c.table_schema = current_schema() AND t.table_type = 'BASE TABLE' "
-                  "AND c.column_name = 'run_key' "
-                  "AND c.table_name NOT IN ('runs', 'raw_chunks', 'archive_chain') "
-                  "ORDER BY c.table_name COLLATE \"C\""
+                ? "SELECT c.relname FROM pg_catalog.pg_attribute a "
+                  "JOIN pg_catalog.pg_class c ON c.oid = a.attrelid "
+                  "JOIN pg_catalog.pg_namespace n ON n.oid = c.relnamespace "
+                  "WHERE n.nspname = current_schema() AND c.relkind IN ('r', 'p') "
+                  "AND a.attname = 'run_key' AND NOT a.attisdropped "
+                  "AND c.relname NOT IN ('runs', 'raw_chunks', 'archive_chain') "
+                  "ORDER BY c.relname COLLATE \"C\""
                 : "SELECT m.name FROM sqlite_schema m, pragma_table_info(m.name) p "
                   "WHERE m.type = 'table' AND p.name = 'run_key' AND m.name NOT LIKE 'sqlite_%' "
                   "AND m.name NOT IN ('runs', 'raw_chunks', 'archive_chain') ORDER BY m.name");
@@ -312,7 +313,8 @@ Result<std::vector<std::string>> RunTables(Db& db) {
 }
 
 Result<SignedRecord> ComputeRunRecord(Db& db, int64_t run_key, ChunkDigests how,
-                                      ChunkFindings* findings) {
+                                      ChunkFindings* findings,
+                                      const std::vector<std::string>* known_tables) {
   SignedRecord record;
   bool found = false;
   // A plant archive's runs also say which station archive shipped them.
@@ -333,7 +335,8 @@ Result<SignedRecord> ComputeRunRecord(Db& db, int64_t run_key, ChunkDigests how,
     }));
   }
   if (!found) return Status::NotFound("no run with key " + std::to_string(run_key));
-  auto tables = RunTables(db);
+  Result<std::vector<std::string>> tables =
+      known_tables ? Result<std::vector<std::string>>(*known_tables) : RunTables(db);
   if (!tables.ok()) return tables.status();
   for (const std::string& table : *tables) {
     IMUQUAL_RETURN_IF_ERROR(AddTableItems(db, table, run_key, &record));

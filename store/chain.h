@@ -85,8 +85,10 @@ struct ChunkFindings {
 Result<std::vector<std::string>> RunTables(Db& db);
 
 // The record of run `run_key` as the archive holds it now.
+// `tables`: RunTables(db) when the caller has it (many runs in a row).
 Result<SignedRecord> ComputeRunRecord(Db& db, int64_t run_key, ChunkDigests how,
-                                      ChunkFindings* findings = nullptr);
+                                      ChunkFindings* findings = nullptr,
+                                      const std::vector<std::string>* tables = nullptr);
 
 struct ChainEntry {
   int64_t entry = 0;   // 1, 2, ...

@@ -101,6 +101,9 @@ CREATE TABLE raw_chunks (
   digest        bytea,
   PRIMARY KEY (run_key, seq)
 );
+-- Chunks are zstd frames already: stored out of line as they are, not
+-- compressed again.
+ALTER TABLE raw_chunks ALTER COLUMN data SET STORAGE EXTERNAL;
 CREATE TABLE gaps (
   run_key        bigint NOT NULL REFERENCES runs(run_key),
   first_seq      bigint NOT NULL,

@@ -305,8 +305,14 @@ class Shipper {
   // record the station signed, or computed from the station's rows): ""
   // when they are equal, else what differs.
   Result<std::string> Check(int64_t plant_key, const std::string& expected) {
+    if (run_tables_.empty()) {
+      auto tables = RunTables(plant_);
+      if (!tables.ok()) return tables.status();
+      run_tables_ = std::move(*tables);
+    }
     ChunkFindings findings;
-    auto held = ComputeRunRecord(plant_, plant_key, ChunkDigests::kRecomputed, &findings);
+    auto held = ComputeRunRecord(plant_, plant_key, ChunkDigests::kRecomputed, &findings,
+                                 &run_tables_);
     if (!held.ok()) return held.status();
     if (held->Encode() == expected) return std::string();
     return DifferingItems(expected, *held);
@@ -317,6 +323,7 @@ class Shipper {
   Db& plant_;
   SyncReport* report_;
   std::map<std::string, std::vector<std::string>> columns_;
+  std::vector<std::string> run_tables_;
 };
 
 const PublicKey* FindKey(const std::vector<PublicKey>& keys, const std::string& id) {
@@ -423,6 +430,10 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
   Shipper shipper(station, plant, &report);
   const int64_t total = report.station_entries;
   bool first_batch = true;
+  // A refusal found in a batch: the batch is rolled back and shipped again
+  // up to the refused entry, then shipping stops there.
+  int64_t refused_at = -1;
+  std::string refusal_found;
   for (;;) {
     IMUQUAL_RETURN_IF_ERROR(plant.BeginWrite());
     auto fail = [&](const Status& st) {
@@ -484,13 +495,14 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
       return report;
     }
 
-    const int64_t end = std::min(total, shipped + std::max(1, o.batch_entries));
+    int64_t end = std::min(total, shipped + std::max(1, o.batch_entries));
+    if (refused_at >= 0) end = std::min(end, refused_at);
     int64_t done = shipped;
+    std::string refusal_of_batch;
     for (int64_t i = shipped; i < end; ++i) {
       const ChainEntry& e = (*chain)[static_cast<size_t>(i)];
       const Digest prev = i == 0 ? Digest{} : (*chain)[static_cast<size_t>(i - 1)].entry_hash;
       std::string refusal = EntryProblem(e, i + 1, prev, o);
-      if (Status st = plant.Exec("SAVEPOINT entry"); !st.ok()) return fail(st);
       if (refusal.empty()) {
         auto ins = plant.Prepare(
             "INSERT INTO archive_chain (archive_id, entry, kind, run_id, revision, record, "
@@ -549,12 +561,19 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
         }
       }
       if (!refusal.empty()) {
-        if (Status st = plant.Exec("ROLLBACK TO SAVEPOINT entry"); !st.ok()) return fail(st);
-        report.refusal = refusal;
+        refusal_of_batch = refusal;
         break;
       }
-      if (Status st = plant.Exec("RELEASE SAVEPOINT entry"); !st.ok()) return fail(st);
       done = i + 1;
+    }
+    if (refused_at < 0 && done < end) {
+      // Entry `done` was refused: ship the batch again up to it.
+      (void)plant.Exec("ROLLBACK");
+      refused_at = done;
+      refusal_found = refusal_of_batch;
+      if (done > shipped) continue;
+      report.refusal = refusal_found;
+      return report;
     }
     if (done > shipped) {
       auto up = plant.Prepare(
@@ -572,7 +591,10 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
       o.progress("shipped chain entries " + std::to_string(shipped + 1) + ".." +
                  std::to_string(done) + " of " + std::to_string(total));
     }
-    if (!report.refusal.empty()) return report;
+    if (refused_at >= 0 && done >= refused_at) {
+      report.refusal = refusal_found;
+      return report;
+    }
   }
 }
 

@@ -7,6 +7,8 @@ namespace imuqual::store {
 namespace {
 
 constexpr unsigned kByteaOid = 17;
+// Statements kept prepared per connection; others run unnamed.
+constexpr size_t kMaxPrepared = 256;
 
 std::string FirstLine(const char* text) {
   std::string s = text ? text : "";
@@ -155,9 +157,22 @@ Result<bool> PgStep(PgConnection& c, PgQuery& q, const std::string& label) {
       values[k] = q.values[k] ? q.values[k]->data() : nullptr;
       lengths[k] = q.values[k] ? static_cast<int>(q.values[k]->size()) : 0;
     }
-    q.result = PQexecParams(c.conn, q.sql.c_str(), static_cast<int>(values.size()),
-                            q.types.empty() ? nullptr : q.types.data(), values.data(),
-                            lengths.data(), q.formats.data(), 0);
+    const int count = static_cast<int>(values.size());
+    const unsigned* types = q.types.empty() ? nullptr : q.types.data();
+    auto named = c.prepared.find(q.sql);
+    if (named == c.prepared.end() && c.prepared.size() < kMaxPrepared) {
+      // Prepared outside a transaction's failure: a statement that does not
+      // compile is run unnamed below and reports its error there.
+      const std::string name = "imuqual_" + std::to_string(c.prepared.size() + 1);
+      PGresult* p = PQprepare(c.conn, name.c_str(), q.sql.c_str(), count, types);
+      if (PQresultStatus(p) == PGRES_COMMAND_OK) named = c.prepared.emplace(q.sql, name).first;
+      PQclear(p);
+    }
+    q.result = named != c.prepared.end()
+                   ? PQexecPrepared(c.conn, named->second.c_str(), count, values.data(),
+                                    lengths.data(), q.formats.data(), 0)
+                   : PQexecParams(c.conn, q.sql.c_str(), count, types, values.data(), lengths.data(),
+                                  q.formats.data(), 0);
     const ExecStatusType st = PQresultStatus(q.result);
     if (st == PGRES_COMMAND_OK) {
       const char* n = PQcmdTuples(q.result);

@@ -7,6 +7,7 @@
 #include <libpq-fe.h>
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <span>
@@ -21,6 +22,9 @@ namespace imuqual::store {
 struct PgConnection {
   PGconn* conn = nullptr;
   int64_t changes = 0;  // rows of the last INSERT/UPDATE/DELETE
+  // Statements prepared on the server, by SQL text (planned once: a sync
+  // runs the same few statements for every run).
+  std::map<std::string, std::string> prepared;
   ~PgConnection();
 };
 
