@@ -13,6 +13,7 @@
 // run judged again after it was shipped (arrives as its new round, the old
 // one kept).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -156,8 +157,12 @@ std::vector<std::string> RunIds(store::Db& db) {
 }
 
 // The plant holds each of the station's runs as the station does.
+// reanalyze --check at the plant: each run as at the station and passing
+// there (kPasses), as at the station (kAsAtStation), or not run (kSkip:
+// runs without raw samples).
+enum class Reanalysis { kPasses, kAsAtStation, kSkip };
 void ExpectShippedWhole(const std::string& station_db, const std::string& plant_url,
-                        bool all_check = true) {
+                        Reanalysis reanalysis = Reanalysis::kPasses) {
   auto station = store::Archive::Open(station_db, store::Archive::Mode::kRead);
   ASSERT_TRUE(station.ok()) << station.status().message();
   auto plant = store::Archive::Open(plant_url, store::Archive::Mode::kRead);
@@ -199,9 +204,12 @@ void ExpectShippedWhole(const std::string& station_db, const std::string& plant_
                         "' --check > /dev/null 2>&1")
           .exit_code;
     };
+    if (reanalysis == Reanalysis::kSkip) continue;
     const int at_station = check(station_db);
     EXPECT_EQ(check(plant_url), at_station) << id << ": reanalyze --check at the plant";
-    if (all_check) EXPECT_EQ(at_station, 0) << id << ": reanalyze --check at the station";
+    if (reanalysis == Reanalysis::kPasses) {
+      EXPECT_EQ(at_station, 0) << id << ": reanalyze --check at the station";
+    }
   }
 }
 
@@ -380,7 +388,7 @@ TEST_F(PlantTest, ARunJudgedAgainAfterShippingArrivesAsItsNewRoundWithTheOldKept
   const CommandResult r = Sync(station, plant);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("1 runs shipped (1 replaced"), std::string::npos) << r.output;
-  ExpectShippedWhole(station, plant, /*all_check=*/false);
+  ExpectShippedWhole(station, plant, Reanalysis::kAsAtStation);
   auto p = store::Archive::Open(plant, store::Archive::Mode::kRead);
   ASSERT_TRUE(p.ok());
   auto rounds = (*p)->db().QueryInt(
@@ -392,6 +400,91 @@ TEST_F(PlantTest, ARunJudgedAgainAfterShippingArrivesAsItsNewRoundWithTheOldKept
                                      "'");
   ASSERT_TRUE(entries.ok());
   EXPECT_EQ(*entries, 3);  // finalised, reopened, finalised again
+}
+
+// Lines in a file (0 if it is not there yet).
+int LinesIn(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line)) ++n;
+  return n;
+}
+
+// Waits (bounded) for `path` to hold `lines` lines.
+bool WaitForLines(const std::string& path, int lines) {
+  for (int i = 0; i < 3000 && LinesIn(path) < lines; ++i) ::usleep(10'000);
+  return LinesIn(path) >= lines;
+}
+
+TEST_F(PlantTest, ThePlantRestartedOrGoneAndTheSyncKilledMidwayLoseAndDuplicateNothing) {
+  const std::string plant = NewDatabase("plant_faults");
+  const std::string station = dir_->path("history.db");
+  const std::string cluster = dir_->path("cluster");
+  ASSERT_EQ(RunCommand(Bin("imuqual-history-gen") + " --db " + station +
+                       " --lots 2 --units 60 --prefix F > /dev/null")
+                .exit_code,
+            0);
+  const std::string sync = Bin("imuqual") + " sync --batch 1 --db " + station + " --to '" + plant +
+                           "'";
+  const std::string progress = dir_->path("progress.txt"), rc = dir_->path("rc.txt");
+  auto start_sync = [&] {
+    std::filesystem::remove(progress);
+    std::filesystem::remove(rc);
+    // In the background, holding none of RunCommand's pipe.
+    RunCommand("(" + sync + " > /dev/null 2> " + progress + "; echo $? > " + rc +
+               ") > /dev/null 2>&1 &");
+  };
+  auto wait_exit = [&] {
+    for (int i = 0; i < 3000 && LinesIn(rc) == 0; ++i) ::usleep(10'000);
+    std::ifstream in(rc);
+    int code = -1;
+    in >> code;
+    return code;
+  };
+
+  // PostgreSQL restarted (a fast shutdown ends every session) mid-sync.
+  start_sync();
+  ASSERT_TRUE(WaitForLines(progress, 5));
+  ASSERT_EQ(RunCommand(kScripts + "/pg-throwaway stop " + cluster).exit_code, 0);
+  EXPECT_EQ(wait_exit(), 1) << "the sync went on without its plant";
+  ASSERT_EQ(RunCommand(kScripts + "/pg-throwaway start-again " + cluster).exit_code, 0);
+  // The sync itself killed outright mid-batch.
+  start_sync();
+  ASSERT_TRUE(WaitForLines(progress, 5));
+  // [s]: the pattern does not match the shell that runs pkill or pgrep.
+  const std::string pattern = "'[s]ync --batch 1 --db " + station + "'";
+  RunCommand("pkill -9 -f " + pattern);  // the sync and the shell around it
+  for (int i = 0; i < 3000 && RunCommand("pgrep -f " + pattern + " > /dev/null").exit_code == 0;
+       ++i) {
+    ::usleep(10'000);
+  }
+  {
+    // The kill landed mid-way: some entries shipped, not all.
+    auto p = store::Archive::Open(plant, store::Archive::Mode::kRead);
+    ASSERT_TRUE(p.ok());
+    auto shipped = (*p)->db().QueryInt("SELECT shipped_entries FROM station_archives");
+    ASSERT_TRUE(shipped.ok());
+    EXPECT_GT(*shipped, 0);
+    EXPECT_LT(*shipped, 120) << "the sync ended before it was killed: the test tested nothing";
+  }
+  // The plant gone: said at once, nothing changes.
+  ASSERT_EQ(RunCommand(kScripts + "/pg-throwaway stop " + cluster).exit_code, 0);
+  const CommandResult gone = RunCommand(sync + " 2>&1");
+  EXPECT_EQ(gone.exit_code, 1) << gone.output;
+  EXPECT_NE(gone.output.find("cannot connect to the plant archive"), std::string::npos)
+      << gone.output;
+  ASSERT_EQ(RunCommand(kScripts + "/pg-throwaway start-again " + cluster).exit_code, 0);
+  // Back: the sync resumes where the plant's cursor is, and ends whole.
+  const CommandResult resumed = RunCommand(sync + " 2>/dev/null");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_EQ(resumed.output.find("(were 0)"), std::string::npos) << resumed.output;
+  ExpectShippedWhole(station, plant, Reanalysis::kSkip);  // generated runs: no raw samples
+  const CommandResult verified = RunCommand(Bin("imuqual") + " verify --db '" + plant + "' 2>&1");
+  EXPECT_EQ(verified.exit_code, 0) << verified.output;
+  EXPECT_NE(verified.output.find("120 runs verified"), std::string::npos) << verified.output;
+  const CommandResult again = RunCommand(sync + " 2>/dev/null");
+  EXPECT_NE(again.output.find("0 rows inserted"), std::string::npos) << again.output;
 }
 
 }  // namespace
