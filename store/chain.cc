@@ -457,6 +457,17 @@ Status ForEachChainEntry(Db& db, const std::function<Status(const ChainEntry&)>&
   return s.ForEach([&](const Stmt& row) { return fn(EntryFromRow(row)); });
 }
 
+Result<std::vector<ChainEntry>> ReadChainFrom(Db& db, int64_t first) {
+  RawStmt s(db, std::string(kEntryColumns) + " WHERE entry >= ? ORDER BY entry");
+  s.Bind(1, first);
+  std::vector<ChainEntry> entries;
+  IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
+    entries.push_back(EntryFromRow(row));
+    return Status::Ok();
+  }));
+  return entries;
+}
+
 Result<std::optional<ChainEntry>> ReadChainEntry(Db& db, int64_t entry) {
   RawStmt s(db, std::string(kEntryColumns) + " WHERE entry = ?");
   s.Bind(1, entry);

@@ -129,6 +129,8 @@ Status AppendMigrationEntry(Db& db, int64_t utime);
 // one at a time; fn's error stops it).
 Result<std::vector<ChainEntry>> ReadChain(Db& db);
 Status ForEachChainEntry(Db& db, const std::function<Status(const ChainEntry&)>& fn);
+// Entries `first`, first + 1, ... to the last, in entry order.
+Result<std::vector<ChainEntry>> ReadChainFrom(Db& db, int64_t first);
 // Entry number `entry`, if the chain holds it.
 Result<std::optional<ChainEntry>> ReadChainEntry(Db& db, int64_t entry);
 

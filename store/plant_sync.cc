@@ -387,6 +387,41 @@ class ReadSnapshot {
 
 }  // namespace
 
+namespace {
+
+// The plant's cursor for one station archive, locked for the transaction
+// (two syncs of one archive take turns), registering the archive first.
+Result<int64_t> LockCursor(Db& plant, const std::string& archive_id, const std::string& station,
+                           const std::string& source) {
+  const int64_t now = NowUtime();
+  auto reg = plant.Prepare(
+      "INSERT INTO station_archives (archive_id, station, source, first_synced_utime, "
+      "last_synced_utime) VALUES (?1, ?2, ?3, ?4, ?4) ON CONFLICT DO NOTHING");
+  if (!reg.ok()) return reg.status();
+  reg->Bind(1, archive_id).Bind(2, station).Bind(3, source).Bind(4, now);
+  IMUQUAL_RETURN_IF_ERROR(reg->Run());
+  auto cur = plant.Prepare(
+      "SELECT shipped_entries FROM station_archives WHERE archive_id = ?1 FOR UPDATE");
+  if (!cur.ok()) return cur.status();
+  cur->Bind(1, archive_id);
+  auto got = cur->Step();
+  if (!got.ok()) return got.status();
+  if (!*got) return Status::Corruption("plant archive: station archive " + archive_id + " vanished");
+  return cur->Int(0);
+}
+
+// The hash the plant holds for the archive's entry `n`.
+Result<std::vector<uint8_t>> PlantEntryHash(Db& plant, const std::string& archive_id, int64_t n) {
+  auto at = plant.Prepare("SELECT entry_hash FROM archive_chain WHERE archive_id = ?1 AND entry = ?2");
+  if (!at.ok()) return at.status();
+  at->Bind(1, archive_id).Bind(2, n);
+  auto row = at->Step();
+  if (!row.ok()) return row.status();
+  return *row ? at->Blob(0) : std::vector<uint8_t>();
+}
+
+}  // namespace
+
 Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
                                const SyncOptions& o) {
   if (!plant_archive.postgres()) {
@@ -401,34 +436,23 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
   Db& plant = plant_archive.db();
   SyncReport report;
   ReadSnapshot snapshot(station);
-  auto chain = ReadChain(station);
-  if (!chain.ok()) return chain.status();
-  report.station_entries = static_cast<int64_t>(chain->size());
-  if (chain->empty()) return report;  // no finalised run yet
-  report.archive_id = Hex((*chain)[0].entry_hash);
-  // The station's name: its runs' (the first run of the chain).
+  auto head = ReadChainHead(station);
+  if (!head.ok()) return head.status();
+  const int64_t total = head->entries;
+  report.station_entries = total;
+  if (total == 0) return report;  // no finalised run yet
+  auto first = ReadChainEntry(station, 1);
+  if (!first.ok()) return first.status();
+  if (!first->has_value()) return Status::Corruption("station archive: its chain has no entry 1");
+  report.archive_id = Hex((*first)->entry_hash);
+
+  // The unshipped tail of the station's chain, read at the first batch.
+  std::vector<ChainEntry> tail;
+  int64_t tail_from = 0;  // entry number of tail[0]
+  Digest tail_prev{};     // the hash tail[0] links to
+  std::map<std::string, int64_t> last_entry;  // run id -> its last entry in the tail
   std::string station_name;
-  for (const ChainEntry& e : *chain) {
-    if (e.run_id.empty()) continue;
-    auto info = station_archive.LoadRun(e.run_id);
-    if (info.ok()) station_name = info->station;
-    break;
-  }
-
-  // The run each entry's rows are shipped with: a run's rows go with its
-  // last entry, when that one finalised it (a run open again now ships its
-  // new round when it is finalised again).
-  std::map<std::string, int64_t> last_entry;
-  for (const ChainEntry& e : *chain) {
-    if (e.kind == kEntryMigrated) {
-      for (const std::string& id : LegacyRuns(e)) last_entry[id] = e.entry;
-    } else {
-      last_entry[e.run_id] = e.entry;
-    }
-  }
-
   Shipper shipper(station, plant, &report);
-  const int64_t total = report.station_entries;
   bool first_batch = true;
   // A refusal found in a batch: the batch is rolled back and shipped again
   // up to the refused entry, then shipping stops there.
@@ -440,69 +464,76 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
       (void)plant.Exec("ROLLBACK");
       return st;
     };
-    // The cursor, locked for this batch (two syncs of one archive take
-    // turns).
-    const int64_t now = NowUtime();
-    auto reg = plant.Prepare(
-        "INSERT INTO station_archives (archive_id, station, source, first_synced_utime, "
-        "last_synced_utime) VALUES (?1, ?2, ?3, ?4, ?4) ON CONFLICT DO NOTHING");
-    if (!reg.ok()) return fail(reg.status());
-    reg->Bind(1, report.archive_id).Bind(2, station_name).Bind(3, station_archive.path()).Bind(4, now);
-    if (Status st = reg->Run(); !st.ok()) return fail(st);
-    auto cur = plant.Prepare(
-        "SELECT shipped_entries, head_hash FROM station_archives WHERE archive_id = ?1 FOR UPDATE");
-    if (!cur.ok()) return fail(cur.status());
-    cur->Bind(1, report.archive_id);
-    auto got = cur->Step();
-    if (!got.ok()) return fail(got.status());
-    const int64_t shipped = cur->Int(0);
-    const std::vector<uint8_t> head_bytes = cur->Blob(1);
-    cur->Reset();
-    if (first_batch) report.shipped_before = shipped;
-    first_batch = false;
-    report.shipped_after = shipped;
-
-    if (shipped > 0) {
-      // The plant's entry `n` against the station's.
-      const int64_t n = std::min(shipped, total);
-      auto at = plant.Prepare(
-          "SELECT entry_hash FROM archive_chain WHERE archive_id = ?1 AND entry = ?2");
-      if (!at.ok()) return fail(at.status());
-      at->Bind(1, report.archive_id).Bind(2, n);
-      auto row = at->Step();
-      if (!row.ok()) return fail(row.status());
-      const std::vector<uint8_t> plant_hash = *row ? at->Blob(0) : std::vector<uint8_t>();
-      at->Reset();
-      const Digest& mine = (*chain)[static_cast<size_t>(n - 1)].entry_hash;
-      const bool same = plant_hash.size() == mine.size() &&
-                        std::equal(plant_hash.begin(), plant_hash.end(), mine.begin());
-      if (!same) {
-        report.refusal = "the station's chain entry " + std::to_string(n) +
-                         " is not the one the plant holds: the station archive was edited, or "
-                         "is another archive with the same first entry; nothing shipped";
-        (void)plant.Exec("ROLLBACK");
-        return report;
-      }
-      if (shipped > total) {
-        report.behind = true;
-        (void)plant.Exec("ROLLBACK");
-        return report;
-      }
-      (void)head_bytes;
-    }
-    if (shipped >= total) {
+    auto done_here = [&]() {
       (void)plant.Exec("ROLLBACK");
       return report;
+    };
+    auto locked = LockCursor(plant, report.archive_id, station_name, station_archive.path());
+    if (!locked.ok()) return fail(locked.status());
+    const int64_t shipped = *locked;
+    if (first_batch) {
+      report.shipped_before = shipped;
+      // The plant's last entry of this archive against the station's.
+      if (shipped > 0) {
+        const int64_t n = std::min(shipped, total);
+        auto theirs = PlantEntryHash(plant, report.archive_id, n);
+        if (!theirs.ok()) return fail(theirs.status());
+        auto mine = ReadChainEntry(station, n);
+        if (!mine.ok()) return fail(mine.status());
+        const bool same = mine->has_value() && theirs->size() == kDigestBytes &&
+                          std::equal(theirs->begin(), theirs->end(),
+                                     (*mine)->entry_hash.begin());
+        if (!same) {
+          report.refusal = "the station's chain entry " + std::to_string(n) +
+                           " is not the one the plant holds: the station archive was edited, or "
+                           "is another archive with the same first entry; nothing shipped";
+          report.shipped_after = shipped;
+          return done_here();
+        }
+        if (shipped > total) {
+          report.behind = true;
+          report.shipped_after = shipped;
+          return done_here();
+        }
+        tail_prev = (*mine)->entry_hash;
+      }
+      if (shipped < total) {
+        auto entries = ReadChainFrom(station, shipped + 1);
+        if (!entries.ok()) return fail(entries.status());
+        tail = std::move(*entries);
+        tail_from = shipped + 1;
+        for (const ChainEntry& e : tail) {
+          if (e.kind == kEntryMigrated) {
+            for (const std::string& id : LegacyRuns(e)) last_entry[id] = e.entry;
+          } else {
+            last_entry[e.run_id] = e.entry;
+            if (station_name.empty()) {
+              auto info = station_archive.LoadRun(e.run_id);
+              if (info.ok()) station_name = info->station;
+            }
+          }
+        }
+      }
     }
+    const int64_t tail_end = tail_from + static_cast<int64_t>(tail.size()) - 1;  // last entry
+    if (!first_batch && (shipped < tail_from - 1 || shipped > tail_end)) {
+      // Another sync of this archive moved the cursor meanwhile: it ships.
+      report.shipped_after = shipped;
+      return done_here();
+    }
+    first_batch = false;
+    report.shipped_after = shipped;
+    if (shipped >= std::min(total, tail_end)) return done_here();
 
-    int64_t end = std::min(total, shipped + std::max(1, o.batch_entries));
-    if (refused_at >= 0) end = std::min(end, refused_at);
+    int64_t end = std::min(tail_end, shipped + std::max(1, o.batch_entries));  // last entry
+    if (refused_at >= 0) end = std::min(end, refused_at - 1);
     int64_t done = shipped;
     std::string refusal_of_batch;
-    for (int64_t i = shipped; i < end; ++i) {
-      const ChainEntry& e = (*chain)[static_cast<size_t>(i)];
-      const Digest prev = i == 0 ? Digest{} : (*chain)[static_cast<size_t>(i - 1)].entry_hash;
-      std::string refusal = EntryProblem(e, i + 1, prev, o);
+    for (int64_t number = shipped + 1; number <= end; ++number) {
+      const ChainEntry& e = tail[static_cast<size_t>(number - tail_from)];
+      const Digest prev =
+          number == tail_from ? tail_prev : tail[static_cast<size_t>(number - 1 - tail_from)].entry_hash;
+      std::string refusal = EntryProblem(e, number, prev, o);
       if (refusal.empty()) {
         auto ins = plant.Prepare(
             "INSERT INTO archive_chain (archive_id, entry, kind, run_id, revision, record, "
@@ -524,7 +555,9 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
         if (Status st = ins->Run(); !st.ok()) return fail(st);
         report.rows_inserted += 1;
       }
-      // The runs whose rows go with this entry.
+      // The runs whose rows go with this entry: a run's rows go with its
+      // last entry when that one finalised it (a run open again now ships
+      // its new round when it is finalised again).
       std::vector<std::string> runs;
       if (refusal.empty() && e.kind == kEntryFinalized && last_entry[e.run_id] == e.entry) {
         runs.push_back(e.run_id);
@@ -538,7 +571,6 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
         }
       }
       for (const std::string& id : runs) {
-        if (!refusal.empty()) break;
         auto key = shipper.CopyRun(id, report.archive_id, &refusal);
         if (!key.ok()) return fail(key.status());
         if (!refusal.empty()) break;
@@ -558,18 +590,19 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
           refusal = "run " + id + " (chain entry " + std::to_string(e.entry) +
                     "): the station's rows do not match the record it signed (" + *diff +
                     "): edited after it was signed";
+          break;
         }
       }
       if (!refusal.empty()) {
         refusal_of_batch = refusal;
         break;
       }
-      done = i + 1;
+      done = number;
     }
     if (refused_at < 0 && done < end) {
-      // Entry `done` was refused: ship the batch again up to it.
+      // Entry done + 1 was refused: ship the batch again up to it.
       (void)plant.Exec("ROLLBACK");
-      refused_at = done;
+      refused_at = done + 1;
       refusal_found = refusal_of_batch;
       if (done > shipped) continue;
       report.refusal = refusal_found;
@@ -581,17 +614,17 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
           "?4, station = CASE WHEN station = '' THEN ?5 ELSE station END WHERE archive_id = ?1");
       if (!up.ok()) return fail(up.status());
       up->Bind(1, report.archive_id).Bind(2, done);
-      up->BindBlob(3, (*chain)[static_cast<size_t>(done - 1)].entry_hash);
+      up->BindBlob(3, tail[static_cast<size_t>(done - tail_from)].entry_hash);
       up->Bind(4, NowUtime()).Bind(5, station_name);
       if (Status st = up->Run(); !st.ok()) return fail(st);
     }
     if (Status st = plant.Exec("COMMIT"); !st.ok()) return fail(st);
     report.shipped_after = done;
-    if (o.progress) {
+    if (o.progress && done > shipped) {
       o.progress("shipped chain entries " + std::to_string(shipped + 1) + ".." +
                  std::to_string(done) + " of " + std::to_string(total));
     }
-    if (refused_at >= 0 && done >= refused_at) {
+    if (refused_at >= 0 && done >= refused_at - 1) {
       report.refusal = refusal_found;
       return report;
     }
