@@ -72,6 +72,9 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--sign-key", sign_keys,
                       "ROLE=FILE, repeatable: a role's signing key (acquire, analyze, store), "
                       "given to that process only; the store's also signs the archive's runs");
+  run_cmd->add_option("--sync-to", run.sync_to,
+                      "the plant archive (postgresql://...): the store ships every finalised run "
+                      "there as it is finalised");
   run_cmd->add_flag("--insecure-bus", run.insecure_bus,
                     "run on a bus beyond this host without a station key (unauthenticated; "
                     "every run records it)");
@@ -416,7 +419,8 @@ int main(int argc, char** argv) {
     if (!station_file.empty()) {
       for (const char* flag : {"--sim", "--unit", "--lot", "--db", "--plan", "--duration", "--rate",
                                "--operator", "--lcm-url", "--station-id", "--profile",
-                               "--key-file", "--trust", "--sign-key", "--insecure-bus"}) {
+                               "--key-file", "--trust", "--sign-key", "--insecure-bus",
+                               "--sync-to"}) {
         if (run_cmd->count(flag) > 0) {
           LogError(std::string("--station ") + station_file +
                    " holds the station's setup: do not also give " + flag);

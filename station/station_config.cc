@@ -173,6 +173,7 @@ StationRunOptions StationRunFromConfig(const pb::StationConfig& c, const std::st
   o.analyze_sign_key = c.analyze_sign_key();
   o.store_sign_key = c.store_sign_key();
   o.insecure_bus = c.insecure_bus();
+  o.sync_to = c.sync_to();
   for (int i = 0; i < c.slot_size(); ++i) {
     const pb::Slot& s = c.slot(i);
     o.units.push_back(s.unit_serial() + "=" + s.source());

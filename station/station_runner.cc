@@ -453,6 +453,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& options) {
        std::to_string(o.stale_after_s), "--give-up", std::to_string(o.give_up_s), "--write-give-up",
        std::to_string(o.archive_timeout_s), "--station", o.station});
   for (std::string& a : SecurityArgs(o, o.store_sign_key)) children.store->argv.push_back(std::move(a));
+  if (!o.sync_to.empty()) children.store->argv.insert(children.store->argv.end(), {"--sync-to", o.sync_to});
   // The plan this station runs is the only one its store and analyze take.
   if (!plan_spec.empty()) children.store->argv.insert(children.store->argv.end(), {"--accept-plan", plan_spec});
   for (int k = 0; k < o.analyze_shards; ++k) {

@@ -62,6 +62,7 @@ struct StationRunOptions {
   std::string trust_file;  // "" = roles not signed
   std::string acquire_sign_key, analyze_sign_key, store_sign_key;
   bool insecure_bus = false;  // a bus beyond this host without a key, by choice
+  std::string sync_to;        // the plant archive the store ships to ("" = none)
   Status Validate() const;
 };
 

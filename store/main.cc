@@ -45,6 +45,12 @@ int main(int argc, char** argv) {
                  "MB/s resent to one requester at most (0: 64 on one host, 4 beyond it); the rest "
                  "of its requests is dropped and counted (resends_throttled)")
       ->capture_default_str();
+  app.add_option("--sync-to", opt.sync_to,
+                 "the plant archive (postgresql://...): ship every finalised run there as it is "
+                 "finalised and at least every --sync-period (store-and-forward: a plant away is "
+                 "caught up when it is back)");
+  app.add_option("--sync-period", opt.sync_period_s, "seconds between shipments at most")
+      ->capture_default_str();
   BusSecurityFiles bus_files;
   AddBusSecurityFlags(app, &bus_files, /*signs=*/true, /*replays=*/true);
   if (const auto code = ParseCommandLine(app, argc, argv)) return *code;

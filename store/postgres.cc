@@ -79,7 +79,16 @@ Result<std::unique_ptr<PgConnection>> PgConnect(const std::string& url, bool rea
                                                 std::string* label) {
   *label = WithoutPassword(url);
   auto c = std::make_unique<PgConnection>();
-  c->conn = PQconnectdb(url.c_str());
+  // Over a network: give up connecting after 10 s, and on a peer silent for
+  // 60 s, unless the URL says otherwise (a plant unreachable must not hang
+  // a station's shipping for the kernel's minutes).
+  std::string conninfo = url;
+  for (const char* option : {"connect_timeout=10", "tcp_user_timeout=60000"}) {
+    const std::string name = std::string(option).substr(0, std::string(option).find('='));
+    if (conninfo.find(name + "=") != std::string::npos) continue;
+    conninfo += (conninfo.find('?') == std::string::npos ? "?" : "&") + std::string(option);
+  }
+  c->conn = PQconnectdb(conninfo.c_str());
   if (c->conn == nullptr || PQstatus(c->conn) != CONNECTION_OK) {
     return Status::Unavailable("cannot connect to the plant archive " + *label + ": " +
                                PgError(c->conn));

@@ -30,6 +30,7 @@
 #include "imuqual/resend_t.hpp"
 #include "common/text_util.h"
 #include "store/outcome.h"
+#include "store/plant_shipper.h"
 #include "store/records.h"
 
 namespace imuqual::store {
@@ -147,12 +148,18 @@ Status StoreOptions::Validate() const {
   if (!station.empty()) IMUQUAL_RETURN_IF_ERROR(ValidateIdentifier("station", station));
   if (max_unwritten_mb < 1) return Status::InvalidArgument("max_unwritten_mb: must be >= 1");
   if (!(write_give_up_s > 0)) return Status::InvalidArgument("write_give_up_s: must be > 0");
+  if (!sync_to.empty() && !IsPostgresUrl(sync_to)) {
+    return Status::InvalidArgument("sync_to: the plant archive must be a postgresql:// URL, not '" +
+                                   sync_to + "'");
+  }
+  if (!(sync_period_s > 0)) return Status::InvalidArgument("sync_period_s: must be > 0");
   return Status::Ok();
 }
 
 struct StoreService::Impl {
   StoreOptions options;
   std::unique_ptr<Archive> archive;
+  std::unique_ptr<PlantShipper> shipper;  // with sync_to: ships finalised runs to the plant
   std::unique_ptr<LcmBus> bus;
   BoundedQueue<Item> queue;
   std::map<std::string, StoreRun> runs;
@@ -1042,6 +1049,7 @@ Status StoreService::Impl::Finalize(StoreRun& r) {
   ++commits;
   Committed(staged);
   finalized.insert(r.info.run_id);
+  if (shipper) shipper->Notify();
   return Status::Ok();
 }
 
@@ -1275,6 +1283,19 @@ Status StoreService::Run() {
           (s.admission.restricts_plans() ? s.admission.AcceptedNames()
                                          : std::string("any (give --accept-plan to name them)")));
   LogInfo("archiving " + s.options.lcm_url + " into " + s.options.db_path);
+  if (!s.options.sync_to.empty()) {
+    ShipperOptions ship;
+    ship.station_db = s.options.db_path;
+    ship.plant_url = s.options.sync_to;
+    ship.period_s = s.options.sync_period_s;
+    auto shipper = PlantShipper::Start(ship);
+    if (!shipper.ok()) {
+      LogError(shipper.status().message());
+    } else {
+      s.shipper = std::move(*shipper);
+      LogInfo("shipping finalised runs to the plant archive " + s.options.sync_to);
+    }
+  }
   Status result;
   while (!ShutdownRequested() && !s.gave_up_writing) {
     Status st = s.bus->HandleFor(100);
@@ -1287,6 +1308,7 @@ Status StoreService::Run() {
   stop = true;
   s.queue.Close();
   writer.join();
+  s.shipper.reset();  // a last shipment of what was finalised last
   s.LogSummary();
   if (result.ok() && (s.gave_up_writing || s.UnwrittenBatches() > 0 || s.unwritten_dropped > 0)) {
     std::string why = s.gave_up_writing ? "the archive could not be written for " +

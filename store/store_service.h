@@ -82,6 +82,11 @@ struct StoreOptions {
   int max_unwritten_mb = 256;     // batches held while the archive cannot write (MB of samples);
                                // beyond, the newest are left unacknowledged for acquire to resend
   double write_give_up_s = 300;  // the archive failing every write this long: Run() fails
+  // Store-and-forward to the plant archive (store/plant_shipper.h): a
+  // postgresql:// URL, or "" for none. Shipped when a run is finalised and
+  // at least every sync_period_s.
+  std::string sync_to;
+  double sync_period_s = 10;
   // Test seam: called before each COMMIT; a non-ok Status fails the
   // transaction as a full disk would (empty: none).
   std::function<Status()> before_commit;

@@ -402,6 +402,24 @@ TEST_F(PlantTest, ARunJudgedAgainAfterShippingArrivesAsItsNewRoundWithTheOldKept
   EXPECT_EQ(*entries, 3);  // finalised, reopened, finalised again
 }
 
+TEST_F(PlantTest, TheStoreShipsEachRunToThePlantAsItIsFinalised) {
+  const std::string plant = NewDatabase("plant_forward");
+  const std::string station = dir_->path("station-c.db");
+  // The store ships as the soak goes (--sync-to), with no sync by hand.
+  Soak(station, "st-c", "P-FORWARD", 3, " --sync-to '" + plant + "'");
+  ExpectShippedWhole(station, plant);
+  // A second soak with the plant away: the station is unaffected; the next
+  // soak's store catches the plant up.
+  const std::string cluster = dir_->path("cluster");
+  ASSERT_EQ(RunCommand(kScripts + "/pg-throwaway stop " + cluster).exit_code, 0);
+  Soak(station, "st-c", "P-FORWARD-2", 2, " --sync-to '" + plant + "'");
+  ASSERT_EQ(RunCommand(kScripts + "/pg-throwaway start-again " + cluster).exit_code, 0);
+  Soak(station, "st-c", "P-FORWARD-3", 1, " --sync-to '" + plant + "'");
+  ExpectShippedWhole(station, plant);
+  const CommandResult again = Sync(station, plant);
+  EXPECT_NE(again.output.find("0 rows inserted"), std::string::npos) << again.output;
+}
+
 // Lines in a file (0 if it is not there yet).
 int LinesIn(const std::string& path) {
   std::ifstream in(path);
