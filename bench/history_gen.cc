@@ -10,6 +10,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
 
 #include "acquire/lot_profile.h"
 #include "acquire/random.h"
@@ -92,6 +95,81 @@ std::vector<pb::Measurement> SynthesizedModel(const std::string& axis, pb::AxisK
 
 }  // namespace
 
+// One finalised run of `truth` (its curve scaled by `gain`: a station that
+// reads its units' noise that much higher), its measurements and verdict.
+Status WriteRun(store::Archive& archive, const pb::TestPlan& plan, const std::string& plan_bytes,
+                const std::vector<judge::AxisDesc>& axes,
+                const std::vector<store::AxisInfo>& axis_info, const pb::SimTruth& truth,
+                double rate, store::RunInfo run, double gain, sim::Random& scatter) {
+  run.source = "history-gen:" + truth.profile();
+  run.software_version = "history-gen";
+  run.end_utime = run.start_utime + static_cast<int64_t>(kSoakS * 1e6);
+  run.nominal_rate_hz = rate;
+  run.axes = axis_info;
+  run.plan = plan_bytes;
+  run.truth = truth.SerializeAsString();
+  run.state = "complete";
+  const int64_t samples = static_cast<int64_t>(kSoakS * rate);
+  run.samples_announced = samples;
+  run.first_sample = 0;
+  run.end_sample = samples;
+  auto key = archive.UpsertRun(run);
+  if (!key.ok()) return key.status();
+  std::vector<pb::Measurement> ms;
+  for (size_t a = 0; a < axes.size(); ++a) {
+    store::CurveRecord rec;
+    rec.axis = axes[a].name;
+    rec.curve.deviation = allan::Deviation::kOadev;
+    rec.curve.ci = allan::CiMethod::kSimple;
+    rec.curve.tau0_s = 1 / rate;
+    rec.curve.n_phase = samples + 1;
+    for (int64_t m = 1; m <= samples / 9; m *= 2) {
+      const int64_t clusters = samples / m;
+      const double err = 1 / std::sqrt(2.0 * (clusters - 1));
+      allan::CurvePoint p;
+      p.m = m;
+      p.tau_s = m / rate;
+      p.dev = gain * std::sqrt(ModelAvar(truth.axes(a), p.tau_s)) * (1 + err * scatter.Gaussian());
+      p.lo = p.dev * (1 - err);
+      p.hi = p.dev * (1 + err);
+      p.edf = static_cast<double>(clusters - 1);
+      p.n = samples + 1 - 2 * m;
+      p.stride = 1;
+      rec.curve.points.push_back(p);
+    }
+    rec.samples = samples;
+    rec.valid_samples = samples;
+    rec.computed_utime = run.end_utime.value();
+    for (pb::Measurement& m :
+         judge::MeasureAxis(axes[a].name, axes[a].kind, rec.curve, truth.axes(a).bias())) {
+      ms.push_back(std::move(m));
+    }
+    for (pb::Measurement& m :
+         SynthesizedModel(axes[a].name, axes[a].kind, truth.axes(a), rec.curve, scatter)) {
+      ms.push_back(std::move(m));
+    }
+    IMUQUAL_RETURN_IF_ERROR(archive.PutCurve(*key, rec));
+  }
+  for (pb::Measurement& m : judge::MeasureRun(kSoakS, samples, 0, 0, static_cast<int>(axes.size()))) {
+    ms.push_back(std::move(m));
+  }
+  // The simulated devices keep their nominal rate on a perfect clock.
+  for (pb::Measurement& m : judge::MeasureTiming(rate, truth.actual_rate_hz(), 0, 0)) {
+    ms.push_back(std::move(m));
+  }
+  const judge::Judgement j = judge::Judge(plan, axes, &ms);
+  store::ResultRecord res;
+  res.verdict = store::OutcomeText(j.verdict);
+  res.reasons = j.reasons;
+  res.samples = samples;
+  res.axis_invalid_samples.assign(axes.size(), 0);
+  res.measurements = std::move(ms);
+  res.result_utime = run.end_utime.value();
+  res.record = store::BuildRunRecord(run, res, 0).SerializeAsString();
+  IMUQUAL_RETURN_IF_ERROR(archive.PutResult(*key, res));
+  return archive.MarkFinalized(*key, res.result_utime);
+}
+
 int main(int argc, char** argv) {
   std::string db, profile_name = "tactical", plan_spec = "builtin:tactical", prefix = "HIST";
   int lots = 100, units = 100;
@@ -107,6 +185,19 @@ int main(int argc, char** argv) {
   app.add_option("--seed", seed, "seed")->capture_default_str();
   app.add_option("--drift", drift, "per lot, relative worsening of ARW and bias instability")
       ->capture_default_str();
+  // A station agreement study (imuqual msa): lot PREFIX-GOLDEN, --units
+  // golden units each soaked --golden-trials times on each of
+  // --golden-stations stations (station-1, ...), a station's noise read
+  // --station-gain times higher. With --only-station, that station's runs
+  // alone (its own archive, to ship to a plant).
+  int golden_stations = 0, golden_trials = 3;
+  std::vector<std::string> gains;
+  std::string only_station;
+  app.add_option("--golden-stations", golden_stations, "stations of a golden-unit study (0: none)");
+  app.add_option("--golden-trials", golden_trials, "soaks of each golden unit on each station")
+      ->capture_default_str();
+  app.add_option("--station-gain", gains, "STATION=G: that station reads noise G times higher");
+  app.add_option("--only-station", only_station, "write that station's runs only");
   CLI11_PARSE(app, argc, argv);
   SetLogProgramName("imuqual-history-gen");
 
@@ -152,78 +243,57 @@ int main(int argc, char** argv) {
       run.station = "station-" + std::to_string(1 + u % 4);
       run.slot = std::to_string(1 + u % 16);
       run.operator_name = u % 2 ? "ana" : "ben";  // two shifts
-      run.source = "history-gen:" + truth.profile();
-      run.software_version = "history-gen";
       run.start_utime = base_utime + static_cast<int64_t>(l * 3 * kDay + u * kUnitGap);
-      run.end_utime = run.start_utime + static_cast<int64_t>(kSoakS * 1e6);
-      run.nominal_rate_hz = rate;
-      run.axes = axis_info;
-      run.plan = plan_bytes;
-      run.truth = truth.SerializeAsString();
-      run.state = "complete";
-      const int64_t samples = static_cast<int64_t>(kSoakS * rate);
-      run.samples_announced = samples;
-      run.first_sample = 0;
-      run.end_sample = samples;
-      auto key = (*archive)->UpsertRun(run);
-      if (!key.ok()) {
-        LogError(key.status().message());
+      if (Status st = WriteRun(**archive, *plan, plan_bytes, axes, axis_info, truth, rate, run, 1.0,
+                               scatter);
+          !st.ok()) {
+        LogError(st.message());
         return 1;
       }
-      std::vector<pb::Measurement> ms;
-      for (size_t a = 0; a < axes.size(); ++a) {
-        store::CurveRecord rec;
-        rec.axis = axes[a].name;
-        rec.curve.deviation = allan::Deviation::kOadev;
-        rec.curve.ci = allan::CiMethod::kSimple;
-        rec.curve.tau0_s = 1 / rate;
-        rec.curve.n_phase = samples + 1;
-        for (int64_t m = 1; m <= samples / 9; m *= 2) {
-          const int64_t clusters = samples / m;
-          const double err = 1 / std::sqrt(2.0 * (clusters - 1));
-          allan::CurvePoint p;
-          p.m = m;
-          p.tau_s = m / rate;
-          p.dev = std::sqrt(ModelAvar(truth.axes(a), p.tau_s)) * (1 + err * scatter.Gaussian());
-          p.lo = p.dev * (1 - err);
-          p.hi = p.dev * (1 + err);
-          p.edf = static_cast<double>(clusters - 1);
-          p.n = samples + 1 - 2 * m;
-          p.stride = 1;
-          rec.curve.points.push_back(p);
-        }
-        rec.samples = samples;
-        rec.valid_samples = samples;
-        rec.computed_utime = run.end_utime.value();
-        for (pb::Measurement& m :
-             judge::MeasureAxis(axes[a].name, axes[a].kind, rec.curve, truth.axes(a).bias())) {
-          ms.push_back(std::move(m));
-        }
-        for (pb::Measurement& m :
-             SynthesizedModel(axes[a].name, axes[a].kind, truth.axes(a), rec.curve, scatter)) {
-          ms.push_back(std::move(m));
-        }
-        if (!(*archive)->PutCurve(*key, rec).ok()) return 1;
+    }
+    if (!(*archive)->Commit().ok()) return 1;
+  }
+  if (golden_stations > 0) {
+    std::map<std::string, double> gain;
+    for (const std::string& g : gains) {
+      const size_t eq = g.find('=');
+      if (eq == std::string::npos) {
+        LogError("--station-gain " + g + ": must be STATION=G");
+        return 2;
       }
-      for (pb::Measurement& m :
-           judge::MeasureRun(kSoakS, samples, 0, 0, static_cast<int>(axes.size()))) {
-        ms.push_back(std::move(m));
+      gain[g.substr(0, eq)] = std::stod(g.substr(eq + 1));
+    }
+    const std::string lot = prefix + "-GOLDEN";
+    if (!(*archive)->Begin().ok()) return 1;
+    for (int st = 1; st <= golden_stations; ++st) {
+      const std::string station = "station-" + std::to_string(st);
+      if (!only_station.empty() && station != only_station) continue;
+      for (int u = 0; u < units; ++u) {
+        const pb::SimTruth truth = sim::MakeUnitTruth(*profile, sim::SeedFromName(lot) ^ seed, u, rate);
+        for (int t = 0; t < golden_trials; ++t) {
+          store::RunInfo run;
+          char serial[64], run_id[128];
+          std::snprintf(serial, sizeof serial, "%s-U%03d", lot.c_str(), u + 1);
+          std::snprintf(run_id, sizeof run_id, "%s-%s-T%d", serial, station.c_str(), t + 1);
+          run.run_id = run_id;
+          run.serial = serial;
+          run.lot = lot;
+          run.station = station;
+          run.slot = "1";
+          run.operator_name = "golden";
+          run.start_utime = base_utime + static_cast<int64_t>(((st - 1) * golden_trials + t) * kDay +
+                                                              u * kUnitGap);
+          // Each soak its own realization, whichever file it is written to.
+          sim::Random soak(seed ^ sim::SeedFromName(run.run_id));
+          const auto g = gain.find(station);
+          if (Status s2 = WriteRun(**archive, *plan, plan_bytes, axes, axis_info, truth, rate, run,
+                                   g == gain.end() ? 1.0 : g->second, soak);
+              !s2.ok()) {
+            LogError(s2.message());
+            return 1;
+          }
+        }
       }
-      // The simulated devices keep their nominal rate on a perfect clock.
-      for (pb::Measurement& m : judge::MeasureTiming(rate, truth.actual_rate_hz(), 0, 0)) {
-        ms.push_back(std::move(m));
-      }
-      const judge::Judgement j = judge::Judge(*plan, axes, &ms);
-      store::ResultRecord res;
-      res.verdict = store::OutcomeText(j.verdict);
-      res.reasons = j.reasons;
-      res.samples = samples;
-      res.axis_invalid_samples.assign(axes.size(), 0);
-      res.measurements = std::move(ms);
-      res.result_utime = run.end_utime.value();
-      res.record = store::BuildRunRecord(run, res, 0).SerializeAsString();
-      if (!(*archive)->PutResult(*key, res).ok()) return 1;
-      if (!(*archive)->MarkFinalized(*key, res.result_utime).ok()) return 1;
     }
     if (!(*archive)->Commit().ok()) return 1;
   }

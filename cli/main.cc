@@ -6,6 +6,7 @@
 #include "cli/commands.h"
 #include "cli/export_command.h"
 #include "cli/keygen_command.h"
+#include "cli/msa_command.h"
 #include "cli/sync_command.h"
 #include "cli/lot_commands.h"
 #include "cli/plot_command.h"
@@ -259,6 +260,9 @@ int main(int argc, char** argv) {
   cli::VerifyOptions verify;
   CLI::App* verify_cmd = cli::AddVerifyCommand(app, &verify);
 
+  cli::MsaOptions msa;
+  CLI::App* msa_cmd = cli::AddMsaCommand(app, &msa);
+
   cli::SyncOptions sync;
   CLI::App* sync_cmd = cli::AddSyncCommand(app, &sync);
 
@@ -394,6 +398,7 @@ int main(int argc, char** argv) {
   if (verify_cmd->parsed()) return cli::VerifyCommand(verify);
   if (keygen_cmd->parsed()) return cli::KeygenCommand(keygen);
   if (sync_cmd->parsed()) return cli::SyncCommand(sync);
+  if (msa_cmd->parsed()) return cli::MsaCommand(msa);
   if (analyze_cmd->parsed()) return offline::AnalyzeFileCommand(an);
 
   auto fmt = report::ParseFormat(format);

@@ -402,4 +402,36 @@ Result<std::string> QueryLotFingerprint(Archive& archive, const std::string& lot
   return std::to_string(runs) + "/" + std::to_string(newest) + "/" + times + "/" + verdicts;
 }
 
+Result<std::vector<RunValueRow>> QueryRunValues(Archive& archive, const std::string& lot) {
+  auto s = archive.db().Prepare(R"sql(
+SELECT r.serial, r.station, r.operator, r.run_id, r.start_utime, m.axis, m.name, m.value, m.unit,
+       m.low, m.high
+FROM runs r
+JOIN measurements m ON m.run_key = r.run_key
+WHERE r.lot = ?1 AND r.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
+ORDER BY r.serial, r.station, r.start_utime, r.run_id, m.axis, m.name)sql");
+  if (!s.ok()) return s.status();
+  s->Bind(1, lot);
+  std::vector<RunValueRow> rows;
+  auto opt = [&](int col) { return s->IsNull(col) ? std::nullopt : std::optional<double>(s->Real(col)); };
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return rows;
+    RunValueRow r;
+    r.unit = s->Text(0);
+    r.station = s->Text(1);
+    r.operator_name = s->Text(2);
+    r.run_id = s->Text(3);
+    r.start_utime = s->Int(4);
+    r.axis = s->Text(5);
+    r.name = s->Text(6);
+    r.value = s->Real(7);
+    r.value_unit = s->Text(8);
+    r.low = opt(9);
+    r.high = opt(10);
+    rows.push_back(std::move(r));
+  }
+}
+
 }  // namespace imuqual::store

@@ -157,6 +157,18 @@ Result<std::vector<std::string>> QueryOpenRunIds(Archive& archive, const std::st
 // run. A cache key, not a checksum.
 Result<std::string> QueryLotFingerprint(Archive& archive, const std::string& lot);
 
+// Every value of every judged run (PASS, MARGINAL, FAIL, INCONCLUSIVE) of
+// `lot`, retests and every station included, with the run's station and
+// operator: what a measurement system analysis of golden units reads.
+// Ordered by serial, station, start.
+struct RunValueRow {
+  std::string unit, station, operator_name, run_id, axis, name, value_unit;
+  int64_t start_utime = 0;
+  double value = allan::kNaN;
+  std::optional<double> low, high;
+};
+Result<std::vector<RunValueRow>> QueryRunValues(Archive& archive, const std::string& lot);
+
 }  // namespace imuqual::store
 
 #endif  // IMUQUAL_STORE_QUERY_H_

@@ -25,6 +25,7 @@
 
 #include "store/archive.h"
 #include "store/canonical.h"
+#include "tests/csv_table.h"
 #include "tests/test_util.h"
 
 namespace imuqual {
@@ -418,6 +419,57 @@ TEST_F(PlantTest, TheStoreShipsEachRunToThePlantAsItIsFinalised) {
   ExpectShippedWhole(station, plant);
   const CommandResult again = Sync(station, plant);
   EXPECT_NE(again.output.find("0 rows inserted"), std::string::npos) << again.output;
+}
+
+TEST_F(PlantTest, StationsShippedToThePlantAreComparedAndTheOneReadingHighIsNamed) {
+  // 8 golden units soaked 3 times on each of 3 stations, each station its
+  // own archive; station-3 reads every unit's noise 10 % high. Shipped to
+  // the plant, compared there.
+  const std::string plant = NewDatabase("plant_msa");
+  for (int k = 1; k <= 3; ++k) {
+    const std::string station = dir_->path("golden-" + std::to_string(k) + ".db");
+    ASSERT_EQ(RunCommand(Bin("imuqual-history-gen") + " --db " + station +
+                         " --lots 0 --units 8 --golden-stations 3 --golden-trials 3 --prefix M "
+                         "--station-gain station-3=1.1 --only-station station-" +
+                         std::to_string(k) + " > /dev/null")
+                  .exit_code,
+              0);
+    ASSERT_EQ(Sync(station, plant).exit_code, 0);
+  }
+  const CommandResult msa = RunCommand(Bin("imuqual") + " msa --db '" + plant +
+                                       "' --lot M-GOLDEN --measurement bias_instability "
+                                       "--format csv");
+  EXPECT_EQ(msa.exit_code, 3) << "a station that differs is an exit 3: " << msa.output;
+  // The offsets table follows the studies after a blank line.
+  const size_t blank = msa.output.find("\n\n");
+  ASSERT_NE(blank, std::string::npos) << msa.output;
+  const testing::Csv studies = testing::ParseCsv(msa.output.substr(0, blank + 1));
+  const testing::Csv offsets = testing::ParseCsv(msa.output.substr(blank + 2));
+  EXPECT_EQ(studies.rows.size(), 6u);  // gx gy gz ax ay az
+  for (const auto& r : studies.rows) {
+    EXPECT_EQ(r[studies.Col("stations")], "3");
+    EXPECT_EQ(r[studies.Col("trials")], "3");
+    EXPECT_EQ(r[studies.Col("units")], "8");
+  }
+  // Station-3 is 1.1 / mean(1, 1, 1.1) - 1 = +6.5 % above the fleet, the
+  // others -3.2 %: named on most axes, found near its size.
+  const double truth = 1.1 / (3.1 / 3) - 1;
+  int named = 0, others_named = 0, axes = 0;
+  double sum = 0;
+  for (const auto& r : offsets.rows) {
+    const bool differs = r[offsets.Col("differs")] == "true";
+    if (r[offsets.Col("station")] == "station-3") {
+      ++axes;
+      named += differs;
+      sum += std::stod(r[offsets.Col("offset_percent")]) / 100;
+    } else {
+      others_named += differs;
+    }
+  }
+  ASSERT_EQ(axes, 6);
+  EXPECT_GE(named, 5) << msa.output;
+  EXPECT_NEAR(sum / axes, truth, 0.025) << msa.output;
+  EXPECT_LE(others_named, 6) << msa.output;
 }
 
 // Lines in a file (0 if it is not there yet).
