@@ -6,6 +6,7 @@
 #include "cli/commands.h"
 #include "cli/export_command.h"
 #include "cli/keygen_command.h"
+#include "cli/chart_command.h"
 #include "cli/msa_command.h"
 #include "cli/sync_command.h"
 #include "cli/lot_commands.h"
@@ -260,6 +261,9 @@ int main(int argc, char** argv) {
   cli::VerifyOptions verify;
   CLI::App* verify_cmd = cli::AddVerifyCommand(app, &verify);
 
+  cli::ChartOptions chart;
+  CLI::App* chart_cmd = cli::AddChartCommand(app, &chart);
+
   cli::MsaOptions msa;
   CLI::App* msa_cmd = cli::AddMsaCommand(app, &msa);
 
@@ -399,6 +403,7 @@ int main(int argc, char** argv) {
   if (keygen_cmd->parsed()) return cli::KeygenCommand(keygen);
   if (sync_cmd->parsed()) return cli::SyncCommand(sync);
   if (msa_cmd->parsed()) return cli::MsaCommand(msa);
+  if (chart_cmd->parsed()) return cli::ChartCommand(chart);
   if (analyze_cmd->parsed()) return offline::AnalyzeFileCommand(an);
 
   auto fmt = report::ParseFormat(format);

@@ -419,6 +419,7 @@ ORDER BY r.serial, r.station, r.start_utime, r.run_id, m.axis, m.name)sql");
     if (!row.ok()) return row.status();
     if (!*row) return rows;
     RunValueRow r;
+    r.lot = lot;
     r.unit = s->Text(0);
     r.station = s->Text(1);
     r.operator_name = s->Text(2);
@@ -430,6 +431,40 @@ ORDER BY r.serial, r.station, r.start_utime, r.run_id, m.axis, m.name)sql");
     r.value_unit = s->Text(8);
     r.low = opt(9);
     r.high = opt(10);
+    rows.push_back(std::move(r));
+  }
+}
+
+Result<std::vector<RunValueRow>> QueryMeasurementHistory(Archive& archive, const std::string& name,
+                                                         const std::string& axis) {
+  auto s = archive.db().Prepare(R"sql(
+SELECT l.lot, l.serial, r.station, r.operator, l.run_id, l.start_utime, l.value, l.unit, l.low,
+       l.high
+FROM lot_measurements l
+JOIN runs r ON r.run_id = l.run_id
+WHERE l.name = ?1 AND l.axis = ?2 AND l.value IS NOT NULL
+ORDER BY l.start_utime, l.run_id)sql");
+  if (!s.ok()) return s.status();
+  s->Bind(1, name).Bind(2, axis);
+  std::vector<RunValueRow> rows;
+  auto opt = [&](int col) { return s->IsNull(col) ? std::nullopt : std::optional<double>(s->Real(col)); };
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return rows;
+    RunValueRow r;
+    r.lot = s->Text(0);
+    r.unit = s->Text(1);
+    r.station = s->Text(2);
+    r.operator_name = s->Text(3);
+    r.run_id = s->Text(4);
+    r.start_utime = s->Int(5);
+    r.axis = axis;
+    r.name = name;
+    r.value = s->Real(6);
+    r.value_unit = s->Text(7);
+    r.low = opt(8);
+    r.high = opt(9);
     rows.push_back(std::move(r));
   }
 }

@@ -162,12 +162,19 @@ Result<std::string> QueryLotFingerprint(Archive& archive, const std::string& lot
 // operator: what a measurement system analysis of golden units reads.
 // Ordered by serial, station, start.
 struct RunValueRow {
-  std::string unit, station, operator_name, run_id, axis, name, value_unit;
+  std::string lot, unit, station, operator_name, run_id, axis, name, value_unit;
   int64_t start_utime = 0;
   double value = allan::kNaN;
   std::optional<double> low, high;
 };
 Result<std::vector<RunValueRow>> QueryRunValues(Archive& archive, const std::string& lot);
+
+// One judged measurement over the whole archive: its value on each unit's
+// final run in each lot (view lot_measurements: judged runs only, a retested
+// unit once), with the run's station, oldest first. For control charts
+// across lots, weeks and months. `axis` "" = run-level values.
+Result<std::vector<RunValueRow>> QueryMeasurementHistory(Archive& archive, const std::string& name,
+                                                         const std::string& axis);
 
 }  // namespace imuqual::store
 

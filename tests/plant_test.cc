@@ -472,6 +472,33 @@ TEST_F(PlantTest, StationsShippedToThePlantAreComparedAndTheOneReadingHighIsName
   EXPECT_LE(others_named, 6) << msa.output;
 }
 
+TEST_F(PlantTest, AControlChartAtThePlantFindsADriftingProcessAsTheStationDoes) {
+  // 12 lots of 30 units whose noise worsens 5 % a lot: against the first 4
+  // lots, the later ones are out of control.
+  const std::string plant = NewDatabase("plant_chart");
+  const std::string station = dir_->path("drifting.db");
+  ASSERT_EQ(RunCommand(Bin("imuqual-history-gen") + " --db " + station +
+                       " --lots 12 --units 30 --drift 0.05 --prefix D > /dev/null")
+                .exit_code,
+            0);
+  ASSERT_EQ(Sync(station, plant).exit_code, 0);
+  const std::string args =
+      " chart --measurement angle_random_walk --axis gx --by lot --baseline 4 --format csv --db ";
+  const CommandResult here = RunCommand(Bin("imuqual") + args + station);
+  const CommandResult there = RunCommand(Bin("imuqual") + args + "'" + plant + "'");
+  EXPECT_EQ(here.exit_code, 3) << here.output;
+  EXPECT_EQ(there.exit_code, 3) << there.output;
+  EXPECT_EQ(here.output, there.output);
+  const testing::Csv chart = testing::ParseCsv(there.output);
+  ASSERT_EQ(chart.rows.size(), 12u);
+  int flagged_late = 0;
+  for (size_t i = 0; i < chart.rows.size(); ++i) {
+    const bool flagged = !chart.rows[i][chart.Col("rules")].empty();
+    if (i >= 8) flagged_late += flagged;
+  }
+  EXPECT_GE(flagged_late, 3) << there.output;  // lots 9-12: 40-55 % worse than the baseline's
+}
+
 // Lines in a file (0 if it is not there yet).
 int LinesIn(const std::string& path) {
   std::ifstream in(path);

@@ -1,0 +1,68 @@
+#include "report/control_chart_view.h"
+
+#include <ctime>
+#include <map>
+
+namespace imuqual::report {
+
+Result<ChartBy> ParseChartBy(const std::string& text) {
+  if (text == "lot") return ChartBy::kLot;
+  if (text == "week") return ChartBy::kWeek;
+  if (text == "month") return ChartBy::kMonth;
+  return Status::InvalidArgument("--by " + text + ": lot, week or month");
+}
+
+std::string IsoWeekLabel(int64_t utime) {
+  const std::time_t t = static_cast<std::time_t>(utime / 1'000'000);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[16];
+  std::strftime(buf, sizeof buf, "%G-W%V", &tm);
+  return buf;
+}
+
+std::string MonthLabel(int64_t utime) {
+  const std::time_t t = static_cast<std::time_t>(utime / 1'000'000);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[16];
+  std::strftime(buf, sizeof buf, "%Y-%m", &tm);
+  return buf;
+}
+
+std::vector<judge::Subgroup> ChartSubgroups(const std::vector<store::RunValueRow>& rows, ChartBy by,
+                                            const std::string& station) {
+  std::vector<judge::Subgroup> groups;
+  std::map<std::string, size_t> index;  // label -> position (first seen, rows oldest first)
+  for (const store::RunValueRow& r : rows) {
+    if (!station.empty() && r.station != station) continue;
+    if (!std::isfinite(r.value)) continue;
+    const std::string label = by == ChartBy::kLot    ? r.lot
+                              : by == ChartBy::kWeek ? IsoWeekLabel(r.start_utime)
+                                                     : MonthLabel(r.start_utime);
+    auto it = index.find(label);
+    if (it == index.end()) {
+      it = index.emplace(label, groups.size()).first;
+      groups.push_back({label, {}});
+    }
+    groups[it->second].values.push_back(r.value);
+  }
+  return groups;
+}
+
+TableWriter ControlChartTable(const judge::ControlChart& c) {
+  TableWriter t({"subgroup", "n", "mean", "mean_lcl", "mean_ucl", "sd", "sd_lcl", "sd_ucl",
+                 "rules"});
+  for (const judge::ChartPoint& p : c.points) {
+    std::string rules;
+    for (const std::string& r : p.mean_rules) rules += (rules.empty() ? "mean: " : "; ") + r;
+    for (const std::string& r : p.sd_rules) rules += (rules.empty() ? "" : "; ") + ("sd: " + r);
+    t.AddRow({Cell::Text(p.label), Cell::Int(p.n), Cell::Real(p.mean), Cell::Real(p.mean_lcl),
+              Cell::Real(p.mean_ucl), Cell::Real(p.sd),
+              Cell::Real(p.n >= 2 ? p.sd_lcl : allan::kNaN),
+              Cell::Real(p.n >= 2 ? p.sd_ucl : allan::kNaN), Cell::Text(rules)});
+  }
+  return t;
+}
+
+}  // namespace imuqual::report
