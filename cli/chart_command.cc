@@ -17,7 +17,7 @@ CLI::App* AddChartCommand(CLI::App& app, ChartOptions* o) {
   CLI::App* cmd = app.add_subcommand(
       "chart",
       "a control chart (X-bar and S) of one judged measurement across lots, weeks or months, "
-      "with its limits and the run rules flagged");
+      "with its limits, the run rules flagged and each subgroup's Cpk against the plan's limits");
   cmd->add_option("--db", o->db_path, "archive file or postgresql://... (the plant)")->required();
   cmd->add_option("--measurement", o->measurement, "e.g. bias_instability")->required();
   cmd->add_option("--axis", o->axis, "e.g. gx ('' for run-level values)")->required();
@@ -75,7 +75,9 @@ int ChartCommand(const ChartOptions& o) {
                 ShortestReal(chart->centre).c_str(), ShortestReal(chart->sigma).c_str(),
                 chart->baseline, chart->points.size(), chart->values, chart->flagged);
   }
-  std::printf("%s", report::ControlChartTable(*chart).Render(*format).c_str());
+  const std::optional<double> low = rows->empty() ? std::nullopt : rows->front().low;
+  const std::optional<double> high = rows->empty() ? std::nullopt : rows->front().high;
+  std::printf("%s", report::ControlChartTable(*chart, groups, low, high).Render(*format).c_str());
   return chart->flagged > 0 ? kExitFlagged : 0;
 }
 

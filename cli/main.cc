@@ -9,6 +9,7 @@
 #include "cli/chart_command.h"
 #include "cli/msa_command.h"
 #include "cli/sync_command.h"
+#include "cli/yields_command.h"
 #include "cli/lot_commands.h"
 #include "cli/plot_command.h"
 #include "cli/report_command.h"
@@ -261,6 +262,9 @@ int main(int argc, char** argv) {
   cli::VerifyOptions verify;
   CLI::App* verify_cmd = cli::AddVerifyCommand(app, &verify);
 
+  cli::YieldsOptions yields;
+  CLI::App* yields_cmd = cli::AddYieldsCommand(app, &yields);
+
   cli::ChartOptions chart;
   CLI::App* chart_cmd = cli::AddChartCommand(app, &chart);
 
@@ -404,6 +408,7 @@ int main(int argc, char** argv) {
   if (sync_cmd->parsed()) return cli::SyncCommand(sync);
   if (msa_cmd->parsed()) return cli::MsaCommand(msa);
   if (chart_cmd->parsed()) return cli::ChartCommand(chart);
+  if (yields_cmd->parsed()) return cli::YieldsCommand(yields);
   if (analyze_cmd->parsed()) return offline::AnalyzeFileCommand(an);
 
   auto fmt = report::ParseFormat(format);

@@ -50,17 +50,26 @@ std::vector<judge::Subgroup> ChartSubgroups(const std::vector<store::RunValueRow
   return groups;
 }
 
-TableWriter ControlChartTable(const judge::ControlChart& c) {
+TableWriter ControlChartTable(const judge::ControlChart& c,
+                              const std::vector<judge::Subgroup>& subgroups,
+                              std::optional<double> low, std::optional<double> high) {
   TableWriter t({"subgroup", "n", "mean", "mean_lcl", "mean_ucl", "sd", "sd_lcl", "sd_ucl",
-                 "rules"});
-  for (const judge::ChartPoint& p : c.points) {
+                 "rules", "capability_kind", "capability", "capability_low_95",
+                 "capability_high_95"});
+  for (size_t i = 0; i < c.points.size(); ++i) {
+    const judge::ChartPoint& p = c.points[i];
+    const judge::Summary cap = i < subgroups.size()
+                                   ? judge::Summarize(subgroups[i].values, {}, low, high)
+                                   : judge::Summary();
     std::string rules;
     for (const std::string& r : p.mean_rules) rules += (rules.empty() ? "mean: " : "; ") + r;
     for (const std::string& r : p.sd_rules) rules += (rules.empty() ? "" : "; ") + ("sd: " + r);
     t.AddRow({Cell::Text(p.label), Cell::Int(p.n), Cell::Real(p.mean), Cell::Real(p.mean_lcl),
               Cell::Real(p.mean_ucl), Cell::Real(p.sd),
               Cell::Real(p.n >= 2 ? p.sd_lcl : allan::kNaN),
-              Cell::Real(p.n >= 2 ? p.sd_ucl : allan::kNaN), Cell::Text(rules)});
+              Cell::Real(p.n >= 2 ? p.sd_ucl : allan::kNaN), Cell::Text(rules),
+              Cell::Text(cap.capability_kind), Cell::Real(cap.capability),
+              Cell::Real(cap.capability_low), Cell::Real(cap.capability_high)});
   }
   return t;
 }

@@ -4,10 +4,12 @@
 #ifndef IMUQUAL_REPORT_CONTROL_CHART_VIEW_H_
 #define IMUQUAL_REPORT_CONTROL_CHART_VIEW_H_
 
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "analyze/judge/control_chart.h"
+#include "analyze/judge/statistics.h"
 #include "report/table_writer.h"
 #include "store/query.h"
 
@@ -27,8 +29,12 @@ std::string IsoWeekLabel(int64_t utime);
 std::string MonthLabel(int64_t utime);
 
 // A row per subgroup: n, mean with its limits, sd with its limits, the
-// rules it completes.
-TableWriter ControlChartTable(const judge::ControlChart& chart);
+// rules it completes, and its process capability against the measurement's
+// limits (Cpk, Cpu or Cpl with its 95 % interval, judge::Summarize; none
+// from fewer than 10 values): the capability history.
+TableWriter ControlChartTable(const judge::ControlChart& chart,
+                              const std::vector<judge::Subgroup>& subgroups,
+                              std::optional<double> low, std::optional<double> high);
 
 }  // namespace imuqual::report
 

@@ -469,4 +469,18 @@ ORDER BY l.start_utime, l.run_id)sql");
   }
 }
 
+Result<std::vector<RunVerdictRow>> QueryRunVerdicts(Archive& archive) {
+  auto s = archive.db().Prepare(
+      "SELECT run_id, lot, serial, station, COALESCE(verdict, ''), start_utime FROM runs "
+      "ORDER BY start_utime, run_id");
+  if (!s.ok()) return s.status();
+  std::vector<RunVerdictRow> rows;
+  for (;;) {
+    auto row = s->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return rows;
+    rows.push_back({s->Text(0), s->Text(1), s->Text(2), s->Text(3), s->Text(4), s->Int(5)});
+  }
+}
+
 }  // namespace imuqual::store

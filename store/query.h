@@ -176,6 +176,14 @@ Result<std::vector<RunValueRow>> QueryRunValues(Archive& archive, const std::str
 Result<std::vector<RunValueRow>> QueryMeasurementHistory(Archive& archive, const std::string& name,
                                                          const std::string& axis);
 
+// Every run's identity, start and verdict ("" not judged), oldest first:
+// what yield trends per week, month, station or lot count.
+struct RunVerdictRow {
+  std::string run_id, lot, unit, station, verdict;
+  int64_t start_utime = 0;
+};
+Result<std::vector<RunVerdictRow>> QueryRunVerdicts(Archive& archive);
+
 }  // namespace imuqual::store
 
 #endif  // IMUQUAL_STORE_QUERY_H_
