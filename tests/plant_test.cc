@@ -470,6 +470,40 @@ TEST_F(PlantTest, StationsShippedToThePlantAreComparedAndTheOneReadingHighIsName
   EXPECT_GE(named, 5) << msa.output;
   EXPECT_NEAR(sum / axes, truth, 0.025) << msa.output;
   EXPECT_LE(others_named, 6) << msa.output;
+
+  // The plant's pages say the same: the station out of agreement named on
+  // the MSA page, yields per station, the study as JSON.
+  const std::string log = dir_->path("serve-msa.log");
+  RunCommand(Bin("imuqual") + " serve --db '" + plant + "' --listen 127.0.0.1:0 > " + log +
+             " 2>&1 & echo $! > " + dir_->path("serve-msa.pid"));
+  std::string base;
+  for (int i = 0; i < 500 && base.empty(); ++i) {
+    std::ifstream in(log);
+    std::string line;
+    while (std::getline(in, line)) {
+      const size_t at = line.find(" at http://");
+      if (line.starts_with("serving ") && at != std::string::npos) {
+        base = line.substr(at + 4, line.find(' ', at + 4) - at - 4);
+      }
+    }
+    if (base.empty()) ::usleep(10'000);
+  }
+  ASSERT_FALSE(base.empty()) << "imuqual serve did not start on the plant";
+  auto get = [&](const std::string& path) {
+    return RunCommand("curl -s '" + base + path.substr(1) + "'").output;
+  };
+  const std::string page = get("/msa?lot=M-GOLDEN&measurement=bias_instability&axis=gx");
+  EXPECT_NE(page.find("Out of agreement"), std::string::npos) << page;
+  EXPECT_NE(page.find("station-3 (gx bias_instability)"), std::string::npos) << page;
+  const std::string json = get("/api/msa?lot=M-GOLDEN&measurement=bias_instability&axis=gx");
+  EXPECT_NE(json.find("\"station\": \"station-3\""), std::string::npos) << json;
+  // Yields count each unit once, where it was first tested: the golden
+  // units all started on station-1.
+  const std::string yields = get("/api/yields?by=station");
+  EXPECT_NE(yields.find("\"group\": \"station-1\", \"units\": 8, \"runs\": 72"),
+            std::string::npos)
+      << yields;
+  RunCommand("kill $(cat " + dir_->path("serve-msa.pid") + ")");
 }
 
 TEST_F(PlantTest, AControlChartAtThePlantFindsADriftingProcessAsTheStationDoes) {

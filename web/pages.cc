@@ -1,7 +1,10 @@
 #include "web/pages.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <limits>
+#include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -10,10 +13,13 @@
 #include "common/text_util.h"
 #include "report/allan_plots.h"
 #include "report/archive_tables.h"
+#include "report/control_chart_view.h"
 #include "report/marks.h"
+#include "report/msa_view.h"
 #include "report/report.h"
 #include "report/table_writer.h"
 #include "report/time_series.h"
+#include "report/yield_trend.h"
 #include "store/outcome.h"
 #include "store/query.h"
 
@@ -30,6 +36,7 @@ using report::TableWriter;
 
 constexpr char kStyle[] = R"css(
 body { margin: 0; font: 14px/1.45 system-ui, sans-serif; color: #1d2329; }
+.alert { background: #fde8e8; border-left: 4px solid #c0392b; padding: 6px 10px; }
 nav { background: #1d2329; color: #fff; padding: 8px 16px; display: flex; gap: 18px;
       align-items: center; flex-wrap: wrap; }
 nav a { color: #fff; text-decoration: none; font-weight: 600; }
@@ -59,7 +66,9 @@ std::string PageHtml(const std::string& title, const std::string& body) {
          "<link rel=\"icon\" href=\"data:,\">\n<title>" +
          HtmlEscape(title) + " - imuqual</title>\n<style>" + kStyle +
          "</style>\n</head>\n<body>\n<nav><a href=\"/\">imuqual: lots</a><a "
-         "href=\"/compare\">compare lots</a><a href=\"/live\">live station</a>"
+         "href=\"/compare\">compare lots</a><a href=\"/yields\">yields</a><a "
+         "href=\"/chart\">control charts</a><a href=\"/msa\">station agreement</a><a "
+         "href=\"/live\">live station</a>"
          "<form action=\"/unit\" method=\"get\"><label>serial <input name=\"serial\" "
          "size=\"16\"></label> <button>find</button></form></nav>\n<main>\n" +
          body + "</main>\n</body>\n</html>\n";
@@ -257,6 +266,139 @@ Page Compare(store::Archive& archive, const std::string& lot_a, const std::strin
   return {200, "text/html; charset=utf-8", PageHtml("compare " + lot_a + " and " + lot_b, body)};
 }
 
+// Yields per week, month, station or lot (imuqual yields).
+Page Yields(store::Archive& archive, const std::string& by_text, bool json) {
+  const std::string by_name = by_text.empty() ? "week" : by_text;
+  auto by = report::ParseYieldBy(by_name);
+  if (!by.ok()) return NotFound(by.status().message());
+  auto runs = store::QueryRunVerdicts(archive);
+  if (!runs.ok()) return Failed(runs.status());
+  const TableWriter t = report::YieldTable(report::YieldTrend(*runs, *by));
+  if (json) return Json(t.Render(Format::kJson));
+  std::string body = "<h1>Yields by " + HtmlEscape(by_name) + "</h1>\n<p>";
+  for (const char* b : {"week", "month", "station", "lot"}) {
+    body += std::string("<a href=\"/yields?by=") + b + "\">" + b + "</a> ";
+  }
+  body += "</p>\n" + (runs->empty() ? std::string("<p>No run archived yet.</p>\n")
+                                     : t.Render(Format::kHtml)) +
+          "<p class=\"note\">Each unit of each lot once, in the group of its first run: first-pass "
+          "yield = units whose first judged run passed (PASS or MARGINAL) / units with a judged "
+          "run; final yield by each unit's final run over PASS, MARGINAL and FAIL; 95 % Wilson "
+          "intervals. JSON: <a href=\"/api/yields?by=" +
+          HtmlEscape(by_name) + "\">/api/yields</a>.</p>\n";
+  return {200, "text/html; charset=utf-8", PageHtml("yields by " + by_name, body)};
+}
+
+// A control chart of one measurement (imuqual chart).
+Page Chart(store::Archive& archive, const std::map<std::string, std::string>& query, bool json) {
+  const std::string measurement = Param(query, "measurement"), axis = Param(query, "axis");
+  const std::string by_name = Param(query, "by").empty() ? "lot" : Param(query, "by");
+  const std::string station = Param(query, "station");
+  const std::string baseline_text = Param(query, "baseline");
+  std::string body =
+      "<h1>Control chart</h1>\n<form action=\"/chart\" method=\"get\"><label>measurement "
+      "<input name=\"measurement\" value=\"" +
+      HtmlEscape(measurement.empty() ? "bias_instability" : measurement) +
+      "\"></label> <label>axis <input name=\"axis\" size=\"4\" value=\"" + HtmlEscape(axis) +
+      "\"></label> <label>by <input name=\"by\" size=\"6\" value=\"" + HtmlEscape(by_name) +
+      "\"></label> <label>station <input name=\"station\" size=\"10\" value=\"" +
+      HtmlEscape(station) + "\"></label> <label>baseline <input name=\"baseline\" size=\"4\" value=\"" +
+      HtmlEscape(baseline_text) + "\"></label> <button>chart</button></form>\n";
+  if (measurement.empty()) {
+    if (json) return {404, "application/json", "{\"error\": \"give measurement and axis\"}\n"};
+    return {200, "text/html; charset=utf-8", PageHtml("control chart", body)};
+  }
+  auto by = report::ParseChartBy(by_name);
+  if (!by.ok()) return NotFound(by.status().message());
+  int baseline = 0;
+  if (!baseline_text.empty()) {
+    char* end = nullptr;
+    const long v = std::strtol(baseline_text.c_str(), &end, 10);
+    if (end == baseline_text.c_str() || *end != '\0' || v < 2 || v > 1000000) {
+      return NotFound("baseline: a number of subgroups >= 2");
+    }
+    baseline = static_cast<int>(v);
+  }
+  auto rows = store::QueryMeasurementHistory(archive, measurement, axis);
+  if (!rows.ok()) return Failed(rows.status());
+  const std::vector<judge::Subgroup> groups = report::ChartSubgroups(*rows, *by, station);
+  auto chart = judge::MakeControlChart(groups, baseline);
+  if (!chart.ok()) {
+    if (json) return {404, "application/json", "{\"error\": \"not enough values\"}\n"};
+    return NotFound(measurement + " " + axis + ": " +
+                    (rows->empty() ? "no judged value" : chart.status().message()));
+  }
+  const std::optional<double> low = rows->empty() ? std::nullopt : rows->front().low;
+  const std::optional<double> high = rows->empty() ? std::nullopt : rows->front().high;
+  const TableWriter t = report::ControlChartTable(*chart, groups, low, high);
+  if (json) return Json(t.Render(Format::kJson));
+  body += "<p>" + HtmlEscape(measurement) + " " + HtmlEscape(axis) + " (" +
+          HtmlEscape(rows->front().value_unit) + ") by " + HtmlEscape(by_name) +
+          (station.empty() ? "" : " at " + HtmlEscape(station)) + ": centre " +
+          ShortestReal(chart->centre) + ", sigma " + ShortestReal(chart->sigma) +
+          " (within subgroups; limits from " + std::to_string(chart->baseline) + " of " +
+          std::to_string(chart->points.size()) + " subgroups); <strong>" +
+          std::to_string(chart->flagged) + " subgroups flagged</strong>.</p>\n" +
+          t.Render(Format::kHtml) +
+          "<p class=\"note\">X-bar limits: centre +- 3 sigma / sqrt(n); S limits: sigma (c4 +- 3 "
+          "sqrt(1 - c4^2)). Rules: beyond 3 sigma, 2 of 3 beyond 2 sigma, 4 of 5 beyond 1 sigma, "
+          "8 on one side, 6 trending (mean); beyond 3 sigma (sd). Cpk/Cpu/Cpl against the "
+          "plan's limits with its 95 % interval, none from fewer than 10 values.</p>\n";
+  return {200, "text/html; charset=utf-8", PageHtml("control chart " + measurement, body)};
+}
+
+// Station agreement on golden units (imuqual msa).
+Page Msa(store::Archive& archive, const std::map<std::string, std::string>& query, bool json) {
+  const std::string lot = Param(query, "lot");
+  report::MsaSelection selection;
+  selection.measurement = Param(query, "measurement");
+  selection.axis = Param(query, "axis");
+  std::string body =
+      "<h1>Station agreement (MSA)</h1>\n<form action=\"/msa\" method=\"get\"><label>golden "
+      "lot <input name=\"lot\" value=\"" +
+      HtmlEscape(lot) + "\"></label> <label>measurement <input name=\"measurement\" value=\"" +
+      HtmlEscape(selection.measurement) + "\"></label> <label>axis <input name=\"axis\" "
+      "size=\"4\" value=\"" +
+      HtmlEscape(selection.axis) + "\"></label> <button>analyse</button></form>\n";
+  if (lot.empty()) {
+    if (json) return {404, "application/json", "{\"error\": \"give lot\"}\n"};
+    return {200, "text/html; charset=utf-8", PageHtml("station agreement", body)};
+  }
+  auto rows = store::QueryRunValues(archive, lot);
+  if (!rows.ok()) return Failed(rows.status());
+  if (rows->empty()) return NotFound("no judged run of lot '" + lot + "'");
+  const std::vector<report::MsaOutcome> outcomes = report::StudyStations(*rows, selection);
+  const TableWriter studies = report::MsaTable(outcomes);
+  const TableWriter offsets = report::MsaOffsetsTable(outcomes);
+  if (json) {
+    return Json("{\"studies\": " + studies.Render(Format::kJson) + ", \"offsets\": " +
+                offsets.Render(Format::kJson) + "}\n");
+  }
+  std::vector<std::string> drifting;
+  for (const report::MsaOutcome& o : outcomes) {
+    for (const judge::StationOffset& s : o.result.offsets) {
+      if (s.differs) drifting.push_back(s.station + " (" + o.axis + " " + o.measurement + ")");
+    }
+  }
+  body += drifting.empty()
+              ? "<p>No station's offset differs from the fleet at 95 %.</p>\n"
+              : "<p class=\"alert\"><strong>Out of agreement:</strong> " +
+                    HtmlEscape([&] {
+                      std::string list;
+                      for (const std::string& d : drifting) list += (list.empty() ? "" : ", ") + d;
+                      return list;
+                    }()) +
+                    "</p>\n";
+  body += "<h2>Studies</h2>\n" + studies.Render(Format::kHtml) +
+          "<h2>Each station against the fleet</h2>\n" + offsets.Render(Format::kHtml) +
+          "<p class=\"note\">AIAG ANOVA method: each golden unit a part, each station an "
+          "appraiser, each judged soak a trial (balanced: as many as every unit has on every "
+          "station). %GRR of the tolerance: 6 GRR / (USL - LSL), or 3 GRR / |limit - mean| with "
+          "one limit; under 10 % acceptable, 10-30 % may be, above 30 % not. Offsets: a "
+          "station's mean less the fleet's, 95 % interval.</p>\n";
+  return {200, "text/html; charset=utf-8", PageHtml("station agreement " + lot, body)};
+}
+
 }  // namespace
 
 Page Route(store::Archive& archive, const std::string& archive_label, const std::string& path,
@@ -301,6 +443,11 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
     if (rows->empty()) return {404, "application/json", "{\"error\": \"no such lot\"}\n"};
     return Json(report::LotAxisTable(*rows).Render(Format::kJson));
   }
+  if (path == "/yields" || path == "/api/yields") {
+    return Yields(archive, Param(query, "by"), path == "/api/yields");
+  }
+  if (path == "/chart" || path == "/api/chart") return Chart(archive, query, path == "/api/chart");
+  if (path == "/msa" || path == "/api/msa") return Msa(archive, query, path == "/api/msa");
   if (path == "/api/runs") {
     store::RunFilter f;
     f.lot = Param(query, "lot");
