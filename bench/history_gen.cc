@@ -272,7 +272,7 @@ int main(int argc, char** argv) {
         const pb::SimTruth truth = sim::MakeUnitTruth(*profile, sim::SeedFromName(lot) ^ seed, u, rate);
         for (int t = 0; t < golden_trials; ++t) {
           store::RunInfo run;
-          char serial[64], run_id[128];
+          char serial[192], run_id[256];
           std::snprintf(serial, sizeof serial, "%s-U%03d", lot.c_str(), u + 1);
           std::snprintf(run_id, sizeof run_id, "%s-%s-T%d", serial, station.c_str(), t + 1);
           run.run_id = run_id;

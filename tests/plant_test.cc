@@ -276,7 +276,9 @@ TEST_F(PlantTest, TwoStationsShipEveryRunBitForBitAndShippingAgainInsertsNothing
     while (start < part.size()) {
       const size_t end = part.find('\n', start);
       const std::string line = part.substr(start, end - start);
-      if (!line.empty()) EXPECT_NE(split.find(line), std::string::npos) << line;
+      if (!line.empty()) {
+        EXPECT_NE(split.find(line), std::string::npos) << line;
+      }
       start = end == std::string::npos ? part.size() : end + 1;
     }
   }
