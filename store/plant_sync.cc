@@ -74,7 +74,13 @@ void BindValue(Stmt& s, int i, const Value& v) {
   }
 }
 
-std::string Quoted(const std::string& name) { return "\"" + name + "\""; }
+// A name as an SQL identifier (the plant's column names come from its
+// catalog: quoted, any quote in them doubled).
+std::string Quoted(const std::string& name) {
+  std::string out = "\"";
+  for (char c : name) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
 
 std::string ColumnList(const std::vector<std::string>& columns) {
   std::string out;
