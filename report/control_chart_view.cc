@@ -12,23 +12,20 @@ Result<ChartBy> ParseChartBy(const std::string& text) {
   return Status::InvalidArgument("--by " + text + ": lot, week or month");
 }
 
-std::string IsoWeekLabel(int64_t utime) {
+namespace {
+// The UTC date of `utime` (us) through strftime's `format`.
+std::string UtcLabel(int64_t utime, const char* format) {
   const std::time_t t = static_cast<std::time_t>(utime / 1'000'000);
   std::tm tm{};
   gmtime_r(&t, &tm);
   char buf[16];
-  std::strftime(buf, sizeof buf, "%G-W%V", &tm);
+  std::strftime(buf, sizeof buf, format, &tm);
   return buf;
 }
+}  // namespace
 
-std::string MonthLabel(int64_t utime) {
-  const std::time_t t = static_cast<std::time_t>(utime / 1'000'000);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[16];
-  std::strftime(buf, sizeof buf, "%Y-%m", &tm);
-  return buf;
-}
+std::string IsoWeekLabel(int64_t utime) { return UtcLabel(utime, "%G-W%V"); }
+std::string MonthLabel(int64_t utime) { return UtcLabel(utime, "%Y-%m"); }
 
 std::vector<judge::Subgroup> ChartSubgroups(const std::vector<store::RunValueRow>& rows, ChartBy by,
                                             const std::string& station) {

@@ -26,6 +26,10 @@ class RawStmt {
     if (stmt_) stmt_->Bind(i, v);
     return *this;
   }
+  RawStmt& Bind(int i, const std::string& v) {
+    if (stmt_) stmt_->Bind(i, v);
+    return *this;
+  }
   // Calls fn for each row; fn's error stops the loop.
   Status ForEach(const std::function<Status(const Stmt&)>& fn) {
     IMUQUAL_RETURN_IF_ERROR(error_);
@@ -454,6 +458,13 @@ Result<std::vector<ChainEntry>> ReadChain(Db& db) {
 
 Status ForEachChainEntry(Db& db, const std::function<Status(const ChainEntry&)>& fn) {
   RawStmt s(db, std::string(kEntryColumns) + " ORDER BY entry");
+  return s.ForEach([&](const Stmt& row) { return fn(EntryFromRow(row)); });
+}
+
+Status ForEachPlantChainEntry(Db& plant, const std::string& archive_id,
+                              const std::function<Status(const ChainEntry&)>& fn) {
+  RawStmt s(plant, std::string(kEntryColumns) + " WHERE archive_id = ? ORDER BY entry");
+  s.Bind(1, archive_id);
   return s.ForEach([&](const Stmt& row) { return fn(EntryFromRow(row)); });
 }
 

@@ -129,6 +129,10 @@ Status AppendMigrationEntry(Db& db, int64_t utime);
 // one at a time; fn's error stops it).
 Result<std::vector<ChainEntry>> ReadChain(Db& db);
 Status ForEachChainEntry(Db& db, const std::function<Status(const ChainEntry&)>& fn);
+// A plant archive's copy of station archive `archive_id`'s chain, in entry
+// order (store/plant_schema.h).
+Status ForEachPlantChainEntry(Db& plant, const std::string& archive_id,
+                              const std::function<Status(const ChainEntry&)>& fn);
 // Entries `first`, first + 1, ... to the last, in entry order.
 Result<std::vector<ChainEntry>> ReadChainFrom(Db& db, int64_t first);
 // Entry number `entry`, if the chain holds it.

@@ -670,36 +670,9 @@ Result<PlantVerifyReport> VerifyPlant(Archive& plant_archive, const SyncOptions&
   for (const Cursor& c : cursors) {
     ++report.archives;
     const std::string who = "station archive " + c.id.substr(0, 16) + "...";
-    auto s = plant.Prepare(
-        "SELECT entry, kind, run_id, revision, record, created_utime, key_id, signature, "
-        "prev_hash, entry_hash FROM archive_chain WHERE archive_id = ?1 ORDER BY entry");
-    if (!s.ok()) return s.status();
-    s->Bind(1, c.id);
     Digest prev{};
     int64_t n = 0;
-    for (;;) {
-      auto row = s->Step();
-      if (!row.ok()) return row.status();
-      if (!*row) break;
-      ChainEntry e;
-      e.entry = s->Int(0);
-      e.kind = s->Text(1);
-      e.run_id = s->Text(2);
-      e.revision = s->Int(3);
-      const std::vector<uint8_t> record = s->Blob(4);
-      e.record.assign(record.begin(), record.end());
-      e.created_utime = s->Int(5);
-      e.key_id = s->Text(6);
-      const std::vector<uint8_t> signature = s->Blob(7);
-      e.signature.assign(signature.begin(), signature.end());
-      auto digest = [&](int col) {
-        Digest d{};
-        const std::vector<uint8_t> b = s->Blob(col);
-        if (b.size() == d.size()) std::copy(b.begin(), b.end(), d.begin());
-        return d;
-      };
-      e.prev_hash = digest(8);
-      e.entry_hash = digest(9);
+    IMUQUAL_RETURN_IF_ERROR(ForEachPlantChainEntry(plant, c.id, [&](const ChainEntry& e) {
       ++n;
       ++report.entries;
       if (n == 1 && HexOf(e.entry_hash.data(), e.entry_hash.size()) != c.id) {
@@ -712,7 +685,8 @@ Result<PlantVerifyReport> VerifyPlant(Archive& plant_archive, const SyncOptions&
       } else {
         last[e.run_id] = {c.id, e.kind == kEntryFinalized ? e.record : std::string()};
       }
-    }
+      return Status::Ok();
+    }));
     if (n != c.shipped ||
         !std::equal(c.head.begin(), c.head.end(), prev.begin(), prev.end())) {
       say(who + ": the cursor says " + std::to_string(c.shipped) + " entries shipped, the plant "

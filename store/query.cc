@@ -402,71 +402,59 @@ Result<std::string> QueryLotFingerprint(Archive& archive, const std::string& lot
   return std::to_string(runs) + "/" + std::to_string(newest) + "/" + times + "/" + verdicts;
 }
 
+namespace {
+// Rows of lot, serial, station, operator, run_id, start_utime, axis, name,
+// value, unit, low, high.
+Result<std::vector<RunValueRow>> ReadRunValues(Stmt& s) {
+  std::vector<RunValueRow> rows;
+  auto opt = [&](int col) { return s.IsNull(col) ? std::nullopt : std::optional<double>(s.Real(col)); };
+  for (;;) {
+    auto row = s.Step();
+    if (!row.ok()) return row.status();
+    if (!*row) return rows;
+    RunValueRow r;
+    r.lot = s.Text(0);
+    r.unit = s.Text(1);
+    r.station = s.Text(2);
+    r.operator_name = s.Text(3);
+    r.run_id = s.Text(4);
+    r.start_utime = s.Int(5);
+    r.axis = s.Text(6);
+    r.name = s.Text(7);
+    r.value = s.Real(8);
+    r.value_unit = s.Text(9);
+    r.low = opt(10);
+    r.high = opt(11);
+    rows.push_back(std::move(r));
+  }
+}
+}  // namespace
+
 Result<std::vector<RunValueRow>> QueryRunValues(Archive& archive, const std::string& lot) {
   auto s = archive.db().Prepare(R"sql(
-SELECT r.serial, r.station, r.operator, r.run_id, r.start_utime, m.axis, m.name, m.value, m.unit,
-       m.low, m.high
+SELECT r.lot, r.serial, r.station, r.operator, r.run_id, r.start_utime, m.axis, m.name, m.value,
+       m.unit, m.low, m.high
 FROM runs r
 JOIN measurements m ON m.run_key = r.run_key
 WHERE r.lot = ?1 AND r.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
 ORDER BY r.serial, r.station, r.start_utime, r.run_id, m.axis, m.name)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, lot);
-  std::vector<RunValueRow> rows;
-  auto opt = [&](int col) { return s->IsNull(col) ? std::nullopt : std::optional<double>(s->Real(col)); };
-  for (;;) {
-    auto row = s->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) return rows;
-    RunValueRow r;
-    r.lot = lot;
-    r.unit = s->Text(0);
-    r.station = s->Text(1);
-    r.operator_name = s->Text(2);
-    r.run_id = s->Text(3);
-    r.start_utime = s->Int(4);
-    r.axis = s->Text(5);
-    r.name = s->Text(6);
-    r.value = s->Real(7);
-    r.value_unit = s->Text(8);
-    r.low = opt(9);
-    r.high = opt(10);
-    rows.push_back(std::move(r));
-  }
+  return ReadRunValues(*s);
 }
 
 Result<std::vector<RunValueRow>> QueryMeasurementHistory(Archive& archive, const std::string& name,
                                                          const std::string& axis) {
   auto s = archive.db().Prepare(R"sql(
-SELECT l.lot, l.serial, r.station, r.operator, l.run_id, l.start_utime, l.value, l.unit, l.low,
-       l.high
+SELECT l.lot, l.serial, r.station, r.operator, l.run_id, l.start_utime, l.axis, l.name, l.value,
+       l.unit, l.low, l.high
 FROM lot_measurements l
 JOIN runs r ON r.run_id = l.run_id
 WHERE l.name = ?1 AND l.axis = ?2 AND l.value IS NOT NULL
 ORDER BY l.start_utime, l.run_id)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, name).Bind(2, axis);
-  std::vector<RunValueRow> rows;
-  auto opt = [&](int col) { return s->IsNull(col) ? std::nullopt : std::optional<double>(s->Real(col)); };
-  for (;;) {
-    auto row = s->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) return rows;
-    RunValueRow r;
-    r.lot = s->Text(0);
-    r.unit = s->Text(1);
-    r.station = s->Text(2);
-    r.operator_name = s->Text(3);
-    r.run_id = s->Text(4);
-    r.start_utime = s->Int(5);
-    r.axis = axis;
-    r.name = name;
-    r.value = s->Real(6);
-    r.value_unit = s->Text(7);
-    r.low = opt(8);
-    r.high = opt(9);
-    rows.push_back(std::move(r));
-  }
+  return ReadRunValues(*s);
 }
 
 Result<std::vector<RunVerdictRow>> QueryRunVerdicts(Archive& archive) {
