@@ -4,6 +4,7 @@
 
 #include "common/keys.h"
 #include "common/log.h"
+#include "common/process_status.h"
 #include "store/archive.h"
 #include "store/plant_sync.h"
 
@@ -29,14 +30,19 @@ CLI::App* AddSyncCommand(CLI::App& app, SyncOptions* o) {
   cmd->add_option("--batch", o->batch, "chain entries per plant transaction")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
+  cmd->add_option("--new-archive-of", o->new_archive_of,
+                  "STATION: this file is that station's new archive (a rebuilt station): the "
+                  "plant moves the station id to it, recorded, and refuses the old archive's "
+                  "further runs of it");
   cmd->add_flag("--quiet", o->quiet, "no progress lines");
   cmd->footer(
       "Ships the entries of the station's chain the plant does not hold yet, in order, each "
       "batch in one transaction with the station's cursor: run it as often as you like (again: "
       "nothing inserted), after a week offline it catches up. Each run's record is recomputed "
       "from the rows the plant now holds and must equal the record the station signed; a "
-      "mismatch, a broken chain link or signature, or a run id the plant holds from another "
-      "station is refused, named, and nothing after it ships.\n"
+      "mismatch, a broken chain link or signature, a run id the plant holds from another "
+      "station, or a station id another station archive holds (two stations claiming one id) is "
+      "refused, named, and nothing after it ships.\n"
       "Exit 0 shipped (or nothing new), 1 the plant or the station could not be read or "
       "written (run it again: it resumes), 2 usage, 3 refused.\n"
       "Example:\n  imuqual sync --db station.db --to 'postgresql://ingest@plant-db/imuqual' "
@@ -64,6 +70,8 @@ int SyncCommand(const SyncOptions& o) {
   }
   options.require_signatures = !options.trusted.empty() && !o.allow_unsigned;
   options.batch_entries = o.batch;
+  options.new_archive_of = o.new_archive_of;
+  options.claimed_by = "imuqual sync " + InstanceName() + " " + o.db_path;
   if (!o.quiet) {
     options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   }
@@ -96,6 +104,7 @@ int SyncCommand(const SyncOptions& o) {
       static_cast<long long>(r.shipped_before), static_cast<long long>(r.runs_shipped),
       static_cast<long long>(r.runs_replaced), static_cast<long long>(r.rows_inserted),
       static_cast<long long>(r.chunks_inserted), static_cast<double>(r.chunk_bytes) / 1e6);
+  if (!r.station_moved.empty()) std::printf("%s\n", r.station_moved.c_str());
   if (r.behind) {
     std::printf(
         "the station archive is behind the plant (%lld entries here, %lld at the plant: restored "

@@ -21,6 +21,7 @@ struct SyncOptions {
   std::vector<std::string> pubkey_paths;
   bool allow_unsigned = false;
   int batch = 32;
+  std::string new_archive_of;  // a station id this archive takes over
   bool quiet = false;
 };
 

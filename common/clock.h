@@ -4,6 +4,7 @@
 #define IMUQUAL_COMMON_CLOCK_H_
 
 #include <chrono>
+#include <ctime>
 #include <cstdint>
 #include <string>
 
@@ -23,7 +24,14 @@ inline double MonotonicSeconds() {
 }
 
 // "2026-11-21T11:05:00Z" (UTC, second resolution).
-std::string FormatUtimeIso(int64_t utime);
+inline std::string FormatUtimeIso(int64_t utime) {
+  std::time_t secs = static_cast<std::time_t>(utime / 1000000);
+  std::tm tm{};
+  gmtime_r(&secs, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
 
 }  // namespace imuqual
 

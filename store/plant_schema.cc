@@ -5,7 +5,7 @@
 namespace imuqual::store {
 namespace {
 
-constexpr int kPlantVersion = 1;
+constexpr int kPlantVersion = 2;
 
 // Column for column the station schema (store/schema.cc at its current
 // version): INTEGER -> bigint, REAL -> double precision, BLOB -> bytea, TEXT
@@ -292,6 +292,29 @@ SELECT r.run_id, r.lot, r.serial, r.state, r.last_seq,
 FROM runs r;
 )sql";
 
+// Schema 2: which station archive holds each station id (the first to ship
+// a run of it). A second archive claiming the id is refused, unless it is
+// named as that station's new archive (a rebuilt station): then the claim
+// moves, and the row keeps the archive it moved from and who moved it.
+constexpr char kStationIds[] = R"sql(
+CREATE TABLE station_ids (
+  station           text COLLATE "C" PRIMARY KEY,
+  archive_id        text COLLATE "C" NOT NULL REFERENCES station_archives(archive_id),
+  claimed_utime     bigint NOT NULL,
+  previous_archive  text COLLATE "C" REFERENCES station_archives(archive_id),
+  claimed_by        text COLLATE "C" NOT NULL DEFAULT ''
+);
+)sql";
+
+// From schema 1: each station id to the archive of its latest run.
+constexpr char kStationIdsFromRuns[] = R"sql(
+INSERT INTO station_ids (station, archive_id, claimed_utime, claimed_by)
+SELECT DISTINCT ON (station) station, station_archive,
+       (extract(epoch FROM clock_timestamp()) * 1000000)::bigint, 'plant schema 2 (from runs)'
+FROM runs ORDER BY station, start_utime DESC;
+UPDATE imuqual_plant SET version = 2;
+)sql";
+
 Result<bool> HasTable(Db& db, const char* name) {
   auto s = db.Prepare(
       "SELECT count(*) FROM pg_catalog.pg_tables WHERE schemaname = current_schema() AND "
@@ -316,9 +339,27 @@ Status CheckVersion(Db& db) {
   }
   if (*v < kPlantVersion) {
     return Status::InvalidArgument(db.path() + " holds plant schema " + std::to_string(*v) +
-                                   "; this build reads " + std::to_string(kPlantVersion));
+                                   "; this build reads " + std::to_string(kPlantVersion) +
+                                   " (a sync or store --sync-to upgrades it)");
   }
   return Status::Ok();
+}
+
+// Upgrades schema 1 to 2 in one transaction (two clients at once: the
+// version row is locked, the second finds 2).
+Status Upgrade(Db& db) {
+  IMUQUAL_RETURN_IF_ERROR(db.Exec("BEGIN"));
+  auto v = db.QueryInt("SELECT version FROM imuqual_plant FOR UPDATE");
+  Status st = v.ok() ? Status::Ok() : v.status();
+  if (st.ok() && *v == 1) {
+    st = db.Exec(kStationIds);
+    if (st.ok()) st = db.Exec(kStationIdsFromRuns);
+  }
+  if (!st.ok()) {
+    (void)db.Exec("ROLLBACK");
+    return st;
+  }
+  return db.Exec("COMMIT");
 }
 
 }  // namespace
@@ -328,7 +369,11 @@ int PlantSchemaVersion() { return kPlantVersion; }
 Status MigratePlant(Db& db) {
   auto has = HasTable(db, "imuqual_plant");
   if (!has.ok()) return has.status();
-  if (*has) return CheckVersion(db);
+  if (*has) {
+    auto v = db.QueryInt("SELECT version FROM imuqual_plant");
+    if (v.ok() && *v < kPlantVersion) IMUQUAL_RETURN_IF_ERROR(Upgrade(db));
+    return CheckVersion(db);
+  }
   auto tables = db.QueryInt(
       "SELECT count(*) FROM pg_catalog.pg_tables WHERE schemaname = current_schema()");
   if (!tables.ok()) return tables.status();
@@ -338,6 +383,7 @@ Status MigratePlant(Db& db) {
   }
   IMUQUAL_RETURN_IF_ERROR(db.Exec("BEGIN"));
   Status st = db.Exec(kPlantSchema);
+  if (st.ok()) st = db.Exec(kStationIds);
   if (st.ok()) {
     st = db.Exec("INSERT INTO imuqual_plant(version, created_utime) VALUES (" +
                  std::to_string(kPlantVersion) +

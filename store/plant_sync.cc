@@ -114,8 +114,8 @@ std::string DifferingItems(const std::string& signed_bytes, const SignedRecord& 
 
 class Shipper {
  public:
-  Shipper(Db& station, Db& plant, SyncReport* report)
-      : station_(station), plant_(plant), report_(report) {}
+  Shipper(Db& station, Db& plant, const SyncOptions& options, SyncReport* report)
+      : station_(station), plant_(plant), options_(options), report_(report) {}
 
   // The plant's columns of `table` but its run key and the plant's own.
   Result<std::vector<std::string>> Columns(const std::string& table) {
@@ -222,11 +222,68 @@ class Shipper {
     return Status::Ok();
   }
 
+  // The station id `station_id` held by `archive_id` at the plant: claimed
+  // now if no archive holds it; moved to it from the archive that holds it
+  // when this sync names it that station's new archive; else a refusal in
+  // *refusal.
+  Status ClaimStation(const std::string& station_id, const std::string& archive_id,
+                      std::string* refusal) {
+    auto held = plant_.Prepare(
+        "SELECT archive_id, claimed_utime, previous_archive FROM station_ids WHERE station = ?1 "
+        "FOR UPDATE");
+    if (!held.ok()) return held.status();
+    held->Bind(1, station_id);
+    auto h = held->Step();
+    if (!h.ok()) return h.status();
+    const bool found = *h;
+    const std::string holder = found ? held->Text(0) : "";
+    const int64_t since = found ? held->Int(1) : 0;
+    const std::string before = found && !held->IsNull(2) ? held->Text(2) : "";
+    held->Reset();
+    const int64_t now = NowUtime();
+    if (!found) {
+      auto claim = plant_.Prepare(
+          "INSERT INTO station_ids (station, archive_id, claimed_utime, claimed_by) "
+          "VALUES (?1, ?2, ?3, ?4)");
+      if (!claim.ok()) return claim.status();
+      claim->Bind(1, station_id).Bind(2, archive_id).Bind(3, now).Bind(4, options_.claimed_by);
+      IMUQUAL_RETURN_IF_ERROR(claim->Run());
+    } else if (holder != archive_id) {
+      if (before == archive_id) {
+        *refusal = "station id " + station_id + " moved from this station archive to archive " +
+                   holder.substr(0, 16) + "... at " + FormatUtimeIso(since) +
+                   " (its new archive): this one may not ship runs of it any more";
+        return Status::Ok();
+      }
+      if (options_.new_archive_of != station_id) {
+        *refusal = "station id " + station_id + " is held at the plant by another station archive (" +
+                   holder.substr(0, 16) + "..., since " + FormatUtimeIso(since) +
+                   "): two stations claim one station id (give each station its own id; a "
+                   "rebuilt station's new archive is named with --new-archive-of " +
+                   station_id + ")";
+        return Status::Ok();
+      }
+      auto move = plant_.Prepare(
+          "UPDATE station_ids SET archive_id = ?2, claimed_utime = ?3, previous_archive = ?4, "
+          "claimed_by = ?5 WHERE station = ?1");
+      if (!move.ok()) return move.status();
+      move->Bind(1, station_id).Bind(2, archive_id).Bind(3, now).Bind(4, holder).Bind(
+          5, options_.claimed_by);
+      IMUQUAL_RETURN_IF_ERROR(move->Run());
+      if (report_->station_moved.empty()) {
+        report_->station_moved = "station id " + station_id + " moved to this archive from " +
+                                 holder.substr(0, 16) + "...";
+      }
+    }
+    return Status::Ok();
+  }
+
   // Copies run `run_id` with everything it holds; the plant's run key, or
   // a refusal in *refusal (nothing written then).
   Result<int64_t> CopyRun(const std::string& run_id, const std::string& archive_id,
                           std::string* refusal) {
-    auto skey_q = station_.Prepare("SELECT run_key, lot, serial FROM runs WHERE run_id = ?1");
+    auto skey_q =
+        station_.Prepare("SELECT run_key, lot, serial, station FROM runs WHERE run_id = ?1");
     if (!skey_q.ok()) return skey_q.status();
     skey_q->Bind(1, run_id);
     auto found = skey_q->Step();
@@ -236,8 +293,11 @@ class Shipper {
       return 0;
     }
     const int64_t skey = skey_q->Int(0);
-    const std::string lot = skey_q->Text(1), serial = skey_q->Text(2);
+    const std::string lot = skey_q->Text(1), serial = skey_q->Text(2),
+                      station_id = skey_q->Text(3);
     skey_q->Reset();
+    IMUQUAL_RETURN_IF_ERROR(ClaimStation(station_id, archive_id, refusal));
+    if (!refusal->empty()) return 0;
 
     auto held = plant_.Prepare("SELECT run_key, station_archive FROM runs WHERE run_id = ?1");
     if (!held.ok()) return held.status();
@@ -327,6 +387,7 @@ class Shipper {
  private:
   Db& station_;
   Db& plant_;
+  const SyncOptions& options_;
   SyncReport* report_;
   std::map<std::string, std::vector<std::string>> columns_;
   std::vector<std::string> run_tables_;
@@ -458,7 +519,7 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
   Digest tail_prev{};     // the hash tail[0] links to
   std::map<std::string, int64_t> last_entry;  // run id -> its last entry in the tail
   std::string station_name;
-  Shipper shipper(station, plant, &report);
+  Shipper shipper(station, plant, o, &report);
   bool first_batch = true;
   // A refusal found in a batch: the batch is rolled back and shipped again
   // up to the refused entry, then shipping stops there.
@@ -703,7 +764,8 @@ Result<PlantVerifyReport> VerifyPlant(Archive& plant_archive, const SyncOptions&
     all.emplace_back(runs->Int(0), runs->Text(1), runs->Text(2));
   }
   SyncReport unused;
-  Shipper checker(plant, plant, &unused);
+  const SyncOptions no_options;
+  Shipper checker(plant, plant, no_options, &unused);
   for (const auto& [key, id, archive] : all) {
     auto it = last.find(id);
     if (it == last.end() || it->second.first != archive) {

@@ -23,7 +23,10 @@
 //   with them, and the plant's chain holds every round's record.
 // - Refused, named: a station chain that no longer holds what the plant has
 //   (edited, or another archive with the same first entry); a run id the
-//   plant holds from another station archive.
+//   plant holds from another station archive; a run whose station id
+//   another station archive holds (two stations claiming one id: the first
+//   archive to ship a run of a station id holds it, until a sync names
+//   another archive that station's new one, SyncOptions::new_archive_of).
 // - A station archive behind the plant (restored from an old backup, whose
 //   chain is a prefix of what the plant holds) ships nothing and says so.
 #ifndef IMUQUAL_STORE_PLANT_SYNC_H_
@@ -47,6 +50,14 @@ struct SyncOptions {
   std::vector<PublicKey> trusted;
   // With trusted keys: an unsigned entry is refused.
   bool require_signatures = false;
+  // This archive is the new archive of that station id (a rebuilt station):
+  // the plant moves the id to it from the archive that held it, and refuses
+  // that one from then on. "" (default): a station id held by another
+  // archive is refused.
+  std::string new_archive_of;
+  // Who ships, as recorded with a station id's claim (e.g. "imuqual sync
+  // from HOST:PATH").
+  std::string claimed_by;
   // Progress lines ("shipped entries 1..32 of 120").
   std::function<void(const std::string&)> progress;
 };
@@ -63,6 +74,9 @@ struct SyncReport {
   // The station archive is behind the plant (restored from a backup): its
   // chain is a prefix of what the plant holds; nothing shipped.
   bool behind = false;
+  // "station id X moved to this archive from ..." when new_archive_of took
+  // a station id over; "" otherwise.
+  std::string station_moved;
   // Why shipping stopped before the station's last entry ("" if it did
   // not): the entry or run refused and what was wrong. Everything before it
   // is shipped.

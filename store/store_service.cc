@@ -1288,6 +1288,7 @@ Status StoreService::Run() {
     ship.station_db = s.options.db_path;
     ship.plant_url = s.options.sync_to;
     ship.period_s = s.options.sync_period_s;
+    ship.sync.claimed_by = "imuqual-store " + InstanceName() + " " + s.options.db_path;
     auto shipper = PlantShipper::Start(ship);
     if (!shipper.ok()) {
       LogError(shipper.status().message());

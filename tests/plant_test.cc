@@ -25,6 +25,7 @@
 
 #include "store/archive.h"
 #include "store/canonical.h"
+#include "store/plant_schema.h"
 #include "tests/csv_table.h"
 #include "tests/test_util.h"
 
@@ -357,6 +358,91 @@ TEST_F(PlantTest, AStationRestoredFromAnOldBackupShipsNothingAndLosesNothing) {
   EXPECT_NE(r.output.find("behind the plant"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("0 rows inserted"), std::string::npos) << r.output;
   ExpectShippedWhole(station_a_, plant);
+}
+
+// Two station archives claiming one station id (a second host set up with
+// the first one's id, or a rebuilt station): the first archive to ship a
+// run of the id holds it; the second is refused, named, nothing of it
+// stored, until a sync names it that station's new archive. Then the old
+// archive's further runs of the id are refused.
+TEST_F(PlantTest, TwoStationsClaimingOneStationIdAreRefusedUntilOneIsNamedItsNewArchive) {
+  const std::string plant = NewDatabase("plant_claims");
+  const std::string rebuilt = dir_->path("station-a-rebuilt.db");
+  Soak(rebuilt, "st-a", "P-CLAIM", 1, keyed_);
+  // A, as it was before its last soak, ships first: st-a is its.
+  ASSERT_EQ(Sync(dir_->path("station-a-backup.db"), plant).exit_code, 0);
+  const CommandResult second =
+      RunCommand(Bin("imuqual") + " sync --quiet --db " + rebuilt + " --to '" + plant + "' 2>&1");
+  EXPECT_EQ(second.exit_code, 3) << second.output;
+  EXPECT_NE(second.output.find("station id st-a is held at the plant by another station archive"),
+            std::string::npos)
+      << second.output;
+  EXPECT_NE(second.output.find("--new-archive-of st-a"), std::string::npos) << second.output;
+  {
+    auto p = store::Archive::Open(plant, store::Archive::Mode::kRead);
+    ASSERT_TRUE(p.ok());
+    auto n = (*p)->db().QueryInt("SELECT count(*) FROM runs WHERE lot = 'P-CLAIM'");
+    ASSERT_TRUE(n.ok());
+    EXPECT_EQ(*n, 0) << "a run of the refused archive was stored";
+  }
+  // Named st-a's new archive: it ships, and the move is recorded.
+  const CommandResult moved = RunCommand(Bin("imuqual") + " sync --quiet --db " + rebuilt +
+                                         " --to '" + plant + "' --new-archive-of st-a 2>&1");
+  EXPECT_EQ(moved.exit_code, 0) << moved.output;
+  EXPECT_NE(moved.output.find("station id st-a moved to this archive"), std::string::npos)
+      << moved.output;
+  ExpectShippedWhole(rebuilt, plant);
+  {
+    auto p = store::Archive::Open(plant, store::Archive::Mode::kRead);
+    ASSERT_TRUE(p.ok());
+    auto s = (*p)->db().Prepare(
+        "SELECT previous_archive IS NOT NULL, claimed_by FROM station_ids WHERE station = 'st-a'");
+    ASSERT_TRUE(s.ok());
+    ASSERT_TRUE(*s->Step());
+    EXPECT_EQ(s->Int(0), 1);
+    EXPECT_NE(s->Text(1).find("imuqual sync"), std::string::npos) << s->Text(1);
+  }
+  // The old archive (now with one more run of st-a) is refused from then on;
+  // what it shipped before stays.
+  const CommandResult old =
+      RunCommand(Bin("imuqual") + " sync --quiet --db " + station_a_ + " --to '" + plant + "' 2>&1");
+  EXPECT_EQ(old.exit_code, 3) << old.output;
+  EXPECT_NE(old.output.find("station id st-a moved from this station archive"), std::string::npos)
+      << old.output;
+  ExpectShippedWhole(dir_->path("station-a-backup.db"), plant, Reanalysis::kSkip);
+}
+
+// A plant archive of schema 1 (before station ids were held) is upgraded by
+// the next sync: each station id held by the archive of its latest run.
+TEST_F(PlantTest, APlantOfSchemaOneIsUpgradedByTheNextSync) {
+  const std::string plant = NewDatabase("plant_upgrade");
+  ASSERT_EQ(Sync(station_b_, plant).exit_code, 0);
+  {
+    auto w = store::Db::Open(plant, store::Db::Mode::kReadWrite);
+    ASSERT_TRUE(w.ok());
+    ASSERT_TRUE((*w)->Exec("DROP TABLE station_ids; UPDATE imuqual_plant SET version = 1").ok());
+  }
+  const CommandResult old_reader =
+      RunCommand(Bin("imuqual") + " lots --db '" + plant + "' 2>&1");
+  EXPECT_NE(old_reader.exit_code, 0);
+  EXPECT_NE(old_reader.output.find("holds plant schema 1"), std::string::npos) << old_reader.output;
+  const CommandResult r = Sync(station_a_, plant);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  auto p = store::Archive::Open(plant, store::Archive::Mode::kRead);
+  ASSERT_TRUE(p.ok()) << p.status().message();
+  auto v = (*p)->db().QueryInt("SELECT version FROM imuqual_plant");
+  ASSERT_TRUE(v.ok());
+  EXPECT_EQ(*v, store::PlantSchemaVersion());
+  auto held = (*p)->db().QueryInt(
+      "SELECT count(*) FROM station_ids i JOIN station_archives a USING (archive_id) WHERE "
+      "i.station IN ('st-a', 'st-b')");
+  ASSERT_TRUE(held.ok());
+  EXPECT_EQ(*held, 2);
+  // B's id is held by B's archive: another archive claiming it is refused.
+  const std::string other = dir_->path("station-b-other.db");
+  Soak(other, "st-b", "P-OTHER", 1, "");
+  const CommandResult claim = Sync(other, plant);
+  EXPECT_EQ(claim.exit_code, 3) << claim.output;
 }
 
 TEST_F(PlantTest, ARunJudgedAgainAfterShippingArrivesAsItsNewRoundWithTheOldKept) {
