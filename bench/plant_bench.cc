@@ -1,5 +1,6 @@
 // The plant archive's questions, timed: a lot's report data loaded and
-// rendered on a fresh connection (the lot page's first view), a unit's
+// rendered on a fresh connection (the lot page's first view as served, its
+// noise model section fetched after it, and the report as a file), a unit's
 // history, the yield trend per week, a control chart per week, and a
 // station agreement study, each p50 and p99 over repeated calls on the same
 // archive: the plant's PostgreSQL, or one station's SQLite file, for
@@ -74,12 +75,38 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < runs->size(); i += std::max<size_t>(1, runs->size() / 97)) {
     serials.push_back((*runs)[i].unit);
   }
+  // The served lot page's first view (imuqual serve: its noise model section
+  // fetched by its script), then that section, then the report as a file
+  // (the fits in it).
   Time(label, "lot_page_first_view", iterations, [&](int i) {
     auto fresh = store::Archive::Open(db, store::Archive::Mode::kRead);
     if (!fresh.ok()) return false;
     const std::string& lot = (*lots)[(static_cast<size_t>(i) * 37) % lots->size()].lot;
     auto data = report::LoadLotReport(**fresh, lot);
+    report::LotReportOptions served;
+    served.lot_models_url = "/lot-model/" + lot;
+    return data.ok() && !report::RenderLotReportHtml(*data, db, served).empty();
+  });
+  Time(label, "lot_model_section", iterations, [&](int i) {
+    auto fresh = store::Archive::Open(db, store::Archive::Mode::kRead);
+    if (!fresh.ok()) return false;
+    const std::string& lot = (*lots)[(static_cast<size_t>(i) * 37) % lots->size()].lot;
+    auto data = report::LoadLotReport(**fresh, lot);
+    return data.ok() && !report::RenderLotModelSection(*data).empty();
+  });
+  Time(label, "lot_report_file", iterations, [&](int i) {
+    auto fresh = store::Archive::Open(db, store::Archive::Mode::kRead);
+    if (!fresh.ok()) return false;
+    const std::string& lot = (*lots)[(static_cast<size_t>(i) * 37) % lots->size()].lot;
+    auto data = report::LoadLotReport(**fresh, lot);
     return data.ok() && !report::RenderLotReportHtml(*data, db).empty();
+  });
+  // The first view's two halves: reading the lot's data, and drawing it.
+  Time(label, "lot_page_load", iterations, [&](int i) {
+    auto fresh = store::Archive::Open(db, store::Archive::Mode::kRead);
+    if (!fresh.ok()) return false;
+    const std::string& lot = (*lots)[(static_cast<size_t>(i) * 37) % lots->size()].lot;
+    return report::LoadLotReport(**fresh, lot).ok();
   });
   Time(label, "unit_history", iterations * 5, [&](int i) {
     auto rows = store::QueryUnitHistory(**archive, serials[static_cast<size_t>(i) % serials.size()]);

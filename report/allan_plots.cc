@@ -380,21 +380,25 @@ Result<RunPlotData> LoadRunPlotData(store::Archive& archive, const std::string& 
   if (!result.ok()) return result.status();
   auto curves = archive.LoadCurves(**key);
   if (!curves.ok()) return curves.status();
+  return MakeRunPlotData(std::move(*info), *result, *curves);
+}
 
+RunPlotData MakeRunPlotData(store::RunInfo info, const std::optional<store::ResultRecord>& result,
+                            const std::vector<store::CurveRecord>& curves) {
   RunPlotData d;
-  d.info = std::move(*info);
+  d.info = std::move(info);
   if (!d.plan.ParseFromString(d.info.plan)) d.plan.Clear();
   std::vector<pb::Measurement> measurements;
-  if (*result) {
-    d.verdict = (*result)->verdict;
-    d.reasons = (*result)->reasons;
-    measurements = (*result)->measurements;
+  if (result) {
+    d.verdict = result->verdict;
+    d.reasons = result->reasons;
+    measurements = result->measurements;
   }
   for (const store::AxisInfo& ax : d.info.axes) {
     AxisPlotData a;
     a.axis = ax.name;
     a.kind = ax.kind;
-    for (const store::CurveRecord& c : *curves) {
+    for (const store::CurveRecord& c : curves) {
       if (c.axis != ax.name) continue;
       if (!a.curve || (a.curve->deviation != allan::Deviation::kOadev &&
                        c.curve.deviation == allan::Deviation::kOadev)) {

@@ -66,6 +66,9 @@ struct RunPlotData {
 
 // Reads one run. NotFound names the run and the archive.
 Result<RunPlotData> LoadRunPlotData(store::Archive& archive, const std::string& run_id);
+// The same from a run's records already read (store::Archive::LoadLotRuns).
+RunPlotData MakeRunPlotData(store::RunInfo info, const std::optional<store::ResultRecord>& result,
+                            const std::vector<store::CurveRecord>& curves);
 
 struct AllanPlot {
   std::string key;    // "gyro"/"accel" (run plots) or the axis name (lot plots)

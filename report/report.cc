@@ -820,6 +820,21 @@ constexpr char kScript[] = R"js(
     });
     rows.forEach(function (r) { body.appendChild(r); });
   }
+  // A section a served page leaves to be fetched (the lot noise models):
+  // its place holds a note until it arrives.
+  document.querySelectorAll('section[data-src]').forEach(function (section) {
+    fetch(section.getAttribute('data-src'), {credentials: 'same-origin'})
+      .then(function (r) {
+        if (!r.ok) throw new Error('status ' + r.status);
+        return r.text();
+      })
+      .then(function (html) { section.outerHTML = html; })
+      .catch(function (e) {
+        var note = section.querySelector('p');
+        if (note) note.textContent = 'The lot noise model could not be loaded (' + e.message + '): reload the page.';
+        section.removeAttribute('aria-busy');
+      });
+  });
   document.querySelectorAll('table.sortable').forEach(function (table) {
     var head = table.tHead.rows[0];
     Array.prototype.forEach.call(head.cells, function (th, col) {
@@ -938,11 +953,19 @@ Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& 
   auto early = QueryEarlyDecisions(archive, lot);
   if (!early.ok()) return early.status();
   d.early = std::move(*early);
+  // Every run of the lot at once (four queries, not four per unit).
+  auto lot_runs = archive.LoadLotRuns(lot);
+  if (!lot_runs.ok()) return lot_runs.status();
+  std::map<std::string, store::LotRunRecord*> by_id;
+  for (store::LotRunRecord& r : *lot_runs) by_id[r.info.run_id] = &r;
   for (const store::AxisRow& r : d.rows) {
     if (!d.runs.empty() && d.runs.back().info.run_id == r.run_id) continue;
-    auto run = LoadRunPlotData(archive, r.run_id);
-    if (!run.ok()) return run.status();
-    d.runs.push_back(std::move(*run));
+    auto it = by_id.find(r.run_id);
+    if (it == by_id.end()) {
+      return Status::Corruption("run " + r.run_id + " of lot " + lot + " vanished while read");
+    }
+    store::LotRunRecord& run = *it->second;
+    d.runs.push_back(MakeRunPlotData(std::move(run.info), run.result, run.curves));
   }
   // The raw samples of the units the report shows on their own.
   for (const RunPlotData* r : NeedALook(d.runs)) {
@@ -954,17 +977,29 @@ Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& 
 }
 
 Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
-                                       const std::string& archive_label) {
+                                       const std::string& archive_label,
+                                       const LotReportOptions& options) {
   auto d = LoadLotReport(archive, lot);
   if (!d.ok()) return d.status();
-  return RenderLotReportHtml(*d, archive_label);
+  return RenderLotReportHtml(*d, archive_label, options);
 }
 
-std::string RenderLotReportHtml(const LotReportData& d, const std::string& archive_label) {
+std::string RenderLotModelSection(const LotReportData& d) {
+  std::string html;
+  LotModelSection(ComputeLotModels(d.runs), &html);
+  return html;
+}
+
+std::string RenderLotReportHtml(const LotReportData& d, const std::string& archive_label,
+                                const LotReportOptions& options) {
   const std::string& lot = d.lot.lot;
-  // The lot noise models (a fit per axis, the slowest part) meanwhile.
-  std::future<std::vector<AxisLotModel>> lot_models =
-      std::async(std::launch::async, [&d] { return ComputeLotModels(d.runs); });
+  // The lot noise models (a fit per axis, the slowest part) meanwhile, or
+  // fetched by the page's script.
+  const bool models_here = options.lot_models_url.empty();
+  std::future<std::string> lot_models;
+  if (models_here) {
+    lot_models = std::async(std::launch::async, [&d] { return RenderLotModelSection(d); });
+  }
   // Plots first: the attention list links to the unit plots.
   const std::vector<AllanPlot> lot_plots = LotAllanPlots(lot, d.runs, "");
   const std::vector<const RunPlotData*> flagged = NeedALook(d.runs);
@@ -1022,7 +1057,15 @@ std::string RenderLotReportHtml(const LotReportData& d, const std::string& archi
   Attention(d, plot_anchor, &html);
   Results(d, &html);
   Statistics(d, &html);
-  LotModelSection(lot_models.get(), &html);
+  if (models_here) {
+    html += lot_models.get();
+  } else {
+    Add(&html, "<section id=\"lot-model\"", Attr("data-src", options.lot_models_url),
+        " aria-busy=\"true\">\n<h2>Lot noise model</h2>\n<p class=\"note\">Fitting the lot noise "
+        "model of each axis (a few tenths of a second a lot)&hellip;</p>\n<noscript><p><a",
+        Attr("href", options.lot_models_url),
+        ">The lot noise model</a> on a page of its own.</p></noscript>\n</section>\n");
+  }
   html += "<section id=\"lot-plots\">\n<h2>Allan deviation: the lot, per axis</h2>\n";
   if (lot_plots.empty()) {
     html += "<p class=\"note\">No Allan curve stored for this lot.</p>\n";

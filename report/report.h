@@ -71,14 +71,28 @@ struct LotReportData {
 // no run of it.
 Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& lot);
 
+struct LotReportOptions {
+  // "" (default): the lot noise models are fitted and shown in the report
+  // (a file stands alone). Else the report's script fetches their section
+  // from this URL (RenderLotModelSection, served): a served page's first
+  // view does not wait for the fits, the slowest part of a report.
+  std::string lot_models_url;
+};
+
 // The report's HTML from its data; `archive_label` is how the page names
 // the archive (e.g. its path).
-std::string RenderLotReportHtml(const LotReportData& data, const std::string& archive_label);
+std::string RenderLotReportHtml(const LotReportData& data, const std::string& archive_label,
+                                const LotReportOptions& options = {});
+
+// The report's lot noise model section alone (an HTML fragment): a fit per
+// axis of the lot's curves.
+std::string RenderLotModelSection(const LotReportData& data);
 
 // LoadLotReport, then RenderLotReportHtml. NotFound names the lot when the archive has no run of
 // it. `archive_label` is how the page names the archive (e.g. its path).
 Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
-                                       const std::string& archive_label);
+                                       const std::string& archive_label,
+                                       const LotReportOptions& options = {});
 
 // The report's only script (sortable tables), which BuildLotReportHtml puts
 // inline as "<script>" + LotReportScript() + "</script>": a server whose

@@ -6,6 +6,9 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <functional>
+#include <map>
+#include <set>
 #include <thread>
 
 #include "common/clock.h"
@@ -484,34 +487,143 @@ Result<std::vector<std::string>> Archive::UnfinishedRunIds() {
   }
 }
 
-Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
-  auto r = db_->Prepare(
-      "SELECT COALESCE(verdict, ''), COALESCE(reasons, ''), samples, gap_samples, "
-      "invalid_samples, result_utime, record, revision, result_last_seq, result_gap_batches "
-      "FROM runs WHERE run_key = ? AND result_utime IS NOT NULL");
-  if (!r.ok()) return r.status();
-  r->Bind(1, run_key);
-  auto row = r->Step();
-  if (!row.ok()) return row.status();
-  if (!*row) return std::optional<ResultRecord>();
+namespace {
+
+// The columns of a run's result in runs, and how a row of them reads.
+constexpr char kResultColumns[] =
+    "COALESCE(verdict, ''), COALESCE(reasons, ''), samples, gap_samples, invalid_samples, "
+    "result_utime, record, revision, result_last_seq, result_gap_batches";
+// The same without the signed record (15 KB a run, hex on the wire from
+// PostgreSQL): what a lot's report reads.
+constexpr char kResultColumnsNoRecord[] =
+    "COALESCE(verdict, ''), COALESCE(reasons, ''), samples, gap_samples, invalid_samples, "
+    "result_utime, NULL, revision, result_last_seq, result_gap_batches";
+ResultRecord ResultFromRow(Stmt& r, int at) {
   ResultRecord res;
-  res.verdict = r->Text(0);
-  const std::string reasons = r->Text(1);
+  res.verdict = r.Text(at);
+  const std::string reasons = r.Text(at + 1);
   for (size_t start = 0; start < reasons.size();) {
     const size_t end = reasons.find('\n', start);
     res.reasons.push_back(reasons.substr(start, end - start));
     if (end == std::string::npos) break;
     start = end + 1;
   }
-  res.samples = r->Int(2);
-  res.gap_samples = r->Int(3);
-  res.invalid_samples = r->Int(4);
-  res.result_utime = r->Int(5);
-  const std::vector<uint8_t> record = r->Blob(6);
+  res.samples = r.Int(at + 2);
+  res.gap_samples = r.Int(at + 3);
+  res.invalid_samples = r.Int(at + 4);
+  res.result_utime = r.Int(at + 5);
+  const std::vector<uint8_t> record = r.Blob(at + 6);
   res.record.assign(record.begin(), record.end());
-  res.revision = static_cast<int>(r->Int(7));
-  if (!r->IsNull(8)) res.last_seq = r->Int(8);
-  if (!r->IsNull(9)) res.gap_batches = r->Int(9);
+  res.revision = static_cast<int>(r.Int(at + 7));
+  if (!r.IsNull(at + 8)) res.last_seq = r.Int(at + 8);
+  if (!r.IsNull(at + 9)) res.gap_batches = r.Int(at + 9);
+  return res;
+}
+
+constexpr char kMeasurementColumns[] =
+    "axis, name, value, unit, low, high, marginal_low, marginal_high, outcome, note, "
+    "uncertainty, qualifier, uncertainty_method, decision_rule, guard_band";
+pb::Measurement MeasurementFromRow(Stmt& m, int at) {
+  pb::Measurement pm;
+  pm.set_axis(m.Text(at));
+  pm.set_name(m.Text(at + 1));
+  pm.set_value(m.Real(at + 2));
+  pm.set_unit(m.Text(at + 3));
+  if (!m.IsNull(at + 4)) pm.set_low(m.Real(at + 4));
+  if (!m.IsNull(at + 5)) pm.set_high(m.Real(at + 5));
+  if (!m.IsNull(at + 6)) pm.set_marginal_low(m.Real(at + 6));
+  if (!m.IsNull(at + 7)) pm.set_marginal_high(m.Real(at + 7));
+  pm.set_outcome(OutcomeFromText(m.Text(at + 8)));
+  pm.set_note(m.Text(at + 9));
+  if (!m.IsNull(at + 10)) pm.set_uncertainty(m.Real(at + 10));
+  pm.set_qualifier(QualifierFromText(m.Text(at + 11)));
+  pm.set_uncertainty_method(m.Text(at + 12));
+  pm.set_decision_rule(DecisionRuleFromText(m.Text(at + 13)));
+  if (!m.IsNull(at + 14)) pm.set_guard_band(m.Real(at + 14));
+  return pm;
+}
+
+constexpr char kRunColumns[] =
+    "run_key, serial, lot, station, slot, operator, source, software_version, start_utime, "
+    "end_utime, state, nominal_rate_hz, last_seq, samples_announced, plan, plan_sha256, truth, "
+    "first_sample, end_sample, end_reason, revision, bus_auth, run_id";
+RunInfo RunFromRow(Stmt& s) {
+  RunInfo r;
+  r.serial = s.Text(1);
+  r.lot = s.Text(2);
+  r.station = s.Text(3);
+  r.slot = s.Text(4);
+  r.operator_name = s.Text(5);
+  r.source = s.Text(6);
+  r.software_version = s.Text(7);
+  r.start_utime = s.Int(8);
+  if (!s.IsNull(9)) r.end_utime = s.Int(9);
+  r.state = s.Text(10);
+  r.nominal_rate_hz = s.Real(11);
+  r.last_seq = s.Int(12);
+  r.samples_announced = s.Int(13);
+  const std::vector<uint8_t> plan = s.Blob(14);
+  r.plan.assign(plan.begin(), plan.end());
+  r.plan_sha256 = s.Text(15);
+  const std::vector<uint8_t> truth = s.Blob(16);
+  r.truth.assign(truth.begin(), truth.end());
+  r.first_sample = s.Int(17);
+  r.end_sample = s.Int(18);
+  r.end_reason = s.Text(19);
+  r.revision = static_cast<int>(s.Int(20));
+  r.bus_auth = s.IsNull(21) ? "" : s.Text(21);
+  r.run_id = s.Text(22);
+  return r;
+}
+
+constexpr char kCurveColumns[] =
+    "c.axis, c.estimator, c.ci_method, c.tau0_s, c.samples, c.valid_samples, c.computed_utime, "
+    "p.m, p.tau_s, p.dev, p.lo, p.hi, p.edf, p.n_terms, p.stride, p.alpha, p.alpha_from";
+// Appends the curve point of row `s` (columns from `at`) to `curves`,
+// starting a new curve when the axis or estimator changes.
+void AddCurveRow(Stmt& s, int at, std::vector<CurveRecord>* curves) {
+  const std::string axis = s.Text(at), est = s.Text(at + 1);
+  if (curves->empty() || curves->back().axis != axis ||
+      allan::DeviationName(curves->back().curve.deviation) != est) {
+    CurveRecord rec;
+    rec.axis = axis;
+    rec.curve.deviation = allan::ParseDeviation(est).value_or(allan::Deviation::kOadev);
+    rec.curve.ci = allan::ParseCiMethod(s.Text(at + 2)).value_or(allan::CiMethod::kNone);
+    rec.curve.tau0_s = s.Real(at + 3);
+    rec.samples = s.Int(at + 4);
+    // Rate samples in, phase points behind the curve: one more.
+    rec.curve.n_phase = rec.samples > 0 ? rec.samples + 1 : 0;
+    rec.valid_samples = s.Int(at + 5);
+    rec.computed_utime = s.Int(at + 6);
+    curves->push_back(std::move(rec));
+  }
+  allan::CurvePoint p;
+  p.m = s.Int(at + 7);
+  p.tau_s = s.Real(at + 8);
+  p.dev = s.Real(at + 9);
+  p.lo = s.Real(at + 10);
+  p.hi = s.Real(at + 11);
+  p.edf = s.Real(at + 12);
+  p.n = s.Int(at + 13);
+  p.stride = s.Int(at + 14);
+  if (!s.IsNull(at + 15)) {
+    p.alpha = static_cast<int>(s.Int(at + 15));
+    p.alpha_inherited = s.Text(at + 16) == "nearest";
+  }
+  curves->back().curve.points.push_back(p);
+}
+
+}  // namespace
+
+Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
+  auto r = db_->Prepare(std::string("SELECT ") + kResultColumns +
+                        " FROM runs WHERE run_key = ? AND result_utime IS NOT NULL");
+  if (!r.ok()) return r.status();
+  r->Bind(1, run_key);
+  auto row = r->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) return std::optional<ResultRecord>();
+  ResultRecord res = ResultFromRow(*r, 0);
   auto ax =
       db_->Prepare("SELECT invalid_samples FROM run_axes WHERE run_key = ? ORDER BY axis_index");
   if (!ax.ok()) return ax.status();
@@ -526,33 +638,15 @@ Result<std::optional<ResultRecord>> Archive::LoadResult(int64_t run_key) {
     }
     res.axis_invalid_samples.push_back(ax->Int(0));
   }
-  auto m = db_->Prepare(
-      "SELECT axis, name, value, unit, low, high, marginal_low, marginal_high, outcome, note, "
-      "uncertainty, qualifier, uncertainty_method, decision_rule, guard_band FROM measurements "
-      "WHERE run_key = ? ORDER BY axis, name");
+  auto m = db_->Prepare(std::string("SELECT ") + kMeasurementColumns +
+                        " FROM measurements WHERE run_key = ? ORDER BY axis, name");
   if (!m.ok()) return m.status();
   m->Bind(1, run_key);
   for (;;) {
     auto mrow = m->Step();
     if (!mrow.ok()) return mrow.status();
     if (!*mrow) break;
-    pb::Measurement pm;
-    pm.set_axis(m->Text(0));
-    pm.set_name(m->Text(1));
-    pm.set_value(m->Real(2));
-    pm.set_unit(m->Text(3));
-    if (!m->IsNull(4)) pm.set_low(m->Real(4));
-    if (!m->IsNull(5)) pm.set_high(m->Real(5));
-    if (!m->IsNull(6)) pm.set_marginal_low(m->Real(6));
-    if (!m->IsNull(7)) pm.set_marginal_high(m->Real(7));
-    pm.set_outcome(OutcomeFromText(m->Text(8)));
-    pm.set_note(m->Text(9));
-    if (!m->IsNull(10)) pm.set_uncertainty(m->Real(10));
-    pm.set_qualifier(QualifierFromText(m->Text(11)));
-    pm.set_uncertainty_method(m->Text(12));
-    pm.set_decision_rule(DecisionRuleFromText(m->Text(13)));
-    if (!m->IsNull(14)) pm.set_guard_band(m->Real(14));
-    res.measurements.push_back(std::move(pm));
+    res.measurements.push_back(MeasurementFromRow(*m, 0));
   }
   return std::optional<ResultRecord>(std::move(res));
 }
@@ -580,42 +674,14 @@ Result<bool> Archive::IsFinalized(const std::string& run_id) {
 }
 
 Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
-  auto s = db_->Prepare(
-      "SELECT run_key, serial, lot, station, slot, operator, source, software_version, "
-      "start_utime, end_utime, state, nominal_rate_hz, last_seq, samples_announced, plan, "
-      "plan_sha256, truth, first_sample, end_sample, end_reason, revision, bus_auth FROM runs "
-      "WHERE run_id = ?");
+  auto s = db_->Prepare(std::string("SELECT ") + kRunColumns + " FROM runs WHERE run_id = ?");
   if (!s.ok()) return s.status();
   s->Bind(1, run_id);
   auto row = s->Step();
   if (!row.ok()) return row.status();
   if (!*row) return Status::NotFound("no run '" + run_id + "' in " + path());
-  RunInfo r;
+  RunInfo r = RunFromRow(*s);
   const int64_t key = s->Int(0);
-  r.run_id = run_id;
-  r.serial = s->Text(1);
-  r.lot = s->Text(2);
-  r.station = s->Text(3);
-  r.slot = s->Text(4);
-  r.operator_name = s->Text(5);
-  r.source = s->Text(6);
-  r.software_version = s->Text(7);
-  r.start_utime = s->Int(8);
-  if (!s->IsNull(9)) r.end_utime = s->Int(9);
-  r.state = s->Text(10);
-  r.nominal_rate_hz = s->Real(11);
-  r.last_seq = s->Int(12);
-  r.samples_announced = s->Int(13);
-  const std::vector<uint8_t> plan = s->Blob(14);
-  r.plan.assign(plan.begin(), plan.end());
-  r.plan_sha256 = s->Text(15);
-  const std::vector<uint8_t> truth = s->Blob(16);
-  r.truth.assign(truth.begin(), truth.end());
-  r.first_sample = s->Int(17);
-  r.end_sample = s->Int(18);
-  r.end_reason = s->Text(19);
-  r.revision = static_cast<int>(s->Int(20));
-  r.bus_auth = s->IsNull(21) ? "" : s->Text(21);
   auto ax = db_->Prepare("SELECT axis, kind FROM run_axes WHERE run_key = ? ORDER BY axis_index");
   if (!ax.ok()) return ax.status();
   ax->Bind(1, key);
@@ -626,6 +692,68 @@ Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
     r.axes.push_back({ax->Text(0), ParseAxisKind(ax->Text(1))});
   }
   return r;
+}
+
+Result<std::vector<LotRunRecord>> Archive::LoadLotRuns(const std::string& lot) {
+  std::vector<LotRunRecord> runs;
+  std::map<int64_t, size_t> at;  // run key -> index in runs
+  {
+    auto s = db_->Prepare(std::string("SELECT ") + kRunColumns + ", " + kResultColumnsNoRecord +
+                          ", result_utime IS NOT NULL FROM runs WHERE lot = ?1 ORDER BY run_key");
+    if (!s.ok()) return s.status();
+    s->Bind(1, lot);
+    for (;;) {
+      auto row = s->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      LotRunRecord r;
+      r.run_key = s->Int(0);
+      r.info = RunFromRow(*s);
+      constexpr int kResultAt = 23;
+      if (s->Int(kResultAt + 10) != 0) r.result = ResultFromRow(*s, kResultAt);
+      at[r.run_key] = runs.size();
+      runs.push_back(std::move(r));
+    }
+  }
+  if (runs.empty()) return runs;
+  // Each query below reads the lot's rows in run-key order.
+  auto each = [&](const std::string& sql, const std::function<void(LotRunRecord&, Stmt&)>& fn)
+      -> Status {
+    auto s = db_->Prepare(sql);
+    if (!s.ok()) return s.status();
+    s->Bind(1, lot);
+    for (;;) {
+      auto row = s->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) return Status::Ok();
+      auto it = at.find(s->Int(0));
+      if (it != at.end()) fn(runs[it->second], *s);
+    }
+  };
+  std::set<int64_t> invalid_unknown;
+  IMUQUAL_RETURN_IF_ERROR(each(
+      "SELECT a.run_key, a.axis, a.kind, a.invalid_samples FROM run_axes a JOIN runs r USING "
+      "(run_key) WHERE r.lot = ?1 ORDER BY a.run_key, a.axis_index",
+      [&](LotRunRecord& r, Stmt& s) {
+        r.info.axes.push_back({s.Text(1), ParseAxisKind(s.Text(2))});
+        if (!r.result) return;
+        if (s.IsNull(3)) invalid_unknown.insert(r.run_key);
+        r.result->axis_invalid_samples.push_back(s.IsNull(3) ? 0 : s.Int(3));
+      }));
+  for (int64_t key : invalid_unknown) runs[at[key]].result->axis_invalid_samples.clear();
+  IMUQUAL_RETURN_IF_ERROR(each(
+      std::string("SELECT m.run_key, ") + kMeasurementColumns +
+          " FROM measurements m JOIN runs r USING (run_key) WHERE r.lot = ?1 AND "
+          "r.result_utime IS NOT NULL ORDER BY m.run_key, m.axis, m.name",
+      [&](LotRunRecord& r, Stmt& s) {
+        if (r.result) r.result->measurements.push_back(MeasurementFromRow(s, 1));
+      }));
+  IMUQUAL_RETURN_IF_ERROR(each(
+      std::string("SELECT c.run_key, ") + kCurveColumns +
+          " FROM curves c JOIN curve_points p USING (run_key, axis, estimator) JOIN runs r ON "
+          "r.run_key = c.run_key WHERE r.lot = ?1 ORDER BY c.run_key, c.axis, c.estimator, p.m",
+      [&](LotRunRecord& r, Stmt& s) { AddCurveRow(s, 1, &r.curves); }));
+  return runs;
 }
 
 Result<int64_t> Archive::NextMissingSeq(int64_t run_key) {
@@ -709,11 +837,9 @@ Result<std::vector<GapRecord>> Archive::LoadGaps(int64_t run_key) {
 }
 
 Result<std::vector<CurveRecord>> Archive::LoadCurves(int64_t run_key) {
-  auto s = db_->Prepare(
-      "SELECT c.axis, c.estimator, c.ci_method, c.tau0_s, c.samples, c.valid_samples, "
-      "c.computed_utime, p.m, p.tau_s, p.dev, p.lo, p.hi, p.edf, p.n_terms, p.stride, p.alpha, "
-      "p.alpha_from FROM curves c JOIN curve_points p USING (run_key, axis, estimator) "
-      "WHERE c.run_key = ? ORDER BY c.axis, c.estimator, p.m");
+  auto s = db_->Prepare(std::string("SELECT ") + kCurveColumns +
+                        " FROM curves c JOIN curve_points p USING (run_key, axis, estimator) "
+                        "WHERE c.run_key = ? ORDER BY c.axis, c.estimator, p.m");
   if (!s.ok()) return s.status();
   s->Bind(1, run_key);
   std::vector<CurveRecord> curves;
@@ -721,35 +847,7 @@ Result<std::vector<CurveRecord>> Archive::LoadCurves(int64_t run_key) {
     auto row = s->Step();
     if (!row.ok()) return row.status();
     if (!*row) break;
-    const std::string axis = s->Text(0), est = s->Text(1);
-    if (curves.empty() || curves.back().axis != axis ||
-        allan::DeviationName(curves.back().curve.deviation) != est) {
-      CurveRecord rec;
-      rec.axis = axis;
-      rec.curve.deviation = allan::ParseDeviation(est).value_or(allan::Deviation::kOadev);
-      rec.curve.ci = allan::ParseCiMethod(s->Text(2)).value_or(allan::CiMethod::kNone);
-      rec.curve.tau0_s = s->Real(3);
-      rec.samples = s->Int(4);
-      // Rate samples in, phase points behind the curve: one more.
-      rec.curve.n_phase = rec.samples > 0 ? rec.samples + 1 : 0;
-      rec.valid_samples = s->Int(5);
-      rec.computed_utime = s->Int(6);
-      curves.push_back(std::move(rec));
-    }
-    allan::CurvePoint p;
-    p.m = s->Int(7);
-    p.tau_s = s->Real(8);
-    p.dev = s->Real(9);
-    p.lo = s->Real(10);
-    p.hi = s->Real(11);
-    p.edf = s->Real(12);
-    p.n = s->Int(13);
-    p.stride = s->Int(14);
-    if (!s->IsNull(15)) {
-      p.alpha = static_cast<int>(s->Int(15));
-      p.alpha_inherited = s->Text(16) == "nearest";
-    }
-    curves.back().curve.points.push_back(p);
+    AddCurveRow(*s, 0, &curves);
   }
   return curves;
 }

@@ -113,6 +113,14 @@ struct ResultRecord {
   std::optional<int64_t> gap_batches;
 };
 
+// One run of a lot with what a lot report shows of it (Archive::LoadLotRuns).
+struct LotRunRecord {
+  int64_t run_key = 0;
+  RunInfo info;
+  std::optional<ResultRecord> result;  // as LoadResult, but its record left empty
+  std::vector<CurveRecord> curves;     // as LoadCurves
+};
+
 class Archive {
  public:
   enum class Mode { kWrite, kRead };
@@ -169,6 +177,11 @@ class Archive {
   // Whether the run exists and has been finalized.
   Result<bool> IsFinalized(const std::string& run_id);
   Result<RunInfo> LoadRun(const std::string& run_id);
+  // Every run of the lot, in run-key order, each as LoadRun, LoadResult and
+  // LoadCurves read it (but the result's signed record, left empty), in
+  // four queries however many runs (a lot report's units on a plant across
+  // the network).
+  Result<std::vector<LotRunRecord>> LoadLotRuns(const std::string& lot);
   // The smallest seq not archived for the run (0 if none).
   Result<int64_t> NextMissingSeq(int64_t run_key);
   // Seqs archived at or above `from_seq`, ascending.

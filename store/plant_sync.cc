@@ -228,6 +228,7 @@ class Shipper {
   // *refusal.
   Status ClaimStation(const std::string& station_id, const std::string& archive_id,
                       std::string* refusal) {
+    if (claimed_in_transaction_.count(station_id)) return Status::Ok();
     auto held = plant_.Prepare(
         "SELECT archive_id, claimed_utime, previous_archive FROM station_ids WHERE station = ?1 "
         "FOR UPDATE");
@@ -275,8 +276,13 @@ class Shipper {
                                  holder.substr(0, 16) + "...";
       }
     }
+    claimed_in_transaction_.insert(station_id);
     return Status::Ok();
   }
+
+  // A plant transaction begins (what was claimed in one rolled back is not
+  // claimed any more).
+  void NewTransaction() { claimed_in_transaction_.clear(); }
 
   // Copies run `run_id` with everything it holds; the plant's run key, or
   // a refusal in *refusal (nothing written then).
@@ -388,6 +394,7 @@ class Shipper {
   Db& station_;
   Db& plant_;
   const SyncOptions& options_;
+  std::set<std::string> claimed_in_transaction_;  // station ids this archive holds
   SyncReport* report_;
   std::map<std::string, std::vector<std::string>> columns_;
   std::vector<std::string> run_tables_;
@@ -527,6 +534,7 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
   std::string refusal_found;
   for (;;) {
     IMUQUAL_RETURN_IF_ERROR(plant.BeginWrite());
+    shipper.NewTransaction();
     auto fail = [&](const Status& st) {
       (void)plant.Exec("ROLLBACK");
       return st;

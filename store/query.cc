@@ -1,6 +1,8 @@
 #include "store/query.h"
 
 #include <algorithm>
+#include <functional>
+#include <map>
 
 #include "store/outcome.h"
 
@@ -16,63 +18,65 @@ SELECT a.lot, a.serial, a.run_id, a.start_utime, a.state, a.axis, a.kind, a.rand
 FROM axis_results a)sql";
 
 // The marks of the headline values, and the run's decision time (early
-// decisions): every measurement of the rows' runs, one run at a time (a
-// range read of the primary key).
-Status FillMarks(Archive& archive, std::vector<AxisRow>* rows) {
-  auto s = archive.db().Prepare(R"sql(
-SELECT axis, name, uncertainty, COALESCE(qualifier, ''), COALESCE(outcome, ''), COALESCE(note, ''),
-       uncertainty_method IS NULL, value
-FROM measurements WHERE run_key = ?1)sql");
+// decisions): every measurement of the rows' runs. With `lot`, all the
+// lot's at once (two queries, whatever the number of runs: a plant across
+// the network); without, one run at a time (a range read of the primary key).
+Status FillMarks(Archive& archive, std::vector<AxisRow>* rows, const std::string& lot = "") {
+  // Each run's rows, [begin, end) (a run's rows are adjacent).
+  std::map<int64_t, std::pair<size_t, size_t>> ranges;
+  for (size_t i = 0; i < rows->size(); ++i) {
+    auto [it, fresh] = ranges.try_emplace((*rows)[i].run_key, i, i + 1);
+    if (!fresh) it->second.second = i + 1;
+  }
+  const std::string measurement_sql = R"sql(
+SELECT m.run_key, m.axis, m.name, m.uncertainty, COALESCE(m.qualifier, ''), COALESCE(m.outcome, ''),
+       COALESCE(m.note, ''), m.uncertainty_method IS NULL, m.value
+FROM measurements m)sql";
+  const std::string run_sql =
+      "SELECT run_key, COALESCE(reasons, ''), station, slot, operator FROM runs r";
+  auto s = archive.db().Prepare(measurement_sql + (lot.empty() ? " WHERE m.run_key = ?1"
+                                                               : " JOIN runs r USING (run_key) "
+                                                                 "WHERE r.lot = ?1"));
   if (!s.ok()) return s.status();
-  auto reasons = archive.db().Prepare(
-      "SELECT COALESCE(reasons, ''), station, slot, operator FROM runs WHERE run_key = ?1");
+  auto reasons = archive.db().Prepare(run_sql + (lot.empty() ? " WHERE run_key = ?1"
+                                                             : " WHERE lot = ?1"));
   if (!reasons.ok()) return reasons.status();
-  size_t begin = 0;
-  while (begin < rows->size()) {
-    const int64_t key = (*rows)[begin].run_key;
-    size_t end = begin;
-    while (end < rows->size() && (*rows)[end].run_key == key) ++end;
-    s->Bind(1, key);
-    for (;;) {
-      auto row = s->Step();
-      if (!row.ok()) return row.status();
-      if (!*row) break;
-      const std::string axis = s->Text(0), name = s->Text(1);
-      ValueMarks m;
-      m.uncertainty = s->Real(2);
-      m.qualifier = QualifierFromText(s->Text(3));
-      m.outcome = OutcomeFromText(s->Text(4));
-      m.note = s->Text(5);
-      // Archived before schema 6 (no qualifier, no uncertainty method): the
-      // note said "upper bound".
-      if (m.qualifier == pb::QUALIFIER_NONE && s->Int(6) != 0 && m.note.starts_with("upper bound")) {
-        m.qualifier = pb::UPPER_BOUND;
-      }
-      for (size_t i = begin; i < end; ++i) {
-        AxisRow& r = (*rows)[i];
-        if (axis.empty() && name == "decision_time") {
-          r.has_decision_time = true;
-          r.decision_time_s = s->Real(7);
-        }
-        if (r.axis != axis) continue;
-        if (name == "angle_random_walk" || name == "velocity_random_walk") r.random_walk_marks = m;
-        if (name == "bias_instability") r.bias_instability_marks = m;
-        if (name == "bias_instability_ieee") r.bias_instability_ieee_marks = m;
-        if (name == "tau_at_minimum") r.tau_min_marks = m;
-        if (name == "rate_random_walk") r.rate_random_walk_marks = m;
-      }
+  auto mark = [&](Stmt& q) {
+    auto range = ranges.find(q.Int(0));
+    if (range == ranges.end()) return;
+    const std::string axis = q.Text(1), name = q.Text(2);
+    ValueMarks m;
+    m.uncertainty = q.Real(3);
+    m.qualifier = QualifierFromText(q.Text(4));
+    m.outcome = OutcomeFromText(q.Text(5));
+    m.note = q.Text(6);
+    // Archived before schema 6 (no qualifier, no uncertainty method): the
+    // note said "upper bound".
+    if (m.qualifier == pb::QUALIFIER_NONE && q.Int(7) != 0 && m.note.starts_with("upper bound")) {
+      m.qualifier = pb::UPPER_BOUND;
     }
-    s->Reset();
-    // The run's reasons that name the axis ("gx: bias_instability ...").
-    reasons->Bind(1, key);
-    auto found = reasons->Step();
-    if (!found.ok()) return found.status();
-    const std::string text = *found ? reasons->Text(0) : "";
-    const std::string station = *found ? reasons->Text(1) : "";
-    const std::string slot = *found ? reasons->Text(2) : "";
-    const std::string operator_name = *found ? reasons->Text(3) : "";
-    reasons->Reset();
-    for (size_t i = begin; i < end; ++i) {
+    for (size_t i = range->second.first; i < range->second.second; ++i) {
+      AxisRow& r = (*rows)[i];
+      if (axis.empty() && name == "decision_time") {
+        r.has_decision_time = true;
+        r.decision_time_s = q.Real(8);
+      }
+      if (r.axis != axis) continue;
+      if (name == "angle_random_walk" || name == "velocity_random_walk") r.random_walk_marks = m;
+      if (name == "bias_instability") r.bias_instability_marks = m;
+      if (name == "bias_instability_ieee") r.bias_instability_ieee_marks = m;
+      if (name == "tau_at_minimum") r.tau_min_marks = m;
+      if (name == "rate_random_walk") r.rate_random_walk_marks = m;
+    }
+  };
+  // The run's station, slot, operator, and its reasons that name the axis
+  // ("gx: bias_instability ...").
+  auto run_fields = [&](Stmt& q) {
+    auto range = ranges.find(q.Int(0));
+    if (range == ranges.end()) return;
+    const std::string text = q.Text(1), station = q.Text(2), slot = q.Text(3),
+                      operator_name = q.Text(4);
+    for (size_t i = range->second.first; i < range->second.second; ++i) {
       AxisRow& r = (*rows)[i];
       r.station = station;
       r.slot = slot;
@@ -87,7 +91,28 @@ FROM measurements WHERE run_key = ?1)sql");
         start = stop + 1;
       }
     }
-    begin = end;
+  };
+  auto each = [](Stmt& q, const std::function<void(Stmt&)>& fn) -> Status {
+    for (;;) {
+      auto row = q.Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      fn(q);
+    }
+    q.Reset();
+    return Status::Ok();
+  };
+  if (!lot.empty()) {
+    s->Bind(1, lot);
+    IMUQUAL_RETURN_IF_ERROR(each(*s, mark));
+    reasons->Bind(1, lot);
+    return each(*reasons, run_fields);
+  }
+  for (const auto& [key, range] : ranges) {
+    s->Bind(1, key);
+    IMUQUAL_RETURN_IF_ERROR(each(*s, mark));
+    reasons->Bind(1, key);
+    IMUQUAL_RETURN_IF_ERROR(each(*reasons, run_fields));
   }
   return Status::Ok();
 }
@@ -136,7 +161,7 @@ ORDER BY a.serial, a.start_utime, a.run_id, a.axis_index)sql");
   s->Bind(1, filter.lot).Bind(2, filter.run_prefix).Bind(3, filter.latest_per_unit ? 1 : 0);
   auto rows = ReadAxisRows(*s);
   if (!rows.ok()) return rows.status();
-  Status st = FillMarks(archive, &*rows);
+  Status st = FillMarks(archive, &*rows, filter.lot);
   if (!st.ok()) return st;
   return rows;
 }

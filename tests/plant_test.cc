@@ -21,6 +21,7 @@
 #include <fstream>
 #include <map>
 #include <string>
+#include <sstream>
 #include <vector>
 
 #include "store/archive.h"
@@ -299,6 +300,69 @@ TEST_F(PlantTest, TwoStationsShipEveryRunBitForBitAndShippingAgainInsertsNothing
   Imuqual("report --lot P-ONLY-B -o " + html_a, station_b_);
   Imuqual("report --lot P-ONLY-B -o " + html_p, plant);
   EXPECT_EQ(ReportWithoutProvenance(html_a), ReportWithoutProvenance(html_p));
+}
+
+// A run as one text: every field LoadRun, LoadResult and LoadCurves read.
+std::string RunText(const store::RunInfo& i, const std::optional<store::ResultRecord>& r,
+                    const std::vector<store::CurveRecord>& curves) {
+  std::ostringstream o;
+  o.precision(17);
+  o << i.run_id << '|' << i.serial << '|' << i.lot << '|' << i.station << '|' << i.slot << '|'
+    << i.operator_name << '|' << i.source << '|' << i.software_version << '|' << i.start_utime
+    << '|' << i.nominal_rate_hz << '|' << i.plan.size() << '|' << i.plan_sha256 << '|'
+    << i.truth.size() << '|' << i.state << '|' << i.last_seq << '|' << i.samples_announced << '|'
+    << i.first_sample << '|' << i.end_sample << '|' << i.end_utime.value_or(-1) << '|'
+    << i.end_reason << '|' << i.revision << '|' << i.bus_auth << '\n';
+  for (const store::AxisInfo& a : i.axes) o << a.name << ':' << static_cast<int>(a.kind) << ' ';
+  o << '\n';
+  if (r) {
+    o << r->verdict << '|' << r->samples << '|' << r->gap_samples << '|' << r->invalid_samples
+      << '|' << r->record.size() << '|' << r->result_utime << '|' << r->revision << '|'
+      << r->last_seq.value_or(-1) << '|' << r->gap_batches.value_or(-1) << '\n';
+    for (const std::string& s : r->reasons) o << s << ';';
+    for (int64_t n : r->axis_invalid_samples) o << n << ',';
+    for (const pb::Measurement& m : r->measurements) o << m.SerializeAsString().size() << m.ShortDebugString() << '\n';
+  }
+  for (const store::CurveRecord& c : curves) {
+    o << c.axis << ' ' << static_cast<int>(c.curve.deviation) << ' ' << c.samples << ' '
+      << c.valid_samples << ' ' << c.computed_utime << ' ' << c.curve.tau0_s << '\n';
+    for (const allan::CurvePoint& p : c.curve.points) {
+      o << p.m << ' ' << p.tau_s << ' ' << p.dev << ' ' << p.lo << ' ' << p.hi << ' ' << p.edf
+        << ' ' << p.n << ' ' << p.stride << ' ' << p.alpha.value_or(99) << ' ' << p.alpha_inherited << '\n';
+    }
+  }
+  return o.str();
+}
+
+// A lot's runs read at once (what the lot report reads) equal each run read
+// on its own, on the station's file and at the plant.
+TEST_F(PlantTest, ALotsRunsReadAtOnceEqualEachRunReadAlone) {
+  const std::string plant = NewDatabase("plant_lot_runs");
+  ASSERT_EQ(Sync(station_a_, plant).exit_code, 0);
+  ASSERT_EQ(Sync(station_b_, plant).exit_code, 0);
+  for (const std::string& where : {station_a_, plant}) {
+    auto a = store::Archive::Open(where, store::Archive::Mode::kRead);
+    ASSERT_TRUE(a.ok());
+    for (const std::string lot : {"P-ONLY-A", "P-SPLIT"}) {
+      auto runs = (*a)->LoadLotRuns(lot);
+      ASSERT_TRUE(runs.ok()) << runs.status().message();
+      ASSERT_FALSE(runs->empty()) << lot;
+      for (const store::LotRunRecord& r : *runs) {
+        auto info = (*a)->LoadRun(r.info.run_id);
+        ASSERT_TRUE(info.ok());
+        auto result = (*a)->LoadResult(r.run_key);
+        ASSERT_TRUE(result.ok());
+        auto curves = (*a)->LoadCurves(r.run_key);
+        ASSERT_TRUE(curves.ok());
+        if (r.result && *result) {
+          EXPECT_TRUE(r.result->record.empty());
+          (*result)->record.clear();  // not read with the lot
+        }
+        EXPECT_EQ(RunText(r.info, r.result, r.curves), RunText(*info, *result, *curves))
+            << where << " " << r.info.run_id;
+      }
+    }
+  }
 }
 
 TEST_F(PlantTest, AStationFileEditedAfterSigningIsRefusedAndNamed) {

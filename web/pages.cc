@@ -408,12 +408,24 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
   if (path == "/lot" || Under(path, "/lot/", &rest)) {
     if (path == "/lot") rest = Param(query, "name");
     if (rest.empty()) return NotFound("give a lot: /lot/LOT or /lot?name=LOT");
-    auto html = report::BuildLotReportHtml(archive, rest, archive_label);
+    report::LotReportOptions options;
+    options.lot_models_url = NameLink("/lot-model", "name", rest);
+    auto html = report::BuildLotReportHtml(archive, rest, archive_label, options);
     if (!html.ok()) {
       return html.status().code() == Status::Code::kNotFound ? NotFound(html.status().message())
                                                              : Failed(html.status());
     }
     return {200, "text/html; charset=utf-8", *html};
+  }
+  if (path == "/lot-model" || Under(path, "/lot-model/", &rest)) {
+    // The lot page's noise model section, fetched by its script.
+    if (path == "/lot-model") rest = Param(query, "name");
+    auto data = report::LoadLotReport(archive, rest);
+    if (!data.ok()) {
+      return data.status().code() == Status::Code::kNotFound ? NotFound(data.status().message())
+                                                             : Failed(data.status());
+    }
+    return {200, "text/html; charset=utf-8", report::RenderLotModelSection(*data)};
   }
   if (path == "/unit") {
     const std::string serial = Param(query, "serial");

@@ -101,6 +101,17 @@ Page WithScriptAsFile(Page page) {
   return page;
 }
 
+// The lot a request for `prefix`/LOT or `prefix`?name=LOT names ("" for
+// another path).
+std::string LotOfPath(const httplib::Request& req, const std::string& prefix) {
+  if (req.path == prefix) return req.get_param_value("name");
+  if (req.path.size() > prefix.size() + 1 && req.path.compare(0, prefix.size(), prefix) == 0 &&
+      req.path[prefix.size()] == '/') {
+    return req.path.substr(prefix.size() + 1);
+  }
+  return "";
+}
+
 // cpp-httplib's server, answering the requests that the gate hands it.
 class GatedServer : public httplib::Server {
  public:
@@ -188,6 +199,7 @@ class ReportCache {
 struct WebServer::Impl {
   ServeOptions options;
   ReportCache reports;
+  ReportCache lot_models;  // the lot pages' noise model sections
   std::unique_ptr<LiveFeed> feed;  // with a bus
   std::atomic<bool> stopping{false};
   std::atomic<int> streams{0};
@@ -218,12 +230,18 @@ struct WebServer::Impl {
       // Not kept while a run of it is still open (the store finalizes last).
       auto fingerprint = store::QueryLotFingerprint(**archive, lot);
       if (!fingerprint.ok() || fingerprint->empty()) continue;
-      if (!reports.Find(lot, *fingerprint)) {
-        const Page page = WithScriptAsFile(Route(**archive, options.db_path, "/lot/" + lot, {}));
-        if (page.status != 200) continue;
-        reports.Put(lot, *fingerprint, page);
+      bool warmed = true;
+      for (auto [cache, prefix] : {std::pair<ReportCache*, const char*>{&reports, "/lot/"},
+                                   {&lot_models, "/lot-model/"}}) {
+        if (cache->Find(lot, *fingerprint)) continue;
+        const Page page = WithScriptAsFile(Route(**archive, options.db_path, prefix + lot, {}));
+        if (page.status != 200) {
+          warmed = false;
+          break;
+        }
+        cache->Put(lot, *fingerprint, page);
       }
-      kept = lot;
+      if (warmed) kept = lot;
     }
   }
 };
@@ -458,19 +476,21 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
     Page page;
     if (!archive.ok()) {
       page = {500, "text/plain; charset=utf-8", archive.status().message() + "\n"};
-    } else if ((req.path.rfind("/lot/", 0) == 0 && req.path.size() > 5) ||
-               (req.path == "/lot" && !req.get_param_value("name").empty())) {
-      // A finished lot's report, kept while the archive leaves it unchanged.
-      const std::string lot = req.path == "/lot" ? req.get_param_value("name") : req.path.substr(5);
-      auto fingerprint = store::QueryLotFingerprint(**archive, lot);
+    } else if (const std::string lot = LotOfPath(req, "/lot"), model_lot = LotOfPath(req, "/lot-model");
+               !lot.empty() || !model_lot.empty()) {
+      // A finished lot's report, or its noise model section, kept while
+      // the archive leaves the lot unchanged.
+      ReportCache& cache = lot.empty() ? state->lot_models : state->reports;
+      const std::string& name = lot.empty() ? model_lot : lot;
+      auto fingerprint = store::QueryLotFingerprint(**archive, name);
       std::optional<Page> kept;
-      if (fingerprint.ok() && !fingerprint->empty()) kept = state->reports.Find(lot, *fingerprint);
+      if (fingerprint.ok() && !fingerprint->empty()) kept = cache.Find(name, *fingerprint);
       if (kept) {
         page = std::move(*kept);
       } else {
         page = WithScriptAsFile(Route(**archive, opts.db_path, req.path, query));
         if (page.status == 200 && fingerprint.ok() && !fingerprint->empty())
-          state->reports.Put(lot, *fingerprint, page);
+          cache.Put(name, *fingerprint, page);
       }
     } else {
       page = WithScriptAsFile(Route(**archive, opts.db_path, req.path, query));

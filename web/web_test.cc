@@ -202,8 +202,25 @@ TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
   EXPECT_EQ(lot->status, 200);
   auto archive = store::Archive::Open(db_, store::Archive::Mode::kRead);
   ASSERT_TRUE(archive.ok());
-  auto report = report::BuildLotReportHtml(**archive, kLot, db_);
+  // The served page leaves its noise model section to its script, which
+  // fetches it from /lot-model/LOT.
+  report::LotReportOptions served_options;
+  served_options.lot_models_url = "/lot-model/" + Encode(kLot);
+  auto report = report::BuildLotReportHtml(**archive, kLot, db_, served_options);
   ASSERT_TRUE(report.ok());
+  auto data = report::LoadLotReport(**archive, kLot);
+  ASSERT_TRUE(data.ok());
+  const std::string models = report::RenderLotModelSection(*data);
+  EXPECT_NE(models.find("<section id=\"lot-model\">"), std::string::npos) << models;
+  auto fetched = client_->Get("/lot-model/" + Encode(kLot));
+  ASSERT_TRUE(fetched);
+  EXPECT_EQ(fetched->status, 200);
+  EXPECT_EQ(fetched->body, models);
+  // A report file holds the same section itself.
+  auto standalone = report::BuildLotReportHtml(**archive, kLot, db_);
+  ASSERT_TRUE(standalone.ok());
+  EXPECT_NE(standalone->find(models), std::string::npos);
+  EXPECT_EQ(standalone->find("data-src="), std::string::npos);
   auto strip_time = [](std::string s) {  // the report says when it was generated
     const size_t at = s.find(" on 20");
     return at == std::string::npos ? s : s.substr(0, at);

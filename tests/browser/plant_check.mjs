@@ -29,7 +29,7 @@ import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { fail, finish, launch, parseArgs, run, serve, watchedPage } from './check_lib.mjs';
+import { fail, finish, launch, parseArgs, run, serve, waitFor, watchedPage } from './check_lib.mjs';
 
 const kRepo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
 const kPgThrowaway = path.join(kRepo, 'scripts', 'pg-throwaway');
@@ -160,6 +160,8 @@ async function main() {
     for (const st of ['st-1', 'st-2']) {
       if (!lotText.includes(st)) fail(`the lot page of PB does not name station ${st}`);
     }
+    await waitFor(page, 'the lot noise model of PB', 30,
+                  () => document.querySelector('#lot-model table.lot-model') !== null);
 
     // The retested unit: one run per station, each run page opens.
     await visit(`${base}unit/PB-U01`);

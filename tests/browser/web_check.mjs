@@ -27,7 +27,7 @@ import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import {
-  fail, finish, launch, makeCertificate, parseArgs, run, serve, sqlite, sqlText, watchedPage,
+  fail, finish, launch, makeCertificate, parseArgs, run, serve, sqlite, sqlText, waitFor, watchedPage,
 } from './check_lib.mjs';
 
 const kLot = 'WEB';
@@ -116,6 +116,10 @@ async function main() {
       const planText = await page.evaluate(() => document.querySelector('[data-field="plan"]')?.textContent);
       if (!planText?.includes(kPlanName)) fail(`the plan's name is not shown as text: '${planText}'`);
       await sorts('the lot page over TLS');
+      // Its noise model section, left to the page's script, arrives.
+      await waitFor(page, 'the lot noise model section fetched by the lot page', 30,
+                    () => !document.querySelector('#lot-model[data-src]') &&
+                          document.querySelector('#lot-model table.lot-model') !== null);
     }
 
     // Each unit: its history links to its run, whose measurements equal the archive's.
