@@ -24,6 +24,7 @@
 #include "analyze/judge/plan_file.h"
 #include "common/clock.h"
 #include "common/log.h"
+#include "common/text_util.h"
 #include "store/archive.h"
 #include "store/outcome.h"
 #include "store/run_record.h"
@@ -107,6 +108,7 @@ Status WriteRun(store::Archive& archive, const pb::TestPlan& plan, const std::st
   run.nominal_rate_hz = rate;
   run.axes = axis_info;
   run.plan = plan_bytes;
+  run.plan_sha256 = Sha256Hex(plan_bytes);
   run.truth = truth.SerializeAsString();
   run.state = "complete";
   const int64_t samples = static_cast<int64_t>(kSoakS * rate);

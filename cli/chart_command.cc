@@ -24,6 +24,9 @@ CLI::App* AddChartCommand(CLI::App& app, ChartOptions* o) {
   cmd->add_option("--by", o->by, "subgroups: lot, week or month (ISO week, UTC)")
       ->capture_default_str();
   cmd->add_option("--station", o->station, "one station's runs only");
+  cmd->add_option("--plan", o->plan,
+                  "the plan whose values are charted: its name or a digest prefix (default: the "
+                  "newest run's plan; a chart never mixes plans, so capability is per plan)");
   cmd->add_option("--baseline", o->baseline,
                   "the limits from the first N subgroups (a reference period; later ones are "
                   "judged against it); default: from all (a retrospective chart)")
@@ -58,6 +61,11 @@ int ChartCommand(const ChartOptions& o) {
     LogError(rows.status().message());
     return kExitFailed;
   }
+  auto plan = report::KeepOnePlan(**archive, o.plan, &*rows);
+  if (!plan.ok()) {
+    LogError(plan.status().message());
+    return kExitUsage;
+  }
   const std::vector<judge::Subgroup> groups = report::ChartSubgroups(*rows, *by, o.station);
   auto chart = judge::MakeControlChart(groups, o.baseline);
   if (!chart.ok()) {
@@ -74,6 +82,12 @@ int ChartCommand(const ChartOptions& o) {
                 o.by.c_str(), o.station.empty() ? "" : (" at " + o.station).c_str(),
                 ShortestReal(chart->centre).c_str(), ShortestReal(chart->sigma).c_str(),
                 chart->baseline, chart->points.size(), chart->values, chart->flagged);
+    std::printf("plan %s (%s)%s\n", plan->name.c_str(), plan->sha256.substr(0, 12).c_str(),
+                plan->left_out == 0
+                    ? ""
+                    : ("; " + std::to_string(plan->left_out) + " values of " +
+                       std::to_string(plan->other_plans) + " other plan(s) not charted (--plan)")
+                          .c_str());
   }
   const std::optional<double> low = rows->empty() ? std::nullopt : rows->front().low;
   const std::optional<double> high = rows->empty() ? std::nullopt : rows->front().high;

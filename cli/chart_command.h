@@ -16,6 +16,7 @@ namespace imuqual::cli {
 struct ChartOptions {
   std::string db_path, measurement, axis, by = "lot", station, format = "table";
   int baseline = 0;  // limits from the first N subgroups (0: all)
+  std::string plan;  // name or digest prefix; "" the newest run's plan
 };
 
 CLI::App* AddChartCommand(CLI::App& app, ChartOptions* options);

@@ -2,6 +2,7 @@
 
 #include <ctime>
 #include <map>
+#include <set>
 
 namespace imuqual::report {
 
@@ -26,6 +27,57 @@ std::string UtcLabel(int64_t utime, const char* format) {
 
 std::string IsoWeekLabel(int64_t utime) { return UtcLabel(utime, "%G-W%V"); }
 std::string MonthLabel(int64_t utime) { return UtcLabel(utime, "%Y-%m"); }
+
+Result<PlanChoice> KeepOnePlan(store::Archive& archive, const std::string& plan,
+                               std::vector<store::RunValueRow>* rows) {
+  // Each digest's plan name, read once.
+  std::map<std::string, std::string> names;
+  for (const store::RunValueRow& r : *rows) {
+    if (names.count(r.plan_sha256)) continue;
+    std::string name = "(no plan recorded)";
+    if (!r.plan_sha256.empty()) {
+      auto bytes = store::QueryPlanByDigest(archive, r.plan_sha256);
+      if (!bytes.ok()) return bytes.status();
+      pb::TestPlan p;
+      name = p.ParseFromString(*bytes) && !p.name().empty() ? p.name() : "(unnamed plan)";
+    }
+    names[r.plan_sha256] = name;
+  }
+  PlanChoice choice;
+  if (rows->empty()) return choice;
+  if (plan.empty()) {
+    choice.sha256 = rows->back().plan_sha256;  // oldest first: the newest run's plan
+  } else {
+    std::set<std::string> matches;
+    for (const auto& [sha, name] : names) {
+      const bool by_digest = plan.size() >= 8 && sha.compare(0, plan.size(), plan) == 0;
+      if (name == plan || by_digest) matches.insert(sha);
+    }
+    if (matches.empty()) {
+      std::string there;
+      for (const auto& [sha, name] : names) {
+        there += (there.empty() ? "" : ", ") + name + " (" + sha.substr(0, 12) + ")";
+      }
+      return Status::NotFound("no value judged by plan '" + plan + "'; plans here: " + there);
+    }
+    if (matches.size() > 1) {
+      return Status::InvalidArgument("plan '" + plan + "' names " +
+                                     std::to_string(matches.size()) +
+                                     " plans of different digests: give a digest prefix");
+    }
+    choice.sha256 = *matches.begin();
+  }
+  choice.name = names[choice.sha256];
+  choice.other_plans = names.size() - 1;
+  std::vector<store::RunValueRow> kept;
+  for (store::RunValueRow& r : *rows) {
+    if (r.plan_sha256 == choice.sha256) kept.push_back(std::move(r));
+  }
+  choice.kept = kept.size();
+  choice.left_out = rows->size() - kept.size();
+  *rows = std::move(kept);
+  return choice;
+}
 
 std::vector<judge::Subgroup> ChartSubgroups(const std::vector<store::RunValueRow>& rows, ChartBy by,
                                             const std::string& station) {

@@ -24,6 +24,21 @@ Result<ChartBy> ParseChartBy(const std::string& text);
 std::vector<judge::Subgroup> ChartSubgroups(const std::vector<store::RunValueRow>& rows,
                                             ChartBy by, const std::string& station);
 
+// One plan's values: a chart mixes no two plans (their limits, and so
+// each subgroup's capability, may differ), so Cpk history is per plan.
+struct PlanChoice {
+  std::string sha256, name;  // the plan charted
+  size_t kept = 0;           // its values
+  size_t left_out = 0;       // values of other plans
+  size_t other_plans = 0;
+};
+// Keeps the rows judged by `plan`: a plan name or a prefix of its digest
+// (at least 8 hex digits), or "" for the plan of the newest row. NotFound
+// names the plans there are when none matches; InvalidArgument when a name
+// matches plans of two digests.
+Result<PlanChoice> KeepOnePlan(store::Archive& archive, const std::string& plan,
+                               std::vector<store::RunValueRow>* rows);
+
 // "2026-W48" (ISO 8601 week of the UTC date) and "2026-11".
 std::string IsoWeekLabel(int64_t utime);
 std::string MonthLabel(int64_t utime);

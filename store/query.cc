@@ -450,6 +450,7 @@ Result<std::vector<RunValueRow>> ReadRunValues(Stmt& s) {
     r.value_unit = s.Text(9);
     r.low = opt(10);
     r.high = opt(11);
+    r.plan_sha256 = s.Text(12);
     rows.push_back(std::move(r));
   }
 }
@@ -458,7 +459,7 @@ Result<std::vector<RunValueRow>> ReadRunValues(Stmt& s) {
 Result<std::vector<RunValueRow>> QueryRunValues(Archive& archive, const std::string& lot) {
   auto s = archive.db().Prepare(R"sql(
 SELECT r.lot, r.serial, r.station, r.operator, r.run_id, r.start_utime, m.axis, m.name, m.value,
-       m.unit, m.low, m.high
+       m.unit, m.low, m.high, r.plan_sha256
 FROM runs r
 JOIN measurements m ON m.run_key = r.run_key
 WHERE r.lot = ?1 AND r.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
@@ -470,16 +471,37 @@ ORDER BY r.serial, r.station, r.start_utime, r.run_id, m.axis, m.name)sql");
 
 Result<std::vector<RunValueRow>> QueryMeasurementHistory(Archive& archive, const std::string& name,
                                                          const std::string& axis) {
+  // Each unit's final run in each lot (as the final_runs view chooses it),
+  // ranked over the whole archive at once: the view's correlated subquery
+  // would run once per value (10^5 at a plant).
   auto s = archive.db().Prepare(R"sql(
-SELECT l.lot, l.serial, r.station, r.operator, l.run_id, l.start_utime, l.axis, l.name, l.value,
-       l.unit, l.low, l.high
-FROM lot_measurements l
-JOIN runs r ON r.run_id = l.run_id
-WHERE l.name = ?1 AND l.axis = ?2 AND l.value IS NOT NULL
-ORDER BY l.start_utime, l.run_id)sql");
+SELECT f.lot, f.serial, f.station, f.operator, f.run_id, f.start_utime, m.axis, m.name, m.value,
+       m.unit, m.low, m.high, f.plan_sha256
+FROM (SELECT r.run_key, r.lot, r.serial, r.station, r.operator, r.run_id, r.start_utime, r.verdict,
+             r.plan_sha256,
+             ROW_NUMBER() OVER (PARTITION BY r.lot, r.serial
+                                ORDER BY COALESCE(r.verdict IN ('PASS', 'MARGINAL', 'FAIL',
+                                                                'INCONCLUSIVE'), false) DESC,
+                                         r.start_utime DESC, r.run_key DESC) AS rank
+      FROM runs r) f
+JOIN measurements m ON m.run_key = f.run_key
+WHERE f.rank = 1 AND f.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
+  AND m.name = ?1 AND m.axis = ?2 AND m.value IS NOT NULL
+ORDER BY f.start_utime, f.run_id)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, name).Bind(2, axis);
   return ReadRunValues(*s);
+}
+
+Result<std::string> QueryPlanByDigest(Archive& archive, const std::string& plan_sha256) {
+  auto s = archive.db().Prepare("SELECT plan FROM runs WHERE plan_sha256 = ?1 LIMIT 1");
+  if (!s.ok()) return s.status();
+  s->Bind(1, plan_sha256);
+  auto row = s->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) return Status::NotFound("no run judged by plan " + plan_sha256);
+  const std::vector<uint8_t> plan = s->Blob(0);
+  return std::string(plan.begin(), plan.end());
 }
 
 Result<std::vector<RunVerdictRow>> QueryRunVerdicts(Archive& archive) {

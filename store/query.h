@@ -163,6 +163,7 @@ Result<std::string> QueryLotFingerprint(Archive& archive, const std::string& lot
 // Ordered by serial, station, start.
 struct RunValueRow {
   std::string lot, unit, station, operator_name, run_id, axis, name, value_unit;
+  std::string plan_sha256;  // the plan the run was judged by
   int64_t start_utime = 0;
   double value = allan::kNaN;
   std::optional<double> low, high;
@@ -175,6 +176,10 @@ Result<std::vector<RunValueRow>> QueryRunValues(Archive& archive, const std::str
 // across lots, weeks and months. `axis` "" = run-level values.
 Result<std::vector<RunValueRow>> QueryMeasurementHistory(Archive& archive, const std::string& name,
                                                          const std::string& axis);
+
+// The serialized test plan (pb::TestPlan) of the runs whose plan has this
+// digest; NotFound when no run has it.
+Result<std::string> QueryPlanByDigest(Archive& archive, const std::string& plan_sha256);
 
 // Every run's identity, start and verdict ("" not judged), oldest first:
 // what yield trends per week, month, station or lot count.

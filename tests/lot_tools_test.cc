@@ -64,6 +64,59 @@ class LotToolsTest : public ::testing::Test {
 testing::TempDir* LotToolsTest::dir_ = nullptr;
 std::string LotToolsTest::db_;
 
+// A control chart never mixes plans: the limits (and so each subgroup's
+// capability) are one plan's. Two lots judged by the tactical plan, then
+// three by a tightened one (another name, a bias instability limit of 1.2
+// deg/h): the chart is the newest plan's unless told which, says what it
+// left out, and names the plans when asked for one there is not.
+TEST(ChartPlanTest, AChartIsOnePlansValuesAndSaysWhatItLeftOut) {
+  testing::TempDir dir("chart_plan");
+  const std::string db = dir.path("history.db");
+  const std::string tight = dir.path("tight.textproto");
+  {
+    std::ifstream in(std::string(IMUQUAL_SOURCE_DIR) + "/plans/tactical.textproto");
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string plan = text.str();
+    plan.replace(plan.find("name: \"tactical-imu-eol\""), 24, "name: \"tactical-tight\"");
+    const std::string limit =
+        "measurement: \"bias_instability\" axis_kind: GYRO high: 2.0 marginal_high: 1.5";
+    ASSERT_NE(plan.find(limit), std::string::npos);
+    plan.replace(plan.find(limit), limit.size(),
+                 "measurement: \"bias_instability\" axis_kind: GYRO high: 1.2 marginal_high: 1.1");
+    std::ofstream(tight) << plan;
+  }
+  ASSERT_EQ(RunCommand(Bin("imuqual-history-gen") + " --db " + db +
+                       " --lots 2 --units 12 --prefix A > /dev/null")
+                .exit_code,
+            0);
+  ASSERT_EQ(RunCommand(Bin("imuqual-history-gen") + " --db " + db + " --plan " + tight +
+                       " --lots 3 --units 12 --prefix B --seed 2 > /dev/null")
+                .exit_code,
+            0);
+  auto chart = [&](const std::string& extra) {
+    return RunCommand(Bin("imuqual") + " chart --db " + db +
+                      " --measurement bias_instability --axis gx --by lot" + extra + " 2>&1");
+  };
+  // Default: the newest run's plan (B-L003 started last), B's lots only.
+  const auto newest = chart(" --format table");
+  EXPECT_NE(newest.output.find("plan tactical-tight ("), std::string::npos) << newest.output;
+  EXPECT_NE(newest.output.find("24 values of 1 other plan(s) not charted"), std::string::npos)
+      << newest.output;
+  const Csv tight_csv = ParseCsv(chart(" --format csv").output);
+  ASSERT_EQ(tight_csv.rows.size(), 3u);
+  for (const auto& r : tight_csv.rows) EXPECT_EQ(r[tight_csv.Col("subgroup")].substr(0, 2), "B-");
+  // By name: A's lots only.
+  const Csv older = ParseCsv(chart(" --plan tactical-imu-eol --format csv").output);
+  ASSERT_EQ(older.rows.size(), 2u);
+  for (const auto& r : older.rows) EXPECT_EQ(r[older.Col("subgroup")].substr(0, 2), "A-");
+  const auto missing = chart(" --plan no-such-plan");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.output.find("plans here: "), std::string::npos) << missing.output;
+  EXPECT_NE(missing.output.find("tactical-imu-eol"), std::string::npos) << missing.output;
+  EXPECT_NE(missing.output.find("tactical-tight"), std::string::npos) << missing.output;
+}
+
 TEST_F(LotToolsTest, StatisticsSummarizeThePerUnitValues) {
   const Csv units = ParseCsv(Imuqual("lot T-L001 --format csv"));
   const Csv stats = ParseCsv(Imuqual("lot T-L001 --stats --format csv"));

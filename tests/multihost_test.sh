@@ -47,6 +47,7 @@ cleanup() {
   if [ "${KEEP:-}" != "1" ]; then rm -rf "$work"; else say "kept $work"; fi
 }
 trap cleanup EXIT
+trap 'exit 1' INT TERM  # cleanup runs on those too (ctest's timeout)
 
 # The hosts: named namespaces kept in this test's own mount namespace.
 mkdir -p /run/netns

@@ -302,7 +302,9 @@ Page Chart(store::Archive& archive, const std::map<std::string, std::string>& qu
       "\"></label> <label>axis <input name=\"axis\" size=\"4\" value=\"" + HtmlEscape(axis) +
       "\"></label> <label>by <input name=\"by\" size=\"6\" value=\"" + HtmlEscape(by_name) +
       "\"></label> <label>station <input name=\"station\" size=\"10\" value=\"" +
-      HtmlEscape(station) + "\"></label> <label>baseline <input name=\"baseline\" size=\"4\" value=\"" +
+      HtmlEscape(station) + "\"></label> <label>plan <input name=\"plan\" size=\"12\" value=\"" +
+      HtmlEscape(Param(query, "plan")) +
+      "\"></label> <label>baseline <input name=\"baseline\" size=\"4\" value=\"" +
       HtmlEscape(baseline_text) + "\"></label> <button>chart</button></form>\n";
   if (measurement.empty()) {
     if (json) return {404, "application/json", "{\"error\": \"give measurement and axis\"}\n"};
@@ -321,6 +323,8 @@ Page Chart(store::Archive& archive, const std::map<std::string, std::string>& qu
   }
   auto rows = store::QueryMeasurementHistory(archive, measurement, axis);
   if (!rows.ok()) return Failed(rows.status());
+  auto plan = report::KeepOnePlan(archive, Param(query, "plan"), &*rows);
+  if (!plan.ok()) return NotFound(plan.status().message());
   const std::vector<judge::Subgroup> groups = report::ChartSubgroups(*rows, *by, station);
   auto chart = judge::MakeControlChart(groups, baseline);
   if (!chart.ok()) {
@@ -338,7 +342,14 @@ Page Chart(store::Archive& archive, const std::map<std::string, std::string>& qu
           ShortestReal(chart->centre) + ", sigma " + ShortestReal(chart->sigma) +
           " (within subgroups; limits from " + std::to_string(chart->baseline) + " of " +
           std::to_string(chart->points.size()) + " subgroups); <strong>" +
-          std::to_string(chart->flagged) + " subgroups flagged</strong>.</p>\n" +
+          std::to_string(chart->flagged) + " subgroups flagged</strong>. Plan " +
+          HtmlEscape(plan->name) + " (" + HtmlEscape(plan->sha256.substr(0, 12)) + ")" +
+          (plan->left_out == 0
+               ? std::string()
+               : "; " + std::to_string(plan->left_out) + " values of " +
+                     std::to_string(plan->other_plans) +
+                     " other plan(s) not charted (choose one with plan=)") +
+          ".</p>\n" +
           t.Render(Format::kHtml) +
           "<p class=\"note\">X-bar limits: centre +- 3 sigma / sqrt(n); S limits: sigma (c4 +- 3 "
           "sqrt(1 - c4^2)). Rules: beyond 3 sigma, 2 of 3 beyond 2 sigma, 4 of 5 beyond 1 sigma, "
