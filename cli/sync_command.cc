@@ -105,6 +105,7 @@ int SyncCommand(const SyncOptions& o) {
       static_cast<long long>(r.runs_replaced), static_cast<long long>(r.rows_inserted),
       static_cast<long long>(r.chunks_inserted), static_cast<double>(r.chunk_bytes) / 1e6);
   if (!r.station_moved.empty()) std::printf("%s\n", r.station_moved.c_str());
+  if (!r.partition_note.empty()) std::printf("note: %s\n", r.partition_note.c_str());
   if (r.behind) {
     std::printf(
         "the station archive is behind the plant (%lld entries here, %lld at the plant: restored "

@@ -115,6 +115,10 @@ Status AddTableItems(Db& db, const std::string& table, int64_t run_key, SignedRe
 
 Status AddChunkItems(Db& db, int64_t run_key, ChunkDigests how, ChunkFindings* findings,
                      SignedRecord* record) {
+  // The plant's own column (raw_chunks' month partition) is no part of a
+  // chunk, as run_key is not.
+  std::vector<std::string> excluded = ChunkDigestExclusions();
+  if (db.postgres()) excluded.push_back("month");
   ChunkListDigest list;
   std::vector<int64_t> seqs;
   if (how == ChunkDigests::kStored) {
@@ -125,7 +129,7 @@ Status AddChunkItems(Db& db, int64_t run_key, ChunkDigests how, ChunkFindings* f
       RawStmt s(db, "SELECT * FROM raw_chunks WHERE run_key = ? AND digest IS NULL");
       s.Bind(1, run_key);
       IMUQUAL_RETURN_IF_ERROR(s.ForEach([&](const Stmt& row) {
-        const CanonicalRow c = RowFromStatement(row, ChunkDigestExclusions());
+        const CanonicalRow c = RowFromStatement(row, excluded);
         missing.emplace_back(IntColumn(c, "seq"), ChunkRowDigest(c));
         return Status::Ok();
       }));
@@ -151,8 +155,7 @@ Status AddChunkItems(Db& db, int64_t run_key, ChunkDigests how, ChunkFindings* f
       const CanonicalRow all = RowFromStatement(row, {"run_key"});
       CanonicalRow content;
       for (const auto& column : all) {
-        if (std::find(ChunkDigestExclusions().begin(), ChunkDigestExclusions().end(),
-                      column.first) == ChunkDigestExclusions().end()) {
+        if (std::find(excluded.begin(), excluded.end(), column.first) == excluded.end()) {
           content.push_back(column);
         }
       }
@@ -303,6 +306,7 @@ Result<std::vector<std::string>> RunTables(Db& db) {
                   "JOIN pg_catalog.pg_class c ON c.oid = a.attrelid "
                   "JOIN pg_catalog.pg_namespace n ON n.oid = c.relnamespace "
                   "WHERE n.nspname = current_schema() AND c.relkind IN ('r', 'p') "
+                  "AND NOT c.relispartition "  // raw_chunks' months are raw_chunks
                   "AND a.attname = 'run_key' AND NOT a.attisdropped "
                   "AND c.relname NOT IN ('runs', 'raw_chunks', 'archive_chain') "
                   "ORDER BY c.relname COLLATE \"C\""

@@ -87,6 +87,12 @@ CREATE TABLE run_axes (
   invalid_samples bigint,
   PRIMARY KEY (run_key, axis_index)
 );
+-- Partitioned by month (YYYYMM of the run's start, UTC): a month of raw
+-- samples is one table, backed up, moved to slower storage or detached on
+-- its own. A sync creates each month's partition as the first run of that
+-- month arrives (when its role may; else the chunks wait in the default
+-- partition, README "The plant archive"). month is the plant's own column:
+-- left out of every digest, as run_key is.
 CREATE TABLE raw_chunks (
   run_key       bigint NOT NULL REFERENCES runs(run_key),
   seq           bigint NOT NULL,
@@ -99,10 +105,12 @@ CREATE TABLE raw_chunks (
   sample_utime  bigint NOT NULL DEFAULT 0,
   crc32c        bigint,
   digest        bytea,
-  PRIMARY KEY (run_key, seq)
-);
+  month         integer NOT NULL,
+  PRIMARY KEY (run_key, seq, month)
+) PARTITION BY RANGE (month);
+CREATE TABLE raw_chunks_default PARTITION OF raw_chunks DEFAULT;
 -- Chunks are zstd frames already: stored out of line as they are, not
--- compressed again.
+-- compressed again (each partition inherits it).
 ALTER TABLE raw_chunks ALTER COLUMN data SET STORAGE EXTERNAL;
 CREATE TABLE gaps (
   run_key        bigint NOT NULL REFERENCES runs(run_key),

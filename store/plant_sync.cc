@@ -1,6 +1,7 @@
 #include "store/plant_sync.h"
 
 #include <algorithm>
+#include <ctime>
 #include <map>
 #include <optional>
 #include <set>
@@ -112,6 +113,14 @@ std::string DifferingItems(const std::string& signed_bytes, const SignedRecord& 
   return out;
 }
 
+// YYYYMM of a time (UTC): the month of raw_chunks' partition.
+int MonthOf(int64_t utime) {
+  const std::time_t secs = static_cast<std::time_t>(utime / 1000000);
+  std::tm tm{};
+  gmtime_r(&secs, &tm);
+  return (tm.tm_year + 1900) * 100 + tm.tm_mon + 1;
+}
+
 class Shipper {
  public:
   Shipper(Db& station, Db& plant, const SyncOptions& options, SyncReport* report)
@@ -132,6 +141,10 @@ class Shipper {
       if (!row.ok()) return row.status();
       if (!*row) break;
       const std::string c = s->Text(0);
+      if (c == "month" && table == "raw_chunks") {
+        chunk_months_ = true;  // partitioned by month (plant schema 2)
+        continue;
+      }
       if (c != "run_key" && c != "station_archive") cols.push_back(c);
     }
     if (cols.empty()) return Status::Corruption("the plant archive has no table " + table);
@@ -140,10 +153,12 @@ class Shipper {
 
   // Copies the run's rows of `table` from the station to the plant's run
   // `plant_key`, many rows per statement.
-  Status CopyRows(const std::string& table, int64_t station_key, int64_t plant_key) {
+  // `month`: the run's start month (YYYYMM, UTC), raw_chunks' partition.
+  Status CopyRows(const std::string& table, int64_t station_key, int64_t plant_key, int month) {
     auto columns = Columns(table);
     if (!columns.ok()) return columns.status();
     const std::vector<std::string>& cols = *columns;
+    const bool by_month = table == "raw_chunks" && chunk_months_;
     auto read = station_.Prepare("SELECT " + ColumnList(cols) + " FROM " + Quoted(table) +
                                  " WHERE run_key = ?1");
     if (!read.ok()) {
@@ -155,11 +170,13 @@ class Shipper {
     size_t bytes = 0;
     auto flush = [&]() -> Status {
       if (rows.empty()) return Status::Ok();
-      std::string sql = "INSERT INTO " + Quoted(table) + " (run_key, " + ColumnList(cols) +
-                        ") VALUES ";
+      if (by_month) IMUQUAL_RETURN_IF_ERROR(EnsureMonth(month));
+      std::string sql = "INSERT INTO " + Quoted(table) + " (run_key, " +
+                        (by_month ? "month, " : "") + ColumnList(cols) + ") VALUES ";
       int n = 0;
       for (size_t r = 0; r < rows.size(); ++r) {
         sql += (r ? ", (" : "(") + std::to_string(plant_key);
+        if (by_month) sql += ", " + std::to_string(month);
         for (size_t c = 0; c < cols.size(); ++c) sql += ", ?" + std::to_string(++n);
         sql += ")";
       }
@@ -199,6 +216,42 @@ class Shipper {
     return flush();
   }
 
+  // Raw chunks' partition of `month` (YYYYMM): created if missing, when
+  // this role may (the owner of raw_chunks); else the month's chunks go to
+  // the default partition, said once in the report.
+  Status EnsureMonth(int month) {
+    if (months_known_.count(month)) return Status::Ok();
+    const std::string name = "raw_chunks_" + std::to_string(month);
+    auto exists = plant_.Prepare(
+        "SELECT count(*) FROM pg_catalog.pg_inherits i JOIN pg_catalog.pg_class c ON c.oid = "
+        "i.inhrelid WHERE i.inhparent = 'raw_chunks'::regclass AND c.relname = ?1");
+    if (!exists.ok()) return exists.status();
+    exists->Bind(1, name);
+    auto row = exists->Step();
+    if (!row.ok()) return row.status();
+    const bool there = *row && exists->Int(0) > 0;
+    exists->Reset();
+    if (!there) {
+      const int next = month % 100 == 12 ? (month / 100 + 1) * 100 + 1 : month + 1;
+      IMUQUAL_RETURN_IF_ERROR(plant_.Exec("SAVEPOINT month_partition"));
+      const Status made = plant_.Exec(
+          "CREATE TABLE IF NOT EXISTS " + Quoted(name) + " PARTITION OF raw_chunks FOR VALUES "
+          "FROM (" + std::to_string(month) + ") TO (" + std::to_string(next) + "); ALTER TABLE " +
+          Quoted(name) + " ALTER COLUMN data SET STORAGE EXTERNAL");
+      if (!made.ok()) {
+        IMUQUAL_RETURN_IF_ERROR(plant_.Exec("ROLLBACK TO SAVEPOINT month_partition"));
+        if (report_->partition_note.empty()) {
+          report_->partition_note = "raw chunks of " + std::to_string(month) +
+                                    " went to the default partition: " + made.message();
+        }
+      }
+      IMUQUAL_RETURN_IF_ERROR(plant_.Exec("RELEASE SAVEPOINT month_partition"));
+    }
+    months_known_.insert(month);
+    return Status::Ok();
+  }
+
+  // A plant transaction's partitions are known only once it commits.
   // A lot's or unit's row, if the plant lacks it; first seen at the plant
   // when the first station saw it.
   Status CopyKeyRow(const std::string& table, const std::string& key_column,
@@ -282,7 +335,10 @@ class Shipper {
 
   // A plant transaction begins (what was claimed in one rolled back is not
   // claimed any more).
-  void NewTransaction() { claimed_in_transaction_.clear(); }
+  void NewTransaction() {
+    claimed_in_transaction_.clear();
+    months_known_.clear();
+  }
 
   // Copies run `run_id` with everything it holds; the plant's run key, or
   // a refusal in *refusal (nothing written then).
@@ -357,8 +413,10 @@ class Shipper {
     }
     auto w = plant_.Prepare(sql);
     if (!w.ok()) return w.status();
+    int64_t start_utime = 0;
     for (size_t c = 0; c < cols.size(); ++c) {
       BindValue(*w, static_cast<int>(c + 1), ValueOf(*read, static_cast<int>(c)));
+      if (cols[c] == "start_utime") start_utime = read->Int(static_cast<int>(c));
     }
     read->Reset();
     w->Bind(static_cast<int>(cols.size() + 1), archive_id);
@@ -368,7 +426,8 @@ class Shipper {
     const int64_t key = w->Int(0);
     w->Reset();
     report_->rows_inserted += 1;
-    for (const char* t : kRunTables) IMUQUAL_RETURN_IF_ERROR(CopyRows(t, skey, key));
+    const int month = MonthOf(start_utime);
+    for (const char* t : kRunTables) IMUQUAL_RETURN_IF_ERROR(CopyRows(t, skey, key, month));
     ++report_->runs_shipped;
     return key;
   }
@@ -395,6 +454,8 @@ class Shipper {
   Db& plant_;
   const SyncOptions& options_;
   std::set<std::string> claimed_in_transaction_;  // station ids this archive holds
+  bool chunk_months_ = false;        // raw_chunks is partitioned by month
+  std::set<int> months_known_;       // partitions seen or made in this transaction
   SyncReport* report_;
   std::map<std::string, std::vector<std::string>> columns_;
   std::vector<std::string> run_tables_;

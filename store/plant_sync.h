@@ -74,6 +74,9 @@ struct SyncReport {
   // The station archive is behind the plant (restored from a backup): its
   // chain is a prefix of what the plant holds; nothing shipped.
   bool behind = false;
+  // Raw chunks that went to the default partition (the month's could not
+  // be made: the sync's role does not own raw_chunks), once; "" otherwise.
+  std::string partition_note;
   // "station id X moved to this archive from ..." when new_archive_of took
   // a station id over; "" otherwise.
   std::string station_moved;

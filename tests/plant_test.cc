@@ -146,7 +146,7 @@ std::vector<std::string> Rows(store::Db& db, const std::string& table, const std
     EXPECT_TRUE(row.ok()) << row.status().message();
     if (!row.ok() || !*row) break;
     rows.push_back(store::EncodeRow(
-        store::RowFromStatement(*s, {"run_key", "station_archive", "archive_id"})));
+        store::RowFromStatement(*s, {"run_key", "station_archive", "archive_id", "month"})));
   }
   std::sort(rows.begin(), rows.end());
   return rows;
@@ -363,6 +363,74 @@ TEST_F(PlantTest, ALotsRunsReadAtOnceEqualEachRunReadAlone) {
       }
     }
   }
+}
+
+// Raw chunks at the plant live in the partition of their run's start month,
+// which the sync makes when it owns raw_chunks.
+TEST_F(PlantTest, RawChunksLiveInTheirRunsMonthPartition) {
+  const std::string plant = NewDatabase("plant_months");
+  ASSERT_EQ(Sync(station_b_, plant).exit_code, 0);
+  auto p = store::Archive::Open(plant, store::Archive::Mode::kRead);
+  ASSERT_TRUE(p.ok());
+  auto s = (*p)->db().Prepare(
+      "SELECT c.tableoid::regclass::text, to_char(to_timestamp(r.start_utime / 1e6) AT TIME ZONE "
+      "'UTC', 'YYYYMM'), count(*) FROM raw_chunks c JOIN runs r USING (run_key) GROUP BY 1, 2");
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  int groups = 0;
+  while (*s->Step()) {
+    ++groups;
+    EXPECT_EQ(s->Text(0), "raw_chunks_" + s->Text(1)) << s->Int(2) << " chunks";
+  }
+  EXPECT_GE(groups, 1);
+}
+
+// The production roles of the README: the owner makes the schema, the
+// stations ship as an ingest role that may insert (and replace a run's
+// result rows) but owns nothing. Its chunks wait in the default partition
+// when their month's partition is not made yet (said), and the plant holds
+// the runs whole all the same; the read-only role reads and verifies.
+TEST_F(PlantTest, AStationShipsAsTheReadmesIngestRoleAndIsReadAsItsReadRole) {
+  const std::string plant = NewDatabase("plant_roles");
+  // The owner makes the schema: a history without raw samples (no month).
+  const std::string history = dir_->path("roles-history.db");
+  ASSERT_EQ(RunCommand(Bin("imuqual-history-gen") + " --db " + history +
+                       " --lots 1 --units 2 --prefix R > /dev/null")
+                .exit_code,
+            0);
+  ASSERT_EQ(Sync(history, plant).exit_code, 0);
+  {
+    auto owner = store::Db::Open(plant, store::Db::Mode::kReadWrite);
+    ASSERT_TRUE(owner.ok());
+    const Status grants = (*owner)->Exec(R"sql(
+DROP ROLE IF EXISTS imuqual_ingest; DROP ROLE IF EXISTS imuqual_read;
+CREATE ROLE imuqual_ingest LOGIN;
+GRANT SELECT, INSERT ON ALL TABLES IN SCHEMA public TO imuqual_ingest;
+GRANT UPDATE ON runs, station_archives, station_ids, lots, units TO imuqual_ingest;
+GRANT DELETE ON run_axes, gaps, curves, curve_points, measurements, superseded_judgements
+  TO imuqual_ingest;
+CREATE ROLE imuqual_read LOGIN;
+GRANT SELECT ON ALL TABLES IN SCHEMA public TO imuqual_read;)sql");
+    ASSERT_TRUE(grants.ok()) << grants.message();
+  }
+  auto as = [&](const std::string& role) {
+    std::string url = plant;
+    url.replace(url.find("user=imuqual"), 12, "user=" + role);
+    return url;
+  };
+  const CommandResult r = RunCommand(Bin("imuqual") + " sync --quiet --db " + station_b_ +
+                                     " --to '" + as("imuqual_ingest") + "' 2>&1");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("went to the default partition"), std::string::npos) << r.output;
+  ExpectShippedWhole(station_b_, as("imuqual_read"));
+  const CommandResult verify =
+      RunCommand(Bin("imuqual") + " verify --db '" + as("imuqual_read") + "' 2>&1");
+  EXPECT_EQ(verify.exit_code, 0) << verify.output;
+  // The ingest role can neither change nor delete evidence.
+  auto ingest = store::Db::Open(as("imuqual_ingest"), store::Db::Mode::kReadWrite);
+  ASSERT_TRUE(ingest.ok());
+  EXPECT_FALSE((*ingest)->Exec("DELETE FROM archive_chain").ok());
+  EXPECT_FALSE((*ingest)->Exec("UPDATE raw_chunks SET data = data").ok());
+  EXPECT_FALSE((*ingest)->Exec("DELETE FROM raw_chunks").ok());
 }
 
 TEST_F(PlantTest, AStationFileEditedAfterSigningIsRefusedAndNamed) {
