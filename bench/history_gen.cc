@@ -200,6 +200,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--station-gain", gains, "STATION=G: that station reads noise G times higher");
   app.add_option("--only-station", only_station, "write that station's runs only");
+  int golden_operators = 0;
+  std::vector<std::string> operator_gains;
+  app.add_option("--golden-operators", golden_operators,
+                 "operators of the golden study (op-1, ...): trial t of each unit on each "
+                 "station by op-(t mod N + 1) (0: one operator, 'golden')");
+  app.add_option("--operator-gain", operator_gains,
+                 "OP=G: that operator's soaks read noise G times higher (a unit mounted badly)");
   CLI11_PARSE(app, argc, argv);
   SetLogProgramName("imuqual-history-gen");
 
@@ -265,6 +272,15 @@ int main(int argc, char** argv) {
       }
       gain[g.substr(0, eq)] = std::stod(g.substr(eq + 1));
     }
+    std::map<std::string, double> operator_gain;
+    for (const std::string& g : operator_gains) {
+      const size_t eq = g.find('=');
+      if (eq == std::string::npos) {
+        LogError("--operator-gain " + g + ": must be OP=G");
+        return 2;
+      }
+      operator_gain[g.substr(0, eq)] = std::stod(g.substr(eq + 1));
+    }
     const std::string lot = prefix + "-GOLDEN";
     if (!(*archive)->Begin().ok()) return 1;
     for (int st = 1; st <= golden_stations; ++st) {
@@ -282,14 +298,18 @@ int main(int argc, char** argv) {
           run.lot = lot;
           run.station = station;
           run.slot = "1";
-          run.operator_name = "golden";
+          run.operator_name =
+              golden_operators > 0 ? "op-" + std::to_string(t % golden_operators + 1) : "golden";
           run.start_utime = base_utime + static_cast<int64_t>(((st - 1) * golden_trials + t) * kDay +
                                                               u * kUnitGap);
           // Each soak its own realization, whichever file it is written to.
           sim::Random soak(seed ^ sim::SeedFromName(run.run_id));
           const auto g = gain.find(station);
+          const auto og = operator_gain.find(run.operator_name);
+          const double run_gain = (g == gain.end() ? 1.0 : g->second) *
+                                  (og == operator_gain.end() ? 1.0 : og->second);
           if (Status s2 = WriteRun(**archive, *plan, plan_bytes, axes, axis_info, truth, rate, run,
-                                   g == gain.end() ? 1.0 : g->second, soak);
+                                   run_gain, soak);
               !s2.ok()) {
             LogError(s2.message());
             return 1;

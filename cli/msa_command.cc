@@ -26,9 +26,13 @@ CLI::App* AddMsaCommand(CLI::App& app, MsaOptions* o) {
                   "soaks of each unit on each station to use, oldest first (default: as many as "
                   "every unit has on every station)")
       ->check(CLI::Range(2, 1000));
+  cmd->add_option("--by", o->by,
+                  "the appraisers: station (between stations), operator (between operators) or "
+                  "station-operator (each pair)")
+      ->capture_default_str();
   cmd->add_option("--format", o->format, "table, csv or json")->capture_default_str();
   cmd->footer(
-      "Each golden unit is a part, each station an appraiser, each judged soak a trial; the "
+      "Each golden unit is a part, each station (or operator: --by) an appraiser, each judged soak a trial; the "
       "study must be balanced (every unit on every station, the same number of soaks). "
       "%GRR against the tolerance: 6 GRR / (USL - LSL), or with one limit 3 GRR / |limit - "
       "mean|; < 10 % acceptable, 10-30 % may be acceptable, > 30 % unacceptable. An interaction "
@@ -40,12 +44,17 @@ CLI::App* AddMsaCommand(CLI::App& app, MsaOptions* o) {
   return cmd;
 }
 
-int MsaCommand(const MsaOptions& o) {
+int MsaCommand(const MsaOptions& options) {
+  MsaOptions o = options;
   auto format = report::ParseFormat(o.format);
-  if (!format.ok()) {
-    LogError(format.status().message());
-    return kExitUsage;
+  auto by = report::ParseAppraiser(o.by);
+  for (const Status& st : {format.status(), by.status()}) {
+    if (!st.ok()) {
+      LogError(st.message());
+      return kExitUsage;
+    }
   }
+  o.selection.appraiser = *by;
   auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
   if (!archive.ok()) {
     LogError(archive.status().message());
@@ -75,8 +84,8 @@ int MsaCommand(const MsaOptions& o) {
     disagree = disagree || out.result.verdict == "unacceptable";
     for (const judge::StationOffset& s : out.result.offsets) disagree = disagree || s.differs;
   }
-  const report::TableWriter studies = report::MsaTable(outcomes);
-  const report::TableWriter offsets = report::MsaOffsetsTable(outcomes);
+  const report::TableWriter studies = report::MsaTable(outcomes, *by);
+  const report::TableWriter offsets = report::MsaOffsetsTable(outcomes, *by);
   if (*format == report::Format::kJson) {
     std::printf("{\"studies\": %s, \"offsets\": %s}\n",
                 studies.Render(*format).c_str(), offsets.Render(*format).c_str());

@@ -20,6 +20,7 @@ namespace imuqual::cli {
 
 struct MsaOptions {
   std::string db_path, lot, format = "table";
+  std::string by = "station";  // the appraisers: station, operator, station-operator
   report::MsaSelection selection;
 };
 

@@ -19,18 +19,45 @@ bool Selected(const store::RunValueRow& r, const MsaSelection& s) {
 
 }  // namespace
 
+Result<Appraiser> ParseAppraiser(const std::string& text) {
+  if (text == "station") return Appraiser::kStation;
+  if (text == "operator") return Appraiser::kOperator;
+  if (text == "station-operator") return Appraiser::kStationOperator;
+  return Status::InvalidArgument("appraiser '" + text +
+                                 "': station, operator or station-operator");
+}
+
+std::string AppraiserName(Appraiser a) {
+  return a == Appraiser::kStation    ? "station"
+         : a == Appraiser::kOperator ? "operator"
+                                     : "station-operator";
+}
+
 std::vector<MsaOutcome> StudyStations(const std::vector<store::RunValueRow>& rows,
                                       const MsaSelection& selection) {
-  // (axis, name) -> unit -> station -> values in run order (rows are by
-  // serial, station, start).
+  const std::string who = AppraiserName(selection.appraiser);
+  auto appraiser_of = [&](const store::RunValueRow& r) {
+    switch (selection.appraiser) {
+      case Appraiser::kStation: return r.station;
+      case Appraiser::kOperator: return r.operator_name;
+      case Appraiser::kStationOperator: return r.station + "/" + r.operator_name;
+    }
+    return r.station;
+  };
+  // (axis, name) -> unit -> appraiser -> values in run order.
   using Cells = std::map<std::string, std::map<std::string, std::vector<double>>>;
   std::map<std::pair<std::string, std::string>, Cells> by_measurement;
   std::map<std::pair<std::string, std::string>, const store::RunValueRow*> first;
-  for (const store::RunValueRow& r : rows) {
-    if (!Selected(r, selection)) continue;
-    const auto key = std::make_pair(r.axis, r.name);
-    by_measurement[key][r.unit][r.station].push_back(r.value);
-    if (!first.count(key)) first[key] = &r;
+  std::vector<const store::RunValueRow*> ordered;
+  for (const store::RunValueRow& r : rows) ordered.push_back(&r);
+  std::stable_sort(ordered.begin(), ordered.end(), [](const auto* a, const auto* b) {
+    return a->start_utime < b->start_utime;
+  });
+  for (const store::RunValueRow* r : ordered) {
+    if (!Selected(*r, selection)) continue;
+    const auto key = std::make_pair(r->axis, r->name);
+    by_measurement[key][r->unit][appraiser_of(*r)].push_back(r->value);
+    if (!first.count(key)) first[key] = r;
   }
   std::vector<MsaOutcome> out;
   for (const auto& [key, units] : by_measurement) {
@@ -51,19 +78,20 @@ std::vector<MsaOutcome> StudyStations(const std::vector<store::RunValueRow>& row
         const size_t n = it == cells.end() ? 0 : it->second.size();
         if (n < fewest) {
           fewest = n;
-          where = "unit " + unit + " has " + std::to_string(n) + " judged run(s) on " + station;
+          where = "unit " + unit + " has " + std::to_string(n) + " judged run(s) by " + who + " " +
+                  station;
         }
       }
     }
     size_t trials = selection.trials > 0 ? static_cast<size_t>(selection.trials) : fewest;
     if (fewest == 0) {
-      o.why_not = where + ": every golden unit must be soaked on every station";
+      o.why_not = where + ": every golden unit must be soaked by every " + who;
     } else if (fewest < trials) {
       o.why_not = where + ", fewer than --trials " + std::to_string(selection.trials);
     } else if (trials < 2) {
-      o.why_not = where + ": each unit must be soaked at least twice on every station";
+      o.why_not = where + ": each unit must be soaked at least twice by every " + who;
     } else if (stations.size() < 2) {
-      o.why_not = "one station only (" + *stations.begin() + "): nothing to compare";
+      o.why_not = "one " + who + " only (" + *stations.begin() + "): nothing to compare";
     }
     if (o.why_not.empty()) {
       judge::MsaStudy study;
@@ -91,8 +119,8 @@ std::vector<MsaOutcome> StudyStations(const std::vector<store::RunValueRow>& row
   return out;
 }
 
-TableWriter MsaTable(const std::vector<MsaOutcome>& outcomes) {
-  TableWriter t({"axis", "measurement", "unit", "units", "stations", "trials", "mean", "ev", "av",
+TableWriter MsaTable(const std::vector<MsaOutcome>& outcomes, Appraiser appraiser) {
+  TableWriter t({"axis", "measurement", "unit", "units", AppraiserName(appraiser) + "s", "trials", "mean", "ev", "av",
                  "interaction", "grr", "pv", "tv", "percent_grr_tv", "percent_grr_tolerance",
                  "tolerance_basis", "ndc", "interaction_p", "interaction_pooled", "verdict",
                  "not_analysed"});
@@ -111,8 +139,8 @@ TableWriter MsaTable(const std::vector<MsaOutcome>& outcomes) {
   return t;
 }
 
-TableWriter MsaOffsetsTable(const std::vector<MsaOutcome>& outcomes) {
-  TableWriter t({"axis", "measurement", "unit", "station", "offset", "offset_percent", "low_95",
+TableWriter MsaOffsetsTable(const std::vector<MsaOutcome>& outcomes, Appraiser appraiser) {
+  TableWriter t({"axis", "measurement", "unit", AppraiserName(appraiser), "offset", "offset_percent", "low_95",
                  "high_95", "differs"});
   for (const MsaOutcome& o : outcomes) {
     if (!o.why_not.empty()) continue;

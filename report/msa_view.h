@@ -14,10 +14,19 @@
 
 namespace imuqual::report {
 
+// Who the study's appraisers are: stations (reproducibility between
+// stations), operators (between the people who mount and start the units),
+// or each station and operator pair.
+enum class Appraiser { kStation, kOperator, kStationOperator };
+// "station", "operator", "station-operator".
+Result<Appraiser> ParseAppraiser(const std::string& text);
+std::string AppraiserName(Appraiser a);
+
 struct MsaSelection {
   std::string measurement;  // "" = every measurement with a limit
   std::string axis;         // "" = every axis
   int trials = 0;           // 0: as many as every unit has on every station
+  Appraiser appraiser = Appraiser::kStation;
 };
 
 struct MsaOutcome {
@@ -27,16 +36,19 @@ struct MsaOutcome {
 };
 
 // One study per (axis, measurement): parts are the lot's units, appraisers
-// its stations, trials each unit's first `trials` judged runs on each
-// station (oldest first).
+// its stations (or operators, or station and operator pairs: the
+// selection's appraiser), trials each unit's first `trials` judged runs by
+// each appraiser (oldest first).
 std::vector<MsaOutcome> StudyStations(const std::vector<store::RunValueRow>& rows,
                                       const MsaSelection& selection);
 
 // A row per study: the components, %GRR, ndc, the manual's reading.
-TableWriter MsaTable(const std::vector<MsaOutcome>& outcomes);
+TableWriter MsaTable(const std::vector<MsaOutcome>& outcomes,
+                     Appraiser appraiser = Appraiser::kStation);
 // A row per study and station: its offset from the fleet (also in % of the
 // mean) with its 95 % interval, and whether it differs.
-TableWriter MsaOffsetsTable(const std::vector<MsaOutcome>& outcomes);
+TableWriter MsaOffsetsTable(const std::vector<MsaOutcome>& outcomes,
+                            Appraiser appraiser = Appraiser::kStation);
 
 }  // namespace imuqual::report
 

@@ -364,13 +364,18 @@ Page Msa(store::Archive& archive, const std::map<std::string, std::string>& quer
   report::MsaSelection selection;
   selection.measurement = Param(query, "measurement");
   selection.axis = Param(query, "axis");
+  const std::string by_text = Param(query, "by").empty() ? "station" : Param(query, "by");
+  auto by = report::ParseAppraiser(by_text);
+  if (!by.ok()) return NotFound(by.status().message());
+  selection.appraiser = *by;
   std::string body =
       "<h1>Station agreement (MSA)</h1>\n<form action=\"/msa\" method=\"get\"><label>golden "
       "lot <input name=\"lot\" value=\"" +
       HtmlEscape(lot) + "\"></label> <label>measurement <input name=\"measurement\" value=\"" +
       HtmlEscape(selection.measurement) + "\"></label> <label>axis <input name=\"axis\" "
       "size=\"4\" value=\"" +
-      HtmlEscape(selection.axis) + "\"></label> <button>analyse</button></form>\n";
+      HtmlEscape(selection.axis) + "\"></label> <label>by <input name=\"by\" size=\"14\" value=\"" +
+      HtmlEscape(by_text) + "\"></label> <button>analyse</button></form>\n";
   if (lot.empty()) {
     if (json) return {404, "application/json", "{\"error\": \"give lot\"}\n"};
     return {200, "text/html; charset=utf-8", PageHtml("station agreement", body)};
@@ -379,8 +384,8 @@ Page Msa(store::Archive& archive, const std::map<std::string, std::string>& quer
   if (!rows.ok()) return Failed(rows.status());
   if (rows->empty()) return NotFound("no judged run of lot '" + lot + "'");
   const std::vector<report::MsaOutcome> outcomes = report::StudyStations(*rows, selection);
-  const TableWriter studies = report::MsaTable(outcomes);
-  const TableWriter offsets = report::MsaOffsetsTable(outcomes);
+  const TableWriter studies = report::MsaTable(outcomes, *by);
+  const TableWriter offsets = report::MsaOffsetsTable(outcomes, *by);
   if (json) {
     return Json("{\"studies\": " + studies.Render(Format::kJson) + ", \"offsets\": " +
                 offsets.Render(Format::kJson) + "}\n");
@@ -400,8 +405,8 @@ Page Msa(store::Archive& archive, const std::map<std::string, std::string>& quer
                       return list;
                     }()) +
                     "</p>\n";
-  body += "<h2>Studies</h2>\n" + studies.Render(Format::kHtml) +
-          "<h2>Each station against the fleet</h2>\n" + offsets.Render(Format::kHtml) +
+  body += "<h2>Studies</h2>\n" + studies.Render(Format::kHtml) + "<h2>Each " +
+          HtmlEscape(by_text) + " against the fleet</h2>\n" + offsets.Render(Format::kHtml) +
           "<p class=\"note\">AIAG ANOVA method: each golden unit a part, each station an "
           "appraiser, each judged soak a trial (balanced: as many as every unit has on every "
           "station). %GRR of the tolerance: 6 GRR / (USL - LSL), or 3 GRR / |limit - mean| with "
