@@ -51,6 +51,14 @@ TableWriter ControlChartTable(const judge::ControlChart& chart,
                               const std::vector<judge::Subgroup>& subgroups,
                               std::optional<double> low, std::optional<double> high);
 
+// The X-bar chart drawn (SVG, linear axes): each subgroup's mean joined by
+// a line, its control limits as steps (they depend on its n), the centre
+// line, the plan's limit when it is in range, and the subgroups that
+// complete a rule ringed in red and named in their tooltip. `title` names
+// the measurement, axis and unit.
+std::string ControlChartSvg(const judge::ControlChart& chart, const std::string& title,
+                            std::optional<double> low, std::optional<double> high);
+
 }  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_CONTROL_CHART_VIEW_H_

@@ -349,8 +349,13 @@ Page Chart(store::Archive& archive, const std::map<std::string, std::string>& qu
                : "; " + std::to_string(plan->left_out) + " values of " +
                      std::to_string(plan->other_plans) +
                      " other plan(s) not charted (choose one with plan=)") +
-          ".</p>\n" +
-          t.Render(Format::kHtml) +
+          ".</p>\n<figure>" +
+          report::ControlChartSvg(*chart,
+                                  measurement + " " + axis + " (" + rows->front().value_unit +
+                                      ") by " + by_name +
+                                      (station.empty() ? "" : " at " + station),
+                                  low, high) +
+          "</figure>\n" + t.Render(Format::kHtml) +
           "<p class=\"note\">X-bar limits: centre +- 3 sigma / sqrt(n); S limits: sigma (c4 +- 3 "
           "sqrt(1 - c4^2)). Rules: beyond 3 sigma, 2 of 3 beyond 2 sigma, 4 of 5 beyond 1 sigma, "
           "8 on one side, 6 trending (mean); beyond 3 sigma (sd). Cpk/Cpu/Cpl against the "

@@ -189,6 +189,25 @@ async function main() {
     await visit(`${base}chart?measurement=bias_instability&axis=gx&by=lot`);
     chartCells = sameTable('control chart', await pageTable(page),
                                  parseCsv(imuqual(['chart', '--db', plant, ...chartArgs, '--format', 'csv'])));
+    // The chart drawn: a point per subgroup, the flagged ones those with rules.
+    const drawn = await page.evaluate(() => {
+      const circles = [...document.querySelectorAll('figure svg circle[data-subgroup]')];
+      const head = [...document.querySelectorAll('table.data thead th')].map((th) => th.textContent);
+      const rules = head.indexOf('rules');
+      const rows = [...document.querySelectorAll('table.data tbody tr')];
+      return {
+        points: circles.map((c) => c.getAttribute('data-subgroup')),
+        flagged: circles.filter((c) => c.getAttribute('data-flagged') === 'true').map((c) => c.getAttribute('data-subgroup')),
+        subgroups: rows.map((tr) => tr.cells[0].textContent),
+        withRules: rows.filter((tr) => tr.cells[rules].textContent.trim() !== '').map((tr) => tr.cells[0].textContent),
+      };
+    });
+    if (JSON.stringify(drawn.points) !== JSON.stringify(drawn.subgroups)) {
+      fail(`control chart: points ${JSON.stringify(drawn.points)} drawn, subgroups ${JSON.stringify(drawn.subgroups)}`);
+    }
+    if (JSON.stringify(drawn.flagged) !== JSON.stringify(drawn.withRules)) {
+      fail(`control chart: ${JSON.stringify(drawn.flagged)} ringed, ${JSON.stringify(drawn.withRules)} flagged by a rule`);
+    }
     const chartSummary = await page.evaluate(() => document.body.innerText);
     if (!/subgroups flagged/.test(chartSummary)) fail('the control chart page says nothing of flagged subgroups');
 
