@@ -78,6 +78,9 @@ CREATE TABLE runs (
 CREATE INDEX runs_by_lot ON runs(lot, serial, start_utime);
 CREATE INDEX runs_by_serial ON runs(serial, start_utime);
 CREATE INDEX runs_by_station ON runs(station, start_utime);
+-- Each unit's final run in each lot, found from the index alone.
+CREATE INDEX runs_final ON runs(lot, serial)
+  INCLUDE (verdict, start_utime, run_key, station, operator, run_id, plan_sha256);
 CREATE TABLE run_axes (
   run_key     bigint NOT NULL REFERENCES runs(run_key),
   axis_index  bigint NOT NULL,
@@ -169,7 +172,10 @@ CREATE TABLE measurements (
   guard_band     double precision,
   PRIMARY KEY (run_key, axis, name)
 );
-CREATE INDEX measurements_by_name ON measurements(name, axis);
+-- A control chart's values (imuqual chart: one measurement of one axis over
+-- the archive) read from the index alone.
+CREATE INDEX measurements_values ON measurements(name, axis, run_key)
+  INCLUDE (value, unit, low, high);
 CREATE TABLE superseded_judgements (
   run_key           bigint NOT NULL REFERENCES runs(run_key),
   revision          bigint NOT NULL,
@@ -320,6 +326,11 @@ INSERT INTO station_ids (station, archive_id, claimed_utime, claimed_by)
 SELECT DISTINCT ON (station) station, station_archive,
        (extract(epoch FROM clock_timestamp()) * 1000000)::bigint, 'plant schema 2 (from runs)'
 FROM runs ORDER BY station, start_utime DESC;
+DROP INDEX IF EXISTS measurements_by_name;
+CREATE INDEX IF NOT EXISTS measurements_values ON measurements(name, axis, run_key)
+  INCLUDE (value, unit, low, high);
+CREATE INDEX IF NOT EXISTS runs_final ON runs(lot, serial)
+  INCLUDE (verdict, start_utime, run_key, station, operator, run_id, plan_sha256);
 UPDATE imuqual_plant SET version = 2;
 )sql";
 

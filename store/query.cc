@@ -471,23 +471,24 @@ ORDER BY r.serial, r.station, r.start_utime, r.run_id, m.axis, m.name)sql");
 
 Result<std::vector<RunValueRow>> QueryMeasurementHistory(Archive& archive, const std::string& name,
                                                          const std::string& axis) {
-  // Each unit's final run in each lot (as the final_runs view chooses it),
-  // ranked over the whole archive at once: the view's correlated subquery
-  // would run once per value (10^5 at a plant).
+  // Each unit's final run in each lot that is judged (as lot_measurements
+  // has it: its latest judged run): a judged run with no later judged run of
+  // its unit in its lot. An anti-join over the archive at once (the view's
+  // subquery would run once per value, 10^5 at a plant; the plant's indexes
+  // measurements_values and runs_final answer it from the indexes alone).
   auto s = archive.db().Prepare(R"sql(
-SELECT f.lot, f.serial, f.station, f.operator, f.run_id, f.start_utime, m.axis, m.name, m.value,
-       m.unit, m.low, m.high, f.plan_sha256
-FROM (SELECT r.run_key, r.lot, r.serial, r.station, r.operator, r.run_id, r.start_utime, r.verdict,
-             r.plan_sha256,
-             ROW_NUMBER() OVER (PARTITION BY r.lot, r.serial
-                                ORDER BY COALESCE(r.verdict IN ('PASS', 'MARGINAL', 'FAIL',
-                                                                'INCONCLUSIVE'), false) DESC,
-                                         r.start_utime DESC, r.run_key DESC) AS rank
-      FROM runs r) f
-JOIN measurements m ON m.run_key = f.run_key
-WHERE f.rank = 1 AND f.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
-  AND m.name = ?1 AND m.axis = ?2 AND m.value IS NOT NULL
-ORDER BY f.start_utime, f.run_id)sql");
+SELECT r.lot, r.serial, r.station, r.operator, r.run_id, r.start_utime, m.axis, m.name, m.value,
+       m.unit, m.low, m.high, r.plan_sha256
+FROM measurements m
+JOIN runs r ON r.run_key = m.run_key
+WHERE m.name = ?1 AND m.axis = ?2 AND m.value IS NOT NULL
+  AND r.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
+  AND NOT EXISTS (SELECT 1 FROM runs x
+                  WHERE x.lot = r.lot AND x.serial = r.serial
+                    AND x.verdict IN ('PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE')
+                    AND (x.start_utime > r.start_utime
+                         OR (x.start_utime = r.start_utime AND x.run_key > r.run_key)))
+ORDER BY r.start_utime, r.run_id)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, name).Bind(2, axis);
   return ReadRunValues(*s);

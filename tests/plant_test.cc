@@ -552,7 +552,11 @@ TEST_F(PlantTest, APlantOfSchemaOneIsUpgradedByTheNextSync) {
   {
     auto w = store::Db::Open(plant, store::Db::Mode::kReadWrite);
     ASSERT_TRUE(w.ok());
-    ASSERT_TRUE((*w)->Exec("DROP TABLE station_ids; UPDATE imuqual_plant SET version = 1").ok());
+    // As schema 1 was: no station_ids, no covering indexes.
+    ASSERT_TRUE((*w)->Exec("DROP TABLE station_ids; DROP INDEX measurements_values; DROP INDEX "
+                           "runs_final; CREATE INDEX measurements_by_name ON measurements(name, "
+                           "axis); UPDATE imuqual_plant SET version = 1")
+                    .ok());
   }
   const CommandResult old_reader =
       RunCommand(Bin("imuqual") + " lots --db '" + plant + "' 2>&1");
@@ -570,6 +574,11 @@ TEST_F(PlantTest, APlantOfSchemaOneIsUpgradedByTheNextSync) {
       "i.station IN ('st-a', 'st-b')");
   ASSERT_TRUE(held.ok());
   EXPECT_EQ(*held, 2);
+  auto indexes = (*p)->db().QueryInt(
+      "SELECT count(*) FROM pg_catalog.pg_indexes WHERE indexname IN ('measurements_values', "
+      "'runs_final')");
+  ASSERT_TRUE(indexes.ok());
+  EXPECT_EQ(*indexes, 2);
   // B's id is held by B's archive: another archive claiming it is refused.
   const std::string other = dir_->path("station-b-other.db");
   Soak(other, "st-b", "P-OTHER", 1, "");
