@@ -820,7 +820,7 @@ constexpr char kScript[] = R"js(
     });
     rows.forEach(function (r) { body.appendChild(r); });
   }
-  // A section a served page leaves to be fetched (the lot noise models):
+  // A section a served page leaves to be fetched (noise models, plots):
   // its place holds a note until it arrives.
   document.querySelectorAll('section[data-src]').forEach(function (section) {
     fetch(section.getAttribute('data-src'), {credentials: 'same-origin'})
@@ -828,10 +828,12 @@ constexpr char kScript[] = R"js(
         if (!r.ok) throw new Error('status ' + r.status);
         return r.text();
       })
-      .then(function (html) { section.outerHTML = html; })
+      .then(function (html) {
+        if (html.trim() === '') section.remove(); else section.outerHTML = html;
+      })
       .catch(function (e) {
         var note = section.querySelector('p');
-        if (note) note.textContent = 'The lot noise model could not be loaded (' + e.message + '): reload the page.';
+        if (note) note.textContent = 'This section could not be loaded (' + e.message + '): reload the page.';
         section.removeAttribute('aria-busy');
       });
   });
@@ -926,7 +928,9 @@ void LotModelSection(const std::vector<AxisLotModel>& models, std::string* out) 
 
 }  // namespace
 
-Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& lot) {
+Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& lot,
+                                    LotReportLoad load) {
+  const bool all = load == LotReportLoad::kAll;
   LotReportData d;
   auto lots = store::QueryLots(archive, lot);
   if (!lots.ok()) return lots.status();
@@ -954,7 +958,7 @@ Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& 
   if (!early.ok()) return early.status();
   d.early = std::move(*early);
   // Every run of the lot at once (four queries, not four per unit).
-  auto lot_runs = archive.LoadLotRuns(lot);
+  auto lot_runs = archive.LoadLotRuns(lot, /*with_curves=*/all);
   if (!lot_runs.ok()) return lot_runs.status();
   std::map<std::string, store::LotRunRecord*> by_id;
   for (store::LotRunRecord& r : *lot_runs) by_id[r.info.run_id] = &r;
@@ -968,7 +972,7 @@ Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& 
     d.runs.push_back(MakeRunPlotData(std::move(run.info), run.result, run.curves));
   }
   // The raw samples of the units the report shows on their own.
-  for (const RunPlotData* r : NeedALook(d.runs)) {
+  for (const RunPlotData* r : all ? NeedALook(d.runs) : std::vector<const RunPlotData*>()) {
     auto series = RunTimeSeriesSvg(archive, r->info.run_id);
     d.series[r->info.run_id] = series.ok() ? LotReportData::Series{*series, Status::Ok()}
                                            : LotReportData::Series{"", series.status()};
@@ -979,7 +983,8 @@ Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& 
 Result<std::string> BuildLotReportHtml(store::Archive& archive, const std::string& lot,
                                        const std::string& archive_label,
                                        const LotReportOptions& options) {
-  auto d = LoadLotReport(archive, lot);
+  auto d = LoadLotReport(archive, lot,
+                         options.section_url ? LotReportLoad::kFirstView : LotReportLoad::kAll);
   if (!d.ok()) return d.status();
   return RenderLotReportHtml(*d, archive_label, options);
 }
@@ -990,27 +995,55 @@ std::string RenderLotModelSection(const LotReportData& d) {
   return html;
 }
 
-std::string RenderLotReportHtml(const LotReportData& d, const std::string& archive_label,
-                                const LotReportOptions& options) {
-  const std::string& lot = d.lot.lot;
-  // The lot noise models (a fit per axis, the slowest part) meanwhile, or
-  // fetched by the page's script.
-  const bool models_here = options.lot_models_url.empty();
-  std::future<std::string> lot_models;
-  if (models_here) {
-    lot_models = std::async(std::launch::async, [&d] { return RenderLotModelSection(d); });
+namespace {
+
+// The figure id of each flagged unit's first plot (the attention list links
+// to it): unit-plot-1, ... over the flagged units' plots in order, one plot
+// per kind of axis (as RunAllanPlots draws them).
+std::map<std::string, std::string> PlotAnchors(const LotReportData& d) {
+  std::map<std::string, std::string> anchors;
+  int index = 0;
+  for (const RunPlotData* r : NeedALook(d.runs)) {
+    std::set<int> kinds;
+    for (const AxisPlotData& a : r->axes) kinds.insert(static_cast<int>(a.kind));
+    if (kinds.empty()) continue;
+    anchors[r->info.run_id] = "unit-plot-" + std::to_string(index + 1);
+    index += static_cast<int>(kinds.size());
   }
-  // Plots first: the attention list links to the unit plots.
-  const std::vector<AllanPlot> lot_plots = LotAllanPlots(lot, d.runs, "");
-  const std::vector<const RunPlotData*> flagged = NeedALook(d.runs);
+  return anchors;
+}
+
+std::string LotPlotsSection(const LotReportData& d) {
+  const std::vector<AllanPlot> lot_plots = LotAllanPlots(d.lot.lot, d.runs, "");
+  std::string html = "<section id=\"lot-plots\">\n<h2>Allan deviation: the lot, per axis</h2>\n";
+  if (lot_plots.empty()) {
+    html += "<p class=\"note\">No Allan curve stored for this lot.</p>\n";
+  } else {
+    html += "<div class=\"plots\">\n";
+    for (const AllanPlot& p : lot_plots) Figure(p, "", "", &html);
+    html += "</div>\n";
+  }
+  html +=
+      "<p class=\"note\">Every unit's overlapping Allan deviation on one axis; units whose axis is "
+      "judged FAIL, INCONCLUSIVE or MARGINAL are drawn bold, each in its own shade of red, violet "
+      "or amber (named in the legend), with their confidence band, and ringed at their curve "
+      "minimum; hovering over "
+      "a curve names its unit, verdict and minimum. Left axis in datasheet units (deg/h, "
+      "&micro;g), right axis in the curve's own unit (deg/s, m/s<sup>2</sup>). Dashed lines: the "
+      "plan's limits (red) and marginal band edges "
+      "(amber); bias instability against the curve minimum, random walks as the "
+      "&minus;&frac12; and +&frac12; slope lines they are read from.</p>\n</section>\n";
+  return html;
+}
+
+// "" when no unit needs a look.
+std::string UnitPlotsSection(const LotReportData& d) {
   std::string unit_figures;
-  std::map<std::string, std::string> plot_anchor;  // run id -> figure id
   int figure_index = 0;
-  for (const RunPlotData* r : flagged) {
+  for (const RunPlotData* r : NeedALook(d.runs)) {
     const std::vector<AllanPlot> plots = RunAllanPlots(*r, "");
     for (size_t i = 0; i < plots.size(); ++i) {
       const std::string id = "unit-plot-" + std::to_string(++figure_index);
-      if (i == 0) plot_anchor[r->info.run_id] = id;
       std::string caption;
       Add(&caption, Badge(r->verdict), " <strong>", Esc(r->info.serial), "</strong>");
       for (size_t k = 0; k < r->reasons.size(); ++k) {
@@ -1034,6 +1067,52 @@ std::string RenderLotReportHtml(const LotReportData& d, const std::string& archi
           "</figcaption></figure>\n");
     }
   }
+  if (unit_figures.empty()) return "";
+  std::string html;
+  Add(&html,
+      "<section id=\"unit-plots\">\n<h2>Failing and marginal units: Allan deviation and raw "
+      "samples</h2>\n",
+      "<div class=\"plots\">\n", unit_figures, "</div>\n",
+      "<p class=\"note\">Each axis with its confidence band, its composite noise model "
+      "(dashed) and its curve minimum (ringed); then the unit's raw samples against device "
+      "time (deg/s, m/s<sup>2</sup> and &deg;C; bin means with their min/max envelope).</p>\n"
+      "</section>\n");
+  return html;
+}
+
+// A section's place on a served page: a note until the page's script
+// fetches it.
+std::string DeferredSection(const std::string& id, const std::string& heading,
+                            const std::string& note, const std::string& url) {
+  std::string html;
+  Add(&html, "<section", Attr("id", id), Attr("data-src", url), " aria-busy=\"true\">\n<h2>",
+      heading, "</h2>\n<p class=\"note\">", note, "&hellip;</p>\n<noscript><p><a",
+      Attr("href", url), ">", heading, "</a> on a page of its own.</p></noscript>\n</section>\n");
+  return html;
+}
+
+}  // namespace
+
+Result<std::string> RenderLotSection(const LotReportData& d, const std::string& part) {
+  if (part == "lot-model") return RenderLotModelSection(d);
+  if (part == "lot-plots") return LotPlotsSection(d);
+  if (part == "unit-plots") return UnitPlotsSection(d);
+  return Status::NotFound("no report section '" + part +
+                          "' (lot-model, lot-plots or unit-plots)");
+}
+
+std::string RenderLotReportHtml(const LotReportData& d, const std::string& archive_label,
+                                const LotReportOptions& options) {
+  const std::string& lot = d.lot.lot;
+  const bool inline_sections = !options.section_url;
+  // The lot noise models (a fit per axis, the slowest part) meanwhile, or
+  // fetched by the page's script with the plots.
+  std::future<std::string> lot_models;
+  if (inline_sections) {
+    lot_models = std::async(std::launch::async, [&d] { return RenderLotModelSection(d); });
+  }
+  const bool any_flagged = !NeedALook(d.runs).empty();
+  const std::map<std::string, std::string> plot_anchor = PlotAnchors(d);
 
   std::string html;
   html.reserve(1 << 20);
@@ -1052,47 +1131,27 @@ std::string RenderLotReportHtml(const LotReportData& d, const std::string& archi
       "<a href=\"#results\">Results per unit</a><a href=\"#statistics\">Lot statistics</a>"
       "<a href=\"#lot-model\">Lot noise model</a>"
       "<a href=\"#lot-plots\">Lot Allan plots</a>";
-  if (!unit_figures.empty()) html += "<a href=\"#unit-plots\">Unit plots</a>";
+  if (any_flagged) html += "<a href=\"#unit-plots\">Unit plots</a>";
   html += "</nav>\n";
   Attention(d, plot_anchor, &html);
   Results(d, &html);
   Statistics(d, &html);
-  if (models_here) {
+  if (inline_sections) {
     html += lot_models.get();
+    html += LotPlotsSection(d);
+    html += UnitPlotsSection(d);
   } else {
-    Add(&html, "<section id=\"lot-model\"", Attr("data-src", options.lot_models_url),
-        " aria-busy=\"true\">\n<h2>Lot noise model</h2>\n<p class=\"note\">Fitting the lot noise "
-        "model of each axis (a few tenths of a second a lot)&hellip;</p>\n<noscript><p><a",
-        Attr("href", options.lot_models_url),
-        ">The lot noise model</a> on a page of its own.</p></noscript>\n</section>\n");
-  }
-  html += "<section id=\"lot-plots\">\n<h2>Allan deviation: the lot, per axis</h2>\n";
-  if (lot_plots.empty()) {
-    html += "<p class=\"note\">No Allan curve stored for this lot.</p>\n";
-  } else {
-    html += "<div class=\"plots\">\n";
-    for (const AllanPlot& p : lot_plots) Figure(p, "", "", &html);
-    html += "</div>\n";
-  }
-  html +=
-      "<p class=\"note\">Every unit's overlapping Allan deviation on one axis; units whose axis is "
-      "judged FAIL, INCONCLUSIVE or MARGINAL are drawn bold, each in its own shade of red, violet "
-      "or amber (named in the legend), with their confidence band, and ringed at their curve "
-      "minimum; hovering over "
-      "a curve names its unit, verdict and minimum. Left axis in datasheet units (deg/h, "
-      "&micro;g), right axis in the curve's own unit (deg/s, m/s<sup>2</sup>). Dashed lines: the "
-      "plan's limits (red) and marginal band edges "
-      "(amber); bias instability against the curve minimum, random walks as the "
-      "&minus;&frac12; and +&frac12; slope lines they are read from.</p>\n</section>\n";
-  if (!unit_figures.empty()) {
-    Add(&html,
-        "<section id=\"unit-plots\">\n<h2>Failing and marginal units: Allan deviation and raw "
-        "samples</h2>\n",
-        "<div class=\"plots\">\n", unit_figures, "</div>\n",
-        "<p class=\"note\">Each axis with its confidence band, its composite noise model "
-        "(dashed) and its curve minimum (ringed); then the unit's raw samples against device "
-        "time (deg/s, m/s<sup>2</sup> and &deg;C; bin means with their min/max envelope).</p>\n"
-        "</section>\n");
+    html += DeferredSection("lot-model", "Lot noise model",
+                            "Fitting the lot noise model of each axis",
+                            options.section_url("lot-model"));
+    html += DeferredSection("lot-plots", "Allan deviation: the lot, per axis",
+                            "Drawing every unit's curve", options.section_url("lot-plots"));
+    if (any_flagged) {
+      html += DeferredSection("unit-plots",
+                              "Failing and marginal units: Allan deviation and raw samples",
+                              "Drawing each flagged unit's curves and raw samples",
+                              options.section_url("unit-plots"));
+    }
   }
   Add(&html,
       "<footer>Bias instability is the minimum of the overlapping Allan deviation curve "

@@ -24,6 +24,7 @@
 #ifndef IMUQUAL_REPORT_REPORT_H_
 #define IMUQUAL_REPORT_REPORT_H_
 
+#include <functional>
 #include <map>
 #include <string>
 #include <string_view>
@@ -69,14 +70,21 @@ struct LotReportData {
 
 // Reads the lot's report data. NotFound names the lot when the archive has
 // no run of it.
-Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& lot);
+// What of a lot LoadLotReport reads: everything (a report file, a deferred
+// section), or what a served page's first view shows (no curves, no raw
+// samples: its plots are fetched after it).
+enum class LotReportLoad { kAll, kFirstView };
+Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& lot,
+                                    LotReportLoad load = LotReportLoad::kAll);
 
 struct LotReportOptions {
-  // "" (default): the lot noise models are fitted and shown in the report
-  // (a file stands alone). Else the report's script fetches their section
-  // from this URL (RenderLotModelSection, served): a served page's first
-  // view does not wait for the fits, the slowest part of a report.
-  std::string lot_models_url;
+  // Unset (default): every section is in the report (a file stands alone).
+  // Set: the sections that take the most time (the lot noise models, the
+  // lot's Allan plots, the flagged units' plots and raw samples) are left
+  // to the report's script, which fetches each from section_url(PART)
+  // (RenderLotSection, served): a served page's first view waits for none
+  // of them.
+  std::function<std::string(const std::string& part)> section_url;
 };
 
 // The report's HTML from its data; `archive_label` is how the page names
@@ -87,6 +95,11 @@ std::string RenderLotReportHtml(const LotReportData& data, const std::string& ar
 // The report's lot noise model section alone (an HTML fragment): a fit per
 // axis of the lot's curves.
 std::string RenderLotModelSection(const LotReportData& data);
+
+// One deferred section of the report (an HTML fragment): "lot-model",
+// "lot-plots" or "unit-plots" ("" when no unit needs a look). NotFound for
+// another part.
+Result<std::string> RenderLotSection(const LotReportData& data, const std::string& part);
 
 // LoadLotReport, then RenderLotReportHtml. NotFound names the lot when the archive has no run of
 // it. `archive_label` is how the page names the archive (e.g. its path).

@@ -694,7 +694,7 @@ Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
   return r;
 }
 
-Result<std::vector<LotRunRecord>> Archive::LoadLotRuns(const std::string& lot) {
+Result<std::vector<LotRunRecord>> Archive::LoadLotRuns(const std::string& lot, bool with_curves) {
   std::vector<LotRunRecord> runs;
   std::map<int64_t, size_t> at;  // run key -> index in runs
   {
@@ -748,6 +748,7 @@ Result<std::vector<LotRunRecord>> Archive::LoadLotRuns(const std::string& lot) {
       [&](LotRunRecord& r, Stmt& s) {
         if (r.result) r.result->measurements.push_back(MeasurementFromRow(s, 1));
       }));
+  if (!with_curves) return runs;
   IMUQUAL_RETURN_IF_ERROR(each(
       std::string("SELECT c.run_key, ") + kCurveColumns +
           " FROM curves c JOIN curve_points p USING (run_key, axis, estimator) JOIN runs r ON "

@@ -181,7 +181,8 @@ class Archive {
   // LoadCurves read it (but the result's signed record, left empty), in
   // four queries however many runs (a lot report's units on a plant across
   // the network).
-  Result<std::vector<LotRunRecord>> LoadLotRuns(const std::string& lot);
+  // `with_curves` false: the curves are not read (three queries).
+  Result<std::vector<LotRunRecord>> LoadLotRuns(const std::string& lot, bool with_curves = true);
   // The smallest seq not archived for the run (0 if none).
   Result<int64_t> NextMissingSeq(int64_t run_key);
   // Seqs archived at or above `from_seq`, ascending.

@@ -430,7 +430,9 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
     if (path == "/lot") rest = Param(query, "name");
     if (rest.empty()) return NotFound("give a lot: /lot/LOT or /lot?name=LOT");
     report::LotReportOptions options;
-    options.lot_models_url = NameLink("/lot-model", "name", rest);
+    options.section_url = [lot = rest](const std::string& part) {
+      return "/lot-section?name=" + PathSegment(lot) + "&part=" + part;
+    };
     auto html = report::BuildLotReportHtml(archive, rest, archive_label, options);
     if (!html.ok()) {
       return html.status().code() == Status::Code::kNotFound ? NotFound(html.status().message())
@@ -438,15 +440,16 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
     }
     return {200, "text/html; charset=utf-8", *html};
   }
-  if (path == "/lot-model" || Under(path, "/lot-model/", &rest)) {
-    // The lot page's noise model section, fetched by its script.
-    if (path == "/lot-model") rest = Param(query, "name");
-    auto data = report::LoadLotReport(archive, rest);
+  if (path == "/lot-section") {
+    // A lot page's deferred section, fetched by its script.
+    auto data = report::LoadLotReport(archive, Param(query, "name"));
     if (!data.ok()) {
       return data.status().code() == Status::Code::kNotFound ? NotFound(data.status().message())
                                                              : Failed(data.status());
     }
-    return {200, "text/html; charset=utf-8", report::RenderLotModelSection(*data)};
+    auto section = report::RenderLotSection(*data, Param(query, "part"));
+    if (!section.ok()) return NotFound(section.status().message());
+    return {200, "text/html; charset=utf-8", *section};
   }
   if (path == "/unit") {
     const std::string serial = Param(query, "serial");

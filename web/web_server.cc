@@ -112,6 +112,12 @@ std::string LotOfPath(const httplib::Request& req, const std::string& prefix) {
   return "";
 }
 
+// A lot report's deferred sections (report::RenderLotSection).
+constexpr const char* kSections[] = {"lot-model", "lot-plots", "unit-plots"};
+bool IsSection(const std::string& part) {
+  return std::find(std::begin(kSections), std::end(kSections), part) != std::end(kSections);
+}
+
 // cpp-httplib's server, answering the requests that the gate hands it.
 class GatedServer : public httplib::Server {
  public:
@@ -199,7 +205,9 @@ class ReportCache {
 struct WebServer::Impl {
   ServeOptions options;
   ReportCache reports;
-  ReportCache lot_models;  // the lot pages' noise model sections
+  // The lot pages' deferred sections, by part (every part made before the
+  // server's threads start: looked up, never inserted, while serving).
+  std::map<std::string, ReportCache> sections;
   std::unique_ptr<LiveFeed> feed;  // with a bus
   std::atomic<bool> stopping{false};
   std::atomic<int> streams{0};
@@ -231,10 +239,14 @@ struct WebServer::Impl {
       auto fingerprint = store::QueryLotFingerprint(**archive, lot);
       if (!fingerprint.ok() || fingerprint->empty()) continue;
       bool warmed = true;
-      for (auto [cache, prefix] : {std::pair<ReportCache*, const char*>{&reports, "/lot/"},
-                                   {&lot_models, "/lot-model/"}}) {
+      std::vector<std::pair<ReportCache*, std::string>> parts = {{&reports, ""}};
+      for (const char* part : kSections) parts.emplace_back(&sections.at(part), part);
+      for (const auto& [cache, part] : parts) {
         if (cache->Find(lot, *fingerprint)) continue;
-        const Page page = WithScriptAsFile(Route(**archive, options.db_path, prefix + lot, {}));
+        const Page page = WithScriptAsFile(
+            part.empty() ? Route(**archive, options.db_path, "/lot/" + lot, {})
+                         : Route(**archive, options.db_path, "/lot-section",
+                                 {{"name", lot}, {"part", part}}));
         if (page.status != 200) {
           warmed = false;
           break;
@@ -299,6 +311,7 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
     if (!archive.ok()) return archive.status();
   }
   auto impl = std::make_unique<Impl>();
+  for (const char* part : kSections) impl->sections.try_emplace(part);  // before any thread
   impl->options = o;
   impl->token_digest = DigestOf(o.token);
   if (!o.bus_url.empty()) {
@@ -476,12 +489,14 @@ Result<std::unique_ptr<WebServer>> WebServer::Start(const ServeOptions& o) {
     Page page;
     if (!archive.ok()) {
       page = {500, "text/plain; charset=utf-8", archive.status().message() + "\n"};
-    } else if (const std::string lot = LotOfPath(req, "/lot"), model_lot = LotOfPath(req, "/lot-model");
-               !lot.empty() || !model_lot.empty()) {
-      // A finished lot's report, or its noise model section, kept while
-      // the archive leaves the lot unchanged.
-      ReportCache& cache = lot.empty() ? state->lot_models : state->reports;
-      const std::string& name = lot.empty() ? model_lot : lot;
+    } else if (const std::string lot = LotOfPath(req, "/lot"),
+               section_lot = req.path == "/lot-section" ? req.get_param_value("name") : "";
+               !lot.empty() || (!section_lot.empty() && IsSection(req.get_param_value("part")))) {
+      // A finished lot's report, or one of its sections, kept while the
+      // archive leaves the lot unchanged.
+      ReportCache& cache =
+          lot.empty() ? state->sections.at(req.get_param_value("part")) : state->reports;
+      const std::string& name = lot.empty() ? section_lot : lot;
       auto fingerprint = store::QueryLotFingerprint(**archive, name);
       std::optional<Page> kept;
       if (fingerprint.ok() && !fingerprint->empty()) kept = cache.Find(name, *fingerprint);

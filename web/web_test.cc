@@ -202,25 +202,36 @@ TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
   EXPECT_EQ(lot->status, 200);
   auto archive = store::Archive::Open(db_, store::Archive::Mode::kRead);
   ASSERT_TRUE(archive.ok());
-  // The served page leaves its noise model section to its script, which
-  // fetches it from /lot-model/LOT.
+  // The served page leaves its slow sections (noise models, plots) to its
+  // script, which fetches each from /lot-section?name=LOT&part=PART.
   report::LotReportOptions served_options;
-  served_options.lot_models_url = "/lot-model/" + Encode(kLot);
+  served_options.section_url = [](const std::string& part) {
+    return "/lot-section?name=" + Encode(kLot) + "&part=" + part;
+  };
   auto report = report::BuildLotReportHtml(**archive, kLot, db_, served_options);
   ASSERT_TRUE(report.ok());
   auto data = report::LoadLotReport(**archive, kLot);
   ASSERT_TRUE(data.ok());
-  const std::string models = report::RenderLotModelSection(*data);
-  EXPECT_NE(models.find("<section id=\"lot-model\">"), std::string::npos) << models;
-  auto fetched = client_->Get("/lot-model/" + Encode(kLot));
-  ASSERT_TRUE(fetched);
-  EXPECT_EQ(fetched->status, 200);
-  EXPECT_EQ(fetched->body, models);
-  // A report file holds the same section itself.
   auto standalone = report::BuildLotReportHtml(**archive, kLot, db_);
   ASSERT_TRUE(standalone.ok());
-  EXPECT_NE(standalone->find(models), std::string::npos);
   EXPECT_EQ(standalone->find("data-src="), std::string::npos);
+  for (const std::string part : {"lot-model", "lot-plots", "unit-plots"}) {
+    auto section = report::RenderLotSection(*data, part);
+    ASSERT_TRUE(section.ok()) << part;
+    EXPECT_NE(section->find("<section id=\"" + part + "\">"), std::string::npos) << *section;
+    auto fetched = client_->Get("/lot-section?name=" + Encode(kLot) + "&part=" + part);
+    ASSERT_TRUE(fetched);
+    EXPECT_EQ(fetched->status, 200);
+    EXPECT_EQ(fetched->body, *section) << part;
+    // A report file holds the same section itself.
+    EXPECT_NE(standalone->find(*section), std::string::npos) << part;
+    EXPECT_NE(report->find("data-src=\"/lot-section?name=" + Encode(kLot) + "&amp;part=" + part),
+              std::string::npos)
+        << part;
+  }
+  auto unknown = client_->Get("/lot-section?name=" + Encode(kLot) + "&part=secrets");
+  ASSERT_TRUE(unknown);
+  EXPECT_EQ(unknown->status, 404);
   auto strip_time = [](std::string s) {  // the report says when it was generated
     const size_t at = s.find(" on 20");
     return at == std::string::npos ? s : s.substr(0, at);
@@ -377,7 +388,10 @@ TEST(WebPagesTest, ADamagedChunkCostsOnlyItsPlot) {
   ASSERT_TRUE(archive.ok());
   const Page lot = Route(**archive, db, "/lot/" + kLot, {});
   EXPECT_EQ(lot.status, 200);
-  EXPECT_NE(lot.body.find("raw samples not plotted"), std::string::npos);
+  // The unit's plots are the page's deferred section.
+  const Page plots = Route(**archive, db, "/lot-section", {{"name", kLot}, {"part", "unit-plots"}});
+  EXPECT_EQ(plots.status, 200);
+  EXPECT_NE(plots.body.find("raw samples not plotted"), std::string::npos);
   const Page run = Route(**archive, db, "/run/" + kRun, {});
   EXPECT_EQ(run.status, 200);
 }

@@ -160,8 +160,9 @@ async function main() {
     for (const st of ['st-1', 'st-2']) {
       if (!lotText.includes(st)) fail(`the lot page of PB does not name station ${st}`);
     }
-    await waitFor(page, 'the lot noise model of PB', 30,
-                  () => document.querySelector('#lot-model table.lot-model') !== null);
+    await waitFor(page, 'the lot noise model and plots of PB', 30,
+                  () => document.querySelector('#lot-model table.lot-model') !== null &&
+                        document.querySelectorAll('#lot-plots figure svg').length > 0);
 
     // The retested unit: one run per station, each run page opens.
     await visit(`${base}unit/PB-U01`);

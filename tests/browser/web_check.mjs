@@ -116,10 +116,17 @@ async function main() {
       const planText = await page.evaluate(() => document.querySelector('[data-field="plan"]')?.textContent);
       if (!planText?.includes(kPlanName)) fail(`the plan's name is not shown as text: '${planText}'`);
       await sorts('the lot page over TLS');
-      // Its noise model section, left to the page's script, arrives.
-      await waitFor(page, 'the lot noise model section fetched by the lot page', 30,
-                    () => !document.querySelector('#lot-model[data-src]') &&
-                          document.querySelector('#lot-model table.lot-model') !== null);
+      // Its slow sections, left to the page's script, arrive: the noise
+      // models, the lot's Allan plots, the flagged units' plots (every unit
+      // here FAILs) with the links of the attention list leading to them.
+      await waitFor(page, 'the lot page\'s deferred sections', 30,
+                    () => document.querySelector('section[data-src]') === null &&
+                          document.querySelector('#lot-model table.lot-model') !== null &&
+                          document.querySelectorAll('#lot-plots figure svg').length > 0 &&
+                          document.querySelectorAll('#unit-plots figure svg').length > 0);
+      const dangling = await page.evaluate(() => [...document.querySelectorAll('#attention a[href^="#"]')]
+          .map((a) => a.getAttribute('href')).filter((h) => !document.querySelector(h)));
+      if (dangling.length > 0) fail(`the attention list links to no plot: ${dangling.join(' ')}`);
     }
 
     // Each unit: its history links to its run, whose measurements equal the archive's.
