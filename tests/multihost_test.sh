@@ -41,8 +41,10 @@ chmod 755 "$work"
 pids=()
 cleanup() {
   for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
-  wait 2>/dev/null || true
   ip netns exec P "$src/scripts/pg-throwaway" stop "$work/plant" >/dev/null 2>&1 || true
+  # Whatever still runs on a host (each host's processes, whoever started them).
+  for h in A B C P; do ip netns pids "$h" 2>/dev/null | xargs -r kill 2>/dev/null || true; done
+  wait 2>/dev/null || true
   for h in A B C P; do ip netns del "$h" 2>/dev/null || true; done
   if [ "${KEEP:-}" != "1" ]; then rm -rf "$work"; else say "kept $work"; fi
 }
@@ -90,6 +92,8 @@ rate=20
 port=7701
 
 # One soak of the lot across the hosts; "$@": extra store flags. Starts
+# (with ip netns exec itself, not a shell function, so that $! is the
+# process and killing it stops it)
 # store (A), two analyze shards (B) and acquire (C, paced at $pace); leaves
 # the pids in store_pid, analyze_pids, acquire_pid.
 start_soak() {
@@ -97,18 +101,18 @@ start_soak() {
   shift 2
   local bus="udpm://239.255.76.67:$port?ttl=1&recv_buf_size=4194304"
   port=$((port + 1))
-  on A "$bin/imuqual-store" --lcm-url "$bus" "${trust[@]}" --sign-key store.key --db "$db" \
+  ip netns exec A "$bin/imuqual-store" --lcm-url "$bus" "${trust[@]}" --sign-key store.key --db "$db" \
     --accept-plan builtin:vg700ca "$@" >"$db.store.log" 2>&1 &
   store_pid=$!
   pids+=("$store_pid")
   analyze_pids=()
   for k in 0 1; do
-    on B "$bin/imuqual-analyze" --lcm-url "$bus" "${trust[@]}" --sign-key analyze.key \
+    ip netns exec B "$bin/imuqual-analyze" --lcm-url "$bus" "${trust[@]}" --sign-key analyze.key \
       --accept-plan builtin:vg700ca --shard "$k/2" >"$db.analyze$k.log" 2>&1 &
     analyze_pids+=("$!")
     pids+=("$!")
   done
-  on C "$bin/imuqual-acquire" --lcm-url "$bus" "${trust[@]}" --sign-key acquire.key --lot "$lot" \
+  ip netns exec C "$bin/imuqual-acquire" --lcm-url "$bus" "${trust[@]}" --sign-key acquire.key --lot "$lot" \
     --sim "$units" --duration "$duration" --rate "$rate" --plan builtin:vg700ca \
     --await store,analyze --pace "$pace" --station mh-station >"$db.acquire.log" 2>&1 &
   acquire_pid=$!
