@@ -1,0 +1,451 @@
+#include "analyze/allan/stationarity.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <boost/math/distributions/chi_squared.hpp>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numbers>
+
+#include "analyze/allan/confidence.h"
+#include "analyze/allan/estimators.h"
+#include "analyze/allan/gmwm.h"
+#include "analyze/allan/phase.h"
+#include "analyze/allan/tau_grid.h"
+
+namespace imuqual::allan {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// A candidate regressor in d: +1 at `a`, and -1 at `b` when b >= 0 (indices
+// into d, the differenced bin means).
+struct Candidate {
+  EventKind kind;
+  int k = 0;  // first bin after the boundary / first bin of the burst
+  int w = 0;  // burst length, bins (1 for a step)
+  int a = 0;
+  int b = -1;
+};
+
+// One axis's GLS problem on the present differences.
+class AxisGls {
+ public:
+  // d: differences (NaN where a bin is missing); cov(L): covariance at lag L.
+  // with_ramp: the constant of d (a rate ramp) is a nuisance.
+  AxisGls(const std::vector<double>& d, const std::vector<double>& cov, bool with_ramp) {
+    for (size_t i = 0; i < d.size(); ++i) {
+      if (std::isfinite(d[i])) at_.push_back(static_cast<int>(i));
+    }
+    index_.assign(d.size(), -1);
+    for (size_t j = 0; j < at_.size(); ++j) index_[at_[j]] = static_cast<int>(j);
+    const int n = static_cast<int>(at_.size());
+    Eigen::MatrixXd c(n, n);
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) c(i, j) = cov[std::abs(at_[i] - at_[j])];
+    }
+    Eigen::LLT<Eigen::MatrixXd> llt(c);
+    ok_ = llt.info() == Eigen::Success;
+    if (!ok_) return;
+    p_ = llt.solve(Eigen::MatrixXd::Identity(n, n));
+    d_.resize(n);
+    for (int i = 0; i < n; ++i) d_(i) = d[at_[i]];
+    if (with_ramp) x_.push_back(Eigen::VectorXd::Ones(n));
+    first_event_ = x_.size();
+    Refit();
+  }
+  bool ok() const { return ok_; }
+
+  // Adds a nuisance regressor (an accepted event) and refits.
+  void AddNuisance(const Candidate& c) {
+    x_.push_back(Sparse(c));
+    Refit();
+  }
+
+  // z, size and sigma of a candidate given the nuisances; NaN when the
+  // candidate touches a missing difference or is not identifiable.
+  void Test(const Candidate& c, double* z, double* size, double* sigma) const {
+    *z = *size = *sigma = kNaN;
+    const int ia = Map(c.a), ib = c.b >= 0 ? Map(c.b) : -2;
+    if (ia < 0 || ib == -1) return;
+    // g'P g, g'P r, g'P X.
+    double gpg = p_(ia, ia), gpr = v_(ia);
+    Eigen::VectorXd gpx = px_.row(ia).transpose();
+    if (ib >= 0) {
+      gpg += p_(ib, ib) - 2 * p_(ia, ib);
+      gpr -= v_(ib);
+      gpx -= px_.row(ib).transpose();
+    }
+    const double den2 = gpg - gpx.dot(m_ * gpx);
+    if (!(den2 > 1e-12 * gpg)) return;
+    *z = gpr / std::sqrt(den2);
+    *size = gpr / den2;
+    *sigma = 1 / std::sqrt(den2);
+  }
+
+  // The joint estimate of accepted event j's amplitude and its 1-sigma.
+  void Amplitude(size_t j, double* value, double* sigma) const {
+    const int i = static_cast<int>(first_event_ + j);
+    *value = beta_(i);
+    *sigma = std::sqrt(m_(i, i));
+  }
+
+ private:
+  int Map(int i) const { return i >= 0 && i < static_cast<int>(index_.size()) ? index_[i] : -1; }
+  Eigen::VectorXd Sparse(const Candidate& c) const {
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(static_cast<int>(at_.size()));
+    if (Map(c.a) >= 0) g(Map(c.a)) += 1;
+    if (c.b >= 0 && Map(c.b) >= 0) g(Map(c.b)) -= 1;
+    return g;
+  }
+  void Refit() {
+    const int n = static_cast<int>(at_.size()), q = static_cast<int>(x_.size());
+    if (q == 0) {
+      px_ = Eigen::MatrixXd(n, 0);
+      m_ = Eigen::MatrixXd(0, 0);
+      beta_ = Eigen::VectorXd(0);
+      v_ = p_ * d_;
+      return;
+    }
+    Eigen::MatrixXd x(n, q);
+    for (int j = 0; j < q; ++j) x.col(j) = x_[j];
+    px_ = p_ * x;
+    m_ = (x.transpose() * px_).ldlt().solve(Eigen::MatrixXd::Identity(q, q));
+    beta_ = m_ * (px_.transpose() * d_);
+    v_ = p_ * (d_ - x * beta_);
+  }
+
+  bool ok_ = false;
+  size_t first_event_ = 0;
+  std::vector<int> at_, index_;
+  Eigen::MatrixXd p_, px_, m_;
+  Eigen::VectorXd d_, beta_, v_;
+  std::vector<Eigen::VectorXd> x_;
+};
+
+double TwoSidedNormal(double z) { return std::erfc(std::fabs(z) / std::numbers::sqrt2); }
+
+}  // namespace
+
+std::string_view EventKindName(EventKind kind) {
+  return kind == EventKind::kStep ? "step" : "burst";
+}
+
+Status StationarityOptions::Validate() const {
+  if (!(bin_s >= 0) || !std::isfinite(bin_s)) {
+    return Status::InvalidArgument("stationarity bin_s must be >= 0 (0: automatic)");
+  }
+  if (min_bins < 16) return Status::InvalidArgument("stationarity min_bins must be >= 16");
+  if (!(false_alarm > 0 && false_alarm < 0.5)) {
+    return Status::InvalidArgument("stationarity false_alarm must be in (0, 0.5)");
+  }
+  if (max_events < 1) return Status::InvalidArgument("stationarity max_events must be >= 1");
+  if (passes < 1) return Status::InvalidArgument("stationarity passes must be >= 1");
+  return Status::Ok();
+}
+
+double PhaseStructureFunction(const CompositeModel& model, double tau0_s, double s) {
+  if (!(s > 0)) return 0;
+  double d = 0;
+  for (const ModelTerm& t : model.terms) {
+    const double v = t.scale * t.scale;
+    switch (t.kind) {
+      case TermKind::kQuantization:
+        d += 2 * v;
+        break;
+      case TermKind::kWhite:
+        d += v * s;
+        break;
+      case TermKind::kFlicker:
+        d += -(v / kPi) * s * s * std::log(s);
+        break;
+      case TermKind::kRandomWalk:
+        d += -(v / 6) * s * s * s;
+        break;
+      case TermKind::kDrift:  // deterministic: the constant of d
+        break;
+      case TermKind::kGaussMarkov: {
+        const double big_t = t.correlation_time_s;
+        const double x = tau0_s / big_t;
+        // sigma^2 tau0 (1 + phi) / (1 - phi) = sigma^2 tau0 / tanh(x / 2).
+        const double white = v * tau0_s / std::tanh(x / 2);
+        d += white * (s - big_t * (-std::expm1(-s / big_t)));
+        break;
+      }
+      case TermKind::kSinusoid: {
+        const double w = 2 * kPi * t.frequency_hz;
+        // 1 - cos(w s) = 2 sin^2(w s / 2), without cancellation.
+        const double h = std::sin(w * s / 2);
+        d += v * 2 * h * h / (w * w);
+        break;
+      }
+    }
+  }
+  return d;
+}
+
+Result<StationarityScan> ScanStationarity(const std::vector<std::span<const double>>& axes,
+                                          const std::vector<CompositeModel>& models, double tau0_s,
+                                          const StationarityOptions& options) {
+  IMUQUAL_RETURN_IF_ERROR(options.Validate());
+  if (axes.empty()) return Status::InvalidArgument("stationarity scan needs at least one axis");
+  if (models.size() != axes.size()) {
+    return Status::InvalidArgument("stationarity scan needs one noise model per axis");
+  }
+  if (!(tau0_s > 0) || !std::isfinite(tau0_s)) {
+    return Status::InvalidArgument("stationarity scan needs a positive sample interval");
+  }
+  const size_t n = axes.front().size();
+  for (const auto& a : axes) {
+    if (a.size() != n) {
+      return Status::InvalidArgument("stationarity scan: the axes' records differ in length");
+    }
+  }
+  const int num_axes = static_cast<int>(axes.size());
+  StationarityScan scan;
+  scan.false_alarm = options.false_alarm;
+  const double length_s = static_cast<double>(n) * tau0_s;
+  const int64_t bin_samples = std::max<int64_t>(
+      1, std::llround((options.bin_s > 0 ? options.bin_s : length_s / 300.0) / tau0_s));
+  const double b = static_cast<double>(bin_samples) * tau0_s;
+  scan.bin_s = b;
+  const int bins = static_cast<int>(static_cast<int64_t>(n) / bin_samples);
+  scan.bins = bins;
+  if (bins < options.min_bins) {
+    char text[160];
+    std::snprintf(text, sizeof text,
+                  "record too short for a stationarity scan (%d bins of %g s, %d needed)", bins, b,
+                  options.min_bins);
+    scan.note = text;
+    return scan;
+  }
+
+  // The candidates: every boundary, bursts of 1, 2, 4, ... bins up to a
+  // ninth of the record (the longest tau a fitted model has seen).
+  std::vector<Candidate> candidates;
+  for (int k = 1; k < bins; ++k) candidates.push_back({EventKind::kStep, k, 1, k - 1, -1});
+  for (int w = 1; 9 * w <= bins; w *= 2) {
+    for (int k = 1; k + w < bins; ++k) {
+      candidates.push_back({EventKind::kBurst, k, w, k - 1, k + w - 1});
+    }
+  }
+  scan.tests = static_cast<int>(candidates.size());
+  const double families = num_axes > 1 ? num_axes + 1 : 1;
+  const double multiplicity = static_cast<double>(candidates.size()) * families;
+
+  // Per axis: differenced bin means and the GLS problem.
+  std::vector<AxisGls> gls;
+  for (int a = 0; a < num_axes; ++a) {
+    std::vector<double> mean(bins, kNaN);
+    for (int bin = 0; bin < bins; ++bin) {
+      double sum = 0;
+      int64_t count = 0;
+      for (int64_t i = bin * bin_samples; i < (bin + 1) * bin_samples; ++i) {
+        const double v = axes[a][static_cast<size_t>(i)];
+        if (std::isfinite(v)) {
+          sum += v;
+          ++count;
+        }
+      }
+      if (2 * count >= bin_samples) mean[bin] = sum / static_cast<double>(count);
+    }
+    std::vector<double> d(bins - 1);
+    for (int i = 0; i + 1 < bins; ++i) d[i] = mean[i + 1] - mean[i];
+    std::vector<double> cov(bins);
+    for (int lag = 0; lag < bins; ++lag) {
+      constexpr double c[3] = {1, -2, 1};
+      double sum = 0;
+      for (int p = 0; p < 3; ++p) {
+        for (int q = 0; q < 3; ++q) {
+          sum += c[p] * c[q] * PhaseStructureFunction(models[a], tau0_s, std::abs(lag + q - p) * b);
+        }
+      }
+      cov[lag] = -sum / (2 * b * b);
+    }
+    gls.emplace_back(d, cov, models[a].CountOf(TermKind::kDrift) > 0);
+    if (!gls.back().ok()) {
+      return Status::InvalidArgument("stationarity scan: the noise model " + models[a].Name() +
+                                     " of axis " + std::to_string(a + 1) +
+                                     " gives no positive definite covariance at bins of " +
+                                     std::to_string(b) + " s");
+    }
+  }
+  scan.scanned = true;
+
+  std::vector<Candidate> accepted;
+  std::vector<StationarityEvent> events;
+  const boost::math::chi_squared joint(num_axes);
+  std::vector<double> z(num_axes), size(num_axes), sigma(num_axes);
+  for (int round = 0; round < options.max_events; ++round) {
+    double best_p = std::numeric_limits<double>::infinity();
+    const Candidate* best = nullptr;
+    bool best_joint = false;
+    int best_axis = -1;
+    std::vector<double> best_z;
+    for (const Candidate& c : candidates) {
+      bool all = true;
+      double sum = 0;
+      for (int a = 0; a < num_axes; ++a) {
+        gls[a].Test(c, &z[a], &size[a], &sigma[a]);
+        if (!std::isfinite(z[a])) {
+          all = false;
+          continue;
+        }
+        sum += z[a] * z[a];
+        const double p = TwoSidedNormal(z[a]) * multiplicity;
+        if (p < best_p) {
+          best_p = p;
+          best = &c;
+          best_joint = false;
+          best_axis = a;
+          best_z = z;
+        }
+      }
+      if (all && num_axes > 1) {
+        const double p = boost::math::cdf(boost::math::complement(joint, sum)) * multiplicity;
+        if (p < best_p) {
+          best_p = p;
+          best = &c;
+          best_joint = true;
+          best_axis = -1;
+          best_z = z;
+        }
+      }
+    }
+    if (best == nullptr || !(best_p < options.false_alarm)) break;
+    StationarityEvent e;
+    e.kind = best->kind;
+    e.time_s = best->k * b;
+    e.window_s = best->w * b;
+    e.joint = best_joint;
+    e.p_adjusted = std::min(1.0, best_p);
+    e.axes.resize(num_axes);
+    int strongest = 0;
+    bool any = false;
+    for (int a = 0; a < num_axes; ++a) {
+      EventAxis& ea = e.axes[a];
+      ea.z = best_z[a];
+      if (std::isfinite(ea.z) &&
+          (!std::isfinite(best_z[strongest]) || std::fabs(ea.z) > std::fabs(best_z[strongest]))) {
+        strongest = a;
+      }
+      ea.named = best_joint ? std::isfinite(ea.z) && TwoSidedNormal(ea.z) < 0.01 : a == best_axis;
+      any = any || ea.named;
+    }
+    if (!any) e.axes[strongest].named = true;
+    accepted.push_back(*best);
+    for (AxisGls& g : gls) g.AddNuisance(*best);
+    events.push_back(std::move(e));
+  }
+  // Sizes from the joint estimate with every event.
+  for (size_t j = 0; j < events.size(); ++j) {
+    for (int a = 0; a < num_axes; ++a) {
+      gls[a].Amplitude(j, &events[j].axes[a].size, &events[j].axes[a].sigma);
+    }
+  }
+  scan.events = std::move(events);
+  scan.passes = 1;
+  for (const CompositeModel& m : models) scan.models.push_back(m.Name());
+  return scan;
+}
+
+Result<CompositeModel> FitModelForScan(std::span<const double> rate, double tau0_s) {
+  const PhaseRecord phase = PhaseFromRate(rate, tau0_s);
+  const std::vector<int64_t> m =
+      AveragingFactors(TauGridSpec{}, tau0_s, phase.size(), Deviation::kOadev, StopRule::kBins9);
+  Curve curve = ComputeDeviation(phase, Deviation::kOadev, m);
+  AttachConfidence(phase, CiMethod::kChi2, kOneSigmaConfidence, &curve);
+  GmwmOptions options;
+  options.stop = StopRule::kNone;
+  options.bootstrap_replicates = 0;
+  options.absent_term_bounds = false;
+  auto fit = FitCompositeModel(curve, options);
+  if (!fit.ok()) return fit.status();
+  return fit->model;
+}
+
+void RemoveEvents(const StationarityScan& scan, int axis, double tau0_s, std::span<double> rate) {
+  const auto sample = [&](double t_s) {
+    return static_cast<size_t>(
+        std::clamp<double>(std::llround(t_s / tau0_s), 0.0, static_cast<double>(rate.size())));
+  };
+  for (const StationarityEvent& e : scan.events) {
+    const double size = e.axes[static_cast<size_t>(axis)].size;
+    if (!std::isfinite(size)) continue;
+    const size_t to = e.kind == EventKind::kStep ? rate.size() : sample(e.time_s + e.window_s);
+    for (size_t i = sample(e.time_s); i < to; ++i) rate[i] -= size;
+  }
+}
+
+Result<StationarityScan> ScanStationarityRefitting(const std::vector<std::span<const double>>& axes,
+                                                   double tau0_s,
+                                                   const StationarityOptions& options,
+                                                   const StationarityModelFit& fit) {
+  IMUQUAL_RETURN_IF_ERROR(options.Validate());
+  std::vector<CompositeModel> models;
+  for (const auto& a : axes) {
+    auto m = fit(a, tau0_s);
+    if (!m.ok()) return m.status();
+    models.push_back(*m);
+  }
+  auto scan = ScanStationarity(axes, models, tau0_s, options);
+  if (!scan.ok()) return scan;
+  int passes = 1;
+  auto same = [](const StationarityScan& x, const StationarityScan& y) {
+    if (x.events.size() != y.events.size()) return false;
+    for (size_t i = 0; i < x.events.size(); ++i) {
+      if (x.events[i].kind != y.events[i].kind || x.events[i].time_s != y.events[i].time_s ||
+          x.events[i].window_s != y.events[i].window_s) {
+        return false;
+      }
+    }
+    return true;
+  };
+  while (!scan->events.empty() && passes < options.passes) {
+    for (size_t a = 0; a < axes.size(); ++a) {
+      std::vector<double> corrected(axes[a].begin(), axes[a].end());
+      RemoveEvents(*scan, static_cast<int>(a), tau0_s, corrected);
+      auto m = fit(corrected, tau0_s);
+      if (!m.ok()) return m.status();
+      models[a] = *m;
+    }
+    auto next = ScanStationarity(axes, models, tau0_s, options);
+    if (!next.ok()) return next;
+    ++passes;
+    const bool settled = same(*scan, *next);
+    scan = std::move(next);
+    if (settled) break;
+  }
+  scan->passes = passes;
+  return scan;
+}
+
+Segment LongestStationarySegment(const StationarityScan& scan, double length_s, int axis) {
+  // Cut points: a step's boundary; a burst's departing stretch [t, t + w).
+  std::vector<std::pair<double, double>> cuts;
+  for (const StationarityEvent& e : scan.events) {
+    bool on = axis < 0;
+    for (size_t a = 0; a < e.axes.size() && !on; ++a) {
+      on = static_cast<int>(a) == axis && e.axes[a].named;
+    }
+    if (!on) continue;
+    if (e.kind == EventKind::kStep) {
+      cuts.emplace_back(e.time_s, e.time_s);
+    } else {
+      cuts.emplace_back(e.time_s, e.time_s + e.window_s);
+    }
+  }
+  std::sort(cuts.begin(), cuts.end());
+  Segment best{0, 0};
+  double from = 0;
+  for (const auto& [lo, hi] : cuts) {
+    if (lo - from > best.end_s - best.begin_s) best = {from, lo};
+    from = std::max(from, hi);
+  }
+  if (length_s - from > best.end_s - best.begin_s) best = {from, length_s};
+  return best;
+}
+
+}  // namespace imuqual::allan

@@ -1,0 +1,177 @@
+// The stationarity scan's error rates on every built-in simulator profile
+// (analyze/allan/stationarity.h): over many seeds of stationary records (the
+// profile's own noise model; its temperature coefficients set to 0, since
+// the warm-up they follow is itself a non-stationarity), the fraction of
+// records with any event (false alarm, with its Monte Carlo standard error);
+// then the same records with a step planted on one axis of size
+// `--step-sigmas` times the standard deviation of that axis's 100 s bin
+// means (measured on the stationary record), at a random time in the middle
+// 60 %, the fraction found (an event named on that axis whose window holds
+// the planted time).
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "acquire/imu_simulator.h"
+#include "acquire/lot_profile.h"
+#include "acquire/random.h"
+#include "analyze/allan/stationarity.h"
+#include "bench/bench_summary.h"
+
+namespace imuqual {
+namespace {
+
+struct Rates {
+  int records = 0, alarms = 0, planted = 0, found = 0, misplaced = 0;
+};
+
+// 'g' for a gyro axis (gx, gy, gz, or any other name), 'a' for an accelerometer (ax, ay, az).
+char KindOf(const pb::AxisTruth& a) { return a.axis().starts_with("a") ? 'a' : 'g'; }
+
+double BinMeanSd(const std::vector<double>& y, double tau0_s, double bin_s) {
+  const size_t per = static_cast<size_t>(std::llround(bin_s / tau0_s));
+  std::vector<double> means;
+  for (size_t b = 0; (b + 1) * per <= y.size(); ++b) {
+    double s = 0;
+    for (size_t i = b * per; i < (b + 1) * per; ++i) s += y[i];
+    means.push_back(s / static_cast<double>(per));
+  }
+  double m = 0;
+  for (double v : means) m += v;
+  m /= static_cast<double>(means.size());
+  double v2 = 0;
+  for (double v : means) v2 += (v - m) * (v - m);
+  return std::sqrt(v2 / static_cast<double>(means.size() - 1));
+}
+
+Rates Run(const std::string& profile_name, int seeds, double duration_s, double step_sigmas,
+          bool verbose) {
+  Rates r;
+  auto profile = sim::LotProfileByName(profile_name);
+  if (!profile.ok()) return r;
+  for (int seed = 0; seed < seeds; ++seed) {
+    pb::SimTruth truth =
+        sim::MakeUnitTruth(*profile, 7000 + seed, seed % 8, profile->nominal_rate_hz);
+    truth.set_seed(91000 + seed);
+    for (pb::AxisTruth& a : *truth.mutable_axes()) a.set_temp_coefficient(0);
+    auto simulator = sim::ImuSimulator::Create(truth);
+    if (!simulator.ok()) continue;
+    const int axes = simulator->num_axes();
+    const double tau0 = 1.0 / truth.actual_rate_hz();
+    const int n = static_cast<int>(duration_s * truth.actual_rate_hz());
+    std::vector<std::vector<float>> raw(axes);
+    simulator->Generate(n, raw);
+    std::vector<std::vector<double>> y(axes);
+    for (int a = 0; a < axes; ++a) y[a].assign(raw[a].begin(), raw[a].end());
+    // One group per kind of axis, as the station scans them.
+    auto scan_groups = [&](const std::vector<std::vector<double>>& data,
+                           std::vector<allan::StationarityScan>* out) {
+      out->clear();
+      for (char kind : {'g', 'a'}) {
+        std::vector<std::span<const double>> group;
+        for (int a = 0; a < axes; ++a) {
+          if (KindOf(truth.axes(a)) == kind) group.emplace_back(data[a]);
+        }
+        if (group.empty()) continue;
+        auto s = allan::ScanStationarityRefitting(group, tau0);
+        if (s.ok()) out->push_back(*s);
+      }
+    };
+    std::vector<allan::StationarityScan> scans;
+    scan_groups(y, &scans);
+    ++r.records;
+    bool alarm = false;
+    for (const auto& s : scans) alarm = alarm || !s.events.empty();
+    r.alarms += alarm ? 1 : 0;
+    if (alarm && verbose) {
+      for (const auto& sc : scans) {
+        std::printf("# %s seed %d: %d passes, models", profile_name.c_str(), seed, sc.passes);
+        for (const auto& m : sc.models) std::printf(" %s", m.c_str());
+        std::printf("\n");
+        for (const auto& e : sc.events) {
+          std::printf("#   %s at %.0f s window %.0f s p %.2g:",
+                      std::string(allan::EventKindName(e.kind)).c_str(), e.time_s, e.window_s,
+                      e.p_adjusted);
+          for (const auto& ea : e.axes)
+            std::printf(" [%s%.3g +- %.3g z %.1f]", ea.named ? "*" : "", ea.size, ea.sigma, ea.z);
+          std::printf("\n");
+        }
+      }
+    }
+    if (step_sigmas <= 0) continue;
+    // Plant a step on one axis.
+    sim::Random rng(555 + seed);
+    const int axis = seed % axes;
+    const double at_s = duration_s * (0.2 + 0.6 * rng.Uniform());
+    const double size = step_sigmas * BinMeanSd(y[axis], tau0, 100.0) * (seed % 2 ? 1 : -1);
+    for (int i = static_cast<int>(at_s / tau0); i < n; ++i) y[axis][i] += size;
+    scan_groups(y, &scans);
+    ++r.planted;
+    // The axis's index within its group.
+    int in_group = 0;
+    for (int a = 0; a < axis; ++a) in_group += KindOf(truth.axes(a)) == KindOf(truth.axes(axis));
+    const allan::StationarityScan& s =
+        scans[KindOf(truth.axes(axis)) == 'g' || scans.size() == 1 ? 0 : 1];
+    bool found = false, misplaced = false;
+    for (const allan::StationarityEvent& e : s.events) {
+      if (!e.axes[in_group].named) continue;
+      const double lo = e.time_s - e.window_s, hi = e.time_s + e.window_s;
+      if (at_s >= lo && at_s <= hi) {
+        found = true;
+      } else {
+        misplaced = true;
+      }
+    }
+    if (verbose) {
+      std::printf("## %s seed %d planted %.3g at %.0f s on axis %d: %zu events, found %d\n",
+                  profile_name.c_str(), seed, size, at_s, axis, s.events.size(), found);
+      for (const auto& e : s.events) {
+        std::printf("##   %s at %.0f s window %.0f s p %.2g z %.1f\n",
+                    std::string(allan::EventKindName(e.kind)).c_str(), e.time_s, e.window_s,
+                    e.p_adjusted, e.axes[in_group].z);
+      }
+    }
+    r.found += found ? 1 : 0;
+    r.misplaced += (!found && misplaced) ? 1 : 0;
+  }
+  return r;
+}
+
+}  // namespace
+}  // namespace imuqual
+
+int main(int argc, char** argv) {
+  int seeds = 200;
+  double duration_s = 3600, step_sigmas = 3;
+  bool verbose = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string flag = argv[i];
+    if (flag == "--verbose") {  // every alarm's and planted step's events, as comments
+      verbose = true;
+      continue;
+    }
+    if (i + 1 >= argc) break;
+    if (flag == "--seeds") seeds = std::atoi(argv[i + 1]);
+    if (flag == "--duration") duration_s = std::atof(argv[i + 1]);
+    if (flag == "--step-sigmas") step_sigmas = std::atof(argv[i + 1]);
+    ++i;
+  }
+  for (const std::string& p : imuqual::sim::LotProfileNames()) {
+    const imuqual::Rates r = imuqual::Run(p, seeds, duration_s, step_sigmas, verbose);
+    const double fa = static_cast<double>(r.alarms) / r.records;
+    const double se = std::sqrt(fa * (1 - fa) / r.records);
+    std::printf("stationarity_false_alarm_%s %.4f fraction (+- %.4f, %d records of %.0f s)\n",
+                p.c_str(), fa, se, r.records, duration_s);
+    if (r.planted > 0) {
+      std::printf(
+          "stationarity_step_found_%s %.4f fraction (%d of %d steps of %.1f sigma; %d found "
+          "elsewhere only)\n",
+          p.c_str(), static_cast<double>(r.found) / r.planted, r.found, r.planted, step_sigmas,
+          r.misplaced);
+    }
+  }
+  return 0;
+}
