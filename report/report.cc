@@ -958,7 +958,10 @@ Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& 
   if (!early.ok()) return early.status();
   d.early = std::move(*early);
   // Every run of the lot at once (four queries, not four per unit).
-  auto lot_runs = archive.LoadLotRuns(lot, /*with_curves=*/all);
+  // The first view shows each run's verdict and reasons, not its
+  // measurements (the lot's final ones come from the query above) or curves.
+  auto lot_runs =
+      archive.LoadLotRuns(lot, all ? store::LotRunParts::kAll : store::LotRunParts::kRuns);
   if (!lot_runs.ok()) return lot_runs.status();
   std::map<std::string, store::LotRunRecord*> by_id;
   for (store::LotRunRecord& r : *lot_runs) by_id[r.info.run_id] = &r;

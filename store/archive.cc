@@ -694,7 +694,7 @@ Result<RunInfo> Archive::LoadRun(const std::string& run_id) {
   return r;
 }
 
-Result<std::vector<LotRunRecord>> Archive::LoadLotRuns(const std::string& lot, bool with_curves) {
+Result<std::vector<LotRunRecord>> Archive::LoadLotRuns(const std::string& lot, LotRunParts parts) {
   std::vector<LotRunRecord> runs;
   std::map<int64_t, size_t> at;  // run key -> index in runs
   {
@@ -741,6 +741,7 @@ Result<std::vector<LotRunRecord>> Archive::LoadLotRuns(const std::string& lot, b
         r.result->axis_invalid_samples.push_back(s.IsNull(3) ? 0 : s.Int(3));
       }));
   for (int64_t key : invalid_unknown) runs[at[key]].result->axis_invalid_samples.clear();
+  if (parts == LotRunParts::kRuns) return runs;
   IMUQUAL_RETURN_IF_ERROR(each(
       std::string("SELECT m.run_key, ") + kMeasurementColumns +
           " FROM measurements m JOIN runs r USING (run_key) WHERE r.lot = ?1 AND "
@@ -748,7 +749,6 @@ Result<std::vector<LotRunRecord>> Archive::LoadLotRuns(const std::string& lot, b
       [&](LotRunRecord& r, Stmt& s) {
         if (r.result) r.result->measurements.push_back(MeasurementFromRow(s, 1));
       }));
-  if (!with_curves) return runs;
   IMUQUAL_RETURN_IF_ERROR(each(
       std::string("SELECT c.run_key, ") + kCurveColumns +
           " FROM curves c JOIN curve_points p USING (run_key, axis, estimator) JOIN runs r ON "

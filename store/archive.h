@@ -113,11 +113,19 @@ struct ResultRecord {
   std::optional<int64_t> gap_batches;
 };
 
+// How much of each run Archive::LoadLotRuns reads.
+enum class LotRunParts {
+  kRuns,  // the run, its axes and its result without measurements (two queries)
+  kAll,   // and the result's measurements and the curves (four)
+};
+
 // One run of a lot with what a lot report shows of it (Archive::LoadLotRuns).
 struct LotRunRecord {
   int64_t run_key = 0;
   RunInfo info;
-  std::optional<ResultRecord> result;  // as LoadResult, but its record left empty
+  // As LoadResult, but its record left empty (and its measurements, with
+  // LotRunParts::kRuns).
+  std::optional<ResultRecord> result;
   std::vector<CurveRecord> curves;     // as LoadCurves
 };
 
@@ -181,8 +189,9 @@ class Archive {
   // LoadCurves read it (but the result's signed record, left empty), in
   // four queries however many runs (a lot report's units on a plant across
   // the network).
-  // `with_curves` false: the curves are not read (three queries).
-  Result<std::vector<LotRunRecord>> LoadLotRuns(const std::string& lot, bool with_curves = true);
+  // `parts` says how much (a lot page's first view needs no measurement).
+  Result<std::vector<LotRunRecord>> LoadLotRuns(const std::string& lot,
+                                                LotRunParts parts = LotRunParts::kAll);
   // The smallest seq not archived for the run (0 if none).
   Result<int64_t> NextMissingSeq(int64_t run_key);
   // Seqs archived at or above `from_seq`, ascending.

@@ -361,6 +361,23 @@ TEST_F(PlantTest, ALotsRunsReadAtOnceEqualEachRunReadAlone) {
         EXPECT_EQ(RunText(r.info, r.result, r.curves), RunText(*info, *result, *curves))
             << where << " " << r.info.run_id;
       }
+      // A lot page's first view: the same runs, axes and verdicts, without
+      // measurements or curves.
+      auto first = (*a)->LoadLotRuns(lot, store::LotRunParts::kRuns);
+      ASSERT_TRUE(first.ok()) << first.status().message();
+      ASSERT_EQ(first->size(), runs->size());
+      for (size_t i = 0; i < first->size(); ++i) {
+        const store::LotRunRecord& f = (*first)[i];
+        const store::LotRunRecord& r = (*runs)[i];
+        EXPECT_EQ(f.info.run_id, r.info.run_id);
+        EXPECT_EQ(f.info.axes.size(), r.info.axes.size());
+        EXPECT_TRUE(f.curves.empty());
+        ASSERT_EQ(f.result.has_value(), r.result.has_value());
+        if (!f.result) continue;
+        EXPECT_TRUE(f.result->measurements.empty());
+        EXPECT_EQ(f.result->verdict, r.result->verdict);
+        EXPECT_EQ(f.result->reasons, r.result->reasons);
+      }
     }
   }
 }
