@@ -467,7 +467,27 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
   return look;
 }
 
+std::string EarlyDecider::FlagProvenance() const {
+  if (unit_ == Decision::kPending) return "MARGINAL flag read on the full-length record";
+  const std::string at = Num(decided_time_s());
+  switch (flags_) {
+    case pb::EarlyDecision::FLAGS_AGREE_FULL_LENGTH:
+      return "MARGINAL flag read at the decision (" + at +
+             " s), settled to agree with the full-length record";
+    case pb::EarlyDecision::FLAGS_DECIDED:
+      return "MARGINAL flag decided at the decision (" + at + " s) at the plan's risk";
+    default:
+      return "MARGINAL flag read at the decision (" + at +
+             " s); the full-length record may read it otherwise";
+  }
+}
+
 void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
+  const auto say_flag = [&](pb::Measurement& m) {
+    if (m.outcome() == pb::MARGINAL) {
+      m.set_note((m.note().empty() ? "" : m.note() + "; ") + FlagProvenance());
+    }
+  };
   for (pb::Measurement& m : *measurements) {
     const std::string key = Key(m.axis(), m.name());
     auto it = std::find_if(decided_.begin(), decided_.end(),
@@ -477,6 +497,7 @@ void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
         m.set_note((m.note().empty() ? "" : m.note() + "; ") +
                    "not decided when the unit was (judged on the record analysed)");
       }
+      if (unit_ != Decision::kPending) say_flag(m);
       continue;
     }
     // A decided PASS keeps the marginal flag the record analysed shows
@@ -488,12 +509,22 @@ void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
     m.set_note((m.note().empty() ? "" : m.note() + "; ") + "decided " + DecisionName(it->decision) +
                " at " + Num(schedule_.times_s[it->look]) + " s (look " +
                std::to_string(it->look + 1) + "): " + it->why);
+    say_flag(m);
   }
 }
 
 Judgement JudgeDecided(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
                        const EarlyDecider& decider, std::vector<pb::Measurement>* measurements) {
-  if (decider.unit_decision() == Decision::kPending) return Judge(plan, axes, measurements);
+  if (decider.unit_decision() == Decision::kPending) {
+    // Pending at every look: the full-length verdict, and its flags say so.
+    Judgement j = Judge(plan, axes, measurements);
+    for (pb::Measurement& m : *measurements) {
+      if (m.outcome() == pb::MARGINAL) {
+        m.set_note((m.note().empty() ? "" : m.note() + "; ") + decider.FlagProvenance());
+      }
+    }
+    return j;
+  }
   pb::TestPlan effective = plan;
   effective.set_min_duration_s(plan.early_decision().min_duration_s());
   const Judgement simple = Judge(effective, axes, measurements);
@@ -514,7 +545,9 @@ Judgement JudgeDecided(const pb::TestPlan& plan, const std::vector<AxisDesc>& ax
     if (o == pb::OUTCOME_UNSET || o == pb::PASS) continue;
     const Decision d = decider.MeasurementDecision(m.axis(), m.name());
     if (d == Decision::kPending || o == pb::MARGINAL) {
-      if (!reasons[i].empty()) j.reasons.push_back(reasons[i]);
+      if (reasons[i].empty()) continue;
+      j.reasons.push_back(o == pb::MARGINAL ? reasons[i] + " (" + decider.FlagProvenance() + ")"
+                                            : reasons[i]);
     } else {
       const std::string& note = m.note();
       const size_t at = note.rfind("decided ");

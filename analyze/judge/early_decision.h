@@ -139,13 +139,13 @@ struct LookEntry {
 };
 
 struct Look {
-  int index = 0;           // 0-based
-  double time_s = 0;       // analysed device time
+  int index = 0;      // 0-based
+  double time_s = 0;  // analysed device time
   double fraction = 0;
-  double z = 0;            // the boundary of this look
+  double z = 0;  // the boundary of this look
   Decision unit = Decision::kPending;
   std::vector<LookEntry> entries;  // the measurements that decide, in order
-  std::string note;  // why a unit whose limits are all decided still waits
+  std::string note;                // why a unit whose limits are all decided still waits
 };
 
 // Whether the curve minimum of `axis` is settled (see above): asked only
@@ -188,6 +188,15 @@ class EarlyDecider {
   // to the deciding look: each decided measurement takes its decision as its
   // outcome with a note saying when and by which bound; returns the reasons.
   void ApplyTo(std::vector<pb::Measurement>* measurements) const;
+
+  // What a MARGINAL flag on the record is: "MARGINAL flag read at the
+  // decision (840 s); the full-length record may read it otherwise"
+  // (FLAGS_AT_DECISION), "... settled to agree with the full-length record"
+  // (FLAGS_AGREE_FULL_LENGTH), "... decided at the decision (840 s) at the
+  // plan's risk" (FLAGS_DECIDED), or "MARGINAL flag read on the full-length
+  // record" for a unit pending at every look. ApplyTo and JudgeDecided add
+  // it to every MARGINAL measurement's note and reason.
+  std::string FlagProvenance() const;
 
   // True for the measurements that decide (not record quality, duration or
   // temperature: properties of the record as analysed).

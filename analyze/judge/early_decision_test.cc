@@ -1,10 +1,10 @@
 #include "analyze/judge/early_decision.h"
 
-#include <cmath>
-#include <random>
+#include <gtest/gtest.h>
 
 #include <boost/math/distributions/normal.hpp>
-#include <gtest/gtest.h>
+#include <cmath>
+#include <random>
 
 #include "analyze/judge/plan.h"
 
@@ -34,8 +34,8 @@ TEST(SequentialBounds, SpendExactlyTheSpendingFunction) {
     EXPECT_NEAR(CrossingProbability(f, *b), SpentAlpha(f.back(), alpha), 1e-3 * alpha);
     // Later looks need more evidence per look than a single test would, but
     // far less than a Bonferroni split over the looks.
-    const double bonferroni = boost::math::quantile(
-        boost::math::complement(boost::math::normal(), alpha / f.size()));
+    const double bonferroni =
+        boost::math::quantile(boost::math::complement(boost::math::normal(), alpha / f.size()));
     for (double z : *b) EXPECT_LT(z, bonferroni + 1e-9);
   }
 }
@@ -93,7 +93,8 @@ pb::TestPlan Plan(const std::string& extra = "") {
     limits { measurement: "bias_instability" axis_kind: GYRO high: 20 marginal_high: 16 unit: "deg/h" }
     limits { measurement: "tau_at_minimum" axis_kind: GYRO low: 2 high: 120 unit: "s" }
     limits { measurement: "gap_fraction" high: 0.001 unit: "1" }
-    early_decision { risk: 0.01 min_duration_s: 600 })" + extra,
+    early_decision { risk: 0.01 min_duration_s: 600 })" +
+                                extra,
                             "t");
   EXPECT_TRUE(plan.ok()) << plan.status().message();
   return *plan;
@@ -195,12 +196,10 @@ TEST(EarlyDecider, MinimumAboveTheLimitFailsOnlyOnceSettled) {
   ASSERT_TRUE(d.ok());
   std::vector<pb::Measurement> ms = {M("bias_instability", 30.0, 1.0, plan),
                                      M("tau_at_minimum", 12, 3, plan)};
-  EXPECT_EQ(d->Evaluate(0, ms, [](const std::string&) { return false; }).unit,
-            Decision::kPending);
+  EXPECT_EQ(d->Evaluate(0, ms, [](const std::string&) { return false; }).unit, Decision::kPending);
   EXPECT_EQ(d->Evaluate(1, ms, [](const std::string&) { return true; }).unit, Decision::kFail);
   // Final.
-  EXPECT_EQ(d->Evaluate(2, {M("bias_instability", 5.0, 1.0, plan)}, nullptr).unit,
-            Decision::kFail);
+  EXPECT_EQ(d->Evaluate(2, {M("bias_instability", 5.0, 1.0, plan)}, nullptr).unit, Decision::kFail);
 }
 
 TEST(EarlyDecider, UnresolvedMinimumConfirmsOnlyBelow) {
@@ -215,8 +214,7 @@ TEST(EarlyDecider, UnresolvedMinimumConfirmsOnlyBelow) {
   // Low enough: the bias instability passes, the unresolved tau stays pending.
   auto low = EarlyDecider::Create(plan);
   ms[0].set_value(5.0);
-  EXPECT_EQ(low->Evaluate(0, ms, [](const std::string&) { return true; }).unit,
-            Decision::kPending);
+  EXPECT_EQ(low->Evaluate(0, ms, [](const std::string&) { return true; }).unit, Decision::kPending);
   EXPECT_EQ(low->MeasurementDecision("x", "bias_instability"), Decision::kPass);
   EXPECT_EQ(low->MeasurementDecision("x", "tau_at_minimum"), Decision::kPending);
 }
@@ -252,7 +250,8 @@ TEST(EarlyDecider, FlagsAgreeingWithTheFullLengthReadingCanMakeAUnitWait) {
   const Look wait = near->Evaluate(0, {M("bias_instability", 17.5, 0.8, plan)}, settled);
   EXPECT_EQ(wait.unit, Decision::kPending);
   EXPECT_NE(wait.note.find("marginal flag of x: bias_instability"), std::string::npos) << wait.note;
-  // Half-way through the soak the same reading is settled (1.5 >= 2.33 x 0.8 x 0.71 = 1.32 at f ~ 0.5).
+  // Half-way through the soak the same reading is settled (1.5 >= 2.33 x 0.8 x 0.71 = 1.32 at f ~
+  // 0.5).
   const Look later = near->Evaluate(20, {M("bias_instability", 17.5, 0.8, plan)}, settled);
   EXPECT_EQ(later.unit, Decision::kPass);  // MARGINAL by its flag, read on the record
   // Clearly in the band: decided at once.
@@ -269,23 +268,31 @@ TEST(EarlyDecider, TauAtMinimumFollowsTheCurveEvidence) {
   // The minimum is confirmed above 2 s and below 120 s.
   const auto inside = Signed([](double bound) { return bound < 12 ? 9.0 : -9.0; });
   auto unsettled = EarlyDecider::Create(plan);
-  EXPECT_EQ(unsettled->Evaluate(0, {tau}, [](const std::string&) { return false; }, inside).unit,
+  EXPECT_EQ(unsettled
+                ->Evaluate(
+                    0, {tau}, [](const std::string&) { return false; }, inside)
+                .unit,
             Decision::kPending);
   auto settled = EarlyDecider::Create(plan);
-  const Look look = settled->Evaluate(0, {tau}, [](const std::string&) { return true; }, inside);
+  const Look look = settled->Evaluate(
+      0, {tau}, [](const std::string&) { return true; }, inside);
   EXPECT_EQ(look.unit, Decision::kPass);
   EXPECT_NE(look.entries[0].why.find("curve evidence"), std::string::npos) << look.entries[0].why;
   // Confirmed above 120 s: a FAIL even before the minimum is settled.
   auto beyond = EarlyDecider::Create(plan);
   const auto above = Signed([](double) { return 9.0; });
-  EXPECT_EQ(beyond->Evaluate(0, {M("tau_at_minimum", 300, 0, plan)},
-                             [](const std::string&) { return false; }, above)
+  EXPECT_EQ(beyond
+                ->Evaluate(
+                    0, {M("tau_at_minimum", 300, 0, plan)},
+                    [](const std::string&) { return false; }, above)
                 .unit,
             Decision::kFail);
   // Weak evidence: pending.
   auto weak = EarlyDecider::Create(plan);
   const auto little = Signed([](double bound) { return bound < 12 ? 1.0 : -1.0; });
-  EXPECT_EQ(weak->Evaluate(0, {tau}, [](const std::string&) { return true; }, little).unit,
+  EXPECT_EQ(weak->Evaluate(
+                    0, {tau}, [](const std::string&) { return true; }, little)
+                .unit,
             Decision::kPending);
 }
 
@@ -328,11 +335,24 @@ TEST(JudgeDecided, DecisionsBecomeOutcomesAndTheShortRecordIsLongEnough) {
   EXPECT_NE(j.reasons[0].find("marginal"), std::string::npos) << j.reasons[0];
   EXPECT_NE(final[0].note().find("decided PASS at 600 s (look 1)"), std::string::npos)
       << final[0].note();
+  // The flag says when it was read (FLAGS_AT_DECISION, the default), on the
+  // record and in the reason.
+  EXPECT_EQ(final[0].outcome(), pb::MARGINAL);
+  EXPECT_NE(final[0].note().find("MARGINAL flag read at the decision (600 s)"), std::string::npos)
+      << final[0].note();
+  EXPECT_NE(j.reasons[0].find("MARGINAL flag read at the decision (600 s)"), std::string::npos)
+      << j.reasons[0];
+  EXPECT_EQ(final[1].note().find("MARGINAL flag"), std::string::npos) << final[1].note();
   EXPECT_EQ(final[3].outcome(), pb::PASS);  // 600 s >= early_decision.min_duration_s
   // Without a decision the plan's own minimum duration applies.
   auto pending = EarlyDecider::Create(plan);
   std::vector<pb::Measurement> again = final;
+  for (pb::Measurement& m : again) m.clear_note();
   EXPECT_EQ(JudgeDecided(plan, {{"x", pb::GYRO}}, *pending, &again).verdict, pb::FAIL);
+  // A unit pending at every look has the full-length verdict and says so.
+  EXPECT_EQ(again[0].outcome(), pb::MARGINAL);
+  EXPECT_NE(again[0].note().find("MARGINAL flag read on the full-length record"), std::string::npos)
+      << again[0].note();
 }
 
 }  // namespace
