@@ -171,12 +171,16 @@ class Shipper {
     auto flush = [&]() -> Status {
       if (rows.empty()) return Status::Ok();
       if (by_month) IMUQUAL_RETURN_IF_ERROR(EnsureMonth(month));
+      // The run key (and month) are parameters too, so that the text
+      // repeats from run to run for the same number of rows and the plant
+      // parses and plans it once (the connection keeps it prepared).
       std::string sql = "INSERT INTO " + Quoted(table) + " (run_key, " +
                         (by_month ? "month, " : "") + ColumnList(cols) + ") VALUES ";
-      int n = 0;
+      const int fixed = by_month ? 2 : 1;
+      int n = fixed;
       for (size_t r = 0; r < rows.size(); ++r) {
-        sql += (r ? ", (" : "(") + std::to_string(plant_key);
-        if (by_month) sql += ", " + std::to_string(month);
+        sql += r ? ", (?1" : "(?1";
+        if (by_month) sql += ", ?2";
         for (size_t c = 0; c < cols.size(); ++c) sql += ", ?" + std::to_string(++n);
         sql += ")";
       }
@@ -185,7 +189,9 @@ class Shipper {
       if (chunks) sql += " ON CONFLICT DO NOTHING";
       auto w = plant_.Prepare(sql);
       if (!w.ok()) return w.status();
-      n = 0;
+      w->Bind(1, plant_key);
+      if (by_month) w->Bind(2, static_cast<int64_t>(month));
+      n = fixed;
       for (const auto& row : rows) {
         for (const Value& v : row) BindValue(*w, ++n, v);
       }
@@ -209,7 +215,7 @@ class Shipper {
         if (chunks && cols[c] == "data") report_->chunk_bytes += values.back().bytes.size();
       }
       rows.push_back(std::move(values));
-      if ((rows.size() + 1) * cols.size() > kMaxParams || bytes > kMaxBytes) {
+      if ((rows.size() + 1) * cols.size() + 2 > kMaxParams || bytes > kMaxBytes) {
         IMUQUAL_RETURN_IF_ERROR(flush());
       }
     }
@@ -234,10 +240,12 @@ class Shipper {
     if (!there) {
       const int next = month % 100 == 12 ? (month / 100 + 1) * 100 + 1 : month + 1;
       IMUQUAL_RETURN_IF_ERROR(plant_.Exec("SAVEPOINT month_partition"));
-      const Status made = plant_.Exec(
-          "CREATE TABLE IF NOT EXISTS " + Quoted(name) + " PARTITION OF raw_chunks FOR VALUES "
-          "FROM (" + std::to_string(month) + ") TO (" + std::to_string(next) + "); ALTER TABLE " +
-          Quoted(name) + " ALTER COLUMN data SET STORAGE EXTERNAL");
+      const Status made =
+          plant_.Exec("CREATE TABLE IF NOT EXISTS " + Quoted(name) +
+                      " PARTITION OF raw_chunks FOR VALUES "
+                      "FROM (" +
+                      std::to_string(month) + ") TO (" + std::to_string(next) + "); ALTER TABLE " +
+                      Quoted(name) + " ALTER COLUMN data SET STORAGE EXTERNAL");
       if (!made.ok()) {
         IMUQUAL_RETURN_IF_ERROR(plant_.Exec("ROLLBACK TO SAVEPOINT month_partition"));
         if (report_->partition_note.empty()) {
@@ -263,11 +271,11 @@ class Shipper {
     auto row = read->Step();
     if (!row.ok()) return row.status();
     if (!*row) return Status::Corruption("station archive: no " + table + " row for '" + key + "'");
-    auto w = plant_.Prepare("INSERT INTO " + Quoted(table) + " (" + Quoted(key_column) +
-                            ", first_seen_utime) VALUES (?1, ?2) ON CONFLICT (" +
-                            Quoted(key_column) +
-                            ") DO UPDATE SET first_seen_utime = EXCLUDED.first_seen_utime WHERE " +
-                            Quoted(table) + ".first_seen_utime > EXCLUDED.first_seen_utime");
+    auto w =
+        plant_.Prepare("INSERT INTO " + Quoted(table) + " (" + Quoted(key_column) +
+                       ", first_seen_utime) VALUES (?1, ?2) ON CONFLICT (" + Quoted(key_column) +
+                       ") DO UPDATE SET first_seen_utime = EXCLUDED.first_seen_utime WHERE " +
+                       Quoted(table) + ".first_seen_utime > EXCLUDED.first_seen_utime");
     if (!w.ok()) return w.status();
     w->Bind(1, key).Bind(2, read->Int(0));
     IMUQUAL_RETURN_IF_ERROR(w->Run());
@@ -310,8 +318,9 @@ class Shipper {
         return Status::Ok();
       }
       if (options_.new_archive_of != station_id) {
-        *refusal = "station id " + station_id + " is held at the plant by another station archive (" +
-                   holder.substr(0, 16) + "..., since " + FormatUtimeIso(since) +
+        *refusal = "station id " + station_id +
+                   " is held at the plant by another station archive (" + holder.substr(0, 16) +
+                   "..., since " + FormatUtimeIso(since) +
                    "): two stations claim one station id (give each station its own id; a "
                    "rebuilt station's new archive is named with --new-archive-of " +
                    station_id + ")";
@@ -321,8 +330,11 @@ class Shipper {
           "UPDATE station_ids SET archive_id = ?2, claimed_utime = ?3, previous_archive = ?4, "
           "claimed_by = ?5 WHERE station = ?1");
       if (!move.ok()) return move.status();
-      move->Bind(1, station_id).Bind(2, archive_id).Bind(3, now).Bind(4, holder).Bind(
-          5, options_.claimed_by);
+      move->Bind(1, station_id)
+          .Bind(2, archive_id)
+          .Bind(3, now)
+          .Bind(4, holder)
+          .Bind(5, options_.claimed_by);
       IMUQUAL_RETURN_IF_ERROR(move->Run());
       if (report_->station_moved.empty()) {
         report_->station_moved = "station id " + station_id + " moved to this archive from " +
@@ -355,8 +367,7 @@ class Shipper {
       return 0;
     }
     const int64_t skey = skey_q->Int(0);
-    const std::string lot = skey_q->Text(1), serial = skey_q->Text(2),
-                      station_id = skey_q->Text(3);
+    const std::string lot = skey_q->Text(1), serial = skey_q->Text(2), station_id = skey_q->Text(3);
     skey_q->Reset();
     IMUQUAL_RETURN_IF_ERROR(ClaimStation(station_id, archive_id, refusal));
     if (!refusal->empty()) return 0;
@@ -442,8 +453,8 @@ class Shipper {
       run_tables_ = std::move(*tables);
     }
     ChunkFindings findings;
-    auto held = ComputeRunRecord(plant_, plant_key, ChunkDigests::kRecomputed, &findings,
-                                 &run_tables_);
+    auto held =
+        ComputeRunRecord(plant_, plant_key, ChunkDigests::kRecomputed, &findings, &run_tables_);
     if (!held.ok()) return held.status();
     if (held->Encode() == expected) return std::string();
     return DifferingItems(expected, *held);
@@ -454,8 +465,8 @@ class Shipper {
   Db& plant_;
   const SyncOptions& options_;
   std::set<std::string> claimed_in_transaction_;  // station ids this archive holds
-  bool chunk_months_ = false;        // raw_chunks is partitioned by month
-  std::set<int> months_known_;       // partitions seen or made in this transaction
+  bool chunk_months_ = false;                     // raw_chunks is partitioned by month
+  std::set<int> months_known_;                    // partitions seen or made in this transaction
   SyncReport* report_;
   std::map<std::string, std::vector<std::string>> columns_;
   std::vector<std::string> run_tables_;
@@ -471,8 +482,8 @@ const PublicKey* FindKey(const std::vector<PublicKey>& keys, const std::string& 
 // "" when the entry links to `prev` and its stored hash and signature hold.
 std::string EntryProblem(const ChainEntry& e, int64_t number, const Digest& prev,
                          const SyncOptions& o) {
-  const std::string label = "chain entry " + std::to_string(number) +
-                            (e.run_id.empty() ? "" : " (run " + e.run_id + ")");
+  const std::string label =
+      "chain entry " + std::to_string(number) + (e.run_id.empty() ? "" : " (run " + e.run_id + ")");
   if (e.entry != number) return label + ": numbered " + std::to_string(e.entry);
   if (e.prev_hash != prev) return label + ": does not link to the entry before it";
   if (e.ComputeHash() != e.entry_hash) return label + ": its stored hash does not match it";
@@ -541,13 +552,15 @@ Result<int64_t> LockCursor(Db& plant, const std::string& archive_id, const std::
   cur->Bind(1, archive_id);
   auto got = cur->Step();
   if (!got.ok()) return got.status();
-  if (!*got) return Status::Corruption("plant archive: station archive " + archive_id + " vanished");
+  if (!*got)
+    return Status::Corruption("plant archive: station archive " + archive_id + " vanished");
   return cur->Int(0);
 }
 
 // The hash the plant holds for the archive's entry `n`.
 Result<std::vector<uint8_t>> PlantEntryHash(Db& plant, const std::string& archive_id, int64_t n) {
-  auto at = plant.Prepare("SELECT entry_hash FROM archive_chain WHERE archive_id = ?1 AND entry = ?2");
+  auto at =
+      plant.Prepare("SELECT entry_hash FROM archive_chain WHERE archive_id = ?1 AND entry = ?2");
   if (!at.ok()) return at.status();
   at->Bind(1, archive_id).Bind(2, n);
   auto row = at->Step();
@@ -583,8 +596,8 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
 
   // The unshipped tail of the station's chain, read at the first batch.
   std::vector<ChainEntry> tail;
-  int64_t tail_from = 0;  // entry number of tail[0]
-  Digest tail_prev{};     // the hash tail[0] links to
+  int64_t tail_from = 0;                      // entry number of tail[0]
+  Digest tail_prev{};                         // the hash tail[0] links to
   std::map<std::string, int64_t> last_entry;  // run id -> its last entry in the tail
   std::string station_name;
   Shipper shipper(station, plant, o, &report);
@@ -617,8 +630,7 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
         auto mine = ReadChainEntry(station, n);
         if (!mine.ok()) return fail(mine.status());
         const bool same = mine->has_value() && theirs->size() == kDigestBytes &&
-                          std::equal(theirs->begin(), theirs->end(),
-                                     (*mine)->entry_hash.begin());
+                          std::equal(theirs->begin(), theirs->end(), (*mine)->entry_hash.begin());
         if (!same) {
           report.refusal = "the station's chain entry " + std::to_string(n) +
                            " is not the one the plant holds: the station archive was edited, or "
@@ -667,8 +679,9 @@ Result<SyncReport> SyncToPlant(Archive& station_archive, Archive& plant_archive,
     std::string refusal_of_batch;
     for (int64_t number = shipped + 1; number <= end; ++number) {
       const ChainEntry& e = tail[static_cast<size_t>(number - tail_from)];
-      const Digest prev =
-          number == tail_from ? tail_prev : tail[static_cast<size_t>(number - 1 - tail_from)].entry_hash;
+      const Digest prev = number == tail_from
+                              ? tail_prev
+                              : tail[static_cast<size_t>(number - 1 - tail_from)].entry_hash;
       std::string refusal = EntryProblem(e, number, prev, o);
       if (refusal.empty()) {
         auto ins = plant.Prepare(
@@ -817,10 +830,11 @@ Result<PlantVerifyReport> VerifyPlant(Archive& plant_archive, const SyncOptions&
       }
       return Status::Ok();
     }));
-    if (n != c.shipped ||
-        !std::equal(c.head.begin(), c.head.end(), prev.begin(), prev.end())) {
-      say(who + ": the cursor says " + std::to_string(c.shipped) + " entries shipped, the plant "
-          "holds " + std::to_string(n) + (n == c.shipped ? " ending elsewhere" : ""));
+    if (n != c.shipped || !std::equal(c.head.begin(), c.head.end(), prev.begin(), prev.end())) {
+      say(who + ": the cursor says " + std::to_string(c.shipped) +
+          " entries shipped, the plant "
+          "holds " +
+          std::to_string(n) + (n == c.shipped ? " ending elsewhere" : ""));
     }
   }
   auto runs = plant.Prepare("SELECT run_key, run_id, station_archive FROM runs ORDER BY run_id");
@@ -838,7 +852,8 @@ Result<PlantVerifyReport> VerifyPlant(Archive& plant_archive, const SyncOptions&
   for (const auto& [key, id, archive] : all) {
     auto it = last.find(id);
     if (it == last.end() || it->second.first != archive) {
-      say("run " + id + ": no chain entry of its station archive accounts for it (inserted at "
+      say("run " + id +
+          ": no chain entry of its station archive accounts for it (inserted at "
           "the plant behind the sync's back?)");
       continue;
     }
