@@ -274,7 +274,6 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
   }
   scan.scanned = true;
 
-  std::vector<Candidate> accepted;
   std::vector<StationarityEvent> events;
   const boost::math::chi_squared joint(num_axes);
   std::vector<double> z(num_axes), size(num_axes), sigma(num_axes);
@@ -335,7 +334,6 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
       any = any || ea.named;
     }
     if (!any) e.axes[strongest].named = true;
-    accepted.push_back(*best);
     for (AxisGls& g : gls) g.AddNuisance(*best);
     events.push_back(std::move(e));
   }
