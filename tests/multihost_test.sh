@@ -140,6 +140,21 @@ await_acquire() {
   fi
 }
 
+# Waits (bounded) until the store has archived every unit's verdict: acquire
+# ends once the store and analyze acknowledged the data, but the last
+# verdicts are still on their way from analyze to the store.
+await_judged() {
+  local db="$1" judged=0
+  for _ in $(seq 1 120); do
+    judged="$("$bin/imuqual" runs --db "$db" --lot "$lot" --format csv 2>/dev/null | tail -n +2 |
+      awk -F, '$7 == "complete" && ($8 == "PASS" || $8 == "MARGINAL" || $8 == "FAIL")' | wc -l)"
+    [ "$judged" = "$units" ] && return 0
+    sleep 1
+  done
+  logs_of "$db" >&2
+  fail "only $judged of $units units judged 120 s after the soak ($db)"
+}
+
 # What is compared between two archives of the lot: every run's state,
 # verdict and reasons, every measurement, every curve point, every raw
 # sample (run ids and arrival times aside: they name the soak, not the data).
@@ -165,6 +180,7 @@ digest_of() {
 say "reference soak ($units units, $duration s at $rate Hz, undisturbed)"
 start_soak "$work/reference.db" 0
 await_acquire "$work/reference.db"
+await_judged "$work/reference.db"
 stop_station
 digest_of "$work/reference.db" "$work/reference"
 say "reference: $(wc -l <"$work/reference.samples") sample lines"
@@ -197,6 +213,7 @@ mend_link C
 say "t=$((SECONDS - t0)) s: C is back"
 await_acquire "$work/station.db"
 say "t=$((SECONDS - t0)) s: the soak ended"
+await_judged "$work/station.db"
 sleep 60
 mend_link P
 say "t=$((SECONDS - t0)) s: P is back after $((SECONDS - t0 - p_cut_at)) s"
