@@ -80,8 +80,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   BusSecurityFiles bus_files;
   AddBusSecurityFlags(app, &bus_files, /*signs=*/true, /*replays=*/false);
-  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
   SetLogProgramName("imuqual-acquire");
+  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
   if (auto security = bus_files.Load(BusRole::kAcquire); security.ok()) {
     opt.security = std::move(*security);
   } else {

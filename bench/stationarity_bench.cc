@@ -32,13 +32,9 @@ struct Rates {
 char KindOf(const pb::AxisTruth& a) { return a.axis().starts_with("a") ? 'a' : 'g'; }
 
 double BinMeanSd(const std::vector<double>& y, double tau0_s, double bin_s) {
-  const size_t per = static_cast<size_t>(std::llround(bin_s / tau0_s));
-  std::vector<double> means;
-  for (size_t b = 0; (b + 1) * per <= y.size(); ++b) {
-    double s = 0;
-    for (size_t i = b * per; i < (b + 1) * per; ++i) s += y[i];
-    means.push_back(s / static_cast<double>(per));
-  }
+  const int64_t per = std::llround(bin_s / tau0_s);
+  const std::vector<double> means =
+      allan::BinMeans(y, per, static_cast<int>(static_cast<int64_t>(y.size()) / per));
   double m = 0;
   for (double v : means) m += v;
   m /= static_cast<double>(means.size());

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "common/command_line.h"
 #include "common/log.h"
 #include "common/strings.h"
 #include "report/control_chart_view.h"
@@ -54,7 +55,7 @@ int ChartCommand(const ChartOptions& o) {
   auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitFailed;
+    return ExitCodeOf(archive.status());
   }
   auto rows = store::QueryMeasurementHistory(**archive, o.measurement, o.axis);
   if (!rows.ok()) {

@@ -210,14 +210,20 @@ int RunCommand(const StationRunOptions& options) {
   auto run = RunStation(options);
   if (!run.ok()) {
     LogError(run.status().message());
-    // Bad options, plan, source or archive file: refused before any run.
-    if (run.status().code() == Status::Code::kIoError) return kRunExitArchiveUnwritable;
-    return run.status().code() == Status::Code::kInvalidArgument ? kRunExitUsage : kRunExitError;
+    // The archive could not be written (the store stopped on it): 4 and
+    // nothing else is; bad options, plan, source or archive file (refused
+    // before any run, a file that is not there too): 2.
+    switch (run.status().code()) {
+      case Status::Code::kResourceExhausted: return kRunExitArchiveUnwritable;
+      case Status::Code::kInvalidArgument:
+      case Status::Code::kNotFound: return kRunExitUsage;
+      default: return kRunExitError;
+    }
   }
   auto archive = OpenForReading(options.db_path);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kRunExitError;
+    return ExitCodeOf(archive.status());
   }
   store::AxisRowFilter filter;
   filter.lot = options.lot;
@@ -246,8 +252,9 @@ int RunCommand(const StationRunOptions& options) {
   std::printf("\n%zu units: %s%s\nyield %s%s\n", unit_of.size(), VerdictCounts(verdicts).c_str(),
               run->interrupted ? " (interrupted: runs aborted)" : "",
               YieldText(counted > 0 ? static_cast<double>(passed) / counted : allan::kNaN).c_str(),
-              counted > 0 ? (" (" + std::to_string(passed) + " of " + std::to_string(counted) +
-                             " units judged PASS, MARGINAL or FAIL)")
+              counted > 0 ? (" (" + std::to_string(counted) + " unit" + (counted == 1 ? "" : "s") +
+                             " judged PASS, MARGINAL or FAIL; " + std::to_string(passed) +
+                             " of them PASS or MARGINAL)")
                                 .c_str()
                           : "");
   auto early = QueryEarlyDecisions(**archive, options.lot, run->run_prefix + "-");
@@ -298,7 +305,7 @@ int LotsCommand(const std::string& db_path, Format format) {
   auto archive = OpenForReading(db_path);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitError;
+    return ExitCodeOf(archive.status());
   }
   auto lots = store::QueryLots(**archive);
   if (!lots.ok()) {
@@ -324,7 +331,7 @@ int LotCommand(const std::string& db_path, const std::string& lot, Format format
   auto archive = OpenForReading(db_path);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitError;
+    return ExitCodeOf(archive.status());
   }
   store::AxisRowFilter filter;
   filter.lot = lot;

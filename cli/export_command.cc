@@ -413,7 +413,7 @@ int ExportCommand(const ExportOptions& o) {
   auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return 1;
+    return ExitCodeOf(archive.status());
   }
   auto runs = ResolveRuns(**archive, o);
   if (!runs.ok()) {

@@ -1,6 +1,7 @@
 #include "cli/lot_commands.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -67,7 +68,7 @@ int LotStatsCommand(const std::string& db_path, const std::string& lot, Format f
   auto archive = OpenArchive(db_path);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitError;
+    return ExitCodeOf(archive.status());
   }
   auto stats = LotStatistics(**archive, lot);
   if (!stats.ok()) {
@@ -103,7 +104,7 @@ int LotModelCommand(const std::string& db_path, const std::string& lot, Format f
   auto archive = OpenArchive(db_path);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitError;
+    return ExitCodeOf(archive.status());
   }
   auto runs = LoadLatestRuns(**archive, lot);
   if (!runs.ok()) {
@@ -139,7 +140,7 @@ int CompareCommand(const std::string& db_path, const std::string& lot_a, const s
   auto archive = OpenArchive(db_path);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitError;
+    return ExitCodeOf(archive.status());
   }
   auto a = LotStatistics(**archive, lot_a);
   auto b = a.ok() ? LotStatistics(**archive, lot_b) : a;
@@ -177,7 +178,7 @@ int UnitCommand(const std::string& db_path, const std::string& serial, Format fo
   auto archive = OpenArchive(db_path);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitError;
+    return ExitCodeOf(archive.status());
   }
   auto rows = store::QueryUnitHistory(**archive, serial);
   if (!rows.ok()) {
@@ -293,9 +294,14 @@ int RunsCommand(const std::string& db_path, store::RunFilter filter, const std::
     }
     filter.since_utime = *t;
   }
+  // Verdicts are named in any case (--outcome fail is --verdict FAIL).
+  std::transform(filter.verdict.begin(), filter.verdict.end(), filter.verdict.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+  if (filter.verdict == "NONE") filter.verdict = "none";
   if (!filter.verdict.empty() && filter.verdict != "none" &&
       store::OutcomeFromText(filter.verdict) == pb::OUTCOME_UNSET) {
-    LogError("--verdict must be PASS, MARGINAL, FAIL, INCONCLUSIVE, ABORTED, ERROR or none");
+    LogError("--verdict must be PASS, MARGINAL, FAIL, INCONCLUSIVE, ABORTED, ERROR or none (in any "
+             "case), not '" + filter.verdict + "'");
     return kExitUsage;
   }
   if (filter.limit < 1) {
@@ -305,7 +311,7 @@ int RunsCommand(const std::string& db_path, store::RunFilter filter, const std::
   auto archive = OpenArchive(db_path);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitError;
+    return ExitCodeOf(archive.status());
   }
   auto rows = store::QueryRuns(**archive, filter);
   if (!rows.ok()) {

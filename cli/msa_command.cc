@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "common/command_line.h"
 #include "common/log.h"
 #include "store/archive.h"
 #include "store/query.h"
@@ -58,7 +59,7 @@ int MsaCommand(const MsaOptions& options) {
   auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitFailed;
+    return ExitCodeOf(archive.status());
   }
   auto rows = store::QueryRunValues(**archive, o.lot);
   if (!rows.ok()) {

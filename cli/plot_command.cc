@@ -74,7 +74,7 @@ int PlotCommand(const PlotOptions& options) {
   auto archive = store::Archive::Open(options.db_path, store::Archive::Mode::kRead);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitError;
+    return ExitCodeOf(archive.status());
   }
   std::vector<AllanPlot> plots;
   if (options.series) {

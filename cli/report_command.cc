@@ -20,7 +20,7 @@ int ReportCommand(const ReportOptions& options) {
   auto archive = store::Archive::Open(options.db_path, store::Archive::Mode::kRead);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return kExitError;
+    return ExitCodeOf(archive.status());
   }
   auto html = BuildLotReportHtml(**archive, options.lot, options.db_path);
   if (!html.ok()) {

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "common/command_line.h"
 #include "common/log.h"
 #include "report/yield_trend.h"
 #include "store/archive.h"
@@ -36,7 +37,7 @@ int YieldsCommand(const YieldsOptions& o) {
   auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return 1;
+    return ExitCodeOf(archive.status());
   }
   auto runs = store::QueryRunVerdicts(**archive);
   if (!runs.ok()) {

@@ -3,9 +3,16 @@
 #ifndef IMUQUAL_COMMON_COMMAND_LINE_H_
 #define IMUQUAL_COMMON_COMMAND_LINE_H_
 
+#include <cctype>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
+
+#include "common/log.h"
+#include "common/status.h"
+#include "common/text_util.h"
 
 namespace imuqual {
 
@@ -13,14 +20,53 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitError = 1;   // data, archive, device or process failure
 inline constexpr int kExitUsage = 2;   // the command line or a configuration file is wrong
 
+// The exit code of a command whose input could not be opened or read: a
+// file that is not there or not what it should be is bad input (2), like a
+// bad option; anything else is a failure while working (1).
+inline int ExitCodeOf(const Status& s) {
+  return s.code() == Status::Code::kNotFound || s.code() == Status::Code::kInvalidArgument
+             ? kExitUsage
+             : kExitError;
+}
+
 // Parses the command line. --help and --version print and give kExitOk; any
-// other parse error prints its one-line message and gives kExitUsage (not
-// CLI11's own 105-115); nullopt: parsed, go on.
+// other parse error is one line "<program>: error: ..." and gives kExitUsage
+// (not CLI11's own 105-115). An option the command does not have is named
+// first, with the closest it has ("unknown option --dbb (did you mean
+// --db?)"), not the required option it then seemed to leave out.
+// nullopt: parsed, go on.
 inline std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? kExitOk : kExitUsage;
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) {
+      return app.exit(e) == 0 ? kExitOk : kExitUsage;  // --help, --version
+    }
+    // The deepest command given, and the options it knows.
+    CLI::App* command = &app;
+    while (!command->get_subcommands().empty()) command = command->get_subcommands().front();
+    std::vector<std::string> known;
+    for (const CLI::Option* o : command->get_options()) {
+      for (const std::string& n : o->get_lnames()) known.push_back("--" + n);
+      for (const std::string& n : o->get_snames()) known.push_back("-" + n);
+    }
+    std::string message = e.what();
+    for (const std::string& extra : app.remaining(true)) {
+      if (extra.size() < 2 || extra[0] != '-' || std::isdigit(static_cast<unsigned char>(extra[1]))) {
+        continue;  // a value, or a negative number
+      }
+      const std::string name = extra.substr(0, extra.find('='));
+      message = "unknown option " + name;
+      if (const std::string close = ClosestName(name, known); !close.empty()) {
+        message += " (did you mean " + close + "?)";
+      }
+      break;
+    }
+    std::string program = app.get_name();  // argv[0] when the app has no name
+    program = program.substr(program.find_last_of('/') + 1);
+    const std::string path = command == &app ? "" : " " + command->get_name();
+    LogError(message + " (" + program + path + " --help lists the options)");
+    return kExitUsage;
   }
   return std::nullopt;
 }

@@ -10,6 +10,7 @@ std::string Status::ToString() const {
     case Code::kIoError: return "I/O error: " + message_;
     case Code::kCorruption: return "corruption: " + message_;
     case Code::kUnavailable: return "unavailable: " + message_;
+    case Code::kResourceExhausted: return "resource exhausted: " + message_;
   }
   return message_;
 }

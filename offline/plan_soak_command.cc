@@ -16,6 +16,8 @@
 #include "analyze/judge/early_decision.h"
 #include "analyze/judge/plan_file.h"
 #include "analyze/service/run_analyzer.h"
+#include "common/command_line.h"
+#include "common/log.h"
 #include "report/allan_plots.h"
 #include "report/lot_model_view.h"
 #include "store/archive.h"
@@ -289,30 +291,29 @@ Result<std::vector<SoakRecord>> SimulateSoaks(const pb::TestPlan& plan,
 int PlanSoakCommand(const PlanSoakOptions& o) {
   const int sources = !o.model.empty() + !o.lot.empty() + !o.profile.empty();
   if (sources != 1) {
-    std::fprintf(stderr,
-                 "plan-soak: give exactly one of --model FILE, --lot LOT --db FILE, "
-                 "--profile NAME\n");
-    return 2;
+    LogError("plan-soak: give exactly one of --model FILE, --lot LOT --db FILE, --profile NAME");
+    return kExitUsage;
   }
   if (!o.lot.empty() && o.db.empty()) {
-    std::fprintf(stderr, "plan-soak: --lot needs --db FILE\n");
-    return 2;
+    LogError("plan-soak: --lot needs --db FILE");
+    return kExitUsage;
   }
   if (o.records < 1) {
-    std::fprintf(stderr, "plan-soak: --records must be >= 1\n");
-    return 2;
+    LogError("plan-soak: --records must be >= 1");
+    return kExitUsage;
   }
   auto plan = judge::LoadPlan(o.plan);
   if (!plan.ok()) {
-    std::fprintf(stderr, "plan-soak: %s\n", plan.status().message().c_str());
-    return 1;
+    LogError("plan-soak: " + plan.status().message());
+    return kExitUsage;
   }
   if (!plan->has_early_decision()) {
-    std::fprintf(stderr,
-                 "plan-soak: plan %s has no early_decision { risk: ... min_duration_s: ... }: "
-                 "every unit soaks %g s\n",
-                 o.plan.c_str(), plan->min_duration_s());
-    return 1;
+    char soak[32];
+    std::snprintf(soak, sizeof soak, "%g", plan->min_duration_s());
+    LogError("plan-soak: plan " + o.plan +
+             " has no early_decision { risk: ... min_duration_s: ... }: every unit soaks " + soak +
+             " s");
+    return kExitUsage;
   }
   std::vector<pb::SimTruth> truths;
   std::vector<std::string> names;
@@ -320,8 +321,8 @@ int PlanSoakCommand(const PlanSoakOptions& o) {
   if (!o.model.empty()) {
     auto t = ReadModelFile(o.model, *plan);
     if (!t.ok()) {
-      std::fprintf(stderr, "plan-soak: %s\n", t.status().message().c_str());
-      return 1;
+      LogError("plan-soak: " + t.status().message());
+      return kExitUsage;
     }
     truths.push_back(*t);
     names.push_back("typical");
@@ -330,8 +331,8 @@ int PlanSoakCommand(const PlanSoakOptions& o) {
     int skipped = 0;
     auto units = ReadLot(o.db, o.lot, *plan, &skipped);
     if (!units.ok()) {
-      std::fprintf(stderr, "plan-soak: %s\n", units.status().message().c_str());
-      return 1;
+      LogError("plan-soak: " + units.status().message());
+      return kExitUsage;
     }
     for (auto& [serial, truth] : *units) {
       names.push_back(serial);
@@ -344,16 +345,16 @@ int PlanSoakCommand(const PlanSoakOptions& o) {
   } else {
     auto profile = sim::LotProfileByName(o.profile);
     if (!profile.ok()) {
-      std::fprintf(stderr, "plan-soak: %s\n", profile.status().message().c_str());
-      return 1;
+      LogError("plan-soak: " + profile.status().message());
+      return kExitUsage;
     }
     for (int i = 0; i < o.records; ++i) {
       pb::SimTruth t = sim::MakeUnitTruth(*profile, o.seed, i, plan->nominal_rate_hz());
       // The profile's axes must be the plan's.
       if (t.axes_size() != plan->axes_size()) {
-        std::fprintf(stderr, "plan-soak: profile %s has %d axes, plan %s %d\n", o.profile.c_str(),
-                     t.axes_size(), plan->name().c_str(), plan->axes_size());
-        return 1;
+        LogError("plan-soak: profile " + o.profile + " has " + std::to_string(t.axes_size()) +
+                 " axes, plan " + plan->name() + " " + std::to_string(plan->axes_size()));
+        return kExitUsage;
       }
       for (int a = 0; a < t.axes_size(); ++a) t.mutable_axes(a)->set_axis(plan->axes(a).name());
       truths.push_back(std::move(t));
@@ -367,8 +368,8 @@ int PlanSoakCommand(const PlanSoakOptions& o) {
 
   auto records = SimulateSoaks(*plan, truths, names, o.records, o.seed, o.threads);
   if (!records.ok()) {
-    std::fprintf(stderr, "plan-soak: %s\n", records.status().message().c_str());
-    return 1;
+    LogError("plan-soak: " + records.status().message());
+    return kExitError;
   }
   const judge::LookSchedule s = judge::MakeLookSchedule(*plan);
   const pb::EarlyDecision& e = plan->early_decision();

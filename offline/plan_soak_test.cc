@@ -84,14 +84,15 @@ TEST(PlanSoak, ModelFileRunsAndBadFilesNameTheirProblem) {
   o.records = 2;
   o.model = Write("good.csv", "axis,name,value,unit\nx,model_white_noise,0.2,deg/sqrt(h)\n");
   EXPECT_EQ(PlanSoakCommand(o), 0);
+  // A model file that is wrong is bad input: exit 2, as a bad option.
   o.model = Write("other-axis.csv", "axis,name,value,unit\ny,white_noise,0.2,deg/sqrt(h)\n");
-  EXPECT_EQ(PlanSoakCommand(o), 1);
+  EXPECT_EQ(PlanSoakCommand(o), 2);
   o.model = Write("bad-value.csv", "axis,name,value,unit\nx,white_noise,abc,deg/sqrt(h)\n");
-  EXPECT_EQ(PlanSoakCommand(o), 1);
+  EXPECT_EQ(PlanSoakCommand(o), 2);
   o.model = Write("bad-unit.csv", "axis,name,value,unit\nx,white_noise,0.2,deg/h\n");
-  EXPECT_EQ(PlanSoakCommand(o), 1);
+  EXPECT_EQ(PlanSoakCommand(o), 2);
   o.model = Write("no-header.csv", "x,white_noise,0.2,deg/sqrt(h)\n");
-  EXPECT_EQ(PlanSoakCommand(o), 1);
+  EXPECT_EQ(PlanSoakCommand(o), 2);
   o.profile = "vg700";  // two sources
   EXPECT_EQ(PlanSoakCommand(o), 2);
 }
@@ -165,7 +166,7 @@ TEST(PlanSoak, LotUsesEachUnitsLatestAdequateModel) {
   // A lot the archive does not hold: one line naming it.
   o.lot = "NO-SUCH-LOT";
   ::testing::internal::CaptureStderr();
-  EXPECT_EQ(PlanSoakCommand(o), 1);
+  EXPECT_EQ(PlanSoakCommand(o), 2);
   const std::string err = ::testing::internal::GetCapturedStderr();
   EXPECT_NE(err.find("NO-SUCH-LOT"), std::string::npos) << err;
   std::remove(db.c_str());

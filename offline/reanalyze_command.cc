@@ -10,6 +10,7 @@
 
 #include "analyze/judge/judge.h"
 #include "analyze/judge/measurements.h"
+#include "common/command_line.h"
 #include "common/log.h"
 #include "offline/curve_request.h"
 #include "report/early_decisions.h"
@@ -327,7 +328,7 @@ int ReanalyzeCommand(const ReanalyzeOptions& o) {
   auto archive = store::Archive::Open(o.db_path, store::Archive::Mode::kRead);
   if (!archive.ok()) {
     LogError(archive.status().message());
-    return 1;
+    return ExitCodeOf(archive.status());
   }
   return o.exact ? Exact(**archive, o, *format) : Live(**archive, o, *format);
 }

@@ -353,7 +353,12 @@ std::string ConsoleTally(const ConsoleModel& m) {
     ++counts[store::OutcomeFromNumber(u.verdict)];
   }
   if (finals == 0) return "";
-  std::string out = "final:";
+  // "final" only once every unit is: before that the tally is the final
+  // verdicts so far, said as such (the last units may still fail).
+  const int units = static_cast<int>(m.units.size());
+  std::string out = finals == units ? "final:"
+                                    : "so far (" + std::to_string(finals) + " of " +
+                                          std::to_string(units) + " units final):";
   for (pb::Outcome o :
        {pb::PASS, pb::MARGINAL, pb::FAIL, pb::INCONCLUSIVE, pb::ABORTED, pb::ERROR}) {
     if (counts[o] == 0 && !store::CountsInYield(o)) continue;

@@ -117,11 +117,20 @@ TEST(StationConsoleTest, EveryOutcomeIsShownAndTheYieldCountsJudgedUnitsOnly) {
   for (const char* shown : {"INCONCLUSIVE", "ABORTED", "ERROR", "FAIL", "PASS"}) {
     EXPECT_NE(screen.find(shown), std::string::npos) << shown << "\n" << screen;
   }
-  // 1 of the 2 units judged PASS, MARGINAL or FAIL passes: 50 %, not 1 of 5
+  // 1 of the 2 units judged PASS, MARGINAL or FAIL passes: 50 %, not 1 of
+  // 5; SN-6 is not final yet, so the tally is not "final" either
   EXPECT_EQ(ConsoleTally(m),
-            "final: 1 PASS, 0 MARGINAL, 1 FAIL, 1 INCONCLUSIVE, 1 ABORTED, 1 ERROR; yield 50% of 2 "
-            "judged units");
+            "so far (5 of 6 units final): 1 PASS, 0 MARGINAL, 1 FAIL, 1 INCONCLUSIVE, 1 ABORTED, "
+            "1 ERROR; yield 50% of 2 judged units");
   EXPECT_NE(screen.find(ConsoleTally(m)), std::string::npos) << screen;
+  // AND once the last unit is judged, the tally is final
+  m.units[5].verdict = measurement_t::OUTCOME_FAIL;
+  m.units[5].final_result = true;
+  EXPECT_EQ(ConsoleTally(m),
+            "final: 1 PASS, 0 MARGINAL, 2 FAIL, 1 INCONCLUSIVE, 1 ABORTED, 1 ERROR; yield 33% of 3 "
+            "judged units");
+  m.units[5].verdict = measurement_t::OUTCOME_UNSET;
+  m.units[5].final_result = false;
   // AND provisional: lower case with '?'; the per-unit table marks an
   // inconclusive value '?', and lists the FAIL first, then ERROR, ABORTED,
   // INCONCLUSIVE

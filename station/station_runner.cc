@@ -573,7 +573,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& options) {
           if (p->kind == "store" && *code == store::kStoreExitUnwritable) {
             // Restarting cannot free the disk: the station stops, nothing
             // unarchived was acknowledged.
-            outcome = Status::IoError("imuqual-store could not write the archive " + o.db_path +
+            outcome = Status::ResourceExhausted("imuqual-store could not write the archive " + o.db_path +
                                       "; last lines of " + result.log_path + ":\n" +
                                       LogTail(result.log_path, 8));
             break;
@@ -712,7 +712,7 @@ Result<StationRunResult> RunStation(const StationRunOptions& options) {
   const int store_code = children.store->proc->Stop(kStopTimeoutS);
   if (!outcome.ok()) return outcome;
   if (store_code == store::kStoreExitUnwritable) {
-    return Status::IoError("imuqual-store could not write the archive " + o.db_path +
+    return Status::ResourceExhausted("imuqual-store could not write the archive " + o.db_path +
                            " at the end; last lines of " + result.log_path + ":\n" +
                            LogTail(result.log_path, 8));
   }

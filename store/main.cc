@@ -53,8 +53,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   BusSecurityFiles bus_files;
   AddBusSecurityFlags(app, &bus_files, /*signs=*/true, /*replays=*/true);
-  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
   SetLogProgramName("imuqual-store");
+  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
   for (const std::string& spec : accept_plans) {
     auto plan = judge::LoadPlan(spec);
     if (!plan.ok()) {

@@ -507,6 +507,27 @@ TEST(BadInputTest, APlanThatRequiresAnOperatorRefusesASoakWithoutOne) {
   EXPECT_FALSE(std::filesystem::exists(db));
 }
 
+// A plan or station file that is not there is bad input (exit 2), not the
+// archive that could not be written (exit 4: README, exit codes).
+TEST(BadInputTest, AMissingPlanOrStationFileExitsTwoNotFour) {
+  testing::TempDir dir("missing_files");
+  const std::string db = dir.path("m.db");
+  const std::string plan = dir.path("no-such-plan.textproto");
+  const std::string station = dir.path("no-such-station.textproto");
+  for (const auto& [cmd, named] :
+       {std::pair{Bin("imuqual") + " run --unit U1=sim:vg700 --duration 10 --lot L --db " + db +
+                      " --plan " + plan,
+                  plan},
+        std::pair{Bin("imuqual") + " run --station " + station, station}}) {
+    const auto r = RunCommand(cmd + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << cmd << ":\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    EXPECT_NE(r.output.find("imuqual: error: "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(named), std::string::npos) << r.output;
+  }
+  EXPECT_FALSE(std::filesystem::exists(db));
+}
+
 TEST(BadInputTest, ACsvWithoutSamplesIsRefusedNamingTheFile) {
   testing::TempDir dir("bad_csv_empty");
   const std::string empty = dir.path("empty.csv"), header = dir.path("header.csv");

@@ -286,6 +286,21 @@ TEST_F(LotToolsTest, DashIsStandardOutputAndMistypedCommandsAreNamed) {
   const auto nothing_close = RunCommand(Bin("imuqual") + " frobnicate 2>&1");
   EXPECT_EQ(nothing_close.exit_code, 2);
   EXPECT_EQ(nothing_close.output.find("did you mean"), std::string::npos) << nothing_close.output;
+  // A mistyped option is named (with the closest), in one error line, not
+  // "--db is required" for the option it seemed to leave out; a verdict is
+  // named in any case.
+  const auto option_typo = RunCommand(Bin("imuqual") + " lots --dbb " + db_ + " 2>&1");
+  EXPECT_EQ(option_typo.exit_code, 2);
+  EXPECT_EQ(option_typo.output,
+            "imuqual: error: unknown option --dbb (did you mean --db?) (imuqual lots --help lists "
+            "the options)\n");
+  const auto missing = RunCommand(Bin("imuqual") + " lots 2>&1");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_EQ(std::count(missing.output.begin(), missing.output.end(), '\n'), 1) << missing.output;
+  EXPECT_EQ(missing.output.rfind("imuqual: error: --db is required", 0), 0u) << missing.output;
+  const auto lower = RunCommand(Bin("imuqual") + " runs --outcome fail --db " + db_ + " 2>&1");
+  EXPECT_EQ(lower.exit_code, 0) << lower.output;
+  EXPECT_EQ(lower.output, RunCommand(Bin("imuqual") + " runs --verdict FAIL --db " + db_).output);
   // One axis of a run: the N and K slope lines with their read-off points,
   // the values as archived.
   const auto axis_plot = RunCommand(Bin("imuqual") + " plot --run T-L001-U003-R1 --axis gx -o - --db " + db_);

@@ -146,6 +146,24 @@ Status StationarityOptions::Validate() const {
   return Status::Ok();
 }
 
+std::vector<double> BinMeans(std::span<const double> rate, int64_t bin_samples, int bins) {
+  std::vector<double> mean(static_cast<size_t>(std::max(bins, 0)), kNaN);
+  for (int bin = 0; bin < bins; ++bin) {
+    double sum = 0;
+    int64_t count = 0;
+    for (int64_t i = bin * bin_samples;
+         i < (bin + 1) * bin_samples && i < static_cast<int64_t>(rate.size()); ++i) {
+      const double v = rate[static_cast<size_t>(i)];
+      if (std::isfinite(v)) {
+        sum += v;
+        ++count;
+      }
+    }
+    if (2 * count >= bin_samples) mean[static_cast<size_t>(bin)] = sum / static_cast<double>(count);
+  }
+  return mean;
+}
+
 double PhaseStructureFunction(const CompositeModel& model, double tau0_s, double s) {
   if (!(s > 0)) return 0;
   double d = 0;
@@ -238,19 +256,7 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
   // Per axis: differenced bin means and the GLS problem.
   std::vector<AxisGls> gls;
   for (int a = 0; a < num_axes; ++a) {
-    std::vector<double> mean(bins, kNaN);
-    for (int bin = 0; bin < bins; ++bin) {
-      double sum = 0;
-      int64_t count = 0;
-      for (int64_t i = bin * bin_samples; i < (bin + 1) * bin_samples; ++i) {
-        const double v = axes[a][static_cast<size_t>(i)];
-        if (std::isfinite(v)) {
-          sum += v;
-          ++count;
-        }
-      }
-      if (2 * count >= bin_samples) mean[bin] = sum / static_cast<double>(count);
-    }
+    const std::vector<double> mean = BinMeans(axes[a], bin_samples, bins);
     std::vector<double> d(bins - 1);
     for (int i = 0; i + 1 < bins; ++i) d[i] = mean[i + 1] - mean[i];
     std::vector<double> cov(bins);

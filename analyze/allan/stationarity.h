@@ -150,6 +150,10 @@ Result<StationarityScan> ScanStationarityRefitting(
 // (a step from its time on, a burst over its window), in place.
 void RemoveEvents(const StationarityScan& scan, int axis, double tau0_s, std::span<double> rate);
 
+// Means of `bins` consecutive bins of `bin_samples` samples each; a bin
+// with fewer than half its samples finite is NaN.
+std::vector<double> BinMeans(std::span<const double> rate, int64_t bin_samples, int bins);
+
 // The phase structure function D(s) of the model (above), s > 0 seconds,
 // rate unit^2 s^2. Exposed for tests.
 double PhaseStructureFunction(const CompositeModel& model, double tau0_s, double s);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 namespace imuqual::allan {
@@ -42,6 +43,22 @@ TEST(PhaseStructureFunctionTest, ReproducesEachTermsAvar) {
       EXPECT_NEAR(avar / expected, 1.0, 1e-5) << TermKindName(t.kind) << " tau " << tau;
     }
   }
+}
+
+TEST(BinMeansTest, MeansOfFiniteSamplesAndHalfEmptyBinsAreNaN) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<double> y = {1, 3, nan, 4, nan, nan, 5, 7, 9};
+  // Bins of 2: {1,3} {nan,4} {nan,nan} {5,7}; the 9 left over is no bin.
+  const std::vector<double> m = BinMeans(y, 2, 4);
+  ASSERT_EQ(m.size(), 4u);
+  EXPECT_EQ(m[0], 2.0);
+  EXPECT_EQ(m[1], 4.0);  // one of two finite: half is enough
+  EXPECT_TRUE(std::isnan(m[2]));
+  EXPECT_EQ(m[3], 6.0);
+  // A bin past the end of the record is NaN, not read out of bounds.
+  const std::vector<double> past = BinMeans(y, 4, 3);
+  EXPECT_EQ(past[0], 8.0 / 3.0);
+  EXPECT_TRUE(std::isnan(past[2]));
 }
 
 TEST(StationarityTest, StationaryWhiteRecordsRarelyAlarm) {

@@ -27,6 +27,11 @@ std::string Num(double v) {
   return buf;
 }
 
+// Adds `text` to the measurement's note ("; " between notes).
+void AppendNote(pb::Measurement& m, const std::string& text) {
+  m.set_note(m.note().empty() ? text : m.note() + "; " + text);
+}
+
 // The continuation density of S(f) (a standard Brownian motion) on a grid,
 // stepped look by look: what recursive numerical integration needs.
 class Recursion {
@@ -485,7 +490,7 @@ std::string EarlyDecider::FlagProvenance() const {
 void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
   const auto say_flag = [&](pb::Measurement& m) {
     if (m.outcome() == pb::MARGINAL) {
-      m.set_note((m.note().empty() ? "" : m.note() + "; ") + FlagProvenance());
+      AppendNote(m, FlagProvenance());
     }
   };
   for (pb::Measurement& m : *measurements) {
@@ -494,8 +499,7 @@ void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
                            [&](const Decided& d) { return d.key == key; });
     if (it == decided_.end()) {
       if (unit_ != Decision::kPending && Decides(m)) {
-        m.set_note((m.note().empty() ? "" : m.note() + "; ") +
-                   "not decided when the unit was (judged on the record analysed)");
+        AppendNote(m, "not decided when the unit was (judged on the record analysed)");
       }
       if (unit_ != Decision::kPending) say_flag(m);
       continue;
@@ -506,9 +510,9 @@ void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
         flags_ == pb::EarlyDecision::FLAGS_DECIDED ? it->marginal : m.outcome() == pb::MARGINAL;
     m.set_outcome(it->decision == Decision::kFail ? pb::FAIL : flag ? pb::MARGINAL : pb::PASS);
     m.clear_guard_band();
-    m.set_note((m.note().empty() ? "" : m.note() + "; ") + "decided " + DecisionName(it->decision) +
-               " at " + Num(schedule_.times_s[it->look]) + " s (look " +
-               std::to_string(it->look + 1) + "): " + it->why);
+    AppendNote(m, std::string("decided ") + DecisionName(it->decision) + " at " +
+                      Num(schedule_.times_s[it->look]) + " s (look " +
+                      std::to_string(it->look + 1) + "): " + it->why);
     say_flag(m);
   }
 }
@@ -520,7 +524,7 @@ Judgement JudgeDecided(const pb::TestPlan& plan, const std::vector<AxisDesc>& ax
     Judgement j = Judge(plan, axes, measurements);
     for (pb::Measurement& m : *measurements) {
       if (m.outcome() == pb::MARGINAL) {
-        m.set_note((m.note().empty() ? "" : m.note() + "; ") + decider.FlagProvenance());
+        AppendNote(m, decider.FlagProvenance());
       }
     }
     return j;

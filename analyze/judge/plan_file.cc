@@ -9,7 +9,8 @@ Result<pb::TestPlan> LoadPlan(const std::string& spec) {
   constexpr std::string_view kBuiltin = "builtin:";
   if (spec.rfind(kBuiltin, 0) == 0) return BuiltinPlan(spec.substr(kBuiltin.size()));
   auto text = ReadFileToString(spec);
-  if (!text.ok()) return text.status();
+  // A plan that cannot be read is bad input, not an I/O failure of ours.
+  if (!text.ok()) return Status::InvalidArgument("test plan: " + text.status().message());
   return ParsePlanText(*text, spec);
 }
 

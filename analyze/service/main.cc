@@ -46,8 +46,8 @@ int main(int argc, char** argv) {
                  "with any other plan is refused (default: any plan whose digest holds)");
   BusSecurityFiles bus_files;
   AddBusSecurityFlags(app, &bus_files, /*signs=*/true, /*replays=*/true);
-  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
   SetLogProgramName("imuqual-analyze");
+  if (const auto code = ParseCommandLine(app, argc, argv)) return *code;
   for (const std::string& spec : accept_plans) {
     auto plan = judge::LoadPlan(spec);
     if (!plan.ok()) {
