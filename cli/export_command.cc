@@ -3,6 +3,7 @@
 #include <google/protobuf/util/json_util.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -188,17 +189,32 @@ std::string YamlFloat(double v) {
 // Kalibr's noise density is the continuous-time white-noise density (IEEE
 // 952's N) and its random walk the bias random walk (IEEE 952's K), in rad
 // (gyro) and m (accel) units; like allan_variance_ros, the sensor's value is
-// the mean over its axes (each axis is listed in a comment). One YAML
-// document (Kalibr's imu.yaml) for one run; errors name the run and the axis.
-Result<std::string> KalibrYaml(store::Archive& archive, const RunRef& r, const ExportOptions& o) {
+// the mean over its axes (each axis is listed in a comment). Only measured
+// values go into that mean: an axis whose model has no such term has only a
+// 95 % upper bound, listed in its own comment and left out. A sensor with no
+// axis measured is refused (not measurable) unless --upper-bounds is given;
+// then its value is the largest bound, said so beside it and in the summary.
+// One YAML document (Kalibr's imu.yaml) for one run, and a one-line summary
+// of where each value came from; errors name the run and the axes.
+struct KalibrDocument {
+  std::string yaml;
+  std::string summary;
+};
+
+Result<KalibrDocument> KalibrYaml(store::Archive& archive, const RunRef& r,
+                                  const ExportOptions& o) {
   auto result = archive.LoadResult(r.key);
   if (!result.ok()) return result.status();
   if (!result->has_value()) {
     return Status::InvalidArgument("run " + r.run_id + " has no final result yet");
   }
-  struct Sums {
-    double n = 0, k = 0;
-    int n_count = 0, k_count = 0;
+  // One Kalibr value: the measured axes' values and the bounded axes' bounds.
+  struct Value {
+    std::vector<double> measured, bounds;
+    std::vector<std::string> measured_axes, bounded_axes;
+  };
+  struct Sensor {
+    Value n, k;
     std::string comments;
   } gyro, accel;
   // A navigation filter tuned from a model that does not fit the sensor is
@@ -219,21 +235,13 @@ Result<std::string> KalibrYaml(store::Archive& archive, const RunRef& r, const E
       return Status::InvalidArgument("run " + r.run_id + " axis " + m.axis() + ": " + m.name() +
                                      " not measured (" + m.note() + "); no Kalibr YAML");
     }
-    // A term the model leaves out is only bounded: a filter tuned with the
-    // bound over-weights that noise, which the user has to choose.
-    if (UpperBound(m) && !o.kalibr_upper_bounds) {
-      return Status::InvalidArgument(
-          "run " + r.run_id + " axis " + m.axis() + ": " + m.name() +
-          " is only an upper bound (the noise model has no such term); --upper-bounds exports "
-          "the 95 % bound");
-    }
     bool is_accel = accel_n;
     if (rrw) {
       for (const store::AxisInfo& a : r.info.axes) {
         if (a.name == m.axis()) is_accel = a.kind == pb::ACCEL;
       }
     }
-    Sums& sums = is_accel ? accel : gyro;
+    Sensor& sensor = is_accel ? accel : gyro;
     double si;  // SI/rad base value
     if (gyro_n) {
       si = allan::DegPerRootHourToDegPerRootSec(m.value()) * kRadPerDeg;  // rad/s/sqrt(Hz)
@@ -245,39 +253,76 @@ Result<std::string> KalibrYaml(store::Archive& archive, const RunRef& r, const E
     } else {
       si = allan::MicroGToMetersPerSecSq(m.value()) / 60.0;  // ug/sqrt(h) -> m/s^3/sqrt(Hz)
     }
-    if (rrw) {
-      sums.k += si;
-      ++sums.k_count;
-    } else {
-      sums.n += si;
-      ++sums.n_count;
-    }
-    sums.comments +=
-        "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) +
-        (UpperBound(m) ? " (upper bound at 95 %: the noise model has no such term)" : "") + "\n";
+    Value& v = rrw ? sensor.k : sensor.n;
+    const bool bound = UpperBound(m);
+    (bound ? v.bounds : v.measured).push_back(si);
+    (bound ? v.bounded_axes : v.measured_axes).push_back(m.axis());
+    sensor.comments += "#   " + m.axis() + (rrw ? " random_walk " : " noise_density ") + Num(si) +
+                       (bound ? " (only an upper bound at 95 %: the noise model has no such "
+                                "term; not in the mean below)"
+                              : "") +
+                       "\n";
   }
-  // Kalibr's imu.yaml has both sensors: a unit without one cannot fill it.
-  for (const auto& [sums, sensor] :
-       {std::pair{&accel, "accelerometer"}, std::pair{&gyro, "gyroscope"}}) {
-    if (sums->n_count == 0 || sums->k_count == 0) {
+  auto join = [](const std::vector<std::string>& names) {
+    std::string out;
+    for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+    return out;
+  };
+  std::string yaml = "# " + r.info.serial + ", run " + r.run_id + " (lot " + r.info.lot +
+                     "): composite noise model, mean over the measured axes\n";
+  std::vector<std::string> summary;
+  for (auto [sensor, name] :
+       {std::pair{&accel, std::string("accelerometer")}, std::pair{&gyro, std::string("gyroscope")}}) {
+    // Kalibr's imu.yaml has both sensors: a unit without one cannot fill it.
+    const size_t terms = sensor->n.measured.size() + sensor->n.bounds.size() +
+                         sensor->k.measured.size() + sensor->k.bounds.size();
+    if (sensor->n.measured.size() + sensor->n.bounds.size() == 0 ||
+        sensor->k.measured.size() + sensor->k.bounds.size() == 0) {
       return Status::InvalidArgument("run " + r.run_id + " (unit " + r.info.serial + "): no " +
-                                     sensor + " noise density and random walk (" +
-                                     (sums->n_count + sums->k_count == 0
-                                          ? "no " + std::string(sensor) + " axis"
-                                          : "a term not measured") +
+                                     name + " noise density and random walk (" +
+                                     (terms == 0 ? "no " + name + " axis" : "a term not measured") +
                                      "); Kalibr's imu.yaml needs both sensors");
     }
+    std::string lines = "#" + std::string(1, static_cast<char>(std::toupper(name[0]))) +
+                        name.substr(1) + "\n" + sensor->comments;
+    for (auto [value, key] : {std::pair{&sensor->n, name + "_noise_density"},
+                              std::pair{&sensor->k, name + "_random_walk"}}) {
+      double written;
+      if (!value->measured.empty()) {
+        double sum = 0;
+        for (double x : value->measured) sum += x;
+        written = sum / static_cast<double>(value->measured.size());
+        if (!value->bounds.empty()) {
+          lines += "# " + key + ": the mean of " + join(value->measured_axes) + " (measured); " +
+                   join(value->bounded_axes) + " only bounded, not in it\n";
+          summary.push_back(key + " from " + join(value->measured_axes) + " (" +
+                            join(value->bounded_axes) + " only bounded)");
+        }
+      } else if (o.kalibr_upper_bounds) {
+        written = *std::max_element(value->bounds.begin(), value->bounds.end());
+        lines += "# " + key +
+                 ": AN UPPER BOUND at 95 %, not a measured value (the largest of the bounds of " +
+                 join(value->bounded_axes) + "; no axis measured it; --upper-bounds)\n";
+        summary.push_back(key + " an upper bound (no axis measured it)");
+      } else {
+        return Status::InvalidArgument(
+            "run " + r.run_id + " (unit " + r.info.serial + "): " + key +
+            " is not measurable: the noise model of " + join(value->bounded_axes) +
+            " has no such term, only a 95 % upper bound; --upper-bounds writes the largest bound "
+            "as the value, said so in the file");
+      }
+      lines += key + ": " + YamlFloat(written) + "\n";
+    }
+    yaml += lines;
   }
-  std::string out = "# " + r.info.serial + ", run " + r.run_id + " (lot " + r.info.lot +
-                    "): composite noise model, mean over the axes\n";
-  out += "#Accelerometer\n" + accel.comments;
-  out += "accelerometer_noise_density: " + YamlFloat(accel.n / accel.n_count) + "\n";
-  out += "accelerometer_random_walk: " + YamlFloat(accel.k / accel.k_count) + "\n";
-  out += "#Gyroscope\n" + gyro.comments;
-  out += "gyroscope_noise_density: " + YamlFloat(gyro.n / gyro.n_count) + "\n";
-  out += "gyroscope_random_walk: " + YamlFloat(gyro.k / gyro.k_count) + "\n";
-  out += "rostopic: '" + o.rostopic + "'\nupdate_rate: " + YamlFloat(r.info.nominal_rate_hz) + "\n";
-  return out;
+  yaml += "rostopic: '" + o.rostopic + "'\nupdate_rate: " + YamlFloat(r.info.nominal_rate_hz) + "\n";
+  std::string said = r.info.serial + " (run " + r.run_id + "): ";
+  if (summary.empty()) {
+    said += "every value the mean of measured axes";
+  } else {
+    for (size_t i = 0; i < summary.size(); ++i) said += (i ? "; " : "") + summary[i];
+  }
+  return KalibrDocument{yaml, said};
 }
 
 // --format kalibr: one run's YAML to -o FILE (or standard output), or each
@@ -303,16 +348,18 @@ int ExportKalibr(store::Archive& archive, const std::vector<RunRef>& runs, const
   }
   int exit_code = kExitOk;
   for (const auto& [serial, run] : latest) {
-    Result<std::string> yaml = KalibrYaml(archive, *run, o);
-    if (!yaml.ok()) {
-      LogError(yaml.status().message());
+    Result<KalibrDocument> doc = KalibrYaml(archive, *run, o);
+    if (!doc.ok()) {
+      LogError(doc.status().message());
       // Refused (a model or term that cannot tune a filter): 2, as before;
       // the archive failing: 1.
       exit_code =
-          std::max(exit_code, yaml.status().code() == Status::Code::kInvalidArgument ? kExitUsage
-                                                                                     : kExitError);
+          std::max(exit_code, doc.status().code() == Status::Code::kInvalidArgument ? kExitUsage
+                                                                                    : kExitError);
       continue;
     }
+    const std::string* yaml = &doc->yaml;
+    LogInfo("kalibr: " + doc->summary);
     if (!o.run_id.empty() && (o.output.empty() || o.output == "-")) {
       std::fwrite(yaml->data(), 1, yaml->size(), stdout);
       continue;

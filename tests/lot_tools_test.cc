@@ -23,6 +23,7 @@
 #include <tuple>
 
 #include "analyze/judge/judge.h"
+#include "analyze/judge/measurements.h"
 #include "common/clock.h"
 #include "common/text_util.h"
 #include "imuqual/record.pb.h"
@@ -432,6 +433,164 @@ TEST_F(LotToolsTest, KalibrLotExportIsOneFilePerUnit) {
     }
   }
   EXPECT_EQ(files, serials.size());
+}
+
+// Each Kalibr value is the mean of the axes that measured it; an axis with
+// only an upper bound is left out of it (and listed); a value no axis
+// measured is refused unless --upper-bounds, which writes the largest bound
+// and says so beside it. Each file's sources are summed up on stderr.
+TEST_F(LotToolsTest, KalibrValuesAreMeasuredMeansAndBoundsOnlyWhenAsked) {
+  const Csv ms = ParseCsv(Imuqual("export --lot T-L001 --as measurements"));
+  // Per run and Kalibr key: measured values and bounds (SI units).
+  struct Key {
+    std::vector<double> measured, bounds;
+  };
+  std::map<std::string, std::map<std::string, Key>> by_run;
+  const double deg = std::numbers::pi / 180;
+  for (const auto& r : ms.rows) {
+    const std::string name = r[ms.Col("name")], axis = r[ms.Col("axis")];
+    if (r[ms.Col("value")].empty()) continue;
+    const double v = std::stod(r[ms.Col("value")]);
+    const bool accel = !axis.empty() && axis[0] == 'a';
+    std::string key;
+    double si = 0;
+    if (name == "fit_angle_random_walk") {
+      key = "gyroscope_noise_density", si = v / 60 * deg;
+    } else if (name == "fit_velocity_random_walk") {
+      key = "accelerometer_noise_density", si = v / 60;
+    } else if (name == "fit_rate_random_walk") {
+      key = accel ? "accelerometer_random_walk" : "gyroscope_random_walk";
+      si = accel ? v * 9.80665e-6 / 60 : v / 216000 * deg;
+    } else {
+      continue;
+    }
+    Key& k = by_run[r[ms.Col("run_id")]][key];
+    (r[ms.Col("qualifier")] == "upper_bound" ? k.bounds : k.measured).push_back(si);
+  }
+  ASSERT_FALSE(by_run.empty());
+  int bounded_keys = 0, runs_checked = 0;
+  for (const auto& [run, keys] : by_run) {
+    bool measurable = true;
+    for (const auto& [key, k] : keys) measurable = measurable && !k.measured.empty();
+    const auto plain = RunCommand(Bin("imuqual") + " export --run " + run + " --as kalibr --db " +
+                                  db_ + " 2>&1 >/dev/null");
+    const auto asked = RunCommand(Bin("imuqual") + " export --run " + run +
+                                  " --as kalibr --upper-bounds --db " + db_ + " 2>/dev/null");
+    const auto said = RunCommand(Bin("imuqual") + " export --run " + run +
+                                 " --as kalibr --upper-bounds --db " + db_ + " 2>&1 >/dev/null");
+    if (asked.exit_code != 0) continue;  // a model not adequate: refused either way
+    ++runs_checked;
+    EXPECT_EQ(plain.exit_code, measurable ? 0 : 2) << run << ": " << plain.output;
+    if (!measurable) {
+      EXPECT_NE(plain.output.find("is not measurable"), std::string::npos) << plain.output;
+    }
+    EXPECT_NE(said.output.find("kalibr: "), std::string::npos) << said.output;
+    EXPECT_EQ(std::count(said.output.begin(), said.output.end(), '\n'), 1) << said.output;
+    for (const auto& [key, k] : keys) {
+      const std::string& yaml = asked.output;
+      const size_t at = yaml.find("\n" + key + ": ");
+      ASSERT_NE(at, std::string::npos) << key << "\n" << yaml;
+      const double written = std::stod(yaml.substr(at + key.size() + 3));
+      double expected;
+      if (!k.measured.empty()) {
+        double sum = 0;
+        for (double x : k.measured) sum += x;
+        expected = sum / static_cast<double>(k.measured.size());
+      } else {
+        ++bounded_keys;
+        expected = *std::max_element(k.bounds.begin(), k.bounds.end());
+        // Said beside the value and in the summary.
+        const size_t line = yaml.rfind("\n# " + key + ": AN UPPER BOUND at 95 %", at);
+        EXPECT_NE(line, std::string::npos) << yaml;
+        EXPECT_NE(said.output.find(key + " an upper bound"), std::string::npos) << said.output;
+      }
+      // The archive keeps 6-7 significant digits of a fitted value (float).
+      EXPECT_NEAR(written, expected, 1e-6 * std::abs(expected)) << run << " " << key;
+    }
+  }
+  EXPECT_GT(runs_checked, 0);
+  std::printf("kalibr: %d runs checked, %d values only bounded\n", runs_checked, bounded_keys);
+}
+
+// A tactical unit's soak too short for a rate random walk on its gyros:
+// each gyro axis has only its 95 % upper bound, and az's accelerometer too.
+TEST(KalibrBoundsTest, AValueNoAxisMeasuredIsRefusedOrWrittenAsABoundWhenAsked) {
+  testing::TempDir dir("kalibr_bounds");
+  const std::string db = dir.path("bounds.db");
+  {
+    auto a = store::Archive::Open(db, store::Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok()) << a.status().ToString();
+    store::RunInfo r;
+    r.run_id = "B-1-R1";
+    r.serial = "B-1";
+    r.lot = "B";
+    r.start_utime = 1'800'000'000'000'000;
+    r.end_utime = r.start_utime + 3'600'000'000;
+    r.nominal_rate_hz = 200;
+    r.axes = {{"gx", pb::GYRO}, {"gy", pb::GYRO}, {"gz", pb::GYRO},
+              {"ax", pb::ACCEL}, {"ay", pb::ACCEL}, {"az", pb::ACCEL}};
+    r.state = "complete";
+    auto key = (*a)->UpsertRun(r);
+    ASSERT_TRUE(key.ok()) << key.status().ToString();
+    store::ResultRecord res;
+    res.verdict = "PASS";
+    res.result_utime = *r.end_utime;
+    auto add = [&](const std::string& axis, std::string_view name, double v, bool bound) {
+      pb::Measurement m;
+      m.set_axis(axis);
+      m.set_name(std::string(name));
+      m.set_value(v);
+      m.set_uncertainty_method(bound ? "none: an upper bound" : "profile of J");
+      if (bound) m.set_qualifier(pb::UPPER_BOUND);
+      res.measurements.push_back(m);
+    };
+    int i = 0;
+    for (const char* g : {"gx", "gy", "gz"}) {
+      add(g, judge::kNoiseModelPValue, 0.4, false);
+      add(g, judge::kFitAngleRandomWalk, 0.1, false);
+      add(g, judge::kFitRateRandomWalk, 0.5 + 0.25 * i++, true);  // 0.5, 0.75, 1.0
+    }
+    for (const char* x : {"ax", "ay", "az"}) {
+      add(x, judge::kNoiseModelPValue, 0.4, false);
+      add(x, judge::kFitVelocityRandomWalk, 0.02, false);
+    }
+    add("ax", judge::kFitRateRandomWalk, 10, false);
+    add("ay", judge::kFitRateRandomWalk, 30, false);
+    add("az", judge::kFitRateRandomWalk, 500, true);
+    res.record = store::BuildRunRecord(r, res, 0).SerializeAsString();
+    ASSERT_TRUE((*a)->PutResult(*key, res).ok());
+    ASSERT_TRUE((*a)->MarkFinalized(*key, res.result_utime).ok());
+  }
+  const std::string base = Bin("imuqual") + " export --run B-1-R1 --as kalibr --db " + db;
+  // Not measurable: refused, naming the value and the axes.
+  const auto plain = RunCommand(base + " 2>&1");
+  EXPECT_EQ(plain.exit_code, 2) << plain.output;
+  EXPECT_NE(plain.output.find("gyroscope_random_walk is not measurable: the noise model of gx, "
+                              "gy, gz has no such term"),
+            std::string::npos)
+      << plain.output;
+  // Asked: the largest bound, said beside it and on stderr; the accelerometer's
+  // random walk the mean of ax and ay (az only bounded, listed, not in it).
+  const auto yaml = RunCommand(base + " --upper-bounds 2>/dev/null").output;
+  const auto said = RunCommand(base + " --upper-bounds 2>&1 >/dev/null").output;
+  const double deg = std::numbers::pi / 180;
+  const auto value = [&](const std::string& key) {
+    const size_t at = yaml.find("\n" + key + ": ");
+    return at == std::string::npos ? NAN : std::stod(yaml.substr(at + key.size() + 3));
+  };
+  EXPECT_NEAR(value("gyroscope_random_walk"), 1.0 / 216000 * deg, 1e-12 * deg) << yaml;
+  EXPECT_NEAR(value("accelerometer_random_walk"), 20 * 9.80665e-6 / 60, 1e-15) << yaml;
+  EXPECT_NE(yaml.find("# gyroscope_random_walk: AN UPPER BOUND at 95 %, not a measured value"),
+            std::string::npos)
+      << yaml;
+  EXPECT_NE(yaml.find("# accelerometer_random_walk: the mean of ax, ay (measured); az only "
+                      "bounded, not in it"),
+            std::string::npos)
+      << yaml;
+  EXPECT_NE(said.find("kalibr: B-1 (run B-1-R1): accelerometer_random_walk from ax, ay (az only "
+                      "bounded); gyroscope_random_walk an upper bound (no axis measured it)"),
+            std::string::npos)
+      << said;
 }
 
 TEST_F(LotToolsTest, CsvExportsHaveEveryRow) {
