@@ -262,6 +262,7 @@ Result<std::unique_ptr<AcquireService>> AcquireService::Create(AcquireOptions op
     a.software_version = kSoftwareVersion;
     a.start_utime = now;
     a.nominal_rate_hz = info.nominal_rate_hz;
+    a.planned_s = info.planned_s;
     a.num_axes = static_cast<int8_t>(info.axes.size());
     for (const pb::Axis& axis : info.axes) {
       a.axis_names.push_back(axis.name());

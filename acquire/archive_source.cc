@@ -35,6 +35,10 @@ Result<std::unique_ptr<ArchiveSource>> ArchiveSource::Open(const std::string& db
   s->info_.nominal_rate_hz = run->nominal_rate_hz;
   s->info_.description = "archive:" + db_path + ",run=" + run_id;
   s->info_.truth = run->truth;
+  if (run->end_sample > run->first_sample && run->first_sample >= 0 && run->nominal_rate_hz > 0) {
+    s->info_.planned_s =
+        static_cast<double>(run->end_sample - run->first_sample) / run->nominal_rate_hz;
+  }
   if (s->info_.axes.empty() || !(s->info_.nominal_rate_hz > 0)) {
     return Status::Corruption("archive source " + db_path + ": run " + run_id +
                               " has no axes or no rate");

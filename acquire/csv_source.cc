@@ -59,6 +59,27 @@ Result<std::unique_ptr<CsvSource>> CsvSource::Open(const CsvSourceOptions& optio
   s->info_.axes = options.axes;
   s->info_.nominal_rate_hz = options.rate_hz;
   s->info_.description = "csv:" + options.path;
+  // Its length for progress: the file's non-empty lines but the header, at
+  // the nominal rate (a second pass over the file; about, not exact: a
+  // comment line counts).
+  if (options.rate_hz > 0) {
+    std::ifstream count(options.path, std::ios::binary);
+    int64_t rows = 0;
+    bool blank = true;
+    char buf[1 << 16];
+    while (count.read(buf, sizeof buf) || count.gcount() > 0) {
+      for (std::streamsize i = 0; i < count.gcount(); ++i) {
+        if (buf[i] == '\n') {
+          rows += !blank;
+          blank = true;
+        } else if (buf[i] != '\r' && buf[i] != ' ') {
+          blank = false;
+        }
+      }
+    }
+    rows += !blank;
+    s->info_.planned_s = static_cast<double>(std::max<int64_t>(rows - 1, 0)) / options.rate_hz;
+  }
   return s;
 }
 

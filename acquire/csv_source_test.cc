@@ -60,6 +60,8 @@ TEST(CsvSourceTest, TheFirstRowReadAtOpenIsDeliveredOnce) {
   const std::string path = Write(dir, "rows.csv", "gx,gy\n1,2\n3,4\n5,6\n");
   auto source = CsvSource::Open(Options(path));
   ASSERT_TRUE(source.ok()) << source.status().message();
+  // (its planned length, for progress: three rows at 100 Hz)
+  EXPECT_DOUBLE_EQ((*source)->info().planned_s, 0.03);
   // WHEN it is read two samples at a time
   SampleBlock block;
   auto n = (*source)->Read(2, &block);

@@ -152,6 +152,9 @@ Result<std::unique_ptr<RosbagSource>> RosbagSource::Open(const RosbagSourceOptio
     s->info_.axes.push_back(a);
   }
   s->info_.nominal_rate_hz = options.rate_hz;
+  if (options.rate_hz > 0) {
+    s->info_.planned_s = static_cast<double>(s->impl_->view->size()) / options.rate_hz;
+  }
   s->info_.description = "bag:" + options.path + ",topic=" + options.topic;
   return s;
 }

@@ -57,6 +57,7 @@ Result<std::unique_ptr<SerialSource>> SerialSource::Open(SerialSourceOptions opt
   s->info_.description = "serial:" + s->o_.port.device + ",protocol=" + s->o_.protocol +
                          ",baud=" + std::to_string(s->o_.port.baud);
   s->info_.paced_by_device = true;
+  s->info_.planned_s = s->o_.duration_s;
   s->total_samples_ = std::max<int64_t>(1, std::llround(s->o_.duration_s * s->o_.rate_hz));
   s->queue_limit_ = std::max<int64_t>(1000, std::llround(s->o_.queue_limit_s * s->o_.rate_hz));
   s->origin_mono_s_ = MonotonicSeconds();

@@ -40,6 +40,7 @@ Result<std::unique_ptr<SimSource>> SimSource::Create(const sim::LotProfile& prof
     info.axes.push_back(axis);
   }
   info.nominal_rate_hz = rate;
+  info.planned_s = static_cast<double>(total) / rate;
   info.description = "sim:profile=" + profile.name + ",unit=" + std::to_string(index) +
                      ",seed=" + std::to_string(truth.seed());
   info.truth = truth.SerializeAsString();

@@ -21,6 +21,9 @@ struct SourceInfo {
   std::string description;      // e.g. "sim:profile=vg700,unit=3"
   std::string truth;            // serialized pb::SimTruth for simulated units, else ""
   bool paced_by_device = false; // true: samples arrive in real time (serial); false: as fast as read
+  // Device seconds the source is planned to give (a soak's duration, a
+  // recording's length at the nominal rate); 0: not known before it ends.
+  double planned_s = 0;
 };
 
 struct SampleFlagEntry {

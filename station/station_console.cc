@@ -140,8 +140,15 @@ std::string StateText(const ConsoleUnit& u) {
   }
 }
 
-std::string ElapsedText(const ConsoleUnit& u, double planned_s) {
+// The unit's planned device time: its own announced one, else the station's
+// (0: not known).
+double PlannedOf(const ConsoleUnit& u, double station_planned_s) {
+  return u.planned_s > 0 ? u.planned_s : station_planned_s;
+}
+
+std::string ElapsedText(const ConsoleUnit& u, double station_planned_s) {
   if (u.state == 0) return "";
+  const double planned_s = PlannedOf(u, station_planned_s);
   std::string out = FormatDuration(u.elapsed_s);
   if (planned_s > 0) out += " / " + FormatDuration(planned_s);
   return out;
@@ -390,8 +397,8 @@ double ConsoleProgress(const ConsoleModel& m) {
   for (const ConsoleUnit& u : m.units) {
     if (u.archived || (Early(u) && Decided(u))) {
       done += 1;
-    } else if (m.planned_s > 0) {
-      done += std::min(u.elapsed_s / m.planned_s, 0.999);
+    } else if (const double planned = PlannedOf(u, m.planned_s); planned > 0) {
+      done += std::min(u.elapsed_s / planned, 0.999);
     }
   }
   return std::clamp(done / static_cast<double>(m.units.size()), 0.0, 1.0);

@@ -46,6 +46,7 @@ struct ConsoleAxis {
 struct ConsoleUnit {
   std::string slot, serial, run_id;  // run_id "" until the run is announced
   double elapsed_s = 0;              // device time published
+  double planned_s = 0;              // device time announced as planned (0: not known)
   int64_t samples = 0;               // samples published per axis
   int64_t gap_samples = 0;           // samples the analysis found missing
   int8_t state = 0;                  // run_t.STATE_* (0: not announced yet)

@@ -249,6 +249,9 @@ void StationMonitor::OnRun(const imuqual::run_t& r) {
                      why->second != kShutdownEndReason;
   u->samples = std::max(u->samples, r.samples_published);
   if (r.nominal_rate_hz > 0) u->elapsed_s = static_cast<double>(u->samples) / r.nominal_rate_hz;
+  // The planned length as acquire announced it (a store's re-announcement
+  // does not know it: it keeps what was heard).
+  if (r.planned_s > 0 && std::isfinite(r.planned_s)) u->planned_s = r.planned_s;
   if (r.announcer == "acquire")
     tracks_[r.unit_serial].device_paced = r.source.rfind("serial:", 0) == 0;
   if (u->axes.empty()) {

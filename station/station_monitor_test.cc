@@ -137,6 +137,33 @@ TEST(StationMonitorTest, DiscoversUnitsInSlotOrderAndTakesTheHeaderFromTheirRuns
   EXPECT_EQ(m.model().units.size(), 3u);
 }
 
+// Progress and "elapsed / planned" from each run's announced plan: the live
+// page (which knows no station duration) reads as the console does; a
+// store's re-announcement (planned 0) keeps what acquire said.
+TEST(StationMonitorTest, ProgressFromTheAnnouncedPlannedLength) {
+  MonitorOptions o;
+  o.discover_units = true;
+  StationMonitor m(o);
+  EXPECT_EQ(ConsoleProgress(m.model()), 0.0);
+  imuqual::run_t a = RunMsg("R-U1", "U1", "A1", imuqual::run_t::STATE_RUNNING, 30000);
+  a.planned_s = 600;  // 300 s of 600 published
+  imuqual::run_t b = RunMsg("R-U2", "U2", "A2", imuqual::run_t::STATE_RUNNING, 6000);
+  b.planned_s = 600;  // 60 s of 600
+  m.OnRun(a);
+  m.OnRun(b);
+  EXPECT_NEAR(ConsoleProgress(m.model()), (0.5 + 0.1) / 2, 1e-12);
+  EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).elapsed, "5:00 / 10:00");
+  imuqual::run_t again = b;
+  again.announcer = "store";
+  again.planned_s = 0;
+  m.OnRun(again);
+  EXPECT_EQ(m.model().units[1].planned_s, 600.0);
+  // A unit whose length is not known counts as not begun, not as done.
+  imuqual::run_t c = RunMsg("R-U3", "U3", "A3", imuqual::run_t::STATE_RUNNING, 6000);
+  m.OnRun(c);
+  EXPECT_NEAR(ConsoleProgress(m.model()), (0.5 + 0.1 + 0) / 3, 1e-12);
+}
+
 TEST(StationMonitorTest, WithoutDiscoveryOnlyItsUnitsAndItsRunPrefix) {
   MonitorOptions o;
   o.run_prefix = "P1";

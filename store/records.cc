@@ -56,6 +56,7 @@ imuqual::run_t MessageFromRunInfo(const RunInfo& info) {
   r.retained_first_seq = 0;
   r.end_reason = info.end_reason;
   r.revision = static_cast<int16_t>(info.revision);
+  r.planned_s = 0;  // the archive does not keep it: unknown (for progress only)
   return r;
 }
 

@@ -52,6 +52,8 @@ std::string LiveStatusJson(const station::ConsoleModel& m, int64_t newest_utime)
                      {"reason", cells.reason},
                      {"state", cells.state},
                      {"elapsed", cells.elapsed},
+                     {"elapsed_s", Rounded(u.elapsed_s)},
+                     {"planned_s", Rounded(u.planned_s > 0 ? u.planned_s : m.planned_s)},
                      {"samples", u.samples},
                      {"gap_samples", u.gap_samples},
                      {"archived", u.archived},

@@ -79,6 +79,22 @@ async function main() {
     for (const [serial, n] of Object.entries(first)) {
       if (!(later[serial] > n)) fail(`unit ${serial}: samples did not grow (${n} -> ${later[serial]})`);
     }
+    // Progress from each run's announced planned length (the page knows no
+    // station duration): above 0 and rising, each unit "elapsed / planned",
+    // and the bar what the units' own elapsed/planned say (the console's rule).
+    const progress = () => page.evaluate(() => Number(document.getElementById('progress').value));
+    const p1 = await progress();
+    await page.waitForTimeout(3000);
+    const p2 = await progress();
+    if (!(p1 > 0 && p2 > p1)) fail(`progress did not rise from 0: ${p1} -> ${p2}`);
+    const fromUnits = await page.evaluate(() => {
+      const units = window.imuqualLive.status.units;
+      return units.reduce((sum, u) => sum + (u.archived ? 1 : Math.min(u.elapsed_s / u.planned_s, 0.999)), 0) / units.length;
+    });
+    const p3 = await progress();
+    if (!(Math.abs(p3 - fromUnits) <= 0.05)) fail(`progress ${p3}, the units' elapsed/planned say ${fromUnits}`);
+    const planned = await page.evaluate(() => window.imuqualLive.status.units.map((u) => u.planned_s));
+    if (!planned.every((p) => Math.abs(p - kDurationS) < 1e-6)) fail(`planned lengths ${planned}, ${kDurationS} s soaked`);
     const operator = await page.evaluate(() => document.getElementById('operator').textContent);
     if (operator !== kOperator) fail(`operator shown as '${operator}'`);
     // Curves drawn for every unit, and they grow (more samples behind them).
