@@ -113,8 +113,11 @@ constexpr char kLiveScript[] = R"js((() => {
     const done = $('done');
     done.hidden = !(s.all_done && s.lot);
     if (!done.hidden) $('report').href = nameLink('/lot', 'name', s.lot);
+    // What needs the line first: FAIL, ERROR (a failed source, a silent
+    // unit), ABORTED, INCONCLUSIVE, MARGINAL, then the rest; slot order within.
+    const units = [...s.units].sort((a, b) => (b.attention || 0) - (a.attention || 0));
     const body = document.createElement('tbody');
-    for (const u of s.units) {
+    for (const u of units) {
       const axes = u.axes.length ? u.axes : [null];
       axes.forEach((x, i) => body.append(row(u, i === 0, x, axes.length)));
     }
@@ -122,7 +125,7 @@ constexpr char kLiveScript[] = R"js((() => {
     // One plot per unit with a run, in the table's order.
     const box = $('curves');
     const order = [];
-    for (const u of s.units) {
+    for (const u of units) {
       if (!u.run_id) continue;
       let f = figures.get(u.run_id);
       if (!f) {

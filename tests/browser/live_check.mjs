@@ -126,6 +126,12 @@ async function main() {
       !document.getElementById('done').hidden);
     const shown = await page.evaluate(() => [...document.querySelectorAll('#units tbody tr.first')]
       .map((tr) => ({ serial: tr.dataset.serial, verdict: tr.cells[2].textContent, state: tr.cells[4].textContent })));
+    // FAIL, INCONCLUSIVE and MARGINAL units first (the line acts on them).
+    const rank = { FAIL: 5, ERROR: 4, ABORTED: 3, INCONCLUSIVE: 2, MARGINAL: 1 };
+    const ranks = shown.map((r) => rank[r.verdict] || 0);
+    if (ranks.some((r, i) => i > 0 && r > ranks[i - 1])) {
+      fail(`rows not worst first: ${shown.map((r) => `${r.serial} ${r.verdict}`).join(', ')}`);
+    }
     const archived = sqlite(db, `SELECT serial, verdict FROM runs WHERE lot = '${kLot}' ORDER BY serial`);
     if (archived.length !== kUnits) fail(`${archived.length} runs archived, ${kUnits} expected`);
     for (const a of archived) {
