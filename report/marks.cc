@@ -44,20 +44,51 @@ std::string MarkedValue(double value, pb::Qualifier qualifier, double uncertaint
                         bool with_uncertainty) {
   if (qualifier == pb::NOT_MEASURABLE) return kNotMeasurableText;
   if (!std::isfinite(value)) return "-";
+  // With its uncertainty the value is rounded to u's last digit.
+  const bool with_u =
+      with_uncertainty && qualifier != pb::UPPER_BOUND && std::isfinite(uncertainty);
+  const auto [number, u] = with_u ? QuotedWithUncertainty(value, uncertainty, digits)
+                                  : std::pair{Digits(value, digits), std::string()};
   std::string out;
   if (qualifier == pb::UPPER_BOUND) out += kUpperBoundMark;
-  out += Digits(value, digits);
+  out += number;
   if (qualifier == pb::MINIMUM_NOT_RESOLVED) out += kMinimumNotResolvedMark;
   if (qualifier == pb::MODEL_INADEQUATE) out += kModelInadequateMark;
-  if (with_uncertainty && qualifier != pb::UPPER_BOUND && std::isfinite(uncertainty)) {
-    out += " \u00B1 " + Digits(uncertainty, 2);
-  }
+  if (with_u) out += " \u00B1 " + u;
   return out;
 }
 
 std::string MarkedValue(double value, const store::ValueMarks& marks, int digits,
                         bool with_uncertainty) {
   return MarkedValue(value, marks.qualifier, marks.uncertainty, digits, with_uncertainty);
+}
+
+std::pair<std::string, std::string> QuotedWithUncertainty(double value, double uncertainty,
+                                                          int digits) {
+  if (!std::isfinite(value) || !std::isfinite(uncertainty) || !(uncertainty > 0)) {
+    return {Digits(value, digits), std::isfinite(uncertainty) ? Digits(uncertainty, 2) : "-"};
+  }
+  // 10^place: the decimal place of u's second significant digit (u rounded
+  // up to a new decade, 0.996 -> 1.0, moves it one place left).
+  int place = static_cast<int>(std::floor(std::log10(uncertainty))) - 1;
+  double u = std::round(uncertainty / std::pow(10.0, place)) * std::pow(10.0, place);
+  if (u >= std::pow(10.0, place + 2)) {
+    ++place;
+    u = std::round(uncertainty / std::pow(10.0, place)) * std::pow(10.0, place);
+  }
+  const double v = std::round(value / std::pow(10.0, place)) * std::pow(10.0, place);
+  char vb[64], ub[64];
+  const double big = std::max(std::abs(v), u);
+  if (big >= 1e6 || big < 1e-3) {
+    const int ve = v == 0 ? place : static_cast<int>(std::floor(std::log10(std::abs(v))));
+    std::snprintf(vb, sizeof vb, "%.*e", std::max(0, ve - place), v);
+    std::snprintf(ub, sizeof ub, "%.1e", u);
+  } else {
+    const int decimals = std::max(0, -place);
+    std::snprintf(vb, sizeof vb, "%.*f", decimals, v);
+    std::snprintf(ub, sizeof ub, "%.*f", decimals, u);
+  }
+  return {vb, ub};
 }
 
 void MarkLegend::Add(const store::ValueMarks& marks, const std::string& who,

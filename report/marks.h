@@ -16,6 +16,7 @@
 #include <array>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "imuqual/record.pb.h"
@@ -34,9 +35,17 @@ inline constexpr char kNotMeasurableText[] = "n/m";
 // "measured".
 std::string QualifierWord(pb::Qualifier qualifier, double value);
 
+// A value and its 1-sigma uncertainty as a measurement is quoted (GUM
+// 7.2.6): u to two significant digits and the value to the same decimal
+// place ("410 ± 280", "10.20 ± 0.81", not "409.6 ± 2.8e+02"); in
+// exponent form beyond 1e6 or below 1e-3. Without a finite u > 0: the value
+// to `digits` significant digits and u as "-" (or "0").
+std::pair<std::string, std::string> QuotedWithUncertainty(double value, double uncertainty,
+                                                          int digits = 4);
+
 // `value` to `digits` significant digits with its qualifier's mark, then
-// " ± u" (u to 2 significant digits) when `with_uncertainty` and u is
-// finite (never after "n/m" or an upper bound); "-" for a value that is
+// " ± u" when `with_uncertainty` and u is finite (both then quoted as
+// QuotedWithUncertainty says) (never after "n/m" or an upper bound); "-" for a value that is
 // missing (NaN, not qualified not measurable).
 std::string MarkedValue(double value, pb::Qualifier qualifier, double uncertainty, int digits,
                         bool with_uncertainty);

@@ -308,7 +308,7 @@ TEST(StationConsoleTest, LiveValuesCarryTheirMarksAndALegend) {
   m.units[1].axes[1].bias_instability_qualifier = measurement_t::QUALIFIER_MODEL_INADEQUATE;
   const std::string screen = Screen(RenderConsole(m, 160, 40));
   for (const char* shown :
-       {"10.2 \u00B1 0.81 deg/h", "10.2\u2020 deg/h", "\u2264 10.2 deg/h", "n/m deg/h",
+       {"10.25 \u00B1 0.81 deg/h", "10.2\u2020 deg/h", "\u2264 10.2 deg/h", "n/m deg/h",
         "10.2\u2021 deg/h", "\u2020 minimum at the last point", "\u2021 noise model failed its fit",
         "n/m not measurable", "\u2264 upper bound"}) {
     EXPECT_NE(screen.find(shown), std::string::npos) << shown << "\n" << screen;

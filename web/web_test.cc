@@ -619,7 +619,7 @@ TEST(LiveServeTest, ABusHeardIsServedAsJsonAndEvents) {
   EXPECT_EQ(u["state"], "running");
   EXPECT_EQ(u["elapsed"], "1:00");
   EXPECT_EQ(u["verdict"], "fail?");
-  EXPECT_EQ(u["axes"][0]["bias_instability"], "12.5 \u00b1 0.75 deg/h");
+  EXPECT_EQ(u["axes"][0]["bias_instability"], "12.50 \u00b1 0.75 deg/h");
   EXPECT_EQ(live["station"], "bench-9");
   EXPECT_EQ(live["lot"], "LOT-1");
   EXPECT_EQ(live["newest_utime"], 123456789);
