@@ -359,7 +359,7 @@ TEST(StationMonitorTest, ResultsSetProvisionalAndFinalVerdictsAndRaiseTheVersion
   ConsoleUnitCells cells = DescribeUnit(m.model(), u);
   EXPECT_EQ(cells.verdict, "fail?");
   ASSERT_EQ(cells.axes.size(), 2u);
-  EXPECT_EQ(cells.axes[0].bias_instability, "12 \u00b1 0.5 deg/h");
+  EXPECT_EQ(cells.axes[0].bias_instability, "12.00 \u00b1 0.50 deg/h");
   EXPECT_EQ(cells.axes[1].bias_instability, "-");
   m.OnResult(ResultMsg("R-U1", "U1", true, 12, imuqual::measurement_t::OUTCOME_FAIL));
   EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).verdict, "FAIL");
