@@ -263,11 +263,6 @@ Result<KalibrDocument> KalibrYaml(store::Archive& archive, const RunRef& r,
                               : "") +
                        "\n";
   }
-  auto join = [](const std::vector<std::string>& names) {
-    std::string out;
-    for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
-    return out;
-  };
   std::string yaml = "# " + r.info.serial + ", run " + r.run_id + " (lot " + r.info.lot +
                      "): composite noise model, mean over the measured axes\n";
   std::vector<std::string> summary;
@@ -293,21 +288,21 @@ Result<KalibrDocument> KalibrYaml(store::Archive& archive, const RunRef& r,
         for (double x : value->measured) sum += x;
         written = sum / static_cast<double>(value->measured.size());
         if (!value->bounds.empty()) {
-          lines += "# " + key + ": the mean of " + join(value->measured_axes) + " (measured); " +
-                   join(value->bounded_axes) + " only bounded, not in it\n";
-          summary.push_back(key + " from " + join(value->measured_axes) + " (" +
-                            join(value->bounded_axes) + " only bounded)");
+          lines += "# " + key + ": the mean of " + Join(value->measured_axes, ", ") +
+                   " (measured); " + Join(value->bounded_axes, ", ") + " only bounded, not in it\n";
+          summary.push_back(key + " from " + Join(value->measured_axes, ", ") + " (" +
+                            Join(value->bounded_axes, ", ") + " only bounded)");
         }
       } else if (o.kalibr_upper_bounds) {
         written = *std::max_element(value->bounds.begin(), value->bounds.end());
         lines += "# " + key +
                  ": AN UPPER BOUND at 95 %, not a measured value (the largest of the bounds of " +
-                 join(value->bounded_axes) + "; no axis measured it; --upper-bounds)\n";
+                 Join(value->bounded_axes, ", ") + "; no axis measured it; --upper-bounds)\n";
         summary.push_back(key + " an upper bound (no axis measured it)");
       } else {
         return Status::InvalidArgument(
             "run " + r.run_id + " (unit " + r.info.serial + "): " + key +
-            " is not measurable: the noise model of " + join(value->bounded_axes) +
+            " is not measurable: the noise model of " + Join(value->bounded_axes, ", ") +
             " has no such term, only a 95 % upper bound; --upper-bounds writes the largest bound "
             "as the value, said so in the file");
       }
@@ -316,13 +311,9 @@ Result<KalibrDocument> KalibrYaml(store::Archive& archive, const RunRef& r,
     yaml += lines;
   }
   yaml += "rostopic: '" + o.rostopic + "'\nupdate_rate: " + YamlFloat(r.info.nominal_rate_hz) + "\n";
-  std::string said = r.info.serial + " (run " + r.run_id + "): ";
-  if (summary.empty()) {
-    said += "every value the mean of measured axes";
-  } else {
-    for (size_t i = 0; i < summary.size(); ++i) said += (i ? "; " : "") + summary[i];
-  }
-  return KalibrDocument{yaml, said};
+  return KalibrDocument{yaml, r.info.serial + " (run " + r.run_id + "): " +
+                                   (summary.empty() ? "every value the mean of measured axes"
+                                                    : Join(summary, "; "))};
 }
 
 // --format kalibr: one run's YAML to -o FILE (or standard output), or each
@@ -358,10 +349,10 @@ int ExportKalibr(store::Archive& archive, const std::vector<RunRef>& runs, const
                                                                                     : kExitError);
       continue;
     }
-    const std::string* yaml = &doc->yaml;
+    const std::string& yaml = doc->yaml;
     LogInfo("kalibr: " + doc->summary);
     if (!o.run_id.empty() && (o.output.empty() || o.output == "-")) {
-      std::fwrite(yaml->data(), 1, yaml->size(), stdout);
+      std::fwrite(yaml.data(), 1, yaml.size(), stdout);
       continue;
     }
     std::string path = o.output;
@@ -370,7 +361,7 @@ int ExportKalibr(store::Archive& archive, const std::vector<RunRef>& runs, const
       std::filesystem::create_directories(path, ec);
       path += serial + ".yaml";
     }
-    if (Status st = WriteStringToFile(path, *yaml); !st.ok()) {
+    if (Status st = WriteStringToFile(path, yaml); !st.ok()) {
       LogError(st.message());
       exit_code = std::max(exit_code, kExitError);
     }

@@ -140,15 +140,9 @@ std::string StateText(const ConsoleUnit& u) {
   }
 }
 
-// The unit's planned device time: its own announced one, else the station's
-// (0: not known).
-double PlannedOf(const ConsoleUnit& u, double station_planned_s) {
-  return u.planned_s > 0 ? u.planned_s : station_planned_s;
-}
-
-std::string ElapsedText(const ConsoleUnit& u, double station_planned_s) {
+std::string ElapsedText(const ConsoleModel& m, const ConsoleUnit& u) {
   if (u.state == 0) return "";
-  const double planned_s = PlannedOf(u, station_planned_s);
+  const double planned_s = UnitPlannedS(m, u);
   std::string out = FormatDuration(u.elapsed_s);
   if (planned_s > 0) out += " / " + FormatDuration(planned_s);
   return out;
@@ -257,7 +251,7 @@ std::vector<std::string> AxisRows(const ConsoleModel& m) {
     if (u.axes.empty()) {
       t.AddRow({Cell::Text(u.slot), Cell::Text(u.serial), Cell::Text(UnitVerdictText(u)),
                 Cell::Text(ShortReason(u, kReasonColumns)), Cell::Text(StateText(u)),
-                Cell::Text(ElapsedText(u, m.planned_s)), Cell::Text(""), Cell::Text(""),
+                Cell::Text(ElapsedText(m, u)), Cell::Text(""), Cell::Text(""),
                 Cell::Text(""), Cell::Text(samples), Cell::Text(gaps)});
       continue;
     }
@@ -268,7 +262,7 @@ std::vector<std::string> AxisRows(const ConsoleModel& m) {
                 Cell::Text(first ? UnitVerdictText(u) : ""),
                 Cell::Text(first ? ShortReason(u, kReasonColumns) : ""),
                 Cell::Text(first ? StateText(u) : ""),
-                Cell::Text(first ? ElapsedText(u, m.planned_s) : ""), Cell::Text(x.name),
+                Cell::Text(first ? ElapsedText(m, u) : ""), Cell::Text(x.name),
                 Cell::Text(AxisVerdictText(u, x)),
                 Cell::Text(LiveValue(x, 3, true, u.final_result).empty()
                                ? "-"
@@ -313,7 +307,7 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
                              Cell::Text(UnitVerdictText(*u)),
                              Cell::Text(ShortReason(*u, kReasonColumns)),
                              Cell::Text(StateText(*u)),
-                             Cell::Text(ElapsedText(*u, m.planned_s))};
+                             Cell::Text(ElapsedText(m, *u))};
     for (const std::string& name : axis_names) {
       std::string text;
       for (const ConsoleAxis& x : u->axes) {
@@ -391,13 +385,17 @@ std::string FormatDuration(double seconds) {
   return buf;
 }
 
+double UnitPlannedS(const ConsoleModel& m, const ConsoleUnit& u) {
+  return u.planned_s > 0 ? u.planned_s : m.planned_s;
+}
+
 double ConsoleProgress(const ConsoleModel& m) {
   if (m.units.empty()) return 0;
   double done = 0;
   for (const ConsoleUnit& u : m.units) {
     if (u.archived || (Early(u) && Decided(u))) {
       done += 1;
-    } else if (const double planned = PlannedOf(u, m.planned_s); planned > 0) {
+    } else if (const double planned = UnitPlannedS(m, u); planned > 0) {
       done += std::min(u.elapsed_s / planned, 0.999);
     }
   }
@@ -502,7 +500,7 @@ ConsoleUnitCells DescribeUnit(const ConsoleModel& m, const ConsoleUnit& u, size_
   c.verdict = UnitVerdictText(u);
   c.reason = ShortReason(u, reason_width);
   c.state = StateText(u);
-  c.elapsed = ElapsedText(u, m.planned_s);
+  c.elapsed = ElapsedText(m, u);
   c.attention = AttentionRank(u);
   for (const ConsoleAxis& x : u.axes) {
     const std::string value = LiveValue(x, 3, true, u.final_result);

@@ -96,6 +96,10 @@ struct ConsoleModel {
   std::string notice;  // e.g. "interrupted: aborting the runs"
 };
 
+// A unit's planned device time: its own announced one, else the station's
+// (0: not known).
+double UnitPlannedS(const ConsoleModel& model, const ConsoleUnit& unit);
+
 // Fraction of the soak done, 0..1: device time over planned time of every
 // unit (archived runs and decided units count as done), or archived runs
 // when unplanned.

@@ -53,7 +53,7 @@ std::string LiveStatusJson(const station::ConsoleModel& m, int64_t newest_utime)
                      {"state", cells.state},
                      {"elapsed", cells.elapsed},
                      {"elapsed_s", Rounded(u.elapsed_s)},
-                     {"planned_s", Rounded(u.planned_s > 0 ? u.planned_s : m.planned_s)},
+                     {"planned_s", Rounded(station::UnitPlannedS(m, u))},
                      {"samples", u.samples},
                      {"gap_samples", u.gap_samples},
                      {"archived", u.archived},

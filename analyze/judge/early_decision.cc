@@ -32,6 +32,11 @@ void AppendNote(pb::Measurement& m, const std::string& text) {
   m.set_note(m.note().empty() ? text : m.note() + "; " + text);
 }
 
+// A MARGINAL measurement's note says what its flag is (FlagProvenance).
+void NoteFlag(pb::Measurement& m, const std::string& provenance) {
+  if (m.outcome() == pb::MARGINAL) AppendNote(m, provenance);
+}
+
 // The continuation density of S(f) (a standard Brownian motion) on a grid,
 // stepped look by look: what recursive numerical integration needs.
 class Recursion {
@@ -488,11 +493,7 @@ std::string EarlyDecider::FlagProvenance() const {
 }
 
 void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
-  const auto say_flag = [&](pb::Measurement& m) {
-    if (m.outcome() == pb::MARGINAL) {
-      AppendNote(m, FlagProvenance());
-    }
-  };
+  const std::string provenance = FlagProvenance();
   for (pb::Measurement& m : *measurements) {
     const std::string key = Key(m.axis(), m.name());
     auto it = std::find_if(decided_.begin(), decided_.end(),
@@ -501,7 +502,7 @@ void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
       if (unit_ != Decision::kPending && Decides(m)) {
         AppendNote(m, "not decided when the unit was (judged on the record analysed)");
       }
-      if (unit_ != Decision::kPending) say_flag(m);
+      if (unit_ != Decision::kPending) NoteFlag(m, provenance);
       continue;
     }
     // A decided PASS keeps the marginal flag the record analysed shows
@@ -513,7 +514,7 @@ void EarlyDecider::ApplyTo(std::vector<pb::Measurement>* measurements) const {
     AppendNote(m, std::string("decided ") + DecisionName(it->decision) + " at " +
                       Num(schedule_.times_s[it->look]) + " s (look " +
                       std::to_string(it->look + 1) + "): " + it->why);
-    say_flag(m);
+    NoteFlag(m, provenance);
   }
 }
 
@@ -522,11 +523,8 @@ Judgement JudgeDecided(const pb::TestPlan& plan, const std::vector<AxisDesc>& ax
   if (decider.unit_decision() == Decision::kPending) {
     // Pending at every look: the full-length verdict, and its flags say so.
     Judgement j = Judge(plan, axes, measurements);
-    for (pb::Measurement& m : *measurements) {
-      if (m.outcome() == pb::MARGINAL) {
-        AppendNote(m, decider.FlagProvenance());
-      }
-    }
+    const std::string provenance = decider.FlagProvenance();
+    for (pb::Measurement& m : *measurements) NoteFlag(m, provenance);
     return j;
   }
   pb::TestPlan effective = plan;
