@@ -216,6 +216,11 @@ int main(int argc, char** argv) {
                         "composite noise model (white, quantization, flicker, RRW, drift, "
                         "Gauss-Markov, sinusoids; selected, tested for fit, with sigmas) beside "
                         "the slope-line read-offs");
+  analyze_cmd->add_option("--fit-min-tau", an.fit_min_tau_s,
+                          "with --fit: leave the curve points below this tau (s, at most 1) out "
+                          "of the fit, where the sensor's own output filter shapes the curve "
+                          "(the report says so); e.g. --fit-min-tau 0.16")
+      ->capture_default_str();
   analyze_cmd->add_option("--kind", an.kind, "gyro or accel: datasheet units for the fit");
   analyze_cmd->add_option("--unit", an.unit,
                           "the values' unit, with --kind: gyro deg/s (default), rad/s, mrad/s, "

@@ -62,6 +62,13 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   if (!(o.rate_hz > 0) || !std::isfinite(o.rate_hz)) {
     return Status::InvalidArgument("--rate must be a positive rate in Hz");
   }
+  if (!(o.fit_min_tau_s >= 0 && o.fit_min_tau_s <= 1)) {
+    return Status::InvalidArgument(
+        "--fit-min-tau must be in [0, 1] s (the figures are read at 1 s)");
+  }
+  if (o.fit_min_tau_s > 0 && !o.fit) {
+    return Status::InvalidArgument("--fit-min-tau needs --fit");
+  }
   if (!std::isfinite(o.scale) || o.scale == 0) {
     return Status::InvalidArgument("--scale must be a finite, non-zero number");
   }
@@ -154,13 +161,21 @@ TableWriter ModelCurveTable(const allan::CompositeFit& fit, const Curve& curve) 
   return t;
 }
 
-std::string FitSummary(const allan::CompositeFit& fit) {
+std::string FitSummary(const allan::CompositeFit& fit, double min_tau_s) {
   char buf[256];
   std::snprintf(buf, sizeof buf,
                 "noise model %s (GMWM, %d points, %d parameters): J = %.4g on %d dof, p = %.3g: %s",
                 fit.model.Name().c_str(), fit.points_used, fit.parameters, fit.objective, fit.dof,
                 fit.p_value, fit.adequate ? "adequate" : "INADEQUATE (the model does not fit)");
-  return buf;
+  std::string out = buf;
+  if (!fit.points.empty()) {
+    std::snprintf(buf, sizeof buf, "\n  fitted over tau %g ... %g s", fit.points.front().tau_s,
+                  fit.points.back().tau_s);
+    out += buf;
+    if (min_tau_s > 0) out += " (--fit-min-tau: the shorter taus are left to the sensor's filter)";
+  }
+  if (!fit.adequate) out += "\n  largest misfits: " + allan::LargestResiduals(fit);
+  return out;
 }
 
 // A JSON number, null when not finite (JSON has no NaN).
@@ -176,6 +191,9 @@ std::string FitJson(const allan::CompositeFit& fit, const Curve& curve,
          ", \"p_value\": " + JsonNumber(fit.p_value) +
          ", \"objective\": " + JsonNumber(fit.objective) + ", \"dof\": " + std::to_string(fit.dof) +
          ", \"parameters\": " + std::to_string(fit.parameters) +
+         (fit.points.empty() ? std::string()
+                             : ", \"fitted_tau_s\": [" + JsonNumber(fit.points.front().tau_s) +
+                                   ", " + JsonNumber(fit.points.back().tau_s) + "]") +
          ", \"criterion\": \"AICc, 3.84 per one-parameter term\", \"criterion_value\": " +
          JsonNumber(fit.criterion) +
          ",\n\"terms\": " + QuantityTable(fit, curve, kind).Render(Format::kJson) +
@@ -280,6 +298,7 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     }
     allan::GmwmOptions fo;
     fo.stop = allan::StopRule::kNone;  // the curve is already cut by --stop
+    fo.min_tau_s = o.fit_min_tau_s;
     auto f = allan::FitCompositeModel(fit_curve, fo);
     if (!f.ok()) {
       LogError("--fit: " + f.status().message());
@@ -300,7 +319,7 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
                   CurveTable({{"", c}}, with_ci, false, false).Render(Format::kTable).c_str());
     }
     if (fit) {
-      std::printf("\n%s\n", FitSummary(*fit).c_str());
+      std::printf("\n%s\n", FitSummary(*fit, o.fit_min_tau_s).c_str());
       std::printf("%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kTable).c_str());
       std::printf(
           "\ncandidates (best first; criterion J + 3.84 per Q/N/B/K/R term + 2 per Gauss-Markov or "

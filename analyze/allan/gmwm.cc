@@ -8,6 +8,7 @@
 #include <boost/math/special_functions/trigamma.hpp>
 #include <cassert>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -1100,6 +1101,9 @@ Status GmwmOptions::Validate() const {
   if (!(fast_gauss_markov_fraction >= 0 && fast_gauss_markov_fraction <= 1)) {
     return Status::InvalidArgument("fast_gauss_markov_fraction must be in [0, 1]");
   }
+  if (!(min_tau_s >= 0 && std::isfinite(min_tau_s))) {
+    return Status::InvalidArgument("min_tau_s must be finite and >= 0");
+  }
   if (!(absent_term_bound_delta_j > 0 && absent_term_bound_delta_j <= 100)) {
     return Status::InvalidArgument("absent_term_bound_delta_j must be in (0, 100]");
   }
@@ -1146,17 +1150,45 @@ std::vector<double> AvarCorrelationMatrix(const CompositeModel& model, double ta
   return out;
 }
 
+namespace {
+std::string FormatG(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+}  // namespace
+
+std::string LargestResiduals(const CompositeFit& fit, int count) {
+  std::vector<const GmwmPoint*> order;
+  for (const GmwmPoint& p : fit.points) {
+    if (std::isfinite(p.z)) order.push_back(&p);
+  }
+  std::stable_sort(order.begin(), order.end(), [](const GmwmPoint* a, const GmwmPoint* b) {
+    return std::abs(a->z) > std::abs(b->z);
+  });
+  std::string out;
+  for (size_t i = 0; i < order.size() && static_cast<int>(i) < count; ++i) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s%.3g s (z %+.1f)", i == 0 ? "" : ", ", order[i]->tau_s,
+                  order[i]->z);
+    out += buf;
+  }
+  return out;
+}
+
 Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& options) {
   IMUQUAL_RETURN_IF_ERROR(options.Validate());
   if (curve.deviation != Deviation::kOadev && curve.deviation != Deviation::kAdev) {
     return Status::InvalidArgument("noise model fit needs an ADEV or OADEV curve, got " +
                                    std::string(DeviationName(curve.deviation)));
   }
-  const std::vector<FitRow> rows = UsableFitRows(curve, options.stop, options.thin_to_octaves);
+  std::vector<FitRow> rows = UsableFitRows(curve, options.stop, options.thin_to_octaves);
+  std::erase_if(rows, [&](const FitRow& r) { return r.tau_s < options.min_tau_s * (1 - 1e-9); });
   const int n = static_cast<int>(rows.size());
   if (n < 4) {
-    return Status::InvalidArgument("noise model fit needs at least 4 usable curve points, got " +
-                                   std::to_string(n));
+    return Status::InvalidArgument(
+        "noise model fit needs at least 4 usable curve points, got " + std::to_string(n) +
+        (options.min_tau_s > 0 ? " at or above tau " + FormatG(options.min_tau_s) + " s" : ""));
   }
   const double tau0 = curve.tau0_s;
 
@@ -1215,8 +1247,37 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   std::vector<Candidate> pass2(seen2.size());
   std::transform(seen2.begin(), seen2.end(), pass2.begin(),
                  [](const auto& kv) { return kv.second; });
-  std::sort(pass2.begin(), pass2.end(),
-            [](const Candidate& a, const Candidate& b) { return a.criterion < b.criterion; });
+  // A candidate that is a smaller one plus a term collapsed to nothing (its
+  // J the smaller one's to 1e-9) is that smaller model, not a rival: kept,
+  // it took Akaike weight twice over and its bootstrap, flat along the dead
+  // term, gave sigmas that moved with the input's last bits.
+  auto nested_in = [](const std::vector<TermKind>& small, const std::vector<TermKind>& large) {
+    if (small.size() >= large.size()) return false;
+    std::vector<TermKind> a = small, b = large;
+    std::sort(a.begin(), a.end());
+    std::sort(b.begin(), b.end());
+    return std::includes(b.begin(), b.end(), a.begin(), a.end());
+  };
+  std::erase_if(pass2, [&](const Candidate& c) {
+    return std::any_of(pass2.begin(), pass2.end(), [&](const Candidate& d) {
+      return nested_in(d.kinds, c.kinds) &&
+             std::abs(c.objective - d.objective) <= 1e-9 * (1 + d.objective);
+    });
+  });
+  // A model that fits comes before one that does not: the criterion ranks
+  // the adequate candidates, and an inadequate one is selected only when no
+  // candidate is adequate. On short curves the small-sample term of AICc
+  // (2k(k+1)/(p-k-1): 21 for 6 parameters on 11 points) otherwise chose a
+  // model the J test rejects over an adequate one with a parameter more (the
+  // real ADIS16405 x accelerometer above 0.64 s: N+B+R+S, p = 1e-4, over
+  // N+B+R+GM+S, p = 0.035), and a rejected model's figures are withheld.
+  auto adequate = [&](const Candidate& c) {
+    return JTestPValue(c.objective, n - ParameterCount(c.kinds)) >= options.adequacy_level;
+  };
+  std::sort(pass2.begin(), pass2.end(), [&](const Candidate& a, const Candidate& b) {
+    const bool fa = adequate(a), fb = adequate(b);
+    return fa != fb ? fa : a.criterion < b.criterion;
+  });
   const Candidate& best = pass2.front();
 
   CompositeFit fit;
@@ -1300,7 +1361,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   double weight_sum = 0;
   for (size_t c = 0; c < pass2.size() && c < kMaxAveraged; ++c) {
     const double delta = pass2[c].criterion - best.criterion;
-    if (delta > kAveragingSpan) break;
+    if (delta > kAveragingSpan || adequate(pass2[c]) != adequate(best)) break;
     const double w = std::exp(-0.5 * delta);
     std::vector<double> q, sd;
     if (c == 0) {

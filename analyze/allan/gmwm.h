@@ -82,6 +82,11 @@ struct GmwmOptions {
   // Keep about one point per octave: denser grids add little information and
   // much correlation.
   bool thin_to_octaves = true;
+  // Points with tau below this are not fitted, >= 0 (0: every point). Below
+  // a sensor's own output filter (a decimation FIR, a low-pass) the curve is
+  // shaped by that filter, not by the noise the datasheet figures describe;
+  // the record says which taus the model was asked to follow.
+  double min_tau_s = 0;
   int max_gauss_markov = 3;  // in [0, 3]
   int max_sinusoids = 2;     // in [0, 2]
   // A model whose J-test p-value is below this level is inadequate, in (0, 1).
@@ -191,8 +196,16 @@ struct CompositeFit {
   double ModelDeviation(double tau_s) const { return model.Deviation(tau_s / tau0_s, tau0_s); }
 };
 
-// Errors: not an ADEV/OADEV curve, fewer than 4 usable points, bad options,
-// no candidate could be estimated.
+// Where a model misses the curve, for a record that must say where and why
+// a model is inadequate: the (at most `count`) points with the largest
+// standardized residuals, largest first, as "2.56 s (z -1.8), 81.9 s (z
+// -1.7)". The J test weighs the residuals with their correlations, so an
+// inadequate model can have no single |z| above 2: the misfit is then in the
+// curve's shape across neighbouring points.
+std::string LargestResiduals(const CompositeFit& fit, int count = 3);
+
+// Errors: not an ADEV/OADEV curve, fewer than 4 usable points (at or above
+// min_tau_s), bad options, no candidate could be estimated.
 Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& options = {});
 
 // Correlation between the AVAR estimates at averaging factors m_a and m_b of
