@@ -55,12 +55,15 @@ std::string Lower(std::string s) {
   return s;
 }
 
-// Provisional verdicts read "pass?", "inconclusive?", final ones "PASS",
+// Provisional verdicts read "pass?", "marginal?", "fail?", and "pending"
+// where more data can still move a value across a bound (the analysis's
+// interim INCONCLUSIVE, judge::JudgeInterim); final ones "PASS",
 // "INCONCLUSIVE", "ABORTED", "ERROR"; "-" when nothing is judged.
 std::string VerdictText(int8_t outcome, bool final_result) {
   const std::string word = store::OutcomeText(store::OutcomeFromNumber(outcome));
   if (word.empty()) return final_result ? "-" : "";
-  return final_result ? word : Lower(word) + "?";
+  if (final_result) return word;
+  return store::OutcomeFromNumber(outcome) == pb::INCONCLUSIVE ? "pending" : Lower(word) + "?";
 }
 
 // A value's mark in the per-unit table: '!' FAIL, '?' INCONCLUSIVE, '~' MARGINAL.
@@ -237,7 +240,10 @@ std::string MarksLine(const ConsoleModel& m, bool verdict_marks = false) {
   const bool provisional = std::any_of(m.units.begin(), m.units.end(), [](const ConsoleUnit& u) {
     return !u.final_result && ShowsProvisional(u) && u.verdict != 0;
   });
-  if (provisional) out += std::string(out.empty() ? "" : "   ") + "pass? fail?: provisional";
+  if (provisional) {
+    out += std::string(out.empty() ? "" : "   ") +
+           "pass? fail?: provisional  pending: may still change side";
+  }
   return out;
 }
 
@@ -423,7 +429,7 @@ const char* ColourOf(std::string_view cell) {
       {"FAIL", "\x1b[1;31m"},         {"fail?", "\x1b[31m"},
       {"ERROR", "\x1b[1;31m"},        {"source failed", "\x1b[1;31m"},
       {"MARGINAL", "\x1b[1;33m"},     {"marginal?", "\x1b[33m"},
-      {"INCONCLUSIVE", "\x1b[1;35m"}, {"inconclusive?", "\x1b[35m"},
+      {"INCONCLUSIVE", "\x1b[1;35m"}, {"pending", "\x1b[35m"},
       {"ABORTED", "\x1b[1;35m"},      {"no data", "\x1b[1;33m"},
       {"reconnecting", "\x1b[1;33m"}, {"PASS", "\x1b[1;32m"},
       {"pass?", "\x1b[32m"}};

@@ -9,9 +9,11 @@
 #include "analyze/judge/early_decision.h"
 #include "common/channels.h"
 #include "common/clock.h"
+#include "common/strings.h"
 #include "common/shutdown.h"
 #include "common/text_util.h"
 #include "imuqual/rate_batch_t.hpp"
+#include "report/marks.h"
 #include "store/outcome.h"
 
 namespace imuqual::station {
@@ -313,6 +315,32 @@ void StationMonitor::OnAck(const imuqual::ack_t& a) {
   }
 }
 
+namespace {
+
+// Why a unit's provisional verdict is what it is: the measurement that makes
+// it, quoted with its uncertainty and the limit it meets ("pending: x:
+// tau_at_minimum 153 s (minimum not resolved yet), limit 2..120").
+std::string ProvisionalReason(const imuqual::measurement_t& m) {
+  const auto [value, u] = report::QuotedWithUncertainty(m.value, m.uncertainty);
+  const bool with_u = std::isfinite(m.uncertainty) && m.uncertainty > 0;
+  const std::string unit = m.unit == "1" ? "" : " " + m.unit;
+  std::string out = (m.outcome == imuqual::measurement_t::OUTCOME_INCONCLUSIVE ? "pending: " : "") +
+                    (m.axis.empty() ? "" : m.axis + ": ") + m.name + " " + value +
+                    (with_u ? " ± " + u : "") + unit;
+  if (m.qualifier == imuqual::measurement_t::QUALIFIER_MINIMUM_NOT_RESOLVED) {
+    out += " (minimum not resolved yet)";
+  }
+  const bool low = std::isfinite(m.low), high = std::isfinite(m.high);
+  if (low || high) {
+    out += ", limit " + (low && high ? ShortestReal(m.low) + ".." + ShortestReal(m.high)
+                         : low      ? ">= " + ShortestReal(m.low)
+                                    : "<= " + ShortestReal(m.high));
+  }
+  return out;
+}
+
+}  // namespace
+
 void StationMonitor::OnResult(const imuqual::unit_result_t& r) {
   ConsoleUnit* u = UnitOfRun(r.run_id, r.unit_serial, nullptr);
   if (u == nullptr || (u->final_result && !r.is_final)) return;
@@ -344,9 +372,7 @@ void StationMonitor::OnResult(const imuqual::unit_result_t& r) {
   if (!r.is_final && u->verdict != imuqual::measurement_t::OUTCOME_PASS) {
     for (const imuqual::measurement_t& m : r.measurements) {
       if (!std::isfinite(m.value) || m.name == "duration" || m.outcome != u->verdict) continue;
-      char value[32];
-      std::snprintf(value, sizeof value, "%.4g", m.value);
-      u->reason = (m.axis.empty() ? "" : m.axis + ": ") + m.name + " " + value + " " + m.unit;
+      u->reason = ProvisionalReason(m);
       break;
     }
   }

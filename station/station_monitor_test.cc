@@ -56,6 +56,10 @@ imuqual::unit_result_t ResultMsg(const std::string& run_id, const std::string& s
   m.value = gx_bi;
   m.unit = "deg/h";
   m.uncertainty = 0.5;
+  m.low = std::nan("");  // as the analysis publishes an absent bound
+  m.high = 10;
+  m.marginal_low = std::nan("");
+  m.marginal_high = std::nan("");
   m.outcome = gx_outcome;
   r.measurements.push_back(m);
   r.num_measurements = 1;
@@ -355,12 +359,21 @@ TEST(StationMonitorTest, ResultsSetProvisionalAndFinalVerdictsAndRaiseTheVersion
   const ConsoleUnit& u = m.model().units[0];
   EXPECT_FALSE(u.final_result);
   EXPECT_EQ(u.verdict, imuqual::measurement_t::OUTCOME_FAIL);
-  EXPECT_EQ(u.reason, "gx: bias_instability 12 deg/h");
+  EXPECT_EQ(u.reason, "gx: bias_instability 12.00 \u00b1 0.50 deg/h, limit <= 10");
   ConsoleUnitCells cells = DescribeUnit(m.model(), u);
   EXPECT_EQ(cells.verdict, "fail?");
   ASSERT_EQ(cells.axes.size(), 2u);
   EXPECT_EQ(cells.axes[0].bias_instability, "12.00 \u00b1 0.50 deg/h");
   EXPECT_EQ(cells.axes[1].bias_instability, "-");
+  // A value that can still change side: "pending", and why, with the limit.
+  imuqual::unit_result_t pending =
+      ResultMsg("R-U1", "U1", false, 10.4, imuqual::measurement_t::OUTCOME_INCONCLUSIVE);
+  pending.measurements[0].qualifier = imuqual::measurement_t::QUALIFIER_MINIMUM_NOT_RESOLVED;
+  m.OnResult(pending);
+  EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).verdict, "pending");
+  EXPECT_EQ(m.model().units[0].reason,
+            "pending: gx: bias_instability 10.40 \u00b1 0.50 deg/h (minimum not resolved yet), "
+            "limit <= 10");
   m.OnResult(ResultMsg("R-U1", "U1", true, 12, imuqual::measurement_t::OUTCOME_FAIL));
   EXPECT_EQ(DescribeUnit(m.model(), m.model().units[0]).verdict, "FAIL");
   // A provisional result after the final one is ignored.

@@ -40,13 +40,16 @@ constexpr char kLiveScript[] = R"js((() => {
   };
   const kOutcomes = ['PASS', 'MARGINAL', 'FAIL', 'INCONCLUSIVE', 'ABORTED', 'ERROR'];
   // The outcome a verdict's words name ("fail?", "decided PASS at 14m"), for its colour.
+  // "pending" (a provisional value that can still change side) is coloured
+  // as INCONCLUSIVE.
   const outcomeOf = (text) => {
-    const words = String(text || '').toUpperCase().replace(/[?]/g, '').split(/\s+/);
+    const words = String(text || '').replace(/[?]/g, '').split(/\s+/)
+        .map((w) => (w === 'pending' ? 'INCONCLUSIVE' : w.toUpperCase()));
     return kOutcomes.find((o) => words.includes(o)) || '';
   };
   const verdictCell = (text) => {
     const td = el('td', text, 'verdict ' + outcomeOf(text));
-    if (/\?$/.test(text)) td.classList.add('prov');
+    if (/\?$|^pending/.test(text)) td.classList.add('prov');
     return td;
   };
   const duration = (s) => {
@@ -272,7 +275,8 @@ std::string LivePageHtml(const std::string& bus_url) {
       "<table class=\"data\" id=\"units\"><thead><tr><th>slot</th><th>serial</th><th>verdict</th>"
       "<th>why</th><th>state</th><th>elapsed / planned</th><th>axis</th><th>axis verdict</th>"
       "<th>BI (live)</th><th>samples</th><th>gaps</th></tr></thead><tbody></tbody></table>\n"
-      "<p class=\"note\">Provisional verdicts are lower case with a '?', final ones upper case; "
+      "<p class=\"note\">Provisional verdicts are lower case with a '?' (\"pending\": a value "
+      "that more data can still move across a limit), final ones upper case; "
       "marks as on the console: \u00b1 1-sigma, \u2264 upper bound, \u2020 minimum not resolved, "
       "\u2021 noise model failed its fit, n/m not measurable. JSON: <a "
       "href=\"/api/live\">/api/live</a>.</p>\n"

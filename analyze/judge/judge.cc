@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <tuple>
 
 #include "analyze/judge/measurements.h"
 
@@ -340,6 +341,47 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
   }
   j.verdict = VerdictOf(*measurements);
   return j;
+}
+
+Judgement JudgeInterim(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
+                       std::vector<pb::Measurement>* measurements) {
+  const Judgement judged = Judge(plan, axes, measurements);
+  Judgement out;
+  size_t next_reason = 0;
+  for (pb::Measurement& m : *measurements) {
+    const pb::Outcome o = m.outcome();
+    if (o == pb::OUTCOME_UNSET) continue;
+    std::string reason = o != pb::PASS && next_reason < judged.reasons.size()
+                             ? judged.reasons[next_reason++]
+                             : std::string();
+    const double v = m.value(), u = m.has_uncertainty() ? m.uncertainty() : std::nan("");
+    const AxisDesc* axis = m.axis().empty() ? nullptr : FindAxis(axes, m.axis());
+    const pb::Limit* limit = FindLimit(plan, m.name(), axis);
+    std::string pending;
+    if (std::isfinite(v) && m.qualifier() == pb::MINIMUM_NOT_RESOLVED && o != pb::PASS) {
+      pending = "the curve's minimum is its last point so far, not resolved yet";
+    } else if (std::isfinite(v) && std::isfinite(u) && u > 0 && limit != nullptr &&
+               !IsUpperBound(m)) {
+      const double w = ResolvedGuardK(plan, *limit) * u;
+      for (const auto& [has, bound, side] :
+           {std::tuple{limit->has_low(), limit->low(), "low"},
+            std::tuple{limit->has_high(), limit->high(), "high"}}) {
+        if (has && std::abs(v - bound) < w && pending.empty()) {
+          pending = "within " + Num(ResolvedGuardK(plan, *limit)) + " u of the " + side +
+                    " limit " + Num(bound) + UnitSuffix(m);
+        }
+      }
+    }
+    if (!pending.empty()) {
+      m.set_outcome(pb::INCONCLUSIVE);
+      reason = "pending: " + Who(m) + " " + Num(v) +
+               (std::isfinite(u) ? " ± " + Num(u) : std::string()) + UnitSuffix(m) + ", " +
+               pending;
+    }
+    if (m.outcome() != pb::PASS) out.reasons.push_back(reason);
+  }
+  out.verdict = VerdictOf(*measurements);
+  return out;
 }
 
 pb::Outcome VerdictOf(const std::vector<pb::Measurement>& measurements) {

@@ -78,6 +78,20 @@ const pb::Limit* FindLimit(const pb::TestPlan& plan, const std::string& name, co
 Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
                 std::vector<pb::Measurement>* measurements);
 
+// An interim look at a run still soaking (the plan already stripped of what
+// only the full record judges): Judge, then every judged value that more
+// data can still move to the other side of a bound reads INCONCLUSIVE, with
+// a reason "pending: ..." (the console and the live page show it as
+// "pending", never a "fail?" that a longer record turns into a pass):
+//   - a value whose distance to a low or high bound is below guard_k * u
+//     (its resolved guard_k, whatever the limit's rule: the final judgement
+//     applies the rule; an interim one only says what is not settled);
+//   - a curve minimum not resolved yet (MINIMUM_NOT_RESOLVED: the curve's
+//     lowest point is its last so far, the noisiest) that does not pass.
+// Everything else keeps its outcome and reason.
+Judgement JudgeInterim(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
+                       std::vector<pb::Measurement>* measurements);
+
 // The verdict of judged measurements: FAIL if any FAILs, else INCONCLUSIVE if
 // any is, else MARGINAL if any is, else PASS; UNSET when none was judged
 // (every outcome OUTCOME_UNSET).

@@ -499,3 +499,52 @@ TEST(JudgeTest, UnjudgedMeasurementsRecordNoRule) {
 
 }  // namespace
 }  // namespace imuqual::judge
+
+namespace imuqual::judge {
+namespace {
+
+// An interim look says "pending" where more data can still move a value
+// across a bound, and keeps every other outcome: the "fail?" of a vg700
+// unit at 26 of 61 minutes (its curve minimum at its last point, 153 s,
+// against tau_at_minimum <= 100) that later passed.
+TEST(JudgeInterimTest, WhatMoreDataCanStillMoveAcrossABoundIsPending) {
+  pb::TestPlan plan = Plan();
+  plan.set_min_duration_s(0);  // as the analysis's interim plan: the length is judged at the end
+  auto with_u = [](pb::Measurement m, double u) {
+    m.set_uncertainty(u);
+    return m;
+  };
+  std::vector<pb::Measurement> ms = {
+      with_u(M("x", "bias_instability", 19.0, "deg/h"), 1.0),  // within 2 u of 20: pending
+      with_u(M("y", "bias_instability", 6.0, "deg/h"), 1.0),   // well inside 10: pass
+      M("x", "tau_at_minimum", 153.0, "s"),                     // unresolved: pending
+      with_u(M("y", "tau_at_minimum", 300.0, "s"), 10.0),       // resolved, far out: fail
+      M("", "gap_fraction", 0.0, "1")};
+  ms[2].set_qualifier(pb::MINIMUM_NOT_RESOLVED);
+  std::vector<pb::Measurement> final_ms = ms;
+  const Judgement interim = JudgeInterim(plan, kAxes, &ms);
+  EXPECT_EQ(ms[0].outcome(), pb::INCONCLUSIVE);
+  EXPECT_EQ(ms[1].outcome(), pb::PASS);
+  EXPECT_EQ(ms[2].outcome(), pb::INCONCLUSIVE);
+  EXPECT_EQ(ms[3].outcome(), pb::FAIL);
+  EXPECT_EQ(ms[4].outcome(), pb::PASS);
+  EXPECT_EQ(interim.verdict, pb::FAIL);
+  ASSERT_EQ(interim.reasons.size(), 3u);
+  EXPECT_EQ(interim.reasons[0],
+            "pending: x: bias_instability 19 ± 1 deg/h, within 2 u of the high limit 20 deg/h");
+  EXPECT_EQ(interim.reasons[1],
+            "pending: x: tau_at_minimum 153 s, the curve's minimum is its last point so far, not "
+            "resolved yet");
+  EXPECT_NE(interim.reasons[2].find("y: tau_at_minimum 300"), std::string::npos)
+      << interim.reasons[2];
+  // Without the failing axis the unit is pending, not "fail?".
+  std::vector<pb::Measurement> x_only = {ms[0], ms[2], ms[4]};
+  EXPECT_EQ(JudgeInterim(plan, {{"x", pb::GYRO}}, &x_only).verdict, pb::INCONCLUSIVE);
+  // The final judgement is not touched by any of it.
+  Judge(plan, kAxes, &final_ms);
+  EXPECT_EQ(final_ms[0].outcome(), pb::MARGINAL);
+  EXPECT_EQ(final_ms[2].outcome(), pb::FAIL);
+}
+
+}  // namespace
+}  // namespace imuqual::judge

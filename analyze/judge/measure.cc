@@ -178,6 +178,11 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
   std::vector<pb::Measurement> out;
   allan::GmwmOptions fit_options;
   fit_options.stop = allan::StopRule::kNone;  // the curve is already cut by the plan's rule
+  fit_options.min_tau_s = options.min_tau_s;
+  const std::string range_note =
+      options.min_tau_s > 0 ? "; fitted at tau >= " + Num(options.min_tau_s) + " s (" +
+                                  options.range_reason + ")"
+                            : "";
   const Result<allan::CompositeFit> fit = allan::FitCompositeModel(curve, fit_options);
   if (!fit.ok()) {
     for (std::string_view name : judged) {
@@ -204,7 +209,8 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
                 fit->model.Name().c_str(), fit->objective, fit->dof,
                 fit->adequate ? "adequate" : kInadequateModelMark.data(),  // a literal: terminated
                 fit_options.adequacy_level);
-  std::string model_note = head;
+  std::string model_note = head + range_note;
+  if (!fit->adequate) model_note += "; largest misfits " + allan::LargestResiduals(*fit);
   for (size_t i = 1; i < fit->candidates.size() && i < 4; ++i) {
     const allan::ModelCandidate& c = fit->candidates[i];
     char buf[96];
@@ -213,10 +219,12 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
                   c.weight);
     model_note += buf;
   }
-  char inadequate[200];
-  std::snprintf(inadequate, sizeof inadequate,
-                "not measurable: noise model inadequate (%s, J-test p = %.2g < %g)",
+  char inadequate_head[200];
+  std::snprintf(inadequate_head, sizeof inadequate_head,
+                "not measurable: noise model inadequate (%s, J-test p = %.2g < %g; largest misfits ",
                 fit->model.Name().c_str(), fit->p_value, fit_options.adequacy_level);
+  const std::string inadequate =
+      inadequate_head + (fit->adequate ? std::string() : allan::LargestResiduals(*fit)) + ")";
   const bool withhold = !fit->adequate && !options.judge_inadequate_values;
 
   // name -> the quantity the judged measurement reports.
@@ -270,6 +278,7 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
         m.set_note(m.note() + judged_anyway);
       }
     }
+    if (!range_note.empty()) m.set_note(m.note() + range_note);
     QualifyMissing(&m);
     out.push_back(std::move(m));
   }

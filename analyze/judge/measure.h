@@ -26,6 +26,11 @@ struct NoiseModelOptions {
   // Report the values of an inadequate model (the plan's
   // JUDGE_INADEQUATE_VALUE) instead of withholding them as not measurable.
   bool judge_inadequate_values = false;
+  // The plan's noise-model range (plan.proto NoiseModelRange): points below
+  // min_tau_s are not fitted, and every model value's note says so with the
+  // reason.
+  double min_tau_s = 0;
+  std::string range_reason;
 };
 
 // The composite noise model of an axis (analyze/allan/gmwm.h: GMWM fit,

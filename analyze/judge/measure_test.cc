@@ -150,6 +150,36 @@ TEST(MeasureNoiseModelTest, InadequateModelWithholdsEveryJudgedValue) {
   }
 }
 
+// The plan's noise-model range: the points below it are not fitted, and
+// every model value's note says from where and why; an inadequate model's
+// note says where it misses.
+TEST(MeasureNoiseModelTest, ThePlansRangeIsFittedAndSaidOnEveryValue) {
+  allan::Curve curve = ExactCurve(WhitePlusRandomWalk());
+  for (size_t i = 0; i < 3; ++i) curve.points[i].dev *= 0.5;  // a filter's flattening
+  NoiseModelOptions options;
+  options.min_tau_s = curve.points[3].tau_s;
+  options.range_reason = "the part's decimation filter";
+  const std::vector<pb::Measurement> ms = MeasureNoiseModel("x", pb::GYRO, curve, options);
+  const pb::Measurement* p = Find(ms, kNoiseModelPValue);
+  ASSERT_NE(p, nullptr);
+  EXPECT_GT(p->value(), 0.01) << p->note();
+  ASSERT_DOUBLE_EQ(options.min_tau_s, 0.08);
+  const std::string said = "fitted at tau >= 0.08 s (the part's decimation filter)";
+  EXPECT_NE(p->note().find(said), std::string::npos) << p->note();
+  const pb::Measurement* n = Find(ms, kFitAngleRandomWalk);
+  ASSERT_NE(n, nullptr);
+  EXPECT_NEAR(n->value(), 0.1, 0.1 * 0.01);
+  EXPECT_NE(n->note().find(said), std::string::npos) << n->note();
+
+  // Over every point the flattened taus are a misfit the record locates.
+  const std::vector<pb::Measurement> all = MeasureNoiseModel("x", pb::GYRO, curve);
+  const pb::Measurement* q = Find(all, kNoiseModelPValue);
+  ASSERT_NE(q, nullptr);
+  EXPECT_LT(q->value(), 0.01) << q->note();
+  EXPECT_NE(q->note().find("; largest misfits 0."), std::string::npos)
+      << q->note();
+}
+
 TEST(MeasureNoiseModelTest, TooShortACurveHasNoModel) {
   allan::Curve curve = ExactCurve(WhitePlusRandomWalk());
   curve.points.resize(3);

@@ -203,10 +203,43 @@ Status Validate(const pb::TestPlan& plan, const Locator& where) {
                      " looks between min_duration_s and the horizon: take a longer look_period_s");
     }
   }
+  std::set<int> range_kinds;
+  for (int i = 0; i < plan.noise_model_range_size(); ++i) {
+    const pb::NoiseModelRange& r = plan.noise_model_range(i);
+    const std::string path = "noise_model_range[" + std::to_string(i) + "]";
+    if (!pb::AxisKind_IsValid(r.axis_kind())) {
+      return Fail(where, "noise_model_range", i, path + ".axis_kind", "unknown axis kind",
+                  "axis_kind");
+    }
+    if (!range_kinds.insert(r.axis_kind()).second) {
+      return Fail(where, "noise_model_range", i, path + ".axis_kind",
+                  "a second range for " + pb::AxisKind_Name(r.axis_kind()) +
+                      " axes (one per axis kind)",
+                  "axis_kind");
+    }
+    if (!(r.min_tau_s() >= 0 && r.min_tau_s() <= 1)) {
+      return Fail(where, "noise_model_range", i, path + ".min_tau_s",
+                  "must be in [0, 1] s (the figures are read at 1 s), got " + Num(r.min_tau_s()),
+                  "min_tau_s");
+    }
+    if (r.reason().empty()) {
+      return Fail(where, "noise_model_range", i, path + ".reason",
+                  "must say why the short taus are not fitted (the record quotes it)", "reason");
+    }
+  }
   return ValidateLimits(plan, where);
 }
 
 }  // namespace
+
+const pb::NoiseModelRange* NoiseModelRangeFor(const pb::TestPlan& plan, pb::AxisKind kind) {
+  const pb::NoiseModelRange* any = nullptr;
+  for (const pb::NoiseModelRange& r : plan.noise_model_range()) {
+    if (r.axis_kind() == kind) return &r;
+    if (r.axis_kind() == pb::AXIS_KIND_UNSPECIFIED) any = &r;
+  }
+  return any;
+}
 
 Status ValidatePlan(const pb::TestPlan& plan) { return Validate(plan, nullptr); }
 

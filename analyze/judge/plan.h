@@ -23,6 +23,10 @@ Result<pb::TestPlan> ParsePlanText(std::string_view text, std::string_view sourc
 // axes. The error names the field.
 Status ValidatePlan(const pb::TestPlan& plan);
 
+// The plan's noise-model range for an axis kind: its own, else the one for
+// every kind, else nullptr (every point is fitted).
+const pb::NoiseModelRange* NoiseModelRangeFor(const pb::TestPlan& plan, pb::AxisKind kind);
+
 // Built-in plans (the files in plans/, compiled in): "vg700ca", "tactical",
 // "fog". The default plan of `imuqual run` is "vg700ca".
 std::vector<std::string> BuiltinPlanNames();

@@ -91,12 +91,34 @@ TEST(PlanTest, RejectsBadPlans) {
        "limits[0].guard_k: must be a finite number > 0"},
       {"nominal_rate_hz: 100 default_guard_k: nan", "default_guard_k: must be a finite number > 0"},
       {"nominal_rate_hz: 100 default_guard_k: 0", "default_guard_k: must be a finite number > 0"},
+      {"nominal_rate_hz: 100 noise_model_range { axis_kind: ACCEL min_tau_s: 2 reason: \"f\" }",
+       "noise_model_range[0].min_tau_s: must be in [0, 1] s"},
+      {"nominal_rate_hz: 100 noise_model_range { axis_kind: ACCEL min_tau_s: 0.2 }",
+       "noise_model_range[0].reason: must say why"},
+      {"nominal_rate_hz: 100 noise_model_range { axis_kind: ACCEL min_tau_s: 0.2 reason: \"f\" } "
+       "noise_model_range { axis_kind: ACCEL min_tau_s: 0.1 reason: \"g\" }",
+       "noise_model_range[1].axis_kind: a second range for ACCEL axes"},
   };
   for (const Case& c : cases) {
     const std::string err = ErrorOf(c.text);
     EXPECT_NE(err.find(c.expect), std::string::npos) << c.text << "\n -> " << err;
     EXPECT_EQ(err.rfind("p.textproto:", 0), 0u) << err;
   }
+}
+
+TEST(PlanTest, NoiseModelRangeOfAnAxisKindElseOfEveryKind) {
+  auto plan = ParsePlanText(std::string(kGood) +
+                                "noise_model_range { axis_kind: ACCEL min_tau_s: 0.16 "
+                                "reason: \"decimation filter\" }\n",
+                            "p");
+  ASSERT_TRUE(plan.ok()) << plan.status().message();
+  ASSERT_NE(NoiseModelRangeFor(*plan, pb::ACCEL), nullptr);
+  EXPECT_EQ(NoiseModelRangeFor(*plan, pb::ACCEL)->min_tau_s(), 0.16);
+  EXPECT_EQ(NoiseModelRangeFor(*plan, pb::GYRO), nullptr);
+  plan->add_noise_model_range()->set_min_tau_s(0.04);  // every kind
+  ASSERT_NE(NoiseModelRangeFor(*plan, pb::GYRO), nullptr);
+  EXPECT_EQ(NoiseModelRangeFor(*plan, pb::GYRO)->min_tau_s(), 0.04);
+  EXPECT_EQ(NoiseModelRangeFor(*plan, pb::ACCEL)->min_tau_s(), 0.16);
 }
 
 TEST(PlanTest, BuiltinPlansParse) {

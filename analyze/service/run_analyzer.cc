@@ -364,8 +364,13 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
     model_options.judge_inadequate_values =
         plan.on_inadequate_model() == pb::TestPlan::JUDGE_INADEQUATE_VALUE;
     ForEachInParallel(axes, [&](size_t a) {
+      judge::NoiseModelOptions axis_options = model_options;
+      if (const pb::NoiseModelRange* r = judge::NoiseModelRangeFor(plan, desc_.axes[a].kind)) {
+        axis_options.min_tau_s = r->min_tau_s();
+        axis_options.range_reason = r->reason();
+      }
       model_of[a] = judge::MeasureNoiseModel(desc_.axes[a].name, desc_.axes[a].kind, dense_of[a],
-                                             model_options);
+                                             axis_options);
     });
   }
   for (size_t a = 0; a < axes; ++a) {
@@ -436,8 +441,9 @@ RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {
                              : judge::Judge(plan, desc_.axes, &out.measurements);
   } else {
     // Provisional: judge what is measured so far, not the run's length nor
-    // the noise model (fitted at the end).
-    out.judgement = judge::Judge(ProvisionalPlan(plan), desc_.axes, &out.measurements);
+    // the noise model (fitted at the end); what more data can still move
+    // across a bound reads pending (INCONCLUSIVE), not a side.
+    out.judgement = judge::JudgeInterim(ProvisionalPlan(plan), desc_.axes, &out.measurements);
   }
   // The run's verdict says first whether it can be judged at all.
   if (ending.verdict != pb::OUTCOME_UNSET) {
