@@ -1,10 +1,12 @@
 #include "report/lot_model_view.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <future>
 #include <map>
 
 #include "analyze/allan/model_quantities.h"
+#include "common/strings.h"
 #include "store/query.h"
 
 namespace imuqual::report {
@@ -71,6 +73,7 @@ std::vector<AxisLotModel> ComputeLotModels(const std::vector<RunPlotData>& runs)
 TableWriter LotModelTable(bool with_lot) {
   std::vector<std::string> columns = {"axis",
                                       "units",
+                                      "pooled_units",
                                       "model",
                                       "adequate",
                                       "p_value",
@@ -89,6 +92,19 @@ TableWriter LotModelTable(bool with_lot) {
   return TableWriter(columns, 4);
 }
 
+std::string LeftOutNote(const allan::LotModel& lm) {
+  if (lm.left_out.empty()) return "";
+  std::string out = "; model of " + std::to_string(lm.units) + " units, left out as inconsistent "
+                    "with their lot: " + Join(lm.left_out, " ");
+  if (!lm.all_units_model.empty()) {
+    char buf[120];
+    std::snprintf(buf, sizeof buf, " (every unit pooled: %s, J-test p = %.2g)",
+                  lm.all_units_model.c_str(), lm.all_units_p_value);
+    out += buf;
+  }
+  return out;
+}
+
 void AddLotModelRows(const std::string& lot, const std::vector<AxisLotModel>& models,
                      TableWriter* table) {
   for (const AxisLotModel& m : models) {
@@ -98,7 +114,7 @@ void AddLotModelRows(const std::string& lot, const std::vector<AxisLotModel>& mo
     row.push_back(Cell::Int(m.curves));
     if (!m.model.ok()) {
       const Cell none = Cell::Real(allan::kNaN);
-      for (const Cell& c : {Cell::Text("-"), Cell::Text("-"), none, none, none, none, none, none,
+      for (const Cell& c : {Cell::Text("-"), Cell::Text("-"), Cell::Text("-"), none, none, none, none, none, none,
                             none, Cell::Text("-"), none, none, Cell::Text("-"),
                             Cell::Text("not measurable: " + m.model.status().message())}) {
         row.push_back(c);
@@ -118,6 +134,7 @@ void AddLotModelRows(const std::string& lot, const std::vector<AxisLotModel>& mo
       if (!flagged.empty()) flagged += " ";
       flagged += c.unit;
     }
+    row.push_back(Cell::Int(lm.units));
     row.push_back(Cell::Text(lm.fit.model.Name()));
     row.push_back(Cell::Text(lm.fit.adequate ? "yes" : "no"));
     row.push_back(Cell::Real(lm.fit.p_value));
@@ -139,9 +156,10 @@ void AddLotModelRows(const std::string& lot, const std::vector<AxisLotModel>& mo
     row.push_back(Cell::Real(lm.points.back().spread_factor));
     row.push_back(Cell::Text(flagged.empty() ? "-" : flagged));
     std::string unit = rw->unit + ", " + bi->unit + ", " + k->unit;
-    row.push_back(Cell::Text(lm.fit.adequate
-                                 ? "units: " + unit
-                                 : "not measurable: lot model inadequate (J-test p < 0.01)"));
+    std::string note = lm.fit.adequate ? "units: " + unit
+                                       : "not measurable: lot model inadequate (J-test p < 0.01)";
+    note += LeftOutNote(lm);
+    row.push_back(Cell::Text(note));
     table->AddRow(std::move(row));
   }
 }

@@ -36,6 +36,11 @@ void AddLotModelRows(const std::string& lot, const std::vector<AxisLotModel>& mo
                      TableWriter* table);
 TableWriter LotModelTable(bool with_lot);
 
+// "; model of 7 units, left out as inconsistent with their lot: SN-8
+// (every unit pooled: N+B+K, J-test p = 7.9e-05)", or "" when every unit
+// is pooled.
+std::string LeftOutNote(const allan::LotModel& model);
+
 // One row per unit inconsistent with its lot on some axis.
 TableWriter InconsistentUnitsTable(const std::vector<AxisLotModel>& models);
 

@@ -895,8 +895,11 @@ void LotModelSection(const std::vector<AxisLotModel>& models, std::string* out) 
     };
     char p_value[32];
     std::snprintf(p_value, sizeof p_value, "%.3g", lm.fit.p_value);
-    Add(out, "<td>", Esc(lm.fit.model.Name()), lm.fit.adequate ? "" : " (inadequate)",
-        "</td><td class=\"num\">", p_value, "</td>",
+    Add(out, "<td>", Esc(lm.fit.model.Name()), lm.fit.adequate ? "" : " (inadequate)");
+    if (!lm.left_out.empty()) {
+      Add(out, "<br><span class=\"note\">", Esc(LeftOutNote(lm).substr(2)), "</span>");
+    }
+    Add(out, "</td><td class=\"num\">", p_value, "</td>",
         figure(m.kind == pb::ACCEL ? "velocity_random_walk" : "angle_random_walk", "random_walk"),
         figure("bias_instability_ieee", "bias_instability"),
         figure("rate_random_walk", "rate_random_walk"));
@@ -923,7 +926,9 @@ void LotModelSection(const std::vector<AxisLotModel>& models, std::string* out) 
       "model leaves out; an inadequate model (J-test p below 1&nbsp;%) gives no figures. "
       "Spread: the units' 1-sigma factor on the deviation at the shortest and longest pooled "
       "&tau;. A unit is inconsistent when at some &tau; it lies outside the other units' "
-      "prediction interval (Student t, Bonferroni over the &tau;s, 1&nbsp;%).</p>\n</section>\n";
+      "prediction interval (Student t, Bonferroni over the &tau;s, 1&nbsp;%); the model is "
+      "fitted to the units consistent with their lot, those left out named (unless fewer than "
+      "half are consistent: then every unit is pooled).</p>\n</section>\n";
 }
 
 }  // namespace

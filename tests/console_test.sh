@@ -91,7 +91,7 @@ wait_screen "^A1 +SN-101 .*running" 30
 # it one after another; on a loaded host "deg/h" on another row came first).
 # A live value with its marks: "≤ 9.8", "10.2†", "10.2‡", "10.2 ± 0.81" (n/m has no number).
 v='(≤ )?[0-9.]+(†|‡)?( ± [0-9.e+-]+)?'
-p='(pass|marginal|fail|inconclusive)\?'
+p='((pass|marginal|fail)\?|pending)'
 wait_screen "^A1 .* x +($p +)?$v deg/h" 30
 now="$(screen)"
 # Each row: slot, unit, the unit's verdict (and why, when not a pass), state,
@@ -137,10 +137,10 @@ tm kill-session -t soak
 write_config 10
 start_soak 80 24
 wait_screen "^A1 +SN-101 .*running" 30
-wait_screen "^A1 +SN-101 +(pass|marginal|fail|inconclusive)\? " 60
+wait_screen "^A1 +SN-101 +((pass|marginal|fail)\?|pending) " 60
 now="$(screen)"
 for unit in "A2 +SN-102" "B1 +SN-103" "B2 +SN-104"; do
-  printf '%s\n' "$now" | grep -Eq -- "^$unit +((pass|marginal|fail|inconclusive)\? +)?.*(running|waiting|no data)" ||
+  printf '%s\n' "$now" | grep -Eq -- "^$unit +(((pass|marginal|fail)\?|pending) +)?.*(running|waiting|no data)" ||
     fail "80 x 24: no row '$unit ... running'"
 done
 # (A line the renderer let run past 80 columns would wrap onto the next

@@ -25,6 +25,7 @@
 #include <memory>
 #include <numbers>
 #include <numeric>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -708,7 +709,8 @@ TEST_F(TacticalLotTest, LotSpreadShowsInTheFit) {
 // curves: where adequate, its white noise is the units' rms N within its
 // stated precision (3 sigma, and 1 % for the units' own N being read off
 // their curves); the planted unit, whose B and K are 3-4 times the others',
-// is the only unit flagged inconsistent with the lot, on most axes.
+// is the only unit flagged inconsistent with the lot, on most axes, and is
+// left out of the model where flagged (the model is of the lot's own units).
 TEST_F(TacticalLotTest, LotModelStatesTheLotAndFlagsThePlantedUnit) {
   const testing::CommandResult r = RunCommand(Bin("imuqual") + " lot " + kTacticalLot +
                                               " --model --format csv --db " + lot_->db);
@@ -740,20 +742,31 @@ TEST_F(TacticalLotTest, LotModelStatesTheLotAndFlagsThePlantedUnit) {
     const std::string axis = f[col("axis")];
     EXPECT_EQ(f[col("units")], std::to_string(kTacticalUnits)) << axis;
     std::stringstream flagged(f[col("inconsistent_units")]);
+    std::set<std::string> left_out;
     for (std::string unit; flagged >> unit;) {
       if (unit == "-") continue;
       EXPECT_EQ(unit, planted) << axis << ": a typical unit flagged inconsistent";
       planted_flagged += unit == planted;
+      left_out.insert(unit);
+    }
+    // The model is of the units consistent with their lot, the others named.
+    const int pooled = std::stoi(f[col("pooled_units")]);
+    EXPECT_EQ(pooled, kTacticalUnits - static_cast<int>(left_out.size())) << axis;
+    for (const std::string& unit : left_out) {
+      // (the note is a quoted CSV field with commas: read on the whole line)
+      EXPECT_NE(line.find("left out as inconsistent with their lot: " + unit), std::string::npos)
+          << line;
     }
     if (f[col("adequate")] != "yes") continue;
     ++adequate;
     double mean_n2 = 0;
     bool gyro = true;
     for (const UnitRecord& u : lot_->units) {
+      if (left_out.count(u.serial)) continue;
       for (const pb::AxisTruth& a : u.truth.axes()) {
         if (a.axis() != axis) continue;
         gyro = u.gyro(a);
-        mean_n2 += a.random_walk() * a.random_walk() / kTacticalUnits;
+        mean_n2 += a.random_walk() * a.random_walk() / pooled;
       }
     }
     const double truth = ToDatasheet(NoiseTerm::kAngleRandomWalk, gyro, std::sqrt(mean_n2));

@@ -19,7 +19,11 @@
 //   t = (ln avar_k - m) / (s sqrt(1 + 1/(K-1)))  ~  Student t, K-2 dof,
 // and the unit's p-value is the smallest two-sided p over the taus times
 // their number (Bonferroni). Below the level the unit is flagged, with the
-// tau where it departs most and by what factor on the deviation.
+// tau where it departs most and by what factor on the deviation, and left
+// out of the pooled curve: the lot model is the model of the units that
+// belong to the lot (a planted failing unit made the simulated vg700 lot's
+// pooled curve a mixture, "inadequate" at p = 8e-5 on x; without it p =
+// 0.63), with the all-units fit kept for the record.
 // Pure and thread-safe.
 #ifndef IMUQUAL_ANALYZE_ALLAN_LOT_MODEL_H_
 #define IMUQUAL_ANALYZE_ALLAN_LOT_MODEL_H_
@@ -66,10 +70,19 @@ struct UnitConsistency {
 };
 
 struct LotModel {
-  int units = 0;
-  std::vector<LotPoint> points;
+  int units = 0;                 // units pooled into the model
+  std::vector<LotPoint> points;  // over the pooled units
   CompositeFit fit;  // the lot model (sigmas: the precision of the lot-mean model)
-  std::vector<UnitConsistency> consistency;  // in input order
+  std::vector<UnitConsistency> consistency;  // every unit, in input order
+  // Units inconsistent with their lot, left out of the model (input order);
+  // empty when every unit is pooled (all consistent, or fewer than half or
+  // than 2 consistent: no majority to model).
+  std::vector<std::string> left_out;
+  // With units left out: the model every unit pooled would have had, its J
+  // and p (the mixture the left-out units make), for the record.
+  std::string all_units_model;
+  double all_units_objective = kNaN;
+  double all_units_p_value = kNaN;
 };
 
 // Errors: bad options, fewer than min_units curves, curves of different

@@ -41,7 +41,8 @@ Curve SimulatedCurve(double n, double k, uint64_t seed) {
 
 struct Lot {
   std::vector<UnitCurve> units;
-  double mean_n_squared = 0;
+  double mean_n_squared = 0;          // over every unit
+  double typical_mean_n_squared = 0;  // over every unit but the planted one
 };
 
 Lot SimulatedLot(int count, int planted, uint64_t seed) {
@@ -55,6 +56,7 @@ Lot SimulatedLot(int count, int planted, uint64_t seed) {
     std::snprintf(name, sizeof name, "U%d", u + 1);
     lot.units.push_back({name, SimulatedCurve(n, k, seed * 100 + u)});
     lot.mean_n_squared += n * n / count;
+    if (u != planted) lot.typical_mean_n_squared += n * n / (planted >= 0 ? count - 1 : count);
   }
   return lot;
 }
@@ -65,10 +67,15 @@ TEST(LotModelTest, PoolsTheUnitsAndFlagsThePlantedOne) {
   // WHEN the lot model is fitted.
   const Result<LotModel> model = FitLotModel(lot.units);
   ASSERT_TRUE(model.ok()) << model.status().ToString();
-  // THEN the lot's white noise is the units' rms N within its stated
-  // uncertainty (3 sigma), and the model has a random walk.
-  EXPECT_EQ(model->units, 10);
-  EXPECT_NEAR(model->fit.white_asymptote.value, std::sqrt(lot.mean_n_squared),
+  // THEN the model is of the 9 units that belong to the lot, the planted
+  // one named as left out (and the all-units fit kept for the record); its
+  // white noise is those units' rms N within its stated uncertainty (3
+  // sigma), and the model has a random walk.
+  EXPECT_EQ(model->units, 9);
+  EXPECT_EQ(model->left_out, std::vector<std::string>{"U4"});
+  EXPECT_FALSE(model->all_units_model.empty());
+  EXPECT_TRUE(std::isfinite(model->all_units_p_value));
+  EXPECT_NEAR(model->fit.white_asymptote.value, std::sqrt(lot.typical_mean_n_squared),
               3 * model->fit.white_asymptote.sigma);
   EXPECT_GT(model->fit.model.CountOf(TermKind::kRandomWalk), 0) << model->fit.model.Name();
   // The spread factor reflects the 10 % unit spread at short tau (plus the
@@ -86,6 +93,19 @@ TEST(LotModelTest, PoolsTheUnitsAndFlagsThePlantedOne) {
       EXPECT_TRUE(c.consistent) << c.unit << " p " << c.p_value;
     }
   }
+}
+
+// A lot of typical units only: every unit pooled, none left out.
+TEST(LotModelTest, AHomogeneousLotPoolsEveryUnit) {
+  const Lot lot = SimulatedLot(8, -1, 11);
+  const Result<LotModel> model = FitLotModel(lot.units);
+  ASSERT_TRUE(model.ok()) << model.status().ToString();
+  EXPECT_EQ(model->units, 8);
+  EXPECT_TRUE(model->left_out.empty());
+  EXPECT_TRUE(model->all_units_model.empty());
+  EXPECT_TRUE(model->fit.adequate) << model->fit.model.Name() << " p " << model->fit.p_value;
+  EXPECT_NEAR(model->fit.white_asymptote.value, std::sqrt(lot.mean_n_squared),
+              3 * model->fit.white_asymptote.sigma);
 }
 
 TEST(LotModelTest, RefusesWhatCannotMakeALotModel) {
