@@ -1,6 +1,7 @@
 #include "station/station_console.h"
 
 #include <algorithm>
+#include <limits>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -204,19 +205,43 @@ std::string ShortReason(const ConsoleUnit& u, size_t width) {
   if (!u.final_result && !ShowsProvisional(u)) return "";
   if (u.reason.empty() || RankedVerdict(u) == measurement_t::OUTCOME_PASS) return "";
   if (DisplayWidth(u.reason) <= width) return u.reason;
-  std::string out;
-  for (size_t i = 0; i < u.reason.size() && DisplayWidth(out) + 3 < width; ++i) {
-    out += u.reason[i];
+  // Whole words only ("x: bias_instability 3..." read as a value of 3), and
+  // a value without a dangling "±" whose uncertainty did not fit.
+  std::vector<std::string> words;
+  for (size_t at = 0; at < u.reason.size();) {
+    const size_t end = std::min(u.reason.find(' ', at), u.reason.size());
+    words.push_back(u.reason.substr(at, end - at));
+    at = end + 1;
   }
-  while (!out.empty() && (static_cast<unsigned char>(out.back()) & 0xC0) == 0xC0) out.pop_back();
+  std::string out;
+  for (const std::string& w : words) {
+    const std::string next = out.empty() ? w : out + " " + w;
+    if (DisplayWidth(next) + 3 > width) break;
+    out = next;
+  }
+  for (const char* tail : {" \u00b1", ","}) {
+    if (out.ends_with(tail)) out.resize(out.size() - std::string_view(tail).size());
+  }
   return out + "...";
+}
+
+// The reason column's width: at least kReasonColumns, and what a screen of
+// `width` columns leaves beside the other columns of `table` (whose "why"
+// cells are at most kReasonColumns wide) once it is fitted (FitTable), up to
+// the longest reason.
+size_t ReasonWidth(const std::vector<std::string>& fitted, int width, size_t longest) {
+  size_t widest = 0;
+  for (const std::string& l : fitted) widest = std::max(widest, DisplayWidth(l));
+  const size_t spare = static_cast<int>(widest) < width ? static_cast<size_t>(width) - widest : 0;
+  return std::min(std::max(longest, kReasonColumns), kReasonColumns + spare);
 }
 
 // One line explaining the marks shown ("" when none is). `verdict_marks`:
 // the per-unit table's marks on the values too.
-std::string MarksLine(const ConsoleModel& m, bool verdict_marks = false) {
+std::string MarksLine(const ConsoleModel& m, bool verdict_marks = false, bool values_shown = true) {
   std::set<pb::Qualifier> used;
   for (const ConsoleUnit& u : m.units) {
+    if (!values_shown) break;  // no value on screen: no value's mark to explain
     for (const ConsoleAxis& x : u.axes) {
       if (!LiveValue(x, 3, false, u.final_result).empty()) used.insert(QualifierOf(x));
     }
@@ -234,7 +259,7 @@ std::string MarksLine(const ConsoleModel& m, bool verdict_marks = false) {
   }
   if (used.count(pb::NOT_MEASURABLE))
     out += std::string(out.empty() ? "" : "   ") + "n/m not measurable";
-  if (verdict_marks) {
+  if (verdict_marks && values_shown) {
     out = "BI value: ! fail  ~ marginal  ? inconclusive" + (out.empty() ? "" : "   " + out);
   }
   const bool provisional = std::any_of(m.units.begin(), m.units.end(), [](const ConsoleUnit& u) {
@@ -247,37 +272,105 @@ std::string MarksLine(const ConsoleModel& m, bool verdict_marks = false) {
   return out;
 }
 
-// One row per unit and axis.
-std::vector<std::string> AxisRows(const ConsoleModel& m) {
-  TableWriter t({"slot", "serial", "verdict", "why", "state", "elapsed / planned", "axis",
-                 "axis verdict", "BI (live)", "samples", "gaps"});
+// The widest reason a unit would show whole.
+size_t LongestReason(const ConsoleModel& m) {
+  size_t out = 0;
   for (const ConsoleUnit& u : m.units) {
+    out = std::max(out, DisplayWidth(ShortReason(u, std::numeric_limits<size_t>::max())));
+  }
+  return out;
+}
+
+// A table of text cells as it is about to be shown.
+struct TextTable {
+  std::vector<std::string> columns;
+  std::vector<std::vector<std::string>> rows;
+};
+
+// `table` rendered no wider than `width` columns: while it is wider, the next
+// column of `drop_order` (least important first) is left out whole, so that
+// a number is shown whole or not at all (cutting the lines at the screen's
+// edge showed 30.2 deg/h as "3"). `shown` gets the columns kept.
+std::vector<std::string> FitTable(const TextTable& table, int width,
+                                  const std::vector<std::string>& drop_order,
+                                  std::set<std::string>* shown) {
+  std::vector<bool> keep(table.columns.size(), true);
+  size_t next_drop = 0;
+  for (;;) {
+    std::vector<std::string> names;
+    for (size_t c = 0; c < table.columns.size(); ++c) {
+      if (keep[c]) names.push_back(table.columns[c]);
+    }
+    TableWriter t(names, 3);
+    for (const std::vector<std::string>& row : table.rows) {
+      std::vector<Cell> cells;
+      for (size_t c = 0; c < row.size(); ++c) {
+        if (keep[c]) cells.push_back(Cell::Text(row[c]));
+      }
+      t.AddRow(std::move(cells));
+    }
+    std::vector<std::string> lines = Lines(t.Render(Format::kTable));
+    size_t widest = 0;
+    for (const std::string& l : lines) widest = std::max(widest, DisplayWidth(l));
+    if (static_cast<int>(widest) <= width || next_drop >= drop_order.size()) {
+      if (shown) shown->insert(names.begin(), names.end());
+      return lines;
+    }
+    const auto it = std::find(table.columns.begin(), table.columns.end(), drop_order[next_drop++]);
+    if (it != table.columns.end()) keep[static_cast<size_t>(it - table.columns.begin())] = false;
+  }
+}
+
+// The columns a narrow screen leaves out first: the counts, then the
+// elapsed time, the live values, the state, the reason; the slot, the unit,
+// its verdict and (per axis) the axis and its verdict stay.
+const std::vector<std::string>& DropOrder() {
+  static const std::vector<std::string> kOrder = {
+      "gaps", "samples", "elapsed / planned", "BI (live)", "state", "why", "slot"};
+  return kOrder;
+}
+
+// One row per unit and axis, no wider than `width`.
+std::vector<std::string> AxisRows(const ConsoleModel& m, int width,
+                                  size_t reason_width = kReasonColumns) {
+  TextTable t{{"slot", "serial", "verdict", "why", "state", "elapsed / planned", "axis",
+               "axis verdict", "BI (live)", "samples", "gaps"},
+              {}};
+  // Units that need the line first, slot order within (as the live page).
+  std::vector<const ConsoleUnit*> order;
+  for (const ConsoleUnit& u : m.units) order.push_back(&u);
+  std::stable_sort(order.begin(), order.end(), [](const ConsoleUnit* a, const ConsoleUnit* b) {
+    return AttentionRank(*a) > AttentionRank(*b);
+  });
+  for (const ConsoleUnit* unit : order) {
+    const ConsoleUnit& u = *unit;
     const std::string samples = u.state == 0 ? "" : Si(static_cast<double>(u.samples));
     const std::string gaps = u.state == 0 ? "" : std::to_string(u.gap_samples);
     if (u.axes.empty()) {
-      t.AddRow({Cell::Text(u.slot), Cell::Text(u.serial), Cell::Text(UnitVerdictText(u)),
-                Cell::Text(ShortReason(u, kReasonColumns)), Cell::Text(StateText(u)),
-                Cell::Text(ElapsedText(m, u)), Cell::Text(""), Cell::Text(""),
-                Cell::Text(""), Cell::Text(samples), Cell::Text(gaps)});
+      t.rows.push_back({u.slot, u.serial, UnitVerdictText(u), ShortReason(u, reason_width),
+                        StateText(u), ElapsedText(m, u), "", "", "", samples, gaps});
       continue;
     }
     for (size_t a = 0; a < u.axes.size(); ++a) {
       const ConsoleAxis& x = u.axes[a];
       const bool first = a == 0;
-      t.AddRow({Cell::Text(first ? u.slot : ""), Cell::Text(first ? u.serial : ""),
-                Cell::Text(first ? UnitVerdictText(u) : ""),
-                Cell::Text(first ? ShortReason(u, kReasonColumns) : ""),
-                Cell::Text(first ? StateText(u) : ""),
-                Cell::Text(first ? ElapsedText(m, u) : ""), Cell::Text(x.name),
-                Cell::Text(AxisVerdictText(u, x)),
-                Cell::Text(LiveValue(x, 3, true, u.final_result).empty()
-                               ? "-"
-                               : LiveValue(x, 3, true, u.final_result) + " " + x.unit),
-                Cell::Text(first ? samples : ""), Cell::Text(first ? gaps : "")});
+      const std::string value = LiveValue(x, 3, true, u.final_result);
+      t.rows.push_back({first ? u.slot : "", first ? u.serial : "",
+                        first ? UnitVerdictText(u) : "",
+                        first ? ShortReason(u, reason_width) : "", first ? StateText(u) : "",
+                        first ? ElapsedText(m, u) : "", x.name, AxisVerdictText(u, x),
+                        value.empty() ? "-" : value + " " + x.unit, first ? samples : "",
+                        first ? gaps : ""});
     }
   }
-  std::vector<std::string> lines = Lines(t.Render(Format::kTable));
-  const std::string marks = MarksLine(m);
+  std::set<std::string> shown;
+  std::vector<std::string> lines = FitTable(t, width, DropOrder(), &shown);
+  if (reason_width == kReasonColumns && shown.count("why")) {
+    // The room the fitted table leaves goes to the reasons.
+    const size_t wider = ReasonWidth(lines, width, LongestReason(m));
+    if (wider > reason_width) return AxisRows(m, width, wider);
+  }
+  const std::string marks = MarksLine(m, false, shown.count("BI (live)") > 0);
   if (!marks.empty()) lines.push_back(marks);
   return lines;
 }
@@ -285,7 +378,8 @@ std::vector<std::string> AxisRows(const ConsoleModel& m) {
 // One row per unit, the axes' live bias instability side by side ('!' FAIL,
 // '~' MARGINAL); at most `max_units` units; those needing attention first
 // (this table is shown when the per-axis one does not fit).
-std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
+std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units, int width,
+                                  bool* values_shown, size_t reason_width = kReasonColumns) {
   std::vector<std::string> axis_names;
   for (const ConsoleUnit& u : m.units) {
     for (const ConsoleAxis& x : u.axes) {
@@ -306,14 +400,11 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
   });
   const bool cut = static_cast<int>(shown.size()) > max_units;
   if (cut) shown.resize(static_cast<size_t>(std::max(0, max_units - 1)));
-  TableWriter t(columns, 3);
+  TextTable t{columns, {}};
   for (const ConsoleUnit* u : shown) {
-    std::vector<Cell> row = {Cell::Text(u->slot),
-                             Cell::Text(u->serial),
-                             Cell::Text(UnitVerdictText(*u)),
-                             Cell::Text(ShortReason(*u, kReasonColumns)),
-                             Cell::Text(StateText(*u)),
-                             Cell::Text(ElapsedText(m, *u))};
+    std::vector<std::string> row = {u->slot,       u->serial,         UnitVerdictText(*u),
+                                    ShortReason(*u, reason_width), StateText(*u),
+                                    ElapsedText(m, *u)};
     for (const std::string& name : axis_names) {
       std::string text;
       for (const ConsoleAxis& x : u->axes) {
@@ -321,13 +412,25 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units) {
         text = LiveValue(x, 3, false, u->final_result) +
                (u->final_result || ShowsProvisional(*u) ? OutcomeMark(x.outcome) : "");
       }
-      row.push_back(Cell::Text(text));
+      row.push_back(text);
     }
-    row.push_back(Cell::Text(u->state == 0 ? "" : Si(static_cast<double>(u->samples))));
-    row.push_back(Cell::Text(u->state == 0 ? "" : std::to_string(u->gap_samples)));
-    t.AddRow(std::move(row));
+    row.push_back(u->state == 0 ? "" : Si(static_cast<double>(u->samples)));
+    row.push_back(u->state == 0 ? "" : std::to_string(u->gap_samples));
+    t.rows.push_back(std::move(row));
   }
-  std::vector<std::string> lines = Lines(t.Render(Format::kTable));
+  // The axes' values go after the counts and the elapsed time, the last
+  // axis first.
+  std::vector<std::string> drop = {"gaps", "samples", "elapsed / planned"};
+  for (auto it = axis_names.rbegin(); it != axis_names.rend(); ++it) drop.push_back(*it);
+  for (const char* c : {"state", "why", "slot"}) drop.push_back(c);
+  std::set<std::string> kept;
+  std::vector<std::string> lines = FitTable(t, width, drop, &kept);
+  if (reason_width == kReasonColumns && kept.count("why")) {
+    const size_t wider = ReasonWidth(lines, width, LongestReason(m));
+    if (wider > reason_width) return UnitRows(m, max_units, width, values_shown, wider);
+  }
+  *values_shown = std::any_of(axis_names.begin(), axis_names.end(),
+                              [&](const std::string& a) { return kept.count(a) > 0; });
   if (cut) {
     const size_t hidden = m.units.size() - shown.size();
     int pass = 0, pending = 0, other = 0;
@@ -536,10 +639,15 @@ std::vector<std::string> RenderConsole(const ConsoleModel& m, int width, int hei
   for (const ConsoleUnit& u : m.units) axis_rows += std::max<size_t>(1, u.axes.size());
   const int room = height - kHeaderLines - kTableFrame - kNoticeLines;
   const bool per_axis = static_cast<int>(axis_rows) + (MarksLine(m).empty() ? 0 : 1) <= room;
-  const std::string marks = MarksLine(m, !per_axis);
-  const int legend = marks.empty() ? 0 : 1;
-  std::vector<std::string> table = per_axis ? AxisRows(m) : UnitRows(m, std::max(1, room - legend));
-  if (!per_axis && legend > 0) table.push_back(marks);
+  const int legend = MarksLine(m, !per_axis).empty() ? 0 : 1;
+  bool values_shown = true;
+  std::vector<std::string> table = per_axis ? AxisRows(m, width)
+                                            : UnitRows(m, std::max(1, room - legend), width,
+                                                       &values_shown);
+  if (!per_axis) {
+    const std::string marks = MarksLine(m, true, values_shown);
+    if (!marks.empty()) table.push_back(marks);
+  }
   out.insert(out.end(), table.begin(), table.end());
   const std::string tally = ConsoleTally(m);
   if (!tally.empty() && static_cast<int>(out.size()) + kNoticeLines < height) out.push_back(tally);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <map>
 
 #include "imuqual/decision_t.hpp"
 #include "imuqual/measurement_t.hpp"
@@ -423,6 +424,112 @@ TEST(StationConsoleTest, Durations) {
   EXPECT_EQ(FormatDuration(3599), "59:59");
   EXPECT_EQ(FormatDuration(7325), "2:02:05");
   EXPECT_EQ(FormatDuration(-3), "0:00");
+}
+
+}  // namespace
+}  // namespace imuqual::station
+
+namespace imuqual::station {
+namespace {
+
+// The cells of the table that starts at the line beginning "slot": one map
+// per row from column name to its text (trimmed), columns read off the rule
+// of dashes (display columns: a cell may hold a multi-byte "±").
+std::vector<std::map<std::string, std::string>> TableCells(const std::vector<std::string>& lines) {
+  std::vector<std::map<std::string, std::string>> out;
+  auto header = std::find_if(lines.begin(), lines.end(),
+                             [](const std::string& l) { return l.rfind("slot", 0) == 0; });
+  if (header == lines.end() || header + 1 == lines.end()) return out;
+  const std::string& dashes = *(header + 1);
+  std::vector<std::pair<size_t, size_t>> spans;
+  for (size_t at = dashes.find('-'); at != std::string::npos;) {
+    const size_t end = std::min(dashes.find(' ', at), dashes.size());
+    spans.emplace_back(at, end);
+    at = dashes.find('-', end);
+  }
+  auto cell = [](const std::string& line, size_t from, size_t to) {
+    std::vector<size_t> byte_of;
+    for (size_t b = 0; b < line.size(); ++b) {
+      if ((static_cast<unsigned char>(line[b]) & 0xC0) != 0x80) byte_of.push_back(b);
+    }
+    byte_of.push_back(line.size());
+    if (from >= byte_of.size() - 1) return std::string();
+    const size_t b0 = byte_of[from], b1 = byte_of[std::min(to, byte_of.size() - 1)];
+    std::string text = line.substr(b0, b1 - b0);
+    text.erase(text.find_last_not_of(' ') + 1);
+    text.erase(0, std::min(text.size(), text.find_first_not_of(' ')));
+    return text;
+  };
+  for (auto row = header + 2; row != lines.end() && !row->empty(); ++row) {
+    if (!(row->rfind("A", 0) == 0 || row->rfind(" ", 0) == 0)) break;  // the legend (slots A1...)
+    std::map<std::string, std::string> cells;
+    for (const auto& [from, to] : spans) cells[cell(*header, from, to)] = cell(*row, from, to);
+    out.push_back(cells);
+  }
+  return out;
+}
+
+// Issue 30: at 80 x 24 the BI column showed 30.2 deg/h as "3". At every
+// terminal size a column is left out whole or shown whole: every cell on a
+// narrow screen is the same text as on a screen wide enough for every
+// column, and every line fits.
+TEST(StationConsoleTest, ANumberIsShownWholeOrNotAtAllAtEverySize) {
+  for (int units : {4, 8}) {
+    ConsoleModel m = Model();
+    m.units.clear();
+    const double values[] = {30.2, 11.3, 9.87, 104.5, 0.0123, 7.0};
+    for (int i = 1; i <= units; ++i) {
+      ConsoleUnit u = Unit("A" + std::to_string(i), "SN-20" + std::to_string(i), 300 + 7 * i,
+                           measurement_t::OUTCOME_PASS);
+      for (size_t a = 0; a < u.axes.size(); ++a) {
+        u.axes[a].bias_instability = values[(i + a) % 6];
+        u.axes[a].bias_instability_uncertainty = 0.1 * values[(i + a) % 6];
+      }
+      m.units.push_back(u);
+    }
+    m.units[1].verdict = measurement_t::OUTCOME_FAIL;
+    m.units[1].axes[0].outcome = measurement_t::OUTCOME_FAIL;
+    m.units[1].reason = "x: bias_instability 30.2 ± 3.0 deg/h, limit <= 20";
+    for (const auto& [width, height] : {std::pair{80, 24}, std::pair{100, 30}, std::pair{140, 45}}) {
+      const std::vector<std::string> narrow = RenderConsole(m, width, height);
+      const std::vector<std::string> wide = RenderConsole(m, 1000, height);
+      const std::string screen = Screen(narrow);
+      for (const std::string& l : narrow) EXPECT_LE(DisplayWidth(l), static_cast<size_t>(width)) << l;
+      const auto cut = TableCells(narrow), whole = TableCells(wide);
+      ASSERT_EQ(cut.size(), whole.size()) << width << "x" << height << "\n" << screen;
+      ASSERT_FALSE(cut.empty()) << screen;
+      for (size_t r = 0; r < cut.size(); ++r) {
+        for (const auto& [column, text] : cut[r]) {
+          ASSERT_TRUE(whole[r].count(column)) << column;
+          if (column == "why" && text.ends_with("...")) {
+            // A reason cut to the room left: whole words of it, the last one
+            // a whole word of the full reason, never a dangling "±".
+            const std::string kept = text.substr(0, text.size() - 3);
+            const std::string& full = whole[r].at(column);
+            EXPECT_EQ(full.rfind(kept, 0), 0u) << text << " / " << full;
+            EXPECT_TRUE(kept.size() < full.size() && full[kept.size()] == ' ') << text;
+            EXPECT_FALSE(kept.ends_with("\u00b1")) << text;
+            continue;
+          }
+          EXPECT_EQ(text, whole[r].at(column))
+              << units << " units at " << width << "x" << height << ", row " << r << " column "
+              << column << "\n" << screen;
+        }
+        // The verdict and the unit are always there.
+        EXPECT_TRUE(cut[r].count("verdict") && cut[r].count("serial")) << screen;
+      }
+      // The failing unit first, with why when the screen has room for it.
+      EXPECT_EQ(cut[0].at("serial"), "SN-202") << screen;
+      // The marks' legend only for values on screen.
+      bool values_shown = false;
+      for (const auto& [column, text] : cut[0]) {
+        values_shown |= column == "BI (live)" || column == "x" || column == "y" || column == "z";
+      }
+      EXPECT_EQ(values_shown, screen.find("BI value:") != std::string::npos ||
+                                  screen.find("BI (live)") != std::string::npos)
+          << screen;
+    }
+  }
 }
 
 }  // namespace
