@@ -202,3 +202,25 @@ TEST(SourceSpecTest, EachAxisFromItsColumnInItsUnit) {
 
 }  // namespace
 }  // namespace imuqual::acquire
+
+namespace imuqual::acquire {
+namespace {
+
+// Every example of the --help text's source list is a source spec that
+// parses (a help example that is refused teaches the wrong thing).
+TEST(SourceSpecTest, EveryHelpExampleParses) {
+  const std::string help = kSourceSpecHelp;
+  int examples = 0;
+  for (size_t at = help.find("e.g. --unit "); at != std::string::npos;
+       at = help.find("e.g. --unit ", at + 1)) {
+    const size_t begin = help.find('=', at) + 1;
+    const std::string spec = help.substr(begin, help.find('\n', begin) - begin);
+    const auto parsed = ParseSourceSpec(spec);
+    EXPECT_TRUE(parsed.ok()) << spec << ": " << parsed.status().message();
+    ++examples;
+  }
+  EXPECT_EQ(examples, 5);  // sim, csv, serial, archive, bag
+}
+
+}  // namespace
+}  // namespace imuqual::acquire

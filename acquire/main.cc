@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "acquire/acquire_service.h"
+#include "acquire/source_spec.h"
 #include "acquire/units.h"
 #include "analyze/judge/plan_file.h"
 #include "common/bus_flags.h"
@@ -19,6 +20,7 @@ int main(int argc, char** argv) {
   acquire::SimLotSpec sim;
   std::string plan_spec, await;
   CLI::App app{"imuqual-acquire: publish IMU samples of units under test on a station LCM bus"};
+  app.footer(acquire::kSourceSpecHelp);
   app.set_version_flag("--version", kSoftwareVersion);
   app.add_option("--lcm-url", opt.lcm_url, "station bus, e.g. udpm://239.255.76.67:7701?ttl=0")
       ->required();
@@ -32,9 +34,8 @@ int main(int argc, char** argv) {
   app.add_option("--unit", unit_args,
                  "a unit: SERIAL=SOURCE, or SERIAL with the next --source; repeatable");
   app.add_option("--source", source_args,
-                 "the source of the --unit SERIAL before it: sim:PROFILE[,index=N,...], "
-                 "csv:FILE,rate=HZ[,axes=...][,counter=COL][,time=COL], "
-                 "serial:DEVICE,protocol=text|xsens[,baud=N,...] (see the README)");
+                 "the source of the --unit SERIAL before it: sim:, csv:, serial:, archive: or "
+                 "bag: (every key and an example of each below)");
   app.add_option("--slot", slot_args,
                  "fixture position of each --unit, in order (default: 1, 2, ... after the simulated units)");
   app.add_option("--profile", sim.profile,

@@ -49,6 +49,31 @@ struct SourceSpec {
 // Parses the text; the error names the spec and the bad part.
 Result<SourceSpec> ParseSourceSpec(const std::string& text);
 
+// Every source kind with its keys and one example each, for --help texts
+// (imuqual run --unit, imuqual-acquire --source).
+inline constexpr char kSourceSpecHelp[] =
+    "Sources (SERIAL=SOURCE; lists inside a value separated by '/'):\n"
+    "  sim:PROFILE[,index=N][,duration=S][,rate=HZ][,actual_rate=HZ][,seed=N][,quantize=0|1]"
+    "[,lsb=X[,bits=16]]\n"
+    "      a simulated unit (vg700, tactical, fog, mems-lab, mems-real)\n"
+    "      e.g. --unit SN-1=sim:tactical,index=3,duration=3600\n"
+    "  csv:FILE,rate=HZ[,axes=NAME:gyro/NAME:accel...][,counter=COL][,time=COL][,scale=F]"
+    "[,temperature=COL][,AXIS=COL[:UNIT[:SCALE]]...]\n"
+    "      a recording; AXIS=COL:UNIT reads an axis from its own column in its own unit (gyro "
+    "deg/s, rad/s, mrad/s, deg/h, rpm; accel m/s^2, g, mg, ug), times SCALE\n"
+    "      e.g. --unit SN-2=csv:imu.csv,rate=100,gx=wx:rad/s,ax=fx:g,temperature=temp_c\n"
+    "  serial:DEVICE,protocol=text|xsens|crossbow[,rate=HZ][,duration=S][,baud=N][,parity=...]"
+    "[,axes=...][,reconnect_timeout=S]\n"
+    "      a live device; text: columns=NAME/NAME/...(_ skips)[,counter=COL][,temperature=COL]\n"
+    "      e.g. --unit SN-3=serial:/dev/ttyUSB0,protocol=text,baud=115200,"
+    "columns=gx/gy/gz,duration=3600\n"
+    "  archive:DB,run=RUN_ID\n"
+    "      a stored run replayed from its raw samples\n"
+    "      e.g. --unit SN-4=archive:station.db,run=20261129T080030Z-station-1-SN-4\n"
+    "  bag:FILE[,topic=/imu][,rate=HZ][,axes=gx/gy/gz/ax/ay/az]\n"
+    "      a ROS 1 bag's sensor_msgs/Imu messages\n"
+    "      e.g. --unit SN-5=bag:soak.bag,topic=/imu/data,rate=200";
+
 // What a spec may take from the acquire process's other flags.
 struct SourceDefaults {
   pb::TestPlan plan;      // its axes name CSV columns

@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 
+#include "acquire/source_spec.h"
 #include "cli/commands.h"
 #include "cli/export_command.h"
 #include "cli/keygen_command.h"
@@ -45,9 +46,8 @@ int main(int argc, char** argv) {
       "--plan/--duration/--rate/--operator/--lcm-url");
   run_cmd->add_option("--sim", run.sim_units, "number of simulated units");
   run_cmd->add_option("--unit", run.units,
-                      "SERIAL=SOURCE, repeatable: sim:PROFILE[,index=N,duration=S,actual_rate=HZ], "
-                      "csv:FILE,rate=HZ[,axes=NAME:gyro/...][,counter=COL][,time=COL], "
-                      "serial:DEVICE,protocol=text|xsens[,baud=N,...]");
+                      "SERIAL=SOURCE, repeatable: sim:, csv:, serial:, archive: or bag: "
+                      "(every key and an example of each below)");
   run_cmd->add_option("--duration", run.duration_s,
                       "seconds of data per unit (simulated units; serial units record this long)");
   double rate_hz = 0;  // given or not: run.rate_hz
@@ -118,7 +118,12 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--fail-exit", run.fail_exit,
                     "exit 5 when a unit is judged FAIL or INCONCLUSIVE (for scripts and line "
                     "controllers; without it a FAIL verdict is a result and the exit is 0)");
-  run_cmd->footer(cli::kRunExitCodesHelp);
+  run_cmd->footer(std::string(acquire::kSourceSpecHelp) +
+                  "\n\nExamples:\n"
+                  "  imuqual run --sim 8 --lot L1 --db station.db --plan builtin:vg700ca "
+                  "--duration 3720\n"
+                  "  imuqual run --station station.textproto --operator ana\n\n" +
+                  cli::kRunExitCodesHelp);
 
   std::string db, format = "table", lot;
   bool all_runs = false, stats = false, lot_model = false;
@@ -194,7 +199,9 @@ int main(int argc, char** argv) {
       app.add_subcommand("analyze", "offline Allan analysis of a recorded series");
   analyze_cmd->add_option("file", an.path, "one value per line, or CSV with a header")->required();
   analyze_cmd->add_option("--column", an.column, "CSV column to analyse");
-  analyze_cmd->add_option("--rate", an.rate_hz, "sample rate in Hz")->capture_default_str();
+  analyze_cmd->add_option("--rate", an.rate_hz,
+                          "sample rate in Hz, required: analyze does not assume one (e.g. "
+                          "--rate 100)");
   analyze_cmd->add_option("--type", an.type, "rate or phase")->capture_default_str();
   analyze_cmd
       ->add_option("--dev", an.devs,

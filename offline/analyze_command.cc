@@ -59,6 +59,11 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   } else if (!o.kind.empty()) {
     return Status::InvalidArgument("--kind must be gyro or accel");
   }
+  if (std::isnan(o.rate_hz)) {
+    return Status::InvalidArgument(
+        "--rate is required: the series' sample rate in Hz (e.g. --rate 100); analyze does not "
+        "assume one (every tau would be off by it)");
+  }
   if (!(o.rate_hz > 0) || !std::isfinite(o.rate_hz)) {
     return Status::InvalidArgument("--rate must be a positive rate in Hz");
   }

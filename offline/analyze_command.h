@@ -6,6 +6,7 @@
 #ifndef IMUQUAL_OFFLINE_ANALYZE_COMMAND_H_
 #define IMUQUAL_OFFLINE_ANALYZE_COMMAND_H_
 
+#include <limits>
 #include <string>
 
 namespace imuqual::offline {
@@ -13,7 +14,7 @@ namespace imuqual::offline {
 struct AnalyzeFileOptions {
   std::string path;
   std::string column;           // CSV column (required if several)
-  double rate_hz = 1.0;         // sample rate
+  double rate_hz = std::numeric_limits<double>::quiet_NaN();  // sample rate: required
   std::string type = "rate";    // "rate" (deg/s, m/s^2, fractional frequency) or "phase"
   std::string devs = "oadev";   // comma list of adev, oadev, mdev, tdev, hdev, ohdev, totdev
   std::string grid = "octave";  // octave, decade, all, logN, or explicit taus "1,2,5"

@@ -177,11 +177,18 @@ TEST(AnalyzeCliTest, BadInputGetsAOneLineError) {
   for (const std::string& args :
        {std::string("--dev nope"), std::string("--grid weird"), std::string("--stop bins8"),
         std::string("--ci exact"), std::string("--rate -1"), std::string("--type freq")}) {
-    const auto r = RunCommand(Bin("imuqual") + " analyze " + data + " " + args + " 2>&1");
+    const std::string rate = args.starts_with("--rate") ? "" : " --rate 1";
+    const auto r = RunCommand(Bin("imuqual") + " analyze " + data + " " + args + rate + " 2>&1");
     EXPECT_EQ(r.exit_code, 2) << args;
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << args << ": " << r.output;
   }
-  const auto missing = RunCommand(Bin("imuqual") + " analyze /nonexistent/file 2>&1");
+  // No rate: refused, never assumed (every tau would be off by it).
+  const auto no_rate = RunCommand(Bin("imuqual") + " analyze " + data + " 2>&1");
+  EXPECT_EQ(no_rate.exit_code, 2) << no_rate.output;
+  EXPECT_EQ(no_rate.output,
+            "imuqual: error: --rate is required: the series' sample rate in Hz (e.g. --rate 100); "
+            "analyze does not assume one (every tau would be off by it)\n");
+  const auto missing = RunCommand(Bin("imuqual") + " analyze /nonexistent/file --rate 1 2>&1");
   EXPECT_NE(missing.exit_code, 0);
   EXPECT_NE(missing.output.find("/nonexistent/file"), std::string::npos);
 }
@@ -221,7 +228,7 @@ TEST(AnalyzeCliTest, UnitAndScaleConvertToTheBaseUnit) {
   }
   // A unit of the other kind, or without --kind, is a usage error naming it.
   for (const std::string& args : {std::string(" --kind gyro --unit g"), std::string(" --unit rad/s")}) {
-    const auto r = RunCommand(Bin("imuqual") + " analyze " + data + args + " 2>&1");
+    const auto r = RunCommand(Bin("imuqual") + " analyze " + data + " --rate 10" + args + " 2>&1");
     EXPECT_EQ(r.exit_code, 2) << args << ": " << r.output;
     EXPECT_NE(r.output.find("--unit"), std::string::npos) << r.output;
   }
@@ -231,7 +238,7 @@ TEST(AnalyzeCliTest, FitAndPlot) {
   testing::TempDir dir("analyze_cli_test");
   const std::string svg = dir.path("curve.svg");
   const auto r = RunCommand(Bin("imuqual") + " analyze " + ReferencePath("data/rw_1e4.txt") +
-                            " --dev oadev,mdev --ci chi2 --fit --format json --plot " + svg);
+                            " --rate 1 --dev oadev,mdev --ci chi2 --fit --format json --plot " + svg);
   ASSERT_EQ(r.exit_code, 0);
   // The composite model: its name, adequacy, figures and terms, the model
   // at every analysed tau, and the candidates it was chosen from.
@@ -252,7 +259,7 @@ TEST(AnalyzeCliTest, FitAndPlot) {
 // (the first pass weighs each point by the edf of its identified noise).
 TEST(AnalyzeCliTest, TheFitIsTheSameWithEveryIntervalOption) {
   const std::string base = Bin("imuqual") + " analyze " + ReferencePath("data/rw_1e4.txt") +
-                           " --fit --format json";
+                           " --rate 1 --fit --format json";
   auto fit_of = [&](const std::string& args) {
     const auto r = RunCommand(base + " " + args);
     EXPECT_EQ(r.exit_code, 0) << args;
