@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <mutex>
 
@@ -21,18 +22,26 @@ std::string& ProgramName() {
 std::atomic<bool> g_quiet{false};
 
 void Write(const char* level, const std::string& message) {
-  std::string line;
+  std::string prefix;
   {
     std::lock_guard<std::mutex> lock(NameMutex());
-    line = ProgramName();
+    prefix = ProgramName();
   }
-  line += ": ";
+  prefix += ": ";
   if (level[0] != '\0') {
-    line += level;
-    line += ": ";
+    prefix += level;
+    prefix += ": ";
   }
-  line += message;
-  line += '\n';
+  // A message of several problems (a plan's every mistake) is one line per
+  // problem, each with the prefix, so that every line says whose it is.
+  std::string line;
+  for (size_t at = 0; at <= message.size();) {
+    const size_t end = std::min(message.find('\n', at), message.size());
+    line += prefix;
+    line.append(message, at, end - at);
+    line += '\n';
+    at = end + 1;
+  }
   // One write() per line keeps lines from different threads whole.
   ssize_t ignored = ::write(STDERR_FILENO, line.data(), line.size());
   (void)ignored;

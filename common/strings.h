@@ -3,6 +3,7 @@
 #ifndef IMUQUAL_COMMON_STRINGS_H_
 #define IMUQUAL_COMMON_STRINGS_H_
 
+#include <algorithm>
 #include <charconv>
 #include <string>
 #include <string_view>
@@ -41,6 +42,35 @@ inline std::string ShortestReal(double v) {
   char buf[32];
   const std::to_chars_result r = std::to_chars(buf, buf + sizeof buf, v);
   return r.ec == std::errc() ? std::string(buf, r.ptr) : std::string();
+}
+
+// The name of `known` closest to a mistyped `given` (edit distance, ties to
+// the first), "" when none is close: at most 2 edits, and fewer than half
+// the letters of `given`. For "unknown command 'lotz' (did you mean 'lot'?)".
+inline std::string ClosestName(std::string_view given, const std::vector<std::string>& known) {
+  std::string best;
+  const size_t allowed = given.empty() ? 0 : std::min<size_t>(2, (given.size() - 1) / 2);
+  size_t best_distance = allowed + 1;
+  for (const std::string& name : known) {
+    // Levenshtein distance, one row at a time.
+    std::vector<size_t> row(name.size() + 1);
+    for (size_t j = 0; j <= name.size(); ++j) row[j] = j;
+    for (size_t i = 1; i <= given.size(); ++i) {
+      size_t diagonal = row[0];
+      row[0] = i;
+      for (size_t j = 1; j <= name.size(); ++j) {
+        const size_t above = row[j];
+        row[j] = std::min(
+            {row[j] + 1, row[j - 1] + 1, diagonal + (given[i - 1] == name[j - 1] ? 0 : 1)});
+        diagonal = above;
+      }
+    }
+    if (row[name.size()] < best_distance) {
+      best_distance = row[name.size()];
+      best = name;
+    }
+  }
+  return best;
 }
 
 }  // namespace imuqual

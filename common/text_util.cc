@@ -59,32 +59,6 @@ Status ValidateIdentifier(std::string_view what, std::string_view value) {
   return Status::Ok();
 }
 
-std::string ClosestName(std::string_view given, const std::vector<std::string>& known) {
-  std::string best;
-  const size_t allowed = given.empty() ? 0 : std::min<size_t>(2, (given.size() - 1) / 2);
-  size_t best_distance = allowed + 1;
-  for (const std::string& name : known) {
-    // Levenshtein distance, one row at a time.
-    std::vector<size_t> row(name.size() + 1);
-    for (size_t j = 0; j <= name.size(); ++j) row[j] = j;
-    for (size_t i = 1; i <= given.size(); ++i) {
-      size_t diagonal = row[0];
-      row[0] = i;
-      for (size_t j = 1; j <= name.size(); ++j) {
-        const size_t above = row[j];
-        row[j] = std::min(
-            {row[j] + 1, row[j - 1] + 1, diagonal + (given[i - 1] == name[j - 1] ? 0 : 1)});
-        diagonal = above;
-      }
-    }
-    if (row[name.size()] < best_distance) {
-      best_distance = row[name.size()];
-      best = name;
-    }
-  }
-  return best;
-}
-
 bool NaturalLess(const std::string& a, const std::string& b) {
   size_t i = 0, j = 0;
   while (i < a.size() && j < b.size()) {

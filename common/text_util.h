@@ -23,10 +23,7 @@ std::string Sha256Hex(std::string_view data);
 // file names: 1-48 of [A-Za-z0-9._-]. The error names `what`.
 Status ValidateIdentifier(std::string_view what, std::string_view value);
 
-// The name of `known` closest to a mistyped `given` (edit distance, ties to
-// the first), "" when none is close: at most 2 edits, and fewer than half
-// the letters of `given`. For "unknown command 'lotz' (did you mean 'lot'?)".
-std::string ClosestName(std::string_view given, const std::vector<std::string>& known);
+// ClosestName (did you mean ...?) lives in common/strings.h.
 
 // Whether a name is missing: empty or only blanks (an operator "  " is none).
 inline bool IsBlank(std::string_view name) {

@@ -1,18 +1,45 @@
 #include "proto/text_proto.h"
 
+#include <google/protobuf/descriptor.h>
 #include <google/protobuf/io/tokenizer.h>
+
+#include <string_view>
+#include <vector>
+
+#include "common/strings.h"
 
 namespace imuqual::pb {
 namespace {
 
 using google::protobuf::FieldDescriptor;
 
+// " (did you mean warmup_s?)" for protobuf's 'Message type "T" has no field
+// named "F".' when T has a field close to F; "" otherwise.
+std::string DidYouMean(const std::string& message) {
+  constexpr std::string_view kType = "Message type \"", kField = "has no field named \"";
+  const size_t t = message.find(kType), f = message.find(kField);
+  if (t == std::string::npos || f == std::string::npos) return "";
+  const size_t t0 = t + kType.size(), f0 = f + kField.size();
+  const std::string type = message.substr(t0, message.find('"', t0) - t0);
+  const std::string field = message.substr(f0, message.find('"', f0) - f0);
+  const google::protobuf::Descriptor* d =
+      google::protobuf::DescriptorPool::generated_pool()->FindMessageTypeByName(type);
+  if (d == nullptr) return "";
+  std::vector<std::string> names;
+  for (int i = 0; i < d->field_count(); ++i) names.push_back(d->field(i)->name());
+  const std::string closest = ClosestName(field, names);
+  return closest.empty() ? "" : " (did you mean " + closest + "?)";
+}
+
 // Keeps the first parse error with its 1-based line and column.
 class FirstErrorCollector : public google::protobuf::io::ErrorCollector {
  public:
   void AddError(int line, google::protobuf::io::ColumnNumber column,
                 const std::string& message) override {
-    if (first_.empty()) first_ = std::to_string(line + 1) + ":" + std::to_string(column + 1) + ": " + message;
+    if (first_.empty()) {
+      first_ = std::to_string(line + 1) + ":" + std::to_string(column + 1) + ": " + message +
+               DidYouMean(message);
+    }
   }
   const std::string& first() const { return first_; }
 

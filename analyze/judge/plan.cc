@@ -40,10 +40,11 @@ std::string Num(double v) {
   return buf;
 }
 
-Status ValidateLimits(const pb::TestPlan& plan, const Locator& where) {
+// The first problem of limit i (each limit's checks build on the ones before).
+Status ValidateLimit(const pb::TestPlan& plan, int i, const Locator& where) {
   std::map<std::string, pb::AxisKind> axis_kinds;
   for (const pb::Axis& a : plan.axes()) axis_kinds[a.name()] = a.kind();
-  for (int i = 0; i < plan.limits_size(); ++i) {
+  {
     const pb::Limit& lim = plan.limits(i);
     const std::string path = "limits[" + std::to_string(i) + "]";
     // `sub` is ".field" or "" (the whole limit).
@@ -54,11 +55,19 @@ Status ValidateLimits(const pb::TestPlan& plan, const Locator& where) {
     if (def == nullptr) {
       std::vector<std::string> known;
       for (const MeasurementDef& d : MeasurementCatalog()) known.emplace_back(d.name);
-      return fail(".measurement", "unknown measurement '" + lim.measurement() + "' (known: " +
-                                      Join(known, ", ") + ")");
+      const std::string closest = ClosestName(lim.measurement(), known);
+      return fail(".measurement", "unknown measurement '" + lim.measurement() + "'" +
+                                      (closest.empty() ? "" : " (did you mean " + closest + "?)") +
+                                      " (known: " + Join(known, ", ") + ")");
     }
     for (const std::string& axis : lim.axes()) {
-      if (!axis_kinds.count(axis)) return fail(".axes", "no axis named '" + axis + "' in the plan");
+      if (!axis_kinds.count(axis)) {
+        std::vector<std::string> names;
+        for (const auto& [name, kind] : axis_kinds) names.push_back(name);
+        const std::string closest = ClosestName(axis, names);
+        return fail(".axes", "no axis named '" + axis + "' in the plan" +
+                                 (closest.empty() ? "" : " (did you mean " + closest + "?)"));
+      }
     }
     // The unit must be the measurement's unit on every axis kind it applies
     // to: the named axes' kinds, the limit's kind, or every kind.
@@ -126,15 +135,26 @@ Status ValidateLimits(const pb::TestPlan& plan, const Locator& where) {
   return Status::Ok();
 }
 
-Status Validate(const pb::TestPlan& plan, const Locator& where) {
+Status ValidateEarlyDecision(const pb::TestPlan& plan, const Locator& where);
+Status ValidateNoiseModelRange(const pb::TestPlan& plan, int i, const Locator& where,
+                               std::set<int>* kinds);
+
+// Every problem of the plan, each "LINE: path: problem" (or "path: problem"
+// without a source), in the plan's order: a plan with three mistakes says
+// all three at once.
+std::vector<std::string> Problems(const pb::TestPlan& plan, const Locator& where) {
+  std::vector<std::string> out;
+  auto add = [&](const Status& st) {
+    if (!st.ok()) out.push_back(st.message());
+  };
   if (!(plan.nominal_rate_hz() > 0) || !Finite(plan.nominal_rate_hz())) {
-    return Fail(where, "nominal_rate_hz", -1, "nominal_rate_hz", "must be a positive rate in Hz");
+    add(Fail(where, "nominal_rate_hz", -1, "nominal_rate_hz", "must be a positive rate in Hz"));
   }
   if (!(plan.min_duration_s() >= 0) || !Finite(plan.min_duration_s())) {
-    return Fail(where, "min_duration_s", -1, "min_duration_s", "must be >= 0 s");
+    add(Fail(where, "min_duration_s", -1, "min_duration_s", "must be >= 0 s"));
   }
   if (!(plan.warmup_s() >= 0) || !Finite(plan.warmup_s())) {
-    return Fail(where, "warmup_s", -1, "warmup_s", "must be >= 0 s");
+    add(Fail(where, "warmup_s", -1, "warmup_s", "must be >= 0 s"));
   }
   std::set<std::string> names;
   for (int i = 0; i < plan.axes_size(); ++i) {
@@ -143,41 +163,54 @@ Status Validate(const pb::TestPlan& plan, const Locator& where) {
     if (a.name().empty() || a.name().size() > 32 ||
         a.name().find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
                                    "0123456789_-") != std::string::npos) {
-      return Fail(where, "axes", i, path + ".name",
-                  "'" + a.name() + "' must be 1-32 letters, digits, '_' or '-'", "name");
-    }
-    if (!names.insert(a.name()).second) {
-      return Fail(where, "axes", i, path + ".name", "duplicate axis '" + a.name() + "'", "name");
+      add(Fail(where, "axes", i, path + ".name",
+               "'" + a.name() + "' must be 1-32 letters, digits, '_' or '-'", "name"));
+    } else if (!names.insert(a.name()).second) {
+      add(Fail(where, "axes", i, path + ".name", "duplicate axis '" + a.name() + "'", "name"));
     }
     if (a.kind() == pb::AXIS_KIND_UNSPECIFIED) {
-      return Fail(where, "axes", i, path + ".kind", "must be GYRO or ACCEL", "kind");
+      add(Fail(where, "axes", i, path + ".kind", "must be GYRO or ACCEL", "kind"));
     }
   }
   const pb::TauGrid& grid = plan.grid();
   if (grid.kind() == pb::TauGrid::LOG_DENSE &&
       (grid.points_per_decade() < 1 || grid.points_per_decade() > 100)) {
-    return Fail(where, "grid", -1, "grid.points_per_decade", "must be 1..100 for LOG_DENSE");
+    add(Fail(where, "grid", -1, "grid.points_per_decade", "must be 1..100 for LOG_DENSE"));
   }
   if (grid.kind() == pb::TauGrid::EXPLICIT) {
-    if (grid.tau_s_size() == 0) return Fail(where, "grid", -1, "grid.tau_s", "EXPLICIT needs taus");
-    for (double t : grid.tau_s()) {
-      if (!(t > 0) || !Finite(t)) return Fail(where, "grid", -1, "grid.tau_s", "taus must be > 0");
+    if (grid.tau_s_size() == 0) add(Fail(where, "grid", -1, "grid.tau_s", "EXPLICIT needs taus"));
+    if (std::any_of(grid.tau_s().begin(), grid.tau_s().end(),
+                    [](double t) { return !(t > 0) || !Finite(t); })) {
+      add(Fail(where, "grid", -1, "grid.tau_s", "taus must be > 0"));
     }
   }
   const std::string& stop = plan.stop_rule();
   if (!stop.empty() && stop != "bins9" && stop != "stable32" && stop != "none") {
-    return Fail(where, "stop_rule", -1, "stop_rule",
-                "'" + stop + "' is not one of bins9, stable32, none");
+    const std::string closest = ClosestName(stop, {"bins9", "stable32", "none"});
+    add(Fail(where, "stop_rule", -1, "stop_rule",
+             "'" + stop + "' is not one of bins9, stable32, none" +
+                 (closest.empty() ? "" : " (did you mean " + closest + "?)")));
   }
   if (!pb::Limit::DecisionRule_IsValid(plan.default_decision_rule())) {
-    return Fail(where, "default_decision_rule", -1, "default_decision_rule",
-                "unknown decision rule " + std::to_string(plan.default_decision_rule()));
+    add(Fail(where, "default_decision_rule", -1, "default_decision_rule",
+             "unknown decision rule " + std::to_string(plan.default_decision_rule())));
   }
   if (plan.has_default_guard_k() &&
       !(plan.default_guard_k() > 0 && Finite(plan.default_guard_k()))) {
-    return Fail(where, "default_guard_k", -1, "default_guard_k",
-                "must be a finite number > 0 (w = guard_k * u)");
+    add(Fail(where, "default_guard_k", -1, "default_guard_k",
+             "must be a finite number > 0 (w = guard_k * u)"));
   }
+  add(ValidateEarlyDecision(plan, where));
+  std::set<int> range_kinds;
+  for (int i = 0; i < plan.noise_model_range_size(); ++i) {
+    add(ValidateNoiseModelRange(plan, i, where, &range_kinds));
+  }
+  for (int i = 0; i < plan.limits_size(); ++i) add(ValidateLimit(plan, i, where));
+  return out;
+}
+
+// The early-decision block's first problem.
+Status ValidateEarlyDecision(const pb::TestPlan& plan, const Locator& where) {
   if (plan.has_early_decision()) {
     const pb::EarlyDecision& e = plan.early_decision();
     auto bad = [&](const char* sub, const std::string& problem) {
@@ -203,15 +236,20 @@ Status Validate(const pb::TestPlan& plan, const Locator& where) {
                      " looks between min_duration_s and the horizon: take a longer look_period_s");
     }
   }
-  std::set<int> range_kinds;
-  for (int i = 0; i < plan.noise_model_range_size(); ++i) {
+  return Status::Ok();
+}
+
+// Noise-model range i's first problem; `kinds` collects the axis kinds seen.
+Status ValidateNoiseModelRange(const pb::TestPlan& plan, int i, const Locator& where,
+                               std::set<int>* kinds) {
+  {
     const pb::NoiseModelRange& r = plan.noise_model_range(i);
     const std::string path = "noise_model_range[" + std::to_string(i) + "]";
     if (!pb::AxisKind_IsValid(r.axis_kind())) {
       return Fail(where, "noise_model_range", i, path + ".axis_kind", "unknown axis kind",
                   "axis_kind");
     }
-    if (!range_kinds.insert(r.axis_kind()).second) {
+    if (!kinds->insert(r.axis_kind()).second) {
       return Fail(where, "noise_model_range", i, path + ".axis_kind",
                   "a second range for " + pb::AxisKind_Name(r.axis_kind()) +
                       " axes (one per axis kind)",
@@ -227,7 +265,7 @@ Status Validate(const pb::TestPlan& plan, const Locator& where) {
                   "must say why the short taus are not fitted (the record quotes it)", "reason");
     }
   }
-  return ValidateLimits(plan, where);
+  return Status::Ok();
 }
 
 }  // namespace
@@ -241,7 +279,10 @@ const pb::NoiseModelRange* NoiseModelRangeFor(const pb::TestPlan& plan, pb::Axis
   return any;
 }
 
-Status ValidatePlan(const pb::TestPlan& plan) { return Validate(plan, nullptr); }
+Status ValidatePlan(const pb::TestPlan& plan) {
+  const std::vector<std::string> problems = Problems(plan, nullptr);
+  return problems.empty() ? Status::Ok() : Status::InvalidArgument(Join(problems, "\n"));
+}
 
 Result<pb::TestPlan> ParsePlanText(std::string_view text, std::string_view source_name) {
   pb::TestPlan plan;
@@ -251,11 +292,16 @@ Result<pb::TestPlan> ParsePlanText(std::string_view text, std::string_view sourc
   Locator where = [&](const char* field, int index, const char* sub) {
     return parsed.LineOf(pb::TestPlan::descriptor(), field, index, sub);
   };
-  Status st = Validate(plan, where);
-  if (!st.ok()) {
-    // Located messages start with the line number: "src:14: ..."; others "src: ...".
-    const bool located = !st.message().empty() && std::isdigit(st.message()[0]);
-    return Status::InvalidArgument(src + (located ? ":" : ": ") + st.message());
+  const std::vector<std::string> problems = Problems(plan, where);
+  if (!problems.empty()) {
+    // Every problem at once, one per line. Located ones start with the line
+    // number: "src:14: ..."; others "src: ...".
+    std::vector<std::string> lines;
+    for (const std::string& p : problems) {
+      const bool located = !p.empty() && std::isdigit(static_cast<unsigned char>(p[0]));
+      lines.push_back(src + (located ? ":" : ": ") + p);
+    }
+    return Status::InvalidArgument(Join(lines, "\n"));
   }
   return plan;
 }

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "common/strings.h"
+
 namespace imuqual::judge {
 namespace {
 
@@ -165,6 +167,46 @@ TEST(PlanTest, AcceptsDecisionRules) {
       "p.textproto");
   ASSERT_TRUE(plan.ok()) << plan.status().ToString();
   EXPECT_EQ(plan->limits(1).guard_k(), 3);
+}
+
+}  // namespace
+}  // namespace imuqual::judge
+
+namespace imuqual::judge {
+namespace {
+
+// A plan with several mistakes says all of them at once, each on its own
+// line with its file, line and field, a mistyped name with the closest one.
+TEST(PlanTest, EveryProblemAtOnceWithDidYouMean) {
+  const std::string err = ErrorOf(
+      "nominal_rate_hz: 100\n"
+      "warmup_s: -5\n"
+      "stop_rule: \"bins8\"\n"
+      "axes { name: \"gx\" kind: GYRO }\n"
+      "limits { measurement: \"bias_instabilty\" axis_kind: GYRO high: 20 unit: \"deg/h\" }\n"
+      "limits { measurement: \"tau_at_minimum\" axes: \"gxx\" high: 100 unit: \"s\" }\n"
+      "limits { measurement: \"angle_random_walk\" axis_kind: GYRO low: 3 high: 1 "
+      "unit: \"deg/sqrt(h)\" }\n");
+  const std::vector<std::string> lines = Split(err, '\n');
+  ASSERT_EQ(lines.size(), 5u) << err;
+  EXPECT_EQ(lines[0], "p.textproto:2: warmup_s: must be >= 0 s");
+  EXPECT_EQ(lines[1].rfind("p.textproto:3: stop_rule: 'bins8' is not one of bins9, stable32, "
+                           "none (did you mean bins9?)",
+                           0),
+            0u)
+      << lines[1];
+  EXPECT_EQ(lines[2].rfind("p.textproto:5: limits[0].measurement: unknown measurement "
+                           "'bias_instabilty' (did you mean bias_instability?)",
+                           0),
+            0u)
+      << lines[2];
+  EXPECT_EQ(lines[3],
+            "p.textproto:6: limits[1].axes: no axis named 'gxx' in the plan (did you mean gx?)");
+  EXPECT_EQ(lines[4].rfind("p.textproto:7: limits[2]: low 3 is above high 1", 0), 0u) << lines[4];
+  // A field the plan does not have: the one it has closest to it.
+  EXPECT_EQ(ErrorOf("nominal_rate_hz: 100\nwarmup: 5\n"),
+            "p.textproto:2:7: Message type \"imuqual.pb.TestPlan\" has no field named \"warmup\". "
+            "(did you mean warmup_s?)");
 }
 
 }  // namespace
