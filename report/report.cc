@@ -50,6 +50,22 @@ std::string Attr(std::string_view name, std::string_view value) {
 // "" for none.
 std::string Exact(double v) { return std::isfinite(v) ? ShortestReal(v) : ""; }
 
+// A number printf wrote ("-1.234e-05", "0.81") as HTML: a real minus sign,
+// 1.234&times;10<sup>&minus;5</sup>.
+std::string HtmlNumber(std::string_view printed) {
+  std::string out;
+  if (!printed.empty() && printed.front() == '-') {
+    out = "&minus;";
+    printed.remove_prefix(1);
+  }
+  const size_t e = printed.find('e');
+  if (e == std::string_view::npos) return out + std::string(printed);
+  const int exponent = std::stoi(std::string(printed.substr(e + 1)));
+  Add(&out, std::string(printed.substr(0, e)), "&times;10<sup>", exponent < 0 ? "&minus;" : "",
+      std::to_string(std::abs(exponent)), "</sup>");
+  return out;
+}
+
 // Four significant digits for people, as HTML: 1.234&times;10<sup>-5</sup>,
 // a real minus sign, an en dash for none.
 std::string Human(double v) {
@@ -233,12 +249,19 @@ std::string ValueCell(double v, std::string_view key, std::string_view outcome,
   }
   const bool finite = std::isfinite(v);
   if (finite && m.qualifier == pb::UPPER_BOUND) out += "<span class=\"mk\">&le;&nbsp;</span>";
-  Add(&out, "<span class=\"v\">", Human(v), "</span>");
+  // With its uncertainty the value is quoted as a measurement is (GUM
+  // 7.2.6): u to two significant digits, the value to u's last digit.
+  const bool with_u = finite && m.qualifier != pb::UPPER_BOUND && std::isfinite(m.uncertainty);
+  const bool quoted = with_u && m.uncertainty > 0;
+  const auto [number, u] =
+      quoted ? QuotedWithUncertainty(v, m.uncertainty) : std::pair<std::string, std::string>{};
+  Add(&out, "<span class=\"v\">", quoted ? HtmlNumber(number) : Human(v), "</span>");
   if (finite && m.qualifier == pb::MINIMUM_NOT_RESOLVED)
     out += "<span class=\"mk\">&dagger;</span>";
   if (finite && m.qualifier == pb::MODEL_INADEQUATE) out += "<span class=\"mk\">&Dagger;</span>";
-  if (finite && m.qualifier != pb::UPPER_BOUND && std::isfinite(m.uncertainty)) {
-    Add(&out, "<small class=\"pm\"> &plusmn;&nbsp;", Human(m.uncertainty), "</small>");
+  if (with_u) {
+    Add(&out, "<small class=\"pm\"> &plusmn;&nbsp;", quoted ? HtmlNumber(u) : Human(m.uncertainty),
+        "</small>");
   }
   out += "</td>";
   return out;
@@ -886,7 +909,12 @@ void LotModelSection(const std::vector<AxisLotModel>& models, std::string* out) 
           Add(&cell,
               std::isfinite(x.upper_bound) ? "&le;&nbsp;" + Human(x.upper_bound) : "&ndash;");
         } else {
-          Add(&cell, Human(x.value), " &plusmn; ", Human(x.sigma));
+          if (std::isfinite(x.sigma) && x.sigma > 0) {
+            const auto [number, u] = QuotedWithUncertainty(x.value, x.sigma);
+            Add(&cell, HtmlNumber(number), " &plusmn; ", HtmlNumber(u));
+          } else {
+            Add(&cell, Human(x.value), " &plusmn; ", Human(x.sigma));
+          }
         }
         Add(&cell, " ", PrettyUnit(x.unit), "</td>");
         return cell;

@@ -11,7 +11,8 @@
 //       what the archive's measurements give (recomputed here from sqlite3);
 //       the header equals the lot_overview view; the failing and marginal
 //       units are listed with their reasons and plotted; the visible text is
-//       the value rounded to 4 significant digits; the plan's HTML shows as
+//       the value rounded to 4 significant digits (with its ± u: to u's second
+//       significant digit); the plan's HTML shows as
 //       text; the tables sort on click.
 //
 // Usage: node report_check.mjs --imuqual BIN [--chromium PATH]
@@ -71,17 +72,28 @@ function sameClose(pageText, expected) {
 }
 
 // The visible text of a number cell is the value to 4 significant digits:
-// "12.42", "−3.5", "1.234×10−5" (en dash for none).
-function visibleMatches(text, exact) {
+// "12.42", "−3.5", "1.234×10−5" (en dash for none). Shown with its
+// uncertainty u (> 0), it is quoted as a measurement is: to the decimal
+// place of u's second significant digit ("410 ± 280", "10.20 ± 0.81").
+function visibleMatches(text, exact, u = NaN) {
   const t = text.trim();
   if (exact === '') return t === '\u2013';
   const v = Number(exact);
   const m = /^(\u2212?)(\d+(?:\.\d+)?)(?:\u00d710(\u2212?)(\d+))?$/.exec(t);
   if (!m) return false;
-  const digits = m[2].replace('.', '').replace(/^0+/, '');
-  if (digits.length > 4) return false;
   let shown = Number(m[2]) * (m[3] !== undefined ? 10 ** ((m[3] ? -1 : 1) * Number(m[4])) : 1);
   if (m[1]) shown = -shown;
+  if (Number.isFinite(u) && u > 0) {
+    let place = Math.floor(Math.log10(u)) - 1;
+    if (Math.round(u / 10 ** place) >= 100) place += 1;  // u rounded up to a new decade
+    // Exactly the value rounded to that place (a tie either way).
+    const step = 10 ** place, q = v / step;
+    const tie = Math.abs(Math.abs(q - Math.trunc(q)) - 0.5) < 1e-9;
+    return tie ? Math.abs(shown - v) <= 0.5 * step * (1 + 1e-9)
+               : Math.abs(shown - Math.round(q) * step) <= 1e-6 * step;
+  }
+  const digits = m[2].replace('.', '').replace(/^0+/, '');
+  if (digits.length > 4) return false;
   if (v === 0) return shown === 0;
   const halfStep = 0.5 * 10 ** (Math.floor(Math.log10(Math.abs(v))) - 3);
   return Math.abs(shown - v) <= halfStep * (1 + 1e-9);
@@ -349,8 +361,10 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
       }
       if (!sameExact(cell.v, want)) fail(`${r.serial} ${r.axis} ${key}: page ${cell.v}, archive ${want}`);
       const notMeasurable = cell.q === 'not_measurable';
-      if (notMeasurable ? cell.text.trim() !== 'n/m' : !visibleMatches(cell.text, cell.v)) {
-        fail(`${r.serial} ${r.axis} ${key}: visible '${cell.text}' is not ${cell.v} to 4 digits`);
+      const uShown = cell.whole.includes('\u00b1') ? Number(cell.u) : NaN;
+      if (notMeasurable ? cell.text.trim() !== 'n/m' : !visibleMatches(cell.text, cell.v, uShown)) {
+        fail(`${r.serial} ${r.axis} ${key}: visible '${cell.text}' is not ${cell.v} ` +
+             (Number.isFinite(uShown) ? `quoted to its uncertainty ${cell.u}` : 'to 4 digits'));
       }
       if (measurementName[key]) {
         const outcome = outcomeOf.get(`${r.run_id}\u0000${r.axis}\u0000${measurementName[key]}`) ?? null;
@@ -369,6 +383,11 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
           const showsU = cell.whole.includes('\u00b1');
           const wantsU = m.uncertainty !== null && cell.v !== '' && m.qualifier !== 'upper_bound' && !notMeasurable;
           if (showsU !== wantsU) fail(`${r.serial} ${r.axis} ${key}: '${cell.whole}' ${wantsU ? 'lacks' : 'shows'} ± u`);
+          // u itself to two significant digits.
+          const uText = showsU ? cell.whole.split('\u00b1')[1].replace(/\u00a0/g, ' ').trim() : '';
+          if (showsU && m.uncertainty > 0 && !visibleMatches(uText, String(m.uncertainty), m.uncertainty)) {
+            fail(`${r.serial} ${r.axis} ${key}: '± ${uText}' is not ${m.uncertainty} to two significant digits`);
+          }
         }
       }
     }
