@@ -17,6 +17,7 @@
 #include "common/strings.h"
 #include "common/text_util.h"
 #include "offline/curve_request.h"
+#include "report/marks.h"
 #include "report/model_plot.h"
 #include "report/svg_plot.h"
 #include "report/table_writer.h"
@@ -136,11 +137,20 @@ double ReadOff(const std::string& name, const Curve& curve,
   return allan::kNaN;
 }
 
+// The fit's quantities; `for_people` (the table format) quotes a value with
+// its sigma as a measurement is (u to two significant digits, the value to
+// u's last digit: "0.2832 ± 0.0011"), CSV and JSON carry every digit.
 TableWriter QuantityTable(const allan::CompositeFit& fit, const Curve& curve,
-                          const std::optional<allan::SensorKind>& kind) {
+                          const std::optional<allan::SensorKind>& kind, bool for_people = false) {
   TableWriter t({"term", "value", "sigma", "unit", "read_off", "role", "note"}, 5);
   for (const allan::ModelQuantity& q : allan::DescribeCompositeFit(fit, kind)) {
-    t.AddRow({Cell::Text(q.name), Cell::Real(q.value), Cell::Real(q.sigma), Cell::Text(q.unit),
+    Cell value = Cell::Real(q.value), sigma = Cell::Real(q.sigma);
+    if (for_people && std::isfinite(q.value) && std::isfinite(q.sigma) && q.sigma > 0) {
+      const auto [v, u] = report::QuotedWithUncertainty(q.value, q.sigma);
+      value = Cell::NumText(v);
+      sigma = Cell::NumText(u);
+    }
+    t.AddRow({Cell::Text(q.name), value, sigma, Cell::Text(q.unit),
               Cell::Real(q.figure ? ReadOff(q.name, curve, kind) : allan::kNaN),
               Cell::Text(q.figure ? "figure" : "parameter"), Cell::Text(q.note)});
   }
@@ -325,7 +335,8 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     }
     if (fit) {
       std::printf("\n%s\n", FitSummary(*fit, o.fit_min_tau_s).c_str());
-      std::printf("%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kTable).c_str());
+      std::printf("%s",
+                  QuantityTable(*fit, fit_curve, p.kind, true).Render(Format::kTable).c_str());
       std::printf(
           "\ncandidates (best first; criterion J + 3.84 per Q/N/B/K/R term + 2 per Gauss-Markov or "
           "sinusoid parameter + 2k(k+1)/(p-k-1); figures and IEEE terms are averaged with the "
