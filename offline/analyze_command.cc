@@ -216,6 +216,16 @@ std::string FitJson(const allan::CompositeFit& fit, const Curve& curve,
          ",\n\"candidates\": " + CandidateTable(fit).Render(Format::kJson) + "}";
 }
 
+// "adis.csv, column ax_g (accel, g), 100 Hz": what the plot is of.
+std::string PlotTitle(const AnalyzeFileOptions& o) {
+  std::string title = o.path.substr(o.path.find_last_of('/') + 1);
+  if (!o.column.empty()) title += ", column " + o.column;
+  if (!o.kind.empty()) title += " (" + o.kind + (o.unit.empty() ? "" : ", " + o.unit) + ")";
+  char rate[32];
+  std::snprintf(rate, sizeof rate, ", %g Hz", o.rate_hz);
+  return title + rate;
+}
+
 std::string PlotCurves(const std::vector<Curve>& curves, const allan::CompositeFit* fit,
                        const Curve* fit_curve, const std::string& title,
                        const std::optional<allan::SensorKind>& kind, bool phase) {
@@ -252,8 +262,15 @@ std::string PlotCurves(const std::vector<Curve>& curves, const allan::CompositeF
     AddModelSeries(fit->model, fit->tau0_s, fit_curve->points.front().tau_s,
                    fit_curve->points.back().tau_s, fit->adequate, &plot);
     if (auto min = allan::FindCurveMinimum(*fit_curve)) {
-      char label[64];
-      std::snprintf(label, sizeof label, "minimum %.4g at %.4g s", min->dev, min->tau_s);
+      // In the left axis's unit (the datasheet's, with --kind).
+      char label[96];
+      const std::string unit =
+          kind ? " " + std::string(allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *kind, 1.0)
+                                       .unit)
+               : "";
+      const bool last = min->m == fit_curve->points.back().m;
+      std::snprintf(label, sizeof label, "minimum %.4g%s at %.4g s%s", min->dev * plot.y_scale,
+                    unit.c_str(), min->tau_s, last ? " (last point: not resolved)" : "");
       plot.markers.push_back({label, min->tau_s, min->dev, "#d62728"});
     }
   }
@@ -360,8 +377,8 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   }
   if (!o.plot_path.empty()) {
     const std::string svg =
-        PlotCurves(curves, fit ? &*fit : nullptr, fit ? &fit_curve : nullptr,
-                   o.path.substr(o.path.find_last_of('/') + 1), p.kind, o.type == "phase");
+        PlotCurves(curves, fit ? &*fit : nullptr, fit ? &fit_curve : nullptr, PlotTitle(o), p.kind,
+                   o.type == "phase");
     Status st = WriteStringToFile(o.plot_path, svg);
     if (!st.ok()) {
       LogError(st.message());

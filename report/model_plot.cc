@@ -10,8 +10,9 @@ void AddModelSeries(const allan::CompositeModel& model, double tau0_s, double ta
   if (model.terms.empty() || !(tau_lo > 0) || !(tau_hi > tau_lo) || !(tau0_s > 0)) return;
   constexpr int kSteps = 160;
   auto series = [&](const allan::CompositeModel& m, std::string label, std::string color,
-                    double width, double opacity, bool in_legend) {
+                    double width, double opacity, bool in_legend, bool sets_range) {
     PlotSeries s;
+    s.sets_range = sets_range;
     s.label = std::move(label);
     s.color = std::move(color);
     s.markers = false;
@@ -27,13 +28,15 @@ void AddModelSeries(const allan::CompositeModel& model, double tau0_s, double ta
     plot->series.push_back(std::move(s));
   };
   series(model, "model " + model.Name() + (adequate ? "" : " (inadequate)"), "#444444", 1.6, 1.0,
-         true);
+         true, true);
   if (model.terms.size() < 2) return;
   for (size_t i = 0; i < model.terms.size(); ++i) {
     allan::CompositeModel one;
     one.terms.push_back(model.terms[i]);
+    // A term alone (a sinusoid, a fast Gauss-Markov part) can lie decades
+    // below the data: drawn where it is in the data's range, never widening it.
     series(one, std::string(allan::TermKindSymbol(model.terms[i].kind)), "#999999", 1.0, 0.6,
-           i == 0);
+           i == 0, false);
   }
   plot->series[plot->series.size() - model.terms.size()].label = "model terms";
 }

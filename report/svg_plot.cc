@@ -74,6 +74,7 @@ std::string LogLogPlot::ToSvg() const {
     y1 = std::max(y1, std::log10(y) + log_k);
   };
   for (const PlotSeries& s : series) {
+    if (!s.sets_range) continue;
     for (size_t i = 0; i < s.x.size(); ++i) {
       take(s.x[i], s.y[i]);
       if (i < s.lo.size()) take(s.x[i], s.lo[i]);
@@ -208,11 +209,23 @@ std::string LogLogPlot::ToSvg() const {
            "\" stroke-dasharray=\"6,4\" stroke-width=\"1.5\"/>\n";
   }
   for (const PlotSeries& s : series) {
-    std::string pts;
+    // The line in runs of drawable points inside the plot (a series that
+    // does not set the range leaves it, and is not drawn there).
+    std::vector<std::string> runs(1);
+    auto inside = [&](size_t i) {
+      if (!Drawable(s.x[i], s.y[i])) return false;
+      const double y = pyb(s.y[i]);
+      return s.sets_range || (y >= top - 0.5 && y <= top + ph + 0.5);
+    };
     for (size_t i = 0; i < s.x.size(); ++i) {
-      if (Drawable(s.x[i], s.y[i])) pts += F(px(s.x[i])) + "," + F(pyb(s.y[i])) + " ";
+      if (inside(i)) {
+        runs.back() += F(px(s.x[i])) + "," + F(pyb(s.y[i])) + " ";
+      } else if (!runs.back().empty()) {
+        runs.emplace_back();
+      }
     }
-    if (pts.empty()) continue;
+    if (runs.back().empty()) runs.pop_back();
+    if (runs.empty()) continue;
     std::string opacity;
     if (s.opacity < 1) {
       opacity = " opacity=\"";
@@ -220,12 +233,14 @@ std::string LogLogPlot::ToSvg() const {
       opacity += "\"";
     }
     if (!s.tooltip.empty()) svg += "<g><title>" + Esc(s.tooltip) + "</title>";
-    svg += "<polyline points=\"" + pts + "\" fill=\"none\" stroke=\"" + s.color +
-           "\" stroke-width=\"" + F(s.stroke_width) + "\"" +
-           (s.dashed ? " stroke-dasharray=\"5,3\"" : "") + opacity + "/>\n";
+    for (const std::string& pts : runs) {
+      svg += "<polyline points=\"" + pts + "\" fill=\"none\" stroke=\"" + s.color +
+             "\" stroke-width=\"" + F(s.stroke_width) + "\"" +
+             (s.dashed ? " stroke-dasharray=\"5,3\"" : "") + opacity + "/>\n";
+    }
     if (s.markers) {
       for (size_t i = 0; i < s.x.size(); ++i) {
-        if (!Drawable(s.x[i], s.y[i])) continue;
+        if (!inside(i)) continue;
         svg += "<circle cx=\"" + F(px(s.x[i])) + "\" cy=\"" + F(pyb(s.y[i])) +
                "\" r=\"2.6\" fill=\"" + s.color + "\"" + opacity + "/>\n";
       }

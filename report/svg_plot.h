@@ -21,6 +21,10 @@ struct PlotSeries {
   double stroke_width = 1.8;  // px
   double opacity = 1.0;       // of the line and markers, in (0, 1]
   std::string tooltip;        // shown on hover (an SVG <title>): e.g. the unit and its values
+  // false: the plot's range does not grow to show it (a model's single term,
+  // whose sinusoid or fast Gauss-Markov part falls decades below the data);
+  // its parts outside the range are not drawn.
+  bool sets_range = true;
 };
 
 // A reference line, e.g. a limit: y(x) = y * x^slope on the log-log axes

@@ -100,3 +100,36 @@ TEST(LogLogPlotTest, AReferenceMarkerOutsideTheRangeIsNotDrawn) {
 
 }  // namespace
 }  // namespace imuqual::report
+
+namespace imuqual::report {
+namespace {
+
+// A series that does not set the range (a model's single term, e.g. a
+// sinusoid decades below the data) neither widens the axes nor is drawn
+// outside them: the ADIS16405 gx plot spanned 1e-6 to 1e4.
+TEST(LogLogPlotTest, ASeriesThatDoesNotSetTheRangeIsDrawnOnlyInsideIt) {
+  LogLogPlot p;
+  PlotSeries data;
+  data.x = {0.1, 1, 10};
+  data.y = {0.3, 0.1, 0.03};
+  p.series.push_back(data);
+  PlotSeries term;
+  term.sets_range = false;
+  term.markers = false;
+  term.x = {0.1, 0.3, 1, 3, 10};
+  term.y = {0.05, 1e-6, 1e-7, 0.02, 0.02};  // dips far below, comes back
+  p.series.push_back(term);
+  const std::string svg = p.ToSvg();
+  EXPECT_EQ(svg.find(">1e-06</text>"), std::string::npos) << svg;
+  EXPECT_EQ(svg.find(">1e-07</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">0.01</text>"), std::string::npos);
+  // The term is drawn in two runs (before and after its dip), the data in one.
+  size_t polylines = 0;
+  for (size_t at = svg.find("<polyline"); at != std::string::npos; at = svg.find("<polyline", at + 1)) {
+    ++polylines;
+  }
+  EXPECT_EQ(polylines, 3u) << svg;
+}
+
+}  // namespace
+}  // namespace imuqual::report
