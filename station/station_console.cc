@@ -613,7 +613,8 @@ ConsoleUnitCells DescribeUnit(const ConsoleModel& m, const ConsoleUnit& u, size_
   c.attention = AttentionRank(u);
   for (const ConsoleAxis& x : u.axes) {
     const std::string value = LiveValue(x, 3, true, u.final_result);
-    c.axes.push_back({x.name, AxisVerdictText(u, x), value.empty() ? "-" : value + " " + x.unit});
+    c.axes.push_back({x.name, AxisVerdictText(u, x), value.empty() ? "-" : value + " " + x.unit,
+                      x.limit_high, x.marginal_high});
   }
   return c;
 }

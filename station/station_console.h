@@ -41,6 +41,11 @@ struct ConsoleAxis {
   // The worst measurement outcome of the axis (measurement_t.OUTCOME_*;
   // FAIL > INCONCLUSIVE > MARGINAL > PASS, store::OutcomeSeverity).
   int8_t outcome = 0;
+  // The plan's limits on the axis's bias_instability (the curve minimum, in
+  // `unit`'s datasheet unit: deg/h, ug), NaN where the plan has none: the
+  // live page draws them on the axis's curve.
+  double limit_high = std::numeric_limits<double>::quiet_NaN();
+  double marginal_high = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct ConsoleUnit {
@@ -131,6 +136,8 @@ std::string ConsoleSummaryLine(const ConsoleModel& model);
 // verdict and live bias instability with marks and unit ("-" when none).
 struct ConsoleAxisCells {
   std::string name, verdict, bias_instability;
+  double limit_high = std::numeric_limits<double>::quiet_NaN();
+  double marginal_high = std::numeric_limits<double>::quiet_NaN();
 };
 struct ConsoleUnitCells {
   std::string verdict, reason, state, elapsed;

@@ -7,6 +7,7 @@
 
 #include "analyze/allan/units.h"
 #include "analyze/judge/early_decision.h"
+#include "analyze/judge/judge.h"
 #include "common/channels.h"
 #include "common/clock.h"
 #include "common/strings.h"
@@ -265,6 +266,16 @@ void StationMonitor::OnRun(const imuqual::run_t& r) {
     // Early decisions: the looks its plan schedules.
     pb::TestPlan plan;
     if (plan.ParseFromArray(r.plan.data(), static_cast<int>(r.plan.size()))) {
+      // The limits on each axis's curve minimum, for the live page's plots.
+      for (size_t a = 0; a < u->axes.size(); ++a) {
+        const bool accel = a < r.axis_kinds.size() &&
+                           r.axis_kinds[a] == imuqual::rate_batch_t::KIND_ACCEL;
+        const judge::AxisDesc axis{u->axes[a].name, accel ? pb::ACCEL : pb::GYRO};
+        if (const pb::Limit* l = judge::FindLimit(plan, "bias_instability", &axis)) {
+          if (l->has_high()) u->axes[a].limit_high = l->high();
+          if (l->has_marginal_high()) u->axes[a].marginal_high = l->marginal_high();
+        }
+      }
       if (plan.has_early_decision())
         u->looks_planned = static_cast<int>(judge::MakeLookSchedule(plan).times_s.size());
       if (options_.discover_units && !plan.name().empty()) model_.plan = plan.name();

@@ -6,6 +6,7 @@
 
 #include "common/channels.h"
 #include "imuqual/measurement_t.hpp"
+#include "imuqual/plan.pb.h"
 #include "imuqual/rate_batch_t.hpp"
 
 namespace imuqual::station {
@@ -495,6 +496,45 @@ TEST(StationMonitorTest, CurvesInDatasheetUnitsThinnedFinalKept) {
   EXPECT_EQ(curves[0].axis, "gx");  // the run's axis order
   EXPECT_EQ(curves[0].unit, "ug");
   EXPECT_NEAR(curves[0].dev.front(), 1.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace imuqual::station
+
+namespace imuqual::station {
+namespace {
+
+// The plan each run carries gives every axis its bias-instability limits,
+// for the live page's plots: an axis-specific limit over the kind's.
+TEST(StationMonitorTest, EachAxisCarriesThePlansLimitsOnItsCurveMinimum) {
+  pb::TestPlan plan;
+  plan.set_nominal_rate_hz(100);
+  pb::Limit* all = plan.add_limits();
+  all->set_measurement("bias_instability");
+  all->set_axis_kind(pb::GYRO);
+  all->set_high(20);
+  all->set_marginal_high(16);
+  all->set_unit("deg/h");
+  pb::Limit* gy = plan.add_limits();
+  gy->set_measurement("bias_instability");
+  gy->add_axes("gy");
+  gy->set_high(12);
+  gy->set_unit("deg/h");
+  imuqual::run_t r = RunMsg("R-U1", "U1", "A1");
+  const std::string bytes = plan.SerializeAsString();
+  r.plan.assign(bytes.begin(), bytes.end());
+  r.plan_size = static_cast<int32_t>(r.plan.size());
+  MonitorOptions o;
+  o.discover_units = true;
+  StationMonitor m(o);
+  m.OnRun(r);
+  ASSERT_EQ(m.model().units.size(), 1u);
+  const auto& axes = m.model().units[0].axes;
+  ASSERT_EQ(axes.size(), 2u);
+  EXPECT_EQ(axes[0].limit_high, 20);
+  EXPECT_EQ(axes[0].marginal_high, 16);
+  EXPECT_EQ(axes[1].limit_high, 12);
+  EXPECT_TRUE(std::isnan(axes[1].marginal_high));
 }
 
 }  // namespace

@@ -39,8 +39,11 @@ std::string LiveStatusJson(const station::ConsoleModel& m, int64_t newest_utime)
     const station::ConsoleUnitCells cells = station::DescribeUnit(m, u);
     json axes = json::array();
     for (const station::ConsoleAxisCells& x : cells.axes) {
-      axes.push_back(
-          {{"name", x.name}, {"verdict", x.verdict}, {"bias_instability", x.bias_instability}});
+      json axis = {{"name", x.name}, {"verdict", x.verdict}, {"bias_instability", x.bias_instability}};
+      // The plan's limits on the curve minimum, in the curve's unit (absent: none).
+      if (std::isfinite(x.limit_high)) axis["limit_high"] = x.limit_high;
+      if (std::isfinite(x.marginal_high)) axis["marginal_high"] = x.marginal_high;
+      axes.push_back(std::move(axis));
     }
     all_done = all_done && u.archived && u.final_result;
     units.push_back({{"slot", u.slot},

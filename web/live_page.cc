@@ -63,6 +63,8 @@ constexpr char kLiveScript[] = R"js((() => {
     ? `${prefix}?${key}=${encodeURIComponent(name)}` : `${prefix}/${encodeURIComponent(name)}`;
   const curves = new Map();   // run id -> Map(axis -> curve)
   const figures = new Map();  // run id -> {figure, caption, svg}
+  const limits = new Map();   // run id -> Map(axis -> {high, marginal}) from the plan
+  let yRange = null;          // [lowest decade, highest decade]: one for every plot
   let newest = 0;
 
   function row(u, first, axis, nAxes) {
@@ -125,6 +127,13 @@ constexpr char kLiveScript[] = R"js((() => {
       axes.forEach((x, i) => body.append(row(u, i === 0, x, axes.length)));
     }
     $('units').tBodies[0].replaceWith(body);
+    // The plan's limits on each axis's curve minimum, drawn on its plot.
+    for (const u of units) {
+      if (!u.run_id) continue;
+      const m = new Map();
+      for (const x of u.axes || []) m.set(x.name, { high: x.limit_high, marginal: x.marginal_high });
+      limits.set(u.run_id, m);
+    }
     // One plot per unit with a run, in the table's order.
     const box = $('curves');
     const order = [];
@@ -140,7 +149,7 @@ constexpr char kLiveScript[] = R"js((() => {
         figure.append(caption, svg);
         f = { figure, caption, svg };
         figures.set(u.run_id, f);
-        draw(u.run_id);
+        drawAll(u.run_id);
       }
       f.caption.textContent = '';
       f.caption.append(`${u.slot} ${u.serial} `, el('span', u.verdict, 'verdict ' + outcomeOf(u.verdict)));
@@ -162,6 +171,28 @@ constexpr char kLiveScript[] = R"js((() => {
   const kColours = ['#1f6feb', '#bf8700', '#8250df', '#1a7f37', '#cf222e', '#57606a'];
   const tickText = (v) => (v >= 1e4 || v < 1e-3) ? v.toExponential(0) : String(Number(v.toPrecision(3)));
 
+  // The deviation decades of every unit's curves and limits: one y range
+  // for the lot, so that a unit's curve reads against the others'.
+  function lotRange() {
+    let d0 = Infinity, d1 = 0;
+    const take = (d) => { if (d > 0 && Number.isFinite(d)) { d0 = Math.min(d0, d); d1 = Math.max(d1, d); } };
+    for (const byAxis of curves.values()) for (const c of byAxis.values()) c.dev.forEach(take);
+    for (const m of limits.values()) for (const l of m.values()) { take(l.high); take(l.marginal); }
+    if (!(d1 > 0)) return null;
+    const ld0 = Math.floor(Math.log10(d0));
+    return [ld0, Math.max(ld0 + 1, Math.ceil(Math.log10(d1)))];
+  }
+  // Draws `run`'s plot, or every plot when the lot's range changed.
+  function drawAll(run) {
+    const r = lotRange();
+    if (r && (!yRange || r[0] !== yRange[0] || r[1] !== yRange[1])) {
+      yRange = r;
+      for (const other of figures.keys()) draw(other);
+    } else {
+      draw(run);
+    }
+  }
+
   function draw(run) {
     const f = figures.get(run);
     if (!f) return;
@@ -170,21 +201,15 @@ constexpr char kLiveScript[] = R"js((() => {
     const byAxis = curves.get(run);
     const list = byAxis ? [...byAxis.values()] : [];
     const W = 320, H = 200, L = 50, R = 8, T = 8, B = 30;
-    if (!list.length) {
+    if (!list.length || !yRange) {
       svg.append(Object.assign(sv('text', { x: L, y: H / 2 }), { textContent: 'no curve yet' }));
       return;
     }
-    let t0 = Infinity, t1 = 0, d0 = Infinity, d1 = 0;
-    for (const c of list) {
-      c.tau_s.forEach((t, i) => {
-        const d = c.dev[i];
-        if (!(t > 0 && d > 0)) return;
-        t0 = Math.min(t0, t); t1 = Math.max(t1, t); d0 = Math.min(d0, d); d1 = Math.max(d1, d);
-      });
-    }
-    if (!(t1 > 0 && d1 > 0)) return;
+    let t0 = Infinity, t1 = 0;
+    for (const c of list) c.tau_s.forEach((t) => { if (t > 0) { t0 = Math.min(t0, t); t1 = Math.max(t1, t); } });
+    if (!(t1 > 0)) return;
     const lt0 = Math.floor(Math.log10(t0)), lt1 = Math.max(lt0 + 1, Math.ceil(Math.log10(t1)));
-    const ld0 = Math.floor(Math.log10(d0)), ld1 = Math.max(ld0 + 1, Math.ceil(Math.log10(d1)));
+    const [ld0, ld1] = yRange;
     const x = (t) => L + (Math.log10(t) - lt0) / (lt1 - lt0) * (W - L - R);
     const y = (d) => T + (ld1 - Math.log10(d)) / (ld1 - ld0) * (H - T - B);
     const grid = sv('g', { stroke: '#e3e7eb', 'stroke-width': 1 });
@@ -205,6 +230,26 @@ constexpr char kLiveScript[] = R"js((() => {
     const first = list[0];
     axisLabel.textContent = `tau, s   (${first.estimator}, ${first.unit}${list.every((c) => c.final) ? ', final' : ', interim'})`;
     svg.append(axisLabel);
+    // The plan's limits on the curve minimum: the limit red, the marginal
+    // bound amber, dashed, labelled (once per value: the axes of a kind share them).
+    const drawn = new Set();
+    for (const c of list) {
+      const l = (limits.get(run) || new Map()).get(c.axis);
+      if (!l) continue;
+      for (const [v, colour, word] of [[l.high, '#cf222e', 'limit'], [l.marginal, '#bf8700', 'marginal']]) {
+        if (!(v > 0) || drawn.has(v)) continue;
+        drawn.add(v);
+        const line = sv('line', { x1: L, x2: W - R, y1: y(v), y2: y(v), stroke: colour, 'stroke-width': 1.2,
+                                  'stroke-dasharray': '5,3' });
+        line.classList.add('limit');
+        line.dataset.value = String(v);
+        svg.append(line);
+        const text = sv('text', { x: L + 3, y: y(v) - 3 });
+        text.style.fill = colour;
+        text.textContent = `${word} ${tickText(v)} ${c.unit}`;
+        svg.append(text);
+      }
+    }
     list.forEach((c, i) => {
       const colour = kColours[i % kColours.length];
       const pts = [];
@@ -215,7 +260,14 @@ constexpr char kLiveScript[] = R"js((() => {
       title.textContent = `${c.axis}: ${c.estimator} in ${c.unit}, ${c.samples} samples${c.final ? ', final' : ''}`;
       line.append(title);
       svg.append(line);
-      const key = sv('text', { x: W - R - 4, y: T + 10 + 12 * i, 'text-anchor': 'end', fill: colour });
+      // The legend: a swatch of the axis's colour and its name (the page's
+      // grey text style would hide a fill attribute: the colour is a style).
+      const ky = T + 10 + 12 * i;
+      const swatch = sv('line', { x1: W - R - 30, x2: W - R - 16, y1: ky - 3, y2: ky - 3, stroke: colour, 'stroke-width': 3 });
+      swatch.classList.add('swatch');
+      svg.append(swatch);
+      const key = sv('text', { x: W - R - 4, y: ky, 'text-anchor': 'end' });
+      key.style.fill = colour;
       key.textContent = c.axis;
       svg.append(key);
     });
@@ -242,7 +294,7 @@ constexpr char kLiveScript[] = R"js((() => {
       live.curveEvents++;
       if (!curves.has(c.run_id)) curves.set(c.run_id, new Map());
       curves.get(c.run_id).set(c.axis, c);
-      draw(c.run_id);
+      drawAll(c.run_id);
     });
   }
   connect();

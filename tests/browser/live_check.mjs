@@ -10,7 +10,8 @@
 //       event stream and every page after it) and watches the soak; halfway the
 //       station's store process is killed (the station restarts it),
 // THEN  a row appears for every unit and its samples grow; each unit's Allan
-//       curves are drawn and grow; the killed store is shown restarted
+//       curves are drawn and grow, every plot on the lot's one y range with
+//       the plan's bias-instability limits and a coloured legend; the killed store is shown restarted
 //       ("store up (restarted 1x)"); at the end every unit shows its final
 //       verdict, equal to the archive's (sqlite3), the tally is shown, and
 //       the report link leads to the lot's report; the hostile operator
@@ -105,6 +106,30 @@ async function main() {
     const before = await curveSamples();
     await page.waitForTimeout(4000);
     if (!(await curveSamples() > before)) fail('the curves did not grow');
+    // Every plot on one y range (the lot's), the plan's limits on the curve
+    // minimum drawn where the status carries them, and a coloured legend: a
+    // swatch per curve, its name in the curve's colour.
+    const tiles = await page.evaluate(() => [...document.querySelectorAll('#curves figure')].map((f) => ({
+      yTicks: [...f.querySelectorAll('svg text[text-anchor="end"]')].filter((t) => t.getAttribute('x') === '47')
+        .map((t) => t.textContent).join(' '),
+      limits: [...f.querySelectorAll('line.limit')].map((l) => Number(l.dataset.value)).sort((a, b) => a - b),
+      curves: [...f.querySelectorAll('polyline')].map((p) => p.getAttribute('stroke')),
+      swatches: [...f.querySelectorAll('line.swatch')].map((l) => l.getAttribute('stroke')),
+      // The legend's names: the texts right after each swatch.
+      keyColours: [...f.querySelectorAll('line.swatch')].map((l) => getComputedStyle(l.nextElementSibling).fill),
+    })));
+    const wantLimits = await page.evaluate(() => [...new Set(window.imuqualLive.status.units.flatMap((u) => u.axes)
+      .flatMap((x) => [x.limit_high, x.marginal_high]).filter((v) => v > 0))].sort((a, b) => a - b));
+    if (wantLimits.length === 0) fail('the status carries no plan limit on bias_instability (vg700ca has 20 and 16 deg/h)');
+    for (const t of tiles) {
+      if (t.yTicks !== tiles[0].yTicks) fail(`plots on different y ranges: '${t.yTicks}' and '${tiles[0].yTicks}'`);
+      if (JSON.stringify(t.limits) !== JSON.stringify(wantLimits)) fail(`limit lines ${t.limits}, the plan's ${wantLimits}`);
+      if (JSON.stringify(t.swatches) !== JSON.stringify(t.curves)) fail(`legend swatches ${t.swatches} for curves ${t.curves}`);
+      const rgb = (hex) => `rgb(${parseInt(hex.slice(1, 3), 16)}, ${parseInt(hex.slice(3, 5), 16)}, ${parseInt(hex.slice(5, 7), 16)})`;
+      if (JSON.stringify(t.keyColours) !== JSON.stringify(t.swatches.map(rgb))) {
+        fail(`legend names in ${t.keyColours}, their curves in ${t.swatches}`);
+      }
+    }
 
     // The store killed: the station restarts it, the page says so.
     const storePid = Number(execFileSync('pgrep', ['-P', String(station.pid), '-x', 'imuqual-store'],
