@@ -40,7 +40,8 @@ namespace {
 // uncertainty (not on B (IEEE), the minimum / 0.664, for room). When a run
 // used early decisions, when its unit was decided ("full soak": pending at
 // every look).
-std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slot) {
+std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slot,
+                        bool with_runs = false) {
   // A station's table in fixture order, with the slot first.
   std::vector<store::AxisRow> rows = unsorted;
   if (by_slot) {
@@ -55,6 +56,8 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
                                       "BI (IEEE)", "tau min s",   "RRW",     "gap samples",
                                       "axis",      "unit verdict"};
   if (by_slot) columns.insert(columns.begin(), "slot");
+  // Every run of a unit (a retest too): which run, and when it started.
+  if (with_runs) columns.insert(columns.begin() + (by_slot ? 2 : 1), {"run", "started (UTC)"});
   if (early) columns.push_back("decided at");
   TableWriter t(columns);
   bool any_accel = false;
@@ -79,6 +82,9 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
         Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)};
     if (early) {
       row.push_back(Cell::Text(r.has_decision_time ? DecisionTimeText(r.decision_time_s) : ""));
+    }
+    if (with_runs) {
+      row.insert(row.begin() + 1, {Cell::Text(r.run_id), Cell::Text(FormatUtimeIso(r.start_utime))});
     }
     if (by_slot) row.insert(row.begin(), Cell::Text(r.slot));
     t.AddRow(std::move(row));
@@ -346,7 +352,7 @@ int LotCommand(const std::string& db_path, const std::string& lot, Format format
     return kExitUsage;
   }
   if (format == Format::kTable) {
-    std::printf("%s", PeopleTable(*rows, /*by_slot=*/false).c_str());
+    std::printf("%s", PeopleTable(*rows, /*by_slot=*/false, /*with_runs=*/all_runs).c_str());
     std::printf("%s", ReasonLines(**archive, *rows, {}).c_str());
     if (!all_runs) std::printf("%s", LotYieldLines(**archive, lot).c_str());
     auto early = QueryEarlyDecisions(**archive, lot);

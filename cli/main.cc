@@ -247,7 +247,8 @@ int main(int argc, char** argv) {
   reanalyze_cmd
       ->add_flag("--check", re.check,
                  "live mode: verify the run's checksums and that it equals the archived result "
-                 "(every curve point, measurement and the verdict)")
+                 "(every curve point, measurement and the verdict); prints the check's result "
+                 "only (one line per difference), not the curves")
       ->excludes(exact_flag);
   // Options only the exact mode honours are refused without it, never ignored.
   reanalyze_cmd
@@ -421,7 +422,10 @@ int main(int argc, char** argv) {
   if (msa_cmd->parsed()) return cli::MsaCommand(msa);
   if (chart_cmd->parsed()) return cli::ChartCommand(chart);
   if (yields_cmd->parsed()) return cli::YieldsCommand(yields);
-  if (analyze_cmd->parsed()) return offline::AnalyzeFileCommand(an);
+  if (analyze_cmd->parsed()) {
+    an.rate_given = analyze_cmd->count("--rate") > 0;
+    return offline::AnalyzeFileCommand(an);
+  }
 
   auto fmt = report::ParseFormat(format);
   if (!fmt.ok()) {

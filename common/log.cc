@@ -35,7 +35,7 @@ void Write(const char* level, const std::string& message) {
   // A message of several problems (a plan's every mistake) is one line per
   // problem, each with the prefix, so that every line says whose it is.
   std::string line;
-  for (size_t at = 0; at <= message.size();) {
+  for (size_t at = 0; at == 0 || at < message.size();) {  // a trailing newline adds no line
     const size_t end = std::min(message.find('\n', at), message.size());
     line += prefix;
     line.append(message, at, end - at);

@@ -73,6 +73,13 @@ inline std::string ClosestName(std::string_view given, const std::vector<std::st
   return best;
 }
 
+// " (did you mean X?)" with X the ClosestName of `given`, or "" when none
+// is close.
+inline std::string DidYouMean(std::string_view given, const std::vector<std::string>& known) {
+  const std::string closest = ClosestName(given, known);
+  return closest.empty() ? std::string() : " (did you mean " + closest + "?)";
+}
+
 }  // namespace imuqual
 
 #endif  // IMUQUAL_COMMON_STRINGS_H_

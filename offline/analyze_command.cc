@@ -60,7 +60,7 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   } else if (!o.kind.empty()) {
     return Status::InvalidArgument("--kind must be gyro or accel");
   }
-  if (std::isnan(o.rate_hz)) {
+  if (!o.rate_given) {
     return Status::InvalidArgument(
         "--rate is required: the series' sample rate in Hz (e.g. --rate 100); analyze does not "
         "assume one (every tau would be off by it)");
@@ -355,9 +355,9 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
       std::printf("%s",
                   QuantityTable(*fit, fit_curve, p.kind, true).Render(Format::kTable).c_str());
       std::printf(
-          "\ncandidates (best first; criterion J + 3.84 per Q/N/B/K/R term + 2 per Gauss-Markov or "
-          "sinusoid parameter + 2k(k+1)/(p-k-1); figures and IEEE terms are averaged with the "
-          "weights)\n%s",
+          "\ncandidates (those the J test accepts first, then best criterion first; criterion J "
+          "+ 3.84 per Q/N/B/K/R term + 2 per Gauss-Markov or sinusoid parameter + "
+          "2k(k+1)/(p-k-1); figures and IEEE terms are averaged with the weights)\n%s",
           CandidateTable(*fit).Render(Format::kTable).c_str());
     }
   } else if (p.format == Format::kCsv) {

@@ -15,6 +15,7 @@ struct AnalyzeFileOptions {
   std::string path;
   std::string column;           // CSV column (required if several)
   double rate_hz = std::numeric_limits<double>::quiet_NaN();  // sample rate: required
+  bool rate_given = false;                                     // --rate was given
   std::string type = "rate";    // "rate" (deg/s, m/s^2, fractional frequency) or "phase"
   std::string devs = "oadev";   // comma list of adev, oadev, mdev, tdev, hdev, ohdev, totdev
   std::string grid = "octave";  // octave, decade, all, logN, or explicit taus "1,2,5"

@@ -255,8 +255,12 @@ int Live(store::Archive& archive, const ReanalyzeOptions& o, Format format) {
                       : (" at " + DecisionTimeText(e.decided_at_s)).c_str());
     }
   }
-  std::printf("%s", o.looks ? LooksTable(outcome->early->looks).Render(format).c_str()
-                            : CurveTable(curves, true, true, true).Render(format).c_str());
+  // A check answers with its result alone (it printed some 390 curve rows
+  // before "equals ... bit for bit"); the curves are the answer otherwise.
+  if (!o.check || o.looks) {
+    std::printf("%s", o.looks ? LooksTable(outcome->early->looks).Render(format).c_str()
+                              : CurveTable(curves, true, true, true).Render(format).c_str());
+  }
   if (!o.check) return 0;
   // Complete in the archive (a judgement and a final curve of every axis),
   // and bit for bit what the live analysis archived, axis by axis.

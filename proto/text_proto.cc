@@ -15,7 +15,7 @@ using google::protobuf::FieldDescriptor;
 
 // " (did you mean warmup_s?)" for protobuf's 'Message type "T" has no field
 // named "F".' when T has a field close to F; "" otherwise.
-std::string DidYouMean(const std::string& message) {
+std::string FieldSuggestion(const std::string& message) {
   constexpr std::string_view kType = "Message type \"", kField = "has no field named \"";
   const size_t t = message.find(kType), f = message.find(kField);
   if (t == std::string::npos || f == std::string::npos) return "";
@@ -27,8 +27,7 @@ std::string DidYouMean(const std::string& message) {
   if (d == nullptr) return "";
   std::vector<std::string> names;
   for (int i = 0; i < d->field_count(); ++i) names.push_back(d->field(i)->name());
-  const std::string closest = ClosestName(field, names);
-  return closest.empty() ? "" : " (did you mean " + closest + "?)";
+  return imuqual::DidYouMean(field, names);
 }
 
 // Keeps the first parse error with its 1-based line and column.
@@ -38,7 +37,7 @@ class FirstErrorCollector : public google::protobuf::io::ErrorCollector {
                 const std::string& message) override {
     if (first_.empty()) {
       first_ = std::to_string(line + 1) + ":" + std::to_string(column + 1) + ": " + message +
-               DidYouMean(message);
+               FieldSuggestion(message);
     }
   }
   const std::string& first() const { return first_; }

@@ -71,18 +71,8 @@ std::string HtmlNumber(std::string_view printed) {
 std::string Human(double v) {
   if (!std::isfinite(v)) return "&ndash;";
   char buf[40];
-  std::snprintf(buf, sizeof buf, "%.4g", std::abs(v));
-  std::string digits = buf;
-  std::string out = v < 0 ? "&minus;" : "";
-  const size_t e = digits.find('e');
-  if (e == std::string::npos) {
-    out += digits;
-    return out;
-  }
-  const int exponent = std::stoi(digits.substr(e + 1));
-  Add(&out, digits.substr(0, e), "&times;10<sup>", exponent < 0 ? "&minus;" : "",
-      std::to_string(std::abs(exponent)), "</sup>");
-  return out;
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return HtmlNumber(buf);
 }
 
 std::string Percent(double fraction) {

@@ -225,15 +225,23 @@ std::string ShortReason(const ConsoleUnit& u, size_t width) {
   return out + "...";
 }
 
-// The reason column's width: at least kReasonColumns, and what a screen of
-// `width` columns leaves beside the other columns of `table` (whose "why"
-// cells are at most kReasonColumns wide) once it is fitted (FitTable), up to
-// the longest reason.
-size_t ReasonWidth(const std::vector<std::string>& fitted, int width, size_t longest) {
+// The reason column's width once a table is fitted (FitTable) with its
+// reasons cut to kReasonColumns: the column's width then (`why_now`, the
+// widest cut reason or the header) plus what a screen of `width` columns
+// leaves beside the table, up to the longest reason.
+size_t ReasonWidth(const std::vector<std::string>& fitted, int width, size_t why_now,
+                   size_t longest) {
   size_t widest = 0;
   for (const std::string& l : fitted) widest = std::max(widest, DisplayWidth(l));
   const size_t spare = static_cast<int>(widest) < width ? static_cast<size_t>(width) - widest : 0;
-  return std::min(std::max(longest, kReasonColumns), kReasonColumns + spare);
+  return std::min(std::max(longest, why_now), why_now + spare);
+}
+
+// The "why" column's width with every reason cut to kReasonColumns.
+size_t WhyWidthNow(const ConsoleModel& m) {
+  size_t out = 3;  // "why"
+  for (const ConsoleUnit& u : m.units) out = std::max(out, DisplayWidth(ShortReason(u, kReasonColumns)));
+  return out;
 }
 
 // One line explaining the marks shown ("" when none is). `verdict_marks`:
@@ -330,9 +338,13 @@ const std::vector<std::string>& DropOrder() {
   return kOrder;
 }
 
-// One row per unit and axis, no wider than `width`.
+// One row per unit and axis, no wider than `width`. The room left goes to
+// the reasons (a second rendering with wider reasons, `must_keep` the first
+// one's columns: if the wider reasons would cost a column, the first stands,
+// and the call returns nothing).
 std::vector<std::string> AxisRows(const ConsoleModel& m, int width,
-                                  size_t reason_width = kReasonColumns) {
+                                  size_t reason_width = kReasonColumns,
+                                  const std::set<std::string>* must_keep = nullptr) {
   TextTable t{{"slot", "serial", "verdict", "why", "state", "elapsed / planned", "axis",
                "axis verdict", "BI (live)", "samples", "gaps"},
               {}};
@@ -365,10 +377,13 @@ std::vector<std::string> AxisRows(const ConsoleModel& m, int width,
   }
   std::set<std::string> shown;
   std::vector<std::string> lines = FitTable(t, width, DropOrder(), &shown);
-  if (reason_width == kReasonColumns && shown.count("why")) {
-    // The room the fitted table leaves goes to the reasons.
-    const size_t wider = ReasonWidth(lines, width, LongestReason(m));
-    if (wider > reason_width) return AxisRows(m, width, wider);
+  if (must_keep != nullptr && shown != *must_keep) return {};
+  if (must_keep == nullptr && shown.count("why")) {
+    const size_t wider = ReasonWidth(lines, width, WhyWidthNow(m), LongestReason(m));
+    if (wider > reason_width) {
+      std::vector<std::string> again = AxisRows(m, width, wider, &shown);
+      if (!again.empty()) return again;
+    }
   }
   const std::string marks = MarksLine(m, false, shown.count("BI (live)") > 0);
   if (!marks.empty()) lines.push_back(marks);
@@ -379,7 +394,8 @@ std::vector<std::string> AxisRows(const ConsoleModel& m, int width,
 // '~' MARGINAL); at most `max_units` units; those needing attention first
 // (this table is shown when the per-axis one does not fit).
 std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units, int width,
-                                  bool* values_shown, size_t reason_width = kReasonColumns) {
+                                  bool* values_shown, size_t reason_width = kReasonColumns,
+                                  const std::set<std::string>* must_keep = nullptr) {
   std::vector<std::string> axis_names;
   for (const ConsoleUnit& u : m.units) {
     for (const ConsoleAxis& x : u.axes) {
@@ -425,9 +441,13 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units, int widt
   for (const char* c : {"state", "why", "slot"}) drop.push_back(c);
   std::set<std::string> kept;
   std::vector<std::string> lines = FitTable(t, width, drop, &kept);
-  if (reason_width == kReasonColumns && kept.count("why")) {
-    const size_t wider = ReasonWidth(lines, width, LongestReason(m));
-    if (wider > reason_width) return UnitRows(m, max_units, width, values_shown, wider);
+  if (must_keep != nullptr && kept != *must_keep) return {};
+  if (must_keep == nullptr && kept.count("why")) {
+    const size_t wider = ReasonWidth(lines, width, WhyWidthNow(m), LongestReason(m));
+    if (wider > reason_width) {
+      std::vector<std::string> again = UnitRows(m, max_units, width, values_shown, wider, &kept);
+      if (!again.empty()) return again;
+    }
   }
   *values_shown = std::any_of(axis_names.begin(), axis_names.end(),
                               [&](const std::string& a) { return kept.count(a) > 0; });

@@ -951,6 +951,15 @@ TEST_F(YieldTest, LotsLotStatsAndTheReportSayTheSame) {
   }
   // ABORTED and INCONCLUSIVE are not badged as a FAIL
   EXPECT_EQ(html->find("<span class=\"badge v-FAIL\">ABORTED"), std::string::npos);
+
+  // Every run (--all-runs) names its run and when it started: a unit's
+  // first run and its retest are told apart.
+  const std::string all = Imuqual("lot Y --all-runs");
+  EXPECT_NE(all.find("started (UTC)"), std::string::npos) << all;
+  for (const char* run : {"U2-R1", "U2-R2", "U5-R1", "U5-R2"}) {
+    EXPECT_NE(all.find(run), std::string::npos) << run << "\n" << all;
+  }
+  EXPECT_EQ(lot.find("started (UTC)"), std::string::npos) << lot;  // latest runs: one per unit
 }
 
 // ---------------------------------------------------------------------------

@@ -155,7 +155,9 @@ constexpr char kLiveScript[] = R"js((() => {
       f.caption.append(`${u.slot} ${u.serial} `, el('span', u.verdict, 'verdict ' + outcomeOf(u.verdict)));
       order.push(f.figure);
     }
-    for (const [run, f] of figures) if (!order.includes(f.figure)) { figures.delete(run); curves.delete(run); }
+    for (const [run, f] of figures) {
+      if (!order.includes(f.figure)) { figures.delete(run); curves.delete(run); limits.delete(run); }
+    }
     box.replaceChildren(...order);
     live.updates++;
     if (s.newest_utime > newest) {
@@ -176,8 +178,11 @@ constexpr char kLiveScript[] = R"js((() => {
   function lotRange() {
     let d0 = Infinity, d1 = 0;
     const take = (d) => { if (d > 0 && Number.isFinite(d)) { d0 = Math.min(d0, d); d1 = Math.max(d1, d); } };
-    for (const byAxis of curves.values()) for (const c of byAxis.values()) c.dev.forEach(take);
-    for (const m of limits.values()) for (const l of m.values()) { take(l.high); take(l.marginal); }
+    // Only the runs shown (a curve event may come for a run no longer in the table).
+    for (const run of figures.keys()) {
+      for (const c of (curves.get(run) || new Map()).values()) c.dev.forEach(take);
+      for (const l of (limits.get(run) || new Map()).values()) { take(l.high); take(l.marginal); }
+    }
     if (!(d1 > 0)) return null;
     const ld0 = Math.floor(Math.log10(d0));
     return [ld0, Math.max(ld0 + 1, Math.ceil(Math.log10(d1)))];

@@ -1258,12 +1258,24 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
     std::sort(b.begin(), b.end());
     return std::includes(b.begin(), b.end(), a.begin(), a.end());
   };
-  std::erase_if(pass2, [&](const Candidate& c) {
-    return std::any_of(pass2.begin(), pass2.end(), [&](const Candidate& d) {
-      return nested_in(d.kinds, c.kinds) &&
-             std::abs(c.objective - d.objective) <= 1e-9 * (1 + d.objective);
-    });
-  });
+  {
+    // Decided on the whole list first (erasing while testing against the
+    // list would test against moved-from candidates).
+    std::vector<bool> drop(pass2.size(), false);
+    for (size_t i = 0; i < pass2.size(); ++i) {
+      for (const Candidate& d : pass2) {
+        if (nested_in(d.kinds, pass2[i].kinds) &&
+            std::abs(pass2[i].objective - d.objective) <= 1e-9 * (1 + d.objective)) {
+          drop[i] = true;
+        }
+      }
+    }
+    std::vector<Candidate> kept;
+    for (size_t i = 0; i < pass2.size(); ++i) {
+      if (!drop[i]) kept.push_back(std::move(pass2[i]));
+    }
+    pass2 = std::move(kept);
+  }
   // A model that fits comes before one that does not: the criterion ranks
   // the adequate candidates, and an inadequate one is selected only when no
   // candidate is adequate. On short curves the small-sample term of AICc

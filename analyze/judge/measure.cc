@@ -214,7 +214,7 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
   for (size_t i = 1; i < fit->candidates.size() && i < 4; ++i) {
     const allan::ModelCandidate& c = fit->candidates[i];
     char buf[96];
-    std::snprintf(buf, sizeof buf, "%s %s (criterion +%.2g, weight %.2g)",
+    std::snprintf(buf, sizeof buf, "%s %s (criterion %+.2g, weight %.2g)",
                   i == 1 ? "; runners-up" : ",", c.name.c_str(), c.criterion - fit->criterion,
                   c.weight);
     model_note += buf;

@@ -55,18 +55,15 @@ Status ValidateLimit(const pb::TestPlan& plan, int i, const Locator& where) {
     if (def == nullptr) {
       std::vector<std::string> known;
       for (const MeasurementDef& d : MeasurementCatalog()) known.emplace_back(d.name);
-      const std::string closest = ClosestName(lim.measurement(), known);
       return fail(".measurement", "unknown measurement '" + lim.measurement() + "'" +
-                                      (closest.empty() ? "" : " (did you mean " + closest + "?)") +
+                                      DidYouMean(lim.measurement(), known) +
                                       " (known: " + Join(known, ", ") + ")");
     }
     for (const std::string& axis : lim.axes()) {
       if (!axis_kinds.count(axis)) {
         std::vector<std::string> names;
         for (const auto& [name, kind] : axis_kinds) names.push_back(name);
-        const std::string closest = ClosestName(axis, names);
-        return fail(".axes", "no axis named '" + axis + "' in the plan" +
-                                 (closest.empty() ? "" : " (did you mean " + closest + "?)"));
+        return fail(".axes", "no axis named '" + axis + "' in the plan" + DidYouMean(axis, names));
       }
     }
     // The unit must be the measurement's unit on every axis kind it applies
@@ -140,8 +137,9 @@ Status ValidateNoiseModelRange(const pb::TestPlan& plan, int i, const Locator& w
                                std::set<int>* kinds);
 
 // Every problem of the plan, each "LINE: path: problem" (or "path: problem"
-// without a source), in the plan's order: a plan with three mistakes says
-// all three at once.
+// without a source), field by field (rates and durations, axes, grid, rules,
+// early decisions, noise-model ranges, limits): a plan with three mistakes
+// says all three at once.
 std::vector<std::string> Problems(const pb::TestPlan& plan, const Locator& where) {
   std::vector<std::string> out;
   auto add = [&](const Status& st) {
@@ -186,10 +184,9 @@ std::vector<std::string> Problems(const pb::TestPlan& plan, const Locator& where
   }
   const std::string& stop = plan.stop_rule();
   if (!stop.empty() && stop != "bins9" && stop != "stable32" && stop != "none") {
-    const std::string closest = ClosestName(stop, {"bins9", "stable32", "none"});
     add(Fail(where, "stop_rule", -1, "stop_rule",
              "'" + stop + "' is not one of bins9, stable32, none" +
-                 (closest.empty() ? "" : " (did you mean " + closest + "?)")));
+                 DidYouMean(stop, {"bins9", "stable32", "none"})));
   }
   if (!pb::Limit::DecisionRule_IsValid(plan.default_decision_rule())) {
     add(Fail(where, "default_decision_rule", -1, "default_decision_rule",
@@ -280,8 +277,9 @@ const pb::NoiseModelRange* NoiseModelRangeFor(const pb::TestPlan& plan, pb::Axis
 }
 
 Status ValidatePlan(const pb::TestPlan& plan) {
+  // One line (a decoded plan's problems go into a run's reasons): "; " apart.
   const std::vector<std::string> problems = Problems(plan, nullptr);
-  return problems.empty() ? Status::Ok() : Status::InvalidArgument(Join(problems, "\n"));
+  return problems.empty() ? Status::Ok() : Status::InvalidArgument(Join(problems, "; "));
 }
 
 Result<pb::TestPlan> ParsePlanText(std::string_view text, std::string_view source_name) {
