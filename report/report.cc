@@ -1146,7 +1146,9 @@ std::string RenderLotReportHtml(const LotReportData& d, const std::string& archi
       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n",
       "<meta name=\"generator\"", Attr("content", kSoftwareVersion), ">\n", "<title>Lot ", Esc(lot),
       ": IMU qualification report</title>\n", "<link rel=\"icon\" href=\"data:,\">\n<style>",
-      kStyle, "</style>\n</head>\n<body>\n<main>\n");
+      kStyle, "</style>\n</head>\n<body>\n");
+  html += options.site_navigation;
+  html += "<main>\n";
   Header(d, archive_label, &html);
   Yields(d, &html);
   EarlyDecisions(d, &html);

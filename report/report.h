@@ -85,6 +85,9 @@ struct LotReportOptions {
   // (RenderLotSection, served): a served page's first view waits for none
   // of them.
   std::function<std::string(const std::string& part)> section_url;
+  // Served: the site's navigation (HTML, trusted), first in the page, so a
+  // lot page leads back to the lot list and the other pages; "" for a file.
+  std::string site_navigation;
 };
 
 // The report's HTML from its data; `archive_label` is how the page names

@@ -60,18 +60,23 @@ figure { margin: 8px 0; } svg { max-width: 100%; height: auto; }
 
 }  // namespace
 
+// The site's navigation, on every page (a served lot report too).
+std::string SiteNavigation() {
+  return "<nav class=\"site\"><a href=\"/\">imuqual: lots</a><a "
+         "href=\"/compare\">compare lots</a><a href=\"/yields\">yields</a><a "
+         "href=\"/chart\">control charts</a><a href=\"/msa\">station agreement</a><a "
+         "href=\"/live\">live station</a>"
+         "<form action=\"/unit\" method=\"get\"><label>serial <input name=\"serial\" "
+         "size=\"16\"></label> <button>find</button></form></nav>\n";
+}
+
 std::string PageHtml(const std::string& title, const std::string& body) {
   return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
          "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
          "<link rel=\"icon\" href=\"data:,\">\n<title>" +
          HtmlEscape(title) + " - imuqual</title>\n<style>" + kStyle +
-         "</style>\n</head>\n<body>\n<nav><a href=\"/\">imuqual: lots</a><a "
-         "href=\"/compare\">compare lots</a><a href=\"/yields\">yields</a><a "
-         "href=\"/chart\">control charts</a><a href=\"/msa\">station agreement</a><a "
-         "href=\"/live\">live station</a>"
-         "<form action=\"/unit\" method=\"get\"><label>serial <input name=\"serial\" "
-         "size=\"16\"></label> <button>find</button></form></nav>\n<main>\n" +
-         body + "</main>\n</body>\n</html>\n";
+         "</style>\n</head>\n<body>\n" + SiteNavigation() + "<main>\n" + body +
+         "</main>\n</body>\n</html>\n";
 }
 
 namespace {
@@ -433,6 +438,7 @@ Page Route(store::Archive& archive, const std::string& archive_label, const std:
     options.section_url = [lot = rest](const std::string& part) {
       return "/lot-section?name=" + PathSegment(lot) + "&part=" + part;
     };
+    options.site_navigation = SiteNavigation();
     auto html = report::BuildLotReportHtml(archive, rest, archive_label, options);
     if (!html.ok()) {
       return html.status().code() == Status::Code::kNotFound ? NotFound(html.status().message())

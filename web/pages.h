@@ -21,6 +21,10 @@ struct Page {
 // A whole page in the site's frame (style, navigation); `body` is HTML.
 std::string PageHtml(const std::string& title, const std::string& body);
 
+// The site's navigation bar (lots, compare, yields, charts, station
+// agreement, live, serial search): on every page, a served lot report too.
+std::string SiteNavigation();
+
 // GET `path` (already URL-decoded by the server, without the query) with
 // `query` parameters. `archive_label` names the archive on the pages.
 //   /                      the lots (yield, dates) and a search by serial

@@ -208,6 +208,10 @@ TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
   served_options.section_url = [](const std::string& part) {
     return "/lot-section?name=" + Encode(kLot) + "&part=" + part;
   };
+  served_options.site_navigation = SiteNavigation();
+  // ... with the site's navigation: a lot page leads back to the lot list.
+  EXPECT_NE(lot->body.find("<nav class=\"site\"><a href=\"/\">imuqual: lots</a>"),
+            std::string::npos);
   auto report = report::BuildLotReportHtml(**archive, kLot, db_, served_options);
   ASSERT_TRUE(report.ok());
   auto data = report::LoadLotReport(**archive, kLot);
