@@ -246,11 +246,12 @@ FROM runs
 WHERE (?1 = '' OR lot = ?1) AND (?2 = '' OR station = ?2) AND (?3 = '' OR serial = ?3)
   AND start_utime >= ?4
   AND (?5 = '' OR (?5 = 'none' AND verdict IS NULL) OR verdict = ?5)
+  AND (?7 = '' OR substr(serial, 1, length(?7)) = ?7)
 ORDER BY start_utime DESC, run_id
 LIMIT ?6)sql");
   if (!s.ok()) return s.status();
   s->Bind(1, f.lot).Bind(2, f.station).Bind(3, f.unit).Bind(4, f.since_utime).Bind(5, f.verdict);
-  s->Bind(6, f.limit);
+  s->Bind(6, f.limit).Bind(7, f.unit_prefix);
   std::vector<RunRow> rows;
   for (;;) {
     auto row = s->Step();

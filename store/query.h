@@ -109,6 +109,7 @@ struct RunRow {
 };
 struct RunFilter {
   std::string lot, station, unit;  // "" = any
+  std::string unit_prefix;         // "" = any; else serials starting with it
   int64_t since_utime = 0;         // runs started at or after
   std::string verdict;             // an outcome's text (store/outcome.h), "none" (not judged) or "" = any
   int64_t limit = 1000;

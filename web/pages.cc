@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <limits>
 #include <map>
+#include <set>
 #include <optional>
 #include <string>
 #include <vector>
@@ -159,7 +160,29 @@ Page UnitHistory(store::Archive& archive, const std::string& serial) {
   f.limit = std::numeric_limits<int64_t>::max();
   auto runs = store::QueryRuns(archive, f);
   if (!runs.ok()) return Failed(runs.status());
-  if (runs->empty()) return NotFound("no unit with serial '" + serial + "' in the archive");
+  if (runs->empty()) {
+    // Not a whole serial: the units whose serial starts with it (a line
+    // types the start of a serial, or its lot's prefix).
+    store::RunFilter starting;
+    starting.unit_prefix = serial;
+    starting.limit = 5000;
+    auto some = store::QueryRuns(archive, starting);
+    if (!some.ok()) return Failed(some.status());
+    std::set<std::string> serials;
+    for (const store::RunRow& r : *some) serials.insert(r.unit);
+    if (serials.size() == 1) return UnitHistory(archive, *serials.begin());
+    if (serials.empty()) {
+      return NotFound("no unit with serial '" + serial + "' or starting with it in the archive");
+    }
+    std::string body = "<h1>" + std::to_string(serials.size()) + " units whose serial starts with " +
+                       HtmlEscape(serial) + "</h1>\n<ul>\n";
+    for (const std::string& s : serials) {
+      body += "<li><a href=\"" + HtmlEscape(NameLink("/unit", "serial", s)) + "\">" +
+              HtmlEscape(s) + "</a></li>\n";
+    }
+    body += "</ul>\n";
+    return {200, "text/html; charset=utf-8", PageHtml("units " + serial + "...", body)};
+  }
   const TableWriter t = report::RunsTable(*runs, Links());
   const std::string body = "<h1>Unit " + HtmlEscape(serial) + ": " + std::to_string(runs->size()) +
                            (runs->size() == 1 ? " run" : " runs") + ", newest first</h1>\n" +

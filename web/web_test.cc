@@ -270,6 +270,16 @@ TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
   ASSERT_TRUE(unit);
   EXPECT_EQ(unit->status, 200);
   EXPECT_NE(unit->body.find("href=\"/run/R-1\""), std::string::npos) << unit->body;
+  // The start of a serial finds the unit it can only be (a line types the
+  // start, or a lot's prefix); no unit starting so: 404 naming it.
+  auto prefix = client_->Get("/unit?serial=" + Encode(kSerial.substr(0, 3)));
+  ASSERT_TRUE(prefix);
+  EXPECT_EQ(prefix->status, 200);
+  EXPECT_NE(prefix->body.find("href=\"/run/R-1\""), std::string::npos) << prefix->body;
+  auto none = client_->Get("/unit?serial=ZZZ");
+  ASSERT_TRUE(none);
+  EXPECT_EQ(none->status, 404);
+  EXPECT_NE(none->body.find("starting with it"), std::string::npos) << none->body;
   // JSON for programs: the same columns as the imuqual command's.
   auto api = client_->Get("/api/run/" + kRun);
   ASSERT_TRUE(api);
