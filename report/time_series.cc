@@ -11,6 +11,7 @@
 #include "analyze/allan/units.h"
 #include "common/strings.h"
 #include "common/text_util.h"
+#include "imuqual/plan.pb.h"
 #include "report/run_samples.h"
 #include "report/svg_plot.h"
 
@@ -152,6 +153,16 @@ std::string TimeSeriesPlot::ToSvg(const EnvelopeBuilder& builder) const {
       lo = std::min({lo, l, h});
       hi = std::max({hi, l, h});
     }
+    if (shaded_s > 0 && std::isfinite(shaded_s)) {
+      // The warm-up: recorded, not analysed.
+      const double w = std::clamp(shaded_s / time_unit / x_max, 0.0, 1.0) * pw;
+      svg += "<rect class=\"warmup\" x=\"" + F(left) + "\" y=\"" + F(ptop) + "\" width=\"" + F(w) +
+             "\" height=\"" + F(ph) + "\" fill=\"#e8e8e8\"/>\n";
+      if (panel == shown.front()) {
+        svg += "<text x=\"" + F(left + 4) + "\" y=\"" + F(ptop + 12) +
+               "\" font-size=\"10\" fill=\"#555555\">" + Esc(shaded_label) + "</text>\n";
+      }
+    }
     svg += "<rect x=\"" + F(left) + "\" y=\"" + F(ptop) + "\" width=\"" + F(pw) + "\" height=\"" +
            F(ph) + "\" fill=\"none\" stroke=\"#888888\"/>\n";
     svg += "<text transform=\"translate(16," + F(ptop + ph / 2) +
@@ -282,6 +293,10 @@ Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string&
   TimeSeriesPlot plot;
   plot.title = info->serial + " (run " + run_id + "): raw samples against time";
   plot.counters_per_second = info->nominal_rate_hz;
+  if (pb::TestPlan run_plan; run_plan.ParseFromString(info->plan) && run_plan.warmup_s() > 0) {
+    plot.shaded_s = run_plan.warmup_s();
+    plot.shaded_label = "warm-up " + ShortestReal(run_plan.warmup_s()) + " s (not analysed)";
+  }
   // The run's mean per channel, for the drift panels.
   std::vector<double> sum(axes + 1, 0.0);
   std::vector<int64_t> n(axes + 1, 0);

@@ -65,6 +65,10 @@ struct TimeSeriesPlot {
   std::vector<SeriesPanel> panels;  // channels of `builder` (others skipped)
   double counters_per_second = 1;   // device rate
   std::vector<std::string> notes;   // lines under the plot
+  // Seconds from the first sample that are shaded in every panel and named
+  // (the plan's warm-up: recorded, not analysed); 0: none.
+  double shaded_s = 0;
+  std::string shaded_label = "warm-up (not analysed)";
   int width = 760;
   int panel_height = 120;      // an envelope panel
   int mean_panel_height = 80;  // a mean-only panel
@@ -76,7 +80,8 @@ struct TimeSeriesPlot {
 // The time-series plot of a stored run: per axis the raw rate (deg/s for
 // gyros, m/s^2 for accelerometers, as archived) as a band with its mean, then
 // the bin mean less the run's mean in datasheet units (deg/h, ug: the bias
-// drift), and the temperature when the unit reported one. NotFound names the run, or says the run
+// drift), and the temperature when the unit reported one; the plan's
+// warm-up shaded. NotFound names the run, or says the run
 // has no archived sample.
 Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string& run_id);
 

@@ -131,6 +131,22 @@ TEST(TimeSeriesPlotTest, PanelsBandsAndEscapedText) {
   EXPECT_EQ(polygons, 3u);  // gx before and after its gap, the temperature (constant) once
   EXPECT_EQ(svg.find("nan"), std::string::npos);
   EXPECT_EQ(svg.find("inf"), std::string::npos);
+  EXPECT_EQ(svg.find("class=\"warmup\""), std::string::npos);  // none asked
+
+  // The warm-up shaded in every panel (2.5 s of the 10 s: a quarter of the
+  // plot's width) and named once.
+  plot.shaded_s = 2.5;
+  plot.shaded_label = "warm-up 2.5 s (not analysed)";
+  const std::string shaded = plot.ToSvg(builder);
+  size_t rects = 0;
+  for (size_t p = shaded.find("class=\"warmup\""); p != std::string::npos;
+       p = shaded.find("class=\"warmup\"", p + 1)) {
+    ++rects;
+    const size_t w = shaded.find("width=\"", p) + 7;
+    EXPECT_NEAR(std::stod(shaded.substr(w)), 0.25 * (760 - 78 - 16), 3.0);  // bins end past 10 s
+  }
+  EXPECT_EQ(rects, 2u);
+  EXPECT_NE(shaded.find(">warm-up 2.5 s (not analysed)<"), std::string::npos);
 }
 
 }  // namespace
