@@ -1,11 +1,13 @@
 #include "web/pages.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <limits>
 #include <map>
-#include <set>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -50,6 +52,7 @@ table.data th, table.data td { border-bottom: 1px solid #dde2e6; padding: 3px 9p
                                text-align: left; vertical-align: top; }
 table.data th { background: #f3f5f7; position: sticky; top: 0; }
 table.data td.num { text-align: right; font-variant-numeric: tabular-nums; }
+table.data tr.sig td { background: #fff3cd; font-weight: 600; }
 dl { display: grid; grid-template-columns: max-content auto; gap: 2px 14px; }
 dt { color: #5b6670; }
 .verdict { font-weight: 700; }
@@ -264,6 +267,54 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
 
 // Two lots side by side: every measurement's n, mean, sd and yield in each,
 // with the tests of `imuqual compare` (alpha 0.05, Holm over all tests).
+// The comparison as a person reads it, narrow enough for 1400 px: per
+// measurement the two lots' n, mean +- sd and yield, the change of the mean,
+// the three p-values and what differs; the significant rows first, marked
+// (class "sig").
+std::string ComparisonHtml(const std::vector<report::Comparison>& rows) {
+  std::vector<const report::Comparison*> order;
+  for (const report::Comparison& c : rows) order.push_back(&c);
+  auto differs = [](const report::Comparison* c) {
+    return c->mean_significant || c->spread_significant || c->yield_significant;
+  };
+  std::stable_sort(order.begin(), order.end(), [&](const auto* x, const auto* y) {
+    return differs(x) && !differs(y);
+  });
+  auto num = [](double v) {
+    if (!std::isfinite(v)) return std::string("&ndash;");
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.4g", v);
+    return std::string(buf);
+  };
+  auto lot_cell = [&](const judge::Summary& x) {
+    return "<td class=\"num\">" + std::to_string(x.n) + "</td><td class=\"num\">" + num(x.mean) +
+           " &plusmn; " + num(x.sd) + "</td>";
+  };
+  std::string out =
+      "<table class=\"data compare\"><thead><tr><th>axis</th><th>measurement</th><th>unit</th>"
+      "<th>n a</th><th>mean &plusmn; sd a</th><th>n b</th><th>mean &plusmn; sd b</th>"
+      "<th>yield a / b</th><th>mean change</th><th>p mean / sd / yield</th><th>differs</th>"
+      "</tr></thead><tbody>\n";
+  for (const report::Comparison* c : order) {
+    std::string what;
+    for (auto [flag, name] : {std::pair{c->mean_significant, "mean"},
+                              {c->spread_significant, "sd"},
+                              {c->yield_significant, "yield"}}) {
+      if (flag) what += (what.empty() ? "" : ", ") + std::string(name);
+    }
+    out += std::string("<tr") + (differs(c) ? " class=\"sig\"" : "") + "><td>" +
+           HtmlEscape(c->a.axis.empty() ? "(run)" : c->a.axis) + "</td><td>" +
+           HtmlEscape(c->a.name) + "</td><td>" + HtmlEscape(c->a.unit) + "</td>" +
+           lot_cell(c->a.summary) + lot_cell(c->b.summary) + "<td class=\"num\">" +
+           num(c->a.summary.yield) + " / " + num(c->b.summary.yield) + "</td><td class=\"num\">" +
+           (std::isfinite(c->mean_change) ? num(100 * c->mean_change) + " %" : "&ndash;") +
+           "</td><td class=\"num\">" + num(c->mean.p_value) + " / " + num(c->spread.p_value) +
+           " / " + num(c->yield.p_value) + "</td><td>" + (what.empty() ? "no" : what) +
+           "</td></tr>\n";
+  }
+  return out + "</tbody></table>\n";
+}
+
 Page Compare(store::Archive& archive, const std::string& lot_a, const std::string& lot_b,
              bool json) {
   std::string body =
@@ -287,10 +338,18 @@ Page Compare(store::Archive& archive, const std::string& lot_a, const std::strin
   const std::vector<report::Comparison> rows = report::CompareLots(*a, *b, kAlpha);
   const TableWriter t = report::ComparisonTable(rows);
   if (json) return Json(t.Render(Format::kJson));
+  int significant = 0;
+  for (const report::Comparison& c : rows) {
+    significant += c.mean_significant || c.spread_significant || c.yield_significant;
+  }
   body += "<p>" + HtmlEscape(lot_a) + " (a) against " + HtmlEscape(lot_b) +
           " (b): each unit by its latest run; Welch t (mean), F (sd), Fisher exact (yield); "
           "significant at 0.05 family-wise (Holm, " +
-          std::to_string(3 * rows.size()) + " tests).</p>\n" + t.Render(Format::kHtml);
+          std::to_string(3 * rows.size()) + " tests): <strong>" + std::to_string(significant) +
+          " of " + std::to_string(rows.size()) +
+          " measurements differ</strong>, listed first and marked. Every column: <a href=\"" +
+          HtmlEscape("/api/compare?a=" + PathSegment(lot_a) + "&b=" + PathSegment(lot_b)) +
+          "\">/api/compare</a>.</p>\n" + ComparisonHtml(rows);
   return {200, "text/html; charset=utf-8", PageHtml("compare " + lot_a + " and " + lot_b, body)};
 }
 

@@ -298,6 +298,8 @@ TEST_F(WebTest, PagesShowTheArchiveWithEveryNameEscaped) {
   ASSERT_TRUE(compare);
   EXPECT_EQ(compare->status, 200);
   EXPECT_NE(compare->body.find("bias_instability"), std::string::npos) << compare->body;
+  EXPECT_NE(compare->body.find("<strong>0 of "), std::string::npos) << compare->body;
+  EXPECT_EQ(compare->body.find("<tr class=\"sig\">"), std::string::npos);  // nothing differs
   auto compare_json = client_->Get("/api/compare?a=" + Encode(kLot) + "&b=" + Encode(kLot));
   ASSERT_TRUE(compare_json);
   EXPECT_NE(compare_json->body.find("\"mean_change\": 0"), std::string::npos) << compare_json->body;
