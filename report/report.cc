@@ -724,7 +724,8 @@ a { color: #0969da; }
 .fact { border: 1px solid var(--line); border-radius: 6px; padding: 8px 12px; }
 .fact.wide { grid-column: span 2; }
 .fact dt { color: var(--muted); font-size: 12px; }
-.fact dd { margin: 2px 0 0; font-size: 17px; font-weight: 600; font-variant-numeric: tabular-nums; }
+.fact dd { margin: 2px 0 0; font-size: 17px; font-weight: 600; font-variant-numeric: tabular-nums;
+          overflow-wrap: anywhere; }
 .fact dd small { display: block; font-size: 12px; font-weight: 400; color: var(--muted); }
 .fact.c-PASS dd { color: var(--pass); } .fact.c-MARGINAL dd { color: var(--marg); }
 .fact.c-FAIL dd { color: var(--fail); }
@@ -1150,18 +1151,20 @@ std::string RenderLotReportHtml(const LotReportData& d, const std::string& archi
   html += options.site_navigation;
   html += "<main>\n";
   Header(d, archive_label, &html);
-  Yields(d, &html);
-  EarlyDecisions(d, &html);
-  html += "<nav aria-label=\"Contents\"><a href=\"#yield\">Yield and retests</a>";
+  // The units to look at come first, where the lot's headline leaves off:
+  // on a 1400 x 1000 screen the first failing unit is in view.
+  html += "<nav aria-label=\"Contents\"><a href=\"#attention\">Units to look at</a>"
+          "<a href=\"#yield\">Yield and retests</a>";
   if (!d.early.runs.empty()) html += "<a href=\"#early-decisions\">Early decisions</a>";
   html +=
-      "<a href=\"#attention\">Units to look at</a>"
       "<a href=\"#results\">Results per unit</a><a href=\"#statistics\">Lot statistics</a>"
       "<a href=\"#lot-model\">Lot noise model</a>"
       "<a href=\"#lot-plots\">Lot Allan plots</a>";
   if (any_flagged) html += "<a href=\"#unit-plots\">Unit plots</a>";
   html += "</nav>\n";
   Attention(d, plot_anchor, &html);
+  Yields(d, &html);
+  EarlyDecisions(d, &html);
   Results(d, &html);
   Statistics(d, &html);
   if (inline_sections) {

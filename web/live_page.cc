@@ -221,7 +221,10 @@ constexpr char kLiveScript[] = R"js((() => {
     svg.append(grid);
     for (let k = lt0; k <= lt1; k++) {
       grid.append(sv('line', { x1: x(10 ** k), x2: x(10 ** k), y1: T, y2: H - B }));
-      const label = sv('text', { x: x(10 ** k), y: H - B + 12, 'text-anchor': k === lt1 ? 'end' : 'middle' });
+      // The end ticks' labels stay inside the plot's width (the first clear of
+      // the y labels).
+      const anchor = k === lt0 ? 'start' : k === lt1 ? 'end' : 'middle';
+      const label = sv('text', { x: x(10 ** k), y: H - B + 12, 'text-anchor': anchor });
       label.textContent = tickText(10 ** k);
       svg.append(label);
     }
@@ -249,7 +252,9 @@ constexpr char kLiveScript[] = R"js((() => {
         line.classList.add('limit');
         line.dataset.value = String(v);
         svg.append(line);
-        const text = sv('text', { x: L + 3, y: y(v) - 3 });
+        // The limit's label above its line, the marginal bound's below its
+        // own: the two never overlap, however close the values.
+        const text = sv('text', { x: L + 3, y: word === 'limit' ? y(v) - 3 : y(v) + 10 });
         text.style.fill = colour;
         text.textContent = `${word} ${tickText(v)} ${c.unit}`;
         svg.append(text);

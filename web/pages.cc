@@ -249,9 +249,29 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
     for (const std::string& why : (*result)->reasons) body += "<li>" + HtmlEscape(why) + "</li>\n";
     body += "</ul>\n";
   }
-  body += "<h2>Measurements</h2>\n";
-  body += ms.empty() ? "<p>No measurement archived (not judged yet).</p>\n"
-                     : MeasurementTable(ms).Render(Format::kHtml);
+  // As a test engineer reads a run: the verdict and its reasons, the judged
+  // measurements (failing first), the plots, and only then every
+  // measurement archived.
+  std::vector<pb::Measurement> judged;
+  for (const pb::Measurement& m : ms) {
+    if (m.outcome() != pb::OUTCOME_UNSET) judged.push_back(m);
+  }
+  const auto rank = [](pb::Outcome o) {
+    switch (o) {
+      case pb::FAIL: return 0;
+      case pb::INCONCLUSIVE: return 1;
+      case pb::MARGINAL: return 2;
+      default: return 3;
+    }
+  };
+  std::stable_sort(judged.begin(), judged.end(),
+                   [&](const pb::Measurement& a, const pb::Measurement& b) {
+                     return rank(a.outcome()) < rank(b.outcome());
+                   });
+  if (!judged.empty()) {
+    body += "<section id=\"judged\">\n<h2>Judged measurements, failing first</h2>\n" +
+            MeasurementTable(judged).Render(Format::kHtml) + "</section>\n";
+  }
   auto plots = report::LoadRunPlotData(archive, run_id);
   if (plots.ok()) {
     const std::vector<report::AllanPlot> allan = report::RunAllanPlots(*plots, "");
@@ -260,6 +280,10 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
   }
   auto series = report::RunTimeSeriesSvg(archive, run_id);
   if (series.ok()) body += "<h2>Raw samples against time</h2>\n<figure>" + *series + "</figure>\n";
+  body += "<section id=\"measurements\">\n<h2>Every measurement archived</h2>\n";
+  body += ms.empty() ? "<p>No measurement archived (not judged yet).</p>\n"
+                     : MeasurementTable(ms).Render(Format::kHtml);
+  body += "</section>\n";
   body += "<p class=\"note\">JSON: <a href=\"" + HtmlEscape(NameLink("/api/run", "id", run_id)) +
           "\">/api/run/" + HtmlEscape(run_id) + "</a>.</p>\n";
   return {200, "text/html; charset=utf-8", PageHtml("run " + run_id, body)};

@@ -153,3 +153,87 @@ export function percentile(values, p) {
   const sorted = [...values].sort((a, b) => a - b);
   return sorted[Math.min(sorted.length - 1, Math.max(0, Math.ceil(p * sorted.length) - 1))];
 }
+
+// The screen a person first sees: the page at 1400x1000 (or `size`), scrolled to the top,
+// saved as NAME.png (in IMUQUAL_SCREENS, else ./screens under the test's
+// working directory) and checked: no text overflows its box (the page wider
+// than the screen; a box that clips or scrolls its text; text running past
+// the right edge of its own box; a plot label outside its plot or over
+// another label), and each element that `first` names ({ what, selector }) is
+// inside the first screen. Each problem is one failure naming the page.
+export async function screenCheck(page, name, first = [], size = { width: 1400, height: 1000 }) {
+  await page.setViewportSize(size);
+  await page.evaluate(() => window.scrollTo(0, 0));
+  const dir = process.env.IMUQUAL_SCREENS || path.join(process.cwd(), 'screens');
+  fs.mkdirSync(dir, { recursive: true });
+  await page.screenshot({ path: path.join(dir, `${name}.png`) });
+  const problems = await page.evaluate((firstOnes) => {
+    const out = [];
+    const clip = (s) => (s.length > 40 ? `${s.slice(0, 40)}...` : s);
+    const label = (el) => `<${el.tagName.toLowerCase()}${el.id ? `#${el.id}` : ''}` +
+        `${typeof el.className === 'string' && el.className ? `.${el.className.split(/\s+/).join('.')}` : ''}>`;
+    const visible = (el) => {
+      const r = el.getBoundingClientRect();
+      return r.width > 0 && r.height > 0 && getComputedStyle(el).visibility !== 'hidden';
+    };
+    const doc = document.documentElement;
+    if (doc.scrollWidth > window.innerWidth + 1) {
+      out.push(`the page is ${doc.scrollWidth} px wide, wider than the screen`);
+    }
+    for (const el of document.body.querySelectorAll('*')) {
+      if (el.closest('svg') || !visible(el)) continue;
+      const text = [...el.childNodes].filter((n) => n.nodeType === Node.TEXT_NODE)
+          .map((n) => n.textContent).join('').trim();
+      const cs = getComputedStyle(el);
+      if (cs.overflowX !== 'visible' && el.scrollWidth > el.clientWidth + 1 && el.textContent.trim()) {
+        out.push(`${label(el)} hides ${el.scrollWidth - el.clientWidth} px of its content ` +
+                 `('${clip(el.textContent.trim())}')`);
+      }
+      if (!text) continue;
+      const range = document.createRange();
+      range.selectNodeContents(el);
+      const box = el.getBoundingClientRect();
+      for (const r of range.getClientRects()) {
+        if (r.width > 0 && r.right > box.right + 1 && cs.display !== 'inline') {
+          out.push(`text of ${label(el)} runs ${Math.round(r.right - box.right)} px past its box ('${clip(text)}')`);
+          break;
+        }
+      }
+    }
+    for (const svg of document.querySelectorAll('svg')) {
+      if (!visible(svg)) continue;
+      const frame = svg.getBoundingClientRect();
+      const texts = [...svg.querySelectorAll('text')].filter((t) => t.textContent.trim())
+          .map((t) => ({ t: t.textContent.trim(), r: t.getBoundingClientRect() }));
+      for (const { t, r } of texts) {
+        if (r.left < frame.left - 1 || r.right > frame.right + 1 || r.top < frame.top - 1 ||
+            r.bottom > frame.bottom + 1) {
+          out.push(`plot label '${clip(t)}' lies outside its plot`);
+        }
+      }
+      for (let i = 0; i < texts.length; ++i) {
+        for (let j = i + 1; j < texts.length; ++j) {
+          const a = texts[i].r, b = texts[j].r;
+          const w = Math.min(a.right, b.right) - Math.max(a.left, b.left);
+          const h = Math.min(a.bottom, b.bottom) - Math.max(a.top, b.top);
+          if (w > 1 && h > 1 && w * h > 4) {
+            out.push(`plot labels '${clip(texts[i].t)}' and '${clip(texts[j].t)}' overlap`);
+          }
+        }
+      }
+    }
+    for (const { what, selector } of firstOnes) {
+      const el = document.querySelector(selector);
+      if (!el) {
+        out.push(`no ${what} (${selector})`);
+        continue;
+      }
+      const r = el.getBoundingClientRect();
+      if (r.top < 0 || r.bottom > window.innerHeight) {
+        out.push(`${what} is at ${Math.round(r.top)}-${Math.round(r.bottom)} px, outside the first screen (0-${window.innerHeight})`);
+      }
+    }
+    return out;
+  }, first);
+  for (const p of problems) fail(`${name} page at ${size.width}x${size.height}: ${p}`);
+}

@@ -25,7 +25,8 @@ import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import {
-  fail, finish, launch, makeCertificate, makeStationKeys, parseArgs, percentile, serve, sqlite, waitFor,
+  fail, finish, launch, makeCertificate, makeStationKeys, parseArgs, percentile, screenCheck, serve, sqlite,
+  waitFor,
   watchedPage,
 } from './check_lib.mjs';
 
@@ -131,6 +132,13 @@ async function main() {
       }
     }
 
+    // The screen mid-soak: nothing cut, the worst unit's row and tile in view.
+    await screenCheck(page, 'live-soak', [{ what: 'the first unit row', selector: '#units tbody tr.first' }]);
+    // On a 1920x1080 wall screen the table and every unit's plot are in view.
+    await screenCheck(page, 'live-wall', [{ what: 'the first unit row', selector: '#units tbody tr.first' },
+                                          { what: 'the last unit\'s plot', selector: '#curves figure:last-of-type' }],
+                      { width: 1920, height: 1080 });
+
     // The store killed: the station restarts it, the page says so.
     const storePid = Number(execFileSync('pgrep', ['-P', String(station.pid), '-x', 'imuqual-store'],
                                          { encoding: 'utf8' }).trim().split('\n')[0]);
@@ -167,6 +175,10 @@ async function main() {
     }
     const tally = await page.evaluate(() => document.getElementById('tally').textContent);
     if (!/^final: /.test(tally)) fail(`no tally at the end: '${tally}'`);
+    const worst = shown.find((r) => r.verdict === 'FAIL') ?? shown[0];
+    await screenCheck(page, 'live', [
+      { what: `the first unit row (${worst.serial} ${worst.verdict})`, selector: '#units tbody tr.first' },
+      { what: 'the tally', selector: '#tally' }]);
     const report = await page.evaluate(() => document.getElementById('report').getAttribute('href'));
     if (report !== `/lot/${kLot}`) fail(`report link '${report}'`);
     if (await page.evaluate(() => window.injected !== undefined)) fail('a hostile string ran on the live page');

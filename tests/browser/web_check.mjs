@@ -27,7 +27,8 @@ import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import {
-  fail, finish, launch, makeCertificate, parseArgs, run, serve, sqlite, sqlText, waitFor, watchedPage,
+  fail, finish, launch, makeCertificate, parseArgs, run, screenCheck, serve, sqlite, sqlText, waitFor,
+  watchedPage,
 } from './check_lib.mjs';
 
 const kLot = 'WEB';
@@ -61,6 +62,7 @@ async function main() {
   const origin = new URL(base).origin;
   const context = await launch(args, work);
   let plain = null;
+  let historyServer = null;
   try {
     const page = await watchedPage(context, origin);
     const visit = async (url) => {
@@ -127,6 +129,7 @@ async function main() {
       const dangling = await page.evaluate(() => [...document.querySelectorAll('#attention a[href^="#"]')]
           .map((a) => a.getAttribute('href')).filter((h) => !document.querySelector(h)));
       if (dangling.length > 0) fail(`the attention list links to no plot: ${dangling.join(' ')}`);
+      await screenCheck(page, 'lot', [{ what: 'the first failing unit', selector: '#attention li[data-verdict="FAIL"]' }]);
     }
 
     // Each unit: its history links to its run, whose measurements equal the archive's.
@@ -139,7 +142,7 @@ async function main() {
       if (!link) { fail(`unit ${r.serial}: no link to run ${r.run_id}`); continue; }
       await visit(new URL(link, base).href);
       const shown = await page.evaluate(() => {
-        const table = document.querySelector('table.data');
+        const table = document.querySelector('#measurements table.data');
         const head = [...table.querySelectorAll('thead th')].map((th) => th.textContent);
         return [...table.querySelectorAll('tbody tr')].map((tr) => {
           const o = {};
@@ -166,6 +169,12 @@ async function main() {
       if (operator !== kOperator) fail(`run ${r.run_id}: operator shown as '${operator}'`);
       const plots = await page.evaluate(() => document.querySelectorAll('figure svg').length);
       if (plots < 2) fail(`run ${r.run_id}: ${plots} plots (Allan and raw samples expected)`);
+      if (r === runs[0]) {
+        await screenCheck(page, 'run', [{ what: 'the run\'s verdict', selector: '.verdict' },
+                                        { what: 'its failing measurement', selector: '#judged tbody tr' }]);
+        const firstJudged = await page.evaluate(() => document.querySelector('#judged tbody tr')?.cells[10]?.textContent);
+        if (firstJudged !== 'FAIL') fail(`run ${r.run_id}: the first judged measurement is ${firstJudged}, not the FAIL`);
+      }
     }
 
     // Read-only.
@@ -186,10 +195,24 @@ async function main() {
       return th?.getAttribute('aria-sort');
     });
     if (sortedPlain !== 'ascending') fail(`plain HTTP lot page: the table did not sort (${sortedPlain})`);
+
+    // The compare page of two generated lots (the second drifted): it fits
+    // the screen, and the measurements that differ come first, in view.
+    const history = path.join(work, 'history.db');
+    run(path.join(path.dirname(args.imuqual), 'imuqual-history-gen'),
+        ['--db', history, '--lots', '2', '--units', '30', '--drift', '0.3']);
+    const hist = await serve(args.imuqual, ['--db', history]);
+    historyServer = hist.child;
+    const comparePage = await watchedPage(context, new URL(hist.url).origin, { fresh: true });
+    const compared = await comparePage.goto(`${hist.url}compare?a=HIST-L001&b=HIST-L002`,
+                                            { waitUntil: 'load', timeout: 30000 });
+    if (compared?.status() !== 200) fail(`compare page: status ${compared?.status()}`);
+    await screenCheck(comparePage, 'compare', [{ what: 'the first measurement that differs', selector: 'tr.sig' }]);
   } finally {
     await context.close();
     child.kill('SIGTERM');
     plain?.kill('SIGTERM');
+    historyServer?.kill('SIGTERM');
   }
   const seconds = ((Date.now() - started) / 1000).toFixed(1);
   finish('web_check', `over TLS with a token: lots page, report, ${kUnits} units and runs against ` +
