@@ -1309,6 +1309,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
     mc.objective = c.objective;
     mc.criterion = c.criterion;
     mc.p_value = JTestPValue(c.objective, n - mc.parameters);
+    mc.model = ToModel(c.kinds, c.theta, p2);
     fit.candidates.push_back(mc);
   }
 

@@ -147,6 +147,7 @@ struct ModelCandidate {
   double criterion = kNaN;  // J + penalty k + 2k(k+1)/(p-k-1)
   double p_value = kNaN;
   double weight = 0;  // Akaike weight in the model average (0: not averaged)
+  CompositeModel model;  // its terms as fitted (no sigmas)
 };
 
 struct GmwmPoint {

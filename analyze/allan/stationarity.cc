@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <numbers>
+#include <random>
 
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/estimators.h"
@@ -50,8 +51,10 @@ class AxisGls {
     ok_ = llt.info() == Eigen::Success;
     if (!ok_) return;
     p_ = llt.solve(Eigen::MatrixXd::Identity(n, n));
+    chol_ = llt.matrixL();
     d_.resize(n);
     for (int i = 0; i < n; ++i) d_(i) = d[at_[i]];
+    data_ = d_;
     if (with_ramp) x_.push_back(Eigen::VectorXd::Ones(n));
     first_event_ = x_.size();
     Refit();
@@ -85,6 +88,17 @@ class AxisGls {
     *sigma = 1 / std::sqrt(den2);
   }
 
+  // A record of the model: differences drawn with its covariance (at the
+  // present positions), every nuisance refitted. Restore() puts the data back.
+  template <typename Rng>
+  void Draw(Rng& rng) {
+    std::normal_distribution<double> gauss;
+    Eigen::VectorXd e(d_.size());
+    for (Eigen::Index i = 0; i < e.size(); ++i) e(i) = gauss(rng);
+    SetData(chol_.triangularView<Eigen::Lower>() * e);
+  }
+  void Restore() { SetData(data_); }
+
   // The joint estimate of accepted event j's amplitude and its 1-sigma.
   void Amplitude(size_t j, double* value, double* sigma) const {
     const int i = static_cast<int>(first_event_ + j);
@@ -117,8 +131,21 @@ class AxisGls {
     v_ = p_ * (d_ - x * beta_);
   }
 
+  // New differences, the same nuisances: only the estimates move.
+  void SetData(const Eigen::VectorXd& d) {
+    d_ = d;
+    if (x_.empty()) {
+      v_ = p_ * d_;
+      return;
+    }
+    beta_ = m_ * (px_.transpose() * d_);
+    v_ = p_ * d_ - px_ * beta_;
+  }
+
   bool ok_ = false;
   size_t first_event_ = 0;
+  Eigen::MatrixXd chol_;
+  Eigen::VectorXd data_;
   std::vector<int> at_, index_;
   Eigen::MatrixXd p_, px_, m_;
   Eigen::VectorXd d_, beta_, v_;
@@ -250,8 +277,6 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
     }
   }
   scan.tests = static_cast<int>(candidates.size());
-  const double families = num_axes > 1 ? num_axes + 1 : 1;
-  const double multiplicity = static_cast<double>(candidates.size()) * families;
 
   // Per axis: differenced bin means and the GLS problem.
   std::vector<AxisGls> gls;
@@ -280,15 +305,24 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
   }
   scan.scanned = true;
 
-  std::vector<StationarityEvent> events;
+  // The strongest candidate of each family: the largest |z| of any axis,
+  // and (more than one axis) the largest sum of z^2 over the axes at one
+  // candidate, chi-square with as many degrees of freedom as axes.
   const boost::math::chi_squared joint(num_axes);
+  struct Strongest {
+    double axis_z = 0;
+    const Candidate* axis_candidate = nullptr;
+    int axis = -1;
+    double joint_sum = 0;
+    const Candidate* joint_candidate = nullptr;
+    double AxisP() const { return axis_candidate ? TwoSidedNormal(axis_z) : 1.0; }
+    double JointP(const boost::math::chi_squared& dist) const {
+      return joint_candidate ? boost::math::cdf(boost::math::complement(dist, joint_sum)) : 1.0;
+    }
+  };
   std::vector<double> z(num_axes), size(num_axes), sigma(num_axes);
-  for (int round = 0; round < options.max_events; ++round) {
-    double best_p = std::numeric_limits<double>::infinity();
-    const Candidate* best = nullptr;
-    bool best_joint = false;
-    int best_axis = -1;
-    std::vector<double> best_z;
+  const auto strongest = [&]() {
+    Strongest s;
     for (const Candidate& c : candidates) {
       bool all = true;
       double sum = 0;
@@ -299,47 +333,77 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
           continue;
         }
         sum += z[a] * z[a];
-        const double p = TwoSidedNormal(z[a]) * multiplicity;
-        if (p < best_p) {
-          best_p = p;
-          best = &c;
-          best_joint = false;
-          best_axis = a;
-          best_z = z;
+        if (std::fabs(z[a]) > s.axis_z) {
+          s.axis_z = std::fabs(z[a]);
+          s.axis_candidate = &c;
+          s.axis = a;
         }
       }
-      if (all && num_axes > 1) {
-        const double p = boost::math::cdf(boost::math::complement(joint, sum)) * multiplicity;
-        if (p < best_p) {
-          best_p = p;
-          best = &c;
-          best_joint = true;
-          best_axis = -1;
-          best_z = z;
-        }
+      if (all && num_axes > 1 && sum > s.joint_sum) {
+        s.joint_sum = sum;
+        s.joint_candidate = &c;
       }
     }
-    if (best == nullptr || !(best_p < options.false_alarm)) break;
+    return s;
+  };
+  // The threshold, calibrated on records drawn from the models (each axis
+  // its own, independent, with the same bins missing): the smallest p of a
+  // record is compared with the r-th smallest of M drawn records', r =
+  // floor((M + 1) alpha), so that a record of the models reports an event
+  // with probability r / (M + 1) <= alpha, whatever the correlations between
+  // the candidates (Bonferroni over them was 5-20 times too strict). Later
+  // events (with the earlier ones as nuisances) are held to the same p.
+  const int draws = static_cast<int>(std::ceil(10 / options.false_alarm)) - 1;
+  std::vector<double> drawn_p(draws);
+  {
+    std::mt19937_64 rng(0x5eed5ca9);
+    for (int m = 0; m < draws; ++m) {
+      for (AxisGls& g : gls) g.Draw(rng);
+      const Strongest s = strongest();
+      drawn_p[m] = std::min(s.AxisP(), s.JointP(joint));
+    }
+    for (AxisGls& g : gls) g.Restore();
+  }
+  std::sort(drawn_p.begin(), drawn_p.end());
+  const int rank = std::max(1, static_cast<int>(std::floor((draws + 1) * options.false_alarm)));
+  const double p_threshold = drawn_p[rank - 1];
+  scan.threshold_p = p_threshold;
+
+  std::vector<StationarityEvent> events;
+  for (int round = 0; round < options.max_events; ++round) {
+    const Strongest s = strongest();
+    const double axis_p = s.AxisP(), joint_p = s.JointP(joint);
+    const bool best_joint = joint_p < axis_p;
+    const double best_p = std::min(axis_p, joint_p);
+    const Candidate* best = best_joint ? s.joint_candidate : s.axis_candidate;
+    if (best == nullptr || !(best_p < p_threshold)) break;
+    const int best_axis = best_joint ? -1 : s.axis;
+    std::vector<double> best_z(num_axes);
+    for (int a = 0; a < num_axes; ++a) gls[a].Test(*best, &best_z[a], &size[a], &sigma[a]);
+    const double adjusted =
+        static_cast<double>(1 + (std::upper_bound(drawn_p.begin(), drawn_p.end(), best_p) -
+                                 drawn_p.begin())) /
+        (draws + 1);
     StationarityEvent e;
     e.kind = best->kind;
     e.time_s = best->k * b;
     e.window_s = best->w * b;
     e.joint = best_joint;
-    e.p_adjusted = std::min(1.0, best_p);
+    e.p_adjusted = std::min(1.0, adjusted);
     e.axes.resize(num_axes);
-    int strongest = 0;
+    int loudest = 0;
     bool any = false;
     for (int a = 0; a < num_axes; ++a) {
       EventAxis& ea = e.axes[a];
       ea.z = best_z[a];
       if (std::isfinite(ea.z) &&
-          (!std::isfinite(best_z[strongest]) || std::fabs(ea.z) > std::fabs(best_z[strongest]))) {
-        strongest = a;
+          (!std::isfinite(best_z[loudest]) || std::fabs(ea.z) > std::fabs(best_z[loudest]))) {
+        loudest = a;
       }
       ea.named = best_joint ? std::isfinite(ea.z) && TwoSidedNormal(ea.z) < 0.01 : a == best_axis;
       any = any || ea.named;
     }
-    if (!any) e.axes[strongest].named = true;
+    if (!any) e.axes[loudest].named = true;
     for (AxisGls& g : gls) g.AddNuisance(*best);
     events.push_back(std::move(e));
   }
@@ -355,7 +419,8 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
   return scan;
 }
 
-Result<CompositeModel> FitModelForScan(std::span<const double> rate, double tau0_s) {
+Result<CompositeModel> FitModelForScan(std::span<const double> rate, double tau0_s,
+                                       bool most_wander) {
   const PhaseRecord phase = PhaseFromRate(rate, tau0_s);
   const std::vector<int64_t> m =
       AveragingFactors(TauGridSpec{}, tau0_s, phase.size(), Deviation::kOadev, StopRule::kBins9);
@@ -367,7 +432,34 @@ Result<CompositeModel> FitModelForScan(std::span<const double> rate, double tau0
   options.absent_term_bounds = false;
   auto fit = FitCompositeModel(curve, options);
   if (!fit.ok()) return fit.status();
-  return fit->model;
+  if (!most_wander) return fit->model;
+  // The selected model is the most parsimonious one the curve allows; the
+  // scan's lags reach the whole record, beyond the fitted taus, where a
+  // flicker floor or random walk the selection left out still moves the bin
+  // means (and the scan would read that wander as events). So among the
+  // candidates the J test accepts, the one with the most variance at a third
+  // of the record.
+  // (A ramp is not variance here: the scan fits it as the constant of the
+  // differenced bin means.)
+  const double long_m = static_cast<double>(rate.size()) / 3;
+  const auto random_avar = [&](const CompositeModel& m) {
+    double v = 0;
+    for (const ModelTerm& t : m.terms) {
+      if (t.kind != TermKind::kDrift) v += TermAvar(t, long_m, tau0_s);
+    }
+    return v;
+  };
+  const CompositeModel* chosen = &fit->model;
+  double most = random_avar(fit->model);
+  for (const ModelCandidate& c : fit->candidates) {
+    if (!(c.p_value >= options.adequacy_level) || c.model.terms.empty()) continue;
+    const double v = random_avar(c.model);
+    if (v > most) {
+      most = v;
+      chosen = &c.model;
+    }
+  }
+  return *chosen;
 }
 
 void RemoveEvents(const StationarityScan& scan, int axis, double tau0_s, std::span<double> rate) {
