@@ -228,6 +228,9 @@ int main(int argc, char** argv) {
                           "of the fit, where the sensor's own output filter shapes the curve "
                           "(the report says so); e.g. --fit-min-tau 0.16")
       ->capture_default_str();
+  analyze_cmd->add_option("--stationarity", an.stationarity_level,
+                          "scan the series for level steps and bursts at this false-alarm level "
+                          "per record (calibrated on the series' own noise model), e.g. 0.01");
   analyze_cmd->add_option("--kind", an.kind, "gyro or accel: datasheet units for the fit");
   analyze_cmd->add_option("--unit", an.unit,
                           "the values' unit, with --kind: gyro deg/s (default), rad/s, mrad/s, "

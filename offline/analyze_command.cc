@@ -10,6 +10,7 @@
 #include "analyze/allan/model_quantities.h"
 #include "analyze/allan/noise_model.h"
 #include "analyze/allan/phase.h"
+#include "analyze/allan/stationarity.h"
 #include "analyze/allan/tau_grid.h"
 #include "analyze/allan/units.h"
 #include "common/log.h"
@@ -74,7 +75,13 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   }
   if (o.fit_min_tau_s > 0 && !o.fit) {
     return Status::InvalidArgument("--fit-min-tau needs --fit");
+  }  if (o.stationarity_level != 0) {
+    if (!(o.stationarity_level > 0 && o.stationarity_level < 0.5)) {
+      return Status::InvalidArgument("--stationarity must be a false-alarm level in (0, 0.5), e.g. 0.01");
+    }
+    if (o.type != "rate") return Status::InvalidArgument("--stationarity needs --type rate");
   }
+
   if (!std::isfinite(o.scale) || o.scale == 0) {
     return Status::InvalidArgument("--scale must be a finite, non-zero number");
   }
@@ -279,6 +286,50 @@ std::string PlotCurves(const std::vector<Curve>& curves, const allan::CompositeF
 
 }  // namespace
 
+// A JSON string literal.
+std::string JsonString(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) continue;
+    out += c;
+  }
+  return out + "\"";
+}
+
+// What the scan looked for and at which level, or why it could not.
+std::string StationaritySummary(const allan::StationarityScan& scan) {
+  if (!scan.scanned) return "stationarity: not scanned: " + scan.note + "\n";
+  char text[512];
+  std::snprintf(text, sizeof text,
+                "stationarity: level steps and bursts in %d bins of %.4g s against the noise model\n"
+                "%s (the adequate candidate with the most wander), false-alarm level %.3g per\n"
+                "record (calibrated on records drawn from that model), %d scan%s: %s\n",
+                scan.bins, scan.bin_s, scan.models.empty() ? "?" : scan.models.front().c_str(),
+                scan.false_alarm, scan.passes, scan.passes == 1 ? "" : "s",
+                scan.events.empty() ? "no event found" : (std::to_string(scan.events.size()) +
+                                                          (scan.events.size() == 1 ? " event" : " events"))
+                                                             .c_str());
+  return text;
+}
+
+// One row per event: where, what, its size with its 1-sigma (datasheet rate
+// units when the kind is known), z at detection and the p adjusted for the
+// whole scan.
+TableWriter EventTable(const allan::StationarityScan& scan,
+                       const std::optional<allan::SensorKind>& kind) {
+  const std::string unit = Present(NoiseTerm::kBiasInstability, kind, 1.0).second;
+  TableWriter t({"event", "at_s", "window_s", "size", "size_sigma", "unit", "z", "p_adjusted"}, 4);
+  for (const allan::StationarityEvent& e : scan.events) {
+    const allan::EventAxis& a = e.axes.front();
+    t.AddRow({Cell::Text(std::string(allan::EventKindName(e.kind))), Cell::Real(e.time_s),
+              Cell::Real(e.window_s), Cell::Real(Present(NoiseTerm::kBiasInstability, kind, a.size).first),
+              Cell::Real(Present(NoiseTerm::kBiasInstability, kind, a.sigma).first), Cell::Text(unit),
+              Cell::Real(a.z), Cell::Real(e.p_adjusted)});
+  }
+  return t;
+}
+
 int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   auto parsed = ParseOptions(o);
   if (!parsed.ok()) {
@@ -339,6 +390,19 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     fit = *f;
   }
 
+  // The stationarity scan: the series as one axis, its own noise model.
+  std::optional<allan::StationarityScan> scan;
+  if (o.stationarity_level > 0) {
+    allan::StationarityOptions so;
+    so.false_alarm = o.stationarity_level;
+    auto s = allan::ScanStationarityRefitting({std::span<const double>(*values)}, tau0, so);
+    if (!s.ok()) {
+      LogError("--stationarity: " + s.status().message());
+      return 1;
+    }
+    scan = *s;
+  }
+
   const bool with_ci = p.curves.ci != allan::CiMethod::kNone;
   if (p.format == Format::kTable) {
     std::printf("%s: %zu %s samples at %g Hz, %lld invalid\n", o.path.c_str(), values->size(),
@@ -360,6 +424,10 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
           "2k(k+1)/(p-k-1); figures and IEEE terms are averaged with the weights)\n%s",
           CandidateTable(*fit).Render(Format::kTable).c_str());
     }
+    if (scan) std::printf("\n%s", StationaritySummary(*scan).c_str());
+    if (scan && !scan->events.empty()) {
+      std::printf("%s", EventTable(*scan, p.kind).Render(Format::kTable).c_str());
+    }
   } else if (p.format == Format::kCsv) {
     std::printf("%s",
                 CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kCsv).c_str());
@@ -367,12 +435,21 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
       std::printf("\n%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kCsv).c_str());
       std::printf("\n%s", CandidateTable(*fit).Render(Format::kCsv).c_str());
     }
+    if (scan && scan->scanned) std::printf("\n%s", EventTable(*scan, p.kind).Render(Format::kCsv).c_str());
   } else {
     std::string json = "{\"file\": \"" + o.path +
                        "\", \"samples\": " + std::to_string(values->size()) +
                        ", \"rate_hz\": " + std::to_string(o.rate_hz) + ",\n\"curves\": " +
                        CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kJson);
     if (fit) json += ",\n\"fit\": " + FitJson(*fit, fit_curve, p.kind);
+    if (scan) {
+      json += ",\n\"stationarity\": {\"scanned\": " + std::string(scan->scanned ? "true" : "false") +
+              ", \"note\": " + JsonString(scan->note) +
+              ", \"false_alarm\": " + JsonNumber(scan->false_alarm) +
+              ", \"bin_s\": " + JsonNumber(scan->bin_s) + ", \"model\": " +
+              JsonString(scan->models.empty() ? "" : scan->models.front()) + ", \"events\": " +
+              EventTable(*scan, p.kind).Render(Format::kJson) + "}";
+    }
     std::printf("%s}\n", json.c_str());
   }
   if (!o.plot_path.empty()) {

@@ -24,6 +24,9 @@ struct AnalyzeFileOptions {
   double confidence = 0.682689492137086;
   bool fit = false;  // composite noise model and slope-line read-offs
   double fit_min_tau_s = 0;  // points below it are not fitted (a sensor filter's range)
+  // Scan the series for level steps and bursts (analyze/allan/stationarity.h)
+  // at this false-alarm level per record; 0: no scan.
+  double stationarity_level = 0;
   std::string kind;  // gyro, accel or "" (units of the fit report)
   // The values' unit (a gyro's deg/s, rad/s, mrad/s, deg/h, rpm; an
   // accelerometer's m/s^2, g, mg, ug; needs kind) and a factor (an LSB):

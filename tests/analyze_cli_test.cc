@@ -9,6 +9,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <random>
 #include <sstream>
 
 #include "analyze/allan/reference_testing.h"
@@ -274,6 +275,47 @@ TEST(AnalyzeCliTest, TheFitIsTheSameWithEveryIntervalOption) {
   EXPECT_EQ(fit_of("--ci simple"), none);
   EXPECT_EQ(fit_of("--ci chi2"), none);
   EXPECT_EQ(fit_of("--ci chi2 --confidence 0.95"), none);
+}
+
+// --stationarity: a level step planted in white noise is found where it
+// was planted, with its size within its uncertainty, and the level's
+// bounds are a one-line usage error.
+TEST(AnalyzeCliTest, StationarityFindsAPlantedStepWithItsSize) {
+  testing::TempDir dir("analyze_cli_stationarity");
+  const std::string path = dir.path("step.txt");
+  {
+    std::ofstream out(path);
+    out.precision(17);
+    std::mt19937_64 rng(5);
+    std::normal_distribution<double> gauss;
+    for (int i = 0; i < 60000; ++i) out << gauss(rng) + (i >= 25000 ? 0.5 : 0.0) << "\n";
+  }
+  const auto r = RunCommand(Bin("imuqual") + " analyze " + path +
+                            " --rate 100 --stationarity 0.01 --format json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const size_t at = r.output.find("\"stationarity\": {\"scanned\": true");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  const std::string scan = r.output.substr(at);
+  EXPECT_NE(scan.find("\"event\": \"step\", \"at_s\": 250,"), std::string::npos) << scan;
+  auto number_after = [&](const std::string& key) {
+    const size_t k = scan.find("\"" + key + "\": ");
+    return k == std::string::npos ? std::nan("") : std::stod(scan.substr(k + key.size() + 4));
+  };
+  const double size = number_after("size"), sigma = number_after("size_sigma");
+  EXPECT_NEAR(size, 0.5, 3 * sigma);
+  EXPECT_LT(sigma, 0.05);
+  for (const char* level : {"0.7", "0", "-0.1"}) {
+    const auto bad = RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 --stationarity " +
+                                level + " 2>&1");
+    if (std::string(level) == "0") {
+      EXPECT_EQ(bad.exit_code, 0) << "0 means no scan";
+      continue;
+    }
+    EXPECT_EQ(bad.exit_code, 2) << level;
+    EXPECT_EQ(bad.output.rfind("imuqual: error: --stationarity must be a false-alarm level", 0), 0u)
+        << bad.output;
+    EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
+  }
 }
 
 // Every binary says which software it is (an auditor's first question
