@@ -66,7 +66,7 @@ double BinMeanSd(const std::vector<double>& y, double tau0_s, double bin_s) {
 }
 
 Rates Run(const std::string& profile_name, int seeds, double duration_s, double step_sigmas,
-          bool verbose, bool true_models, bool most_wander) {
+          bool verbose, bool true_models, bool typical_models, bool most_wander) {
   Rates r;
   auto profile = sim::LotProfileByName(profile_name);
   if (!profile.ok()) return r;
@@ -94,10 +94,10 @@ Rates Run(const std::string& profile_name, int seeds, double duration_s, double 
         for (int a = 0; a < axes; ++a) {
           if (KindOf(truth.axes(a)) != kind) continue;
           group.emplace_back(data[a]);
-          models.push_back(TrueModel(truth.axes(a)));
+          models.push_back(TrueModel(typical_models ? profile->axes[a].typical : truth.axes(a)));
         }
         if (group.empty()) continue;
-        auto s = true_models ? allan::ScanStationarity(group, models, tau0)
+        auto s = true_models || typical_models ? allan::ScanStationarity(group, models, tau0)
                              : allan::ScanStationarityRefitting(
                                    group, tau0, {}, [&](std::span<const double> r, double t) {
                                      return allan::FitModelForScan(r, t, most_wander);
@@ -174,11 +174,15 @@ Rates Run(const std::string& profile_name, int seeds, double duration_s, double 
 int main(int argc, char** argv) {
   int seeds = 200;
   double duration_s = 3600, step_sigmas = 3;
-  bool verbose = false, true_models = false, most_wander = true;
+  bool verbose = false, true_models = false, typical_models = false, most_wander = true;
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
     if (flag == "--selected-model") {  // the fit's selected model, not the one with the most wander
       most_wander = false;
+      continue;
+    }
+    if (flag == "--typical-models") {  // the profile's typical unit's model (a lot's model)
+      typical_models = true;
       continue;
     }
     if (flag == "--true-models") {  // scan with each axis's true model, not one fitted to the record
@@ -196,7 +200,8 @@ int main(int argc, char** argv) {
     ++i;
   }
   for (const std::string& p : imuqual::sim::LotProfileNames()) {
-    const imuqual::Rates r = imuqual::Run(p, seeds, duration_s, step_sigmas, verbose, true_models, most_wander);
+    const imuqual::Rates r = imuqual::Run(p, seeds, duration_s, step_sigmas, verbose, true_models, typical_models,
+                                         most_wander);
     const double fa = static_cast<double>(r.alarms) / r.records;
     const double se = std::sqrt(fa * (1 - fa) / r.records);
     std::printf("stationarity_false_alarm_%s %.4f fraction (+- %.4f, %d records of %.0f s)\n",

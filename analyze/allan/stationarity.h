@@ -56,6 +56,8 @@
 //   selected model, calibrated:     0 / 50 / 5 / 33 / 8 %;    100 / 43 / 45 / 63 / 25 %
 //   most wander (FitModelForScan's `most_wander`), calibrated:
 //                                   0 / 5 / 0 / 2.5 / 0 %;    98 / 28 / 3 / 58 / 8 %
+//   the profile's typical unit's model (units spread 15 % per term):
+//                                   15 / 30 / 20 / 23 / 25 %;  100 / 63 / 80 / 78 / 58 %
 // A selection that leaves out a flicker floor or random walk which the
 // record barely shows (a parsimonious model on a 1 h curve) makes the
 // scan read that wander as steps; the candidate with the most wander the
