@@ -52,18 +52,29 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
   }
   const bool early = std::any_of(rows.begin(), rows.end(),
                                  [](const store::AxisRow& r) { return r.has_decision_time; });
-  std::vector<std::string> columns = {"serial",    "axis",        "ARW/VRW", "bias inst.",
-                                      "BI (IEEE)", "tau min s",   "RRW",     "gap samples",
-                                      "axis",      "unit verdict"};
+  // Units in the headers when every row is of one kind; a mixed table names
+  // both figures and leaves the units to the lines under it.
+  bool any_gyro = false, any_accel = false;
+  for (const store::AxisRow& r : rows) (r.kind == "accel" ? any_accel : any_gyro) = true;
+  const bool mixed = any_gyro && any_accel;
+  std::vector<std::string> columns = {
+      "serial",
+      "axis",
+      mixed ? "ARW/VRW" : any_accel ? "VRW m/s/sqrt(h)" : "ARW deg/sqrt(h)",
+      mixed ? "BI" : any_accel ? "BI ug" : "BI deg/h",
+      mixed ? "BI (IEEE)" : any_accel ? "BI (IEEE) ug" : "BI (IEEE) deg/h",
+      "tau min s",
+      mixed ? "RRW/AcRW" : any_accel ? "AcRW ug/sqrt(h)" : "RRW deg/h/sqrt(h)",
+      "gap samples",
+      "axis",
+      "unit verdict"};
   if (by_slot) columns.insert(columns.begin(), "slot");
   // Every run of a unit (a retest too): which run, and when it started.
   if (with_runs) columns.insert(columns.begin() + (by_slot ? 2 : 1), {"run", "started (UTC)"});
   if (early) columns.push_back("decided at");
   TableWriter t(columns);
-  bool any_accel = false;
   MarkLegend legend;
   for (const store::AxisRow& r : rows) {
-    any_accel |= r.kind == "accel";
     auto marked = [&](double v, const store::ValueMarks& m, const char* name, bool with_u) {
       legend.Add(m, r.unit, r.axis, name, v);
       return Cell::NumText(MarkedValue(v, m, 4, with_u));
@@ -92,15 +103,15 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
   std::string out = t.Render(Format::kTable);
   out += StationOperatorLines(rows);
   out += legend.Render();
-  out +=
-      "gyro units: ARW deg/sqrt(h), bias instability deg/h (curve minimum; IEEE B = "
-      "minimum/0.664), "
-      "RRW deg/h/sqrt(h)\n";
+  if (any_gyro || rows.empty()) {
+    out +=
+        "gyro units: ARW deg/sqrt(h), bias instability BI deg/h (curve minimum; IEEE B = "
+        "minimum/0.664), rate random walk RRW deg/h/sqrt(h)\n";
+  }
   if (any_accel) {
     out +=
-        "accel units: VRW m/s/sqrt(h), bias instability ug (curve minimum; IEEE B = "
-        "minimum/0.664), "
-        "RRW ug/sqrt(h)\n";
+        "accel units: VRW m/s/sqrt(h), bias instability BI ug (curve minimum; IEEE B = "
+        "minimum/0.664), acceleration random walk AcRW ug/sqrt(h)\n";
   }
   return out;
 }
