@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <ctime>
 
+#include "analyze/judge/measurements.h"
 #include "cli/commands.h"
 #include "common/clock.h"
 #include "common/command_line.h"
@@ -94,6 +95,16 @@ int LotStatsCommand(const std::string& db_path, const std::string& lot, Format f
   }
   std::printf("%s", t.Render(format).c_str());
   if (format == Format::kTable) {
+    // Two figures of one curve sit on adjacent rows; a limit belongs to one.
+    const bool both = std::any_of(stats->begin(), stats->end(), [](const MeasurementStats& s) {
+      return s.name == judge::kBiasInstabilityIeee;
+    });
+    if (both) {
+      std::printf(
+          "bias_instability is the Allan curve's minimum (the datasheet figure, what a plan's "
+          "limit on it judges); bias_instability_ieee is IEEE 952's B = minimum / 0.664, for "
+          "reference: compare a limit with the row it stands on\n");
+    }
     std::printf("%s", LotYieldLines(**archive, lot).c_str());
     return LotModelCommand(db_path, lot, format);
   }
