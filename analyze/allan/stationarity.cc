@@ -351,8 +351,9 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
   // record is compared with the r-th smallest of M drawn records', r =
   // floor((M + 1) alpha), so that a record of the models reports an event
   // with probability r / (M + 1) <= alpha, whatever the correlations between
-  // the candidates (Bonferroni over them was 5-20 times too strict). Later
-  // events (with the earlier ones as nuisances) are held to the same p.
+  // the candidates (Bonferroni over them is only a bound, well above the
+  // rate when neighbouring candidates correlate). Later events (with the
+  // earlier ones as nuisances) are held to the same p.
   const int draws = static_cast<int>(std::ceil(10 / options.false_alarm)) - 1;
   std::vector<double> drawn_p(draws);
   {
