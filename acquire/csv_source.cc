@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "common/clock.h"
+#include "common/log.h"
 
 namespace imuqual::acquire {
 
@@ -48,12 +49,17 @@ Result<std::unique_ptr<CsvSource>> CsvSource::Open(const CsvSourceOptions& optio
         return line;
       },
       options.path, wanted);
+  // The axes' columns come first in `wanted`: a bad cell there is an invalid
+  // sample of its axis (counted per axis downstream, judged by the plan's
+  // invalid_fraction), never the end of the unit's run.
+  s->reader_->ReadNonNumbersAsInvalid(options.axes.size());
   IMUQUAL_RETURN_IF_ERROR(s->reader_->Start());
   // A header without rows is no recording, as an empty file is none: it
   // must not become a complete run of 0 samples. The first row is read now
   // and delivered by the first Read().
   Result<bool> first = s->reader_->Next(&s->row_);
   if (!first.ok()) return first.status();
+  for (const std::string& w : s->reader_->TakeWarnings()) LogWarning("csv source " + w);
   if (!*first) return Status::InvalidArgument(options.path + ": a header but no samples");
   s->row_pending_ = true;
   s->info_.axes = options.axes;
@@ -105,6 +111,7 @@ Result<int> CsvSource::Read(int max_samples, SampleBlock* block) {
       } else {
         Result<bool> more = reader_->Next(&row_);
         if (!more.ok()) return more.status();
+        for (const std::string& w : reader_->TakeWarnings()) LogWarning("csv source " + w);
         if (!*more) {
           done_ = true;
           break;

@@ -66,6 +66,7 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
       "tau min s",
       mixed ? "RRW/AcRW" : any_accel ? "AcRW ug/sqrt(h)" : "RRW deg/h/sqrt(h)",
       "gap samples",
+      "invalid samples",
       "axis",
       "unit verdict"};
   if (by_slot) columns.insert(columns.begin(), "slot");
@@ -89,6 +90,7 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
         marked(r.tau_min_s, r.tau_min_marks, "tau_at_minimum", true),
         marked(r.rate_random_walk, r.rate_random_walk_marks, "rate_random_walk", true),
         Cell::Int(r.gap_samples),
+        Cell::Int(r.invalid_samples),
         Cell::Text(r.axis_verdict.empty() ? "-" : r.axis_verdict),
         Cell::Text(r.run_verdict.empty() ? "-" : r.run_verdict)};
     if (early) {

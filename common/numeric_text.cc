@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <strings.h>
 
 namespace imuqual {
@@ -158,6 +159,19 @@ Result<bool> NumericRowReader::ParseRow(std::string_view line, std::vector<doubl
                                      names_[k] + "' is field " + std::to_string(pick_[k] + 1));
     }
     if (!ParseNumber(fields_[pick_[k]], &(*values)[k])) {
+      if (k < lenient_columns_) {
+        (*values)[k] = std::numeric_limits<double>::quiet_NaN();
+        ++invalid_cells_;
+        if (warned_.size() <= k) warned_.resize(k + 1, false);
+        if (!warned_[k]) {
+          warned_[k] = true;
+          warnings_.push_back(where + "'" + Shown(fields_[pick_[k]]) + "' is not a number (column '" +
+                              names_[k] +
+                              "'): read as an invalid sample of that axis, as nan or an empty "
+                              "cell is (the first here; each is counted)");
+        }
+        continue;
+      }
       return Status::InvalidArgument(where + "'" + Shown(fields_[pick_[k]]) +
                                      "' is not a number (column '" + names_[k] + "')");
     }

@@ -8,10 +8,12 @@
 #ifndef IMUQUAL_COMMON_NUMERIC_TEXT_H_
 #define IMUQUAL_COMMON_NUMERIC_TEXT_H_
 
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "common/status.h"
@@ -54,6 +56,17 @@ class NumericRowReader {
   // Line number of the row last returned (1-based, counting every line).
   size_t line() const { return line_no_; }
 
+  // A cell of one of the first `columns` selected columns that is not a
+  // number (text, a stray character) is then read as NaN, an invalid
+  // sample like "nan" or an empty cell, instead of failing the row: one rule
+  // for every bad sample of a measured axis. The other columns (a counter, a
+  // time stamp) still fail. Each such column's first bad cell leaves a
+  // warning (TakeWarnings); every one is counted (invalid_cells).
+  void ReadNonNumbersAsInvalid(size_t columns) { lenient_columns_ = columns; }
+  int64_t invalid_cells() const { return invalid_cells_; }
+  // The warnings since the last call, oldest first.
+  std::vector<std::string> TakeWarnings() { return std::exchange(warnings_, {}); }
+
  private:
   Result<bool> ParseRow(std::string_view line, std::vector<double>* values);
   LineSource next_line_;
@@ -65,6 +78,10 @@ class NumericRowReader {
   size_t line_no_ = 0;
   size_t pending_line_ = 0;
   std::vector<std::string> fields_;
+  size_t lenient_columns_ = 0;
+  int64_t invalid_cells_ = 0;
+  std::vector<bool> warned_;
+  std::vector<std::string> warnings_;
 };
 
 }  // namespace imuqual

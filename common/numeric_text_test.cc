@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
 
 namespace imuqual {
 namespace {
@@ -45,6 +48,45 @@ TEST(NumericTextTest, CsvColumnsByName) {
   auto one = ParseSeries(csv, "f.csv", "gx");
   ASSERT_TRUE(one.ok());
   EXPECT_EQ(one->size(), 3u);
+}
+
+// A reader told so reads a word in a measured column as NaN, counts it and
+// warns once per column; a bad cell elsewhere still fails the row.
+TEST(NumericTextTest, NonNumbersInMeasuredColumnsAreInvalidSamples) {
+  const std::vector<std::string> lines = {"gx,gy,n", "1,2,0", "x,3,1", "4,?,2", "y,5,3", "6,7,z"};
+  size_t next = 0;
+  NumericRowReader reader(
+      [&]() -> std::optional<std::string> {
+        if (next >= lines.size()) return std::nullopt;
+        return lines[next++];
+      },
+      "r.csv", {"gx", "gy", "n"});
+  reader.ReadNonNumbersAsInvalid(2);
+  ASSERT_TRUE(reader.Start().ok());
+  std::vector<double> row;
+  std::vector<std::vector<double>> rows;
+  for (int i = 0; i < 4; ++i) {
+    auto more = reader.Next(&row);
+    ASSERT_TRUE(more.ok()) << more.status().message();
+    ASSERT_TRUE(*more);
+    rows.push_back(row);
+  }
+  EXPECT_EQ(rows[0], (std::vector<double>{1, 2, 0}));
+  EXPECT_TRUE(std::isnan(rows[1][0]));
+  EXPECT_EQ(rows[1][1], 3);
+  EXPECT_TRUE(std::isnan(rows[2][1]));
+  EXPECT_TRUE(std::isnan(rows[3][0]));
+  EXPECT_EQ(reader.invalid_cells(), 3);
+  EXPECT_EQ(reader.TakeWarnings(),
+            (std::vector<std::string>{
+                "r.csv:3: 'x' is not a number (column 'gx'): read as an invalid sample of that "
+                "axis, as nan or an empty cell is (the first here; each is counted)",
+                "r.csv:4: '?' is not a number (column 'gy'): read as an invalid sample of that "
+                "axis, as nan or an empty cell is (the first here; each is counted)"}));
+  EXPECT_TRUE(reader.TakeWarnings().empty());
+  auto bad = reader.Next(&row);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.status().message(), "r.csv:6: 'z' is not a number (column 'n')");
 }
 
 TEST(NumericTextTest, ErrorsNameLineAndColumn) {

@@ -564,15 +564,17 @@ constexpr char kLoosePlan[] =
          limits { measurement: "angle_random_walk" axis_kind: GYRO high: 10 unit: "deg/sqrt(h)" }
     )pb";
 
-// A minute of white rate noise at 100 Hz; `bad_row` >= 0 puts a word in that row.
-void WriteRecording(const std::string& path, uint32_t seed, int bad_row) {
+// A minute of white rate noise at 100 Hz; `bad_row` >= 0 makes that row
+// `bad_text` (by default a word in gy's cell).
+void WriteRecording(const std::string& path, uint32_t seed, int bad_row,
+                    const std::string& bad_text = "0.001,oops,0.002") {
   std::mt19937 gen(seed);
   std::normal_distribution<double> noise(0.0, 0.01);  // deg/s
   std::ofstream out(path);
   out << "gx,gy,gz\n";
   for (int k = 0; k < 6000; ++k) {
     if (k == bad_row) {
-      out << "0.001,oops,0.002\n";
+      out << bad_text << "\n";
     } else {
       out << noise(gen) << ',' << noise(gen) << ',' << noise(gen) << '\n';
     }
@@ -584,10 +586,10 @@ TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchiv
   const std::string plan = dir.path("loose.textproto");
   { std::ofstream(plan) << kLoosePlan; }
   WriteRecording(dir.path("g1.csv"), 1, -1);
-  WriteRecording(dir.path("b1.csv"), 2, 3000);  // line 3002 of the file
+  WriteRecording(dir.path("b1.csv"), 2, 3000, "0.001,0.002");  // line 3002 of the file
   WriteRecording(dir.path("g2.csv"), 3, -1);
   const std::string db = dir.path("cell.db");
-  // WHEN unit B1's recording has a non-numeric cell half-way
+  // WHEN unit B1's recording has a row of two fields for three columns half-way
   const auto r = RunCommand(Bin("imuqual") + " run --unit G1=csv:" + dir.path("g1.csv") +
                             ",rate=100 --unit B1=csv:" + dir.path("b1.csv") +
                             ",rate=100 --unit G2=csv:" + dir.path("g2.csv") + ",rate=100 --plan " +
@@ -597,7 +599,7 @@ TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchiv
   EXPECT_EQ(ErrorLines(r.output), 1) << r.output;
   EXPECT_NE(
       r.output.find("error: 1 of 3 units' sources failed, their runs archived as ERROR: B1 (" +
-                    dir.path("b1.csv") + ":3002: 'oops' is not a number (column 'gy'))"),
+                    dir.path("b1.csv") + ":3002: 2 fields, column 'gz' is field 3)"),
       std::string::npos)
       << r.output;
   // AND B1 is archived as aborted with the verdict ERROR (its source failed:
@@ -614,7 +616,7 @@ TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchiv
     if (run.unit == "B1") {
       EXPECT_EQ(run.state, "aborted");
       EXPECT_EQ(run.verdict, "ERROR");
-      EXPECT_NE(run.reasons.find("b1.csv:3002: 'oops' is not a number"), std::string::npos)
+      EXPECT_NE(run.reasons.find("b1.csv:3002: 2 fields, column 'gz' is field 3"), std::string::npos)
           << run.reasons;
     } else {
       EXPECT_EQ(run.state, "complete") << run.unit;
@@ -631,6 +633,58 @@ TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchiv
       EXPECT_EQ(row.samples, 6000) << row.unit << " " << row.axis;
     }
   }
+}
+
+// One rule for bad samples: a word in an axis's cell is an invalid sample of
+// that axis, as "nan" or an empty cell is, counted on that axis and judged
+// by the plan's invalid_fraction; it never ends the unit's run.
+TEST(BadInputTest, ATextCellIsAnInvalidSampleOfItsAxisNotAnError) {
+  testing::TempDir dir("text_cell");
+  const std::string plan = dir.path("loose.textproto");
+  { std::ofstream(plan) << kLoosePlan; }
+  // GIVEN unit T1's recording with a word in gy's cell of row 3000 (line
+  // 3002) and "nan" and an empty cell in later rows of gy and gz
+  WriteRecording(dir.path("t1.csv"), 2, 3000);
+  {
+    std::ofstream out(dir.path("t1.csv"), std::ios::app);
+    out << "0.001,nan,0.002\n0.001,0.003,\n";
+  }
+  const std::string db = dir.path("cell.db");
+  // WHEN it is soaked
+  const auto r = RunCommand(Bin("imuqual") + " run --unit T1=csv:" + dir.path("t1.csv") +
+                            ",rate=100 --plan " + plan + " --lot TEXT --db " + db + " 2>&1");
+  // THEN the run completes and is judged, its table shows the invalid
+  // samples, and the process log says once where the word was
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("invalid samples"), std::string::npos) << r.output;
+  auto log = ReadFileToString(db + ".log");
+  ASSERT_TRUE(log.ok()) << log.status().message();
+  EXPECT_NE(log->find(dir.path("t1.csv") + ":3002: 'oops' is not a number (column 'gy'): "
+                      "read as an invalid sample of that axis"),
+            std::string::npos)
+      << *log;
+  // AND gy counts two invalid samples (the word and "nan"), gz one, gx none
+  const auto lot = RunCommand(Bin("imuqual") + " lot TEXT --db " + db + " --format csv");
+  ASSERT_EQ(lot.exit_code, 0) << lot.output;
+  std::istringstream rows(lot.output);
+  std::string line;
+  std::getline(rows, line);
+  const std::vector<std::string> header = Split(line, ',');
+  const size_t axis_col = std::find(header.begin(), header.end(), "axis") - header.begin();
+  const size_t invalid_col =
+      std::find(header.begin(), header.end(), "invalid_samples") - header.begin();
+  const size_t verdict_col = std::find(header.begin(), header.end(), "verdict") - header.begin();
+  ASSERT_LT(invalid_col, header.size()) << line;
+  std::map<std::string, std::string> invalid_of;
+  while (std::getline(rows, line)) {
+    const std::vector<std::string> cells = Split(line, ',');
+    ASSERT_EQ(cells.size(), header.size()) << line;
+    invalid_of[cells[axis_col]] = cells[invalid_col];
+    if (verdict_col < cells.size()) EXPECT_EQ(cells[verdict_col], "PASS") << line;
+  }
+  EXPECT_EQ(invalid_of,
+            (std::map<std::string, std::string>{{"gx", "0"}, {"gy", "2"}, {"gz", "1"}}))
+      << lot.output;
 }
 
 // Pre-flight: every slot's source is opened before anything starts, and
