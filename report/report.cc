@@ -719,6 +719,10 @@ h2 { margin: 36px 0 12px; font-size: 20px; border-bottom: 1px solid var(--line);
 .banner.v-none { background: var(--zebra); color: var(--muted); }
 nav { margin: 12px 0; color: var(--muted); }
 nav a { margin-right: 14px; }
+nav.site { margin: 0; background: #1d2329; color: #fff; padding: 8px 16px; display: flex;
+           gap: 18px; align-items: center; flex-wrap: wrap; font: 14px/1.45 system-ui, sans-serif; }
+nav.site a { margin-right: 0; color: #fff; text-decoration: none; font-weight: 600; }
+nav.site form { margin-left: auto; }
 a { color: #0969da; }
 .facts { display: grid; grid-template-columns: repeat(auto-fill, minmax(150px, 1fr)); gap: 10px; margin: 0; }
 .fact { border: 1px solid var(--line); border-radius: 6px; padding: 8px 12px; }
