@@ -48,8 +48,10 @@ allan::CompositeModel TrueModel(const pb::AxisTruth& a) {
   for (const pb::GaussMarkov& g : a.gauss_markov()) {
     add(TermKind::kGaussMarkov, g.sigma(), g.correlation_time_s());
   }
-  if (a.sine_frequency_hz() > 0) add(TermKind::kSinusoid, a.sine_amplitude(), 0, a.sine_frequency_hz());
-  for (const pb::Sinusoid& l : a.sinusoids()) add(TermKind::kSinusoid, l.amplitude(), 0, l.frequency_hz());
+  if (a.sine_frequency_hz() > 0)
+    add(TermKind::kSinusoid, a.sine_amplitude(), 0, a.sine_frequency_hz());
+  for (const pb::Sinusoid& l : a.sinusoids())
+    add(TermKind::kSinusoid, l.amplitude(), 0, l.frequency_hz());
   return m;
 }
 
@@ -97,11 +99,12 @@ Rates Run(const std::string& profile_name, int seeds, double duration_s, double 
           models.push_back(TrueModel(typical_models ? profile->axes[a].typical : truth.axes(a)));
         }
         if (group.empty()) continue;
-        auto s = true_models || typical_models ? allan::ScanStationarity(group, models, tau0)
-                             : allan::ScanStationarityRefitting(
-                                   group, tau0, {}, [&](std::span<const double> r, double t) {
-                                     return allan::FitModelForScan(r, t, most_wander);
-                                   });
+        auto s = true_models || typical_models
+                     ? allan::ScanStationarity(group, models, tau0)
+                     : allan::ScanStationarityRefitting(
+                           group, tau0, {}, [&](std::span<const double> r, double t) {
+                             return allan::FitModelForScan(r, t, most_wander);
+                           });
         if (s.ok()) out->push_back(*s);
       }
     };
@@ -185,7 +188,8 @@ int main(int argc, char** argv) {
       typical_models = true;
       continue;
     }
-    if (flag == "--true-models") {  // scan with each axis's true model, not one fitted to the record
+    // Scan with each axis's true model, not one fitted to the record.
+    if (flag == "--true-models") {
       true_models = true;
       continue;
     }
@@ -200,8 +204,8 @@ int main(int argc, char** argv) {
     ++i;
   }
   for (const std::string& p : imuqual::sim::LotProfileNames()) {
-    const imuqual::Rates r = imuqual::Run(p, seeds, duration_s, step_sigmas, verbose, true_models, typical_models,
-                                         most_wander);
+    const imuqual::Rates r = imuqual::Run(p, seeds, duration_s, step_sigmas, verbose, true_models,
+                                          typical_models, most_wander);
     const double fa = static_cast<double>(r.alarms) / r.records;
     const double se = std::sqrt(fa * (1 - fa) / r.records);
     std::printf("stationarity_false_alarm_%s %.4f fraction (+- %.4f, %d records of %.0f s)\n",

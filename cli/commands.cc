@@ -57,18 +57,20 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
   bool any_gyro = false, any_accel = false;
   for (const store::AxisRow& r : rows) (r.kind == "accel" ? any_accel : any_gyro) = true;
   const bool mixed = any_gyro && any_accel;
-  std::vector<std::string> columns = {
-      "serial",
-      "axis",
-      mixed ? "ARW/VRW" : any_accel ? "VRW m/s/sqrt(h)" : "ARW deg/sqrt(h)",
-      mixed ? "BI" : any_accel ? "BI ug" : "BI deg/h",
-      mixed ? "BI (IEEE)" : any_accel ? "BI (IEEE) ug" : "BI (IEEE) deg/h",
-      "tau min s",
-      mixed ? "RRW/AcRW" : any_accel ? "AcRW ug/sqrt(h)" : "RRW deg/h/sqrt(h)",
-      "gap samples",
-      "invalid samples",
-      "axis",
-      "unit verdict"};
+  const auto per_kind = [&](const char* both, const char* accel, const char* gyro) {
+    return std::string(mixed ? both : any_accel ? accel : gyro);
+  };
+  std::vector<std::string> columns = {"serial",
+                                      "axis",
+                                      per_kind("ARW/VRW", "VRW m/s/sqrt(h)", "ARW deg/sqrt(h)"),
+                                      per_kind("BI", "BI ug", "BI deg/h"),
+                                      per_kind("BI (IEEE)", "BI (IEEE) ug", "BI (IEEE) deg/h"),
+                                      "tau min s",
+                                      per_kind("RRW/AcRW", "AcRW ug/sqrt(h)", "RRW deg/h/sqrt(h)"),
+                                      "gap samples",
+                                      "invalid samples",
+                                      "axis",
+                                      "unit verdict"};
   if (by_slot) columns.insert(columns.begin(), "slot");
   // Every run of a unit (a retest too): which run, and when it started.
   if (with_runs) columns.insert(columns.begin() + (by_slot ? 2 : 1), {"run", "started (UTC)"});

@@ -1,6 +1,6 @@
 #include "common/numeric_text.h"
 
-#include "common/strings.h"
+#include <strings.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -8,7 +8,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
-#include <strings.h>
+
+#include "common/strings.h"
 
 namespace imuqual {
 namespace {
@@ -165,8 +166,8 @@ Result<bool> NumericRowReader::ParseRow(std::string_view line, std::vector<doubl
         if (warned_.size() <= k) warned_.resize(k + 1, false);
         if (!warned_[k]) {
           warned_[k] = true;
-          warnings_.push_back(where + "'" + Shown(fields_[pick_[k]]) + "' is not a number (column '" +
-                              names_[k] +
+          warnings_.push_back(where + "'" + Shown(fields_[pick_[k]]) +
+                              "' is not a number (column '" + names_[k] +
                               "'): read as an invalid sample of that axis, as nan or an empty "
                               "cell is (the first here; each is counted)");
         }

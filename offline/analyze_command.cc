@@ -27,6 +27,7 @@ namespace imuqual::offline {
 using report::AddModelSeries;
 using report::Cell;
 using report::Format;
+using report::JsonString;
 using report::LogLogPlot;
 using report::PaletteColor;
 using report::ParseFormat;
@@ -75,13 +76,14 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   }
   if (o.fit_min_tau_s > 0 && !o.fit) {
     return Status::InvalidArgument("--fit-min-tau needs --fit");
-  }  if (o.stationarity_level != 0) {
+  }
+  if (o.stationarity_level != 0) {
     if (!(o.stationarity_level > 0 && o.stationarity_level < 0.5)) {
-      return Status::InvalidArgument("--stationarity must be a false-alarm level in (0, 0.5), e.g. 0.01");
+      return Status::InvalidArgument(
+          "--stationarity must be a false-alarm level in (0, 0.5), e.g. 0.01");
     }
     if (o.type != "rate") return Status::InvalidArgument("--stationarity needs --type rate");
   }
-
   if (!std::isfinite(o.scale) || o.scale == 0) {
     return Status::InvalidArgument("--scale must be a finite, non-zero number");
   }
@@ -286,30 +288,21 @@ std::string PlotCurves(const std::vector<Curve>& curves, const allan::CompositeF
 
 }  // namespace
 
-// A JSON string literal.
-std::string JsonString(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) continue;
-    out += c;
-  }
-  return out + "\"";
-}
-
 // What the scan looked for and at which level, or why it could not.
 std::string StationaritySummary(const allan::StationarityScan& scan) {
   if (!scan.scanned) return "stationarity: not scanned: " + scan.note + "\n";
   char text[512];
-  std::snprintf(text, sizeof text,
-                "stationarity: level steps and bursts in %d bins of %.4g s against the noise model\n"
-                "%s (the adequate candidate with the most wander), false-alarm level %.3g per\n"
-                "record (calibrated on records drawn from that model), %d scan%s: %s\n",
-                scan.bins, scan.bin_s, scan.models.empty() ? "?" : scan.models.front().c_str(),
-                scan.false_alarm, scan.passes, scan.passes == 1 ? "" : "s",
-                scan.events.empty() ? "no event found" : (std::to_string(scan.events.size()) +
-                                                          (scan.events.size() == 1 ? " event" : " events"))
-                                                             .c_str());
+  std::snprintf(
+      text, sizeof text,
+      "stationarity: level steps and bursts in %d bins of %.4g s against the noise model\n"
+      "%s (the adequate candidate with the most wander), false-alarm level %.3g per\n"
+      "record (calibrated on records drawn from that model), %d scan%s: %s\n",
+      scan.bins, scan.bin_s, scan.models.empty() ? "?" : scan.models.front().c_str(),
+      scan.false_alarm, scan.passes, scan.passes == 1 ? "" : "s",
+      scan.events.empty()
+          ? "no event found"
+          : (std::to_string(scan.events.size()) + (scan.events.size() == 1 ? " event" : " events"))
+                .c_str());
   return text;
 }
 
@@ -323,9 +316,10 @@ TableWriter EventTable(const allan::StationarityScan& scan,
   for (const allan::StationarityEvent& e : scan.events) {
     const allan::EventAxis& a = e.axes.front();
     t.AddRow({Cell::Text(std::string(allan::EventKindName(e.kind))), Cell::Real(e.time_s),
-              Cell::Real(e.window_s), Cell::Real(Present(NoiseTerm::kBiasInstability, kind, a.size).first),
-              Cell::Real(Present(NoiseTerm::kBiasInstability, kind, a.sigma).first), Cell::Text(unit),
-              Cell::Real(a.z), Cell::Real(e.p_adjusted)});
+              Cell::Real(e.window_s),
+              Cell::Real(Present(NoiseTerm::kBiasInstability, kind, a.size).first),
+              Cell::Real(Present(NoiseTerm::kBiasInstability, kind, a.sigma).first),
+              Cell::Text(unit), Cell::Real(a.z), Cell::Real(e.p_adjusted)});
   }
   return t;
 }
@@ -435,7 +429,8 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
       std::printf("\n%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kCsv).c_str());
       std::printf("\n%s", CandidateTable(*fit).Render(Format::kCsv).c_str());
     }
-    if (scan && scan->scanned) std::printf("\n%s", EventTable(*scan, p.kind).Render(Format::kCsv).c_str());
+    if (scan && scan->scanned)
+      std::printf("\n%s", EventTable(*scan, p.kind).Render(Format::kCsv).c_str());
   } else {
     std::string json = "{\"file\": \"" + o.path +
                        "\", \"samples\": " + std::to_string(values->size()) +
@@ -443,12 +438,13 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
                        CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kJson);
     if (fit) json += ",\n\"fit\": " + FitJson(*fit, fit_curve, p.kind);
     if (scan) {
-      json += ",\n\"stationarity\": {\"scanned\": " + std::string(scan->scanned ? "true" : "false") +
-              ", \"note\": " + JsonString(scan->note) +
-              ", \"false_alarm\": " + JsonNumber(scan->false_alarm) +
-              ", \"bin_s\": " + JsonNumber(scan->bin_s) + ", \"model\": " +
-              JsonString(scan->models.empty() ? "" : scan->models.front()) + ", \"events\": " +
-              EventTable(*scan, p.kind).Render(Format::kJson) + "}";
+      json +=
+          ",\n\"stationarity\": {\"scanned\": " + std::string(scan->scanned ? "true" : "false") +
+          ", \"note\": " + JsonString(scan->note) +
+          ", \"false_alarm\": " + JsonNumber(scan->false_alarm) +
+          ", \"bin_s\": " + JsonNumber(scan->bin_s) +
+          ", \"model\": " + JsonString(scan->models.empty() ? "" : scan->models.front()) +
+          ", \"events\": " + EventTable(*scan, p.kind).Render(Format::kJson) + "}";
     }
     std::printf("%s}\n", json.c_str());
   }

@@ -1157,8 +1157,9 @@ std::string RenderLotReportHtml(const LotReportData& d, const std::string& archi
   Header(d, archive_label, &html);
   // The units to look at come first, where the lot's headline leaves off:
   // on a 1400 x 1000 screen the first failing unit is in view.
-  html += "<nav aria-label=\"Contents\"><a href=\"#attention\">Units to look at</a>"
-          "<a href=\"#yield\">Yield and retests</a>";
+  html +=
+      "<nav aria-label=\"Contents\"><a href=\"#attention\">Units to look at</a>"
+      "<a href=\"#yield\">Yield and retests</a>";
   if (!d.early.runs.empty()) html += "<a href=\"#early-decisions\">Early decisions</a>";
   html +=
       "<a href=\"#results\">Results per unit</a><a href=\"#statistics\">Lot statistics</a>"

@@ -44,6 +44,8 @@ std::string CsvQuote(const std::string& s) {
   return out + "\"";
 }
 
+}  // namespace
+
 std::string JsonString(const std::string& s) {
   std::string out = "\"";
   for (unsigned char c : s) {
@@ -75,8 +77,6 @@ std::string JsonString(const std::string& s) {
   }
   return out + "\"";
 }
-
-}  // namespace
 
 size_t DisplayWidth(const std::string& s) {
   size_t n = 0;

@@ -65,6 +65,9 @@ class TableWriter {
   int digits_;
 };
 
+// A JSON string literal: quotes, backslashes and control characters escaped.
+std::string JsonString(const std::string& s);
+
 }  // namespace imuqual::report
 
 #endif  // IMUQUAL_REPORT_TABLE_WRITER_H_

@@ -305,8 +305,8 @@ TEST(AnalyzeCliTest, StationarityFindsAPlantedStepWithItsSize) {
   EXPECT_NEAR(size, 0.5, 3 * sigma);
   EXPECT_LT(sigma, 0.05);
   for (const char* level : {"0.7", "0", "-0.1"}) {
-    const auto bad = RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 --stationarity " +
-                                level + " 2>&1");
+    const auto bad = RunCommand(Bin("imuqual") + " analyze " + path +
+                                " --rate 100 --stationarity " + level + " 2>&1");
     if (std::string(level) == "0") {
       EXPECT_EQ(bad.exit_code, 0) << "0 means no scan";
       continue;

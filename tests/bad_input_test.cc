@@ -358,6 +358,31 @@ TEST(BadInputTest, DamagedBatchesAreCountedDroppedAndResentNeverArchivedOrAnalys
   EXPECT_EQ(store.Stop(15), 0);
 }
 
+// One column of `imuqual lot --format csv` output by axis (axis -> cell).
+std::map<std::string, std::string> LotColumnByAxis(const std::string& csv,
+                                                   const std::string& column) {
+  std::map<std::string, std::string> by_axis;
+  std::istringstream rows(csv);
+  std::string line;
+  std::getline(rows, line);
+  const std::vector<std::string> header = Split(line, ',');
+  const size_t axis_col = std::find(header.begin(), header.end(), "axis") - header.begin();
+  const size_t col = std::find(header.begin(), header.end(), column) - header.begin();
+  if (axis_col >= header.size() || col >= header.size()) {
+    ADD_FAILURE() << "no column axis or " << column << " in: " << line;
+    return by_axis;
+  }
+  while (std::getline(rows, line)) {
+    const std::vector<std::string> cells = Split(line, ',');
+    if (cells.size() != header.size()) {
+      ADD_FAILURE() << cells.size() << " cells for " << header.size() << " columns: " << line;
+      continue;
+    }
+    by_axis[cells[axis_col]] = cells[col];
+  }
+  return by_axis;
+}
+
 TEST(BadInputTest, InvalidSamplesOnOneAxisAreReportedOnThatAxisOnly) {
   StationHarness h("bad_one_axis");
   Subprocess store = h.StartStore();
@@ -392,20 +417,8 @@ TEST(BadInputTest, InvalidSamplesOnOneAxisAreReportedOnThatAxisOnly) {
   const auto lot = RunCommand(Bin("imuqual") + " lot BAD --db " + h.db() + " --format csv");
   ASSERT_EQ(lot.exit_code, 0) << lot.output;
   // THEN y carries its invalid samples and x and z none (not the run's total on each)
-  std::map<std::string, std::string> invalid_of;  // axis -> invalid_samples cell
-  std::istringstream rows(lot.output);
-  std::string line;
-  std::getline(rows, line);
-  const std::vector<std::string> header = Split(line, ',');
-  const size_t axis_col = std::find(header.begin(), header.end(), "axis") - header.begin();
-  const size_t invalid_col =
-      std::find(header.begin(), header.end(), "invalid_samples") - header.begin();
-  ASSERT_LT(invalid_col, header.size()) << line;
-  while (std::getline(rows, line)) {
-    const std::vector<std::string> cells = Split(line, ',');
-    ASSERT_EQ(cells.size(), header.size()) << line;
-    invalid_of[cells[axis_col]] = cells[invalid_col];
-  }
+  const std::map<std::string, std::string> invalid_of =
+      LotColumnByAxis(lot.output, "invalid_samples");
   EXPECT_EQ(invalid_of, (std::map<std::string, std::string>{
                             {"x", "0"}, {"y", std::to_string(invalid_y)}, {"z", "0"}}))
       << lot.output;
@@ -616,7 +629,8 @@ TEST(BadInputTest, ASourcesDataErrorExitsThreeAndTheOtherUnitsAreJudgedAndArchiv
     if (run.unit == "B1") {
       EXPECT_EQ(run.state, "aborted");
       EXPECT_EQ(run.verdict, "ERROR");
-      EXPECT_NE(run.reasons.find("b1.csv:3002: 2 fields, column 'gz' is field 3"), std::string::npos)
+      EXPECT_NE(run.reasons.find("b1.csv:3002: 2 fields, column 'gz' is field 3"),
+                std::string::npos)
           << run.reasons;
     } else {
       EXPECT_EQ(run.state, "complete") << run.unit;
@@ -660,30 +674,18 @@ TEST(BadInputTest, ATextCellIsAnInvalidSampleOfItsAxisNotAnError) {
   auto log = ReadFileToString(db + ".log");
   ASSERT_TRUE(log.ok()) << log.status().message();
   EXPECT_NE(log->find(dir.path("t1.csv") + ":3002: 'oops' is not a number (column 'gy'): "
-                      "read as an invalid sample of that axis"),
+                                           "read as an invalid sample of that axis"),
             std::string::npos)
       << *log;
   // AND gy counts two invalid samples (the word and "nan"), gz one, gx none
   const auto lot = RunCommand(Bin("imuqual") + " lot TEXT --db " + db + " --format csv");
   ASSERT_EQ(lot.exit_code, 0) << lot.output;
-  std::istringstream rows(lot.output);
-  std::string line;
-  std::getline(rows, line);
-  const std::vector<std::string> header = Split(line, ',');
-  const size_t axis_col = std::find(header.begin(), header.end(), "axis") - header.begin();
-  const size_t invalid_col =
-      std::find(header.begin(), header.end(), "invalid_samples") - header.begin();
-  const size_t verdict_col = std::find(header.begin(), header.end(), "verdict") - header.begin();
-  ASSERT_LT(invalid_col, header.size()) << line;
-  std::map<std::string, std::string> invalid_of;
-  while (std::getline(rows, line)) {
-    const std::vector<std::string> cells = Split(line, ',');
-    ASSERT_EQ(cells.size(), header.size()) << line;
-    invalid_of[cells[axis_col]] = cells[invalid_col];
-    if (verdict_col < cells.size()) EXPECT_EQ(cells[verdict_col], "PASS") << line;
-  }
-  EXPECT_EQ(invalid_of,
-            (std::map<std::string, std::string>{{"gx", "0"}, {"gy", "2"}, {"gz", "1"}}))
+  const std::map<std::string, std::string> invalid_of =
+      LotColumnByAxis(lot.output, "invalid_samples");
+  EXPECT_EQ(LotColumnByAxis(lot.output, "verdict"),
+            (std::map<std::string, std::string>{{"gx", "PASS"}, {"gy", "PASS"}, {"gz", "PASS"}}))
+      << lot.output;
+  EXPECT_EQ(invalid_of, (std::map<std::string, std::string>{{"gx", "0"}, {"gy", "2"}, {"gz", "1"}}))
       << lot.output;
 }
 

@@ -256,17 +256,9 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
   for (const pb::Measurement& m : ms) {
     if (m.outcome() != pb::OUTCOME_UNSET) judged.push_back(m);
   }
-  const auto rank = [](pb::Outcome o) {
-    switch (o) {
-      case pb::FAIL: return 0;
-      case pb::INCONCLUSIVE: return 1;
-      case pb::MARGINAL: return 2;
-      default: return 3;
-    }
-  };
   std::stable_sort(judged.begin(), judged.end(),
-                   [&](const pb::Measurement& a, const pb::Measurement& b) {
-                     return rank(a.outcome()) < rank(b.outcome());
+                   [](const pb::Measurement& a, const pb::Measurement& b) {
+                     return store::AttentionRank(a.outcome()) > store::AttentionRank(b.outcome());
                    });
   if (!judged.empty()) {
     body += "<section id=\"judged\">\n<h2>Judged measurements, failing first</h2>\n" +

@@ -382,8 +382,8 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
     std::vector<double> best_z(num_axes);
     for (int a = 0; a < num_axes; ++a) gls[a].Test(*best, &best_z[a], &size[a], &sigma[a]);
     const double adjusted =
-        static_cast<double>(1 + (std::upper_bound(drawn_p.begin(), drawn_p.end(), best_p) -
-                                 drawn_p.begin())) /
+        static_cast<double>(
+            1 + (std::upper_bound(drawn_p.begin(), drawn_p.end(), best_p) - drawn_p.begin())) /
         (draws + 1);
     StationarityEvent e;
     e.kind = best->kind;

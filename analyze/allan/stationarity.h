@@ -134,7 +134,7 @@ struct StationarityScan {
   int bins = 0;
   int tests = 0;  // candidates per axis (steps and bursts)
   double false_alarm = kNaN;
-  double threshold_p = kNaN;  // a candidate's p below this is an event (calibrated)
+  double threshold_p = kNaN;              // a candidate's p below this is an event (calibrated)
   std::vector<StationarityEvent> events;  // in the order found (strongest first)
   int passes = 0;                         // scans made (ScanStationarityRefitting)
   std::vector<std::string> models;        // each axis's noise model of the last scan
