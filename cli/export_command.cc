@@ -390,6 +390,7 @@ Status ExportSamples(store::Archive& archive, const RunRef& run, std::FILE* out)
   std::fputs(header.c_str(), out);
   const size_t axes = info.axes.size();
   std::string row;
+  std::vector<int> bits;
   const auto time_of = [&](int64_t first, int64_t counter) {
     return ShortestReal(static_cast<double>(counter - first) / rate);
   };
@@ -410,18 +411,28 @@ Status ExportSamples(store::Archive& archive, const RunRef& run, std::FILE* out)
       const int64_t k = c.first_sample + i;
       row = std::to_string(k) + "," + time_of(first, k) + ",";
       if (c.sample_utime > 0) row += std::to_string(c.sample_utime + std::llround(i * 1e6 / rate));
-      std::string flags;
+      // Per axis: the source's flags (1 saturated, 2 invalid), and a value
+      // that is not a finite number (NaN, inf: a bad cell or reading) is
+      // invalid as the analysis counts it, flagged or not.
+      bits.assign(axes, 0);
       for (size_t a = 0; a < axes; ++a) {
-        row += "," + FloatText(chunk.at(static_cast<int>(a), i));
+        const float v = chunk.at(static_cast<int>(a), i);
+        row += "," + FloatText(v);
+        if (!std::isfinite(v)) bits[a] |= 2;
       }
       for (const store::SampleFlag& f : chunk.flags) {
-        if (f.sample != i) continue;
+        if (f.sample == i && f.axis < axes) bits[f.axis] |= f.bits;
+      }
+      std::string flags;
+      for (size_t a = 0; a < axes; ++a) {
+        const int f = bits[a];
+        if (f == 0) continue;
         if (!flags.empty()) flags += " ";
-        flags += info.axes[f.axis].name + ":" +
-                 ((f.bits & 1) && (f.bits & 2) ? "saturated+invalid"
-                  : (f.bits & 1)               ? "saturated"
-                  : (f.bits & 2)               ? "invalid"
-                                               : std::to_string(f.bits));
+        flags += info.axes[a].name + ":" +
+                 ((f & 1) && (f & 2) ? "saturated+invalid"
+                  : (f & 1)          ? "saturated"
+                  : (f & 2)          ? "invalid"
+                                     : std::to_string(f));
       }
       row += "," + temperature + "," + flags + "\n";
       std::fputs(row.c_str(), out);

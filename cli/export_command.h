@@ -21,8 +21,11 @@
 //                  column per axis named <axis>_deg_s or <axis>_m_s2 (the
 //                  float32 value archived, shortest text that reads back
 //                  bit for bit), temperature_c (the batch's, empty when
-//                  none), flags ("x:saturated y:invalid"; "missing" for a
-//                  counter no chunk holds, whose values are empty). Warm-up
+//                  none), flags ("x:saturated y:invalid": what the source
+//                  flagged, and every value that is not a finite number, a
+//                  bad cell or reading, as the analysis counts it;
+//                  "missing" for a counter no chunk holds, whose values are
+//                  empty). Warm-up
 //                  samples are included: the analysis discards the first
 //                  plan warmup_s of device time. Streamed, any length.
 #ifndef IMUQUAL_CLI_EXPORT_COMMAND_H_

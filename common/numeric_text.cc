@@ -201,7 +201,8 @@ Result<bool> NumericRowReader::Next(std::vector<double>* values) {
 }
 
 Result<NumericTable> ParseNumericText(std::string_view text, std::string_view source_name,
-                                      const std::vector<std::string>& wanted) {
+                                      const std::vector<std::string>& wanted,
+                                      std::vector<std::string>* invalid_warnings) {
   size_t pos = 0;
   NumericRowReader reader(
       [&]() -> std::optional<std::string> {
@@ -213,6 +214,10 @@ Result<NumericTable> ParseNumericText(std::string_view text, std::string_view so
         return line;
       },
       std::string(source_name), wanted);
+  if (invalid_warnings != nullptr) {
+    reader.ReadNonNumbersAsInvalid(wanted.empty() ? std::numeric_limits<size_t>::max()
+                                                  : wanted.size());
+  }
   IMUQUAL_RETURN_IF_ERROR(reader.Start());
   NumericTable table;
   table.names = reader.names();
@@ -225,14 +230,18 @@ Result<NumericTable> ParseNumericText(std::string_view text, std::string_view so
     for (size_t c = 0; c < row.size(); ++c) table.columns[c].push_back(row[c]);
   }
   if (table.rows() == 0) return Status::InvalidArgument(std::string(source_name) + ": no samples");
+  if (invalid_warnings != nullptr) {
+    for (std::string& w : reader.TakeWarnings()) invalid_warnings->push_back(std::move(w));
+  }
   return table;
 }
 
 Result<std::vector<double>> ParseSeries(std::string_view text, std::string_view source_name,
-                                        const std::string& column) {
+                                        const std::string& column,
+                                        std::vector<std::string>* invalid_warnings) {
   std::vector<std::string> wanted;
   if (!column.empty()) wanted.push_back(column);
-  auto table = ParseNumericText(text, source_name, wanted);
+  auto table = ParseNumericText(text, source_name, wanted, invalid_warnings);
   if (!table.ok()) return table.status();
   if (table->columns.size() != 1) {
     return Status::InvalidArgument(std::string(source_name) + ": " +

@@ -29,12 +29,17 @@ struct NumericTable {
 // Parses `text`. The form is detected: if the first data line has a comma, or
 // is not a number, it is a CSV header. `wanted` selects columns by name (all
 // when empty); an unknown name is an error that lists the columns there are.
+// With `invalid_warnings`, a cell of a chosen column that is not a number is
+// NaN, an invalid sample (NumericRowReader::ReadNonNumbersAsInvalid), and
+// the first such cell of each column is named there; without, it is an error.
 Result<NumericTable> ParseNumericText(std::string_view text, std::string_view source_name,
-                                      const std::vector<std::string>& wanted = {});
+                                      const std::vector<std::string>& wanted = {},
+                                      std::vector<std::string>* invalid_warnings = nullptr);
 
 // One column: the only one, or the named one (required if there are several).
 Result<std::vector<double>> ParseSeries(std::string_view text, std::string_view source_name,
-                                        const std::string& column = "");
+                                        const std::string& column = "",
+                                        std::vector<std::string>* invalid_warnings = nullptr);
 
 // The same format read row by row, for inputs too long to hold (a replayed
 // recording): `next_line` returns the next line without its newline, or

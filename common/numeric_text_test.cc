@@ -89,6 +89,24 @@ TEST(NumericTextTest, NonNumbersInMeasuredColumnsAreInvalidSamples) {
   EXPECT_EQ(bad.status().message(), "r.csv:6: 'z' is not a number (column 'n')");
 }
 
+// `imuqual analyze`'s reading: a word in the chosen column is an invalid
+// sample (NaN), the first named; the other columns are not read at all.
+TEST(NumericTextTest, ASeriesCanReadWordsAsInvalidSamples) {
+  std::vector<std::string> warnings;
+  auto v = ParseSeries("t,gx\n0,1\n1,abc\nx,2\n2,--\n", "f.csv", "gx", &warnings);
+  ASSERT_TRUE(v.ok()) << v.status().message();
+  ASSERT_EQ(v->size(), 4u);
+  EXPECT_TRUE(std::isnan((*v)[1]));
+  EXPECT_TRUE(std::isnan((*v)[3]));
+  EXPECT_EQ((*v)[2], 2);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0].rfind("f.csv:3: 'abc' is not a number (column 'gx')", 0), 0u) << warnings[0];
+  // Without the request a word is still the error it was.
+  EXPECT_FALSE(ParseSeries("t,gx\n0,1\n1,abc\n", "f.csv", "gx").ok());
+  // A short row is not a bad cell: still an error.
+  EXPECT_FALSE(ParseSeries("t,gx\n0,1\n1\n", "f.csv", "gx", &warnings).ok());
+}
+
 TEST(NumericTextTest, ErrorsNameLineAndColumn) {
   auto bad = ParseSeries("1\n2\nabc\n", "f.txt");
   ASSERT_FALSE(bad.ok());

@@ -336,11 +336,15 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     LogError(text.status().message());
     return 1;
   }
-  auto values = ParseSeries(*text, o.path, o.column);
+  // One rule for bad samples, as the station's CSV source: a cell that is
+  // not a number is an invalid sample (counted below, its first named).
+  std::vector<std::string> bad_cells;
+  auto values = ParseSeries(*text, o.path, o.column, &bad_cells);
   if (!values.ok()) {
     LogError(values.status().message());
     return 1;
   }
+  for (const std::string& w : bad_cells) LogWarning(w);
   if (p.factor != 1.0) {
     for (double& v : *values) v *= p.factor;
   }
@@ -432,8 +436,9 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     if (scan && scan->scanned)
       std::printf("\n%s", EventTable(*scan, p.kind).Render(Format::kCsv).c_str());
   } else {
-    std::string json = "{\"file\": \"" + o.path +
-                       "\", \"samples\": " + std::to_string(values->size()) +
+    std::string json = "{\"file\": " + report::JsonString(o.path) +
+                       ", \"samples\": " + std::to_string(values->size()) +
+                       ", \"invalid_samples\": " + std::to_string(phase.invalid_count()) +
                        ", \"rate_hz\": " + std::to_string(o.rate_hz) + ",\n\"curves\": " +
                        CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kJson);
     if (fit) json += ",\n\"fit\": " + FitJson(*fit, fit_curve, p.kind);

@@ -334,8 +334,19 @@ std::vector<std::string> FitTable(const TextTable& table, int width,
 // its verdict and (per axis) the axis and its verdict stay.
 const std::vector<std::string>& DropOrder() {
   static const std::vector<std::string> kOrder = {
-      "gaps", "samples", "elapsed / planned", "BI (live)", "state", "why", "slot"};
+      "gaps", "samples", "invalid", "elapsed / planned", "BI (live)", "state", "why", "slot"};
   return kOrder;
+}
+
+// A unit's invalid samples in one cell: "0", or the axes that have any,
+// "x 3 z 12".
+std::string InvalidByAxis(const ConsoleUnit& u) {
+  std::string out;
+  for (const ConsoleAxis& x : u.axes) {
+    if (x.invalid_samples == 0) continue;
+    out += (out.empty() ? "" : " ") + x.name + " " + std::to_string(x.invalid_samples);
+  }
+  return out.empty() ? "0" : out;
 }
 
 // One row per unit and axis, no wider than `width`. The room left goes to
@@ -346,7 +357,7 @@ std::vector<std::string> AxisRows(const ConsoleModel& m, int width,
                                   size_t reason_width = kReasonColumns,
                                   const std::set<std::string>* must_keep = nullptr) {
   TextTable t{{"slot", "serial", "verdict", "why", "state", "elapsed / planned", "axis",
-               "axis verdict", "BI (live)", "samples", "gaps"},
+               "axis verdict", "BI (live)", "samples", "gaps", "invalid"},
               {}};
   // Units that need the line first, slot order within (as the live page).
   std::vector<const ConsoleUnit*> order;
@@ -360,7 +371,7 @@ std::vector<std::string> AxisRows(const ConsoleModel& m, int width,
     const std::string gaps = u.state == 0 ? "" : std::to_string(u.gap_samples);
     if (u.axes.empty()) {
       t.rows.push_back({u.slot, u.serial, UnitVerdictText(u), ShortReason(u, reason_width),
-                        StateText(u), ElapsedText(m, u), "", "", "", samples, gaps});
+                        StateText(u), ElapsedText(m, u), "", "", "", samples, gaps, ""});
       continue;
     }
     for (size_t a = 0; a < u.axes.size(); ++a) {
@@ -372,7 +383,7 @@ std::vector<std::string> AxisRows(const ConsoleModel& m, int width,
                         first ? ShortReason(u, reason_width) : "", first ? StateText(u) : "",
                         first ? ElapsedText(m, u) : "", x.name, AxisVerdictText(u, x),
                         value.empty() ? "-" : value + " " + x.unit, first ? samples : "",
-                        first ? gaps : ""});
+                        first ? gaps : "", u.state == 0 ? "" : std::to_string(x.invalid_samples)});
     }
   }
   std::set<std::string> shown;
@@ -409,6 +420,7 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units, int widt
   for (const std::string& a : axis_names) columns.push_back(a);
   columns.push_back("samples");
   columns.push_back("gaps");
+  columns.push_back("invalid");
   std::vector<const ConsoleUnit*> shown;
   for (const ConsoleUnit& u : m.units) shown.push_back(&u);
   std::stable_sort(shown.begin(), shown.end(), [](const ConsoleUnit* a, const ConsoleUnit* b) {
@@ -432,11 +444,12 @@ std::vector<std::string> UnitRows(const ConsoleModel& m, int max_units, int widt
     }
     row.push_back(u->state == 0 ? "" : Si(static_cast<double>(u->samples)));
     row.push_back(u->state == 0 ? "" : std::to_string(u->gap_samples));
+    row.push_back(u->state == 0 ? "" : InvalidByAxis(*u));
     t.rows.push_back(std::move(row));
   }
   // The axes' values go after the counts and the elapsed time, the last
   // axis first.
-  std::vector<std::string> drop = {"gaps", "samples", "elapsed / planned"};
+  std::vector<std::string> drop = {"gaps", "samples", "invalid", "elapsed / planned"};
   for (auto it = axis_names.rbegin(); it != axis_names.rend(); ++it) drop.push_back(*it);
   for (const char* c : {"state", "why", "slot"}) drop.push_back(c);
   std::set<std::string> kept;
@@ -634,7 +647,7 @@ ConsoleUnitCells DescribeUnit(const ConsoleModel& m, const ConsoleUnit& u, size_
   for (const ConsoleAxis& x : u.axes) {
     const std::string value = LiveValue(x, 3, true, u.final_result);
     c.axes.push_back({x.name, AxisVerdictText(u, x), value.empty() ? "-" : value + " " + x.unit,
-                      x.limit_high, x.marginal_high});
+                      x.invalid_samples, x.limit_high, x.marginal_high});
   }
   return c;
 }

@@ -7,7 +7,8 @@
 // time left), the processes (up, restarts), one row per unit and axis
 // (slot, unit, the unit's verdict and its first reason, state,
 // elapsed/planned, axis, the axis's verdict, the live bias-instability
-// estimate of the streaming engine, samples, gap samples; provisional
+// estimate of the streaming engine, samples, gap samples, the axis's
+// invalid samples; provisional
 // verdicts are lower case with a '?', final ones upper case) and a notice
 // line. When the rows do not fit the screen, one row per unit with the axes
 // side by side, the units needing attention first, a legend for the marks,
@@ -46,6 +47,10 @@ struct ConsoleAxis {
   // live page draws them on the axis's curve.
   double limit_high = std::numeric_limits<double>::quiet_NaN();
   double marginal_high = std::numeric_limits<double>::quiet_NaN();
+  // Samples of this axis read as invalid so far (NaN, inf, an empty or
+  // non-numeric cell, a sample its source flagged): judged by a plan's
+  // invalid_fraction, shown so that an operator sees them as they come.
+  int64_t invalid_samples = 0;
 };
 
 struct ConsoleUnit {
@@ -136,6 +141,7 @@ std::string ConsoleSummaryLine(const ConsoleModel& model);
 // verdict and live bias instability with marks and unit ("-" when none).
 struct ConsoleAxisCells {
   std::string name, verdict, bias_instability;
+  int64_t invalid_samples = 0;
   double limit_high = std::numeric_limits<double>::quiet_NaN();
   double marginal_high = std::numeric_limits<double>::quiet_NaN();
 };

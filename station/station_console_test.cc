@@ -94,6 +94,27 @@ TEST(StationConsoleTest, RowPerUnitAndAxisWhenTheScreenHoldsThem) {
   EXPECT_EQ(axis_rows, 6);
 }
 
+// Invalid samples (NaN, inf, bad cells, out of range) per axis, as they
+// come: in the per-axis table its own column, in the per-unit table the
+// axes that have any.
+TEST(StationConsoleTest, InvalidSamplesAreShownPerAxis) {
+  ConsoleModel m = Model();
+  m.units[1].axes[1].invalid_samples = 37;
+  const std::vector<std::string> wide = RenderConsole(m, 200, 50);
+  const std::string screen = Screen(wide);
+  EXPECT_NE(screen.find(" invalid"), std::string::npos) << screen;
+  int rows_with_37 = 0;
+  for (const std::string& line : wide) {
+    if (line.find(" 37") == std::string::npos) continue;
+    ++rows_with_37;
+    EXPECT_NE(line.find(" y "), std::string::npos) << line;  // y's row, not the unit's first
+  }
+  EXPECT_EQ(rows_with_37, 1) << screen;
+  // A screen too short for a row per axis: one row per unit.
+  const std::string units = Screen(RenderConsole(m, 200, 12));
+  EXPECT_NE(units.find("y 37"), std::string::npos) << units;
+}
+
 TEST(StationConsoleTest, FinalVerdictsAreUpperCase) {
   ConsoleModel m = Model();
   m.units[0].final_result = true;

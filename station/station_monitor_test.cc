@@ -366,6 +366,14 @@ TEST(StationMonitorTest, ResultsSetProvisionalAndFinalVerdictsAndRaiseTheVersion
   ASSERT_EQ(cells.axes.size(), 2u);
   EXPECT_EQ(cells.axes[0].bias_instability, "12.00 \u00b1 0.50 deg/h");
   EXPECT_EQ(cells.axes[1].bias_instability, "-");
+  // Each axis's invalid samples so far, from the result's per-axis counts.
+  imuqual::unit_result_t bad = ResultMsg("R-U1", "U1", false, 12, imuqual::measurement_t::OUTCOME_FAIL);
+  bad.num_axes = 2;
+  bad.axis_invalid_samples = {0, 41};
+  m.OnResult(bad);
+  cells = DescribeUnit(m.model(), m.model().units[0]);
+  EXPECT_EQ(cells.axes[0].invalid_samples, 0);
+  EXPECT_EQ(cells.axes[1].invalid_samples, 41);
   // A value that can still change side: "pending", and why, with the limit.
   imuqual::unit_result_t pending =
       ResultMsg("R-U1", "U1", false, 10.4, imuqual::measurement_t::OUTCOME_INCONCLUSIVE);

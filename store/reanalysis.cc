@@ -64,6 +64,12 @@ Result<RunSamples> LoadRunSamples(Archive& archive, const std::string& run_id) {
   const size_t axes = out.info.axes.size();
   out.samples.assign(axes, {});
   out.invalid.assign(axes, {});
+  pb::TestPlan plan;  // a run without a decodable plan has no sensor range
+  if (!plan.ParseFromString(out.info.plan)) plan.Clear();
+  std::vector<double> out_of_range_at;
+  for (const AxisInfo& a : out.info.axes) {
+    out_of_range_at.push_back(judge::OutOfRangeAt(plan, a.kind));
+  }
   int64_t next = -1;
   Status st = archive.ForEachChunk(**key, [&](const ChunkRecord& c) -> Status {
     auto chunk = DecodeChunk(c.data, c.codec);
@@ -89,6 +95,14 @@ Result<RunSamples> LoadRunSamples(Archive& archive, const std::string& run_id) {
     for (const SampleFlag& f : chunk->flags) {
       if (f.bits & (1 | 2)) {  // saturated or invalid
         out.invalid[f.axis][out.samples[f.axis].size() - chunk->num_samples + f.sample] = 1;
+      }
+    }
+    // Beyond the plan's sensor range, as the analysis reads them.
+    for (size_t a = 0; a < axes; ++a) {
+      if (!std::isfinite(out_of_range_at[a])) continue;
+      const size_t from = out.samples[a].size() - static_cast<size_t>(chunk->num_samples);
+      for (size_t k = from; k < out.samples[a].size(); ++k) {
+        if (std::fabs(out.samples[a][k]) >= out_of_range_at[a]) out.invalid[a][k] = 1;
       }
     }
     next = c.first_sample + chunk->num_samples;

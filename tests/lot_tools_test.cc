@@ -699,6 +699,8 @@ TEST(SamplesExportTest, EverySampleAsArchivedWithGapsFlagsAndTemperature) {
       for (int ax = 0; ax < 2; ++ax) {
         for (int i = 0; i < n; ++i) d.samples.push_back(base + 0.1f * i + (ax ? 9.8f : 0.0f));
       }
+      // A bad reading nobody flagged: ax's third sample of the first chunk.
+      if (seq == 0) d.samples[static_cast<size_t>(n) + 2] = std::nanf("");
       d.flags = std::move(flags);
       store::ChunkRecord c;
       c.seq = seq;
@@ -734,11 +736,13 @@ TEST(SamplesExportTest, EverySampleAsArchivedWithGapsFlagsAndTemperature) {
   // ... every value the archived float32, bit for bit
   for (int i = 0; i < 5; ++i) {
     EXPECT_EQ(std::stof(csv.rows[i][3]), 0.3f + 0.1f * i);
-    EXPECT_EQ(std::stof(csv.rows[i][4]), 0.3f + 0.1f * i + 9.8f);
+    if (i != 2) EXPECT_EQ(std::stof(csv.rows[i][4]), 0.3f + 0.1f * i + 9.8f);
     EXPECT_EQ(csv.rows[i][5], "25.5");
     EXPECT_EQ(csv.rows[i][2], std::to_string(1'800'000'000'001'000 + i * 20'000));  // 20 ms apart
-    EXPECT_EQ(csv.rows[i][6], "");
+    EXPECT_EQ(csv.rows[i][6], i == 2 ? "ax:invalid" : "");
   }
+  // ... a value that is not a number flagged invalid, as the analysis counts it
+  EXPECT_TRUE(std::isnan(std::stof(csv.rows[2][4]))) << csv.rows[2][4];
   for (int k = 5; k < 8; ++k) {
     EXPECT_EQ(csv.rows[k][3], "");
     EXPECT_EQ(csv.rows[k][6], "missing");

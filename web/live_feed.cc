@@ -39,7 +39,10 @@ std::string LiveStatusJson(const station::ConsoleModel& m, int64_t newest_utime)
     const station::ConsoleUnitCells cells = station::DescribeUnit(m, u);
     json axes = json::array();
     for (const station::ConsoleAxisCells& x : cells.axes) {
-      json axis = {{"name", x.name}, {"verdict", x.verdict}, {"bias_instability", x.bias_instability}};
+      json axis = {{"name", x.name},
+                   {"verdict", x.verdict},
+                   {"bias_instability", x.bias_instability},
+                   {"invalid_samples", x.invalid_samples}};
       // The plan's limits on the curve minimum, in the curve's unit (absent: none).
       if (std::isfinite(x.limit_high)) axis["limit_high"] = x.limit_high;
       if (std::isfinite(x.marginal_high)) axis["marginal_high"] = x.marginal_high;

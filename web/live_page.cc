@@ -102,6 +102,9 @@ constexpr char kLiveScript[] = R"js((() => {
     tr.append(el('td', axis ? axis.bias_instability : '', 'num bi'));
     tr.append(el('td', first && u.run_id ? u.samples : '', 'num'));
     tr.append(el('td', first && u.run_id ? u.gap_samples : '', 'num'));
+    const invalid = el('td', axis && u.run_id ? axis.invalid_samples : '', 'num invalid');
+    if (axis && axis.invalid_samples > 0) invalid.classList.add('state-alarm');
+    tr.append(invalid);
     return tr;
   }
 
@@ -336,7 +339,7 @@ std::string LivePageHtml(const std::string& bus_url) {
       "href=\"/\">the lot's report</a></p>\n"
       "<table class=\"data\" id=\"units\"><thead><tr><th>slot</th><th>serial</th><th>verdict</th>"
       "<th>why</th><th>state</th><th>elapsed / planned</th><th>axis</th><th>axis verdict</th>"
-      "<th>BI (live)</th><th>samples</th><th>gaps</th></tr></thead><tbody></tbody></table>\n"
+      "<th>BI (live)</th><th>samples</th><th>gaps</th><th>invalid</th></tr></thead><tbody></tbody></table>\n"
       "<p class=\"note\">Provisional verdicts are lower case with a '?' (\"pending\": a value "
       "that more data can still move across a limit), final ones upper case; "
       "marks as on the console: \u00b1 1-sigma, \u2264 upper bound, \u2020 minimum not resolved, "

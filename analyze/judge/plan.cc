@@ -8,9 +8,11 @@
 #include <cstdio>
 #include <tuple>
 #include <functional>
+#include <limits>
 #include <map>
 #include <set>
 
+#include "analyze/allan/units.h"
 #include "analyze/judge/builtin_plans.h"
 #include "analyze/judge/early_decision.h"
 #include "analyze/judge/measurements.h"
@@ -135,6 +137,8 @@ Status ValidateLimit(const pb::TestPlan& plan, int i, const Locator& where) {
 Status ValidateEarlyDecision(const pb::TestPlan& plan, const Locator& where);
 Status ValidateNoiseModelRange(const pb::TestPlan& plan, int i, const Locator& where,
                                std::set<int>* kinds);
+Status ValidateSensorRange(const pb::TestPlan& plan, int i, const Locator& where,
+                           std::set<int>* kinds);
 
 // Every problem of the plan, each "LINE: path: problem" (or "path: problem"
 // without a source), field by field (rates and durations, axes, grid, rules,
@@ -202,8 +206,37 @@ std::vector<std::string> Problems(const pb::TestPlan& plan, const Locator& where
   for (int i = 0; i < plan.noise_model_range_size(); ++i) {
     add(ValidateNoiseModelRange(plan, i, where, &range_kinds));
   }
+  std::set<int> full_scale_kinds;
+  for (int i = 0; i < plan.sensor_range_size(); ++i) {
+    add(ValidateSensorRange(plan, i, where, &full_scale_kinds));
+  }
   for (int i = 0; i < plan.limits_size(); ++i) add(ValidateLimit(plan, i, where));
   return out;
+}
+
+// Sensor range i's first problem; `kinds` collects the axis kinds seen.
+Status ValidateSensorRange(const pb::TestPlan& plan, int i, const Locator& where,
+                           std::set<int>* kinds) {
+  const pb::SensorRange& r = plan.sensor_range(i);
+  const std::string path = "sensor_range[" + std::to_string(i) + "]";
+  if (r.axis_kind() != pb::GYRO && r.axis_kind() != pb::ACCEL) {
+    return Fail(where, "sensor_range", i, path + ".axis_kind",
+                "must be GYRO or ACCEL (full_scale is in deg/s for one, g for the other)",
+                "axis_kind");
+  }
+  if (!kinds->insert(r.axis_kind()).second) {
+    return Fail(where, "sensor_range", i, path + ".axis_kind",
+                "a second range for " + pb::AxisKind_Name(r.axis_kind()) +
+                    " axes (one per axis kind)",
+                "axis_kind");
+  }
+  if (!(r.full_scale() > 0 && Finite(r.full_scale()))) {
+    return Fail(where, "sensor_range", i, path + ".full_scale",
+                std::string("must be a finite number > 0 (") +
+                    (r.axis_kind() == pb::GYRO ? "deg/s" : "g") + "), got " + Num(r.full_scale()),
+                "full_scale");
+  }
+  return Status::Ok();
 }
 
 // The early-decision block's first problem.
@@ -274,6 +307,15 @@ const pb::NoiseModelRange* NoiseModelRangeFor(const pb::TestPlan& plan, pb::Axis
     if (r.axis_kind() == pb::AXIS_KIND_UNSPECIFIED) any = &r;
   }
   return any;
+}
+
+double OutOfRangeAt(const pb::TestPlan& plan, pb::AxisKind kind) {
+  for (const pb::SensorRange& r : plan.sensor_range()) {
+    if (r.axis_kind() != kind || kind == pb::AXIS_KIND_UNSPECIFIED) continue;
+    return kind == pb::ACCEL ? r.full_scale() * allan::kStandardGravityMetersPerSecSq
+                             : r.full_scale();
+  }
+  return std::numeric_limits<double>::infinity();
 }
 
 Status ValidatePlan(const pb::TestPlan& plan) {

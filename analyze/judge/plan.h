@@ -27,6 +27,11 @@ Status ValidatePlan(const pb::TestPlan& plan);
 // every kind, else nullptr (every point is fitted).
 const pb::NoiseModelRange* NoiseModelRangeFor(const pb::TestPlan& plan, pb::AxisKind kind);
 
+// The magnitude at which a sample of an axis of `kind` is out of the
+// sensor's range (plan sensor_range), in the samples' unit (deg/s, m/s^2);
+// +infinity when the plan gives no range for the kind.
+double OutOfRangeAt(const pb::TestPlan& plan, pb::AxisKind kind);
+
 // Built-in plans (the files in plans/, compiled in): "vg700ca", "tactical",
 // "fog". The default plan of `imuqual run` is "vg700ca".
 std::vector<std::string> BuiltinPlanNames();

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "common/strings.h"
 
 namespace imuqual::judge {
@@ -100,6 +102,15 @@ TEST(PlanTest, RejectsBadPlans) {
       {"nominal_rate_hz: 100 noise_model_range { axis_kind: ACCEL min_tau_s: 0.2 reason: \"f\" } "
        "noise_model_range { axis_kind: ACCEL min_tau_s: 0.1 reason: \"g\" }",
        "noise_model_range[1].axis_kind: a second range for ACCEL axes"},
+      {"nominal_rate_hz: 100 sensor_range { full_scale: 300 }",
+       "sensor_range[0].axis_kind: must be GYRO or ACCEL"},
+      {"nominal_rate_hz: 100 sensor_range { axis_kind: GYRO }",
+       "sensor_range[0].full_scale: must be a finite number > 0 (deg/s), got 0"},
+      {"nominal_rate_hz: 100 sensor_range { axis_kind: ACCEL full_scale: inf }",
+       "sensor_range[0].full_scale: must be a finite number > 0 (g)"},
+      {"nominal_rate_hz: 100 sensor_range { axis_kind: GYRO full_scale: 300 } "
+       "sensor_range { axis_kind: GYRO full_scale: 450 }",
+       "sensor_range[1].axis_kind: a second range for GYRO axes"},
   };
   for (const Case& c : cases) {
     const std::string err = ErrorOf(c.text);
@@ -207,6 +218,17 @@ TEST(PlanTest, EveryProblemAtOnceWithDidYouMean) {
   EXPECT_EQ(ErrorOf("nominal_rate_hz: 100\nwarmup: 5\n"),
             "p.textproto:2:7: Message type \"imuqual.pb.TestPlan\" has no field named \"warmup\". "
             "(did you mean warmup_s?)");
+}
+
+TEST(PlanTest, SensorRangeIsInDegreesPerSecondOrInG) {
+  auto plan = ParsePlanText(std::string(kGood) +
+                                "sensor_range { axis_kind: GYRO full_scale: 300 }\n"
+                                "sensor_range { axis_kind: ACCEL full_scale: 18 }\n",
+                            "p");
+  ASSERT_TRUE(plan.ok()) << plan.status().message();
+  EXPECT_EQ(OutOfRangeAt(*plan, pb::GYRO), 300);                 // deg/s, as gyro samples
+  EXPECT_DOUBLE_EQ(OutOfRangeAt(*plan, pb::ACCEL), 18 * 9.80665);  // m/s^2, as accel samples
+  EXPECT_TRUE(std::isinf(OutOfRangeAt(pb::TestPlan(), pb::GYRO)));
 }
 
 }  // namespace

@@ -107,6 +107,9 @@ Result<RunAnalyzer> RunAnalyzer::Create(RunDescription description, AnalyzerOpti
   a.invalid_samples_.assign(a.desc_.axes.size(), 0);
   a.clock_ = DeviceClockFit(a.desc_.nominal_rate_hz);
   a.invalid_scratch_.resize(a.desc_.axes.size());
+  for (const judge::AxisDesc& axis : a.desc_.axes) {
+    a.out_of_range_at_.push_back(judge::OutOfRangeAt(a.desc_.plan, axis.kind));
+  }
   if (a.desc_.plan.has_early_decision()) {
     auto decider = judge::EarlyDecider::Create(a.desc_.plan);
     if (!decider.ok()) return decider.status();
@@ -255,6 +258,11 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
     for (const BatchView::Flag& f : batch.flags) {
       if (static_cast<size_t>(f.axis) == a && (f.bits & kUnusableFlags)) {
         invalid_scratch_[a][f.sample] = 1;
+      }
+    }
+    if (std::isfinite(out_of_range_at_[a])) {
+      for (size_t i = 0; i < n; ++i) {
+        if (std::fabs(batch.samples[a][i]) >= out_of_range_at_[a]) invalid_scratch_[a][i] = 1;
       }
     }
   }

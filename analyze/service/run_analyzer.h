@@ -6,8 +6,9 @@
 // Timeline: the device sample counter. A batch whose counter starts past the
 // expected one is preceded by a gap of that many missing samples; one that
 // starts before it (counter went backwards or a batch overlaps) is rejected.
-// The plan's warm-up is discarded by counter. NaN samples and samples flagged
-// invalid or saturated are gaps, never zeros. Not thread-safe.
+// The plan's warm-up is discarded by counter. NaN samples, samples flagged
+// invalid or saturated and samples at or beyond the plan's sensor_range are
+// gaps, never zeros. Not thread-safe.
 #ifndef IMUQUAL_ANALYZE_SERVICE_RUN_ANALYZER_H_
 #define IMUQUAL_ANALYZE_SERVICE_RUN_ANALYZER_H_
 
@@ -169,6 +170,7 @@ class RunAnalyzer {
   std::vector<double> sum_;  // per axis, valid samples after warm-up
   std::vector<int64_t> count_;
   std::vector<std::vector<uint8_t>> invalid_scratch_;  // per axis
+  std::vector<double> out_of_range_at_;                // per axis: |sample| >= it is invalid
   std::optional<judge::EarlyDecider> decider_;
   std::vector<int64_t> look_samples_;  // analysed samples at each look
   size_t next_look_ = 0;

@@ -171,6 +171,36 @@ TEST(RunAnalyzerTest, InvalidSamplesAreCountedNotZeroed) {
   EXPECT_EQ(out.axis_invalid_samples, (std::vector<int64_t>{2, 2}));
 }
 
+// A plan's sensor_range makes a sample at or beyond full scale an invalid
+// sample of its axis (deg/s for a gyro, g for an accelerometer); values inside
+// it count as before.
+TEST(RunAnalyzerTest, SamplesOutOfTheSensorsRangeAreInvalidSamplesOfTheirAxis) {
+  RunDescription d = Desc();
+  pb::SensorRange* gyro = d.plan.add_sensor_range();
+  gyro->set_axis_kind(pb::GYRO);
+  gyro->set_full_scale(300);  // deg/s
+  pb::SensorRange* accel = d.plan.add_sensor_range();
+  accel->set_axis_kind(pb::ACCEL);
+  accel->set_full_scale(2);  // g: 19.6133 m/s^2
+  auto a = RunAnalyzer::Create(d);
+  ASSERT_TRUE(a.ok());
+  Batch b(0, 0, 100);
+  b.x[10] = 300.0f;    // at the rail
+  b.x[11] = -450.0f;   // beyond
+  b.x[12] = 299.9f;    // inside: a valid (if large) sample
+  b.a[20] = 19.62f;    // just beyond 2 g
+  b.a[21] = -19.6f;    // inside 2 g
+  b.view.samples = {b.x, b.a};
+  ASSERT_TRUE(a->AddBatch(b.view).ok());
+  const RunOutcome out = a->Outcome(false);
+  EXPECT_EQ(out.axis_invalid_samples, (std::vector<int64_t>{2, 1}));
+  // Without the range every one of them is a sample.
+  auto plain = RunAnalyzer::Create(Desc());
+  ASSERT_TRUE(plain.ok());
+  ASSERT_TRUE(plain->AddBatch(b.view).ok());
+  EXPECT_EQ(plain->Outcome(false).invalid_samples, 0);
+}
+
 TEST(RunAnalyzerTest, InvalidSamplesOfOneAxisAreCountedOnThatAxisOnly) {
   // GIVEN a run whose x axis is clean and whose a axis has 5 NaN and 3 flagged samples
   auto a = RunAnalyzer::Create(Desc());
