@@ -76,8 +76,15 @@ std::pair<std::string, std::string> QuotedWithUncertainty(double value, double u
     ++place;
     u = std::round(uncertainty / std::pow(10.0, place)) * std::pow(10.0, place);
   }
-  const double v = std::round(value / std::pow(10.0, place)) * std::pow(10.0, place);
   char vb[64], ub[64];
+  // A u many orders under the value (a clock's rate known to 1e-15) would
+  // need a value of 15 digits: the value to kMaxQuotedDigits, u in exponent form.
+  if (value != 0 && std::floor(std::log10(std::abs(value))) - place + 1 > kMaxQuotedDigits) {
+    std::snprintf(vb, sizeof vb, "%.*g", kMaxQuotedDigits, value);
+    std::snprintf(ub, sizeof ub, "%.1e", u);
+    return {vb, ub};
+  }
+  const double v = std::round(value / std::pow(10.0, place)) * std::pow(10.0, place);
   const double big = std::max(std::abs(v), u);
   if (big >= 1e6 || big < 1e-3) {
     const int ve = v == 0 ? place : static_cast<int>(std::floor(std::log10(std::abs(v))));

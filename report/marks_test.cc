@@ -17,6 +17,9 @@ TEST(QuotedWithUncertaintyTest, TwoDigitsOfUAndTheValueToMatch) {
   EXPECT_EQ(QuotedWithUncertainty(10.2, 0.81), (P{"10.20", "0.81"}));
   EXPECT_EQ(QuotedWithUncertainty(20.2449, 0.0012), (P{"20.2449", "0.0012"}));
   EXPECT_EQ(QuotedWithUncertainty(-3.14159, 0.25), (P{"-3.14", "0.25"}));
+  // u far under the value (a simulated clock's rate): ten digits, not twenty.
+  EXPECT_EQ(QuotedWithUncertainty(100.00000000000001, 2.4e-15), (P{"100", "2.4e-15"}));
+  EXPECT_EQ(QuotedWithUncertainty(99.99999123456789, 2.4e-12), (P{"99.99999123", "2.4e-12"}));
   // u rounding up into a new decade: 0.996 is 1.0, and the value follows.
   EXPECT_EQ(QuotedWithUncertainty(5.4321, 0.996), (P{"5.4", "1.0"}));
   EXPECT_EQ(QuotedWithUncertainty(0.4, 280.0), (P{"0", "280"}));

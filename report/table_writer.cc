@@ -25,7 +25,7 @@ std::string CellText(const Cell& c, int digits) {
     case Cell::Kind::kNumText:
       return c.text;
     case Cell::Kind::kReal:
-      return FormatReal(c.real, digits);
+      return digits < 17 && !c.text.empty() ? c.text : FormatReal(c.real, digits);
     case Cell::Kind::kInt:
       return std::to_string(c.integer);
     case Cell::Kind::kBool:

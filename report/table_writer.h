@@ -31,6 +31,11 @@ struct Cell {
   static Cell Int(int64_t v) { return {Kind::kInt, "", 0, v, {}}; }
   static Cell NumText(std::string t) { return {Kind::kNumText, std::move(t), 0, 0, {}}; }
   static Cell Bool(bool b) { return {Kind::kBool, "", 0, b ? 1 : 0, {}}; }
+  // A number shown as `shown` in the text table and HTML (rounded as a
+  // person reads it, e.g. to its uncertainty), exact in CSV, JSON and data-v.
+  static Cell RealShown(double v, std::string shown) {
+    return {Kind::kReal, std::move(shown), v, 0, {}};
+  }
   // A link target for the HTML table (escaped there; ignored elsewhere).
   std::string href;
   Cell Linked(std::string target) && {

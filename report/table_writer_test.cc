@@ -19,6 +19,19 @@ TEST(TableWriterTest, CsvQuotesAndKeepsFullPrecision) {
             "name,value,count\n\"a,b\",0.1,3\n\"say \"\"hi\"\"\",,-1\n");
 }
 
+// A number shown rounded (to its uncertainty) in the table and HTML, exact
+// in CSV, JSON and the HTML cell's data-v.
+TEST(TableWriterTest, ARealShownRoundedIsExactInData) {
+  TableWriter t({"v"});
+  t.AddRow({Cell::RealShown(409.637, "410")});
+  EXPECT_NE(t.Render(Format::kTable).find("410"), std::string::npos);
+  EXPECT_EQ(t.Render(Format::kTable).find("409"), std::string::npos);
+  EXPECT_EQ(t.Render(Format::kCsv), "v\n409.637\n");
+  EXPECT_NE(t.Render(Format::kJson).find("409.637"), std::string::npos);
+  const std::string html = t.Render(Format::kHtml);
+  EXPECT_NE(html.find("data-v=\"409.637\">410</td>"), std::string::npos) << html;
+}
+
 TEST(TableWriterTest, JsonHasNullForNaN) {
   EXPECT_EQ(Sample().Render(Format::kJson),
             "[\n {\"name\": \"a,b\", \"value\": 0.1, \"count\": 3},\n"

@@ -193,14 +193,24 @@ Page UnitHistory(store::Archive& archive, const std::string& serial) {
   return {200, "text/html; charset=utf-8", PageHtml("unit " + serial, body)};
 }
 
-TableWriter MeasurementTable(const std::vector<pb::Measurement>& ms) {
+// `rounded`: value and uncertainty as a person reads them (u to two
+// significant digits, the value to match: "409.6 ± 283" is "410", "280"), for
+// the page; the JSON keeps the archived numbers.
+TableWriter MeasurementTable(const std::vector<pb::Measurement>& ms, bool rounded = false) {
   TableWriter t({"axis", "measurement", "value", "uncertainty", "unit", "low", "high",
                  "marginal_low", "marginal_high", "qualifier", "outcome", "note"},
                 6);
   auto opt = [](bool has, double v) { return Cell::Real(has ? v : std::nan("")); };
   for (const pb::Measurement& m : ms) {
+    Cell value = Cell::Real(m.value()), u = opt(m.has_uncertainty(), m.uncertainty());
+    if (rounded && m.has_uncertainty() && std::isfinite(m.value()) &&
+        std::isfinite(m.uncertainty()) && m.uncertainty() > 0) {
+      const auto [v_text, u_text] = report::QuotedWithUncertainty(m.value(), m.uncertainty());
+      value = Cell::RealShown(m.value(), v_text);
+      u = Cell::RealShown(m.uncertainty(), u_text);
+    }
     t.AddRow({Cell::Text(m.axis().empty() ? "(run)" : m.axis()), Cell::Text(m.name()),
-              Cell::Real(m.value()), opt(m.has_uncertainty(), m.uncertainty()),
+              std::move(value), std::move(u),
               Cell::Text(m.unit()), opt(m.has_low(), m.low()), opt(m.has_high(), m.high()),
               opt(m.has_marginal_low(), m.marginal_low()),
               opt(m.has_marginal_high(), m.marginal_high()),
@@ -262,7 +272,7 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
                    });
   if (!judged.empty()) {
     body += "<section id=\"judged\">\n<h2>Judged measurements, failing first</h2>\n" +
-            MeasurementTable(judged).Render(Format::kHtml) + "</section>\n";
+            MeasurementTable(judged, true).Render(Format::kHtml) + "</section>\n";
   }
   auto plots = report::LoadRunPlotData(archive, run_id);
   if (plots.ok()) {
@@ -274,7 +284,7 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
   if (series.ok()) body += "<h2>Raw samples against time</h2>\n<figure>" + *series + "</figure>\n";
   body += "<section id=\"measurements\">\n<h2>Every measurement archived</h2>\n";
   body += ms.empty() ? "<p>No measurement archived (not judged yet).</p>\n"
-                     : MeasurementTable(ms).Render(Format::kHtml);
+                     : MeasurementTable(ms, true).Render(Format::kHtml);
   body += "</section>\n";
   body += "<p class=\"note\">JSON: <a href=\"" + HtmlEscape(NameLink("/api/run", "id", run_id)) +
           "\">/api/run/" + HtmlEscape(run_id) + "</a>.</p>\n";

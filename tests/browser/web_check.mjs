@@ -161,6 +161,12 @@ async function main() {
         for (const [col, want] of [['value', m.value], ['uncertainty', m.uncertainty], ['low', m.low], ['high', m.high]]) {
           if (!sameExact(row[col].v, want)) fail(`run ${r.run_id} ${axis} ${m.name} ${col}: page ${row[col].v}, archive ${want}`);
         }
+        // Shown as a measurement is quoted: u to two significant digits, the value to its place.
+        if (m.uncertainty > 0 && m.value !== null) {
+          const uShown = Number(row.uncertainty.text), vShown = Number(row.value.text);
+          if (Math.abs(uShown - Number(Number(m.uncertainty).toPrecision(2))) > 1e-12 * m.uncertainty) fail(`run ${r.run_id} ${axis} ${m.name}: uncertainty shown '${row.uncertainty.text}', not ${m.uncertainty} to two significant digits`);
+          if (!(Math.abs(vShown - m.value) <= Math.max(m.uncertainty / 19, Math.abs(m.value) * 1e-9))) fail(`run ${r.run_id} ${axis} ${m.name}: value shown '${row.value.text}' is not ${m.value} to its uncertainty's place`);
+        }
         if (row.unit.text !== m.unit) fail(`run ${r.run_id} ${axis} ${m.name} unit: page ${row.unit.text}, archive ${m.unit}`);
         if (row.outcome.text !== (m.outcome ?? 'not_judged')) fail(`run ${r.run_id} ${axis} ${m.name} outcome: page ${row.outcome.text}, archive ${m.outcome}`);
       }
