@@ -2,7 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sys/ioctl.h>
+#include <unistd.h>
+
 #include <cstdio>
+#include <cstdlib>
+#include <limits>
 #include <map>
 
 #include "common/clock.h"
@@ -40,8 +45,53 @@ namespace {
 // uncertainty (not on B (IEEE), the minimum / 0.664, for room). When a run
 // used early decisions, when its unit was decided ("full soak": pending at
 // every look).
+// `text` as lines of at most `width` columns, broken at spaces (a word
+// longer than a line stays whole); its leading indent kept, the lines after
+// the first indented two more.
+std::string WordWrapped(const std::string& text, size_t width) {
+  const size_t indent = std::min(text.find_first_not_of(' '), text.size());
+  const std::string more(indent + 2, ' ');
+  std::string out, line = text.substr(0, indent);
+  bool words = false;  // on `line` after its indent
+  size_t from = indent;
+  while (from < text.size()) {
+    size_t end = text.find(' ', from);
+    if (end == std::string::npos) end = text.size();
+    const std::string word = text.substr(from, end - from);
+    from = end + 1;
+    if (words && report::DisplayWidth(line) + 1 + report::DisplayWidth(word) > width) {
+      out += line + "\n";
+      line = more + word;
+    } else {
+      line += (words ? " " : "") + word;
+    }
+    words = true;
+  }
+  return out + line + "\n";
+}
+
+// Each line of `text` WordWrapped.
+std::string LinesWrapped(const std::string& text, size_t width) {
+  std::string out;
+  size_t from = 0;
+  while (from < text.size()) {
+    size_t end = text.find('\n', from);
+    if (end == std::string::npos) end = text.size();
+    out += WordWrapped(text.substr(from, end - from), width);
+    from = end + 1;
+  }
+  return out;
+}
+
+//
+// `width`: the screen's columns (ScreenColumns). A table wider leaves out
+// whole columns, never cuts one: counts that are 0 on every axis first, then
+// the IEEE figure (minimum / 0.664), tau at the minimum, the run's start, the
+// counts that are not all 0, the rate random walk; a line under it names
+// what was left out.
 std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slot,
-                        bool with_runs = false) {
+                        bool with_runs = false,
+                        size_t width = std::numeric_limits<size_t>::max()) {
   // A station's table in fixture order, with the slot first.
   std::vector<store::AxisRow> rows = unsorted;
   if (by_slot) {
@@ -60,13 +110,15 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
   const auto per_kind = [&](const char* both, const char* accel, const char* gyro) {
     return std::string(mixed ? both : any_accel ? accel : gyro);
   };
+  const std::string ieee = per_kind("BI (IEEE)", "BI (IEEE) ug", "BI (IEEE) deg/h");
+  const std::string rrw = per_kind("RRW/AcRW", "AcRW ug/sqrt(h)", "RRW deg/h/sqrt(h)");
   std::vector<std::string> columns = {"serial",
                                       "axis",
                                       per_kind("ARW/VRW", "VRW m/s/sqrt(h)", "ARW deg/sqrt(h)"),
                                       per_kind("BI", "BI ug", "BI deg/h"),
-                                      per_kind("BI (IEEE)", "BI (IEEE) ug", "BI (IEEE) deg/h"),
+                                      ieee,
                                       "tau min s",
-                                      per_kind("RRW/AcRW", "AcRW ug/sqrt(h)", "RRW deg/h/sqrt(h)"),
+                                      rrw,
                                       "gap samples",
                                       "invalid samples",
                                       "axis",
@@ -104,24 +156,62 @@ std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slo
     if (by_slot) row.insert(row.begin(), Cell::Text(r.slot));
     t.AddRow(std::move(row));
   }
-  std::string out = t.Render(Format::kTable);
-  out += StationOperatorLines(rows);
-  out += legend.Render();
+  bool gaps = false, invalid = false;
+  for (const store::AxisRow& r : rows) {
+    gaps |= r.gap_samples != 0;
+    invalid |= r.invalid_samples != 0;
+  }
+  std::vector<std::string> drop;
+  if (!gaps) drop.push_back("gap samples");
+  if (!invalid) drop.push_back("invalid samples");
+  for (const char* c : {ieee.c_str(), "tau min s", "started (UTC)"}) drop.push_back(c);
+  if (gaps) drop.push_back("gap samples");
+  if (invalid) drop.push_back("invalid samples");
+  drop.push_back(rrw);
+  std::vector<std::string> left_out;
+  std::string out = t.RenderTableWithin(width, drop, &left_out);
+  if (!left_out.empty()) {
+    std::string names;
+    for (const std::string& c : left_out) {
+      names += (names.empty() ? "" : ", ") + c;
+      if ((c == "gap samples" && !gaps) || (c == "invalid samples" && !invalid))
+        names += " (0 on every axis)";
+    }
+    out += WordWrapped("left out for " + std::to_string(width) + " columns: " + names +
+                           "; a wider screen shows every column",
+                       width);
+  }
+  std::string notes = StationOperatorLines(rows) + legend.Render();
   if (any_gyro || rows.empty()) {
-    out +=
+    notes +=
         "gyro units: ARW deg/sqrt(h), bias instability BI deg/h (curve minimum; IEEE B = "
         "minimum/0.664), rate random walk RRW deg/h/sqrt(h)\n";
   }
   if (any_accel) {
-    out +=
+    notes +=
         "accel units: VRW m/s/sqrt(h), bias instability BI ug (curve minimum; IEEE B = "
         "minimum/0.664), acceleration random walk AcRW ug/sqrt(h)\n";
   }
-  return out;
+  return out + LinesWrapped(notes, width);
 }
 
 Result<std::unique_ptr<store::Archive>> OpenForReading(const std::string& db_path) {
   return store::Archive::Open(db_path, store::Archive::Mode::kRead);
+}
+
+// The columns a table for people may take: the terminal's when standard
+// output is one, else COLUMNS when set (a pipe to a pager, a test), else no
+// bound (a file or a log keeps every column).
+size_t ScreenColumns() {
+  struct winsize ws {};
+  if (::isatty(STDOUT_FILENO) && ::ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0)
+    return ws.ws_col;
+  if (const char* env = std::getenv("COLUMNS"); env != nullptr) {
+    char* end = nullptr;
+    const long n = std::strtol(env, &end, 10);
+    if (end != env && *end == '\0' && n > 0) return static_cast<size_t>(n);
+  }
+  return std::numeric_limits<size_t>::max();
 }
 
 std::string YieldText(double yield) {
@@ -255,7 +345,9 @@ int RunCommand(const StationRunOptions& options) {
     LogError(rows.status().message());
     return kRunExitError;
   }
-  std::printf("%s", PeopleTable(*rows, /*by_slot=*/true).c_str());
+  // As wide as the screen (a terminal's lines wrap mid-number otherwise).
+  const size_t width = ScreenColumns();
+  std::printf("%s", PeopleTable(*rows, /*by_slot=*/true, false, width).c_str());
   std::map<std::string, std::string> unit_of;
   std::map<std::string, int> verdicts;
   int passed = 0, counted = 0;  // the yield: judged units only
@@ -266,22 +358,28 @@ int RunCommand(const StationRunOptions& options) {
     counted += store::CountsInYield(v);
     passed += v == pb::PASS || v == pb::MARGINAL;
   }
-  std::printf("%s", ReasonLines(**archive, *rows, run->run_ids, /*by_slot=*/true).c_str());
+  std::printf("%s",
+              LinesWrapped(ReasonLines(**archive, *rows, run->run_ids, /*by_slot=*/true), width)
+                  .c_str());
   for (const std::string& skipped : run->skipped) {
     std::printf("not run (--skip-failed-slots): %s\n", skipped.c_str());
   }
-  std::printf("\n%zu units: %s%s\nyield %s%s\n", unit_of.size(), VerdictCounts(verdicts).c_str(),
-              run->interrupted ? " (interrupted: runs aborted)" : "",
-              YieldText(counted > 0 ? static_cast<double>(passed) / counted : allan::kNaN).c_str(),
-              counted > 0 ? (" (" + std::to_string(counted) + " unit" + (counted == 1 ? "" : "s") +
-                             " judged PASS, MARGINAL or FAIL; " + std::to_string(passed) +
-                             " of them PASS or MARGINAL)")
-                                .c_str()
-                          : "");
+  const std::string tally =
+      "\n" + std::to_string(unit_of.size()) + " units: " + VerdictCounts(verdicts) +
+      (run->interrupted ? " (interrupted: runs aborted)" : "") + "\nyield " +
+      YieldText(counted > 0 ? static_cast<double>(passed) / counted : allan::kNaN) +
+      (counted > 0 ? " (" + std::to_string(counted) + " unit" + (counted == 1 ? "" : "s") +
+                         " judged PASS, MARGINAL or FAIL; " + std::to_string(passed) +
+                         " of them PASS or MARGINAL)"
+                   : "") +
+      "\n";
+  std::printf("%s", LinesWrapped(tally, width).c_str());
   auto early = QueryEarlyDecisions(**archive, options.lot, run->run_prefix + "-");
   if (early.ok() && !early->runs.empty()) std::printf("%s\n", EarlyDecisionLine(*early).c_str());
-  std::printf("lot %s archived in %s (runs %s-*; process log %s)\n", options.lot.c_str(),
-              options.db_path.c_str(), run->run_prefix.c_str(), run->log_path.c_str());
+  std::printf("%s", WordWrapped("lot " + options.lot + " archived in " + options.db_path + " (runs " +
+                                    run->run_prefix + "-*; process log " + run->log_path + ")",
+                                width)
+                        .c_str());
   if (run->restarts > 0) {
     std::printf("store/analyze restarted %d time(s) during the soak; see the process log\n",
                 run->restarts);
@@ -367,7 +465,9 @@ int LotCommand(const std::string& db_path, const std::string& lot, Format format
     return kExitUsage;
   }
   if (format == Format::kTable) {
-    std::printf("%s", PeopleTable(*rows, /*by_slot=*/false, /*with_runs=*/all_runs).c_str());
+    std::printf("%s",
+                PeopleTable(*rows, /*by_slot=*/false, /*with_runs=*/all_runs, ScreenColumns())
+                    .c_str());
     std::printf("%s", ReasonLines(**archive, *rows, {}).c_str());
     if (!all_runs) std::printf("%s", LotYieldLines(**archive, lot).c_str());
     auto early = QueryEarlyDecisions(**archive, lot);

@@ -105,6 +105,57 @@ std::string TableWriter::Render(Format format) const {
   return "";
 }
 
+std::string TableWriter::RenderTableWithin(size_t width,
+                                           const std::vector<std::string>& drop_order,
+                                           std::vector<std::string>* left_out) const {
+  auto widest = [](const std::string& text) {
+    size_t most = 0, from = 0;
+    while (from < text.size()) {
+      size_t end = text.find('\n', from);
+      if (end == std::string::npos) end = text.size();
+      most = std::max(most, DisplayWidth(text.substr(from, end - from)));
+      from = end + 1;
+    }
+    return most;
+  };
+  auto without = [&](const std::vector<std::string>& gone) {
+    TableWriter t({}, digits_);
+    std::vector<size_t> kept;
+    for (size_t c = 0; c < columns_.size(); ++c) {
+      if (std::find(gone.begin(), gone.end(), columns_[c]) != gone.end()) continue;
+      kept.push_back(c);
+      t.columns_.push_back(columns_[c]);
+    }
+    for (const std::vector<Cell>& row : rows_) {
+      std::vector<Cell> cells;
+      for (size_t c : kept) cells.push_back(c < row.size() ? row[c] : Cell::Text(""));
+      t.rows_.push_back(std::move(cells));
+    }
+    return t.RenderTable();
+  };
+  // Leave columns out in order until it fits, then take back the most
+  // important of them that still fit (a wide one left out may make room).
+  std::vector<std::string> gone;
+  std::string out = RenderTable();
+  for (const std::string& name : drop_order) {
+    if (widest(out) <= width) break;
+    if (std::find(columns_.begin(), columns_.end(), name) == columns_.end()) continue;
+    gone.push_back(name);
+    out = without(gone);
+  }
+  for (size_t k = gone.size(); k-- > 0;) {
+    std::vector<std::string> fewer = gone;
+    fewer.erase(fewer.begin() + static_cast<std::ptrdiff_t>(k));
+    std::string again = without(fewer);
+    if (widest(again) <= width) {
+      gone = std::move(fewer);
+      out = std::move(again);
+    }
+  }
+  if (left_out != nullptr) *left_out = gone;
+  return out;
+}
+
 std::string TableWriter::RenderTable() const {
   std::vector<size_t> width(columns_.size());
   for (size_t c = 0; c < columns_.size(); ++c) width[c] = DisplayWidth(columns_[c]);

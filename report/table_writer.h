@@ -56,6 +56,11 @@ class TableWriter {
   void AddRow(std::vector<Cell> row) { rows_.push_back(std::move(row)); }
   size_t rows() const { return rows_.size(); }
   std::string Render(Format format) const;
+  // The text table no wider than `width` columns: the columns of
+  // `drop_order` left out, in that order, until it fits (or none is left to
+  // drop); the names of those left out go to *left_out.
+  std::string RenderTableWithin(size_t width, const std::vector<std::string>& drop_order,
+                                std::vector<std::string>* left_out) const;
 
  private:
   std::string RenderTable() const;

@@ -32,6 +32,31 @@ TEST(TableWriterTest, ARealShownRoundedIsExactInData) {
   EXPECT_NE(html.find("data-v=\"409.637\">410</td>"), std::string::npos) << html;
 }
 
+// A table for a narrow screen leaves whole columns out, in the order given,
+// and takes back the most important one that fits again; the cells kept are
+// the wide table's, never cut.
+TEST(TableWriterTest, ANarrowTableLeavesWholeColumnsOut) {
+  TableWriter t({"serial", "value", "wide_counts_column", "verdict"});
+  t.AddRow({Cell::Text("U1"), Cell::Real(30.25), Cell::Int(0), Cell::Text("FAIL")});
+  t.AddRow({Cell::Text("U22"), Cell::Real(11.5), Cell::Int(7), Cell::Text("PASS")});
+  std::vector<std::string> left_out;
+  const std::string wide = t.RenderTableWithin(1000, {"wide_counts_column", "value"}, &left_out);
+  EXPECT_EQ(wide, t.Render(Format::kTable));
+  EXPECT_TRUE(left_out.empty());
+  // 30 columns: the counts go; "value" (dropped only if needed) stays.
+  const std::string narrow = t.RenderTableWithin(30, {"wide_counts_column", "value"}, &left_out);
+  EXPECT_EQ(left_out, (std::vector<std::string>{"wide_counts_column"}));
+  EXPECT_NE(narrow.find("30.25"), std::string::npos) << narrow;
+  for (size_t from = 0, end; from < narrow.size(); from = end + 1) {
+    end = narrow.find('\n', from);
+    EXPECT_LE(end - from, 30u) << narrow;
+  }
+  // Dropped "value" first, then the counts: the counts' room lets "value" back.
+  const std::string back = t.RenderTableWithin(30, {"value", "wide_counts_column"}, &left_out);
+  EXPECT_EQ(left_out, (std::vector<std::string>{"wide_counts_column"}));
+  EXPECT_EQ(back, narrow);
+}
+
 TEST(TableWriterTest, JsonHasNullForNaN) {
   EXPECT_EQ(Sample().Render(Format::kJson),
             "[\n {\"name\": \"a,b\", \"value\": 0.1, \"count\": 3},\n"

@@ -6,6 +6,7 @@
 // samples, and against the simulator's truth.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <memory>
@@ -254,10 +255,22 @@ TEST_F(StationTest, LotQueryAsCsv) {
 // each unit's fixture.
 TEST(StationTableTest, FinalTableIsInSlotOrder) {
   testing::TempDir dir("station_slots");
-  const auto run = RunCommand(Bin("imuqual") +
+  // (On an 80-column screen: COLUMNS stands for the terminal's width.)
+  const auto run = RunCommand("COLUMNS=80 " + Bin("imuqual") +
                               " run --unit ZED=sim:vg700,index=0 --unit ALF=sim:vg700,index=1 "
                               "--duration 30 --lot SLOTS --db " + dir.path("s.db") + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.output;
+  // Every line fits 80 columns (whole columns left out, named; text wrapped
+  // at words), so a terminal never wraps a row mid-number.
+  std::istringstream lines(run.output);
+  for (std::string line; std::getline(lines, line);) {
+    const bool one_word = line.find(' ', line.find_first_not_of(' ')) == std::string::npos;
+    // Columns: code points (UTF-8 continuation bytes take none).
+    const auto columns = std::count_if(line.begin(), line.end(),
+                                       [](char c) { return (static_cast<unsigned char>(c) & 0xC0) != 0x80; });
+    if (!one_word) EXPECT_LE(columns, 80) << line << "\n" << run.output;
+  }
+  EXPECT_NE(run.output.find("left out for 80 columns:"), std::string::npos) << run.output;
   const size_t zed = run.output.find("\n1     ZED");
   const size_t alf = run.output.find("\n2     ALF");
   ASSERT_NE(zed, std::string::npos) << run.output;
