@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The operator's view: `imuqual run --station FILE` in a terminal (a tmux
-# pane, 140 x 45; the second soak at 80 x 24), read the way a person reads it. A soak of four units in
+# pane, 140 x 45; soaks read frame by frame at 100 x 30 and 80 x 24 and checked
+# against the archive; the Ctrl-C soak at 80 x 24), read the way a person reads it. A soak of four units in
 # named slots with two analyze shards: the live table (slots, units, axes,
 # elapsed vs planned, live bias instability, provisional verdicts, progress
 # bar); the store and an analyze shard killed mid-soak and restarted by the
@@ -53,15 +54,15 @@ sql() { sqlite3 "$work/lot.db" "$1"; }
 # A short-soak variant of the VG700CA plan: 20 simulated minutes suffice.
 sed 's/^min_duration_s: .*/min_duration_s: 600/; s/^name: .*/name: "vg700ca-short"/' \
   "$src/plans/vg700ca.textproto" >"$work/plan.textproto"
-write_config() {  # PACE
+write_config() {  # PACE [LOT ARCHIVE]
   cat >"$work/station.textproto" <<EOF
 # Bench C, four fixtures
 station_id: "bench-C"
-lot: "CONSOLE-LOT"
+lot: "${2:-CONSOLE-LOT}"
 operator_name: "ana"
 plan: "plan.textproto"
 duration_s: 1200
-archive: "lot.db"
+archive: "${3:-lot.db}"
 analyze_shards: 2
 pace: $1
 rate_hz: 100
@@ -130,6 +131,96 @@ for run in $(sql "SELECT run_id FROM runs"); do
     fail "soak 1: $run: archived result differs from re-analysis"
 done
 tm kill-session -t soak
+
+# --- Soaks on a 100 x 30 and an 80 x 24 terminal, to the end, read frame by frame: no
+# line wider than the screen, "final:" only once no unit is provisional, and
+# every number against the archive: each final value a frame shows (a unit
+# judged, still on the live table) and the final table's, equal to the
+# archived value to the digits shown.
+soak_frames() {  # COLUMNS ROWS
+  local frames="$work/frames-$1x$2" db="soak-$1x$2.db"
+  write_config 60 "CONSOLE-$1x$2" "$db"
+  start_soak "$1" "$2"
+  mkdir -p "$frames"
+  ( n=0; while tm has-session -t soak 2>/dev/null; do
+      tm capture-pane -p -t soak >"$frames/$(printf %05d $n)" 2>/dev/null || true
+      n=$((n + 1)); sleep 0.25
+    done ) &
+  local frames_pid=$!
+  code="$(wait_exit 240)"
+  [ "$code" = 0 ] || fail "soak at $1 x $2: imuqual run exit $code"
+  tm capture-pane -p -S - -t soak >"$frames/99999"  # with what scrolled off
+  tm kill-session -t soak
+  wait "$frames_pid" 2>/dev/null || true
+  python3 - "$frames" "$work/$db" "$1" "$2" <<'PY' || fail "soak at $1 x $2: frames against the archive"
+import os, re, sqlite3, sys
+frames_dir, db, width, height = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4]
+archived = {}
+for slot, axis, value in sqlite3.connect(db).execute(
+        "SELECT r.slot, m.axis, m.value FROM measurements m JOIN runs r USING (run_key) "
+        "WHERE m.name = 'bias_instability'"):
+    archived[(slot, axis)] = value
+if len(archived) != 12:
+    sys.exit(f"{len(archived)} archived bias_instability values, 12 expected")
+problems, checked, final_frames = [], 0, 0
+def agrees(text, value, where):
+    # The value to the digits shown: within half a unit of its last place.
+    decimals = len(text.split(".")[1]) if "." in text else 0
+    if abs(float(text) - value) > 0.5 * 10 ** -decimals + 1e-9 * abs(value):
+        problems.append(f"{where}: shown {text}, archived {value}")
+num = r"([0-9]+(?:\.[0-9]+)?)"
+for name in sorted(os.listdir(frames_dir)):
+    lines = open(os.path.join(frames_dir, name), encoding="utf-8").read().split("\n")
+    for line in lines:
+        if len(line) > width:
+            problems.append(f"frame {name}: a line of {len(line)} columns")
+    text = "\n".join(lines)
+    live = "Ctrl-C: stop the soak" in text
+    if live and re.search(r"^final:", text, re.M):
+        final_frames += 1
+        for line in lines:
+            if re.match(r"^(A1|A2|B1|B2) ", line) and re.search(r"(pass|fail|marginal)\?|pending|running|waiting", line):
+                problems.append(f"frame {name}: 'final:' while a unit is provisional: {line}")
+    slot = None
+    for line in lines:
+        m = re.match(r"^(A1|A2|B1|B2) +SN-10[1-4] ", line)
+        if m: slot = m.group(1)
+        elif not line.startswith(" "): slot = None
+        if slot is None:
+            continue
+        # A live row of a judged unit: "... x  PASS  10.2 ± 0.81 deg/h".
+        row = re.search(r" ([xyz]) +(PASS|FAIL|MARGINAL|INCONCLUSIVE) +" + num + r"(?: ± [0-9.e+-]+)? deg/h", line)
+        if live and row and re.match(r"^(A1|A2|B1|B2) +SN-10[1-4] +(PASS|FAIL|MARGINAL|INCONCLUSIVE) ", 
+                                    [l for l in lines if l.startswith(slot + " ")][0]):
+            agrees(row.group(3), archived[(slot, row.group(1))], f"frame {name} {slot} {row.group(1)}")
+            checked += 1
+# The final table: slot, serial, axis, ARW, BI (value ± u), ...
+last = open(os.path.join(frames_dir, "99999"), encoding="utf-8").read().split("\n")
+starts = [i for i, l in enumerate(last) if l.startswith("slot ")]
+if not starts:
+    sys.exit("no final table on the last screen:\n" + "\n".join(last))
+cols = re.split(r"  +", last[starts[-1]].strip())
+if "BI deg/h" not in cols:
+    sys.exit("the final table has no BI column: " + last[starts[-1]])
+bi = cols.index("BI deg/h")
+rows = 0
+for line in last[starts[-1]:]:
+    if re.match(r"^(A1|A2|B1|B2) +SN-10[1-4] ", line):
+        cells = re.split(r"  +", line.strip())
+        value = cells[bi].split(" ± ")[0].lstrip("≤ ").rstrip("†‡")
+        agrees(value, archived[(cells[0], cells[2])], f"final table {cells[0]} {cells[2]}")
+        rows += 1
+        checked += 1
+if rows != 12:
+    problems.append(f"final table: {rows} axis rows, 12 expected")
+print(f"{width} x {height}: {len(os.listdir(frames_dir))} frames, {final_frames} live frames saying "
+      f"final, {checked} numbers checked against the archive")
+if problems:
+    sys.exit("\n".join(problems[:20]))
+PY
+}
+soak_frames 100 30
+soak_frames 80 24
 
 # --- Soak 2, on an 80 x 24 terminal: every unit's row still starts with its
 # slot, unit and provisional verdict (the numbers are what a narrow screen
