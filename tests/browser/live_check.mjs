@@ -95,6 +95,17 @@ async function main() {
     });
     const p3 = await progress();
     if (!(Math.abs(p3 - fromUnits) <= 0.05)) fail(`progress ${p3}, the units' elapsed/planned say ${fromUnits}`);
+    // Each axis's invalid samples, in its own column as the status says (0 for simulated units).
+    const invalid = await page.evaluate(() => {
+      const head = [...document.querySelectorAll('#units thead th')].map((th) => th.textContent);
+      const at = head.indexOf('invalid');
+      const shown = [...document.querySelectorAll('#units tbody tr')].map((tr) => tr.cells[at]?.textContent);
+      const said = window.imuqualLive.status.units.flatMap((u) => u.axes.map((x) => x.invalid_samples));
+      return { at, shown, said };
+    });
+    if (invalid.at < 0) fail('the unit table has no "invalid" column');
+    if (!invalid.said.every((n) => n === 0)) fail(`invalid samples of simulated units: ${invalid.said}`);
+    if (!invalid.shown.every((t) => t === '0')) fail(`invalid column shows ${invalid.shown}`);
     const planned = await page.evaluate(() => window.imuqualLive.status.units.map((u) => u.planned_s));
     if (!planned.every((p) => Math.abs(p - kDurationS) < 1e-6)) fail(`planned lengths ${planned}, ${kDurationS} s soaked`);
     const operator = await page.evaluate(() => document.getElementById('operator').textContent);
