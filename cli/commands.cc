@@ -1,10 +1,10 @@
 #include "cli/commands.h"
 
-#include <algorithm>
-#include <cmath>
 #include <sys/ioctl.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
@@ -90,8 +90,7 @@ std::string LinesWrapped(const std::string& text, size_t width) {
 // counts that are not all 0, the rate random walk; a line under it names
 // what was left out.
 std::string PeopleTable(const std::vector<store::AxisRow>& unsorted, bool by_slot,
-                        bool with_runs = false,
-                        size_t width = std::numeric_limits<size_t>::max()) {
+                        bool with_runs = false, size_t width = std::numeric_limits<size_t>::max()) {
   // A station's table in fixture order, with the slot first.
   std::vector<store::AxisRow> rows = unsorted;
   if (by_slot) {
@@ -358,9 +357,9 @@ int RunCommand(const StationRunOptions& options) {
     counted += store::CountsInYield(v);
     passed += v == pb::PASS || v == pb::MARGINAL;
   }
-  std::printf("%s",
-              LinesWrapped(ReasonLines(**archive, *rows, run->run_ids, /*by_slot=*/true), width)
-                  .c_str());
+  std::printf(
+      "%s",
+      LinesWrapped(ReasonLines(**archive, *rows, run->run_ids, /*by_slot=*/true), width).c_str());
   for (const std::string& skipped : run->skipped) {
     std::printf("not run (--skip-failed-slots): %s\n", skipped.c_str());
   }
@@ -376,10 +375,11 @@ int RunCommand(const StationRunOptions& options) {
   std::printf("%s", LinesWrapped(tally, width).c_str());
   auto early = QueryEarlyDecisions(**archive, options.lot, run->run_prefix + "-");
   if (early.ok() && !early->runs.empty()) std::printf("%s\n", EarlyDecisionLine(*early).c_str());
-  std::printf("%s", WordWrapped("lot " + options.lot + " archived in " + options.db_path + " (runs " +
-                                    run->run_prefix + "-*; process log " + run->log_path + ")",
-                                width)
-                        .c_str());
+  std::printf("%s",
+              WordWrapped("lot " + options.lot + " archived in " + options.db_path + " (runs " +
+                              run->run_prefix + "-*; process log " + run->log_path + ")",
+                          width)
+                  .c_str());
   if (run->restarts > 0) {
     std::printf("store/analyze restarted %d time(s) during the soak; see the process log\n",
                 run->restarts);
@@ -465,9 +465,9 @@ int LotCommand(const std::string& db_path, const std::string& lot, Format format
     return kExitUsage;
   }
   if (format == Format::kTable) {
-    std::printf("%s",
-                PeopleTable(*rows, /*by_slot=*/false, /*with_runs=*/all_runs, ScreenColumns())
-                    .c_str());
+    std::printf(
+        "%s",
+        PeopleTable(*rows, /*by_slot=*/false, /*with_runs=*/all_runs, ScreenColumns()).c_str());
     std::printf("%s", ReasonLines(**archive, *rows, {}).c_str());
     if (!all_runs) std::printf("%s", LotYieldLines(**archive, lot).c_str());
     auto early = QueryEarlyDecisions(**archive, lot);

@@ -100,7 +100,8 @@ TEST(NumericTextTest, ASeriesCanReadWordsAsInvalidSamples) {
   EXPECT_TRUE(std::isnan((*v)[3]));
   EXPECT_EQ((*v)[2], 2);
   ASSERT_EQ(warnings.size(), 1u);
-  EXPECT_EQ(warnings[0].rfind("f.csv:3: 'abc' is not a number (column 'gx')", 0), 0u) << warnings[0];
+  EXPECT_EQ(warnings[0].rfind("f.csv:3: 'abc' is not a number (column 'gx')", 0), 0u)
+      << warnings[0];
   // Without the request a word is still the error it was.
   EXPECT_FALSE(ParseSeries("t,gx\n0,1\n1,abc\n", "f.csv", "gx").ok());
   // A short row is not a bad cell: still an error.

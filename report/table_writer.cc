@@ -105,8 +105,7 @@ std::string TableWriter::Render(Format format) const {
   return "";
 }
 
-std::string TableWriter::RenderTableWithin(size_t width,
-                                           const std::vector<std::string>& drop_order,
+std::string TableWriter::RenderTableWithin(size_t width, const std::vector<std::string>& drop_order,
                                            std::vector<std::string>* left_out) const {
   auto widest = [](const std::string& text) {
     size_t most = 0, from = 0;

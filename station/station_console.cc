@@ -378,8 +378,7 @@ std::vector<std::string> AxisRows(const ConsoleModel& m, int width,
       const ConsoleAxis& x = u.axes[a];
       const bool first = a == 0;
       const std::string value = LiveValue(x, 3, true, u.final_result);
-      t.rows.push_back({first ? u.slot : "", first ? u.serial : "",
-                        first ? UnitVerdictText(u) : "",
+      t.rows.push_back({first ? u.slot : "", first ? u.serial : "", first ? UnitVerdictText(u) : "",
                         first ? ShortReason(u, reason_width) : "", first ? StateText(u) : "",
                         first ? ElapsedText(m, u) : "", x.name, AxisVerdictText(u, x),
                         value.empty() ? "-" : value + " " + x.unit, first ? samples : "",

@@ -358,8 +358,8 @@ void StationMonitor::OnResult(const imuqual::unit_result_t& r) {
   u->final_result = r.is_final;
   u->gap_samples = r.gap_samples;
   // Per axis in the run's axis order, as u->axes (from the run's announcement).
-  const size_t counted = std::min<size_t>(
-      {u->axes.size(), r.axis_invalid_samples.size(), static_cast<size_t>(std::max<int8_t>(0, r.num_axes))});
+  const size_t counted = std::min<size_t>({u->axes.size(), r.axis_invalid_samples.size(),
+                                           static_cast<size_t>(std::max<int8_t>(0, r.num_axes))});
   for (size_t a = 0; a < counted; ++a) u->axes[a].invalid_samples = r.axis_invalid_samples[a];
   // Final: the judgement's first reason. Provisional: the first measurement
   // that makes the verdict (the judgement's reasons also list what cannot be

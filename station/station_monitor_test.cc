@@ -367,7 +367,8 @@ TEST(StationMonitorTest, ResultsSetProvisionalAndFinalVerdictsAndRaiseTheVersion
   EXPECT_EQ(cells.axes[0].bias_instability, "12.00 \u00b1 0.50 deg/h");
   EXPECT_EQ(cells.axes[1].bias_instability, "-");
   // Each axis's invalid samples so far, from the result's per-axis counts.
-  imuqual::unit_result_t bad = ResultMsg("R-U1", "U1", false, 12, imuqual::measurement_t::OUTCOME_FAIL);
+  imuqual::unit_result_t bad =
+      ResultMsg("R-U1", "U1", false, 12, imuqual::measurement_t::OUTCOME_FAIL);
   bad.num_axes = 2;
   bad.axis_invalid_samples = {0, 41};
   m.OnResult(bad);

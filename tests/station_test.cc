@@ -258,7 +258,8 @@ TEST(StationTableTest, FinalTableIsInSlotOrder) {
   // (On an 80-column screen: COLUMNS stands for the terminal's width.)
   const auto run = RunCommand("COLUMNS=80 " + Bin("imuqual") +
                               " run --unit ZED=sim:vg700,index=0 --unit ALF=sim:vg700,index=1 "
-                              "--duration 30 --lot SLOTS --db " + dir.path("s.db") + " --quiet");
+                              "--duration 30 --lot SLOTS --db " +
+                              dir.path("s.db") + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   // Every line fits 80 columns (whole columns left out, named; text wrapped
   // at words), so a terminal never wraps a row mid-number.
@@ -266,8 +267,9 @@ TEST(StationTableTest, FinalTableIsInSlotOrder) {
   for (std::string line; std::getline(lines, line);) {
     const bool one_word = line.find(' ', line.find_first_not_of(' ')) == std::string::npos;
     // Columns: code points (UTF-8 continuation bytes take none).
-    const auto columns = std::count_if(line.begin(), line.end(),
-                                       [](char c) { return (static_cast<unsigned char>(c) & 0xC0) != 0x80; });
+    const auto columns = std::count_if(line.begin(), line.end(), [](char c) {
+      return (static_cast<unsigned char>(c) & 0xC0) != 0x80;
+    });
     if (!one_word) EXPECT_LE(columns, 80) << line << "\n" << run.output;
   }
   EXPECT_NE(run.output.find("left out for 80 columns:"), std::string::npos) << run.output;

@@ -210,9 +210,8 @@ TableWriter MeasurementTable(const std::vector<pb::Measurement>& ms, bool rounde
       u = Cell::RealShown(m.uncertainty(), u_text);
     }
     t.AddRow({Cell::Text(m.axis().empty() ? "(run)" : m.axis()), Cell::Text(m.name()),
-              std::move(value), std::move(u),
-              Cell::Text(m.unit()), opt(m.has_low(), m.low()), opt(m.has_high(), m.high()),
-              opt(m.has_marginal_low(), m.marginal_low()),
+              std::move(value), std::move(u), Cell::Text(m.unit()), opt(m.has_low(), m.low()),
+              opt(m.has_high(), m.high()), opt(m.has_marginal_low(), m.marginal_low()),
               opt(m.has_marginal_high(), m.marginal_high()),
               Cell::Text(report::QualifierWord(m.qualifier(), m.value())),
               Cell::Text(m.outcome() == pb::OUTCOME_UNSET ? "not_judged"

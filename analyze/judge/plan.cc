@@ -6,11 +6,11 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
-#include <tuple>
 #include <functional>
 #include <limits>
 #include <map>
 #include <set>
+#include <tuple>
 
 #include "analyze/allan/units.h"
 #include "analyze/judge/builtin_plans.h"
@@ -225,10 +225,10 @@ Status ValidateSensorRange(const pb::TestPlan& plan, int i, const Locator& where
                 "axis_kind");
   }
   if (!kinds->insert(r.axis_kind()).second) {
-    return Fail(where, "sensor_range", i, path + ".axis_kind",
-                "a second range for " + pb::AxisKind_Name(r.axis_kind()) +
-                    " axes (one per axis kind)",
-                "axis_kind");
+    return Fail(
+        where, "sensor_range", i, path + ".axis_kind",
+        "a second range for " + pb::AxisKind_Name(r.axis_kind()) + " axes (one per axis kind)",
+        "axis_kind");
   }
   if (!(r.full_scale() > 0 && Finite(r.full_scale()))) {
     return Fail(where, "sensor_range", i, path + ".full_scale",

@@ -226,7 +226,7 @@ TEST(PlanTest, SensorRangeIsInDegreesPerSecondOrInG) {
                                 "sensor_range { axis_kind: ACCEL full_scale: 18 }\n",
                             "p");
   ASSERT_TRUE(plan.ok()) << plan.status().message();
-  EXPECT_EQ(OutOfRangeAt(*plan, pb::GYRO), 300);                 // deg/s, as gyro samples
+  EXPECT_EQ(OutOfRangeAt(*plan, pb::GYRO), 300);                   // deg/s, as gyro samples
   EXPECT_DOUBLE_EQ(OutOfRangeAt(*plan, pb::ACCEL), 18 * 9.80665);  // m/s^2, as accel samples
   EXPECT_TRUE(std::isinf(OutOfRangeAt(pb::TestPlan(), pb::GYRO)));
 }

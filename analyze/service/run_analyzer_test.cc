@@ -185,11 +185,11 @@ TEST(RunAnalyzerTest, SamplesOutOfTheSensorsRangeAreInvalidSamplesOfTheirAxis) {
   auto a = RunAnalyzer::Create(d);
   ASSERT_TRUE(a.ok());
   Batch b(0, 0, 100);
-  b.x[10] = 300.0f;    // at the rail
-  b.x[11] = -450.0f;   // beyond
-  b.x[12] = 299.9f;    // inside: a valid (if large) sample
-  b.a[20] = 19.62f;    // just beyond 2 g
-  b.a[21] = -19.6f;    // inside 2 g
+  b.x[10] = 300.0f;   // at the rail
+  b.x[11] = -450.0f;  // beyond
+  b.x[12] = 299.9f;   // inside: a valid (if large) sample
+  b.a[20] = 19.62f;   // just beyond 2 g
+  b.a[21] = -19.6f;   // inside 2 g
   b.view.samples = {b.x, b.a};
   ASSERT_TRUE(a->AddBatch(b.view).ok());
   const RunOutcome out = a->Outcome(false);
