@@ -39,12 +39,6 @@ using station::StationRunOptions;
 
 namespace {
 
-// The table people read; `by_slot` (a station's final table): in slot
-// order, the slot first.
-// Each value with its marks (marks.h); "± u" where the value has an
-// uncertainty (not on B (IEEE), the minimum / 0.664, for room). When a run
-// used early decisions, when its unit was decided ("full soak": pending at
-// every look).
 // `text` as lines of at most `width` columns, broken at spaces (a word
 // longer than a line stays whole); its leading indent kept, the lines after
 // the first indented two more.
@@ -83,6 +77,12 @@ std::string LinesWrapped(const std::string& text, size_t width) {
   return out;
 }
 
+// The table people read; `by_slot` (a station's final table): in slot
+// order, the slot first.
+// Each value with its marks (marks.h); "± u" where the value has an
+// uncertainty (not on B (IEEE), the minimum / 0.664, for room). When a run
+// used early decisions, when its unit was decided ("full soak": pending at
+// every look).
 //
 // `width`: the screen's columns (ScreenColumns). A table wider leaves out
 // whole columns, never cuts one: counts that are 0 on every axis first, then
@@ -361,7 +361,7 @@ int RunCommand(const StationRunOptions& options) {
       "%s",
       LinesWrapped(ReasonLines(**archive, *rows, run->run_ids, /*by_slot=*/true), width).c_str());
   for (const std::string& skipped : run->skipped) {
-    std::printf("not run (--skip-failed-slots): %s\n", skipped.c_str());
+    std::printf("%s", WordWrapped("not run (--skip-failed-slots): " + skipped, width).c_str());
   }
   const std::string tally =
       "\n" + std::to_string(unit_of.size()) + " units: " + VerdictCounts(verdicts) +
@@ -374,15 +374,18 @@ int RunCommand(const StationRunOptions& options) {
       "\n";
   std::printf("%s", LinesWrapped(tally, width).c_str());
   auto early = QueryEarlyDecisions(**archive, options.lot, run->run_prefix + "-");
-  if (early.ok() && !early->runs.empty()) std::printf("%s\n", EarlyDecisionLine(*early).c_str());
+  if (early.ok() && !early->runs.empty())
+    std::printf("%s", WordWrapped(EarlyDecisionLine(*early), width).c_str());
   std::printf("%s",
               WordWrapped("lot " + options.lot + " archived in " + options.db_path + " (runs " +
                               run->run_prefix + "-*; process log " + run->log_path + ")",
                           width)
                   .c_str());
   if (run->restarts > 0) {
-    std::printf("store/analyze restarted %d time(s) during the soak; see the process log\n",
-                run->restarts);
+    std::printf("%s", WordWrapped("store/analyze restarted " + std::to_string(run->restarts) +
+                                      " time(s) during the soak; see the process log",
+                                  width)
+                          .c_str());
   }
   if (!run->left_open.empty()) {
     // Runs an earlier station process left open (a crash): judged now.
@@ -465,17 +468,18 @@ int LotCommand(const std::string& db_path, const std::string& lot, Format format
     return kExitUsage;
   }
   if (format == Format::kTable) {
-    std::printf(
-        "%s",
-        PeopleTable(*rows, /*by_slot=*/false, /*with_runs=*/all_runs, ScreenColumns()).c_str());
-    std::printf("%s", ReasonLines(**archive, *rows, {}).c_str());
-    if (!all_runs) std::printf("%s", LotYieldLines(**archive, lot).c_str());
+    const size_t width = ScreenColumns();
+    std::printf("%s",
+                PeopleTable(*rows, /*by_slot=*/false, /*with_runs=*/all_runs, width).c_str());
+    std::printf("%s", LinesWrapped(ReasonLines(**archive, *rows, {}), width).c_str());
+    if (!all_runs) std::printf("%s", LinesWrapped(LotYieldLines(**archive, lot), width).c_str());
     auto early = QueryEarlyDecisions(**archive, lot);
     if (!early.ok()) {
       LogError(early.status().message());
       return kExitError;
     }
-    if (!early->runs.empty()) std::printf("%s\n", EarlyDecisionLine(*early).c_str());
+    if (!early->runs.empty())
+      std::printf("%s", WordWrapped(EarlyDecisionLine(*early), width).c_str());
   } else {
     std::printf("%s", LotAxisTable(*rows).Render(format).c_str());
   }

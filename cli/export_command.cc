@@ -16,6 +16,7 @@
 
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
+#include "analyze/judge/plan.h"
 #include "common/clock.h"
 #include "common/command_line.h"
 #include "common/log.h"
@@ -391,6 +392,14 @@ Status ExportSamples(store::Archive& archive, const RunRef& run, std::FILE* out)
   const size_t axes = info.axes.size();
   std::string row;
   std::vector<int> bits;
+  // The plan's sensor range, as the analysis reads it (none: a plan that
+  // does not decode, or says none).
+  pb::TestPlan plan;
+  if (!plan.ParseFromString(info.plan)) plan.Clear();
+  std::vector<double> out_of_range_at;
+  for (const store::AxisInfo& a : info.axes) {
+    out_of_range_at.push_back(judge::OutOfRangeAt(plan, a.kind));
+  }
   const auto time_of = [&](int64_t first, int64_t counter) {
     return ShortestReal(static_cast<double>(counter - first) / rate);
   };
@@ -412,13 +421,14 @@ Status ExportSamples(store::Archive& archive, const RunRef& run, std::FILE* out)
       row = std::to_string(k) + "," + time_of(first, k) + ",";
       if (c.sample_utime > 0) row += std::to_string(c.sample_utime + std::llround(i * 1e6 / rate));
       // Per axis: the source's flags (1 saturated, 2 invalid), and a value
-      // that is not a finite number (NaN, inf: a bad cell or reading) is
-      // invalid as the analysis counts it, flagged or not.
+      // that is not a finite number (NaN, inf: a bad cell or reading) or is
+      // out of the plan's sensor range is invalid as the analysis counts it,
+      // flagged or not.
       bits.assign(axes, 0);
       for (size_t a = 0; a < axes; ++a) {
         const float v = chunk.at(static_cast<int>(a), i);
         row += "," + FloatText(v);
-        if (!std::isfinite(v)) bits[a] |= 2;
+        if (!std::isfinite(v) || judge::OutOfRange(v, out_of_range_at[a])) bits[a] |= 2;
       }
       for (const store::SampleFlag& f : chunk.flags) {
         if (f.sample == i && f.axis < axes) bits[f.axis] |= f.bits;

@@ -22,8 +22,9 @@
 //                  float32 value archived, shortest text that reads back
 //                  bit for bit), temperature_c (the batch's, empty when
 //                  none), flags ("x:saturated y:invalid": what the source
-//                  flagged, and every value that is not a finite number, a
-//                  bad cell or reading, as the analysis counts it;
+//                  flagged, and every value that is not a finite number (a
+//                  bad cell or reading) or is out of the plan's
+//                  sensor_range, as the analysis counts it;
 //                  "missing" for a counter no chunk holds, whose values are
 //                  empty). Warm-up
 //                  samples are included: the analysis discards the first

@@ -40,7 +40,8 @@ std::string QualifierWord(pb::Qualifier qualifier, double value);
 // place ("410 ± 280", "10.20 ± 0.81", not "409.6 ± 2.8e+02"); in
 // exponent form beyond 1e6 or below 1e-3; a value that would need more than
 // kMaxQuotedDigits significant digits (u under ~1e-9 of it) to those digits,
-// u in exponent form ("100.0000000", "2.4e-15"). Without a finite u > 0:
+// u in exponent form ("99.99999123", "2.4e-12"; trailing zeros dropped:
+// "100", "2.4e-15"). Without a finite u > 0:
 // the value to `digits` significant digits and u as "-" (or "0").
 inline constexpr int kMaxQuotedDigits = 10;
 std::pair<std::string, std::string> QuotedWithUncertainty(double value, double uncertainty,

@@ -47,9 +47,10 @@ struct ConsoleAxis {
   // live page draws them on the axis's curve.
   double limit_high = std::numeric_limits<double>::quiet_NaN();
   double marginal_high = std::numeric_limits<double>::quiet_NaN();
-  // Samples of this axis read as invalid so far (NaN, inf, an empty or
-  // non-numeric cell, a sample its source flagged): judged by a plan's
-  // invalid_fraction, shown so that an operator sees them as they come.
+  // Samples of this axis after the warm-up read as invalid so far (NaN,
+  // inf, an empty or non-numeric cell, a sample its source flagged, one out
+  // of the plan's sensor_range): judged by a plan's invalid_fraction, shown
+  // so that an operator sees them as they come.
   int64_t invalid_samples = 0;
 };
 

@@ -102,7 +102,7 @@ Result<RunSamples> LoadRunSamples(Archive& archive, const std::string& run_id) {
       if (!std::isfinite(out_of_range_at[a])) continue;
       const size_t from = out.samples[a].size() - static_cast<size_t>(chunk->num_samples);
       for (size_t k = from; k < out.samples[a].size(); ++k) {
-        if (std::fabs(out.samples[a][k]) >= out_of_range_at[a]) out.invalid[a][k] = 1;
+        if (judge::OutOfRange(out.samples[a][k], out_of_range_at[a])) out.invalid[a][k] = 1;
       }
     }
     next = c.first_sample + chunk->num_samples;

@@ -21,7 +21,8 @@ Result<analyze::RunOutcome> ReanalyzeRun(Archive& archive, const std::string& ru
 // A run's archived samples as one record per axis, for exact (batch)
 // analysis: samples[a][k] is device counter first_counter + k. Missing
 // samples between archived chunks (a counter jump or a seq gap) are NaN and
-// marked invalid, as are samples flagged saturated or invalid; chunks whose
+// marked invalid, as are samples flagged saturated or invalid and samples
+// out of the run's plan's sensor_range (judge::OutOfRange); chunks whose
 // counter goes backwards are skipped (as the live analysis rejects them).
 struct RunSamples {
   RunInfo info;

@@ -686,6 +686,13 @@ TEST(SamplesExportTest, EverySampleAsArchivedWithGapsFlagsAndTemperature) {
     r.nominal_rate_hz = 50;
     r.axes = {{"gx", pb::GYRO}, {"ax", pb::ACCEL}};
     r.state = "complete";
+    // A plan whose accelerometer range is 1.05 g (10.297 m/s^2): ax's 10.4
+    // and 10.5 of the first chunk are out of it.
+    pb::TestPlan plan;
+    pb::SensorRange* range = plan.add_sensor_range();
+    range->set_axis_kind(pb::ACCEL);
+    range->set_full_scale(1.05);
+    r.plan = plan.SerializeAsString();
     auto key = (*a)->UpsertRun(r);
     ASSERT_TRUE(key.ok()) << key.status().ToString();
     // GIVEN chunks at counters 100..104 (with arrival time and temperature),
@@ -739,7 +746,7 @@ TEST(SamplesExportTest, EverySampleAsArchivedWithGapsFlagsAndTemperature) {
     if (i != 2) EXPECT_EQ(std::stof(csv.rows[i][4]), 0.3f + 0.1f * i + 9.8f);
     EXPECT_EQ(csv.rows[i][5], "25.5");
     EXPECT_EQ(csv.rows[i][2], std::to_string(1'800'000'000'001'000 + i * 20'000));  // 20 ms apart
-    EXPECT_EQ(csv.rows[i][6], i == 2 ? "ax:invalid" : "");
+    EXPECT_EQ(csv.rows[i][6], i >= 2 ? "ax:invalid" : "");  // NaN; beyond 1.05 g
   }
   // ... a value that is not a number flagged invalid, as the analysis counts it
   EXPECT_TRUE(std::isnan(std::stof(csv.rows[2][4]))) << csv.rows[2][4];

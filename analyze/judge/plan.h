@@ -5,6 +5,7 @@
 #ifndef IMUQUAL_ANALYZE_JUDGE_PLAN_H_
 #define IMUQUAL_ANALYZE_JUDGE_PLAN_H_
 
+#include <cmath>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -31,6 +32,12 @@ const pb::NoiseModelRange* NoiseModelRangeFor(const pb::TestPlan& plan, pb::Axis
 // sensor's range (plan sensor_range), in the samples' unit (deg/s, m/s^2);
 // +infinity when the plan gives no range for the kind.
 double OutOfRangeAt(const pb::TestPlan& plan, pb::AxisKind kind);
+// Whether a sample (float32, as batches and the archive hold it) is out of
+// range at `at` (OutOfRangeAt): compared in float, so that a sample pinned
+// at full scale counts whatever the rounding of full_scale x g.
+inline bool OutOfRange(float sample, double at) {
+  return std::fabs(sample) >= static_cast<float>(at);
+}
 
 // Built-in plans (the files in plans/, compiled in): "vg700ca", "tactical",
 // "fog". The default plan of `imuqual run` is "vg700ca".

@@ -262,7 +262,7 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
     }
     if (std::isfinite(out_of_range_at_[a])) {
       for (size_t i = 0; i < n; ++i) {
-        if (std::fabs(batch.samples[a][i]) >= out_of_range_at_[a]) invalid_scratch_[a][i] = 1;
+        if (judge::OutOfRange(batch.samples[a][i], out_of_range_at_[a])) invalid_scratch_[a][i] = 1;
       }
     }
   }

@@ -181,19 +181,21 @@ TEST(RunAnalyzerTest, SamplesOutOfTheSensorsRangeAreInvalidSamplesOfTheirAxis) {
   gyro->set_full_scale(300);  // deg/s
   pb::SensorRange* accel = d.plan.add_sensor_range();
   accel->set_axis_kind(pb::ACCEL);
-  accel->set_full_scale(2);  // g: 19.6133 m/s^2
+  accel->set_full_scale(10);  // g: 98.0665 m/s^2
   auto a = RunAnalyzer::Create(d);
   ASSERT_TRUE(a.ok());
   Batch b(0, 0, 100);
   b.x[10] = 300.0f;   // at the rail
   b.x[11] = -450.0f;  // beyond
   b.x[12] = 299.9f;   // inside: a valid (if large) sample
-  b.a[20] = 19.62f;   // just beyond 2 g
-  b.a[21] = -19.6f;   // inside 2 g
+  b.a[20] = 98.1f;   // just beyond 10 g
+  b.a[21] = -98.0f;  // inside 10 g
+  // Pinned at the rail as a float holds it (98.06649780 < 98.0665 in double).
+  b.a[22] = static_cast<float>(10 * 9.80665);
   b.view.samples = {b.x, b.a};
   ASSERT_TRUE(a->AddBatch(b.view).ok());
   const RunOutcome out = a->Outcome(false);
-  EXPECT_EQ(out.axis_invalid_samples, (std::vector<int64_t>{2, 1}));
+  EXPECT_EQ(out.axis_invalid_samples, (std::vector<int64_t>{2, 2}));
   // Without the range every one of them is a sample.
   auto plain = RunAnalyzer::Create(Desc());
   ASSERT_TRUE(plain.ok());
