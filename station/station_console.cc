@@ -298,35 +298,26 @@ struct TextTable {
 // `table` rendered no wider than `width` columns: while it is wider, the next
 // column of `drop_order` (least important first) is left out whole, so that
 // a number is shown whole or not at all (cutting the lines at the screen's
-// edge showed 30.2 deg/h as "3"). `shown` gets the columns kept.
+// edge showed 30.2 deg/h as "3"), and a column left out that fits again is
+// taken back (TableWriter::RenderTableWithin). `shown` gets the columns kept.
 std::vector<std::string> FitTable(const TextTable& table, int width,
                                   const std::vector<std::string>& drop_order,
                                   std::set<std::string>* shown) {
-  std::vector<bool> keep(table.columns.size(), true);
-  size_t next_drop = 0;
-  for (;;) {
-    std::vector<std::string> names;
-    for (size_t c = 0; c < table.columns.size(); ++c) {
-      if (keep[c]) names.push_back(table.columns[c]);
-    }
-    TableWriter t(names, 3);
-    for (const std::vector<std::string>& row : table.rows) {
-      std::vector<Cell> cells;
-      for (size_t c = 0; c < row.size(); ++c) {
-        if (keep[c]) cells.push_back(Cell::Text(row[c]));
-      }
-      t.AddRow(std::move(cells));
-    }
-    std::vector<std::string> lines = Lines(t.Render(Format::kTable));
-    size_t widest = 0;
-    for (const std::string& l : lines) widest = std::max(widest, DisplayWidth(l));
-    if (static_cast<int>(widest) <= width || next_drop >= drop_order.size()) {
-      if (shown) shown->insert(names.begin(), names.end());
-      return lines;
-    }
-    const auto it = std::find(table.columns.begin(), table.columns.end(), drop_order[next_drop++]);
-    if (it != table.columns.end()) keep[static_cast<size_t>(it - table.columns.begin())] = false;
+  TableWriter t(table.columns, 3);
+  for (const std::vector<std::string>& row : table.rows) {
+    std::vector<Cell> cells;
+    for (const std::string& text : row) cells.push_back(Cell::Text(text));
+    t.AddRow(std::move(cells));
   }
+  std::vector<std::string> left_out;
+  std::vector<std::string> lines =
+      Lines(t.RenderTableWithin(static_cast<size_t>(std::max(0, width)), drop_order, &left_out));
+  if (shown) {
+    for (const std::string& c : table.columns) {
+      if (std::find(left_out.begin(), left_out.end(), c) == left_out.end()) shown->insert(c);
+    }
+  }
+  return lines;
 }
 
 // The columns a narrow screen leaves out first: the counts, then the
