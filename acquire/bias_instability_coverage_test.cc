@@ -126,18 +126,24 @@ TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {
 }
 
 // The -1/2 slope-line read-off's uncertainty (ReadSlopeLine): N at tau = 1 s
-// against the truth's N over 200 records per scenario. Stated in
-// noise_model.h: conservative at 1 sigma (measured 89.5 % / 75 %), 2 sigma
-// 97 % / 95 %, the read-off low by about half a sigma (its tangent cap). The
-// +1/2 line's K is printed for the record (its chi-square error does not
-// cover its flicker bias; the station reports none for it).
+// against the truth's N over 200 records of each of three noise mixtures,
+// the third a white noise through a first-order 20 Hz filter (a MEMS part's
+// output filter: its deficit pulls the short taus below the line). Stated in
+// noise_model.h: 1-sigma coverage 60-76 %, 2-sigma >= 93 %, the read-off
+// unbiased within half a sigma. The +1/2 line's K is printed for the record
+// (its chi-square error does not cover its flicker bias; the station reports
+// none for it).
 TEST(SlopeReadoffCoverageTest, AngleRandomWalkUncertaintyCoversTheTruth) {
-  for (const Scenario& s : Scenarios()) {
+  std::vector<Scenario> scenarios = Scenarios();
+  pb::AxisTruth filtered = scenarios.front().truth;
+  filtered.set_white_bandwidth_hz(20);
+  scenarios.push_back({"filtered 20 Hz+fl+rrw", filtered});
+  for (const Scenario& s : scenarios) {
     for (allan::NoiseTerm term : {allan::NoiseTerm::kAngleRandomWalk, allan::NoiseTerm::kRateRandomWalk}) {
       const double true_value = term == allan::NoiseTerm::kAngleRandomWalk ? s.truth.random_walk()
                                                                           : s.truth.rate_random_walk();
       int covered1 = 0, covered2 = 0, n = 0, bounds = 0;
-      double sum_z = 0;
+      double sum_z = 0, sum_value = 0, sum_value2 = 0, sum_u = 0;
       for (int seed = 1; seed <= kSeeds; ++seed) {
         const allan::Curve dense = StationCurve(s.truth, 7001 * seed + 3);
         const allan::SlopeReadoff r = allan::ReadSlopeLine(dense, term);
@@ -153,19 +159,27 @@ TEST(SlopeReadoffCoverageTest, AngleRandomWalkUncertaintyCoversTheTruth) {
         sum_z += z;
         covered1 += std::abs(z) <= 1;
         covered2 += std::abs(z) <= 2;
+        sum_value += r.value;
+        sum_value2 += r.value * r.value;
+        sum_u += r.uncertainty;
         ++n;
       }
+      ASSERT_GT(n, 0) << s.name;
       const double c1 = static_cast<double>(covered1) / n, c2 = static_cast<double>(covered2) / n;
-      std::printf("%-22s %s 1-sigma %.1f %%  2-sigma %.1f %%  mean z %+.2f  (%d records, %d bounds)\n",
-                  s.name.c_str(), term == allan::NoiseTerm::kAngleRandomWalk ? "N" : "K",
-                  100 * c1, 100 * c2, sum_z / n, n, bounds);
+      const double mean = sum_value / n;
+      const double spread = std::sqrt(std::max(0.0, sum_value2 / n - mean * mean));
+      std::printf(
+          "%-22s %s 1-sigma %.1f %%  2-sigma %.1f %%  mean z %+.2f  (%d records, %d bounds)"
+          "  spread/mean u %.2f\n",
+          s.name.c_str(), term == allan::NoiseTerm::kAngleRandomWalk ? "N" : "K", 100 * c1,
+          100 * c2, sum_z / n, n, bounds, spread / (sum_u / n));
       if (term != allan::NoiseTerm::kAngleRandomWalk) continue;
       EXPECT_EQ(bounds, 0) << s.name;
-      EXPECT_GE(c1, 0.68) << s.name;
-      EXPECT_LE(c1, 0.95) << s.name;
+      EXPECT_GE(c1, 0.60) << s.name;
+      EXPECT_LE(c1, 0.76) << s.name;
       EXPECT_GE(c2, 0.93) << s.name;
-      EXPECT_GE(sum_z / n, -1.0) << s.name;
-      EXPECT_LE(sum_z / n, 0.0) << s.name;
+      EXPECT_GE(sum_z / n, -0.5) << s.name;
+      EXPECT_LE(sum_z / n, 0.5) << s.name;
     }
   }
 }

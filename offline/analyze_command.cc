@@ -124,26 +124,35 @@ std::pair<double, std::string> Present(NoiseTerm term, const std::optional<allan
   return {base, kBase[static_cast<int>(term)]};
 }
 
-// The slope-line (or curve-minimum) read-off that stands beside a model figure.
-double ReadOff(const std::string& name, const Curve& curve,
-               const std::optional<allan::SensorKind>& kind) {
+// The slope-line (or curve-minimum) read-off that stands beside a model
+// figure, and its 1-sigma uncertainty where it has one (N's line fit, the
+// minimum's chi-square error; NaN otherwise).
+std::pair<double, double> ReadOff(const std::string& name, const Curve& curve,
+                                  const std::optional<allan::SensorKind>& kind) {
   auto present = [&](NoiseTerm term, double base) { return Present(term, kind, base).first; };
   const std::optional<allan::CurveMinimum> min = allan::FindCurveMinimum(curve);
   if (name == "angle_random_walk" || name == "velocity_random_walk") {
-    return present(NoiseTerm::kAngleRandomWalk,
-                   allan::ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk).value);
+    const allan::SlopeReadoff n = allan::ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk);
+    return {present(NoiseTerm::kAngleRandomWalk, n.value),
+            present(NoiseTerm::kAngleRandomWalk, n.uncertainty)};
   }
   if (name == "rate_random_walk") {
-    return present(NoiseTerm::kRateRandomWalk,
-                   allan::ReadSlopeLine(curve, NoiseTerm::kRateRandomWalk).value);
+    return {present(NoiseTerm::kRateRandomWalk,
+                    allan::ReadSlopeLine(curve, NoiseTerm::kRateRandomWalk).value),
+            allan::kNaN};
   }
-  if (!min) return allan::kNaN;
-  if (name == "bias_instability") return present(NoiseTerm::kBiasInstability, min->dev);
+  if (!min) return {allan::kNaN, allan::kNaN};
+  const double u_min = allan::MinimumUncertainty(curve, *min);
+  if (name == "bias_instability") {
+    return {present(NoiseTerm::kBiasInstability, min->dev),
+            present(NoiseTerm::kBiasInstability, u_min)};
+  }
   if (name == "bias_instability_ieee") {
-    return present(NoiseTerm::kBiasInstability, min->bias_instability_ieee);
+    return {present(NoiseTerm::kBiasInstability, min->bias_instability_ieee),
+            present(NoiseTerm::kBiasInstability, u_min / allan::kBiasInstabilityFactor)};
   }
-  if (name == "tau_at_minimum") return min->tau_s;
-  return allan::kNaN;
+  if (name == "tau_at_minimum") return {min->tau_s, allan::kNaN};
+  return {allan::kNaN, allan::kNaN};
 }
 
 // The fit's quantities; `for_people` (the table format) quotes a value with
@@ -151,7 +160,7 @@ double ReadOff(const std::string& name, const Curve& curve,
 // u's last digit: "0.2832 ± 0.0011"), CSV and JSON carry every digit.
 TableWriter QuantityTable(const allan::CompositeFit& fit, const Curve& curve,
                           const std::optional<allan::SensorKind>& kind, bool for_people = false) {
-  TableWriter t({"term", "value", "sigma", "unit", "read_off", "role", "note"}, 5);
+  TableWriter t({"term", "value", "sigma", "unit", "read_off", "read_off_u", "role", "note"}, 5);
   for (const allan::ModelQuantity& q : allan::DescribeCompositeFit(fit, kind)) {
     Cell value = Cell::Real(q.value), sigma = Cell::Real(q.sigma);
     if (for_people && std::isfinite(q.value) && std::isfinite(q.sigma) && q.sigma > 0) {
@@ -159,8 +168,15 @@ TableWriter QuantityTable(const allan::CompositeFit& fit, const Curve& curve,
       value = Cell::NumText(v);
       sigma = Cell::NumText(u);
     }
-    t.AddRow({Cell::Text(q.name), value, sigma, Cell::Text(q.unit),
-              Cell::Real(q.figure ? ReadOff(q.name, curve, kind) : allan::kNaN),
+    const auto [read_off, read_off_u] =
+        q.figure ? ReadOff(q.name, curve, kind) : std::pair{allan::kNaN, allan::kNaN};
+    Cell read_off_cell = Cell::Real(read_off), read_off_u_cell = Cell::Real(read_off_u);
+    if (for_people && std::isfinite(read_off) && std::isfinite(read_off_u) && read_off_u > 0) {
+      const auto [v, u] = report::QuotedWithUncertainty(read_off, read_off_u);
+      read_off_cell = Cell::NumText(v);
+      read_off_u_cell = Cell::NumText(u);
+    }
+    t.AddRow({Cell::Text(q.name), value, sigma, Cell::Text(q.unit), read_off_cell, read_off_u_cell,
               Cell::Text(q.figure ? "figure" : "parameter"), Cell::Text(q.note)});
   }
   return t;

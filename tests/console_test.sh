@@ -139,7 +139,7 @@ tm kill-session -t soak
 # archived value to the digits shown.
 soak_frames() {  # COLUMNS ROWS
   local frames="$work/frames-$1x$2" db="soak-$1x$2.db"
-  write_config 60 "CONSOLE-$1x$2" "$db"
+  write_config 120 "CONSOLE-$1x$2" "$db"
   start_soak "$1" "$2"
   mkdir -p "$frames"
   ( n=0; while tm has-session -t soak 2>/dev/null; do

@@ -4,11 +4,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <mutex>
 #include <numbers>
 #include <string>
+#include <tuple>
 
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/fit_rows.h"
+#include "analyze/allan/gmwm.h"
 #include "analyze/allan/tau_grid.h"
 
 namespace imuqual::allan {
@@ -261,6 +265,145 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options) {
   return fit;
 }
 
+namespace {
+
+// The correlations between the overlapping AVAR estimates at averaging
+// factors m of a process of one noise term (white noise for the -1/2 line):
+// they depend on the factors alone (not on the term's level, tau0 or the
+// record's length), so each pair is computed once per process.
+std::vector<double> TermAvarCorrelations(TermKind kind, const std::vector<int64_t>& m) {
+  static std::mutex mu;
+  static std::map<std::tuple<TermKind, int64_t, int64_t>, double> known;
+  const size_t n = m.size();
+  auto key = [&](int64_t a, int64_t b) { return std::tuple{kind, std::min(a, b), std::max(a, b)}; };
+  std::vector<double> out(n * n, 1.0);
+  std::vector<int64_t> missing;
+  {
+    std::lock_guard<std::mutex> lock(mu);
+    for (size_t j = 0; j < n; ++j) {
+      for (size_t k = j + 1; k < n; ++k) {
+        if (m[j] == m[k]) continue;
+        const auto it = known.find(key(m[j], m[k]));
+        if (it == known.end()) {
+          missing.push_back(m[j]);
+          missing.push_back(m[k]);
+        } else {
+          out[j * n + k] = out[k * n + j] = it->second;
+        }
+      }
+    }
+  }
+  if (missing.empty()) return out;
+  std::sort(missing.begin(), missing.end());
+  missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
+  CompositeModel model;
+  model.terms.push_back({kind, 1.0});
+  const std::vector<double> r = AvarCorrelationMatrix(model, 1.0, missing);
+  const size_t k = missing.size();
+  std::lock_guard<std::mutex> lock(mu);
+  for (size_t a = 0; a < k; ++a) {
+    for (size_t b = a + 1; b < k; ++b) known[key(missing[a], missing[b])] = r[a * k + b];
+  }
+  for (size_t j = 0; j < n; ++j) {
+    for (size_t q = j + 1; q < n; ++q) {
+      if (m[j] != m[q]) out[j * n + q] = out[q * n + j] = known.at(key(m[j], m[q]));
+    }
+  }
+  return out;
+}
+
+// The -1/2 line's white-noise level from the points in `idx` (ascending tau):
+// a weighted least-squares fit of AVAR x tau = N^2 + b/tau + c tau, where
+// b/tau takes quantization noise (b > 0) or a band-limiting filter's deficit
+// (b < 0: first-order or FIR filtered white noise is q/tau - b'/tau^2 beyond
+// the filter's length) and c tau a flicker or Gauss-Markov rise; with fewer
+// than four points, N^2 alone (a weighted mean). Weights 1/var from the
+// fitted line (three passes), var = line^2 x 2/edf (Greenhall edf, white FM).
+// The covariance is the sandwich with the white-noise correlations of the
+// points' AVARs (neighbours on a dense grid are correlated > 0.9; a
+// generalised least-squares fit would trust their differences and, where the
+// line does not describe the curve exactly, land beside it), inflated by the
+// Birge ratio sqrt(SSR / E[SSR]) when the points scatter more than their
+// errors say (a real part's curve is not exactly the three terms).
+struct WhiteLineFit {
+  double n_squared = kNaN;
+  double u_n_squared = kNaN;
+  double birge = kNaN;
+  int points = 0;
+  int terms = 0;
+};
+WhiteLineFit FitWhiteLine(const std::vector<const CurvePoint*>& pts, const std::vector<size_t>& idx,
+                          const std::vector<double>& tau, const std::vector<double>& dev,
+                          int64_t n_phase) {
+  WhiteLineFit out;
+  const int k = static_cast<int>(idx.size());
+  if (k == 0) return out;
+  const int cols = k >= 4 ? 3 : 1;
+  std::vector<int64_t> m(k);
+  Eigen::VectorXd y(k), two_over_edf(k);
+  Eigen::MatrixXd x(k, cols);
+  const double tau_lo = tau[idx.front()], tau_hi = tau[idx.back()];
+  // A curve without its points' counts (a model curve, a table without n)
+  // has no edf: the line is fitted with equal relative weights, and has no
+  // uncertainty.
+  bool have_edf = true;
+  for (int j = 0; j < k; ++j) {
+    const size_t i = idx[j];
+    const double edf = PointEdf(*pts[i], n_phase, NoiseTermAlpha(NoiseTerm::kAngleRandomWalk));
+    have_edf = have_edf && std::isfinite(edf) && edf > 0;
+    m[j] = pts[i]->m;
+    two_over_edf(j) = have_edf ? 2 / edf : 1.0;
+    y(j) = dev[i] * dev[i] * tau[i];
+    x(j, 0) = 1;
+    if (cols == 3) {
+      x(j, 1) = tau_lo / tau[i];  // scaled to [0, 1]: a well-conditioned fit
+      x(j, 2) = tau[i] / tau_hi;
+    }
+  }
+  if (!have_edf) two_over_edf.setOnes();
+  std::vector<double> r;
+  if (have_edf) {
+    r = TermAvarCorrelations(TermKind::kWhite, m);
+  } else {
+    r.assign(static_cast<size_t>(k) * k, 0.0);
+    for (int j = 0; j < k; ++j) r[static_cast<size_t>(j) * k + j] = 1.0;
+  }
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
+      rho(r.data(), k, k);
+  Eigen::VectorXd fitted = y, beta;
+  Eigen::MatrixXd cov;
+  for (int pass = 0; pass < 3; ++pass) {
+    const Eigen::VectorXd sd =
+        (fitted.cwiseMax(y.minCoeff() * 1e-3).array().square() * two_over_edf.array()).sqrt();
+    const Eigen::VectorXd w = sd.array().square().inverse();
+    const Eigen::MatrixXd xtw = x.transpose() * w.asDiagonal();
+    const Eigen::MatrixXd bread = (xtw * x).inverse();
+    beta = bread * (xtw * y);
+    fitted = x * beta;
+    const Eigen::MatrixXd sigma = sd.asDiagonal() * rho * sd.asDiagonal();
+    cov = bread * (xtw * sigma * xtw.transpose()) * bread;
+    if (k > cols) {
+      const Eigen::MatrixXd residual_maker = Eigen::MatrixXd::Identity(k, k) - x * bread * xtw;
+      const Eigen::VectorXd res = y - fitted;
+      const double expected =
+          (w.asDiagonal() * residual_maker * sigma * residual_maker.transpose()).trace();
+      out.birge = std::sqrt(res.dot(w.asDiagonal() * res) / expected);
+    }
+  }
+  if (!beta.allFinite() || !(cov(0, 0) >= 0)) return out;
+  out.n_squared = beta(0);
+  if (have_edf) {
+    out.u_n_squared = std::sqrt(cov(0, 0)) * (out.birge > 1 ? out.birge : 1.0);
+  } else {
+    out.birge = kNaN;
+  }
+  out.points = k;
+  out.terms = cols;
+  return out;
+}
+
+}  // namespace
+
 SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
   SlopeReadoff out;
   std::vector<double> tau, dev;
@@ -334,6 +477,31 @@ SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
     // B = sigma_min / 0.664: the flat level (2 ln2/pi) B^2 is the minimum.
     out.tangent_bound = bound / kBiasInstabilityFactor;
     out.value = out.tangent_bound;
+  } else if (term == NoiseTerm::kAngleRandomWalk) {
+    out.tangent_bound = bound;
+    // The line's points: on the slope to both neighbours too, so that a
+    // point where the curve turns (a filter's flat top beside a steep
+    // decimation edge averages to -1/2) is not read as white noise.
+    std::vector<size_t> line;
+    for (size_t i = 0; i < tau.size(); ++i) {
+      auto one_sided = [&](size_t a, size_t b) {
+        return std::fabs(std::log(dev[b] / dev[a]) / std::log(tau[b] / tau[a]) - slope) <= 0.2;
+      };
+      if (std::fabs(local[i] - slope) <= 0.1 && (i == 0 || one_sided(i - 1, i)) &&
+          (i + 1 == tau.size() || one_sided(i, i + 1))) {
+        line.push_back(i);
+      }
+    }
+    const WhiteLineFit fit = FitWhiteLine(used, line, tau, dev, curve.n_phase);
+    out.points_in_fit = fit.points;
+    out.line_terms = fit.terms;
+    out.birge_ratio = fit.birge;
+    if (fit.n_squared > 0) {
+      out.value = std::sqrt(fit.n_squared);
+      out.uncertainty = fit.u_n_squared / (2 * out.value);
+    } else {
+      out.value = kNaN;  // no white-noise level in the line: the tangent bound only
+    }
   } else {
     out.tangent_bound = bound;
     if (out.points_on_slope > 0) {
@@ -345,8 +513,9 @@ SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term) {
       }
     }
   }
-  if (out.points_on_slope == 0) {
+  if (out.points_on_slope == 0 || !std::isfinite(out.value)) {
     out.value = out.tangent_bound;
+    out.uncertainty = kNaN;
     out.upper_bound_only = true;
   }
   return out;

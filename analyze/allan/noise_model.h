@@ -125,40 +125,64 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options = {
 
 // IEEE 952 slope-line read-off. The local log-log slope at a point is the
 // slope to its neighbours (central; one-sided at the ends). Points within +-0.1
-// of the term's slope s (Q -1, N -1/2, B 0, K +1/2, R +1) define a line
-// ln sigma = c + s ln tau with c = mean(ln sigma_j - s ln tau_j), read at
-// tau = sqrt(3) (Q), 1 (N), 3 (K), sqrt(2) (R). B = sigma_min/0.664.
+// of the term's slope s (Q -1, N -1/2, B 0, K +1/2, R +1) are on the slope.
 // Each term is non-negative, so each tangent line bounds it from above:
 //   Q <= min sigma_j tau_j/sqrt(3), N <= min sigma_j sqrt(tau_j),
 //   K <= min sigma_j sqrt(3/tau_j), R <= min sigma_j sqrt(2)/tau_j,
-//   B <= sigma_min/0.664.
-// The line read-off is capped at the tangent bound (on a curve where a
-// neighbouring term lifts the slope points, the mean line can exceed it). The
-// bound is taken over the points from the first one on the slope on: a real
-// part's anti-alias filter makes the shortest taus flatter than -1/2 and puts
-// them below the ARW line, where they bound nothing.
+//   B <= sigma_min/0.664
+// (tangent_bound; taken over the points from the first one on the slope on:
+// a real part's anti-alias filter makes the shortest taus flatter than -1/2
+// and puts them below the ARW line, where they bound nothing).
+//
+// N (the -1/2 line, read at tau = 1 s): the points on the slope that are also
+// within +-0.2 of it to each neighbour (where the curve turns, a filter's
+// flat top beside a decimation edge, the central slope can read -1/2) are
+// fitted as AVAR x tau = N^2 + b/tau + c tau: b/tau takes quantization noise
+// or a band-limiting filter's deficit (first-order or FIR-filtered white
+// noise is q/tau - b'/tau^2 beyond the filter), c tau the rise of flicker or
+// a Gauss-Markov bump; with fewer than 4 such points, N^2 alone (a weighted
+// mean). Weighted least squares (weights from the fitted line and the
+// points' Greenhall edf for white FM); uncertainty: the sandwich covariance
+// with the white-noise correlations between the points' AVARs, times the
+// Birge ratio sqrt(SSR / E[SSR]) when the points scatter more than that (a
+// real curve is not exactly three terms; birge_ratio on the record).
+// Measured (acquire/bias_instability_coverage_test.cc, 87-min simulated
+// gyros, 200 records each): 1-sigma coverage 69.8 % (white + flicker + RRW),
+// 70.0 % (with a Gauss-Markov bump), 68.3 % (white noise through a
+// first-order 20 Hz filter), 2-sigma 97-98 %, mean z -0.2 ... 0. No cap: the
+// old mean line capped at the tangent bound read 0.5-0.75 sigma low, and 8 %
+// low (-5 sigma) on filtered white noise. No clean point, or a non-positive
+// N^2: value = tangent_bound and upper_bound_only.
+//
+// Q, K, R: the line ln sigma = c + s ln tau with c = mean(ln sigma_j - s ln
+// tau_j) over the points on the slope, read at tau = sqrt(3) (Q), 3 (K),
+// sqrt(2) (R), capped at the tangent bound (on a curve where a neighbouring
+// term lifts the slope points, the mean line can exceed it). B =
+// sigma_min/0.664 (the tangent bound).
 // When no point has the slope, value = tangent_bound and upper_bound_only.
 // Points with a non-positive or non-finite dev are ignored; an empty curve
 // gives NaN values with upper_bound_only = true.
 //
-// uncertainty (1-sigma, NaN for B and for upper_bound_only): value x the
-// mean over the points on the slope of 1/sqrt(2 edf_j), edf_j the Greenhall
-// edf (d = 2, F = m, S = m/stride, N from the point's valid terms) for the
-// term's own noise (NoiseTermAlpha): the chi-square error of points whose
-// errors are correlated (their mean error, not divided by sqrt(n)). It does
-// not cover the read-off's systematic errors, which the cap and other terms
-// make: measured on 87-min simulated gyros with white + flicker + RRW (and a
-// Gauss-Markov bump), N's 1-sigma interval covered the truth in 89.5 % (75 %)
-// of 200 records, 2-sigma 97 % (95 %), the read-off lying low by 0.47 (0.75)
-// sigma on average; K's covered 5 % (41 %) of the records that had a +1/2
-// slope at all (flicker lifts the short +1/2 stretch of such records): it is
-// not a usable uncertainty for K, whose estimate is the noise model's.
+// uncertainty (1-sigma, NaN for B and for upper_bound_only) of Q, K, R:
+// value x the mean over the points on the slope of 1/sqrt(2 edf_j), edf_j the
+// Greenhall edf (d = 2, F = m, S = m/stride, N from the point's valid terms)
+// for the term's own noise (NoiseTermAlpha): the chi-square error of points
+// whose errors are correlated (their mean error, not divided by sqrt(n)). It
+// does not cover the read-off's systematic errors: K's covered 5 % (41 %) of
+// simulated records that had a +1/2 slope at all (flicker lifts the short
+// +1/2 stretch of such records): it is not a usable uncertainty for K, whose
+// estimate is the noise model's.
 struct SlopeReadoff {
   double value = kNaN;
   bool upper_bound_only = false;
   int points_on_slope = 0;
   double tangent_bound = kNaN;
   double uncertainty = kNaN;
+  // N only: the points of the line fit, its terms (3: N^2, b/tau, c tau; 1:
+  // N^2 alone) and its Birge ratio (NaN without a degree of freedom).
+  int points_in_fit = 0;
+  int line_terms = 0;
+  double birge_ratio = kNaN;
 };
 SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term);
 

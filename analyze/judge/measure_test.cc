@@ -229,7 +229,8 @@ TEST(MeasureAxisTest, UnresolvedMinimumAndUpperBoundReadOffs) {
   ASSERT_TRUE(n->has_uncertainty());
   EXPECT_GT(n->uncertainty(), 0);
   EXPECT_LT(n->uncertainty(), 0.1 * n->value());
-  EXPECT_TRUE(n->uncertainty_method().starts_with("chi2 (Greenhall edf, white FM)"));
+  EXPECT_TRUE(
+      n->uncertainty_method().starts_with("weighted fit of AVAR x tau = N^2 + b/tau + c tau"));
   EXPECT_FALSE(Find(ms, kBiasOffset)->has_uncertainty());
   EXPECT_TRUE(Find(ms, kBiasOffset)->uncertainty_method().starts_with("none: the mean"));
   EXPECT_EQ(Find(ms, kBiasOffset)->qualifier(), pb::QUALIFIER_NONE);

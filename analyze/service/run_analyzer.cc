@@ -166,8 +166,8 @@ void RunAnalyzer::LookIfDue() {
   // (computed once per axis and look, when asked): tau_at_minimum from the
   // curve's shape and its spread, whichever says more; the white-noise
   // read-offs' "below" from the ceilings sigma(tau) sqrt(tau) >= N (measure.h;
-  // the read-off along the -1/2 line is biased low, which is conservative
-  // only for "above").
+  // no ceiling is trusted for being low), "above" from the -1/2 line's
+  // read-off and its uncertainty.
   std::vector<std::optional<allan::Curve>> with_intervals(desc_.axes.size());
   const auto curve_of = [&](const std::string& axis) -> const allan::Curve* {
     for (size_t a = 0; a < desc_.axes.size(); ++a) {
