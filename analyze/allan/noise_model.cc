@@ -312,19 +312,54 @@ std::vector<double> TermAvarCorrelations(TermKind kind, const std::vector<int64_
   return out;
 }
 
+// Weighted least squares of AVARs y (correlation matrix rho, relative
+// variances 2/edf) on the columns of x: weights 1/var with var = fitted^2 x
+// 2/edf (three passes from the measured values), the sandwich covariance of
+// the coefficients with the points' correlations (a generalised least-squares
+// fit would trust the differences of points correlated > 0.9 and, where the
+// columns do not describe the curve exactly, land beside it), and the Birge
+// ratio sqrt(SSR / E[SSR]) (NaN without a degree of freedom).
+struct AvarFit {
+  Eigen::VectorXd beta;
+  Eigen::MatrixXd cov;
+  double birge = kNaN;
+};
+AvarFit FitAvars(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
+                 const Eigen::VectorXd& two_over_edf, const Eigen::MatrixXd& rho) {
+  const int k = static_cast<int>(y.size()), cols = static_cast<int>(x.cols());
+  AvarFit out;
+  Eigen::VectorXd fitted = y;
+  for (int pass = 0; pass < 3; ++pass) {
+    const Eigen::VectorXd sd =
+        (fitted.cwiseMax(y.minCoeff() * 1e-3).array().square() * two_over_edf.array()).sqrt();
+    const Eigen::VectorXd w = sd.array().square().inverse();
+    const Eigen::MatrixXd xtw = x.transpose() * w.asDiagonal();
+    const Eigen::MatrixXd bread = (xtw * x).inverse();
+    out.beta = bread * (xtw * y);
+    fitted = x * out.beta;
+    const Eigen::MatrixXd sigma = sd.asDiagonal() * rho * sd.asDiagonal();
+    out.cov = bread * (xtw * sigma * xtw.transpose()) * bread;
+    if (k > cols) {
+      const Eigen::MatrixXd residual_maker = Eigen::MatrixXd::Identity(k, k) - x * bread * xtw;
+      const Eigen::VectorXd res = y - fitted;
+      const double expected =
+          (w.asDiagonal() * residual_maker * sigma * residual_maker.transpose()).trace();
+      out.birge = std::sqrt(res.dot(w.asDiagonal() * res) / expected);
+    }
+  }
+  return out;
+}
+
 // The -1/2 line's white-noise level from the points in `idx` (ascending tau):
 // a weighted least-squares fit of AVAR x tau = N^2 + b/tau + c tau, where
 // b/tau takes quantization noise (b > 0) or a band-limiting filter's deficit
 // (b < 0: first-order or FIR filtered white noise is q/tau - b'/tau^2 beyond
 // the filter's length) and c tau a flicker or Gauss-Markov rise; with fewer
 // than four points, N^2 alone (a weighted mean). Weights 1/var from the
-// fitted line (three passes), var = line^2 x 2/edf (Greenhall edf, white FM).
-// The covariance is the sandwich with the white-noise correlations of the
-// points' AVARs (neighbours on a dense grid are correlated > 0.9; a
-// generalised least-squares fit would trust their differences and, where the
-// line does not describe the curve exactly, land beside it), inflated by the
-// Birge ratio sqrt(SSR / E[SSR]) when the points scatter more than their
-// errors say (a real part's curve is not exactly the three terms).
+// fitted line, var = line^2 x 2/edf (Greenhall edf, white FM), FitAvars with
+// the white-noise correlations of the points' AVARs; the uncertainty is
+// inflated by the Birge ratio when the points scatter more than their errors
+// say (a real part's curve is not exactly the three terms).
 struct WhiteLineFit {
   double n_squared = kNaN;
   double u_n_squared = kNaN;
@@ -370,26 +405,10 @@ WhiteLineFit FitWhiteLine(const std::vector<const CurvePoint*>& pts, const std::
   }
   const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
       rho(r.data(), k, k);
-  Eigen::VectorXd fitted = y, beta;
-  Eigen::MatrixXd cov;
-  for (int pass = 0; pass < 3; ++pass) {
-    const Eigen::VectorXd sd =
-        (fitted.cwiseMax(y.minCoeff() * 1e-3).array().square() * two_over_edf.array()).sqrt();
-    const Eigen::VectorXd w = sd.array().square().inverse();
-    const Eigen::MatrixXd xtw = x.transpose() * w.asDiagonal();
-    const Eigen::MatrixXd bread = (xtw * x).inverse();
-    beta = bread * (xtw * y);
-    fitted = x * beta;
-    const Eigen::MatrixXd sigma = sd.asDiagonal() * rho * sd.asDiagonal();
-    cov = bread * (xtw * sigma * xtw.transpose()) * bread;
-    if (k > cols) {
-      const Eigen::MatrixXd residual_maker = Eigen::MatrixXd::Identity(k, k) - x * bread * xtw;
-      const Eigen::VectorXd res = y - fitted;
-      const double expected =
-          (w.asDiagonal() * residual_maker * sigma * residual_maker.transpose()).trace();
-      out.birge = std::sqrt(res.dot(w.asDiagonal() * res) / expected);
-    }
-  }
+  const AvarFit f = FitAvars(x, y, two_over_edf, rho);
+  out.birge = f.birge;
+  const Eigen::VectorXd& beta = f.beta;
+  const Eigen::MatrixXd& cov = f.cov;
   if (!beta.allFinite() || !(cov(0, 0) >= 0)) return out;
   out.n_squared = beta(0);
   if (have_edf) {
@@ -585,5 +604,6 @@ double MinimumTauUncertainty(const Curve& curve, const CurveMinimum& min, double
   while (hi + 1 < curve.points.size() && close(hi + 1)) ++hi;
   return (curve.points[hi].tau_s - curve.points[lo].tau_s) / 2;
 }
+
 
 }  // namespace imuqual::allan
