@@ -605,5 +605,4 @@ double MinimumTauUncertainty(const Curve& curve, const CurveMinimum& min, double
   return (curve.points[hi].tau_s - curve.points[lo].tau_s) / 2;
 }
 
-
 }  // namespace imuqual::allan
