@@ -52,8 +52,10 @@ constexpr const char* kRrwNone =
     "(covered the truth in 5-42 % of simulated records); fit_rate_random_walk carries the noise "
     "model's uncertainty";
 constexpr const char* kBiasOffsetNone =
-    "none: the mean of the analysed samples, exact; as the unit's bias its uncertainty is not "
-    "measurable from one record (flicker and rate random walk make the mean wander)";
+    "none: the mean of the analysed samples, exact as the soak's mean; as the unit's bias, its "
+    "soak-to-soak spread sigma_A(T) at the record's length T is not measurable from one record: "
+    "the rate random walk that rules it shows only beyond T/9 (noise models fitted to 87-min "
+    "simulated records left K out in most seeds and put sigma_A(T) 2-3x low)";
 constexpr const char* kNotMeasured = "none: not measured";
 constexpr const char* kUpperBoundOnly = "none: upper bound only";
 constexpr const char* kExactCount = "none: a count of samples, exact";
