@@ -1,0 +1,80 @@
+#include "analyze/allan/dynamic_allan.h"
+
+#include <cmath>
+#include <string>
+
+#include "analyze/allan/confidence.h"
+#include "analyze/allan/estimators.h"
+#include "analyze/allan/phase.h"
+#include "analyze/allan/tau_grid.h"
+
+namespace imuqual::allan {
+
+Status DynamicAllanOptions::Validate() const {
+  if (!std::isfinite(window_s) || window_s < 0) {
+    return Status::InvalidArgument("dynamic Allan: window_s must be >= 0, got " +
+                                   std::to_string(window_s));
+  }
+  if (!std::isfinite(step_s) || step_s < 0) {
+    return Status::InvalidArgument("dynamic Allan: step_s must be >= 0, got " +
+                                   std::to_string(step_s));
+  }
+  return Status::Ok();
+}
+
+Result<DynamicAllan> ComputeDynamicAllan(std::span<const float> rate, double tau0_s,
+                                         std::span<const uint8_t> invalid,
+                                         const DynamicAllanOptions& options) {
+  IMUQUAL_RETURN_IF_ERROR(options.Validate());
+  if (!(tau0_s > 0) || !std::isfinite(tau0_s)) {
+    return Status::InvalidArgument("dynamic Allan: tau0 must be > 0, got " +
+                                   std::to_string(tau0_s));
+  }
+  if (!invalid.empty() && invalid.size() != rate.size()) {
+    return Status::InvalidArgument("dynamic Allan: " + std::to_string(invalid.size()) +
+                                   " invalid flags for " + std::to_string(rate.size()) +
+                                   " samples");
+  }
+  const int64_t n = static_cast<int64_t>(rate.size());
+  const int64_t window = options.window_s > 0 ? std::llround(options.window_s / tau0_s) : n / 4;
+  constexpr int64_t kMinWindow = 64;
+  if (window < kMinWindow) {
+    return Status::InvalidArgument("dynamic Allan: a window of " + std::to_string(window) +
+                                   " samples is too short (at least " +
+                                   std::to_string(kMinWindow) + ")");
+  }
+  if (window > n) {
+    return Status::InvalidArgument("dynamic Allan: the window (" + std::to_string(window) +
+                                   " samples) is longer than the record (" + std::to_string(n) +
+                                   ")");
+  }
+  const int64_t step = options.step_s > 0 ? std::llround(options.step_s / tau0_s) : window / 4;
+  if (step < 1) {
+    return Status::InvalidArgument("dynamic Allan: the step is shorter than one sample");
+  }
+  DynamicAllan out;
+  out.tau0_s = tau0_s;
+  out.window_s = static_cast<double>(window) * tau0_s;
+  out.step_s = static_cast<double>(step) * tau0_s;
+  std::vector<int64_t> starts;
+  for (int64_t s = 0; s + window <= n; s += step) starts.push_back(s);
+  if (starts.back() + window < n) starts.push_back(n - window);
+  for (int64_t s : starts) {
+    const PhaseRecord phase = PhaseFromRate(
+        rate.subspan(static_cast<size_t>(s), static_cast<size_t>(window)), tau0_s,
+        invalid.empty() ? invalid
+                        : invalid.subspan(static_cast<size_t>(s), static_cast<size_t>(window)));
+    DynamicAllanWindow w;
+    w.start_s = static_cast<double>(s) * tau0_s;
+    w.length_s = out.window_s;
+    w.valid_samples = window - static_cast<int64_t>(InvalidRateIndices(phase).size());
+    const std::vector<int64_t> m = AveragingFactors(TauGridSpec{}, tau0_s, phase.size(),
+                                                    Deviation::kOadev, StopRule::kBins9);
+    w.curve = ComputeDeviation(phase, Deviation::kOadev, m);
+    AttachConfidence(phase, CiMethod::kChi2, kOneSigmaConfidence, &w.curve);
+    out.windows.push_back(std::move(w));
+  }
+  return out;
+}
+
+}  // namespace imuqual::allan

@@ -1,0 +1,58 @@
+// The dynamic Allan deviation (DAVAR; L. Galleani and P. Tavella, "The
+// dynamic Allan variance", IEEE Trans. UFFC 56(3), 2009): the overlapping
+// Allan deviation of windows of the record sliding along it, each window
+// analysed as a record of its own (exact, fully overlapped, octave grid, the
+// bins-9 stop, 1-sigma chi-square intervals with the Greenhall edf of the
+// identified noise; invalid samples are gaps, as everywhere). A stationary record gives the same curve in every window
+// within the curves' intervals; a bias step, a warm-up ramp or a burst lifts
+// the windows that hold it at the taus it spans, and a change of the noise
+// itself moves the short taus. Pure and thread-safe.
+#ifndef IMUQUAL_ANALYZE_ALLAN_DYNAMIC_ALLAN_H_
+#define IMUQUAL_ANALYZE_ALLAN_DYNAMIC_ALLAN_H_
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "analyze/allan/curve.h"
+#include "common/status.h"
+
+namespace imuqual::allan {
+
+struct DynamicAllanOptions {
+  // Window length, s; 0: a quarter of the record.
+  double window_s = 0;
+  // Step between window starts, s; 0: a quarter of the window.
+  double step_s = 0;
+  // Ok, or InvalidArgument naming the field (negative or not finite).
+  Status Validate() const;
+};
+
+struct DynamicAllanWindow {
+  double start_s = 0;   // from the record's first sample
+  double length_s = 0;  // window_s
+  int64_t valid_samples = 0;
+  Curve curve;  // OADEV of the window's samples
+};
+
+struct DynamicAllan {
+  double tau0_s = 0;
+  double window_s = 0;  // whole samples
+  double step_s = 0;    // whole samples
+  // From the record's start, every step_s, while the window fits; the last
+  // one ends at the record's end (so every sample is in some window).
+  std::vector<DynamicAllanWindow> windows;
+};
+
+// `rate`: the record's rate samples, NaN (or a non-zero `invalid` entry)
+// where a sample is invalid or missing; `invalid` is empty or as long as
+// `rate`. Errors (InvalidArgument, naming what): tau0 not positive, bad
+// options, a window of fewer than 64 samples or longer than the record, a
+// step of less than one sample.
+Result<DynamicAllan> ComputeDynamicAllan(std::span<const float> rate, double tau0_s,
+                                         std::span<const uint8_t> invalid = {},
+                                         const DynamicAllanOptions& options = {});
+
+}  // namespace imuqual::allan
+
+#endif  // IMUQUAL_ANALYZE_ALLAN_DYNAMIC_ALLAN_H_
