@@ -239,6 +239,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   analyze_cmd->add_option("--format", an.format, "table, csv or json")->capture_default_str();
   analyze_cmd->add_option("--plot", an.plot_path, "write an SVG plot of the curves");
+  analyze_cmd->add_option("--davar", an.davar_path,
+                          "write an SVG plot of the dynamic Allan deviation: the OADEV of "
+                          "windows sliding along the record (a step, a ramp or a burst shows as "
+                          "the windows that hold it standing apart)");
+  analyze_cmd->add_option("--davar-window", an.davar_window_s,
+                          "with --davar: the window, s (default a quarter of the record; a "
+                          "window starts every quarter window)");
 
   offline::ReanalyzeOptions re;
   CLI::App* reanalyze_cmd = app.add_subcommand("reanalyze", "analyse an archived run again");

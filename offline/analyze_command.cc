@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "analyze/allan/confidence.h"
+#include "analyze/allan/dynamic_allan.h"
 #include "analyze/allan/estimators.h"
 #include "analyze/allan/gmwm.h"
 #include "analyze/allan/model_quantities.h"
@@ -18,6 +19,7 @@
 #include "common/strings.h"
 #include "common/text_util.h"
 #include "offline/curve_request.h"
+#include "report/dynamic_allan_plot.h"
 #include "report/marks.h"
 #include "report/model_plot.h"
 #include "report/svg_plot.h"
@@ -76,6 +78,15 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   }
   if (o.fit_min_tau_s > 0 && !o.fit) {
     return Status::InvalidArgument("--fit-min-tau needs --fit");
+  }
+  if (!(o.davar_window_s >= 0) || !std::isfinite(o.davar_window_s)) {
+    return Status::InvalidArgument("--davar-window must be >= 0 s (0: a quarter of the record)");
+  }
+  if (o.davar_window_s > 0 && o.davar_path.empty()) {
+    return Status::InvalidArgument("--davar-window needs --davar FILE.svg");
+  }
+  if (!o.davar_path.empty() && o.type != "rate") {
+    return Status::InvalidArgument("--davar needs --type rate");
   }
   if (o.stationarity_level != 0) {
     if (!(o.stationarity_level > 0 && o.stationarity_level < 0.5)) {
@@ -417,6 +428,20 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     scan = *s;
   }
 
+  // The dynamic Allan deviation, before anything is printed: a window that
+  // does not fit the record is an error of the command.
+  std::optional<allan::DynamicAllan> davar;
+  if (!o.davar_path.empty()) {
+    allan::DynamicAllanOptions dop;
+    dop.window_s = o.davar_window_s;
+    auto d = allan::ComputeDynamicAllan(std::span<const double>(*values), tau0, {}, dop);
+    if (!d.ok()) {
+      LogError("--davar: " + d.status().message());
+      return 1;
+    }
+    davar = std::move(*d);
+  }
+
   const bool with_ci = p.curves.ci != allan::CiMethod::kNone;
   if (p.format == Format::kTable) {
     std::printf("%s: %zu %s samples at %g Hz, %lld invalid\n", o.path.c_str(), values->size(),
@@ -474,6 +499,24 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
         PlotCurves(curves, fit ? &*fit : nullptr, fit ? &fit_curve : nullptr, PlotTitle(o), p.kind,
                    o.type == "phase");
     Status st = WriteStringToFile(o.plot_path, svg);
+    if (!st.ok()) {
+      LogError(st.message());
+      return 1;
+    }
+  }
+  if (davar) {
+    report::DynamicAllanPlotStyle style;
+    style.title = PlotTitle(o) + ": dynamic Allan deviation";
+    if (p.kind) {  // datasheet units on the left, the base unit on the right
+      const allan::DatasheetValue unit =
+          allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *p.kind, 1.0);
+      style.y_scale = unit.value;
+      style.y_label = "Allan deviation [" + std::string(unit.unit) + "]";
+      style.y2_label = *p.kind == allan::SensorKind::kGyro ? "[deg/s]" : "[m/s^2]";
+    } else {
+      style.y_label = "Allan deviation [the input's unit x --scale]";
+    }
+    Status st = WriteStringToFile(o.davar_path, report::DynamicAllanSvg(*davar, style));
     if (!st.ok()) {
       LogError(st.message());
       return 1;

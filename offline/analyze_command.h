@@ -35,6 +35,10 @@ struct AnalyzeFileOptions {
   double scale = 1.0;
   std::string format = "table";  // table, csv, json
   std::string plot_path;         // SVG output, "" for none
+  // The dynamic Allan deviation's SVG plot ("" for none) and its window, s
+  // (0: a quarter of the record; allan/dynamic_allan.h).
+  std::string davar_path;
+  double davar_window_s = 0;
 };
 
 int AnalyzeFileCommand(const AnalyzeFileOptions& options);

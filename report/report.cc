@@ -20,6 +20,7 @@
 #include "common/text_util.h"
 #include "common/version.h"
 #include "report/allan_plots.h"
+#include "report/dynamic_allan_plot.h"
 #include "report/early_decisions.h"
 #include "report/lot_model_view.h"
 #include "report/lot_statistics.h"
@@ -1007,6 +1008,9 @@ Result<LotReportData> LoadLotReport(store::Archive& archive, const std::string& 
     auto series = RunTimeSeriesSvg(archive, r->info.run_id);
     d.series[r->info.run_id] = series.ok() ? LotReportData::Series{*series, Status::Ok()}
                                            : LotReportData::Series{"", series.status()};
+    auto davar = RunDynamicAllanSvgs(archive, r->info.run_id);
+    d.davar[r->info.run_id] = davar.ok() ? LotReportData::DynamicAllanPlots{*davar, Status::Ok()}
+                                         : LotReportData::DynamicAllanPlots{{}, davar.status()};
   }
   return d;
 }
@@ -1085,6 +1089,25 @@ std::string UnitPlotsSection(const LotReportData& d) {
     // Its raw samples against time: where a step, a drift or a burst shows.
     const auto series = d.series.find(r->info.run_id);
     if (series == d.series.end()) continue;
+    // Then each axis's dynamic Allan deviation: which stretch of the record
+    // the curve's shape comes from.
+    const auto davar = d.davar.find(r->info.run_id);
+    const auto add_davar = [&] {
+      if (davar == d.davar.end()) return;
+      if (davar->second.status.ok()) {
+        for (const std::string& svg : davar->second.svgs) {
+          AllanPlot plot{"davar", "dynamic Allan deviation", svg};
+          Figure(plot, Attr("data-run", r->info.run_id) + Attr("data-plot", "davar"),
+                 "<strong>" + Esc(r->info.serial) + "</strong>: dynamic Allan deviation",
+                 &unit_figures);
+        }
+      } else if (davar->second.status.code() != Status::Code::kNotFound) {
+        Add(&unit_figures, "<figure", Attr("data-run", r->info.run_id), Attr("data-plot", "davar"),
+            "><figcaption><strong>", Esc(r->info.serial),
+            "</strong>: dynamic Allan deviation not drawn: ", Esc(davar->second.status.message()),
+            "</figcaption></figure>\n");
+      }
+    };
     if (series->second.status.ok()) {
       AllanPlot plot{"series", "raw samples", series->second.svg};
       Figure(plot, Attr("data-run", r->info.run_id) + Attr("data-plot", "series"),
@@ -1097,6 +1120,7 @@ std::string UnitPlotsSection(const LotReportData& d) {
           "</strong>: raw samples not plotted: ", Esc(series->second.status.message()),
           "</figcaption></figure>\n");
     }
+    add_davar();
   }
   if (unit_figures.empty()) return "";
   std::string html;
@@ -1106,7 +1130,10 @@ std::string UnitPlotsSection(const LotReportData& d) {
       "<div class=\"plots\">\n", unit_figures, "</div>\n",
       "<p class=\"note\">Each axis with its confidence band, its composite noise model "
       "(dashed) and its curve minimum (ringed); then the unit's raw samples against device "
-      "time (deg/s, m/s<sup>2</sup> and &deg;C; bin means with their min/max envelope).</p>\n"
+      "time (deg/s, m/s<sup>2</sup> and &deg;C; bin means with their min/max envelope), and "
+      "each axis's dynamic Allan deviation (the curve of each quarter of the analysed record, "
+      "early blue to late red: a curve apart from the others is a non-stationary "
+      "stretch).</p>\n"
       "</section>\n");
   return html;
 }

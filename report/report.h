@@ -66,6 +66,13 @@ struct LotReportData {
     Status status;
   };
   std::map<std::string, Series> series;
+  // The dynamic Allan deviation of the same units, one SVG per axis, or why
+  // it could not be drawn.
+  struct DynamicAllanPlots {
+    std::vector<std::string> svgs;
+    Status status;
+  };
+  std::map<std::string, DynamicAllanPlots> davar;
 };
 
 // Reads the lot's report data. NotFound names the lot when the archive has

@@ -318,6 +318,50 @@ TEST(AnalyzeCliTest, StationarityFindsAPlantedStepWithItsSize) {
   }
 }
 
+// GIVEN a record with a level step, WHEN --davar draws its dynamic Allan
+// deviation, THEN the plot has a curve per window (every quarter window by
+// default, or the window asked for), and a window that does not fit the
+// record or a --davar-window alone is a one-line error.
+TEST(AnalyzeCliTest, DynamicAllanPlotOfTheRecord) {
+  testing::TempDir dir("analyze_cli_davar");
+  const std::string path = dir.path("step.txt"), svg = dir.path("davar.svg");
+  {
+    std::ofstream out(path);
+    out.precision(17);
+    std::mt19937_64 rng(6);
+    std::normal_distribution<double> gauss;
+    for (int i = 0; i < 40000; ++i) out << gauss(rng) + (i >= 25000 ? 0.5 : 0.0) << "\n";
+  }
+  const std::string base = Bin("imuqual") + " analyze " + path + " --rate 100 --kind gyro";
+  const auto r = RunCommand(base + " --davar " + svg);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  auto text = ReadFileToString(svg);
+  ASSERT_TRUE(text.ok());
+  EXPECT_EQ(text->rfind("<svg", 0), 0u);
+  EXPECT_NE(text->find("dynamic Allan deviation"), std::string::npos);
+  EXPECT_NE(text->find("13 windows of 1:40 every 0:25"), std::string::npos);
+  EXPECT_NE(text->find("[deg/h]"), std::string::npos);
+  const auto w = RunCommand(base + " --davar " + svg + " --davar-window 50");
+  ASSERT_EQ(w.exit_code, 0) << w.output;
+  text = ReadFileToString(svg);
+  ASSERT_TRUE(text.ok());
+  EXPECT_NE(text->find("29 windows of 0:50 every 0:12.5"), std::string::npos);
+  for (const auto& [args, want, code] :
+       {std::tuple{std::string(" --davar ") + svg + " --davar-window 500",
+                   std::string("imuqual: error: --davar: dynamic Allan: the window (50000 samples) "
+                               "is longer than the record (40000)"),
+                   1},
+        std::tuple{std::string(" --davar-window 50"),
+                   std::string("imuqual: error: --davar-window needs --davar FILE.svg"), 2},
+        std::tuple{std::string(" --davar ") + svg + " --davar-window -1",
+                   std::string("imuqual: error: --davar-window must be >= 0 s"), 2}}) {
+    const auto bad = RunCommand(base + args + " 2>&1");
+    EXPECT_EQ(bad.exit_code, code) << args << ": " << bad.output;
+    EXPECT_EQ(bad.output.rfind(want, 0), 0u) << bad.output;
+    EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
+  }
+}
+
 // Every binary says which software it is (an auditor's first question
 // about a record) and exits 0; a bad flag exits 2 (README, "Exit codes").
 TEST(AnalyzeCliTest, EveryBinaryTellsItsVersionAndExitsTwoOnABadFlag) {

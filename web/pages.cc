@@ -17,6 +17,7 @@
 #include "report/allan_plots.h"
 #include "report/archive_tables.h"
 #include "report/control_chart_view.h"
+#include "report/dynamic_allan_plot.h"
 #include "report/marks.h"
 #include "report/msa_view.h"
 #include "report/report.h"
@@ -281,6 +282,18 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
   }
   auto series = report::RunTimeSeriesSvg(archive, run_id);
   if (series.ok()) body += "<h2>Raw samples against time</h2>\n<figure>" + *series + "</figure>\n";
+  auto davar = report::RunDynamicAllanSvgs(archive, run_id);
+  if (davar.ok()) {
+    body += "<h2>Dynamic Allan deviation</h2>\n";
+    for (const std::string& svg : *davar) body += "<figure>" + svg + "</figure>\n";
+    body +=
+        "<p class=\"note\">Each axis: the Allan deviation of each quarter of the analysed record, "
+        "every sixteenth, early blue to late red. A stationary record draws one bundle; a curve "
+        "apart from it is a stretch with a step, a ramp or a burst.</p>\n";
+  } else if (davar.status().code() != Status::Code::kNotFound) {
+    body += "<p class=\"note\">Dynamic Allan deviation not drawn: " +
+            HtmlEscape(davar.status().message()) + "</p>\n";
+  }
   body += "<section id=\"measurements\">\n<h2>Every measurement archived</h2>\n";
   body += ms.empty() ? "<p>No measurement archived (not judged yet).</p>\n"
                      : MeasurementTable(ms, true).Render(Format::kHtml);

@@ -408,8 +408,10 @@ TEST(WebPagesTest, ADamagedChunkCostsOnlyItsPlot) {
   const Page plots = Route(**archive, db, "/lot-section", {{"name", kLot}, {"part", "unit-plots"}});
   EXPECT_EQ(plots.status, 200);
   EXPECT_NE(plots.body.find("raw samples not plotted"), std::string::npos);
+  EXPECT_NE(plots.body.find("dynamic Allan deviation not drawn"), std::string::npos);
   const Page run = Route(**archive, db, "/run/" + kRun, {});
   EXPECT_EQ(run.status, 200);
+  EXPECT_NE(run.body.find("Dynamic Allan deviation not drawn"), std::string::npos);
 }
 
 TEST(WebServerTest, AnAddressBeyondThisHostNeedsAToken) {

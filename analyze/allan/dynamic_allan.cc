@@ -22,9 +22,11 @@ Status DynamicAllanOptions::Validate() const {
   return Status::Ok();
 }
 
-Result<DynamicAllan> ComputeDynamicAllan(std::span<const float> rate, double tau0_s,
-                                         std::span<const uint8_t> invalid,
-                                         const DynamicAllanOptions& options) {
+namespace {
+
+template <typename Sample>
+Result<DynamicAllan> Compute(std::span<const Sample> rate, double tau0_s,
+                             std::span<const uint8_t> invalid, const DynamicAllanOptions& options) {
   IMUQUAL_RETURN_IF_ERROR(options.Validate());
   if (!(tau0_s > 0) || !std::isfinite(tau0_s)) {
     return Status::InvalidArgument("dynamic Allan: tau0 must be > 0, got " +
@@ -75,6 +77,20 @@ Result<DynamicAllan> ComputeDynamicAllan(std::span<const float> rate, double tau
     out.windows.push_back(std::move(w));
   }
   return out;
+}
+
+}  // namespace
+
+Result<DynamicAllan> ComputeDynamicAllan(std::span<const float> rate, double tau0_s,
+                                         std::span<const uint8_t> invalid,
+                                         const DynamicAllanOptions& options) {
+  return Compute(rate, tau0_s, invalid, options);
+}
+
+Result<DynamicAllan> ComputeDynamicAllan(std::span<const double> rate, double tau0_s,
+                                         std::span<const uint8_t> invalid,
+                                         const DynamicAllanOptions& options) {
+  return Compute(rate, tau0_s, invalid, options);
 }
 
 }  // namespace imuqual::allan

@@ -52,6 +52,9 @@ struct DynamicAllan {
 Result<DynamicAllan> ComputeDynamicAllan(std::span<const float> rate, double tau0_s,
                                          std::span<const uint8_t> invalid = {},
                                          const DynamicAllanOptions& options = {});
+Result<DynamicAllan> ComputeDynamicAllan(std::span<const double> rate, double tau0_s,
+                                         std::span<const uint8_t> invalid = {},
+                                         const DynamicAllanOptions& options = {});
 
 }  // namespace imuqual::allan
 

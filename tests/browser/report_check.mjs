@@ -211,6 +211,7 @@ async function renderAndRead(htmlPath, chromiumPath, profileDir) {
         unitPlots: [...document.querySelectorAll('#unit-plots figure')].map((f) => ({
           id: f.id, run: f.dataset.run, svg: !!f.querySelector('svg'), curves: f.querySelectorAll('svg polyline').length,
           caption: f.querySelector('figcaption')?.textContent || '', series: f.dataset.plot === 'series',
+          davar: f.dataset.plot === 'davar',
           // Every text of the plot inside its SVG's box (nothing cut off).
           textsOutside: [...f.querySelectorAll('svg text')].filter((t) => {
             const b = t.getBoundingClientRect(), s = t.ownerSVGElement.getBoundingClientRect();
@@ -501,6 +502,10 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
     const axesOfRun = rows.filter((r) => r.run_id === run).length;
     if (series.length !== 1) fail(`run ${run}: ${series.length} time-series plots, want 1`);
     else if (series[0].curves < 2 * axesOfRun) fail(`run ${run}: time-series plot has ${series[0].curves} lines for ${axesOfRun} axes`);
+    // ... and each axis's dynamic Allan deviation, a curve per window.
+    const davar = dom.unitPlots.filter((p) => p.run === run && p.davar);
+    if (davar.length !== axesOfRun) fail(`run ${run}: ${davar.length} dynamic Allan plots for ${axesOfRun} axes`);
+    else if (davar.some((p) => p.curves < 4)) fail(`run ${run}: a dynamic Allan plot with fewer than 4 windows`);
   }
 
   // Sorting (the first results table: the first axis kind's rows).

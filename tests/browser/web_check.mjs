@@ -175,6 +175,13 @@ async function main() {
       if (operator !== kOperator) fail(`run ${r.run_id}: operator shown as '${operator}'`);
       const plots = await page.evaluate(() => document.querySelectorAll('figure svg').length);
       if (plots < 2) fail(`run ${r.run_id}: ${plots} plots (Allan and raw samples expected)`);
+      // Each axis's dynamic Allan deviation: one plot per axis, a curve per window.
+      const davar = await page.evaluate(() => [...document.querySelectorAll('figure svg')]
+          .filter((s) => (s.getAttribute('aria-label') || '').endsWith('dynamic Allan deviation'))
+          .map((s) => s.querySelectorAll('polyline').length));
+      const axesShown = sqlite(db, `SELECT COUNT(DISTINCT m.axis) AS n FROM measurements m JOIN runs USING (run_key) WHERE run_id = ${sqlText(r.run_id)} AND m.name = 'bias_instability'`)[0].n;
+      if (davar.length !== axesShown) fail(`run ${r.run_id}: ${davar.length} dynamic Allan plots for ${axesShown} axes`);
+      if (davar.some((curves) => curves < 4)) fail(`run ${r.run_id}: a dynamic Allan plot with fewer than 4 windows: ${davar}`);
       if (r === runs[0]) {
         await screenCheck(page, 'run', [{ what: 'the run\'s verdict', selector: '.verdict' },
                                         { what: 'its failing measurement', selector: '#judged tbody tr' }]);
