@@ -58,9 +58,14 @@ std::string DynamicAllanSvg(const allan::DynamicAllan& davar, const DynamicAllan
   plot.y_scale = style.y_scale;
   plot.y_label = style.y_label;
   plot.y2_label = style.y2_label;
-  const size_t n = davar.windows.size();
+  // The windows with a curve (a window inside a gap has none).
+  std::vector<const allan::DynamicAllanWindow*> drawn;
+  for (const allan::DynamicAllanWindow& w : davar.windows) {
+    if (!w.curve.points.empty()) drawn.push_back(&w);
+  }
+  const size_t n = drawn.size();
   for (size_t i = 0; i < n; ++i) {
-    const allan::DynamicAllanWindow& w = davar.windows[i];
+    const allan::DynamicAllanWindow& w = *drawn[i];
     PlotSeries s;
     const std::string span = Clock(w.start_s) + "-" + Clock(w.start_s + w.length_s);
     s.label = "window " + span;
@@ -83,6 +88,10 @@ std::string DynamicAllanSvg(const allan::DynamicAllan& davar, const DynamicAllan
                        Clock(davar.step_s) + ", early blue to late red; each the");
   plot.notes.push_back("OADEV of its own samples. Curves that stand apart: a");
   plot.notes.push_back("non-stationary stretch (step, ramp, burst).");
+  if (const size_t empty = davar.windows.size() - n; empty > 0) {
+    plot.notes.push_back(std::to_string(empty) + (empty == 1 ? " window" : " windows") +
+                         " inside a gap: no curve.");
+  }
   return plot.ToSvg();
 }
 
@@ -101,58 +110,56 @@ Result<std::vector<std::string>> RunDynamicAllanSvgs(store::Archive& archive,
   const bool have_plan = plan.ParseFromString(info->plan);
   const double warmup_s = have_plan ? plan.warmup_s() : 0.0;
   const int64_t skip = std::llround(warmup_s * info->nominal_rate_hz);
-  constexpr int64_t kMaxSamples = int64_t{1} << 25;
+  constexpr int64_t kMaxSamples = int64_t{1} << 24;
   const size_t axes = info->axes.size();
-  std::vector<std::vector<float>> samples(axes);
-  std::vector<double> out_of_range_at(axes, std::numeric_limits<double>::infinity());
-  for (size_t a = 0; a < axes && have_plan; ++a) {
-    out_of_range_at[a] = judge::OutOfRangeAt(plan, info->axes[a].kind);
-  }
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  Status too_long = Status::Ok();
-  auto put = [&](int64_t first, int64_t counter, size_t a, float v) {
-    const int64_t k = counter - first - skip;
-    if (k < 0) return;
-    if (k >= kMaxSamples) {
-      too_long = Status::InvalidArgument(
-          "run '" + run_id + "' is too long for its dynamic Allan plot here (more than " +
-          std::to_string(kMaxSamples) +
-          " samples per axis): export it (--format samples) and use imuqual analyze --davar");
-      return;
-    }
-    std::vector<float>& s = samples[a];
-    if (static_cast<int64_t>(s.size()) <= k) s.resize(static_cast<size_t>(k) + 1, nan);
-    s[static_cast<size_t>(k)] = v;
-  };
-  RunSampleVisitor visitor;
-  visitor.missing = [&](int64_t first, int64_t from, int64_t count) {
-    for (size_t a = 0; a < axes && too_long.ok(); ++a) put(first, from + count - 1, a, nan);
-    return too_long;
-  };
-  visitor.chunk = [&](int64_t first, const store::ChunkRecord& c, const store::ChunkData& d) {
-    for (int i = 0; i < d.num_samples && too_long.ok(); ++i) {
-      for (size_t a = 0; a < axes; ++a) {
-        const float v = d.at(static_cast<int>(a), i);
-        put(first, c.first_sample + i, a, judge::OutOfRange(v, out_of_range_at[a]) ? nan : v);
-      }
-    }
-    for (const store::SampleFlag& f :
-         d.flags) {  // saturated or invalid, as the analysis reads them
-      if ((f.bits & (1 | 2)) && f.axis < axes && too_long.ok()) {
-        put(first, c.first_sample + f.sample, f.axis, nan);
-      }
-    }
-    return too_long;
-  };
-  auto walk = WalkRunSamples(archive, **key, *info, visitor);
-  if (!walk.ok()) return walk.status();
-  if (walk->first < 0) return Status::NotFound("run '" + run_id + "' has no archived sample");
   std::vector<std::string> out;
+  // One axis at a time: one axis's record in memory (at most 64 MB).
   for (size_t a = 0; a < axes; ++a) {
     const store::AxisInfo& axis = info->axes[a];
+    const double out_of_range_at =
+        have_plan ? judge::OutOfRangeAt(plan, axis.kind) : std::numeric_limits<double>::infinity();
+    std::vector<float> samples;
+    Status too_long = Status::Ok();
+    auto put = [&](int64_t first, int64_t counter, float v) {
+      const int64_t k = counter - first - skip;
+      if (k < 0) return;
+      if (k >= kMaxSamples) {
+        too_long = Status::InvalidArgument(
+            "run '" + run_id + "' is too long for its dynamic Allan plot here (more than " +
+            std::to_string(kMaxSamples) +
+            " samples per axis): export it (--format samples) and use imuqual analyze --davar");
+        return;
+      }
+      if (static_cast<int64_t>(samples.size()) <= k)
+        samples.resize(static_cast<size_t>(k) + 1, nan);
+      samples[static_cast<size_t>(k)] = v;
+    };
+    RunSampleVisitor visitor;
+    visitor.missing = [&](int64_t first, int64_t from, int64_t count) {
+      put(first, from + count - 1, nan);
+      return too_long;
+    };
+    visitor.chunk = [&](int64_t first, const store::ChunkRecord& c, const store::ChunkData& d) {
+      for (int i = 0; i < d.num_samples && too_long.ok(); ++i) {
+        const float v = d.at(static_cast<int>(a), i);
+        put(first, c.first_sample + i, judge::OutOfRange(v, out_of_range_at) ? nan : v);
+      }
+      for (const store::SampleFlag& f :
+           d.flags) {  // saturated or invalid, as the analysis reads them
+        if ((f.bits & (1 | 2)) && f.axis == a && too_long.ok()) {
+          put(first, c.first_sample + f.sample, nan);
+        }
+      }
+      return too_long;
+    };
+    auto walk = WalkRunSamples(archive, **key, *info, visitor);
+    if (!walk.ok()) return walk.status();
+    if (walk->first < 0) return Status::NotFound("run '" + run_id + "' has no archived sample");
     const bool accel = axis.kind == pb::ACCEL;
     allan::DynamicAllanOptions options;
-    auto davar = allan::ComputeDynamicAllan(samples[a], tau0, {}, options);
+    options.intervals = false;  // the plot draws the curves alone
+    auto davar = allan::ComputeDynamicAllan(std::span<const float>(samples), tau0, {}, options);
     if (!davar.ok()) {
       return Status::InvalidArgument("run '" + run_id + "' axis " + axis.name + ": " +
                                      davar.status().message());

@@ -28,13 +28,14 @@ struct DynamicAllanPlotStyle {
 // The plot of `davar` (at least one window).
 std::string DynamicAllanSvg(const allan::DynamicAllan& davar, const DynamicAllanPlotStyle& style);
 
-// Per axis of a stored run, the dynamic Allan deviation of its analysed
-// record (after the plan's warm-up; missing and invalid samples are gaps),
-// in datasheet units. NotFound names the run or says it has no archived
-// sample; InvalidArgument when the record is too short for four windows of
-// 64 samples, or too long to hold in memory here (more than 2^25 samples
-// per axis: `imuqual export --format samples` and `imuqual analyze --davar`
-// take it).
+// Per axis of a stored run, the dynamic Allan deviation of its record after
+// the plan's warm-up (to the last archived sample, also past an early
+// decision; missing, invalid and out-of-range samples are gaps), in
+// datasheet units; one axis in memory at a time. NotFound names the run or
+// says it has no archived sample; InvalidArgument when the record is too
+// short for windows of 64 samples, or too long to hold in memory here (more
+// than 2^24 samples per axis: `imuqual export --format samples` and
+// `imuqual analyze --davar` take it).
 Result<std::vector<std::string>> RunDynamicAllanSvgs(store::Archive& archive,
                                                      const std::string& run_id);
 

@@ -1131,7 +1131,8 @@ std::string UnitPlotsSection(const LotReportData& d) {
       "<p class=\"note\">Each axis with its confidence band, its composite noise model "
       "(dashed) and its curve minimum (ringed); then the unit's raw samples against device "
       "time (deg/s, m/s<sup>2</sup> and &deg;C; bin means with their min/max envelope), and "
-      "each axis's dynamic Allan deviation (the curve of each quarter of the analysed record, "
+      "each axis's dynamic Allan deviation (the curve of each quarter of the record after the "
+      "warm-up, "
       "early blue to late red: a curve apart from the others is a non-stationary "
       "stretch).</p>\n"
       "</section>\n");

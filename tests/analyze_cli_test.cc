@@ -348,8 +348,8 @@ TEST(AnalyzeCliTest, DynamicAllanPlotOfTheRecord) {
   EXPECT_NE(text->find("29 windows of 0:50 every 0:12.5"), std::string::npos);
   for (const auto& [args, want, code] :
        {std::tuple{std::string(" --davar ") + svg + " --davar-window 500",
-                   std::string("imuqual: error: --davar: dynamic Allan: the window (50000 samples) "
-                               "is longer than the record (40000)"),
+                   std::string("imuqual: error: --davar: dynamic Allan: the window (500 s) is "
+                               "longer than the record (400 s)"),
                    1},
         std::tuple{std::string(" --davar-window 50"),
                    std::string("imuqual: error: --davar-window needs --davar FILE.svg"), 2},

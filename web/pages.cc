@@ -287,7 +287,8 @@ Page RunPage(store::Archive& archive, const std::string& run_id, bool json) {
     body += "<h2>Dynamic Allan deviation</h2>\n";
     for (const std::string& svg : *davar) body += "<figure>" + svg + "</figure>\n";
     body +=
-        "<p class=\"note\">Each axis: the Allan deviation of each quarter of the analysed record, "
+        "<p class=\"note\">Each axis: the Allan deviation of each quarter of the record after the "
+        "warm-up, "
         "every sixteenth, early blue to late red. A stationary record draws one bundle; a curve "
         "apart from it is a stretch with a step, a ramp or a burst.</p>\n";
   } else if (davar.status().code() != Status::Code::kNotFound) {

@@ -7,17 +7,23 @@
 #include "analyze/allan/estimators.h"
 #include "analyze/allan/phase.h"
 #include "analyze/allan/tau_grid.h"
+#include "common/strings.h"
 
 namespace imuqual::allan {
 
 Status DynamicAllanOptions::Validate() const {
   if (!std::isfinite(window_s) || window_s < 0) {
     return Status::InvalidArgument("dynamic Allan: window_s must be >= 0, got " +
-                                   std::to_string(window_s));
+                                   ShortestReal(window_s));
   }
   if (!std::isfinite(step_s) || step_s < 0) {
     return Status::InvalidArgument("dynamic Allan: step_s must be >= 0, got " +
-                                   std::to_string(step_s));
+                                   ShortestReal(step_s));
+  }
+  if (window_s > 0 && step_s > window_s) {
+    return Status::InvalidArgument("dynamic Allan: the step (" + ShortestReal(step_s) +
+                                   " s) is longer than the window (" + ShortestReal(window_s) +
+                                   " s): samples between windows would be left out");
   }
   return Status::Ok();
 }
@@ -29,8 +35,7 @@ Result<DynamicAllan> Compute(std::span<const Sample> rate, double tau0_s,
                              std::span<const uint8_t> invalid, const DynamicAllanOptions& options) {
   IMUQUAL_RETURN_IF_ERROR(options.Validate());
   if (!(tau0_s > 0) || !std::isfinite(tau0_s)) {
-    return Status::InvalidArgument("dynamic Allan: tau0 must be > 0, got " +
-                                   std::to_string(tau0_s));
+    return Status::InvalidArgument("dynamic Allan: tau0 must be > 0, got " + ShortestReal(tau0_s));
   }
   if (!invalid.empty() && invalid.size() != rate.size()) {
     return Status::InvalidArgument("dynamic Allan: " + std::to_string(invalid.size()) +
@@ -38,6 +43,11 @@ Result<DynamicAllan> Compute(std::span<const Sample> rate, double tau0_s,
                                    " samples");
   }
   const int64_t n = static_cast<int64_t>(rate.size());
+  if (options.window_s / tau0_s > static_cast<double>(n) + 0.5) {
+    return Status::InvalidArgument("dynamic Allan: the window (" + ShortestReal(options.window_s) +
+                                   " s) is longer than the record (" +
+                                   ShortestReal(static_cast<double>(n) * tau0_s) + " s)");
+  }
   const int64_t window = options.window_s > 0 ? std::llround(options.window_s / tau0_s) : n / 4;
   constexpr int64_t kMinWindow = 64;
   if (window < kMinWindow) {
@@ -50,9 +60,14 @@ Result<DynamicAllan> Compute(std::span<const Sample> rate, double tau0_s,
                                    " samples) is longer than the record (" + std::to_string(n) +
                                    ")");
   }
-  const int64_t step = options.step_s > 0 ? std::llround(options.step_s / tau0_s) : window / 4;
+  int64_t step = options.step_s > 0 ? std::llround(options.step_s / tau0_s) : window / 4;
   if (step < 1) {
     return Status::InvalidArgument("dynamic Allan: the step is shorter than one sample");
+  }
+  // At most kMaxWindows (the last one, ending at the record's end, included).
+  const int64_t room = n - window;
+  if (room / step + 2 > DynamicAllanOptions::kMaxWindows) {
+    step = room / (DynamicAllanOptions::kMaxWindows - 2) + 1;
   }
   DynamicAllan out;
   out.tau0_s = tau0_s;
@@ -73,7 +88,9 @@ Result<DynamicAllan> Compute(std::span<const Sample> rate, double tau0_s,
     const std::vector<int64_t> m = AveragingFactors(TauGridSpec{}, tau0_s, phase.size(),
                                                     Deviation::kOadev, StopRule::kBins9);
     w.curve = ComputeDeviation(phase, Deviation::kOadev, m);
-    AttachConfidence(phase, CiMethod::kChi2, kOneSigmaConfidence, &w.curve);
+    if (options.intervals) {
+      AttachConfidence(phase, CiMethod::kChi2, kOneSigmaConfidence, &w.curve);
+    }
     out.windows.push_back(std::move(w));
   }
   return out;

@@ -22,9 +22,15 @@ namespace imuqual::allan {
 struct DynamicAllanOptions {
   // Window length, s; 0: a quarter of the record.
   double window_s = 0;
-  // Step between window starts, s; 0: a quarter of the window.
+  // Step between window starts, s, at most the window; 0: a quarter of the
+  // window. Widened when the record would hold more than kMaxWindows.
   double step_s = 0;
-  // Ok, or InvalidArgument naming the field (negative or not finite).
+  // Chi-square intervals on each window's curve (a plot of the curves alone
+  // does without).
+  bool intervals = true;
+  static constexpr int kMaxWindows = 200;
+  // Ok, or InvalidArgument naming the field (negative or not finite, a step
+  // longer than the window).
   Status Validate() const;
 };
 
@@ -40,7 +46,8 @@ struct DynamicAllan {
   double window_s = 0;  // whole samples
   double step_s = 0;    // whole samples
   // From the record's start, every step_s, while the window fits; the last
-  // one ends at the record's end (so every sample is in some window).
+  // one ends at the record's end (so every sample is in some window). A
+  // window inside a gap has a curve without points.
   std::vector<DynamicAllanWindow> windows;
 };
 

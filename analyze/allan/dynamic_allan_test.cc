@@ -131,6 +131,27 @@ TEST(DynamicAllanTest, BadInputIsNamed) {
   EXPECT_NE(error(0.01, 11, 0, 0).find("longer than the record"), std::string::npos);
   EXPECT_NE(error(0.01, 5, 0.001, 0).find("shorter than one sample"), std::string::npos);
   EXPECT_NE(error(0.01, 5, 0, 10).find("10 invalid flags for 1000 samples"), std::string::npos);
+  EXPECT_NE(error(0.01, 1e17, 0, 0)
+                .find("the window (1e+17 s) is longer than the "
+                      "record (10 s)"),
+            std::string::npos);
+  EXPECT_NE(error(0.01, 2, 3, 0).find("the step (3 s) is longer than the window (2 s)"),
+            std::string::npos);
+}
+
+// A window far shorter than the record: the step widens to keep at most
+// kMaxWindows curves, the last still ending at the record's end.
+TEST(DynamicAllanTest, AtMostMaxWindows) {
+  const std::vector<float> y = White(100000, 0.1, 7);
+  DynamicAllanOptions o;
+  o.window_s = 1;
+  o.intervals = false;
+  const Result<DynamicAllan> d = ComputeDynamicAllan(y, 0.01, {}, o);
+  ASSERT_TRUE(d.ok()) << d.status().ToString();
+  EXPECT_LE(d->windows.size(), static_cast<size_t>(DynamicAllanOptions::kMaxWindows));
+  EXPECT_GE(d->windows.size(), static_cast<size_t>(DynamicAllanOptions::kMaxWindows) - 2);
+  EXPECT_NEAR(d->windows.back().start_s + d->windows.back().length_s, 1000.0, 1e-9);
+  EXPECT_TRUE(std::isnan(d->windows.front().curve.points.front().lo));  // no intervals asked
 }
 
 }  // namespace

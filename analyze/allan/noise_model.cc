@@ -355,7 +355,8 @@ AvarFit FitAvars(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
 // b/tau takes quantization noise (b > 0) or a band-limiting filter's deficit
 // (b < 0: first-order or FIR filtered white noise is q/tau - b'/tau^2 beyond
 // the filter's length) and c tau a flicker or Gauss-Markov rise; with fewer
-// than four points, N^2 alone (a weighted mean). Weights 1/var from the
+// than five points, or over less than a factor 4 in tau, N^2 alone (a
+// weighted mean). Points without an edf are left out. Weights 1/var from the
 // fitted line, var = line^2 x 2/edf (Greenhall edf, white FM), FitAvars with
 // the white-noise correlations of the points' AVARs; the uncertainty is
 // inflated by the Birge ratio when the points scatter more than their errors
@@ -367,27 +368,38 @@ struct WhiteLineFit {
   int points = 0;
   int terms = 0;
 };
-WhiteLineFit FitWhiteLine(const std::vector<const CurvePoint*>& pts, const std::vector<size_t>& idx,
-                          const std::vector<double>& tau, const std::vector<double>& dev,
-                          int64_t n_phase) {
+WhiteLineFit FitWhiteLine(const std::vector<const CurvePoint*>& pts,
+                          const std::vector<size_t>& line, const std::vector<double>& tau,
+                          const std::vector<double>& dev, int64_t n_phase) {
   WhiteLineFit out;
+  // The points with an edf; a curve without its points' counts at all (a
+  // model curve, a table without n) is fitted with equal relative weights
+  // and has no uncertainty.
+  const int alpha = NoiseTermAlpha(NoiseTerm::kAngleRandomWalk);
+  std::vector<size_t> idx;
+  std::vector<double> edfs;
+  for (size_t i : line) {
+    const double edf = PointEdf(*pts[i], n_phase, alpha);
+    if (std::isfinite(edf) && edf > 0) {
+      idx.push_back(i);
+      edfs.push_back(edf);
+    }
+  }
+  const bool have_edf = !idx.empty();
+  if (!have_edf) idx = line;
   const int k = static_cast<int>(idx.size());
   if (k == 0) return out;
-  const int cols = k >= 4 ? 3 : 1;
+  const double tau_lo = tau[idx.front()], tau_hi = tau[idx.back()];
+  // b/tau and c tau only over a span that can tell them from N^2 (an octave
+  // either side): on a short span the three columns nearly fit one another.
+  const int cols = k >= 5 && tau_hi >= 4 * tau_lo ? 3 : 1;
   std::vector<int64_t> m(k);
   Eigen::VectorXd y(k), two_over_edf(k);
   Eigen::MatrixXd x(k, cols);
-  const double tau_lo = tau[idx.front()], tau_hi = tau[idx.back()];
-  // A curve without its points' counts (a model curve, a table without n)
-  // has no edf: the line is fitted with equal relative weights, and has no
-  // uncertainty.
-  bool have_edf = true;
   for (int j = 0; j < k; ++j) {
     const size_t i = idx[j];
-    const double edf = PointEdf(*pts[i], n_phase, NoiseTermAlpha(NoiseTerm::kAngleRandomWalk));
-    have_edf = have_edf && std::isfinite(edf) && edf > 0;
     m[j] = pts[i]->m;
-    two_over_edf(j) = have_edf ? 2 / edf : 1.0;
+    two_over_edf(j) = have_edf ? 2 / edfs[j] : 1.0;
     y(j) = dev[i] * dev[i] * tau[i];
     x(j, 0) = 1;
     if (cols == 3) {
@@ -395,7 +407,6 @@ WhiteLineFit FitWhiteLine(const std::vector<const CurvePoint*>& pts, const std::
       x(j, 2) = tau[i] / tau_hi;
     }
   }
-  if (!have_edf) two_over_edf.setOnes();
   std::vector<double> r;
   if (have_edf) {
     r = TermAvarCorrelations(TermKind::kWhite, m);

@@ -140,16 +140,19 @@ Result<NoiseFit> FitNoiseModel(const Curve& curve, const FitOptions& options = {
 // fitted as AVAR x tau = N^2 + b/tau + c tau: b/tau takes quantization noise
 // or a band-limiting filter's deficit (first-order or FIR-filtered white
 // noise is q/tau - b'/tau^2 beyond the filter), c tau the rise of flicker or
-// a Gauss-Markov bump; with fewer than 4 such points, N^2 alone (a weighted
-// mean). Weighted least squares (weights from the fitted line and the
+// a Gauss-Markov bump; with fewer than 5 such points, or over less than a
+// factor 4 in tau (the three columns then nearly fit one another), N^2 alone
+// (a weighted mean). Points without an edf are left out (none has one: equal
+// weights and no uncertainty). Weighted least squares (weights from the fitted line and the
 // points' Greenhall edf for white FM); uncertainty: the sandwich covariance
 // with the white-noise correlations between the points' AVARs, times the
 // Birge ratio sqrt(SSR / E[SSR]) when the points scatter more than that (a
 // real curve is not exactly three terms; birge_ratio on the record).
 // Measured (acquire/bias_instability_coverage_test.cc, 87-min simulated
-// gyros, 200 records each): 1-sigma coverage 69.8 % (white + flicker + RRW),
-// 70.0 % (with a Gauss-Markov bump), 68.3 % (white noise through a
-// first-order 20 Hz filter), 2-sigma 97-98 %, mean z -0.2 ... 0. No cap: the
+// gyros, 200 records each): 1-sigma coverage 70.0 % (white + flicker + RRW),
+// 70.0 % (with a Gauss-Markov bump), 68.0 % (white noise through a
+// first-order 20 Hz filter), 2-sigma 98.0 / 97.5 / 96.5 %, mean z -0.04 /
+// -0.22 / +0.09. No cap: the
 // old mean line capped at the tangent bound read 0.5-0.75 sigma low, and 8 %
 // low (-5 sigma) on filtered white noise. No clean point, or a non-positive
 // N^2: value = tangent_bound and upper_bound_only.

@@ -143,7 +143,12 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
   const allan::SlopeReadoff n = allan::ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk);
   out.push_back(Make(axis, gyro ? kAngleRandomWalk : kVelocityRandomWalk,
                      Datasheet(NoiseTerm::kAngleRandomWalk, kind, n.value), kind,
-                     n.upper_bound_only ? "upper bound only: no point on the -1/2 slope" : ""));
+                     !n.upper_bound_only      ? ""
+                     : n.points_on_slope == 0 ? "upper bound only: no point on the -1/2 slope"
+                     : n.points_in_fit == 0
+                         ? "upper bound only: no point on the -1/2 slope to both neighbours"
+                         : "upper bound only: the -1/2 line's fit gives no positive white-noise "
+                           "level"));
   const allan::SlopeReadoff k = allan::ReadSlopeLine(curve, NoiseTerm::kRateRandomWalk);
   out.push_back(Make(axis, kRateRandomWalk, Datasheet(NoiseTerm::kRateRandomWalk, kind, k.value),
                      kind,
@@ -157,13 +162,14 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
     std::string method = kArwMethod;
     char detail[96];
     if (n.line_terms == 1) {
-      std::snprintf(detail, sizeof detail, "; %d point%s: N^2 alone (a weighted mean)",
-                    n.points_in_fit, n.points_in_fit == 1 ? "" : "s");
+      std::snprintf(detail, sizeof detail,
+                    "; %d point%s over a short span: N^2 alone (a weighted mean)", n.points_in_fit,
+                    n.points_in_fit == 1 ? "" : "s");
       method += detail;
     }
     if (n.birge_ratio > 1) {
       std::snprintf(detail, sizeof detail,
-                    "; scaled by the Birge ratio %.2g (the points scatter more)", n.birge_ratio);
+                    "; scaled by the Birge ratio %.3g (the points scatter more)", n.birge_ratio);
       method += detail;
     }
     arw.set_uncertainty_method(method);
