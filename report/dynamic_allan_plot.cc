@@ -88,6 +88,15 @@ std::string DynamicAllanSvg(const allan::DynamicAllan& davar, const DynamicAllan
                        Clock(davar.step_s) + ", early blue to late red; each the");
   plot.notes.push_back("OADEV of its own samples. Curves that stand apart: a");
   plot.notes.push_back("non-stationary stretch (step, ramp, burst).");
+  if (const std::optional<allan::LevelChange> c = allan::ShortTauLevelChange(davar)) {
+    char line[160];
+    std::snprintf(line, sizeof line, "At tau %s s, last window / first: %.4f +- %.4f",
+                  ShortestReal(c->tau_s).c_str(), c->ratio, c->sigma);
+    plot.notes.push_back(line);
+    plot.notes.push_back(std::abs(c->ratio - 1) > 3 * c->sigma
+                             ? "(the noise level itself changed)."
+                             : "(no change of the noise level seen).");
+  }
   if (const size_t empty = davar.windows.size() - n; empty > 0) {
     plot.notes.push_back(std::to_string(empty) + (empty == 1 ? " window" : " windows") +
                          " inside a gap: no curve.");

@@ -5,6 +5,7 @@
 
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/estimators.h"
+#include "analyze/allan/noise_model.h"
 #include "analyze/allan/phase.h"
 #include "analyze/allan/tau_grid.h"
 #include "common/strings.h"
@@ -108,6 +109,34 @@ Result<DynamicAllan> ComputeDynamicAllan(std::span<const double> rate, double ta
                                          std::span<const uint8_t> invalid,
                                          const DynamicAllanOptions& options) {
   return Compute(rate, tau0_s, invalid, options);
+}
+
+std::optional<LevelChange> ShortTauLevelChange(const DynamicAllan& davar) {
+  const DynamicAllanWindow* first = nullptr;
+  const DynamicAllanWindow* last = nullptr;
+  int64_t m = 0;
+  for (const DynamicAllanWindow& w : davar.windows) {
+    if (w.curve.points.empty()) continue;
+    if (first == nullptr) {
+      first = &w;
+      m = w.curve.points.front().m;
+    } else if (w.curve.points.front().m == m) {
+      last = &w;
+    }
+  }
+  if (first == nullptr || last == nullptr) return std::nullopt;
+  const CurvePoint& a = first->curve.points.front();
+  const CurvePoint& b = last->curve.points.front();
+  const double edf_a = PointEdf(a, first->curve.n_phase, 0);
+  const double edf_b = PointEdf(b, last->curve.n_phase, 0);
+  if (!(edf_a > 0 && edf_b > 0 && a.dev > 0 && b.dev > 0)) return std::nullopt;
+  LevelChange out;
+  out.tau_s = a.tau_s;
+  out.first_start_s = first->start_s;
+  out.last_start_s = last->start_s;
+  out.ratio = b.dev / a.dev;
+  out.sigma = out.ratio * std::sqrt(1 / (2 * edf_a) + 1 / (2 * edf_b));
+  return out;
 }
 
 }  // namespace imuqual::allan

@@ -11,6 +11,7 @@
 #define IMUQUAL_ANALYZE_ALLAN_DYNAMIC_ALLAN_H_
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -62,6 +63,22 @@ Result<DynamicAllan> ComputeDynamicAllan(std::span<const float> rate, double tau
 Result<DynamicAllan> ComputeDynamicAllan(std::span<const double> rate, double tau0_s,
                                          std::span<const uint8_t> invalid = {},
                                          const DynamicAllanOptions& options = {});
+
+// How much the noise level at the shortest tau changed from the first
+// window to the last (each the first and last window with a point at that
+// tau): ratio = dev_last / dev_first and its 1-sigma from the two points'
+// chi-square errors (Greenhall edf for white FM, the shortest tau's usual
+// noise; the windows are independent when they do not overlap, as the
+// defaults' first and last quarter). A ratio many sigmas from 1 is a
+// change of the noise itself, which a level-step scan does not look for.
+// nullopt without two such windows.
+struct LevelChange {
+  double tau_s = 0;
+  double first_start_s = 0, last_start_s = 0;
+  double ratio = 0;
+  double sigma = 0;
+};
+std::optional<LevelChange> ShortTauLevelChange(const DynamicAllan& davar);
 
 }  // namespace imuqual::allan
 

@@ -97,6 +97,30 @@ TEST(DynamicAllanTest, AStepLiftsTheWindowsThatHoldIt) {
   }
 }
 
+// GIVEN white noise whose level rises 10 % in its last quarter, WHEN the
+// first and last windows are compared at the shortest tau, THEN the ratio
+// reads 1.10 within its sigma; the same record without the rise reads 1.
+TEST(DynamicAllanTest, ALevelChangeAtTheShortestTau) {
+  std::vector<float> y = White(200000, 0.1, 8);
+  const Result<DynamicAllan> flat = ComputeDynamicAllan(y, 0.01);
+  ASSERT_TRUE(flat.ok());
+  const std::optional<LevelChange> none = ShortTauLevelChange(*flat);
+  ASSERT_TRUE(none.has_value());
+  EXPECT_NEAR(none->tau_s, 0.01, 1e-12);
+  EXPECT_NEAR(none->first_start_s, 0, 1e-12);
+  EXPECT_NEAR(none->last_start_s, 1500, 1e-9);
+  EXPECT_GT(none->sigma, 0.002);  // sqrt(2 / (2 edf)) with edf ~ 4e4
+  EXPECT_LT(none->sigma, 0.01);
+  EXPECT_LT(std::fabs(none->ratio - 1), 3 * none->sigma);
+  for (size_t i = 150000; i < y.size(); ++i) y[i] *= 1.1f;
+  const Result<DynamicAllan> risen = ComputeDynamicAllan(y, 0.01);
+  ASSERT_TRUE(risen.ok());
+  const std::optional<LevelChange> change = ShortTauLevelChange(*risen);
+  ASSERT_TRUE(change.has_value());
+  EXPECT_LT(std::fabs(change->ratio - 1.1), 3 * change->sigma);
+  EXPECT_FALSE(ShortTauLevelChange(DynamicAllan{}).has_value());
+}
+
 // Invalid samples are gaps, counted per window.
 TEST(DynamicAllanTest, InvalidSamplesAreGaps) {
   std::vector<float> y = White(20000, 0.1, 3);
