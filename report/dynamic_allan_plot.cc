@@ -106,14 +106,9 @@ std::string DynamicAllanSvg(const allan::DynamicAllan& davar, const DynamicAllan
 
 Result<std::vector<std::string>> RunDynamicAllanSvgs(store::Archive& archive,
                                                      const std::string& run_id) {
-  auto key = archive.FindRunKey(run_id);
-  if (!key.ok()) return key.status();
-  if (!key->has_value()) return Status::NotFound("no run '" + run_id + "' in " + archive.path());
-  auto info = archive.LoadRun(run_id);
-  if (!info.ok()) return info.status();
-  if (!(info->nominal_rate_hz > 0) || !std::isfinite(info->nominal_rate_hz)) {
-    return Status::InvalidArgument("run '" + run_id + "' has no usable sample rate");
-  }
+  auto run = FindRunWithRate(archive, run_id);
+  if (!run.ok()) return run.status();
+  const store::RunInfo* info = &run->info;
   const double tau0 = 1 / info->nominal_rate_hz;
   pb::TestPlan plan;
   const bool have_plan = plan.ParseFromString(info->plan);
@@ -162,7 +157,7 @@ Result<std::vector<std::string>> RunDynamicAllanSvgs(store::Archive& archive,
       }
       return too_long;
     };
-    auto walk = WalkRunSamples(archive, **key, *info, visitor);
+    auto walk = WalkRunSamples(archive, run->key, *info, visitor);
     if (!walk.ok()) return walk.status();
     if (walk->first < 0) return Status::NotFound("run '" + run_id + "' has no archived sample");
     const bool accel = axis.kind == pb::ACCEL;

@@ -1089,38 +1089,36 @@ std::string UnitPlotsSection(const LotReportData& d) {
     // Its raw samples against time: where a step, a drift or a burst shows.
     const auto series = d.series.find(r->info.run_id);
     if (series == d.series.end()) continue;
-    // Then each axis's dynamic Allan deviation: which stretch of the record
-    // the curve's shape comes from.
-    const auto davar = d.davar.find(r->info.run_id);
-    const auto add_davar = [&] {
-      if (davar == d.davar.end()) return;
-      if (davar->second.status.ok()) {
-        for (const std::string& svg : davar->second.svgs) {
-          AllanPlot plot{"davar", "dynamic Allan deviation", svg};
-          Figure(plot, Attr("data-run", r->info.run_id) + Attr("data-plot", "davar"),
-                 "<strong>" + Esc(r->info.serial) + "</strong>: dynamic Allan deviation",
-                 &unit_figures);
-        }
-      } else if (davar->second.status.code() != Status::Code::kNotFound) {
-        Add(&unit_figures, "<figure", Attr("data-run", r->info.run_id), Attr("data-plot", "davar"),
-            "><figcaption><strong>", Esc(r->info.serial),
-            "</strong>: dynamic Allan deviation not drawn: ", Esc(davar->second.status.message()),
-            "</figcaption></figure>\n");
-      }
+    // A plot that could not be drawn (a damaged chunk) costs that plot only,
+    // not the lot's report, and says why.
+    const auto not_drawn = [&](const char* kind, const char* what, const Status& status) {
+      if (status.code() == Status::Code::kNotFound) return;
+      Add(&unit_figures, "<figure", Attr("data-run", r->info.run_id), Attr("data-plot", kind),
+          "><figcaption><strong>", Esc(r->info.serial), "</strong>: ", what, ": ",
+          Esc(status.message()), "</figcaption></figure>\n");
     };
     if (series->second.status.ok()) {
       AllanPlot plot{"series", "raw samples", series->second.svg};
       Figure(plot, Attr("data-run", r->info.run_id) + Attr("data-plot", "series"),
              "<strong>" + Esc(r->info.serial) + "</strong>: raw samples against time",
              &unit_figures);
-    } else if (series->second.status.code() != Status::Code::kNotFound) {
-      // A damaged chunk costs this plot only, not the lot's report.
-      Add(&unit_figures, "<figure", Attr("data-run", r->info.run_id), Attr("data-plot", "series"),
-          "><figcaption><strong>", Esc(r->info.serial),
-          "</strong>: raw samples not plotted: ", Esc(series->second.status.message()),
-          "</figcaption></figure>\n");
+    } else {
+      not_drawn("series", "raw samples not plotted", series->second.status);
     }
-    add_davar();
+    // Then each axis's dynamic Allan deviation: which stretch of the record
+    // the curve's shape comes from.
+    const auto davar = d.davar.find(r->info.run_id);
+    if (davar == d.davar.end()) continue;
+    if (!davar->second.status.ok()) {
+      not_drawn("davar", "dynamic Allan deviation not drawn", davar->second.status);
+      continue;
+    }
+    for (const std::string& svg : davar->second.svgs) {
+      AllanPlot plot{"davar", "dynamic Allan deviation", svg};
+      Figure(plot, Attr("data-run", r->info.run_id) + Attr("data-plot", "davar"),
+             "<strong>" + Esc(r->info.serial) + "</strong>: dynamic Allan deviation",
+             &unit_figures);
+    }
   }
   if (unit_figures.empty()) return "";
   std::string html;

@@ -1,6 +1,10 @@
 #include "report/run_samples.h"
 
+#include <cmath>
 #include <string>
+#include <utility>
+
+#include "common/strings.h"
 
 namespace imuqual::report {
 
@@ -37,6 +41,19 @@ Result<RunSampleWalk> WalkRunSamples(store::Archive& archive, int64_t run_key,
   if (!st.ok()) return st;
   walk.end = next;
   return walk;
+}
+
+Result<RunWithRate> FindRunWithRate(store::Archive& archive, const std::string& run_id) {
+  auto key = archive.FindRunKey(run_id);
+  if (!key.ok()) return key.status();
+  if (!key->has_value()) return Status::NotFound("no run '" + run_id + "' in " + archive.path());
+  auto info = archive.LoadRun(run_id);
+  if (!info.ok()) return info.status();
+  if (!(info->nominal_rate_hz > 0) || !std::isfinite(info->nominal_rate_hz)) {
+    return Status::InvalidArgument("run '" + run_id + "' has no usable sample rate (" +
+                                   ShortestReal(info->nominal_rate_hz) + " Hz): no time axis");
+  }
+  return RunWithRate{**key, std::move(*info)};
 }
 
 }  // namespace imuqual::report

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <string>
 
 #include "common/status.h"
 #include "store/archive.h"
@@ -39,6 +40,15 @@ inline constexpr double kLongestFilledGapS = 86400.0;
 // chunk's seq for an undecodable chunk, and pass on a visitor's error.
 Result<RunSampleWalk> WalkRunSamples(store::Archive& archive, int64_t run_key,
                                      const store::RunInfo& info, const RunSampleVisitor& visitor);
+
+// A stored run whose samples can be put on a time axis: its key and its
+// info. NotFound names the run; InvalidArgument when its sample rate is not
+// a positive number (no time axis).
+struct RunWithRate {
+  int64_t key = 0;
+  store::RunInfo info;
+};
+Result<RunWithRate> FindRunWithRate(store::Archive& archive, const std::string& run_id);
 
 }  // namespace imuqual::report
 

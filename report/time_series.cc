@@ -257,15 +257,9 @@ std::string TimeSeriesPlot::ToSvg(const EnvelopeBuilder& builder) const {
 }
 
 Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string& run_id) {
-  auto key = archive.FindRunKey(run_id);
-  if (!key.ok()) return key.status();
-  if (!key->has_value()) return Status::NotFound("no run '" + run_id + "' in " + archive.path());
-  auto info = archive.LoadRun(run_id);
-  if (!info.ok()) return info.status();
-  if (!(info->nominal_rate_hz > 0) || !std::isfinite(info->nominal_rate_hz)) {
-    return Status::InvalidArgument("run '" + run_id + "' has no usable sample rate (" +
-                                   ShortestReal(info->nominal_rate_hz) + " Hz): no time axis");
-  }
+  auto run = FindRunWithRate(archive, run_id);
+  if (!run.ok()) return run.status();
+  const store::RunInfo* info = &run->info;
   const size_t axes = info->axes.size();
   constexpr size_t kMaxBins = 600;
   EnvelopeBuilder builder(axes + 1, kMaxBins);  // the axes, then the temperature
@@ -287,7 +281,7 @@ Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string&
     samples += d.num_samples;
     return Status::Ok();
   };
-  auto walk = WalkRunSamples(archive, **key, *info, visitor);
+  auto walk = WalkRunSamples(archive, run->key, *info, visitor);
   if (!walk.ok()) return walk.status();
   if (samples == 0) return Status::NotFound("run '" + run_id + "' has no archived sample");
   TimeSeriesPlot plot;

@@ -309,14 +309,9 @@ TEST(NoiseModelTest, WorkedExampleSlopeReadoffs) {
   EXPECT_DOUBLE_EQ(b.value, min->bias_instability_ieee);
 }
 
-// GIVEN a pure white-noise curve (slope -1/2 everywhere) of a fully
-// overlapped record, WHEN N is read off its line, THEN the line fit has every
-// point, three terms and nothing left over (Birge ratio 0), and N's
-// uncertainty is positive and below the old conservative one (the mean of the
-// points' chi-square errors, as if fully correlated); with two points it
-// is their weighted mean's, with their white-noise correlation; a term with
-// no point on its slope has none.
-TEST(NoiseModelTest, SlopeReadoffUncertaintyOfTheWhiteLine) {
+// A pure white-noise curve (N = 0.1, slope -1/2 everywhere) of a fully
+// overlapped record of 10^5 samples at tau0 = 0.01 s, octave points 1..4096.
+Curve WhiteLineCurve() {
   Curve curve;
   curve.n_phase = 100001;
   curve.tau0_s = 0.01;
@@ -329,6 +324,18 @@ TEST(NoiseModelTest, SlopeReadoffUncertaintyOfTheWhiteLine) {
     p.stride = 1;
     curve.points.push_back(p);
   }
+  return curve;
+}
+
+// GIVEN a pure white-noise curve (slope -1/2 everywhere) of a fully
+// overlapped record, WHEN N is read off its line, THEN the line fit has every
+// point, three terms and nothing left over (Birge ratio 0), and N's
+// uncertainty is positive and below the old conservative one (the mean of the
+// points' chi-square errors, as if fully correlated); with two points it
+// is their weighted mean's, with their white-noise correlation; a term with
+// no point on its slope has none.
+TEST(NoiseModelTest, SlopeReadoffUncertaintyOfTheWhiteLine) {
+  Curve curve = WhiteLineCurve();
   const SlopeReadoff n = ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk);
   ASSERT_FALSE(n.upper_bound_only);
   double sum = 0;
@@ -370,18 +377,7 @@ TEST(NoiseModelTest, SlopeReadoffUncertaintyOfTheWhiteLine) {
 // not describe), WHEN N is read off, THEN the points' scatter shows in the
 // Birge ratio and the uncertainty grows with it.
 TEST(NoiseModelTest, SlopeReadoffUncertaintyGrowsWithTheLinesScatter) {
-  Curve curve;
-  curve.n_phase = 100001;
-  curve.tau0_s = 0.01;
-  for (int64_t m = 1; m <= 4096; m *= 2) {
-    CurvePoint p;
-    p.m = m;
-    p.tau_s = m * curve.tau0_s;
-    p.dev = 0.1 / std::sqrt(p.tau_s);
-    p.n = curve.n_phase - 2 * m;
-    p.stride = 1;
-    curve.points.push_back(p);
-  }
+  Curve curve = WhiteLineCurve();
   const SlopeReadoff clean = ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk);
   curve.points[6].dev *= 1.05;
   const SlopeReadoff bumped = ReadSlopeLine(curve, NoiseTerm::kAngleRandomWalk);
