@@ -231,6 +231,9 @@ int main(int argc, char** argv) {
   analyze_cmd->add_option("--stationarity", an.stationarity_level,
                           "scan the series for level steps and bursts at this false-alarm level "
                           "per record (calibrated on the series' own noise model), e.g. 0.01");
+  analyze_cmd->add_option("--stationarity-plan", an.stationarity_plan,
+                          "with --stationarity and --kind: scan against this plan's reference "
+                          "noise model (builtin:NAME or a .textproto) instead of the series' own");
   analyze_cmd->add_option("--kind", an.kind, "gyro or accel: datasheet units for the fit");
   analyze_cmd->add_option("--unit", an.unit,
                           "the values' unit, with --kind: gyro deg/s (default), rad/s, mrad/s, "

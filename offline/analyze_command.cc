@@ -14,6 +14,8 @@
 #include "analyze/allan/stationarity.h"
 #include "analyze/allan/tau_grid.h"
 #include "analyze/allan/units.h"
+#include "analyze/judge/plan_file.h"
+#include "analyze/judge/stationarity_measure.h"
 #include "common/log.h"
 #include "common/numeric_text.h"
 #include "common/strings.h"
@@ -94,6 +96,16 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
           "--stationarity must be a false-alarm level in (0, 0.5), e.g. 0.01");
     }
     if (o.type != "rate") return Status::InvalidArgument("--stationarity needs --type rate");
+  }
+  if (!o.stationarity_plan.empty()) {
+    if (o.stationarity_level == 0) {
+      return Status::InvalidArgument("--stationarity-plan needs --stationarity LEVEL");
+    }
+    if (o.kind.empty()) {
+      return Status::InvalidArgument(
+          "--stationarity-plan needs --kind gyro or accel (the plan's reference model of that "
+          "kind, in base units)");
+    }
   }
   if (!std::isfinite(o.scale) || o.scale == 0) {
     return Status::InvalidArgument("--scale must be a finite, non-zero number");
@@ -316,16 +328,21 @@ std::string PlotCurves(const std::vector<Curve>& curves, const allan::CompositeF
 }  // namespace
 
 // What the scan looked for and at which level, or why it could not.
-std::string StationaritySummary(const allan::StationarityScan& scan) {
+std::string StationaritySummary(const allan::StationarityScan& scan,
+                                const std::string& reference_source) {
   if (!scan.scanned) return "stationarity: not scanned: " + scan.note + "\n";
-  char text[512];
+  const std::string model = scan.models.empty() ? "?" : scan.models.front();
+  const std::string against = reference_source.empty()
+                                  ? model + " (the adequate candidate with the most wander)"
+                                  : model + " (the plan's reference: " + reference_source + ")";
+  char text[768];
   std::snprintf(
       text, sizeof text,
       "stationarity: level steps and bursts in %d bins of %.4g s against the noise model\n"
-      "%s (the adequate candidate with the most wander), false-alarm level %.3g per\n"
+      "%s, false-alarm level %.3g per\n"
       "record (calibrated on records drawn from that model), %d scan%s: %s\n",
-      scan.bins, scan.bin_s, scan.models.empty() ? "?" : scan.models.front().c_str(),
-      scan.false_alarm, scan.passes, scan.passes == 1 ? "" : "s",
+      scan.bins, scan.bin_s, against.c_str(), scan.false_alarm, scan.passes,
+      scan.passes == 1 ? "" : "s",
       scan.events.empty()
           ? "no event found"
           : (std::to_string(scan.events.size()) + (scan.events.size() == 1 ? " event" : " events"))
@@ -417,10 +434,32 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
 
   // The stationarity scan: the series as one axis, its own noise model.
   std::optional<allan::StationarityScan> scan;
+  std::string reference_source;  // the plan's reference model scanned against, if any
   if (o.stationarity_level > 0) {
     allan::StationarityOptions so;
     so.false_alarm = o.stationarity_level;
-    auto s = allan::ScanStationarityRefitting({std::span<const double>(*values)}, tau0, so);
+    Result<allan::StationarityScan> s = Status::NotFound("not scanned");
+    if (!o.stationarity_plan.empty()) {
+      auto plan = judge::LoadPlan(o.stationarity_plan);
+      if (!plan.ok()) {
+        LogError("--stationarity-plan: " + plan.status().message());
+        return 1;
+      }
+      const pb::AxisKind kind = o.kind == "accel" ? pb::ACCEL : pb::GYRO;
+      const pb::ReferenceNoiseModel* reference = judge::ReferenceModelFor(*plan, kind);
+      if (reference == nullptr) {
+        LogError("--stationarity-plan: " + o.stationarity_plan +
+                 " has no stationarity "
+                 "reference_model for " +
+                 pb::AxisKind_Name(kind) + " axes");
+        return 1;
+      }
+      s = allan::ScanStationarity({std::span<const double>(*values)},
+                                  {judge::ReferenceModel(*reference)}, tau0, so);
+      if (s.ok()) reference_source = reference->source();
+    } else {
+      s = allan::ScanStationarityRefitting({std::span<const double>(*values)}, tau0, so);
+    }
     if (!s.ok()) {
       LogError("--stationarity: " + s.status().message());
       return 1;
@@ -463,7 +502,7 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
           "2k(k+1)/(p-k-1); figures and IEEE terms are averaged with the weights)\n%s",
           CandidateTable(*fit).Render(Format::kTable).c_str());
     }
-    if (scan) std::printf("\n%s", StationaritySummary(*scan).c_str());
+    if (scan) std::printf("\n%s", StationaritySummary(*scan, reference_source).c_str());
     if (scan && !scan->events.empty()) {
       std::printf("%s", EventTable(*scan, p.kind).Render(Format::kTable).c_str());
     }

@@ -27,6 +27,9 @@ struct AnalyzeFileOptions {
   // Scan the series for level steps and bursts (analyze/allan/stationarity.h)
   // at this false-alarm level per record; 0: no scan.
   double stationarity_level = 0;
+  // With stationarity_level: scan against this plan's reference model of
+  // --kind (plan.proto Stationarity) instead of the series' own model.
+  std::string stationarity_plan;
   std::string kind;  // gyro, accel or "" (units of the fit report)
   // The values' unit (a gyro's deg/s, rad/s, mrad/s, deg/h, rpm; an
   // accelerometer's m/s^2, g, mg, ug; needs kind) and a factor (an LSB):

@@ -20,6 +20,9 @@ std::vector<MeasurementStats> ComputeLotStatistics(const std::vector<store::Meas
     // The parameters of each unit's own noise model: units with different
     // models have no common "gauss_markov_1" to average.
     if (r.name.starts_with(judge::kModelParameterPrefix)) continue;
+    // Each unit's own stationarity events (event_1 of one unit is not
+    // event_1 of another).
+    if (r.name.starts_with(judge::kEventPrefix)) continue;
     auto [it, inserted] = index.try_emplace({r.axis, r.name}, groups.size());
     if (inserted) {
       Group g;

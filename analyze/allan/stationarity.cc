@@ -21,14 +21,21 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-// A candidate regressor in d: +1 at `a`, and -1 at `b` when b >= 0 (indices
-// into d, the differenced bin means).
+// A candidate regressor in d: wa at `a`, and wb at `b` when b >= 0 (indices
+// into d, the differenced bin means). A step at the boundary before bin k is
+// +1 at k-1; one inside bin k moves that bin's mean by part of it, so a step
+// at its middle is +1/2 at k-1 and k (a step between boundaries would
+// otherwise read as two steps, each half of it, at the boundaries around
+// it); a burst is +1 at k-1 and -1 at k+w-1.
 struct Candidate {
   EventKind kind;
-  int k = 0;  // first bin after the boundary / first bin of the burst
+  int k = 0;  // first bin after the boundary / the bin holding the step / first bin of the burst
   int w = 0;  // burst length, bins (1 for a step)
   int a = 0;
   int b = -1;
+  double wa = 1;
+  double wb = -1;
+  double offset = 0;  // the event's time: (k + offset) bins
 };
 
 // One axis's GLS problem on the present differences.
@@ -74,12 +81,12 @@ class AxisGls {
     const int ia = Map(c.a), ib = c.b >= 0 ? Map(c.b) : -2;
     if (ia < 0 || ib == -1) return;
     // g'P g, g'P r, g'P X.
-    double gpg = p_(ia, ia), gpr = v_(ia);
-    Eigen::VectorXd gpx = px_.row(ia).transpose();
+    double gpg = c.wa * c.wa * p_(ia, ia), gpr = c.wa * v_(ia);
+    Eigen::VectorXd gpx = c.wa * px_.row(ia).transpose();
     if (ib >= 0) {
-      gpg += p_(ib, ib) - 2 * p_(ia, ib);
-      gpr -= v_(ib);
-      gpx -= px_.row(ib).transpose();
+      gpg += c.wb * c.wb * p_(ib, ib) + 2 * c.wa * c.wb * p_(ia, ib);
+      gpr += c.wb * v_(ib);
+      gpx += c.wb * px_.row(ib).transpose();
     }
     const double den2 = gpg - gpx.dot(m_ * gpx);
     if (!(den2 > 1e-12 * gpg)) return;
@@ -110,8 +117,8 @@ class AxisGls {
   int Map(int i) const { return i >= 0 && i < static_cast<int>(index_.size()) ? index_[i] : -1; }
   Eigen::VectorXd Sparse(const Candidate& c) const {
     Eigen::VectorXd g = Eigen::VectorXd::Zero(static_cast<int>(at_.size()));
-    if (Map(c.a) >= 0) g(Map(c.a)) += 1;
-    if (c.b >= 0 && Map(c.b) >= 0) g(Map(c.b)) -= 1;
+    if (Map(c.a) >= 0) g(Map(c.a)) += c.wa;
+    if (c.b >= 0 && Map(c.b) >= 0) g(Map(c.b)) += c.wb;
     return g;
   }
   void Refit() {
@@ -191,6 +198,63 @@ std::vector<double> BinMeans(std::span<const double> rate, int64_t bin_samples, 
   return mean;
 }
 
+BinAccumulator::BinAccumulator(int64_t base_samples) : base_(std::max<int64_t>(base_samples, 1)) {}
+
+void BinAccumulator::Append(std::span<const float> values, std::span<const uint8_t> invalid) {
+  for (size_t i = 0; i < values.size(); ++i) {
+    const size_t bin = static_cast<size_t>(samples_ / base_);
+    if (bin >= sum_.size()) {
+      sum_.push_back(0);
+      valid_.push_back(0);
+    }
+    if (!(i < invalid.size() && invalid[i]) && std::isfinite(values[i])) {
+      sum_[bin] += values[i];
+      ++valid_[bin];
+    }
+    ++samples_;
+    if (sum_.size() > static_cast<size_t>(kMaxBaseBins)) Merge();
+  }
+}
+
+void BinAccumulator::AppendMissing(int64_t count) {
+  if (count <= 0) return;
+  samples_ += count;
+  const size_t bins = static_cast<size_t>((samples_ + base_ - 1) / base_);
+  sum_.resize(bins, 0);
+  valid_.resize(bins, 0);
+  while (sum_.size() > static_cast<size_t>(kMaxBaseBins)) Merge();
+}
+
+void BinAccumulator::Merge() {
+  const size_t half = (sum_.size() + 1) / 2;
+  for (size_t i = 0; i < half; ++i) {
+    const size_t a = 2 * i, b = 2 * i + 1;
+    sum_[i] = sum_[a] + (b < sum_.size() ? sum_[b] : 0);
+    valid_[i] = valid_[a] + (b < valid_.size() ? valid_[b] : 0);
+  }
+  sum_.resize(half);
+  valid_.resize(half);
+  base_ *= 2;
+}
+
+std::vector<double> BinAccumulator::Means(int64_t* bin_samples) const {
+  const int64_t per = std::max<int64_t>(
+      1, std::llround(static_cast<double>(*bin_samples) / static_cast<double>(base_)));
+  *bin_samples = per * base_;
+  const int64_t bins = samples_ / *bin_samples;
+  std::vector<double> out(static_cast<size_t>(bins), kNaN);
+  for (int64_t k = 0; k < bins; ++k) {
+    double sum = 0;
+    int64_t valid = 0;
+    for (int64_t j = k * per; j < (k + 1) * per; ++j) {
+      sum += sum_[static_cast<size_t>(j)];
+      valid += valid_[static_cast<size_t>(j)];
+    }
+    if (2 * valid >= *bin_samples) out[static_cast<size_t>(k)] = sum / static_cast<double>(valid);
+  }
+  return out;
+}
+
 double PhaseStructureFunction(const CompositeModel& model, double tau0_s, double s) {
   if (!(s > 0)) return 0;
   double d = 0;
@@ -248,15 +312,39 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
       return Status::InvalidArgument("stationarity scan: the axes' records differ in length");
     }
   }
-  const int num_axes = static_cast<int>(axes.size());
-  StationarityScan scan;
-  scan.false_alarm = options.false_alarm;
   const double length_s = static_cast<double>(n) * tau0_s;
   const int64_t bin_samples = std::max<int64_t>(
       1, std::llround((options.bin_s > 0 ? options.bin_s : length_s / 300.0) / tau0_s));
   const double b = static_cast<double>(bin_samples) * tau0_s;
-  scan.bin_s = b;
   const int bins = static_cast<int>(static_cast<int64_t>(n) / bin_samples);
+  std::vector<std::vector<double>> means;
+  for (const auto& a : axes) means.push_back(BinMeans(a, bin_samples, bins));
+  return ScanBinMeans(means, models, tau0_s, b, options);
+}
+
+Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& means,
+                                      const std::vector<CompositeModel>& models, double tau0_s,
+                                      double bin_s, const StationarityOptions& options) {
+  IMUQUAL_RETURN_IF_ERROR(options.Validate());
+  if (means.empty()) return Status::InvalidArgument("stationarity scan needs at least one axis");
+  if (models.size() != means.size()) {
+    return Status::InvalidArgument("stationarity scan needs one noise model per axis");
+  }
+  if (!(tau0_s > 0) || !std::isfinite(tau0_s) || !(bin_s >= tau0_s) || !std::isfinite(bin_s)) {
+    return Status::InvalidArgument(
+        "stationarity scan needs a positive sample interval and bins of at least one sample");
+  }
+  for (const auto& m : means) {
+    if (m.size() != means.front().size()) {
+      return Status::InvalidArgument("stationarity scan: the axes' records differ in length");
+    }
+  }
+  const int num_axes = static_cast<int>(means.size());
+  StationarityScan scan;
+  scan.false_alarm = options.false_alarm;
+  const double b = bin_s;
+  scan.bin_s = b;
+  const int bins = static_cast<int>(means.front().size());
   scan.bins = bins;
   if (bins < options.min_bins) {
     char text[160];
@@ -271,6 +359,9 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
   // ninth of the record (the longest tau a fitted model has seen).
   std::vector<Candidate> candidates;
   for (int k = 1; k < bins; ++k) candidates.push_back({EventKind::kStep, k, 1, k - 1, -1});
+  for (int k = 1; k + 1 < bins; ++k) {
+    candidates.push_back({EventKind::kStep, k, 1, k - 1, k, 0.5, 0.5, 0.5});
+  }
   for (int w = 1; 9 * w <= bins; w *= 2) {
     for (int k = 1; k + w < bins; ++k) {
       candidates.push_back({EventKind::kBurst, k, w, k - 1, k + w - 1});
@@ -281,7 +372,7 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
   // Per axis: differenced bin means and the GLS problem.
   std::vector<AxisGls> gls;
   for (int a = 0; a < num_axes; ++a) {
-    const std::vector<double> mean = BinMeans(axes[a], bin_samples, bins);
+    const std::vector<double>& mean = means[a];
     std::vector<double> d(bins - 1);
     for (int i = 0; i + 1 < bins; ++i) d[i] = mean[i + 1] - mean[i];
     std::vector<double> cov(bins);
@@ -387,7 +478,7 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
         (draws + 1);
     StationarityEvent e;
     e.kind = best->kind;
-    e.time_s = best->k * b;
+    e.time_s = (best->k + best->offset) * b;
     e.window_s = best->w * b;
     e.joint = best_joint;
     e.p_adjusted = std::min(1.0, adjusted);
@@ -427,6 +518,11 @@ Result<CompositeModel> FitModelForScan(std::span<const double> rate, double tau0
       AveragingFactors(TauGridSpec{}, tau0_s, phase.size(), Deviation::kOadev, StopRule::kBins9);
   Curve curve = ComputeDeviation(phase, Deviation::kOadev, m);
   AttachConfidence(phase, CiMethod::kChi2, kOneSigmaConfidence, &curve);
+  return FitModelForScan(curve, most_wander);
+}
+
+Result<CompositeModel> FitModelForScan(const Curve& curve, bool most_wander) {
+  const double tau0_s = curve.tau0_s;
   GmwmOptions options;
   options.stop = StopRule::kNone;
   options.bootstrap_replicates = 0;
@@ -442,7 +538,7 @@ Result<CompositeModel> FitModelForScan(std::span<const double> rate, double tau0
   // of the record.
   // (A ramp is not variance here: the scan fits it as the constant of the
   // differenced bin means.)
-  const double long_m = static_cast<double>(rate.size()) / 3;
+  const double long_m = static_cast<double>(std::max<int64_t>(curve.n_phase - 1, 1)) / 3;
   const auto random_avar = [&](const CompositeModel& m) {
     double v = 0;
     for (const ModelTerm& t : m.terms) {

@@ -25,7 +25,10 @@
 // accepted event): with P = C^-1 and r the GLS residual of d on X,
 //   z = g'P r / sqrt(g'P g - g'P X (X'P X)^-1 X'P g),
 // standard normal for a stationary record of the axis's model. Candidates:
-// every boundary (steps) and bursts of w = 1, 2, 4, ... bins up to a ninth
+// every boundary and every bin's middle (steps: a step inside bin k moves
+// that bin's mean by part of it, +1/2 at k-1 and k for one at its middle;
+// with boundaries alone a step between them reads as two half steps) and
+// bursts of w = 1, 2, 4, ... bins up to a ninth
 // of the record (the bins-9 stop: the longest tau the model was fitted to);
 // joint: the group's sum of z^2 at one candidate, chi-square with A degrees
 // of freedom. The record's smallest p over every candidate of every family
@@ -149,6 +152,14 @@ Result<StationarityScan> ScanStationarity(const std::vector<std::span<const doub
                                           const std::vector<CompositeModel>& models, double tau0_s,
                                           const StationarityOptions& options = {});
 
+// The same scan of bin means already formed (means[a][i]: axis a's mean
+// over bin i of bin_s seconds, NaN where fewer than half its samples were
+// valid), e.g. accumulated while the record streamed in. tau0_s is the
+// samples' interval (the models' short-tau terms depend on it).
+Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& means,
+                                      const std::vector<CompositeModel>& models, double tau0_s,
+                                      double bin_s, const StationarityOptions& options = {});
+
 // A noise model of one axis's record, as the caller fits it.
 using StationarityModelFit =
     std::function<Result<CompositeModel>(std::span<const double> rate, double tau0_s)>;
@@ -163,6 +174,9 @@ using StationarityModelFit =
 // figures above).
 Result<CompositeModel> FitModelForScan(std::span<const double> rate, double tau0_s,
                                        bool most_wander = true);
+// The same from an OADEV curve of the record already computed (any grid to
+// the bins-9 stop; its n_phase gives the record's length).
+Result<CompositeModel> FitModelForScan(const Curve& curve, bool most_wander = true);
 
 // The scan with models fitted by `fit`. A step of size s in a record of
 // length T reads on the Allan curve as a random walk K ~ s / sqrt(T): a
@@ -189,6 +203,34 @@ void RemoveEvents(const StationarityScan& scan, int axis, double tau0_s, std::sp
 // Means of `bins` consecutive bins of `bin_samples` samples each; a bin
 // with fewer than half its samples finite is NaN.
 std::vector<double> BinMeans(std::span<const double> rate, int64_t bin_samples, int bins);
+
+// Bin sums of a record as it streams in, for ScanBinMeans without keeping
+// the samples: base bins of `base_samples` samples each (the sum and count
+// of the valid samples, and every sample's place, valid or not), two merged
+// into one whenever there would be more than kMaxBaseBins. Not thread-safe.
+class BinAccumulator {
+ public:
+  static constexpr int64_t kMaxBaseBins = 1 << 18;
+  explicit BinAccumulator(int64_t base_samples = 1);
+  // Samples in order; invalid[i] != 0 or a non-finite value: not valid.
+  void Append(std::span<const float> values, std::span<const uint8_t> invalid);
+  // Samples that never arrived.
+  void AppendMissing(int64_t count);
+  int64_t samples() const { return samples_; }
+  int64_t base_samples() const { return base_; }
+  // Means of the whole bins of `*bin_samples` samples (rounded to a
+  // multiple of the base, at least one base bin; the value used is written
+  // back), NaN where fewer than half the bin's samples were valid; a partial
+  // last bin is left out.
+  std::vector<double> Means(int64_t* bin_samples) const;
+
+ private:
+  void Merge();
+  int64_t base_;
+  int64_t samples_ = 0;
+  std::vector<double> sum_;     // per base bin
+  std::vector<int64_t> valid_;  // per base bin
+};
 
 // The phase structure function D(s) of the model (above), s > 0 seconds,
 // rate unit^2 s^2. Exposed for tests.

@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "analyze/judge/measurements.h"
+#include "analyze/judge/stationarity_measure.h"
 
 namespace imuqual::judge {
 namespace {
@@ -326,9 +327,27 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
   }
 
   Judgement j;
+  std::vector<std::string> qualifier_reasons;  // after the judged ones
   for (pb::Measurement& m : *measurements) {
     const AxisDesc* axis = m.axis().empty() ? nullptr : FindAxis(axes, m.axis());
     const pb::Limit* limit = FindLimit(effective, m.name(), axis);
+    if (limit == nullptr && axis != nullptr && m.name() == kStationarityEvents &&
+        plan.has_stationarity()) {
+      // No limit on the count: the plan's on_event judges it, and every
+      // event is named in the reasons whatever it does to the verdict.
+      const pb::Outcome o = StationarityOutcome(plan, m.value());
+      m.set_outcome(o);
+      m.set_decision_rule(pb::Limit::RULE_DEFAULT);
+      m.clear_guard_band();
+      const std::string what = m.axis() + ": stationarity: " + StationarityEventSummary(m);
+      const std::string action = pb::Stationarity::OnEvent_Name(plan.stationarity().on_event());
+      if (o != pb::OUTCOME_UNSET && o != pb::PASS) {
+        j.reasons.push_back(what + " (the plan's on_event: " + action + ")");
+      } else if (o == pb::OUTCOME_UNSET && m.value() != 0) {
+        qualifier_reasons.push_back(what + " (" + action + ": the verdict is the limits')");
+      }
+      continue;
+    }
     if (limit == nullptr || (!m.axis().empty() && axis == nullptr)) {
       m.set_outcome(pb::OUTCOME_UNSET);
       m.set_decision_rule(pb::Limit::RULE_DEFAULT);
@@ -340,6 +359,7 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
     if (!reason.empty()) j.reasons.push_back(reason);
   }
   j.verdict = VerdictOf(*measurements);
+  for (std::string& r : qualifier_reasons) j.reasons.push_back(std::move(r));
   return j;
 }
 

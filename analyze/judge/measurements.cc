@@ -34,6 +34,9 @@ const std::vector<MeasurementDef>& MeasurementCatalog() {
       {kGapFraction, true, "1", "1", "fraction of samples that never arrived"},
       {kInvalidFraction, true, "1", "1", "fraction of samples flagged invalid, NaN or saturated"},
       {kDuration, true, "s", "s", "analysed duration after warm-up"},
+      {kStationarityEvents, false, "1", "1",
+       "level steps and bursts the stationarity scan found on the axis (plans with "
+       "stationarity; not measurable when the record was too short to scan)"},
       {kDecisionTime, true, "s", "s",
        "analysed device time at which early decisions decided the unit (plans with "
        "early_decision; not measurable when it stayed pending to the end)"},

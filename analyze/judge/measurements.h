@@ -67,6 +67,15 @@ inline constexpr std::string_view kTemperatureSlope = "temperature_slope";
 // unit was decided; NaN, not measurable, when it stayed pending to the end.
 inline constexpr std::string_view kDecisionTime = "decision_time";
 
+// The stationarity scan (plans with `stationarity`, stationarity_measure.h):
+// the level steps and bursts found on an axis. Not catalogued (archived for
+// the record, the plots and audits; a plan judges the count): each event k
+// of the axis as "event_<k>" (its size, after - before, in bias_offset's
+// unit, with its 1-sigma), "event_<k>_time" (s from the end of the warm-up:
+// a step's boundary, a burst's start) and, for a burst, "event_<k>_end".
+inline constexpr std::string_view kStationarityEvents = "stationarity_events";
+inline constexpr std::string_view kEventPrefix = "event_";
+
 const std::vector<MeasurementDef>& MeasurementCatalog();
 // True for the measurements read off the noise model (fit_*,
 // noise_model_p_value): they exist only once the run has ended.

@@ -139,6 +139,7 @@ Status ValidateNoiseModelRange(const pb::TestPlan& plan, int i, const Locator& w
                                std::set<int>* kinds);
 Status ValidateSensorRange(const pb::TestPlan& plan, int i, const Locator& where,
                            std::set<int>* kinds);
+Status ValidateStationarity(const pb::TestPlan& plan, const Locator& where);
 
 // Every problem of the plan, each "LINE: path: problem" (or "path: problem"
 // without a source), field by field (rates and durations, axes, grid, rules,
@@ -210,8 +211,96 @@ std::vector<std::string> Problems(const pb::TestPlan& plan, const Locator& where
   for (int i = 0; i < plan.sensor_range_size(); ++i) {
     add(ValidateSensorRange(plan, i, where, &full_scale_kinds));
   }
+  add(ValidateStationarity(plan, where));
   for (int i = 0; i < plan.limits_size(); ++i) add(ValidateLimit(plan, i, where));
   return out;
+}
+
+// The stationarity block's first problem.
+Status ValidateStationarity(const pb::TestPlan& plan, const Locator& where) {
+  if (!plan.has_stationarity()) return Status::Ok();
+  const pb::Stationarity& s = plan.stationarity();
+  auto bad = [&](const std::string& path, const std::string& problem) {
+    return Fail(where, "stationarity", -1, "stationarity." + path, problem);
+  };
+  if (s.false_alarm() != 0 && !(s.false_alarm() >= 0.001 && s.false_alarm() < 0.5)) {
+    return bad("false_alarm", "must be in [0.001, 0.5) (0: 0.01), got " + Num(s.false_alarm()));
+  }
+  if (!(s.bin_s() >= 0 && Finite(s.bin_s()))) {
+    return bad("bin_s", "must be >= 0 s (0: the record's length / 300), got " + Num(s.bin_s()));
+  }
+  if (!pb::Stationarity::OnEvent_IsValid(s.on_event())) {
+    return bad("on_event", "unknown action " + std::to_string(s.on_event()));
+  }
+  std::set<int> kinds;
+  const double nyquist = plan.nominal_rate_hz() / 2;
+  for (int i = 0; i < s.reference_model_size(); ++i) {
+    const pb::ReferenceNoiseModel& r = s.reference_model(i);
+    const std::string path = "reference_model[" + std::to_string(i) + "]";
+    if (r.axis_kind() != pb::GYRO && r.axis_kind() != pb::ACCEL) {
+      return bad(path + ".axis_kind", "must be GYRO or ACCEL");
+    }
+    if (!kinds.insert(r.axis_kind()).second) {
+      return bad(path + ".axis_kind", "a second model for " + pb::AxisKind_Name(r.axis_kind()) +
+                                          " axes (one per axis kind)");
+    }
+    if (r.source().empty()) {
+      return bad(path + ".source", "must say where the model comes from (the record quotes it)");
+    }
+    for (auto [name, v] : {std::pair{"quantization", r.quantization()},
+                           {"random_walk", r.random_walk()},
+                           {"bias_instability", r.bias_instability()},
+                           {"rate_random_walk", r.rate_random_walk()},
+                           {"rate_ramp", r.rate_ramp()}}) {
+      if (!(v >= 0 && Finite(v))) {
+        return bad(path + "." + name, "must be a finite number >= 0, got " + Num(v));
+      }
+    }
+    for (int g = 0; g < r.gauss_markov_size(); ++g) {
+      const pb::GaussMarkov& gm = r.gauss_markov(g);
+      const std::string gp = path + ".gauss_markov[" + std::to_string(g) + "]";
+      if (!(gm.sigma() >= 0 && Finite(gm.sigma()))) {
+        return bad(gp + ".sigma", "must be a finite number >= 0, got " + Num(gm.sigma()));
+      }
+      if (!(gm.correlation_time_s() > 0 && Finite(gm.correlation_time_s()))) {
+        return bad(gp + ".correlation_time_s",
+                   "must be a finite number > 0 s, got " + Num(gm.correlation_time_s()));
+      }
+    }
+    for (int l = 0; l < r.sinusoids_size(); ++l) {
+      const pb::Sinusoid& line = r.sinusoids(l);
+      const std::string lp = path + ".sinusoids[" + std::to_string(l) + "]";
+      if (!(line.amplitude() >= 0 && Finite(line.amplitude()))) {
+        return bad(lp + ".amplitude", "must be a finite number >= 0, got " + Num(line.amplitude()));
+      }
+      if (!(line.frequency_hz() > 0 && line.frequency_hz() <= nyquist)) {
+        return bad(lp + ".frequency_hz", "must be in (0, " + Num(nyquist) +
+                                             "] Hz (the Nyquist frequency), got " +
+                                             Num(line.frequency_hz()));
+      }
+    }
+    const bool random = r.quantization() > 0 || r.random_walk() > 0 || r.bias_instability() > 0 ||
+                        r.rate_random_walk() > 0 ||
+                        std::any_of(r.gauss_markov().begin(), r.gauss_markov().end(),
+                                    [](const pb::GaussMarkov& g) { return g.sigma() > 0; });
+    if (!random) {
+      return bad(path,
+                 "has no random term (quantization, random_walk, bias_instability, "
+                 "rate_random_walk or gauss_markov): a scan needs noise to judge against");
+    }
+  }
+  if (s.on_event() != pb::Stationarity::QUALIFIER_ONLY) {
+    for (const pb::Axis& a : plan.axes()) {
+      if (a.kind() != pb::AXIS_KIND_UNSPECIFIED && !kinds.count(a.kind())) {
+        return bad("on_event", pb::Stationarity::OnEvent_Name(s.on_event()) +
+                                   " needs a reference_model for " + pb::AxisKind_Name(a.kind()) +
+                                   " axes (axis '" + a.name() +
+                                   "'): a verdict on an event needs a model from outside the "
+                                   "record, whose false-alarm rate holds");
+      }
+    }
+  }
+  return Status::Ok();
 }
 
 // Sensor range i's first problem; `kinds` collects the axis kinds seen.

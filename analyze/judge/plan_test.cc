@@ -111,6 +111,34 @@ TEST(PlanTest, RejectsBadPlans) {
       {"nominal_rate_hz: 100 sensor_range { axis_kind: GYRO full_scale: 300 } "
        "sensor_range { axis_kind: GYRO full_scale: 450 }",
        "sensor_range[1].axis_kind: a second range for GYRO axes"},
+      {"nominal_rate_hz: 100 stationarity { false_alarm: 0.6 }",
+       "stationarity.false_alarm: must be in [0.001, 0.5)"},
+      {"nominal_rate_hz: 100 stationarity { bin_s: -1 }", "stationarity.bin_s: must be >= 0 s"},
+      {"nominal_rate_hz: 100 stationarity { reference_model { random_walk: 0.01 source: \"s\" } }",
+       "stationarity.reference_model[0].axis_kind: must be GYRO or ACCEL"},
+      {"nominal_rate_hz: 100 stationarity { reference_model { axis_kind: GYRO random_walk: 0.01 } "
+       "}",
+       "stationarity.reference_model[0].source: must say where the model comes from"},
+      {"nominal_rate_hz: 100 stationarity { reference_model { axis_kind: GYRO source: \"s\" "
+       "rate_ramp: 1e-6 } }",
+       "stationarity.reference_model[0]: has no random term"},
+      {"nominal_rate_hz: 100 stationarity { reference_model { axis_kind: GYRO source: \"s\" "
+       "random_walk: -1 } }",
+       "stationarity.reference_model[0].random_walk: must be a finite number >= 0, got -1"},
+      {"nominal_rate_hz: 100 stationarity { reference_model { axis_kind: GYRO source: \"s\" "
+       "random_walk: 0.01 gauss_markov { sigma: 0.01 } } }",
+       "stationarity.reference_model[0].gauss_markov[0].correlation_time_s: must be a finite "
+       "number > 0 s"},
+      {"nominal_rate_hz: 100 stationarity { reference_model { axis_kind: GYRO source: \"s\" "
+       "random_walk: 0.01 sinusoids { amplitude: 0.01 frequency_hz: 60 } } }",
+       "stationarity.reference_model[0].sinusoids[0].frequency_hz: must be in (0, 50] Hz"},
+      {"nominal_rate_hz: 100 stationarity { reference_model { axis_kind: GYRO source: \"s\" "
+       "random_walk: 0.01 } reference_model { axis_kind: GYRO source: \"t\" random_walk: 0.02 } }",
+       "stationarity.reference_model[1].axis_kind: a second model for GYRO axes"},
+      {"nominal_rate_hz: 100 axes { name: \"x\" kind: GYRO } axes { name: \"ax\" kind: ACCEL } "
+       "stationarity { on_event: EVENT_FAIL reference_model { axis_kind: GYRO source: \"s\" "
+       "random_walk: 0.01 } }",
+       "stationarity.on_event: EVENT_FAIL needs a reference_model for ACCEL axes (axis 'ax')"},
   };
   for (const Case& c : cases) {
     const std::string err = ErrorOf(c.text);

@@ -11,6 +11,7 @@
 #include "analyze/judge/measure.h"
 #include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
+#include "analyze/judge/stationarity_measure.h"
 #include "common/shutdown.h"
 
 namespace imuqual::analyze {
@@ -102,6 +103,12 @@ Result<RunAnalyzer> RunAnalyzer::Create(RunDescription description, AnalyzerOpti
   so.density = options.density;
   IMUQUAL_RETURN_IF_ERROR(so.Validate());
   for (size_t i = 0; i < a.desc_.axes.size(); ++i) a.engines_.emplace_back(so);
+  if (a.desc_.plan.has_stationarity()) {
+    // Base bins of a second (at least a sample): the scan's bins are whole
+    // multiples of them, chosen once the record's length is known.
+    const int64_t base = std::max<int64_t>(1, std::llround(a.desc_.nominal_rate_hz));
+    a.bins_.assign(a.desc_.axes.size(), allan::BinAccumulator(base));
+  }
   a.sum_.assign(a.desc_.axes.size(), 0.0);
   a.count_.assign(a.desc_.axes.size(), 0);
   a.invalid_samples_.assign(a.desc_.axes.size(), 0);
@@ -133,6 +140,7 @@ void RunAnalyzer::Push(int64_t count_missing) {
     }
     const int64_t n = std::min(rest, UntilLook());
     for (allan::StreamingAllan& e : engines_) e.AppendMissing(n);
+    for (allan::BinAccumulator& b : bins_) b.AppendMissing(n);
     gap_samples_ += n;
     rest -= n;
     LookIfDue();
@@ -282,6 +290,7 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
       const std::span<const uint8_t> invalid =
           std::span<const uint8_t>(invalid_scratch_[a]).subspan(pos, len);
       engines_[a].Append(values, invalid);
+      if (!bins_.empty()) bins_[a].Append(values, invalid);
       for (size_t i = 0; i < len; ++i) {
         if (invalid[i] || !std::isfinite(values[i])) {
           ++invalid_samples_[a];
@@ -402,6 +411,30 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
     }
     for (pb::Measurement& m : model_of[a]) out.push_back(std::move(m));
     if (dense_curves) dense_curves->push_back(std::move(dense));
+  }
+  if (final && !bins_.empty()) {
+    // The stationarity scan of the record (every axis's bin means; the
+    // curves with their intervals for the reference check and the record's
+    // own model).
+    std::vector<allan::Curve> with_ci;
+    if (curves == nullptr) {
+      for (const allan::StreamingAllan& e : engines_) {
+        with_ci.push_back(e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kChi2,
+                                  allan::kOneSigmaConfidence));
+      }
+    }
+    int64_t bin_samples = judge::StationarityBinSamples(plan, engines_.front().samples(), tau0_s_);
+    std::vector<judge::StationarityAxis> scan_axes(axes);
+    for (size_t a = 0; a < axes; ++a) {
+      scan_axes[a].axis = desc_.axes[a];
+      scan_axes[a].bin_means = bins_[a].Means(&bin_samples);
+      scan_axes[a].curve =
+          curves != nullptr ? &(*curves)[curves->size() - axes + a].second : &with_ci[a];
+    }
+    for (pb::Measurement& m : judge::MeasureStationarity(
+             plan, scan_axes, static_cast<double>(bin_samples) * tau0_s_, tau0_s_)) {
+      out.push_back(std::move(m));
+    }
   }
   const int64_t samples = engines_.front().samples();
   int64_t invalid = 0;

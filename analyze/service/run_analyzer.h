@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "analyze/allan/curve.h"
+#include "analyze/allan/stationarity.h"
 #include "analyze/allan/streaming.h"
 #include "analyze/judge/early_decision.h"
 #include "analyze/judge/judge.h"
@@ -167,6 +168,8 @@ class RunAnalyzer {
   std::vector<int64_t> invalid_samples_;  // per axis, after warm-up
   int64_t batches_ = 0;
   std::vector<allan::StreamingAllan> engines_;
+  // Bin sums per axis for the stationarity scan (plans with stationarity).
+  std::vector<allan::BinAccumulator> bins_;
   std::vector<double> sum_;  // per axis, valid samples after warm-up
   std::vector<int64_t> count_;
   std::vector<std::vector<uint8_t>> invalid_scratch_;  // per axis

@@ -377,6 +377,122 @@ TEST(RunAnalyzerTest, EarlyDecisionStateIsReadableBetweenBatches) {
   EXPECT_EQ(out.judgement.verdict, pb::PASS);
 }
 
+// A plan scanning for events against white-noise reference models (the
+// truth of the samples below), with `action` on an event.
+RunDescription StationarityDesc(pb::Stationarity::OnEvent action) {
+  RunDescription d = Desc(10);
+  pb::Stationarity* st = d.plan.mutable_stationarity();
+  st->set_on_event(action);
+  for (pb::AxisKind kind : {pb::GYRO, pb::ACCEL}) {
+    pb::ReferenceNoiseModel* r = st->add_reference_model();
+    r->set_axis_kind(kind);
+    r->set_source("white noise of the test's samples");
+    r->set_random_walk(0.01);  // sd 0.1 at 100 Hz
+  }
+  return d;
+}
+
+// 40 min of white noise (sd 0.1) after a 10 s warm-up on both axes, with
+// `step` added to x from `step_at_s` after the warm-up on, and the batches
+// of [gap_from_s, gap_from_s + 30 s) lost.
+RunOutcome WhiteRun(const RunDescription& d, double step, double step_at_s, double gap_from_s) {
+  auto a = RunAnalyzer::Create(d);
+  EXPECT_TRUE(a.ok());
+  std::mt19937_64 rng(42);
+  std::normal_distribution<double> g(0, 0.1);
+  const int per_batch = 100, batches = 2410;
+  for (int seq = 0; seq < batches; ++seq) {
+    Batch b(seq, seq * per_batch, per_batch);
+    for (int i = 0; i < per_batch; ++i) {
+      const double t = (seq * per_batch + i) / kRate - 10;  // after the warm-up
+      b.x[i] = static_cast<float>(g(rng) + (t >= step_at_s ? step : 0));
+      b.a[i] = static_cast<float>(9.8 + g(rng));
+    }
+    const double t0 = seq - 10.0;
+    if (t0 >= gap_from_s && t0 < gap_from_s + 30) continue;
+    EXPECT_TRUE(a->AddBatch(b.view).ok());
+  }
+  a->Finish(0, batches * per_batch);
+  return a->Outcome(true);
+}
+
+const pb::Measurement* Find(const RunOutcome& out, std::string_view axis, std::string_view name) {
+  for (const pb::Measurement& m : out.measurements) {
+    if (m.axis() == axis && m.name() == name) return &m;
+  }
+  return nullptr;
+}
+
+TEST(RunAnalyzerTest, ALevelStepIsFoundArchivedAndJudgedAsThePlanSays) {
+  // GIVEN white noise whose 8 s bin means have sd 0.0035 deg/s, a step of
+  // 0.035 deg/s (10 of them) on x at 1203 s after the warm-up, 30 s of
+  // batches lost at 600 s, under a plan whose events make a unit MARGINAL
+  const RunOutcome out =
+      WhiteRun(StationarityDesc(pb::Stationarity::EVENT_MARGINAL), 0.035, 1203, 600);
+  // THEN x has one event, a level step of +126 deg/h (0.035 deg/s) within
+  // 3 sigma, at the bin edge nearest 1203 s; ax has none
+  const pb::Measurement* x = Find(out, "x", judge::kStationarityEvents);
+  const pb::Measurement* ax = Find(out, "ax", judge::kStationarityEvents);
+  ASSERT_NE(x, nullptr);
+  ASSERT_NE(ax, nullptr);
+  EXPECT_EQ(x->value(), 1) << x->note();
+  EXPECT_EQ(ax->value(), 0) << ax->note();
+  EXPECT_NE(x->note().find("level step +12"), std::string::npos) << x->note();
+  EXPECT_NE(x->note().find("white noise of the test's samples"), std::string::npos);
+  const pb::Measurement* size = Find(out, "x", "event_1");
+  const pb::Measurement* time = Find(out, "x", "event_1_time");
+  ASSERT_NE(size, nullptr);
+  ASSERT_NE(time, nullptr);
+  EXPECT_EQ(size->unit(), "deg/h");
+  ASSERT_TRUE(size->has_uncertainty());
+  EXPECT_GT(size->uncertainty(), 0);
+  EXPECT_LT(std::abs(size->value() - 126), 3 * size->uncertainty());
+  EXPECT_LE(std::abs(time->value() - 1203), 8.01);
+  EXPECT_EQ(Find(out, "ax", "event_1"), nullptr);
+  // AND the plan's action: x MARGINAL with the event named, ax PASS
+  EXPECT_EQ(x->outcome(), pb::MARGINAL);
+  EXPECT_EQ(ax->outcome(), pb::PASS);
+  EXPECT_EQ(out.judgement.verdict, pb::MARGINAL);
+  ASSERT_FALSE(out.judgement.reasons.empty());
+  EXPECT_NE(out.judgement.reasons.back().find("x: stationarity: 1 event: level step"),
+            std::string::npos)
+      << out.judgement.reasons.back();
+}
+
+TEST(RunAnalyzerTest, AnEventUnderQualifierOnlyIsNamedButLeavesTheVerdict) {
+  const RunOutcome out =
+      WhiteRun(StationarityDesc(pb::Stationarity::QUALIFIER_ONLY), 0.035, 1203, 600);
+  const pb::Measurement* x = Find(out, "x", judge::kStationarityEvents);
+  ASSERT_NE(x, nullptr);
+  EXPECT_EQ(x->value(), 1);
+  EXPECT_EQ(x->outcome(), pb::OUTCOME_UNSET);
+  EXPECT_NE(out.judgement.verdict, pb::MARGINAL);
+  ASSERT_EQ(out.judgement.reasons.size(), 1u);
+  EXPECT_NE(out.judgement.reasons[0].find("QUALIFIER_ONLY"), std::string::npos);
+}
+
+TEST(RunAnalyzerTest, AStationaryRecordHasNoEventAndPasses) {
+  const RunOutcome out = WhiteRun(StationarityDesc(pb::Stationarity::EVENT_FAIL), 0, 0, 600);
+  for (std::string_view axis : {"x", "ax"}) {
+    const pb::Measurement* m = Find(out, axis, judge::kStationarityEvents);
+    ASSERT_NE(m, nullptr);
+    EXPECT_EQ(m->value(), 0) << m->note();
+    EXPECT_EQ(m->outcome(), pb::PASS);
+    // The record's curve lies on the reference: the bound on the rate holds.
+    EXPECT_NE(m->note().find("within 2 sigma of the reference"), std::string::npos) << m->note();
+  }
+}
+
+TEST(RunAnalyzerTest, WithoutAReferenceTheRecordsOwnModelIsScanned) {
+  RunDescription d = StationarityDesc(pb::Stationarity::QUALIFIER_ONLY);
+  d.plan.mutable_stationarity()->clear_reference_model();
+  const RunOutcome out = WhiteRun(d, 0.035, 1203, 600);
+  const pb::Measurement* x = Find(out, "x", judge::kStationarityEvents);
+  ASSERT_NE(x, nullptr);
+  EXPECT_NE(x->note().find("the model fitted to this record"), std::string::npos) << x->note();
+  EXPECT_NE(x->note().find("not held"), std::string::npos);
+}
+
 TEST(RunAnalyzerTest, TemperatureOfTheAnalysedBatchesIsMeasuredAndLimited) {
   // GIVEN a 10 s warm-up and 60 one-second batches whose temperature climbs
   // 0.05 deg C per batch from 20 deg C (the warm-up's readings are 30 deg C,

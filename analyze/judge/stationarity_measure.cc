@@ -1,0 +1,283 @@
+#include "analyze/judge/stationarity_measure.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "analyze/allan/stationarity.h"
+#include "analyze/allan/units.h"
+#include "analyze/judge/measurements.h"
+
+namespace imuqual::judge {
+namespace {
+
+constexpr char kScanSeparator[] = ". Scan: ";
+
+std::string Fmt(const char* format, double v) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+// Bias units: deg/h for a gyro, ug for an accelerometer (bias_offset's).
+double ToBiasUnit(double v, pb::AxisKind kind) {
+  return kind == pb::ACCEL ? allan::MetersPerSecSqToMicroG(v) : allan::DegPerSecToDegPerHour(v);
+}
+std::string BiasUnit(pb::AxisKind kind) { return kind == pb::ACCEL ? "ug" : "deg/h"; }
+
+std::string KindWord(pb::AxisKind kind) { return kind == pb::ACCEL ? "accelerometer" : "gyro"; }
+
+pb::Measurement Make(const std::string& axis, const std::string& name, double value,
+                     const std::string& unit, const std::string& note) {
+  pb::Measurement m;
+  m.set_axis(axis);
+  m.set_name(name);
+  m.set_value(value);
+  m.set_unit(unit);
+  m.set_note(note);
+  return m;
+}
+
+// "level step +167 ± 12 deg/h at 3132 s" / "burst +40 ± 10 deg/h over 600 s from 5000 s".
+std::string EventText(const allan::StationarityEvent& e, const allan::EventAxis& a,
+                      pb::AxisKind kind) {
+  const std::string size = Fmt("%+.3g", ToBiasUnit(a.size, kind)) + " \u00b1 " +
+                           Fmt("%.2g", ToBiasUnit(a.sigma, kind)) + " " + BiasUnit(kind);
+  if (e.kind == allan::EventKind::kStep) {
+    return "level step " + size + " at " + Fmt("%.0f", e.time_s) + " s";
+  }
+  return "burst " + size + " over " + Fmt("%.0f", e.window_s) + " s from " + Fmt("%.0f", e.time_s) +
+         " s";
+}
+
+// Whether the record's curve lies below the reference (the condition under
+// which the scan's false-alarm rate is bounded), as a sentence.
+std::string EnvelopeCheck(const allan::Curve* curve, const allan::CompositeModel& reference) {
+  if (curve == nullptr || curve->points.empty()) return "";
+  double worst = 0, worst_tau = 0;
+  bool above = false;
+  double above_tau = 0;
+  for (const allan::CurvePoint& p : curve->points) {
+    if (!(p.dev > 0)) continue;
+    const double ref = reference.Deviation(static_cast<double>(p.m), curve->tau0_s);
+    if (!(ref > 0)) continue;
+    if (p.dev / ref > worst) {
+      worst = p.dev / ref;
+      worst_tau = p.tau_s;
+    }
+    // Above by more than twice its 1-sigma (the lower 1-sigma bound's distance).
+    if (std::isfinite(p.lo) && 2 * p.lo - p.dev > ref && !above) {
+      above = true;
+      above_tau = p.tau_s;
+    }
+  }
+  if (!(worst > 0)) return "";
+  if (above) {
+    return "; the record's curve lies above the reference (first at " + Fmt("%.3g", above_tau) +
+           " s, by more than 2 sigma; at most " + Fmt("%.3g", worst) + " x its deviation at " +
+           Fmt("%.3g", worst_tau) +
+           " s): this unit's noise is not below the reference, and the scan's false-alarm rate "
+           "is not bounded for it";
+  }
+  return "; the record's curve lies within 2 sigma of the reference or below it (at most " +
+         Fmt("%.3g", worst) + " x its deviation, at " + Fmt("%.3g", worst_tau) +
+         " s), as the bound on the false-alarm rate needs";
+}
+
+}  // namespace
+
+allan::CompositeModel ReferenceModel(const pb::ReferenceNoiseModel& r) {
+  using allan::TermKind;
+  allan::CompositeModel m;
+  auto add = [&](TermKind kind, double scale, double t = 0, double f = 0) {
+    if (scale > 0) m.terms.push_back({kind, scale, t, f});
+  };
+  add(TermKind::kQuantization, r.quantization());
+  add(TermKind::kWhite, r.random_walk());
+  add(TermKind::kFlicker, r.bias_instability());
+  add(TermKind::kRandomWalk, r.rate_random_walk());
+  add(TermKind::kDrift, r.rate_ramp());
+  for (const pb::GaussMarkov& g : r.gauss_markov()) {
+    add(TermKind::kGaussMarkov, g.sigma(), g.correlation_time_s());
+  }
+  for (const pb::Sinusoid& l : r.sinusoids()) {
+    add(TermKind::kSinusoid, l.amplitude(), 0, l.frequency_hz());
+  }
+  return m;
+}
+
+const pb::ReferenceNoiseModel* ReferenceModelFor(const pb::TestPlan& plan, pb::AxisKind kind) {
+  for (const pb::ReferenceNoiseModel& r : plan.stationarity().reference_model()) {
+    if (r.axis_kind() == kind) return &r;
+  }
+  return nullptr;
+}
+
+int64_t StationarityBinSamples(const pb::TestPlan& plan, int64_t samples, double tau0_s) {
+  const double bin_s = plan.stationarity().bin_s() > 0
+                           ? plan.stationarity().bin_s()
+                           : static_cast<double>(samples) * tau0_s / 300.0;
+  return std::max<int64_t>(1, std::llround(bin_s / tau0_s));
+}
+
+pb::Outcome StationarityOutcome(const pb::TestPlan& plan, double events) {
+  const pb::Stationarity::OnEvent action = plan.stationarity().on_event();
+  if (action == pb::Stationarity::QUALIFIER_ONLY) return pb::OUTCOME_UNSET;
+  if (!std::isfinite(events)) return pb::INCONCLUSIVE;
+  if (events < 1) return pb::PASS;
+  switch (action) {
+    case pb::Stationarity::EVENT_MARGINAL:
+      return pb::MARGINAL;
+    case pb::Stationarity::EVENT_FAIL:
+      return pb::FAIL;
+    default:
+      return pb::INCONCLUSIVE;
+  }
+}
+
+std::string StationarityEventSummary(const pb::Measurement& events) {
+  const std::string& note = events.note();
+  const size_t cut = note.find(kScanSeparator);
+  return cut == std::string::npos ? note : note.substr(0, cut);
+}
+
+std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
+                                                 const std::vector<StationarityAxis>& axes,
+                                                 double bin_s, double tau0_s) {
+  std::vector<pb::Measurement> out;
+  if (!plan.has_stationarity()) return out;
+  const pb::Stationarity& st = plan.stationarity();
+  allan::StationarityOptions options;
+  if (st.false_alarm() > 0) options.false_alarm = st.false_alarm();
+  std::vector<std::vector<pb::Measurement>> per_axis(axes.size());
+  for (const pb::AxisKind kind : {pb::GYRO, pb::ACCEL}) {
+    std::vector<size_t> group;
+    for (size_t a = 0; a < axes.size(); ++a) {
+      if (axes[a].axis.kind == kind) group.push_back(a);
+    }
+    if (group.empty()) continue;
+    const auto not_measurable = [&](const std::string& why) {
+      for (size_t a : group) {
+        pb::Measurement m = Make(axes[a].axis.name, std::string(kStationarityEvents), allan::kNaN,
+                                 "1", "not scanned: " + why);
+        m.set_qualifier(pb::NOT_MEASURABLE);
+        m.set_uncertainty_method("none: a count");
+        per_axis[a].push_back(std::move(m));
+      }
+    };
+    const pb::ReferenceNoiseModel* reference = ReferenceModelFor(plan, kind);
+    std::vector<allan::CompositeModel> models;
+    std::string failed;
+    for (size_t a : group) {
+      if (reference != nullptr) {
+        models.push_back(ReferenceModel(*reference));
+        continue;
+      }
+      if (axes[a].curve == nullptr) {
+        failed = "no Allan curve of axis " + axes[a].axis.name + " to fit a model to";
+        break;
+      }
+      auto fit = allan::FitModelForScan(*axes[a].curve);
+      if (!fit.ok()) {
+        failed = "no noise model of axis " + axes[a].axis.name + ": " + fit.status().message();
+        break;
+      }
+      models.push_back(*fit);
+    }
+    if (!failed.empty()) {
+      not_measurable(failed);
+      continue;
+    }
+    std::vector<std::vector<double>> means;
+    for (size_t a : group) means.push_back(axes[a].bin_means);
+    auto scan = allan::ScanBinMeans(means, models, tau0_s, bin_s, options);
+    if (!scan.ok()) {
+      not_measurable(scan.status().message());
+      continue;
+    }
+    if (!scan->scanned) {
+      not_measurable(scan->note);
+      continue;
+    }
+    // What the scan was, the same for every axis of the group but the model.
+    const auto scan_text = [&](size_t i) {
+      std::string t =
+          std::to_string(scan->bins) + " bins of " + Fmt("%.4g", scan->bin_s) + " s against ";
+      if (reference != nullptr) {
+        t += "the plan's reference model " + models[i].Name() + " (" + reference->source() + ")";
+      } else {
+        t += "the model fitted to this record, " + models[i].Name() +
+             " (the adequate candidate with the most wander; a record's own model can explain "
+             "a step away or read its wander as one, so the false-alarm level is not held)";
+      }
+      t += ", false-alarm level " + Fmt("%g", scan->false_alarm) + " per run for the " +
+           KindWord(kind) + " axes together (threshold p " + Fmt("%.2g", scan->threshold_p) +
+           ", calibrated on records drawn from the model)";
+      if (reference != nullptr) t += EnvelopeCheck(axes[group[i]].curve, models[i]);
+      return t;
+    };
+    for (size_t i = 0; i < group.size(); ++i) {
+      const size_t a = group[i];
+      const AxisDesc& axis = axes[a].axis;
+      std::vector<std::string> texts;
+      std::vector<pb::Measurement> details;
+      for (const allan::StationarityEvent& e : scan->events) {
+        const allan::EventAxis& ea = e.axes[i];
+        if (!ea.named) continue;
+        const int k = static_cast<int>(texts.size()) + 1;
+        texts.push_back(EventText(e, ea, kind));
+        const std::string name = std::string(kEventPrefix) + std::to_string(k);
+        std::string with;
+        if (e.joint) {
+          for (size_t j = 0; j < group.size(); ++j) {
+            if (j != i && e.axes[j].named)
+              with += (with.empty() ? "" : ", ") + axes[group[j]].axis.name;
+          }
+        }
+        pb::Measurement size =
+            Make(axis.name, name, ToBiasUnit(ea.size, kind), BiasUnit(kind),
+                 texts.back() + " from the end of the warm-up (z " + Fmt("%.2g", ea.z) +
+                     " at detection; p " + Fmt("%.2g", e.p_adjusted) +
+                     " over every candidate of the scan)" +
+                     (e.joint ? "; found on the " + KindWord(kind) + " axes together" +
+                                    (with.empty() ? "" : ", also on " + with)
+                              : ""));
+        size.set_uncertainty(ToBiasUnit(ea.sigma, kind));
+        size.set_uncertainty_method(
+            "GLS under the scan's noise model " + models[i].Name() +
+            ", jointly with the axis's other events (size: after - before)");
+        details.push_back(std::move(size));
+        pb::Measurement time =
+            Make(axis.name, name + "_time", e.time_s, "s",
+                 std::string(e.kind == allan::EventKind::kStep ? "the step's boundary"
+                                                               : "the burst's start") +
+                     ", s from the end of the warm-up");
+        time.set_uncertainty_method("none: a bin edge (the scan resolves time to its bins of " +
+                                    Fmt("%.4g", scan->bin_s) + " s)");
+        details.push_back(std::move(time));
+        if (e.kind == allan::EventKind::kBurst) {
+          pb::Measurement end = Make(axis.name, name + "_end", e.time_s + e.window_s, "s",
+                                     "the burst's end, s from the end of the warm-up");
+          end.set_uncertainty_method(details.back().uncertainty_method());
+          details.push_back(std::move(end));
+        }
+      }
+      std::string summary = texts.empty() ? "no level step or burst found"
+                                          : std::to_string(texts.size()) +
+                                                (texts.size() == 1 ? " event: " : " events: ");
+      for (size_t t = 0; t < texts.size(); ++t) summary += (t ? "; " : "") + texts[t];
+      pb::Measurement count =
+          Make(axis.name, std::string(kStationarityEvents), static_cast<double>(texts.size()), "1",
+               summary + kScanSeparator + scan_text(i));
+      count.set_uncertainty_method("none: a count");
+      per_axis[a].push_back(std::move(count));
+      for (pb::Measurement& d : details) per_axis[a].push_back(std::move(d));
+    }
+  }
+  for (auto& list : per_axis) {
+    for (pb::Measurement& m : list) out.push_back(std::move(m));
+  }
+  return out;
+}
+
+}  // namespace imuqual::judge

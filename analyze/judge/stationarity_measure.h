@@ -1,0 +1,72 @@
+// The stationarity scan of a run as measurements (plans with
+// `stationarity`, plan.proto): the axes of each kind scanned together
+// (analyze/allan/stationarity.h) against the plan's reference model of the
+// kind, else against the model fitted to the axis's own record (the
+// adequate candidate with the most wander: FitModelForScan), and what was
+// found, per axis:
+//   stationarity_events  the number of events named on the axis (judged by
+//                        a limit on it, else by the plan's on_event);
+//                        the note lists them and says what the scan was
+//                        (bins, model and its source, false-alarm level,
+//                        and whether the unit's curve lies below the
+//                        reference: the rate is bounded only for such units)
+//   event_<k>            the event's size (after - before; a burst: its
+//                        departure), bias_offset's unit, with its 1-sigma
+//   event_<k>_time       s from the end of the warm-up (a step's boundary,
+//                        a burst's start)
+//   event_<k>_end        a burst's end
+// Pure.
+#ifndef IMUQUAL_ANALYZE_JUDGE_STATIONARITY_MEASURE_H_
+#define IMUQUAL_ANALYZE_JUDGE_STATIONARITY_MEASURE_H_
+
+#include <string>
+#include <vector>
+
+#include "analyze/allan/composite_model.h"
+#include "analyze/allan/curve.h"
+#include "analyze/judge/judge.h"
+#include "imuqual/plan.pb.h"
+#include "imuqual/record.pb.h"
+
+namespace imuqual::judge {
+
+// The plan's reference model as a composite model (base units).
+allan::CompositeModel ReferenceModel(const pb::ReferenceNoiseModel& reference);
+
+// The plan's reference model of an axis kind, nullptr if it has none.
+const pb::ReferenceNoiseModel* ReferenceModelFor(const pb::TestPlan& plan, pb::AxisKind kind);
+
+// One axis's record as the scan reads it.
+struct StationarityAxis {
+  AxisDesc axis;
+  std::vector<double>
+      bin_means;  // deg/s or m/s^2; NaN: a bin with fewer than half its samples valid
+  const allan::Curve* curve = nullptr;  // the record's OADEV (chi-square 1-sigma intervals)
+};
+
+// The scan's measurements of every axis (above), in the axes' order; every
+// axis gets its stationarity_events, not measurable (NaN, the note says why)
+// when the record is too short or no model could be had. `bin_s`: the bins'
+// length, `tau0_s` the samples' interval. Does nothing without the plan's
+// stationarity block.
+std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
+                                                 const std::vector<StationarityAxis>& axes,
+                                                 double bin_s, double tau0_s);
+
+// The bins a plan's scan wants for an analysed record of `samples` at
+// `tau0_s`: the plan's bin_s, else the record's length / 300, in samples.
+int64_t StationarityBinSamples(const pb::TestPlan& plan, int64_t samples, double tau0_s);
+
+// What a found event does under the plan's on_event when no limit judges
+// stationarity_events: the outcome of a count (PASS for none; a not
+// measurable count is INCONCLUSIVE) and, for QUALIFIER_ONLY, UNSET.
+pb::Outcome StationarityOutcome(const pb::TestPlan& plan, double events);
+
+// A stationarity_events measurement's events as its note lists them ("1
+// event: level step +167 ± 12 deg/h at 3132 s"), without the scan's
+// description.
+std::string StationarityEventSummary(const pb::Measurement& events);
+
+}  // namespace imuqual::judge
+
+#endif  // IMUQUAL_ANALYZE_JUDGE_STATIONARITY_MEASURE_H_
