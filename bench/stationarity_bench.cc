@@ -27,6 +27,14 @@ namespace {
 
 struct Rates {
   int records = 0, alarms = 0, planted = 0, found = 0, misplaced = 0;
+  // Per group of axes of one kind (the level the plan states): groups
+  // scanned and those with an event, of the units counted in `records`.
+  int groups = 0, group_alarms = 0;
+  // With --envelope: records of units with a term above the reference (the
+  // profile's planted failures), whose rate the reference does not bound.
+  int above_records = 0, above_alarms = 0;
+  // Of those, the profile's planted failures (bias instability x4, K x3).
+  int failing_records = 0, failing_alarms = 0;
 };
 
 // 'g' for a gyro axis (gx, gy, gz, or any other name), 'a' for an accelerometer (ax, ay, az).
@@ -68,7 +76,7 @@ double BinMeanSd(const std::vector<double>& y, double tau0_s, double bin_s) {
 }
 
 Rates Run(const std::string& profile_name, int seeds, double duration_s, double step_sigmas,
-          bool verbose, bool true_models, bool typical_models, bool most_wander) {
+          bool verbose, bool true_models, bool typical_models, bool most_wander, double envelope) {
   Rates r;
   auto profile = sim::LotProfileByName(profile_name);
   if (!profile.ok()) return r;
@@ -97,6 +105,10 @@ Rates Run(const std::string& profile_name, int seeds, double duration_s, double 
           if (KindOf(truth.axes(a)) != kind) continue;
           group.emplace_back(data[a]);
           models.push_back(TrueModel(typical_models ? profile->axes[a].typical : truth.axes(a)));
+          // A plan's reference: the typical unit with every term scaled up.
+          if (envelope > 0) {
+            for (allan::ModelTerm& t : models.back().terms) t.scale *= envelope;
+          }
         }
         if (group.empty()) continue;
         auto s = true_models || typical_models
@@ -113,7 +125,32 @@ Rates Run(const std::string& profile_name, int seeds, double duration_s, double 
     ++r.records;
     bool alarm = false;
     for (const auto& s : scans) alarm = alarm || !s.events.empty();
-    r.alarms += alarm ? 1 : 0;
+    // A unit above the envelope in some term: its rate is not bounded.
+    bool above = false;
+    if (envelope > 0) {
+      for (int a = 0; a < axes; ++a) {
+        const allan::CompositeModel unit = TrueModel(truth.axes(a));
+        const allan::CompositeModel typical = TrueModel(profile->axes[a].typical);
+        for (size_t t = 0; t < unit.terms.size() && t < typical.terms.size(); ++t) {
+          above = above || unit.terms[t].scale > envelope * typical.terms[t].scale;
+        }
+      }
+    }
+    if (above && truth.profile().ends_with("planted-fail")) {
+      --r.records;
+      ++r.failing_records;
+      r.failing_alarms += alarm ? 1 : 0;
+    } else if (above) {
+      --r.records;
+      ++r.above_records;
+      r.above_alarms += alarm ? 1 : 0;
+    } else {
+      r.alarms += alarm ? 1 : 0;
+      for (const auto& sc : scans) {
+        ++r.groups;
+        r.group_alarms += sc.events.empty() ? 0 : 1;
+      }
+    }
     if (alarm && verbose) {
       for (const auto& sc : scans) {
         std::printf("# %s seed %d: %d passes, models", profile_name.c_str(), seed, sc.passes);
@@ -178,6 +215,7 @@ int main(int argc, char** argv) {
   int seeds = 200;
   double duration_s = 3600, step_sigmas = 3;
   bool verbose = false, true_models = false, typical_models = false, most_wander = true;
+  double envelope = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
     if (flag == "--selected-model") {  // the fit's selected model, not the one with the most wander
@@ -201,15 +239,41 @@ int main(int argc, char** argv) {
     if (flag == "--seeds") seeds = std::atoi(argv[i + 1]);
     if (flag == "--duration") duration_s = std::atof(argv[i + 1]);
     if (flag == "--step-sigmas") step_sigmas = std::atof(argv[i + 1]);
+    // The typical unit's model with every term x F (a plan's envelope
+    // reference, plan.proto Stationarity), e.g. 1.35.
+    if (flag == "--envelope") {
+      envelope = std::atof(argv[i + 1]);
+      typical_models = envelope > 0;
+    }
     ++i;
   }
   for (const std::string& p : imuqual::sim::LotProfileNames()) {
     const imuqual::Rates r = imuqual::Run(p, seeds, duration_s, step_sigmas, verbose, true_models,
-                                          typical_models, most_wander);
+                                          typical_models, most_wander, envelope);
     const double fa = static_cast<double>(r.alarms) / r.records;
     const double se = std::sqrt(fa * (1 - fa) / r.records);
-    std::printf("stationarity_false_alarm_%s %.4f fraction (+- %.4f, %d records of %.0f s)\n",
-                p.c_str(), fa, se, r.records, duration_s);
+    std::printf("stationarity_false_alarm_%s %.4f fraction (+- %.4f, %d records of %.0f s%s)\n",
+                p.c_str(), fa, se, r.records, duration_s,
+                envelope > 0 ? " of units below the reference" : "");
+    if (r.groups > 0) {
+      const double g = static_cast<double>(r.group_alarms) / r.groups;
+      std::printf(
+          "stationarity_false_alarm_per_group_%s %.4f fraction (+- %.4f, %d groups; "
+          "stated 0.01)\n",
+          p.c_str(), g, std::sqrt(0.01 * 0.99 / r.groups), r.groups);
+    }
+    if (r.above_records > 0) {
+      std::printf(
+          "stationarity_false_alarm_above_reference_%s %.4f fraction (%d records of units "
+          "with a term above the reference, not planted failures)\n",
+          p.c_str(), static_cast<double>(r.above_alarms) / r.above_records, r.above_records);
+    }
+    if (r.failing_records > 0) {
+      std::printf(
+          "stationarity_false_alarm_planted_failures_%s %.4f fraction (%d records of the "
+          "profile's planted failures, far above the reference)\n",
+          p.c_str(), static_cast<double>(r.failing_alarms) / r.failing_records, r.failing_records);
+    }
     if (r.planted > 0) {
       std::printf(
           "stationarity_step_found_%s %.4f fraction (%d of %d steps of %.1f sigma; %d found "

@@ -9,9 +9,11 @@
 #include <vector>
 
 #include "analyze/allan/units.h"
+#include "analyze/judge/measurements.h"
 #include "common/strings.h"
 #include "common/text_util.h"
 #include "imuqual/plan.pb.h"
+#include "report/marks.h"
 #include "report/run_samples.h"
 #include "report/svg_plot.h"
 
@@ -163,6 +165,36 @@ std::string TimeSeriesPlot::ToSvg(const EnvelopeBuilder& builder) const {
                "\" font-size=\"10\" fill=\"#555555\">" + Esc(shaded_label) + "</text>\n";
       }
     }
+    // The stationarity scan's events on this channel: a burst's stretch
+    // shaded, a step's time a dashed line; labelled in the channel's first
+    // panel.
+    int labelled = 0;
+    for (const EventMark& e : events) {
+      if (e.channel != c || !std::isfinite(e.start_s)) continue;
+      const auto ex = [&](double t_s) {
+        return left + std::clamp(t_s / time_unit / x_max, 0.0, 1.0) * pw;
+      };
+      const double x0 = ex(e.start_s);
+      if (e.end_s > e.start_s) {
+        svg += "<rect class=\"event\" x=\"" + F(x0) + "\" y=\"" + F(ptop) + "\" width=\"" +
+               F(std::max(ex(e.end_s) - x0, 1.0)) + "\" height=\"" + F(ph) +
+               "\" fill=\"#ff7f0e\" fill-opacity=\"0.25\"><title>" + Esc(e.label) +
+               "</title></rect>\n";
+      } else {
+        svg += "<line class=\"event\" x1=\"" + F(x0) + "\" y1=\"" + F(ptop) + "\" x2=\"" + F(x0) +
+               "\" y2=\"" + F(ptop + ph) +
+               "\" stroke=\"#d62728\" stroke-width=\"1.5\" stroke-dasharray=\"5,3\"><title>" +
+               Esc(e.label) + "</title></line>\n";
+      }
+      // Below the warm-up's name, as many as the panel has room for.
+      if (panel->envelope && 24 + 12 * labelled <= ph - 4) {
+        const bool right_side = x0 > left + 0.6 * pw;
+        svg += "<text x=\"" + F(right_side ? x0 - 3 : x0 + 3) + "\" y=\"" +
+               F(ptop + 24 + 12 * labelled) + "\" font-size=\"10\" fill=\"#d62728\"" +
+               (right_side ? " text-anchor=\"end\"" : "") + ">" + Esc(e.label) + "</text>\n";
+        ++labelled;
+      }
+    }
     svg += "<rect x=\"" + F(left) + "\" y=\"" + F(ptop) + "\" width=\"" + F(pw) + "\" height=\"" +
            F(ph) + "\" fill=\"none\" stroke=\"#888888\"/>\n";
     svg += "<text transform=\"translate(16," + F(ptop + ph / 2) +
@@ -310,6 +342,45 @@ Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string&
                            accel ? 1.0 / allan::kMicroGInMetersPerSecSq : 3600.0});
   }
   if (any_temperature) plot.panels.push_back({"temperature [deg C]", "#d62728", axes});
+  // The stationarity scan's events (times from the end of the warm-up).
+  auto result = archive.LoadResult(run->key);
+  if (!result.ok()) return result.status();
+  if (*result) {
+    const double warmup = plot.shaded_s;
+    int marked = 0;
+    for (size_t a = 0; a < axes; ++a) {
+      const std::string& axis = info->axes[a].name;
+      const auto find = [&](const std::string& name) -> const pb::Measurement* {
+        for (const pb::Measurement& m : (*result)->measurements) {
+          if (m.axis() == axis && m.name() == name) return &m;
+        }
+        return nullptr;
+      };
+      for (int k = 1;; ++k) {
+        const std::string name = std::string(judge::kEventPrefix) + std::to_string(k);
+        const pb::Measurement* size = find(name);
+        const pb::Measurement* time = find(name + "_time");
+        if (size == nullptr || time == nullptr) break;
+        const pb::Measurement* end = find(name + "_end");
+        EventMark mark;
+        mark.channel = a;
+        mark.start_s = warmup + time->value();
+        mark.end_s = end != nullptr ? warmup + end->value() : mark.start_s;
+        mark.label =
+            axis + " " + (end != nullptr ? "burst " : "step ") +
+            MarkedValue(size->value(), pb::MEASURED,
+                        size->has_uncertainty() ? size->uncertainty() : allan::kNaN, 3, true) +
+            " " + size->unit();
+        plot.events.push_back(std::move(mark));
+        ++marked;
+      }
+    }
+    if (marked > 0) {
+      plot.notes.push_back("Marked: " + std::to_string(marked) +
+                           (marked == 1 ? " event" : " events") +
+                           " of the stationarity scan (dashed: level step; shaded: burst).");
+    }
+  }
   const double bin_s = static_cast<double>(builder.width()) / info->nominal_rate_hz;
   plot.notes.push_back("Each point is a bin of " + std::to_string(builder.width()) + " samples (" +
                        ShortestReal(bin_s) +

@@ -60,8 +60,18 @@ struct SeriesPanel {
   bool envelope = true;  // false: the bin mean only
   double offset = 0, scale = 1;
 };
+// An event the stationarity scan found on a channel, marked in that
+// channel's panels: a step as a line at its time, a burst as a band over its
+// stretch (seconds from the first sample), its label in the first of them.
+struct EventMark {
+  size_t channel = 0;
+  double start_s = 0;
+  double end_s = 0;  // == start_s: a step
+  std::string label;
+};
 struct TimeSeriesPlot {
   std::string title;
+  std::vector<EventMark> events;
   std::vector<SeriesPanel> panels;  // channels of `builder` (others skipped)
   double counters_per_second = 1;   // device rate
   std::vector<std::string> notes;   // lines under the plot
@@ -81,8 +91,9 @@ struct TimeSeriesPlot {
 // gyros, m/s^2 for accelerometers, as archived) as a band with its mean, then
 // the bin mean less the run's mean in datasheet units (deg/h, ug: the bias
 // drift), and the temperature when the unit reported one; the plan's
-// warm-up shaded. NotFound names the run, or says the run
-// has no archived sample.
+// warm-up shaded; every event the run's stationarity scan found (its
+// event_<k> measurements) marked on its axis. NotFound names the run, or
+// says the run has no archived sample.
 Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string& run_id);
 
 }  // namespace imuqual::report

@@ -149,5 +149,42 @@ TEST(TimeSeriesPlotTest, PanelsBandsAndEscapedText) {
   EXPECT_NE(shaded.find(">warm-up 2.5 s (not analysed)<"), std::string::npos);
 }
 
+// The stationarity scan's events: a step as a dashed line at its time and a
+// burst as a band over its stretch, in their own channel's panels only,
+// each labelled (escaped) once.
+TEST(TimeSeriesPlotTest, EventsAreMarkedOnTheirChannel) {
+  EnvelopeBuilder builder(2, 100);
+  for (int64_t k = 0; k < 1000; ++k) {
+    const double v[2] = {k < 500 ? 0.0 : 1.0, 20.0};
+    builder.Add(k, v);
+  }
+  TimeSeriesPlot plot;
+  plot.counters_per_second = 100;
+  plot.panels = {{"gx [deg/s]", "#1f77b4", 0},
+                 {"gx drift [deg/h]", "#1f77b4", 0, false},
+                 {"temperature [deg C]", "#d62728", 1}};
+  plot.events = {{0, 5.0, 5.0, "gx step +3600 \u00b1 12 deg/h <b>"},
+                 {0, 2.0, 3.0, "gx burst +10 \u00b1 2 deg/h"}};
+  const std::string svg = plot.ToSvg(builder);
+  size_t lines = 0, bands = 0;
+  for (size_t p = svg.find("<line class=\"event\""); p != std::string::npos;
+       p = svg.find("<line class=\"event\"", p + 1)) {
+    ++lines;
+    const size_t x = svg.find("x1=\"", p) + 4;
+    EXPECT_NEAR(std::stod(svg.substr(x)), 78 + 0.5 * (760 - 78 - 16), 3.0);  // 5 s of 10 s
+  }
+  for (size_t p = svg.find("<rect class=\"event\""); p != std::string::npos;
+       p = svg.find("<rect class=\"event\"", p + 1)) {
+    ++bands;
+    const size_t w = svg.find("width=\"", p) + 7;
+    EXPECT_NEAR(std::stod(svg.substr(w)), 0.1 * (760 - 78 - 16), 3.0);  // 1 s of 10 s
+  }
+  EXPECT_EQ(lines, 2u);  // gx's two panels, not the temperature's
+  EXPECT_EQ(bands, 2u);
+  EXPECT_EQ(svg.find("<b>"), std::string::npos);
+  EXPECT_NE(svg.find(">gx step +3600 \u00b1 12 deg/h &lt;b&gt;</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">gx burst +10 \u00b1 2 deg/h</text>"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace imuqual::report

@@ -6,8 +6,12 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <numbers>
 #include <random>
+#include <string>
 
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/estimators.h"
@@ -157,6 +161,31 @@ class AxisGls {
   Eigen::MatrixXd p_, px_, m_;
   Eigen::VectorXd d_, beta_, v_;
   std::vector<Eigen::VectorXd> x_;
+};
+
+// The smallest p-values of the records drawn to calibrate a scan, by what
+// they depend on (models, bins, missing bins, draws), for the process: at
+// most kEntries, all dropped when full. Thread-safe.
+class CalibrationCache {
+ public:
+  static std::shared_ptr<const std::vector<double>> Find(const std::string& key) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = entries_.find(key);
+    return it == entries_.end() ? nullptr : it->second;
+  }
+  static std::shared_ptr<const std::vector<double>> Put(const std::string& key,
+                                                        std::vector<double> drawn) {
+    auto value = std::make_shared<const std::vector<double>>(std::move(drawn));
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (entries_.size() >= kEntries) entries_.clear();
+    entries_.emplace(key, value);
+    return value;
+  }
+
+ private:
+  static constexpr size_t kEntries = 32;
+  static inline std::mutex mutex_;
+  static inline std::map<std::string, std::shared_ptr<const std::vector<double>>> entries_;
 };
 
 double TwoSidedNormal(double z) { return std::erfc(std::fabs(z) / std::numbers::sqrt2); }
@@ -445,18 +474,40 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   // the candidates (Bonferroni over them is only a bound, well above the
   // rate when neighbouring candidates correlate). Later events (with the
   // earlier ones as nuisances) are held to the same p.
+  // The draws depend on the models, the bins and which of them are missing,
+  // not on the data: a station's runs under one plan's reference models
+  // share them (CalibrationCache).
   const int draws = static_cast<int>(std::ceil(10 / options.false_alarm)) - 1;
-  std::vector<double> drawn_p(draws);
-  {
+  std::string key;
+  const auto put = [&key](double v) { key.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  put(tau0_s);
+  put(b);
+  put(static_cast<double>(draws));
+  for (int a = 0; a < num_axes; ++a) {
+    for (const ModelTerm& t : models[a].terms) {
+      put(static_cast<double>(static_cast<int>(t.kind)));
+      put(t.scale);
+      put(t.correlation_time_s);
+      put(t.frequency_hz);
+    }
+    key += '|';
+    for (double v : means[a]) key += std::isfinite(v) ? '1' : '0';
+    key += '|';
+  }
+  std::shared_ptr<const std::vector<double>> cached = CalibrationCache::Find(key);
+  if (cached == nullptr) {
+    std::vector<double> drawn(draws);
     std::mt19937_64 rng(0x5eed5ca9);
     for (int m = 0; m < draws; ++m) {
       for (AxisGls& g : gls) g.Draw(rng);
       const Strongest s = strongest();
-      drawn_p[m] = std::min(s.AxisP(), s.JointP(joint));
+      drawn[m] = std::min(s.AxisP(), s.JointP(joint));
     }
     for (AxisGls& g : gls) g.Restore();
+    std::sort(drawn.begin(), drawn.end());
+    cached = CalibrationCache::Put(key, std::move(drawn));
   }
-  std::sort(drawn_p.begin(), drawn_p.end());
+  const std::vector<double>& drawn_p = *cached;
   const int rank = std::max(1, static_cast<int>(std::floor((draws + 1) * options.false_alarm)));
   const double p_threshold = drawn_p[rank - 1];
   scan.threshold_p = p_threshold;

@@ -343,7 +343,7 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
       const std::string action = pb::Stationarity::OnEvent_Name(plan.stationarity().on_event());
       if (o != pb::OUTCOME_UNSET && o != pb::PASS) {
         j.reasons.push_back(what + " (the plan's on_event: " + action + ")");
-      } else if (o == pb::OUTCOME_UNSET && m.value() != 0) {
+      } else if (o == pb::OUTCOME_UNSET && m.value() > 0) {
         qualifier_reasons.push_back(what + " (" + action + ": the verdict is the limits')");
       }
       continue;

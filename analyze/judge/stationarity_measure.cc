@@ -52,8 +52,12 @@ std::string EventText(const allan::StationarityEvent& e, const allan::EventAxis&
 
 // Whether the record's curve lies below the reference (the condition under
 // which the scan's false-alarm rate is bounded), as a sentence.
-std::string EnvelopeCheck(const allan::Curve* curve, const allan::CompositeModel& reference) {
-  if (curve == nullptr || curve->points.empty()) return "";
+struct Envelope {
+  bool above = false;
+  std::string text;
+};
+Envelope EnvelopeCheck(const allan::Curve* curve, const allan::CompositeModel& reference) {
+  if (curve == nullptr || curve->points.empty()) return {};
   double worst = 0, worst_tau = 0;
   bool above = false;
   double above_tau = 0;
@@ -71,17 +75,19 @@ std::string EnvelopeCheck(const allan::Curve* curve, const allan::CompositeModel
       above_tau = p.tau_s;
     }
   }
-  if (!(worst > 0)) return "";
+  if (!(worst > 0)) return {};
   if (above) {
-    return "; the record's curve lies above the reference (first at " + Fmt("%.3g", above_tau) +
-           " s, by more than 2 sigma; at most " + Fmt("%.3g", worst) + " x its deviation at " +
-           Fmt("%.3g", worst_tau) +
-           " s): this unit's noise is not below the reference, and the scan's false-alarm rate "
-           "is not bounded for it";
+    return {
+        true,
+        "; the record's curve lies above the reference (first at " + Fmt("%.3g", above_tau) +
+            " s, by more than 2 sigma; at most " + Fmt("%.3g", worst) + " x its deviation at " +
+            Fmt("%.3g", worst_tau) +
+            " s): this unit's noise is not below the reference, and the scan's false-alarm rate "
+            "is not bounded for it"};
   }
-  return "; the record's curve lies within 2 sigma of the reference or below it (at most " +
-         Fmt("%.3g", worst) + " x its deviation, at " + Fmt("%.3g", worst_tau) +
-         " s), as the bound on the false-alarm rate needs";
+  return {false, "; the record's curve lies within 2 sigma of the reference or below it (at most " +
+                     Fmt("%.3g", worst) + " x its deviation, at " + Fmt("%.3g", worst_tau) +
+                     " s), as the bound on the false-alarm rate needs"};
 }
 
 }  // namespace
@@ -213,7 +219,7 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
       t += ", false-alarm level " + Fmt("%g", scan->false_alarm) + " per run for the " +
            KindWord(kind) + " axes together (threshold p " + Fmt("%.2g", scan->threshold_p) +
            ", calibrated on records drawn from the model)";
-      if (reference != nullptr) t += EnvelopeCheck(axes[group[i]].curve, models[i]);
+      if (reference != nullptr) t += EnvelopeCheck(axes[group[i]].curve, models[i]).text;
       return t;
     };
     for (size_t i = 0; i < group.size(); ++i) {
@@ -266,6 +272,10 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
                                           : std::to_string(texts.size()) +
                                                 (texts.size() == 1 ? " event: " : " events: ");
       for (size_t t = 0; t < texts.size(); ++t) summary += (t ? "; " : "") + texts[t];
+      if (!texts.empty() && reference != nullptr && EnvelopeCheck(axes[a].curve, models[i]).above) {
+        summary +=
+            " (the axis's curve lies above the reference: its noise alone may read as events)";
+      }
       pb::Measurement count =
           Make(axis.name, std::string(kStationarityEvents), static_cast<double>(texts.size()), "1",
                summary + kScanSeparator + scan_text(i));

@@ -400,10 +400,11 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
 
   // Statistics, recomputed from the measurements of each unit's final run
   // (not the parameters of each unit's own noise model, model_*: units with
-  // different models have nothing in common to average).
+  // different models have nothing in common to average; nor each unit's own
+  // stationarity events, event_*).
   const groups = new Map();
   for (const m of measurements) {
-    if (m.name.startsWith('model_')) continue;
+    if (m.name.startsWith('model_') || m.name.startsWith('event_')) continue;
     const key = `${m.axis}\u0000${m.name}`;
     if (!groups.has(key)) groups.set(key, { axis: m.axis, name: m.name, unit: m.unit, values: [], outcomes: [], low: null, high: null });
     const g = groups.get(key);
