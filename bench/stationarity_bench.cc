@@ -131,8 +131,20 @@ Rates Run(const std::string& profile_name, int seeds, double duration_s, double 
       for (int a = 0; a < axes; ++a) {
         const allan::CompositeModel unit = TrueModel(truth.axes(a));
         const allan::CompositeModel typical = TrueModel(profile->axes[a].typical);
-        for (size_t t = 0; t < unit.terms.size() && t < typical.terms.size(); ++t) {
-          above = above || unit.terms[t].scale > envelope * typical.terms[t].scale;
+        // Term by term of one kind, in order (Gauss-Markov and sinusoid terms
+        // come in the profile's order).
+        for (const allan::TermKind kind :
+             {allan::TermKind::kQuantization, allan::TermKind::kWhite, allan::TermKind::kFlicker,
+              allan::TermKind::kRandomWalk, allan::TermKind::kDrift, allan::TermKind::kGaussMarkov,
+              allan::TermKind::kSinusoid}) {
+          std::vector<double> u, ty;
+          for (const auto& t : unit.terms)
+            if (t.kind == kind) u.push_back(t.scale);
+          for (const auto& t : typical.terms)
+            if (t.kind == kind) ty.push_back(t.scale);
+          for (size_t t = 0; t < u.size(); ++t) {
+            above = above || t >= ty.size() || u[t] > envelope * ty[t];
+          }
         }
       }
     }

@@ -454,6 +454,7 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
                  pb::AxisKind_Name(kind) + " axes");
         return 1;
       }
+      so.bin_s = plan->stationarity().bin_s();
       s = allan::ScanStationarity({std::span<const double>(*values)},
                                   {judge::ReferenceModel(*reference)}, tau0, so);
       if (s.ok()) reference_source = reference->source();

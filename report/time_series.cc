@@ -344,8 +344,10 @@ Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string&
   if (any_temperature) plot.panels.push_back({"temperature [deg C]", "#d62728", axes});
   // The stationarity scan's events (times from the end of the warm-up).
   auto result = archive.LoadResult(run->key);
-  if (!result.ok()) return result.status();
-  if (*result) {
+  if (!result.ok()) {
+    plot.notes.push_back("Stationarity events not marked: the run's result could not be read (" +
+                         result.status().message() + ").");
+  } else if (*result) {
     const double warmup = plot.shaded_s;
     int marked = 0;
     for (size_t a = 0; a < axes; ++a) {

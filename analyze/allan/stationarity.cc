@@ -375,6 +375,12 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   scan.bin_s = b;
   const int bins = static_cast<int>(means.front().size());
   scan.bins = bins;
+  if (bins > kMaxScanBins) {
+    scan.note = "too many bins for a stationarity scan (" + std::to_string(bins) + " of " +
+                std::to_string(b) + " s, at most " + std::to_string(kMaxScanBins) +
+                "): take longer bins";
+    return scan;
+  }
   if (bins < options.min_bins) {
     char text[160];
     std::snprintf(text, sizeof text,
@@ -477,13 +483,16 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   // The draws depend on the models, the bins and which of them are missing,
   // not on the data: a station's runs under one plan's reference models
   // share them (CalibrationCache).
-  const int draws = static_cast<int>(std::ceil(10 / options.false_alarm)) - 1;
+  const int draws = static_cast<int>(std::ceil(30 / options.false_alarm)) - 1;
   std::string key;
   const auto put = [&key](double v) { key.append(reinterpret_cast<const char*>(&v), sizeof v); };
   put(tau0_s);
   put(b);
   put(static_cast<double>(draws));
+  put(static_cast<double>(bins));
+  put(static_cast<double>(num_axes));
   for (int a = 0; a < num_axes; ++a) {
+    put(static_cast<double>(models[a].terms.size()));
     for (const ModelTerm& t : models[a].terms) {
       put(static_cast<double>(static_cast<int>(t.kind)));
       put(t.scale);

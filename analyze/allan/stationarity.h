@@ -33,19 +33,24 @@
 // joint: the group's sum of z^2 at one candidate, chi-square with A degrees
 // of freedom. The record's smallest p over every candidate of every family
 // (each axis alone, and the joint family when A > 1) is compared with a
-// threshold calibrated on M = 10 / false_alarm - 1 records drawn from the
+// threshold calibrated on M = 30 / false_alarm - 1 records drawn from the
 // models (each axis independent, differences with covariance C at the
 // present bins): the r-th smallest of their smallest p, r = floor((M + 1)
 // false_alarm), so a record of the models reports an event with probability
-// r / (M + 1), `false_alarm` itself, whatever the correlations between the
+// r / (M + 1), `false_alarm` itself, in expectation over the calibration
+// (the draws have a fixed seed: one threshold's own rate is within about
+// +-1/sqrt(r), 18 %, of it), whatever the correlations between the
 // candidates (Bonferroni over them is only a bound, well above the rate of
-// correlated candidates; stationarity_test measures the rate). The
+// correlated candidates; stationarity_test measures the rate). The draws
+// depend on the models, the bins and the missing bins only, and are cached
+// for the process (a station's runs under one plan's models share them). The
 // strongest candidate below the threshold is an event; its regressor joins X
 // on every axis of the group and the scan repeats with the same threshold
 // (at most max_events). At the end every event's size (the level change,
 // after - before, rate units) and 1-sigma are the joint GLS estimate with
 // all events. A joint event names the axes whose own two-sided p is below
-// 1 % (else the axis of the largest |z|).
+// 1 % (else the axis of the largest |z|). A level change across missing bins
+// is not seen (the differences that touch a missing bin are left out).
 //
 // The model is the axis's fitted composite model (gmwm.h). NOT YET FIT FOR
 // A VERDICT: the level holds for the true model; with a model fitted to the
@@ -151,6 +156,10 @@ struct StationarityScan {
 Result<StationarityScan> ScanStationarity(const std::vector<std::span<const double>>& axes,
                                           const std::vector<CompositeModel>& models, double tau0_s,
                                           const StationarityOptions& options = {});
+
+// A scan of more bins is not made (its covariance matrices would take
+// hundreds of MB and its factorisation minutes): the note says so.
+inline constexpr int kMaxScanBins = 2000;
 
 // The same scan of bin means already formed (means[a][i]: axis a's mean
 // over bin i of bin_s seconds, NaN where fewer than half its samples were

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <random>
@@ -60,6 +62,81 @@ TEST(BinMeansTest, MeansOfFiniteSamplesAndHalfEmptyBinsAreNaN) {
   const std::vector<double> past = BinMeans(y, 4, 3);
   EXPECT_EQ(past[0], 8.0 / 3.0);
   EXPECT_TRUE(std::isnan(past[2]));
+}
+
+// Streamed bin sums give BinMeans' means of the same record, whatever the
+// pieces it arrives in, with missing samples, invalid flags, and past the
+// merge that keeps at most kMaxBaseBins base bins.
+TEST(BinAccumulatorTest, MatchesBinMeansThroughGapsFlagsAndMerges) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> g;
+  // 600 000 samples in base bins of 2: 300 000 base bins, so the
+  // accumulator merges once (base 4).
+  constexpr int64_t kSamples = 600000;
+  std::vector<double> y(kSamples);
+  for (double& v : y) v = static_cast<float>(g(rng));  // as the float samples arrive
+  BinAccumulator acc(2);
+  int64_t i = 0;
+  while (i < kSamples) {
+    const int64_t n = std::min<int64_t>(kSamples - i, 1 + static_cast<int64_t>(rng() % 997));
+    if (i > 1000 && rng() % 50 == 0) {  // a gap
+      for (int64_t k = i; k < i + n; ++k) y[k] = std::numeric_limits<double>::quiet_NaN();
+      acc.AppendMissing(n);
+    } else {
+      std::vector<float> values(y.begin() + i, y.begin() + i + n);
+      std::vector<uint8_t> invalid(n, 0);
+      for (int64_t k = 0; k < n; k += 7) {  // every 7th sample flagged
+        invalid[k] = 1;
+        y[i + k] = std::numeric_limits<double>::quiet_NaN();
+      }
+      acc.Append(values, invalid);
+    }
+    i += n;
+  }
+  EXPECT_EQ(acc.samples(), kSamples);
+  EXPECT_EQ(acc.base_samples(), 4);
+  for (const int64_t want : {int64_t{4}, int64_t{2000}, int64_t{6001}}) {
+    int64_t bin = want;
+    const std::vector<double> got = acc.Means(&bin);
+    EXPECT_EQ(bin % 4, 0);
+    EXPECT_LE(std::abs(bin - want), 2);
+    const std::vector<double> ref = BinMeans(y, bin, static_cast<int>(kSamples / bin));
+    ASSERT_EQ(got.size(), ref.size());
+    for (size_t k = 0; k < got.size(); ++k) {
+      if (std::isnan(ref[k])) {
+        EXPECT_TRUE(std::isnan(got[k])) << k;
+      } else {
+        EXPECT_NEAR(got[k], ref[k], 1e-12) << k;
+      }
+    }
+  }
+}
+
+// The scan of bin means formed elsewhere is the scan of the record.
+TEST(StationarityTest, ScanBinMeansIsTheScanOfTheRecord) {
+  std::vector<double> y = WhiteRecord(1e-3, 360000, 11);
+  for (size_t i = 200000; i < y.size(); ++i) y[i] += 0.004;
+  auto direct = ScanStationarity({y}, {White(1e-3)}, kTau0);
+  ASSERT_TRUE(direct.ok());
+  const std::vector<double> means = BinMeans(y, 1200, 300);
+  auto binned = ScanBinMeans({means}, {White(1e-3)}, kTau0, 12.0);
+  ASSERT_TRUE(binned.ok());
+  ASSERT_EQ(direct->events.size(), binned->events.size());
+  ASSERT_FALSE(direct->events.empty());
+  for (size_t e = 0; e < direct->events.size(); ++e) {
+    EXPECT_EQ(direct->events[e].time_s, binned->events[e].time_s);
+    EXPECT_EQ(direct->events[e].axes[0].size, binned->events[e].axes[0].size);
+  }
+  EXPECT_EQ(direct->threshold_p, binned->threshold_p);
+  // The step inside bin 166 (at 2000 s, bins of 12 s: 1992..2004) is one
+  // step at its middle, not two half steps.
+  EXPECT_NEAR(direct->events.front().time_s, 1998, 1e-9);
+  EXPECT_NEAR(direct->events.front().axes[0].size, 0.004, 3 * direct->events.front().axes[0].sigma);
+  // More bins than a scan takes: not scanned, said why.
+  auto many = ScanBinMeans({BinMeans(y, 100, 3600)}, {White(1e-3)}, kTau0, 1.0);
+  ASSERT_TRUE(many.ok());
+  EXPECT_FALSE(many->scanned);
+  EXPECT_NE(many->note.find("too many bins"), std::string::npos);
 }
 
 TEST(StationarityTest, FalseAlarmsAtTheStatedRate) {

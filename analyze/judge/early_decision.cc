@@ -548,14 +548,18 @@ Judgement JudgeDecided(const pb::TestPlan& plan, const std::vector<AxisDesc>& ax
     const Decision d = decider.MeasurementDecision(m.axis(), m.name());
     if (d == Decision::kPending || o == pb::MARGINAL) {
       if (reasons[i].empty()) continue;
-      j.reasons.push_back(o == pb::MARGINAL ? reasons[i] + " (" + decider.FlagProvenance() + ")"
-                                            : reasons[i]);
+      // The stationarity scan is read at the end of the record, not at a look.
+      const bool flag = o == pb::MARGINAL && m.name() != kStationarityEvents;
+      j.reasons.push_back(flag ? reasons[i] + " (" + decider.FlagProvenance() + ")" : reasons[i]);
     } else {
       const std::string& note = m.note();
       const size_t at = note.rfind("decided ");
       j.reasons.push_back(Who(m) + ": " + (at == std::string::npos ? note : note.substr(at)));
     }
   }
+  // Judge's reasons beyond those of the judged measurements: the events a
+  // QUALIFIER_ONLY stationarity scan found.
+  for (size_t r = next; r < simple.reasons.size(); ++r) j.reasons.push_back(simple.reasons[r]);
   j.verdict = VerdictOf(*measurements);
   return j;
 }

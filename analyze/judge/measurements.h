@@ -72,7 +72,8 @@ inline constexpr std::string_view kDecisionTime = "decision_time";
 // the record, the plots and audits; a plan judges the count): each event k
 // of the axis as "event_<k>" (its size, after - before, in bias_offset's
 // unit, with its 1-sigma), "event_<k>_time" (s from the end of the warm-up:
-// a step's boundary, a burst's start) and, for a burst, "event_<k>_end".
+// a step's bin boundary or the middle of the bin holding it, a burst's
+// start) and, for a burst, "event_<k>_end".
 inline constexpr std::string_view kStationarityEvents = "stationarity_events";
 inline constexpr std::string_view kEventPrefix = "event_";
 

@@ -12,6 +12,7 @@
 #include <set>
 #include <tuple>
 
+#include "analyze/allan/stationarity.h"
 #include "analyze/allan/units.h"
 #include "analyze/judge/builtin_plans.h"
 #include "analyze/judge/early_decision.h"
@@ -218,7 +219,17 @@ std::vector<std::string> Problems(const pb::TestPlan& plan, const Locator& where
 
 // The stationarity block's first problem.
 Status ValidateStationarity(const pb::TestPlan& plan, const Locator& where) {
-  if (!plan.has_stationarity()) return Status::Ok();
+  if (!plan.has_stationarity()) {
+    for (int i = 0; i < plan.limits_size(); ++i) {
+      if (plan.limits(i).measurement() == kStationarityEvents) {
+        return Fail(where, "limits", i, "limits[" + std::to_string(i) + "].measurement",
+                    "stationarity_events needs the plan's stationarity block (the scan that "
+                    "counts them)",
+                    "measurement");
+      }
+    }
+    return Status::Ok();
+  }
   const pb::Stationarity& s = plan.stationarity();
   auto bad = [&](const std::string& path, const std::string& problem) {
     return Fail(where, "stationarity", -1, "stationarity." + path, problem);
@@ -289,16 +300,56 @@ Status ValidateStationarity(const pb::TestPlan& plan, const Locator& where) {
                  "rate_random_walk or gauss_markov): a scan needs noise to judge against");
     }
   }
-  if (s.on_event() != pb::Stationarity::QUALIFIER_ONLY) {
-    for (const pb::Axis& a : plan.axes()) {
-      if (a.kind() != pb::AXIS_KIND_UNSPECIFIED && !kinds.count(a.kind())) {
-        return bad("on_event", pb::Stationarity::OnEvent_Name(s.on_event()) +
-                                   " needs a reference_model for " + pb::AxisKind_Name(a.kind()) +
-                                   " axes (axis '" + a.name() +
-                                   "'): a verdict on an event needs a model from outside the "
-                                   "record, whose false-alarm rate holds");
+  // A verdict on an event (on_event, or a limit on the count) needs a model
+  // from outside the record for every axis kind it judges; a plan without
+  // axes (its source's) may have either kind.
+  const auto missing_kind = [&](pb::AxisKind only) -> std::string {
+    if (plan.axes_size() == 0) {
+      for (pb::AxisKind k : {pb::GYRO, pb::ACCEL}) {
+        if ((only == pb::AXIS_KIND_UNSPECIFIED || only == k) && !kinds.count(k)) {
+          return pb::AxisKind_Name(k) + " axes (the plan names no axes: its source may have any)";
+        }
       }
     }
+    for (const pb::Axis& a : plan.axes()) {
+      if (a.kind() == pb::AXIS_KIND_UNSPECIFIED || kinds.count(a.kind())) continue;
+      if (only != pb::AXIS_KIND_UNSPECIFIED && only != a.kind()) continue;
+      return pb::AxisKind_Name(a.kind()) + " axes (axis '" + a.name() + "')";
+    }
+    return "";
+  };
+  constexpr char kWhy[] =
+      ": a verdict on an event needs a model from outside the record, whose false-alarm rate "
+      "holds";
+  if (s.on_event() != pb::Stationarity::QUALIFIER_ONLY) {
+    const std::string m = missing_kind(pb::AXIS_KIND_UNSPECIFIED);
+    if (!m.empty()) {
+      return bad("on_event", pb::Stationarity::OnEvent_Name(s.on_event()) +
+                                 " needs a reference_model for " + m + kWhy);
+    }
+  }
+  for (int i = 0; i < plan.limits_size(); ++i) {
+    const pb::Limit& lim = plan.limits(i);
+    if (lim.measurement() != kStationarityEvents) continue;
+    const std::string m = missing_kind(lim.axis_kind());
+    if (!m.empty()) {
+      return Fail(
+          where, "limits", i, "limits[" + std::to_string(i) + "]",
+          "a limit on stationarity_events needs a stationarity.reference_model for " + m + kWhy,
+          "measurement");
+    }
+  }
+  // The scan needs at least 32 bins in the shortest record the plan judges.
+  const double shortest =
+      plan.has_early_decision() ? plan.early_decision().min_duration_s() : plan.min_duration_s();
+  if (s.bin_s() > 0 && shortest > 0 && 32 * s.bin_s() > shortest) {
+    return bad("bin_s", Num(s.bin_s()) + " s leaves fewer than the 32 bins a scan needs in " +
+                            Num(shortest) + " s (the plan's shortest judged record)");
+  }
+  if (s.bin_s() > 0 && shortest > 0 && shortest / s.bin_s() > allan::kMaxScanBins) {
+    return bad("bin_s", Num(s.bin_s()) + " s makes more than " +
+                            std::to_string(allan::kMaxScanBins) + " bins of " + Num(shortest) +
+                            " s: take a longer bin_s (0: the record's length / 300)");
   }
   return Status::Ok();
 }

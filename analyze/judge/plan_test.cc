@@ -139,6 +139,20 @@ TEST(PlanTest, RejectsBadPlans) {
        "stationarity { on_event: EVENT_FAIL reference_model { axis_kind: GYRO source: \"s\" "
        "random_walk: 0.01 } }",
        "stationarity.on_event: EVENT_FAIL needs a reference_model for ACCEL axes (axis 'ax')"},
+      {"nominal_rate_hz: 100 stationarity { on_event: EVENT_MARGINAL reference_model { axis_kind: "
+       "GYRO source: \"s\" random_walk: 0.01 } }",
+       "stationarity.on_event: EVENT_MARGINAL needs a reference_model for ACCEL axes (the plan "
+       "names no axes"},
+      {"nominal_rate_hz: 100 limits { measurement: \"stationarity_events\" high: 0 unit: \"1\" }",
+       "limits[0].measurement: stationarity_events needs the plan's stationarity block"},
+      {"nominal_rate_hz: 100 axes { name: \"x\" kind: GYRO } stationarity { } "
+       "limits { measurement: \"stationarity_events\" high: 0 unit: \"1\" }",
+       "limits[0]: a limit on stationarity_events needs a stationarity.reference_model for GYRO "
+       "axes (axis 'x')"},
+      {"nominal_rate_hz: 100 min_duration_s: 600 stationarity { bin_s: 30 }",
+       "stationarity.bin_s: 30 s leaves fewer than the 32 bins a scan needs in 600 s"},
+      {"nominal_rate_hz: 100 min_duration_s: 36000 stationarity { bin_s: 1 }",
+       "stationarity.bin_s: 1 s makes more than 2000 bins"},
   };
   for (const Case& c : cases) {
     const std::string err = ErrorOf(c.text);

@@ -8,12 +8,12 @@
 //                        a limit on it, else by the plan's on_event);
 //                        the note lists them and says what the scan was
 //                        (bins, model and its source, false-alarm level,
-//                        and whether the unit's curve lies below the
-//                        reference: the rate is bounded only for such units)
+//                        and whether the unit's curve shows noise above
+//                        the reference, for which the rate is not bounded)
 //   event_<k>            the event's size (after - before; a burst: its
 //                        departure), bias_offset's unit, with its 1-sigma
-//   event_<k>_time       s from the end of the warm-up (a step's boundary,
-//                        a burst's start)
+//   event_<k>_time       s from the end of the warm-up (a step's bin boundary
+//                        or the middle of the bin holding it, a burst's start)
 //   event_<k>_end        a burst's end
 // Pure.
 #ifndef IMUQUAL_ANALYZE_JUDGE_STATIONARITY_MEASURE_H_

@@ -26,7 +26,7 @@ constexpr double kAbsurdGapSeconds = 86400.0;
 constexpr double kMinClockSpanS = 2.0;
 
 // The plan an interim look judges by: what is measured so far, not the run's
-// length nor the noise model (fitted at the end).
+// length, the noise model nor the stationarity scan (both at the end).
 pb::TestPlan ProvisionalPlan(const pb::TestPlan& plan) {
   pb::TestPlan provisional = plan;
   provisional.set_min_duration_s(0);
@@ -34,6 +34,7 @@ pb::TestPlan ProvisionalPlan(const pb::TestPlan& plan) {
   limits->erase(std::remove_if(limits->begin(), limits->end(),
                                [](const pb::Limit& l) {
                                  return l.measurement() == judge::kDuration ||
+                                        l.measurement() == judge::kStationarityEvents ||
                                         judge::FromNoiseModel(l.measurement());
                                }),
                 limits->end());

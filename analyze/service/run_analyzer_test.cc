@@ -479,7 +479,7 @@ TEST(RunAnalyzerTest, AStationaryRecordHasNoEventAndPasses) {
     EXPECT_EQ(m->value(), 0) << m->note();
     EXPECT_EQ(m->outcome(), pb::PASS);
     // The record's curve lies on the reference: the bound on the rate holds.
-    EXPECT_NE(m->note().find("within 2 sigma of the reference"), std::string::npos) << m->note();
+    EXPECT_NE(m->note().find("shows no noise above the reference"), std::string::npos) << m->note();
   }
 }
 
