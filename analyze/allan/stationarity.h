@@ -52,10 +52,12 @@
 // 1 % (else the axis of the largest |z|). A level change across missing bins
 // is not seen (the differences that touch a missing bin are left out).
 //
-// The model is the axis's fitted composite model (gmwm.h). NOT YET FIT FOR
-// A VERDICT: the level holds for the true model; with a model fitted to the
-// same one-hour record it does not, and what fits the record decides what
-// the scan can see. 40 one-hour records of each simulator profile
+// The model is a reference from outside the record (a plan's, judge/
+// stationarity_measure.h: the level holds for a unit whose noise it is, and
+// bounds the rate of a quieter one) or the axis's own fitted composite model
+// (gmwm.h), which is not fit for a verdict: the level holds for the true
+// model; with a model fitted to the same one-hour record it does not, and
+// what fits the record decides what the scan can see. 40 one-hour records of each simulator profile
 // (stationarity_bench; false alarms per record, both groups; steps of 3 sd
 // of the 100 s bin means found) for vg700 / tactical / fog / mems-lab /
 // mems-real:
