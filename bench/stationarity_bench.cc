@@ -20,6 +20,7 @@
 #include "acquire/lot_profile.h"
 #include "acquire/random.h"
 #include "analyze/allan/stationarity.h"
+#include "analyze/judge/stationarity_measure.h"
 #include "bench/bench_summary.h"
 
 namespace imuqual {
@@ -43,23 +44,10 @@ char KindOf(const pb::AxisTruth& a) { return a.axis().starts_with("a") ? 'a' : '
 // The axis's true noise model (what the simulator draws, less the MEMS
 // filter, LSB rounding and spikes, which the scan's bins average away).
 allan::CompositeModel TrueModel(const pb::AxisTruth& a) {
-  using allan::TermKind;
-  allan::CompositeModel m;
-  auto add = [&](TermKind kind, double scale, double t = 0, double f = 0) {
-    if (scale > 0) m.terms.push_back({kind, scale, t, f});
-  };
-  add(TermKind::kQuantization, a.quantization());
-  add(TermKind::kWhite, a.random_walk());
-  add(TermKind::kFlicker, a.bias_instability());
-  add(TermKind::kRandomWalk, a.rate_random_walk());
-  add(TermKind::kDrift, std::fabs(a.rate_ramp()));
-  for (const pb::GaussMarkov& g : a.gauss_markov()) {
-    add(TermKind::kGaussMarkov, g.sigma(), g.correlation_time_s());
+  allan::CompositeModel m = judge::CompositeModelOf(a);
+  if (a.sine_amplitude() > 0 && a.sine_frequency_hz() > 0) {
+    m.terms.push_back({allan::TermKind::kSinusoid, a.sine_amplitude(), 0, a.sine_frequency_hz()});
   }
-  if (a.sine_frequency_hz() > 0)
-    add(TermKind::kSinusoid, a.sine_amplitude(), 0, a.sine_frequency_hz());
-  for (const pb::Sinusoid& l : a.sinusoids())
-    add(TermKind::kSinusoid, l.amplitude(), 0, l.frequency_hz());
   return m;
 }
 

@@ -97,26 +97,6 @@ Envelope EnvelopeCheck(const allan::Curve* curve, const allan::CompositeModel& r
 
 }  // namespace
 
-allan::CompositeModel ReferenceModel(const pb::ReferenceNoiseModel& r) {
-  using allan::TermKind;
-  allan::CompositeModel m;
-  auto add = [&](TermKind kind, double scale, double t = 0, double f = 0) {
-    if (scale > 0) m.terms.push_back({kind, scale, t, f});
-  };
-  add(TermKind::kQuantization, r.quantization());
-  add(TermKind::kWhite, r.random_walk());
-  add(TermKind::kFlicker, r.bias_instability());
-  add(TermKind::kRandomWalk, r.rate_random_walk());
-  add(TermKind::kDrift, r.rate_ramp());
-  for (const pb::GaussMarkov& g : r.gauss_markov()) {
-    add(TermKind::kGaussMarkov, g.sigma(), g.correlation_time_s());
-  }
-  for (const pb::Sinusoid& l : r.sinusoids()) {
-    add(TermKind::kSinusoid, l.amplitude(), 0, l.frequency_hz());
-  }
-  return m;
-}
-
 const pb::ReferenceNoiseModel* ReferenceModelFor(const pb::TestPlan& plan, pb::AxisKind kind) {
   for (const pb::ReferenceNoiseModel& r : plan.stationarity().reference_model()) {
     if (r.axis_kind() == kind) return &r;

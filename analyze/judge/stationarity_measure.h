@@ -30,8 +30,33 @@
 
 namespace imuqual::judge {
 
+// A composite model from a message with the IEEE 952 fields in base units,
+// as pb::ReferenceNoiseModel and pb::AxisTruth have them: quantization,
+// random_walk, bias_instability, rate_random_walk, rate_ramp (its
+// magnitude), gauss_markov and sinusoids; a term of scale 0 is absent.
+template <typename Terms>
+allan::CompositeModel CompositeModelOf(const Terms& r) {
+  using allan::TermKind;
+  allan::CompositeModel m;
+  auto add = [&](TermKind kind, double scale, double t = 0, double f = 0) {
+    if (scale > 0) m.terms.push_back({kind, scale, t, f});
+  };
+  add(TermKind::kQuantization, r.quantization());
+  add(TermKind::kWhite, r.random_walk());
+  add(TermKind::kFlicker, r.bias_instability());
+  add(TermKind::kRandomWalk, r.rate_random_walk());
+  add(TermKind::kDrift, r.rate_ramp() < 0 ? -r.rate_ramp() : r.rate_ramp());
+  for (const auto& g : r.gauss_markov()) {
+    add(TermKind::kGaussMarkov, g.sigma(), g.correlation_time_s());
+  }
+  for (const auto& l : r.sinusoids()) add(TermKind::kSinusoid, l.amplitude(), 0, l.frequency_hz());
+  return m;
+}
+
 // The plan's reference model as a composite model (base units).
-allan::CompositeModel ReferenceModel(const pb::ReferenceNoiseModel& reference);
+inline allan::CompositeModel ReferenceModel(const pb::ReferenceNoiseModel& reference) {
+  return CompositeModelOf(reference);
+}
 
 // The plan's reference model of an axis kind, nullptr if it has none.
 const pb::ReferenceNoiseModel* ReferenceModelFor(const pb::TestPlan& plan, pb::AxisKind kind);

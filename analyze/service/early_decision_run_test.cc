@@ -34,7 +34,8 @@ struct Fed {
   RunOutcome outcome;
   int64_t samples_fed = 0;
 };
-Fed Feed(const pb::TestPlan& plan, double arw, uint64_t seed, int batch, double seconds) {
+Fed Feed(const pb::TestPlan& plan, double arw, uint64_t seed, int batch, double seconds,
+         double step_at_s = -1, double step = 0) {
   pb::SimTruth truth;
   truth.set_seed(seed);
   truth.set_actual_rate_hz(kRate);
@@ -57,6 +58,11 @@ Fed Feed(const pb::TestPlan& plan, double arw, uint64_t seed, int batch, double 
     const int n = static_cast<int>(std::min<int64_t>(batch, total - counter));
     samples[0].clear();
     sim->Generate(n, samples);
+    for (int i = 0; i < n && step_at_s >= 0; ++i) {  // a level step after the warm-up
+      if (static_cast<double>(counter + i) / kRate - plan.warmup_s() >= step_at_s) {
+        samples[0][i] += static_cast<float>(step);
+      }
+    }
     BatchView v;
     v.seq = seq;
     v.first_sample = counter;
@@ -114,6 +120,42 @@ TEST(EarlyDecisionRun, DecidedUnitStopsAtTheLookWhateverTheBatches) {
   const pb::Measurement* duration = Find(a.outcome, judge::kDuration);
   ASSERT_NE(duration, nullptr);
   EXPECT_EQ(duration->outcome(), pb::PASS);
+}
+
+// A unit decided early is scanned for stationarity on the record analysed
+// to its decision: a qualifier-only event is named in the reasons, and a
+// limit on the count (read at the end, never at a look) judges it.
+TEST(EarlyDecisionRun, StationarityIsScannedOnTheDecidedRecord) {
+  pb::TestPlan plan = Plan(true);
+  pb::ReferenceNoiseModel* r = plan.mutable_stationarity()->add_reference_model();
+  r->set_axis_kind(pb::GYRO);
+  r->set_source("the simulated white noise");
+  r->set_random_walk(0.2 / 60);
+  // A step of 0.05 deg/s (15 sd of a 1 s bin mean) at 30 s.
+  const Fed q = Feed(plan, 0.2, 11, 50, 600, 30, 0.05);
+  ASSERT_TRUE(q.outcome.early.has_value());
+  EXPECT_EQ(q.outcome.early->decided_at_s, 60);
+  EXPECT_EQ(q.outcome.judgement.verdict, pb::PASS);
+  const pb::Measurement* n = Find(q.outcome, judge::kStationarityEvents);
+  ASSERT_NE(n, nullptr);
+  EXPECT_EQ(n->value(), 1) << n->note();
+  ASSERT_FALSE(q.outcome.judgement.reasons.empty());
+  EXPECT_NE(q.outcome.judgement.reasons.back().find("x: stationarity: 1 event: level step"),
+            std::string::npos)
+      << q.outcome.judgement.reasons.back();
+
+  pb::Limit* none = plan.add_limits();
+  none->set_measurement(std::string(judge::kStationarityEvents));
+  none->set_high(0);
+  none->set_unit("1");
+  ASSERT_TRUE(judge::ValidatePlan(plan).ok()) << judge::ValidatePlan(plan).message();
+  const Fed f = Feed(plan, 0.2, 11, 50, 600, 30, 0.05);
+  ASSERT_TRUE(f.outcome.early.has_value());
+  EXPECT_EQ(f.outcome.early->decided_at_s, 60);  // the limit is not looked at
+  EXPECT_EQ(f.outcome.judgement.verdict, pb::FAIL);
+  n = Find(f.outcome, judge::kStationarityEvents);
+  ASSERT_NE(n, nullptr);
+  EXPECT_EQ(n->outcome(), pb::FAIL);
 }
 
 TEST(EarlyDecisionRun, ClearlyBadUnitIsDecidedFail) {
