@@ -483,7 +483,7 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   // The draws depend on the models, the bins and which of them are missing,
   // not on the data: a station's runs under one plan's reference models
   // share them (CalibrationCache).
-  const int draws = static_cast<int>(std::ceil(30 / options.false_alarm)) - 1;
+  const int draws = static_cast<int>(std::ceil(10 / options.false_alarm)) - 1;
   std::string key;
   const auto put = [&key](double v) { key.append(reinterpret_cast<const char*>(&v), sizeof v); };
   put(tau0_s);

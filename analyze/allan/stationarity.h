@@ -33,13 +33,16 @@
 // joint: the group's sum of z^2 at one candidate, chi-square with A degrees
 // of freedom. The record's smallest p over every candidate of every family
 // (each axis alone, and the joint family when A > 1) is compared with a
-// threshold calibrated on M = 30 / false_alarm - 1 records drawn from the
+// threshold calibrated on M = 10 / false_alarm - 1 records drawn from the
 // models (each axis independent, differences with covariance C at the
 // present bins): the r-th smallest of their smallest p, r = floor((M + 1)
 // false_alarm), so a record of the models reports an event with probability
 // r / (M + 1), `false_alarm` itself, in expectation over the calibration
 // (the draws have a fixed seed: one threshold's own rate is within about
-// +-1/sqrt(r), 18 %, of it), whatever the correlations between the
+// +-1/sqrt(r), 32 %, of it; 3x the draws would bring that to 18 % at 3x the
+// cost of every scan whose draws are not cached: with them, the scans in the
+// built-in plans' runs added 150 s to the Release test suite), whatever the
+// correlations between the
 // candidates (Bonferroni over them is only a bound, well above the rate of
 // correlated candidates; stationarity_test measures the rate). The draws
 // depend on the models, the bins and the missing bins only, and are cached
