@@ -42,12 +42,19 @@ struct Candidate {
   double offset = 0;  // the event's time: (k + offset) bins
 };
 
-// One axis's GLS problem on the present differences.
+// One axis's GLS problem on the present differences. A candidate's z, size
+// and sigma are g'P r / sqrt(g'P g - g'P X M X'P g) and its two parts: the
+// denominator depends on the nuisances only, so it is worked out once per
+// candidate (Prepare) and a record costs its residual v = P r and two
+// products per candidate; records drawn from the model come in blocks (one
+// triangular solve for the block).
 class AxisGls {
  public:
   // d: differences (NaN where a bin is missing); cov(L): covariance at lag L.
   // with_ramp: the constant of d (a rate ramp) is a nuisance.
-  AxisGls(const std::vector<double>& d, const std::vector<double>& cov, bool with_ramp) {
+  AxisGls(const std::vector<double>& d, const std::vector<double>& cov, bool with_ramp,
+          const std::vector<Candidate>& candidates)
+      : candidates_(&candidates) {
     for (size_t i = 0; i < d.size(); ++i) {
       if (std::isfinite(d[i])) at_.push_back(static_cast<int>(i));
     }
@@ -65,7 +72,6 @@ class AxisGls {
     chol_ = llt.matrixL();
     d_.resize(n);
     for (int i = 0; i < n; ++i) d_(i) = d[at_[i]];
-    data_ = d_;
     if (with_ramp) x_.push_back(Eigen::VectorXd::Ones(n));
     first_event_ = x_.size();
     Refit();
@@ -78,37 +84,37 @@ class AxisGls {
     Refit();
   }
 
-  // z, size and sigma of a candidate given the nuisances; NaN when the
-  // candidate touches a missing difference or is not identifiable.
-  void Test(const Candidate& c, double* z, double* size, double* sigma) const {
-    *z = *size = *sigma = kNaN;
-    const int ia = Map(c.a), ib = c.b >= 0 ? Map(c.b) : -2;
-    if (ia < 0 || ib == -1) return;
-    // g'P g, g'P r, g'P X.
-    double gpg = c.wa * c.wa * p_(ia, ia), gpr = c.wa * v_(ia);
-    Eigen::VectorXd gpx = c.wa * px_.row(ia).transpose();
-    if (ib >= 0) {
-      gpg += c.wb * c.wb * p_(ib, ib) + 2 * c.wa * c.wb * p_(ia, ib);
-      gpr += c.wb * v_(ib);
-      gpx += c.wb * px_.row(ib).transpose();
-    }
-    const double den2 = gpg - gpx.dot(m_ * gpx);
-    if (!(den2 > 1e-12 * gpg)) return;
-    *z = gpr / std::sqrt(den2);
-    *size = gpr / den2;
-    *sigma = 1 / std::sqrt(den2);
+  // z, size and sigma of candidate `i` given the nuisances, for the record
+  // whose residual is v (the data's: Residual()); NaN when the candidate
+  // touches a missing difference or is not identifiable.
+  double Z(size_t i, const double* v) const {
+    const Prepared& t = prepared_[i];
+    if (!(t.inv_sd > 0)) return kNaN;
+    return (t.wa * v[t.ia] + (t.ib >= 0 ? t.wb * v[t.ib] : 0.0)) * t.inv_sd;
   }
+  void Test(size_t i, double* z, double* size, double* sigma) const {
+    *z = Z(i, v_.data());
+    const double inv_sd = prepared_[i].inv_sd;
+    *size = *z * inv_sd;
+    *sigma = std::isfinite(*z) ? inv_sd : kNaN;
+  }
+  const double* Residual() const { return v_.data(); }
 
-  // A record of the model: differences drawn with its covariance (at the
-  // present positions), every nuisance refitted. Restore() puts the data back.
+  // The residuals of `count` records of the model (differences drawn with
+  // its covariance at the present positions, the nuisances fitted to each):
+  // column j of the result is record j's v. With d = L e (C = L L'), P d =
+  // L^-T e.
   template <typename Rng>
-  void Draw(Rng& rng) {
+  Eigen::MatrixXd DrawResiduals(Rng& rng, int count) const {
     std::normal_distribution<double> gauss;
-    Eigen::VectorXd e(d_.size());
-    for (Eigen::Index i = 0; i < e.size(); ++i) e(i) = gauss(rng);
-    SetData(chol_.triangularView<Eigen::Lower>() * e);
+    Eigen::MatrixXd e(d_.size(), count);
+    for (Eigen::Index j = 0; j < e.cols(); ++j) {
+      for (Eigen::Index i = 0; i < e.rows(); ++i) e(i, j) = gauss(rng);
+    }
+    chol_.transpose().triangularView<Eigen::Upper>().solveInPlace(e);
+    if (!x_.empty()) e -= px_ * (m_ * (xmat_.transpose() * e));
+    return e;
   }
-  void Restore() { SetData(data_); }
 
   // The joint estimate of accepted event j's amplitude and its 1-sigma.
   void Amplitude(size_t j, double* value, double* sigma) const {
@@ -118,6 +124,11 @@ class AxisGls {
   }
 
  private:
+  struct Prepared {
+    int ia = -1, ib = -1;
+    double wa = 0, wb = 0;
+    double inv_sd = kNaN;  // 1 / sqrt(g'P g - g'P X M X'P g)
+  };
   int Map(int i) const { return i >= 0 && i < static_cast<int>(index_.size()) ? index_[i] : -1; }
   Eigen::VectorXd Sparse(const Candidate& c) const {
     Eigen::VectorXd g = Eigen::VectorXd::Zero(static_cast<int>(at_.size()));
@@ -127,40 +138,50 @@ class AxisGls {
   }
   void Refit() {
     const int n = static_cast<int>(at_.size()), q = static_cast<int>(x_.size());
+    xmat_.resize(n, q);
+    for (int j = 0; j < q; ++j) xmat_.col(j) = x_[j];
+    px_ = p_ * xmat_;
     if (q == 0) {
-      px_ = Eigen::MatrixXd(n, 0);
       m_ = Eigen::MatrixXd(0, 0);
       beta_ = Eigen::VectorXd(0);
       v_ = p_ * d_;
-      return;
+    } else {
+      m_ = (xmat_.transpose() * px_).ldlt().solve(Eigen::MatrixXd::Identity(q, q));
+      beta_ = m_ * (px_.transpose() * d_);
+      v_ = p_ * (d_ - xmat_ * beta_);
     }
-    Eigen::MatrixXd x(n, q);
-    for (int j = 0; j < q; ++j) x.col(j) = x_[j];
-    px_ = p_ * x;
-    m_ = (x.transpose() * px_).ldlt().solve(Eigen::MatrixXd::Identity(q, q));
-    beta_ = m_ * (px_.transpose() * d_);
-    v_ = p_ * (d_ - x * beta_);
+    Prepare();
+  }
+  // Each candidate's denominator under the present nuisances.
+  void Prepare() {
+    const int q = static_cast<int>(x_.size());
+    prepared_.assign(candidates_->size(), Prepared{});
+    Eigen::VectorXd gpx(q);
+    for (size_t i = 0; i < candidates_->size(); ++i) {
+      const Candidate& c = (*candidates_)[i];
+      const int ia = Map(c.a), ib = c.b >= 0 ? Map(c.b) : -2;
+      if (ia < 0 || ib == -1) continue;
+      double gpg = c.wa * c.wa * p_(ia, ia);
+      gpx = c.wa * px_.row(ia).transpose();
+      if (ib >= 0) {
+        gpg += c.wb * c.wb * p_(ib, ib) + 2 * c.wa * c.wb * p_(ia, ib);
+        gpx += c.wb * px_.row(ib).transpose();
+      }
+      const double den2 = q == 0 ? gpg : gpg - gpx.dot(m_ * gpx);
+      if (!(den2 > 1e-12 * gpg)) continue;
+      prepared_[i] = {ia, ib >= 0 ? ib : -1, c.wa, c.wb, 1 / std::sqrt(den2)};
+    }
   }
 
-  // New differences, the same nuisances: only the estimates move.
-  void SetData(const Eigen::VectorXd& d) {
-    d_ = d;
-    if (x_.empty()) {
-      v_ = p_ * d_;
-      return;
-    }
-    beta_ = m_ * (px_.transpose() * d_);
-    v_ = p_ * d_ - px_ * beta_;
-  }
-
+  const std::vector<Candidate>* candidates_;
   bool ok_ = false;
   size_t first_event_ = 0;
   Eigen::MatrixXd chol_;
-  Eigen::VectorXd data_;
   std::vector<int> at_, index_;
-  Eigen::MatrixXd p_, px_, m_;
+  Eigen::MatrixXd p_, px_, m_, xmat_;
   Eigen::VectorXd d_, beta_, v_;
   std::vector<Eigen::VectorXd> x_;
+  std::vector<Prepared> prepared_;
 };
 
 // The smallest p-values of the records drawn to calibrate a scan, by what
@@ -230,17 +251,26 @@ std::vector<double> BinMeans(std::span<const double> rate, int64_t bin_samples, 
 BinAccumulator::BinAccumulator(int64_t base_samples) : base_(std::max<int64_t>(base_samples, 1)) {}
 
 void BinAccumulator::Append(std::span<const float> values, std::span<const uint8_t> invalid) {
-  for (size_t i = 0; i < values.size(); ++i) {
+  // Span by span: the samples up to the end of the present base bin.
+  size_t i = 0;
+  while (i < values.size()) {
     const size_t bin = static_cast<size_t>(samples_ / base_);
     if (bin >= sum_.size()) {
-      sum_.push_back(0);
-      valid_.push_back(0);
+      sum_.resize(bin + 1, 0);
+      valid_.resize(bin + 1, 0);
     }
-    if (!(i < invalid.size() && invalid[i]) && std::isfinite(values[i])) {
-      sum_[bin] += values[i];
-      ++valid_[bin];
+    const size_t end = std::min(values.size(), i + static_cast<size_t>(base_ - samples_ % base_));
+    double sum = 0;
+    int64_t valid = 0;
+    samples_ += static_cast<int64_t>(end - i);
+    for (; i < end; ++i) {
+      if (!(i < invalid.size() && invalid[i]) && std::isfinite(values[i])) {
+        sum += values[i];
+        ++valid;
+      }
     }
-    ++samples_;
+    sum_[bin] += sum;
+    valid_[bin] += valid;
     if (sum_.size() > static_cast<size_t>(kMaxBaseBins)) Merge();
   }
 }
@@ -421,7 +451,7 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
       }
       cov[lag] = -sum / (2 * b * b);
     }
-    gls.emplace_back(d, cov, models[a].CountOf(TermKind::kDrift) > 0);
+    gls.emplace_back(d, cov, models[a].CountOf(TermKind::kDrift) > 0, candidates);
     if (!gls.back().ok()) {
       return Status::InvalidArgument("stationarity scan: the noise model " + models[a].Name() +
                                      " of axis " + std::to_string(a + 1) +
@@ -435,42 +465,49 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   // and (more than one axis) the largest sum of z^2 over the axes at one
   // candidate, chi-square with as many degrees of freedom as axes.
   const boost::math::chi_squared joint(num_axes);
+  constexpr size_t kNone = static_cast<size_t>(-1);
   struct Strongest {
     double axis_z = 0;
-    const Candidate* axis_candidate = nullptr;
+    size_t axis_candidate = kNone;
     int axis = -1;
     double joint_sum = 0;
-    const Candidate* joint_candidate = nullptr;
-    double AxisP() const { return axis_candidate ? TwoSidedNormal(axis_z) : 1.0; }
+    size_t joint_candidate = kNone;
+    double AxisP() const { return axis_candidate != kNone ? TwoSidedNormal(axis_z) : 1.0; }
     double JointP(const boost::math::chi_squared& dist) const {
-      return joint_candidate ? boost::math::cdf(boost::math::complement(dist, joint_sum)) : 1.0;
+      return joint_candidate != kNone ? boost::math::cdf(boost::math::complement(dist, joint_sum))
+                                      : 1.0;
     }
   };
-  std::vector<double> z(num_axes), size(num_axes), sigma(num_axes);
-  const auto strongest = [&]() {
+  // v[a]: axis a's residual (the data's, or a drawn record's).
+  const auto strongest = [&](const std::vector<const double*>& v) {
     Strongest s;
-    for (const Candidate& c : candidates) {
+    for (size_t c = 0; c < candidates.size(); ++c) {
       bool all = true;
       double sum = 0;
       for (int a = 0; a < num_axes; ++a) {
-        gls[a].Test(c, &z[a], &size[a], &sigma[a]);
-        if (!std::isfinite(z[a])) {
+        const double z = gls[a].Z(c, v[a]);
+        if (!std::isfinite(z)) {
           all = false;
           continue;
         }
-        sum += z[a] * z[a];
-        if (std::fabs(z[a]) > s.axis_z) {
-          s.axis_z = std::fabs(z[a]);
-          s.axis_candidate = &c;
+        sum += z * z;
+        if (std::fabs(z) > s.axis_z) {
+          s.axis_z = std::fabs(z);
+          s.axis_candidate = c;
           s.axis = a;
         }
       }
       if (all && num_axes > 1 && sum > s.joint_sum) {
         s.joint_sum = sum;
-        s.joint_candidate = &c;
+        s.joint_candidate = c;
       }
     }
     return s;
+  };
+  const auto data_residuals = [&]() {
+    std::vector<const double*> v;
+    for (const AxisGls& g : gls) v.push_back(g.Residual());
+    return v;
   };
   // The threshold, calibrated on records drawn from the models (each axis
   // its own, independent, with the same bins missing): the smallest p of a
@@ -505,14 +542,21 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   }
   std::shared_ptr<const std::vector<double>> cached = CalibrationCache::Find(key);
   if (cached == nullptr) {
-    std::vector<double> drawn(draws);
+    std::vector<double> drawn;
+    drawn.reserve(draws);
     std::mt19937_64 rng(0x5eed5ca9);
-    for (int m = 0; m < draws; ++m) {
-      for (AxisGls& g : gls) g.Draw(rng);
-      const Strongest s = strongest();
-      drawn[m] = std::min(s.AxisP(), s.JointP(joint));
+    constexpr int kBlock = 64;
+    std::vector<Eigen::MatrixXd> block(num_axes);
+    std::vector<const double*> v(num_axes);
+    for (int first = 0; first < draws; first += kBlock) {
+      const int count = std::min(kBlock, draws - first);
+      for (int a = 0; a < num_axes; ++a) block[a] = gls[a].DrawResiduals(rng, count);
+      for (int j = 0; j < count; ++j) {
+        for (int a = 0; a < num_axes; ++a) v[a] = block[a].col(j).data();
+        const Strongest s = strongest(v);
+        drawn.push_back(std::min(s.AxisP(), s.JointP(joint)));
+      }
     }
-    for (AxisGls& g : gls) g.Restore();
     std::sort(drawn.begin(), drawn.end());
     cached = CalibrationCache::Put(key, std::move(drawn));
   }
@@ -522,16 +566,18 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   scan.threshold_p = p_threshold;
 
   std::vector<StationarityEvent> events;
+  std::vector<double> size(num_axes), sigma(num_axes);
   for (int round = 0; round < options.max_events; ++round) {
-    const Strongest s = strongest();
+    const Strongest s = strongest(data_residuals());
     const double axis_p = s.AxisP(), joint_p = s.JointP(joint);
     const bool best_joint = joint_p < axis_p;
     const double best_p = std::min(axis_p, joint_p);
-    const Candidate* best = best_joint ? s.joint_candidate : s.axis_candidate;
-    if (best == nullptr || !(best_p < p_threshold)) break;
+    const size_t best_index = best_joint ? s.joint_candidate : s.axis_candidate;
+    if (best_index == kNone || !(best_p < p_threshold)) break;
+    const Candidate* best = &candidates[best_index];
     const int best_axis = best_joint ? -1 : s.axis;
     std::vector<double> best_z(num_axes);
-    for (int a = 0; a < num_axes; ++a) gls[a].Test(*best, &best_z[a], &size[a], &sigma[a]);
+    for (int a = 0; a < num_axes; ++a) gls[a].Test(best_index, &best_z[a], &size[a], &sigma[a]);
     const double adjusted =
         static_cast<double>(
             1 + (std::upper_bound(drawn_p.begin(), drawn_p.end(), best_p) - drawn_p.begin())) /

@@ -299,12 +299,7 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
     });
   };
   auto missing = [](const std::string& axis, const std::string& name, std::string_view unit) {
-    pb::Measurement m;
-    m.set_axis(axis);
-    m.set_name(name);
-    m.set_value(std::nan(""));
-    m.set_unit(std::string(unit));
-    m.set_note("no value was produced");
+    pb::Measurement m = NewMeasurement(axis, name, std::nan(""), unit, "no value was produced");
     m.set_qualifier(pb::NOT_MEASURABLE);
     m.set_uncertainty_method("none: not measured");
     return m;

@@ -24,13 +24,7 @@ using allan::NoiseTerm;
 
 pb::Measurement Make(const std::string& axis, std::string_view name, double value,
                      pb::AxisKind kind, const std::string& note = "") {
-  pb::Measurement m;
-  m.set_axis(axis);
-  m.set_name(std::string(name));
-  m.set_value(value);
-  m.set_unit(std::string(UnitFor(*FindMeasurement(name), kind)));
-  m.set_note(note);
-  return m;
+  return NewMeasurement(axis, name, value, UnitFor(*FindMeasurement(name), kind), note);
 }
 
 // How an uncertainty was obtained, or why a measurement has none

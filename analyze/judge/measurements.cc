@@ -71,6 +71,17 @@ const MeasurementDef* FindMeasurement(std::string_view name) {
   return nullptr;
 }
 
+pb::Measurement NewMeasurement(std::string_view axis, std::string_view name, double value,
+                               std::string_view unit, std::string_view note) {
+  pb::Measurement m;
+  m.set_axis(std::string(axis));
+  m.set_name(std::string(name));
+  m.set_value(value);
+  m.set_unit(std::string(unit));
+  m.set_note(std::string(note));
+  return m;
+}
+
 std::string_view UnitFor(const MeasurementDef& def, pb::AxisKind kind) {
   if (def.run_level) return def.gyro_unit;
   return kind == pb::ACCEL ? def.accel_unit : def.gyro_unit;

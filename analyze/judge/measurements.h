@@ -89,6 +89,10 @@ const MeasurementDef* FindMeasurement(std::string_view name);
 // The unit of `def` on an axis of `kind` ("" if not defined there). Run-level
 // measurements use gyro_unit whatever the kind.
 std::string_view UnitFor(const MeasurementDef& def, pb::AxisKind kind);
+// A measurement row with its axis ("" for run level), name, value, unit and
+// note; uncertainty and qualifier are the caller's.
+pb::Measurement NewMeasurement(std::string_view axis, std::string_view name, double value,
+                               std::string_view unit, std::string_view note = "");
 
 }  // namespace imuqual::judge
 

@@ -19,24 +19,17 @@ std::string Fmt(const char* format, double v) {
   return buf;
 }
 
-// Bias units: deg/h for a gyro, ug for an accelerometer (bias_offset's).
-double ToBiasUnit(double v, pb::AxisKind kind) {
-  return kind == pb::ACCEL ? allan::MetersPerSecSqToMicroG(v) : allan::DegPerSecToDegPerHour(v);
+// A level in the bias unit: deg/h for a gyro, ug for an accelerometer (bias
+// instability's, and bias_offset's).
+allan::DatasheetValue InBiasUnit(double v, pb::AxisKind kind) {
+  return allan::ToDatasheetUnits(
+      allan::NoiseTerm::kBiasInstability,
+      kind == pb::ACCEL ? allan::SensorKind::kAccelerometer : allan::SensorKind::kGyro, v);
 }
-std::string BiasUnit(pb::AxisKind kind) { return kind == pb::ACCEL ? "ug" : "deg/h"; }
+double ToBiasUnit(double v, pb::AxisKind kind) { return InBiasUnit(v, kind).value; }
+std::string BiasUnit(pb::AxisKind kind) { return std::string(InBiasUnit(0, kind).unit); }
 
 std::string KindWord(pb::AxisKind kind) { return kind == pb::ACCEL ? "accelerometer" : "gyro"; }
-
-pb::Measurement Make(const std::string& axis, const std::string& name, double value,
-                     const std::string& unit, const std::string& note) {
-  pb::Measurement m;
-  m.set_axis(axis);
-  m.set_name(name);
-  m.set_value(value);
-  m.set_unit(unit);
-  m.set_note(note);
-  return m;
-}
 
 // "level step +167 ± 12 deg/h at 3132 s" / "burst +40 ± 10 deg/h over 600 s from 5000 s".
 std::string EventText(const allan::StationarityEvent& e, const allan::EventAxis& a,
@@ -149,8 +142,8 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
     if (group.empty()) continue;
     const auto not_measurable = [&](const std::string& why) {
       for (size_t a : group) {
-        pb::Measurement m = Make(axes[a].axis.name, std::string(kStationarityEvents), allan::kNaN,
-                                 "1", "not scanned: " + why);
+        pb::Measurement m = NewMeasurement(axes[a].axis.name, std::string(kStationarityEvents),
+                                           allan::kNaN, "1", "not scanned: " + why);
         m.set_qualifier(pb::NOT_MEASURABLE);
         m.set_uncertainty_method("none: a count");
         per_axis[a].push_back(std::move(m));
@@ -190,6 +183,13 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
       not_measurable(scan->note);
       continue;
     }
+    // Whether each axis's curve lies above the reference (once per axis).
+    std::vector<Envelope> envelopes(group.size());
+    if (reference != nullptr) {
+      for (size_t i = 0; i < group.size(); ++i) {
+        envelopes[i] = EnvelopeCheck(axes[group[i]].curve, models[i], scan->bin_s);
+      }
+    }
     // What the scan was, the same for every axis of the group but the model.
     const auto scan_text = [&](size_t i) {
       std::string t =
@@ -204,10 +204,7 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
       t += ", false-alarm level " + Fmt("%g", scan->false_alarm) + " per run for the " +
            KindWord(kind) + " axes together (threshold p " + Fmt("%.2g", scan->threshold_p) +
            ", calibrated on records drawn from the model)";
-      if (reference != nullptr) {
-        t += EnvelopeCheck(axes[group[i]].curve, models[i], scan->bin_s).text;
-      }
-      return t;
+      return t + envelopes[i].text;
     };
     for (size_t i = 0; i < group.size(); ++i) {
       const size_t a = group[i];
@@ -228,31 +225,31 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
           }
         }
         pb::Measurement size =
-            Make(axis.name, name, ToBiasUnit(ea.size, kind), BiasUnit(kind),
-                 texts.back() + " from the end of the warm-up (z " + Fmt("%.2g", ea.z) +
-                     " at detection; p " + Fmt("%.2g", e.p_adjusted) +
-                     " over every candidate of the scan)" +
-                     (e.joint ? "; found on the " + KindWord(kind) + " axes together" +
-                                    (with.empty() ? "" : ", also on " + with)
-                              : ""));
+            NewMeasurement(axis.name, name, ToBiasUnit(ea.size, kind), BiasUnit(kind),
+                           texts.back() + " from the end of the warm-up (z " + Fmt("%.2g", ea.z) +
+                               " at detection; p " + Fmt("%.2g", e.p_adjusted) +
+                               " over every candidate of the scan)" +
+                               (e.joint ? "; found on the " + KindWord(kind) + " axes together" +
+                                              (with.empty() ? "" : ", also on " + with)
+                                        : ""));
         size.set_uncertainty(ToBiasUnit(ea.sigma, kind));
         size.set_uncertainty_method(
             "GLS under the scan's noise model " + models[i].Name() +
             ", jointly with the axis's other events (size: after - before)");
         details.push_back(std::move(size));
-        pb::Measurement time =
-            Make(axis.name, name + "_time", e.time_s, "s",
-                 std::string(e.kind == allan::EventKind::kStep
-                                 ? "the step's bin boundary, or the middle of the bin holding it"
-                                 : "the burst's start") +
-                     ", s from the end of the warm-up");
+        pb::Measurement time = NewMeasurement(
+            axis.name, name + "_time", e.time_s, "s",
+            std::string(e.kind == allan::EventKind::kStep
+                            ? "the step's bin boundary, or the middle of the bin holding it"
+                            : "the burst's start") +
+                ", s from the end of the warm-up");
         time.set_uncertainty_method(
             "none: a bin boundary or middle (the scan resolves time to half its bins of " +
             Fmt("%.4g", scan->bin_s) + " s)");
         details.push_back(std::move(time));
         if (e.kind == allan::EventKind::kBurst) {
-          pb::Measurement end = Make(axis.name, name + "_end", e.time_s + e.window_s, "s",
-                                     "the burst's end, s from the end of the warm-up");
+          pb::Measurement end = NewMeasurement(axis.name, name + "_end", e.time_s + e.window_s, "s",
+                                               "the burst's end, s from the end of the warm-up");
           end.set_uncertainty_method(details.back().uncertainty_method());
           details.push_back(std::move(end));
         }
@@ -261,15 +258,14 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
                                           : std::to_string(texts.size()) +
                                                 (texts.size() == 1 ? " event: " : " events: ");
       for (size_t t = 0; t < texts.size(); ++t) summary += (t ? "; " : "") + texts[t];
-      if (!texts.empty() && reference != nullptr &&
-          EnvelopeCheck(axes[a].curve, models[i], scan->bin_s).above) {
+      if (!texts.empty() && envelopes[i].above) {
         summary +=
             " (the axis's curve lies above the reference: events raise it, but noise above the "
             "reference may also read as events)";
       }
-      pb::Measurement count =
-          Make(axis.name, std::string(kStationarityEvents), static_cast<double>(texts.size()), "1",
-               summary + kScanSeparator + scan_text(i));
+      pb::Measurement count = NewMeasurement(axis.name, std::string(kStationarityEvents),
+                                             static_cast<double>(texts.size()), "1",
+                                             summary + kScanSeparator + scan_text(i));
       count.set_uncertainty_method("none: a count");
       per_axis[a].push_back(std::move(count));
       for (pb::Measurement& d : details) per_axis[a].push_back(std::move(d));
