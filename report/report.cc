@@ -114,10 +114,28 @@ int Severity(std::string_view verdict) { return store::OutcomeSeverity(verdict);
 
 std::string OutcomeName(pb::Outcome o) { return store::OutcomeText(o); }
 
-// The runs whose units need a look, worst first (store::AttentionRank).
+// Level steps or bursts the stationarity scan found on any axis of the run
+// (a stationarity_events count of one or more).
+int StationarityEventCount(const RunPlotData& r) {
+  int events = 0;
+  for (const AxisPlotData& a : r.axes) {
+    for (const pb::Measurement& m : a.measurements) {
+      if (m.name() == judge::kStationarityEvents && m.value() >= 1) {
+        events += static_cast<int>(m.value());
+      }
+    }
+  }
+  return events;
+}
+
+// The runs whose units need a look, worst first (store::AttentionRank),
+// then the units that pass but whose record shows a level step or burst (a
+// plan's qualifier-only stationarity: the verdict stands, but the time
+// series says where the record moved).
 std::vector<const RunPlotData*> NeedALook(const std::vector<RunPlotData>& runs) {
   auto rank = [](const RunPlotData* r) {
-    return store::AttentionRank(store::OutcomeFromText(r->verdict));
+    const int attention = store::AttentionRank(store::OutcomeFromText(r->verdict));
+    return attention > 0 ? 2 * attention : StationarityEventCount(*r) > 0 ? 1 : 0;
   };
   std::vector<const RunPlotData*> flagged;
   for (const RunPlotData& r : runs) {
@@ -460,8 +478,8 @@ void Attention(const ReportData& d, const std::map<std::string, std::string>& pl
                std::string* out) {
   const std::vector<const RunPlotData*> flagged = NeedALook(d.runs);
   *out +=
-      "<section id=\"attention\">\n<h2>Units that fail, are marginal or inconclusive, or "
-      "were not measured to the end</h2>\n";
+      "<section id=\"attention\">\n<h2>Units that fail, are marginal or inconclusive, were "
+      "not measured to the end, or whose record moved</h2>\n";
   if (flagged.empty()) {
     *out += "<p class=\"ok\">Every judged unit passes without a marginal value.</p>\n</section>\n";
     return;
@@ -1123,7 +1141,7 @@ std::string UnitPlotsSection(const LotReportData& d) {
   if (unit_figures.empty()) return "";
   std::string html;
   Add(&html,
-      "<section id=\"unit-plots\">\n<h2>Failing and marginal units: Allan deviation and raw "
+      "<section id=\"unit-plots\">\n<h2>Units that need a look: Allan deviation and raw "
       "samples</h2>\n",
       "<div class=\"plots\">\n", unit_figures, "</div>\n",
       "<p class=\"note\">Each axis with its confidence band, its composite noise model "
@@ -1209,10 +1227,9 @@ std::string RenderLotReportHtml(const LotReportData& d, const std::string& archi
     html += DeferredSection("lot-plots", "Allan deviation: the lot, per axis",
                             "Drawing every unit's curve", options.section_url("lot-plots"));
     if (any_flagged) {
-      html += DeferredSection("unit-plots",
-                              "Failing and marginal units: Allan deviation and raw samples",
-                              "Drawing each flagged unit's curves and raw samples",
-                              options.section_url("unit-plots"));
+      html += DeferredSection(
+          "unit-plots", "Units that need a look: Allan deviation and raw samples",
+          "Drawing each flagged unit's curves and raw samples", options.section_url("unit-plots"));
     }
   }
   Add(&html,

@@ -13,12 +13,13 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <nlohmann/json.hpp>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "analyze/judge/measurements.h"
 #include "common/channels.h"
 #include "common/lcm_bus.h"
 #include "common/strings.h"
@@ -33,9 +34,9 @@
 #include "store/archive.h"
 #include "store/chunk_codec.h"
 #include "store/outcome.h"
+#include "store/query.h"
 #include "store/run_record.h"
 #include "tests/test_util.h"
-#include "store/query.h"
 #include "web/access.h"
 #include "web/live_feed.h"
 #include "web/live_page.h"
@@ -384,6 +385,50 @@ TEST_F(WebTest, ATokenGuardsEveryPage) {
 }
 
 // A damaged chunk costs the unit's raw-sample plot, not the lot's report.
+// A unit that passes but whose record moved (a qualifier-only stationarity
+// event) is listed among the units that need a look, after the failing
+// ones, with its reasons; a passing unit without events is not.
+TEST(WebPagesTest, AUnitWhoseRecordMovedNeedsALook) {
+  testing::TempDir dir("web_moved");
+  const std::string db = dir.path("moved.db");
+  const std::string lot = "LOT-MOVED";
+  {
+    auto a = store::Archive::Open(db, store::Archive::Mode::kWrite);
+    ASSERT_TRUE(a.ok());
+    const auto add = [&](const std::string& run_id, const std::string& serial,
+                         const std::string& verdict, double events, int64_t start) {
+      store::RunInfo r = OneAxisRun(run_id, serial, lot, start);
+      auto key = (*a)->UpsertRun(r);
+      ASSERT_TRUE(key.ok());
+      store::ResultRecord res;
+      res.verdict = verdict;
+      pb::Measurement count = judge::NewMeasurement("gx", judge::kStationarityEvents, events, "1",
+                                                    events > 0 ? "1 event: level step" : "none");
+      res.measurements.push_back(count);
+      if (events > 0) res.reasons = {"gx: 1 stationarity event (qualifier only): level step"};
+      if (verdict == "FAIL") res.reasons.push_back("gx: bias_instability above high limit");
+      Finish(**a, *key, r, res);
+    };
+    add("R-STILL", "U-STILL", "PASS", 0, 1'800'000'000'000'000);
+    add("R-MOVED", "U-MOVED", "PASS", 1, 1'800'000'010'000'000);
+    add("R-FAIL", "U-FAIL", "FAIL", 0, 1'800'000'020'000'000);
+  }
+  auto archive = store::Archive::Open(db, store::Archive::Mode::kRead);
+  ASSERT_TRUE(archive.ok());
+  auto html = report::BuildLotReportHtml(**archive, lot, db);
+  ASSERT_TRUE(html.ok()) << html.status().ToString();
+  const size_t section = html->find("<section id=\"attention\">");
+  ASSERT_NE(section, std::string::npos);
+  const std::string attention = html->substr(section, html->find("</section>", section) - section);
+  const size_t failing = attention.find("data-serial=\"U-FAIL\"");
+  const size_t moved = attention.find("data-serial=\"U-MOVED\"");
+  EXPECT_NE(failing, std::string::npos) << attention;
+  EXPECT_NE(moved, std::string::npos) << attention;
+  EXPECT_LT(failing, moved) << "the failing unit first";
+  EXPECT_NE(attention.find("1 stationarity event (qualifier only)"), std::string::npos);
+  EXPECT_EQ(attention.find("U-STILL"), std::string::npos) << attention;
+}
+
 TEST(WebPagesTest, ADamagedChunkCostsOnlyItsPlot) {
   testing::TempDir dir("web_damaged");
   const std::string db = MakeArchive(dir);

@@ -453,15 +453,18 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
   }
 
   // Units needing attention: exactly the FAIL, MARGINAL, INCONCLUSIVE,
-  // ABORTED and ERROR units, with their reasons.
+  // ABORTED and ERROR units, and those whose record shows a stationarity
+  // event (any axis's stationarity_events >= 1), with their reasons.
+  const moved = new Set(measurements
+    .filter((m) => m.name === 'stationarity_events' && Number(m.value) >= 1).map((m) => m.run_id));
   const flagged = runs.filter((r) =>
-    ['FAIL', 'MARGINAL', 'INCONCLUSIVE', 'ABORTED', 'ERROR'].includes(r.verdict));
+    ['FAIL', 'MARGINAL', 'INCONCLUSIVE', 'ABORTED', 'ERROR'].includes(r.verdict) || moved.has(r.run_id));
   const pageFlagged = new Map(dom.attention.map((a) => [a.run, a]));
-  if (dom.attention.length !== flagged.length) fail(`${dom.attention.length} units listed as failing or marginal, the archive has ${flagged.length}`);
+  if (dom.attention.length !== flagged.length) fail(`${dom.attention.length} units listed as needing a look, the archive has ${flagged.length}`);
   for (const r of flagged) {
     const a = pageFlagged.get(r.run_id);
     if (!a) {
-      fail(`${r.serial} (${r.verdict}) is not listed as failing or marginal`);
+      fail(`${r.serial} (${r.verdict}) is not listed as needing a look`);
       continue;
     }
     if (a.verdict !== r.verdict || a.badge !== r.verdict) {
@@ -491,7 +494,7 @@ ORDER BY l.serial, COALESCE(ra.axis_index, -1), m.name`);
   const plotted = new Set(dom.unitPlots.map((p) => p.run));
   const flaggedRuns = new Set(flagged.map((r) => r.run_id));
   if (plotted.size !== flaggedRuns.size || [...plotted].some((run) => !flaggedRuns.has(run))) {
-    fail(`unit plots for runs ${[...plotted]}, the failing or marginal runs are ${[...flaggedRuns]}`);
+    fail(`unit plots for runs ${[...plotted]}, the runs needing a look are ${[...flaggedRuns]}`);
   }
   for (const p of dom.unitPlots) {
     if (!p.svg || p.curves < 1) fail(`unit plot '${p.caption}' has no curve`);
