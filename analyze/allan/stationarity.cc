@@ -50,20 +50,48 @@ struct Candidate {
 // triangular solve for the block).
 class AxisGls {
  public:
-  // d: differences (NaN where a bin is missing); cov(L): covariance at lag L.
-  // with_ramp: the constant of d (a rate ramp) is a nuisance.
-  AxisGls(const std::vector<double>& d, const std::vector<double>& cov, bool with_ramp,
-          const std::vector<Candidate>& candidates)
+  // mean: the bin means (NaN where a bin is missing); structure[L]: the
+  // phase structure function D(L b), L = 0..bins. The differences are those
+  // of consecutive present bins, so a level change across missing bins is
+  // one of them: d_j = ybar_{q} - ybar_{p} (p, q present, none between) =
+  // (x((q+1) b) - x(q b) - x((p+1) b) + x(p b)) / b, and two of them
+  // covary as -1/(2 b^2) sum_{u,v} a_u a'_v D(|t_u - t'_v|) over their
+  // four phase points each (for adjacent bins the c = (1, -2, 1) form).
+  // with_ramp: a rate ramp is a nuisance (its regressor is q - p).
+  AxisGls(const std::vector<double>& mean, const std::vector<double>& structure, double b,
+          bool with_ramp, const std::vector<Candidate>& candidates)
       : candidates_(&candidates) {
-    for (size_t i = 0; i < d.size(); ++i) {
-      if (std::isfinite(d[i])) at_.push_back(static_cast<int>(i));
+    std::vector<int> present;
+    for (size_t i = 0; i < mean.size(); ++i) {
+      if (std::isfinite(mean[i])) present.push_back(static_cast<int>(i));
     }
-    index_.assign(d.size(), -1);
-    for (size_t j = 0; j < at_.size(); ++j) index_[at_[j]] = static_cast<int>(j);
-    const int n = static_cast<int>(at_.size());
+    // Difference j joins present bins present[j] and present[j + 1]; the
+    // boundary after bin i (difference index i of adjacent bins) lies in
+    // difference index_[i].
+    const int n = std::max(0, static_cast<int>(present.size()) - 1);
+    from_.assign(present.begin(), present.end() - (present.empty() ? 0 : 1));
+    to_.assign(present.begin() + (present.empty() ? 0 : 1), present.end());
+    index_.assign(mean.size() > 0 ? mean.size() - 1 : 0, -1);
+    for (int j = 0; j < n; ++j) {
+      for (int i = from_[j]; i < to_[j]; ++i) index_[i] = j;
+    }
     Eigen::MatrixXd c(n, n);
+    const auto points = [&](int j, int t[4], double w[4]) {
+      t[0] = to_[j] + 1, t[1] = to_[j], t[2] = from_[j] + 1, t[3] = from_[j];
+      w[0] = 1, w[1] = -1, w[2] = -1, w[3] = 1;
+    };
     for (int i = 0; i < n; ++i) {
-      for (int j = 0; j < n; ++j) c(i, j) = cov[std::abs(at_[i] - at_[j])];
+      int ti[4], tj[4];
+      double wi[4], wj[4];
+      points(i, ti, wi);
+      for (int j = 0; j <= i; ++j) {
+        points(j, tj, wj);
+        double sum = 0;
+        for (int u = 0; u < 4; ++u) {
+          for (int v = 0; v < 4; ++v) sum += wi[u] * wj[v] * structure[std::abs(ti[u] - tj[v])];
+        }
+        c(i, j) = c(j, i) = -sum / (2 * b * b);
+      }
     }
     Eigen::LLT<Eigen::MatrixXd> llt(c);
     ok_ = llt.info() == Eigen::Success;
@@ -71,10 +99,25 @@ class AxisGls {
     p_ = llt.solve(Eigen::MatrixXd::Identity(n, n));
     chol_ = llt.matrixL();
     d_.resize(n);
-    for (int i = 0; i < n; ++i) d_(i) = d[at_[i]];
-    if (with_ramp) x_.push_back(Eigen::VectorXd::Ones(n));
+    for (int j = 0; j < n; ++j) d_(j) = mean[to_[j]] - mean[from_[j]];
+    if (with_ramp) {
+      Eigen::VectorXd span(n);
+      for (int j = 0; j < n; ++j) span(j) = to_[j] - from_[j];
+      x_.push_back(span);
+    }
     first_event_ = x_.size();
     Refit();
+  }
+  // Whether a step candidate lies in missing bins (its difference joins
+  // bins with missing ones between): then its boundary is anywhere from the
+  // end of bin *from to the start of bin *to, which it sets.
+  bool StepInGap(const Candidate& c, int* from, int* to) const {
+    const int j = Map(c.a);
+    if (c.kind != EventKind::kStep || j < 0 || (c.b >= 0 && Map(c.b) != j)) return false;
+    if (to_[j] - from_[j] < 2) return false;
+    *from = from_[j];
+    *to = to_[j];
+    return true;
   }
   bool ok() const { return ok_; }
 
@@ -131,13 +174,13 @@ class AxisGls {
   };
   int Map(int i) const { return i >= 0 && i < static_cast<int>(index_.size()) ? index_[i] : -1; }
   Eigen::VectorXd Sparse(const Candidate& c) const {
-    Eigen::VectorXd g = Eigen::VectorXd::Zero(static_cast<int>(at_.size()));
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(d_.size());
     if (Map(c.a) >= 0) g(Map(c.a)) += c.wa;
     if (c.b >= 0 && Map(c.b) >= 0) g(Map(c.b)) += c.wb;
     return g;
   }
   void Refit() {
-    const int n = static_cast<int>(at_.size()), q = static_cast<int>(x_.size());
+    const int n = static_cast<int>(d_.size()), q = static_cast<int>(x_.size());
     xmat_.resize(n, q);
     for (int j = 0; j < q; ++j) xmat_.col(j) = x_[j];
     px_ = p_ * xmat_;
@@ -177,7 +220,7 @@ class AxisGls {
   bool ok_ = false;
   size_t first_event_ = 0;
   Eigen::MatrixXd chol_;
-  std::vector<int> at_, index_;
+  std::vector<int> from_, to_, index_;
   Eigen::MatrixXd p_, px_, m_, xmat_;
   Eigen::VectorXd d_, beta_, v_;
   std::vector<Eigen::VectorXd> x_;
@@ -434,24 +477,15 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   }
   scan.tests = static_cast<int>(candidates.size());
 
-  // Per axis: differenced bin means and the GLS problem.
+  // Per axis: the differences of consecutive present bin means and the GLS
+  // problem.
   std::vector<AxisGls> gls;
   for (int a = 0; a < num_axes; ++a) {
-    const std::vector<double>& mean = means[a];
-    std::vector<double> d(bins - 1);
-    for (int i = 0; i + 1 < bins; ++i) d[i] = mean[i + 1] - mean[i];
-    std::vector<double> cov(bins);
-    for (int lag = 0; lag < bins; ++lag) {
-      constexpr double c[3] = {1, -2, 1};
-      double sum = 0;
-      for (int p = 0; p < 3; ++p) {
-        for (int q = 0; q < 3; ++q) {
-          sum += c[p] * c[q] * PhaseStructureFunction(models[a], tau0_s, std::abs(lag + q - p) * b);
-        }
-      }
-      cov[lag] = -sum / (2 * b * b);
+    std::vector<double> structure(bins + 1);
+    for (int lag = 0; lag <= bins; ++lag) {
+      structure[lag] = PhaseStructureFunction(models[a], tau0_s, lag * b);
     }
-    gls.emplace_back(d, cov, models[a].CountOf(TermKind::kDrift) > 0, candidates);
+    gls.emplace_back(means[a], structure, b, models[a].CountOf(TermKind::kDrift) > 0, candidates);
     if (!gls.back().ok()) {
       return Status::InvalidArgument("stationarity scan: the noise model " + models[a].Name() +
                                      " of axis " + std::to_string(a + 1) +
@@ -600,6 +634,11 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
       }
       ea.named = best_joint ? std::isfinite(ea.z) && TwoSidedNormal(ea.z) < 0.01 : a == best_axis;
       any = any || ea.named;
+      int from = 0, to = 0;
+      if (gls[a].StepInGap(*best, &from, &to)) {
+        ea.gap_from_s = (from + 1) * b;
+        ea.gap_to_s = to * b;
+      }
     }
     if (!any) e.axes[loudest].named = true;
     for (AxisGls& g : gls) g.AddNuisance(*best);

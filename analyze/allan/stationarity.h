@@ -52,8 +52,12 @@
 // (at most max_events). At the end every event's size (the level change,
 // after - before, rate units) and 1-sigma are the joint GLS estimate with
 // all events. A joint event names the axes whose own two-sided p is below
-// 1 % (else the axis of the largest |z|). A level change across missing bins
-// is not seen (the differences that touch a missing bin are left out).
+// 1 % (else the axis of the largest |z|). Missing bins are bridged: the
+// differences are those of consecutive present bins (their covariance from
+// D at the four phase points of each), so a level change while the record
+// was missing (a unit reset in a lost stretch) is one difference, found
+// like any step, its time the span of the gap; a burst inside a gap is not
+// seen.
 //
 // The model is a reference from outside the record (a plan's, judge/
 // stationarity_measure.h: the level holds for a unit whose noise it is, and
@@ -126,6 +130,10 @@ struct EventAxis {
   double sigma = kNaN;  // 1-sigma of size under the axis's noise model
   double z = kNaN;      // at detection (before the later events joined the nuisances)
   bool named = false;   // the event is on this axis
+  // A step in missing bins of this axis: its boundary is anywhere in
+  // [gap_from_s, gap_to_s] (s from the record's first sample); NaN otherwise.
+  double gap_from_s = kNaN;
+  double gap_to_s = kNaN;
 };
 
 struct StationarityEvent {

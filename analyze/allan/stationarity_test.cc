@@ -233,6 +233,86 @@ TEST(StationarityTest, MissingSamplesAndShortRecords) {
   EXPECT_NE(too_short->note.find("too short"), std::string::npos);
 }
 
+// White noise N and a rate random walk K (the wander that makes the bin
+// means' differences correlate across a gap).
+std::vector<double> WhiteAndRandomWalkRecord(double n, double k, int samples, uint64_t seed) {
+  std::vector<double> y = WhiteRecord(n, samples, seed);
+  std::mt19937_64 rng(seed + 1000003);
+  std::normal_distribution<double> g(0.0, k * std::sqrt(kTau0));
+  double walk = 0;
+  for (double& v : y) {
+    walk += g(rng);
+    v += walk;
+  }
+  return y;
+}
+
+TEST(StationarityTest, FalseAlarmsAtTheStatedRateThroughAGap) {
+  // GIVEN 200 records of white noise and a rate random walk (equal AVAR
+  // near 100 s) with the same 40 s missing (bins 100..139 of 300), scanned
+  // with their true model at 5 %: the differences of the present bins
+  // bridge the gap with their own covariance, so the rate stays the level
+  // (a wrong covariance across the gap would move it).
+  const CompositeModel model{{{TermKind::kWhite, 1e-3}, {TermKind::kRandomWalk, 1.7e-5}}};
+  int alarms = 0;
+  constexpr int kRecords = 200;
+  constexpr double kLevel = 0.05;
+  StationarityOptions o;
+  o.false_alarm = kLevel;
+  for (int seed = 0; seed < kRecords; ++seed) {
+    std::vector<double> y = WhiteAndRandomWalkRecord(1e-3, 1.7e-5, 30000, 500 + seed);
+    for (size_t i = 10000; i < 14000; ++i) y[i] = std::nan("");
+    auto scan = ScanStationarity({y}, {model}, kTau0, o);
+    ASSERT_TRUE(scan.ok()) << scan.status().message();
+    ASSERT_TRUE(scan->scanned);
+    alarms += scan->events.empty() ? 0 : 1;
+  }
+  const double se = std::sqrt(kLevel * (1 - kLevel) * kRecords);
+  std::printf("false alarms through a gap: %d of %d records at a %g level\n", alarms, kRecords,
+              kLevel);
+  EXPECT_NEAR(alarms, kLevel * kRecords, 3 * se);
+}
+
+TEST(StationarityTest, AStepWhileTheRecordWasMissingIsFound) {
+  // GIVEN a white record (1 s bin means of sd 1e-3) whose samples from 100
+  // to 140 s never arrived, and a level step at 120 s, inside the gap
+  // (sigma about 1e-3 sqrt(1/100 + 1/160) = 1.3e-4); THEN one step, its
+  // size within 3 sigma. Of 1e-3 (z ~ 8) it is found at the gap or at the
+  // middle of a bin beside it (half a step in that bin's mean is within one
+  // sd of its noise); of 5e-3 (a bin beside the gap would be 2.5 sd off)
+  // its boundary is anywhere in the gap, [100, 140] s.
+  for (const double step : {1e-3, 5e-3}) {
+    std::vector<double> y = WhiteRecord(1e-3, 30000, 11);
+    for (size_t i = 12000; i < y.size(); ++i) y[i] += step;
+    for (size_t i = 10000; i < 14000; ++i) y[i] = std::nan("");
+    auto scan = ScanStationarity({y}, {White(1e-3)}, kTau0, {.bin_s = 1});
+    ASSERT_TRUE(scan.ok()) << scan.status().message();
+    ASSERT_EQ(scan->events.size(), 1u) << step;
+    const StationarityEvent& e = scan->events[0];
+    EXPECT_EQ(e.kind, EventKind::kStep);
+    const EventAxis& a = e.axes[0];
+    EXPECT_TRUE(a.named);
+    EXPECT_NEAR(a.size, step, 3 * a.sigma);
+    EXPECT_LT(a.sigma, 2e-4);
+    EXPECT_GE(e.time_s, 99.0);
+    EXPECT_LE(e.time_s, 141.0);
+    if (step > 2e-3 || std::isfinite(a.gap_from_s)) {
+      EXPECT_DOUBLE_EQ(a.gap_from_s, 100.0) << "time " << e.time_s << " z " << a.z;
+      EXPECT_DOUBLE_EQ(a.gap_to_s, 140.0);
+    }
+  }
+  const double step = 1e-3;
+  // A step outside a gap has no gap span.
+  std::vector<double> z = WhiteRecord(1e-3, 30000, 12);
+  for (size_t i = 20000; i < z.size(); ++i) z[i] += step;
+  for (size_t i = 10000; i < 14000; ++i) z[i] = std::nan("");
+  auto outside = ScanStationarity({z}, {White(1e-3)}, kTau0, {.bin_s = 1});
+  ASSERT_TRUE(outside.ok());
+  ASSERT_EQ(outside->events.size(), 1u);
+  EXPECT_NEAR(outside->events[0].time_s, 200.0, 3.0);
+  EXPECT_TRUE(std::isnan(outside->events[0].axes[0].gap_from_s));
+}
+
 TEST(StationarityTest, BadArgumentsAreNamed) {
   const std::vector<double> y(1000, 0.0);
   EXPECT_FALSE(ScanStationarity({}, {}, kTau0).ok());

@@ -37,6 +37,10 @@ std::string EventText(const allan::StationarityEvent& e, const allan::EventAxis&
   const std::string size = Fmt("%+.3g", ToBiasUnit(a.size, kind)) + " \u00b1 " +
                            Fmt("%.2g", ToBiasUnit(a.sigma, kind)) + " " + BiasUnit(kind);
   if (e.kind == allan::EventKind::kStep) {
+    if (std::isfinite(a.gap_from_s)) {
+      return "level step " + size + " while the record was missing, between " +
+             Fmt("%.0f", a.gap_from_s) + " and " + Fmt("%.0f", a.gap_to_s) + " s";
+    }
     return "level step " + size + " at " + Fmt("%.0f", e.time_s) + " s";
   }
   return "burst " + size + " over " + Fmt("%.0f", e.window_s) + " s from " + Fmt("%.0f", e.time_s) +
@@ -237,15 +241,21 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
             "GLS under the scan's noise model " + models[i].Name() +
             ", jointly with the axis's other events (size: after - before)");
         details.push_back(std::move(size));
+        const bool in_gap = std::isfinite(ea.gap_from_s);
         pb::Measurement time = NewMeasurement(
-            axis.name, name + "_time", e.time_s, "s",
-            std::string(e.kind == allan::EventKind::kStep
-                            ? "the step's bin boundary, or the middle of the bin holding it"
-                            : "the burst's start") +
+            axis.name, name + "_time", in_gap ? ea.gap_from_s : e.time_s, "s",
+            (in_gap ? "the start of the missing stretch the step fell in (it ends at " +
+                          Fmt("%.0f", ea.gap_to_s) + " s)"
+             : e.kind == allan::EventKind::kStep
+                 ? std::string("the step's bin boundary, or the middle of the bin holding it")
+                 : std::string("the burst's start")) +
                 ", s from the end of the warm-up");
         time.set_uncertainty_method(
-            "none: a bin boundary or middle (the scan resolves time to half its bins of " +
-            Fmt("%.4g", scan->bin_s) + " s)");
+            in_gap ? "none: anywhere in the missing stretch, " + Fmt("%.0f", ea.gap_from_s) +
+                         " to " + Fmt("%.0f", ea.gap_to_s) + " s"
+                   : "none: a bin boundary or middle (the scan resolves time to half its bins "
+                     "of " +
+                         Fmt("%.4g", scan->bin_s) + " s)");
         details.push_back(std::move(time));
         if (e.kind == allan::EventKind::kBurst) {
           pb::Measurement end = NewMeasurement(axis.name, name + "_end", e.time_s + e.window_s, "s",

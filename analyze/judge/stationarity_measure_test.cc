@@ -117,6 +117,56 @@ TEST(StationarityMeasureTest, TheAdisStepIsFoundOnGyAndGzNotGx) {
   }
 }
 
+TEST(StationarityMeasureTest, AStepInMissingDataIsFoundAndTimedAsTheGap) {
+  // GIVEN the recording's gyros with bins 198..202 (6599-6766 s) missing on
+  // every axis, as if those batches never arrived, and a level step of +400
+  // deg/h planted on gy from bin 200 on (inside the gap: a unit reset while
+  // the link was down); THEN gy has a step timed as the missing stretch,
+  // its size within 3 sigma of 400 deg/h, and gx and gz have none there.
+  // The recording's own 3083 s step is still found on gy and gz. (That
+  // step is close to the threshold against this envelope: with bins 92..94
+  // missing, the bins around it, it is no longer found.)
+  const pb::TestPlan plan = AdisPlan();
+  std::vector<StationarityAxis> axes(3);
+  const char* names[] = {"gx", "gy", "gz"};
+  for (int a = 0; a < 3; ++a) {
+    axes[a].axis = {names[a], pb::GYRO};
+    for (const auto& row : kAdisGyroBins) axes[a].bin_means.push_back(row[a]);
+    for (int i = 198; i < 203; ++i) axes[a].bin_means[i] = std::nan("");
+  }
+  for (int i = 200; i < 300; ++i) axes[1].bin_means[i] += 400.0 / 3600;
+  const double bin_s = 3333 * 0.01;
+  const std::vector<pb::Measurement> ms = MeasureStationarity(plan, axes, bin_s, 0.01);
+  for (const pb::Measurement& m : ms) {
+    if (m.name() == kStationarityEvents) {
+      std::printf("%s: %s\n", m.axis().c_str(), StationarityEventSummary(m).c_str());
+    }
+  }
+  // The event k of `axis` whose time is `t_s` (within 5 bins), 0 if none.
+  const auto event_at = [&](const std::string& axis, double t_s) {
+    const pb::Measurement* n = Find(ms, axis, std::string(kStationarityEvents));
+    for (int k = 1; n != nullptr && k <= n->value(); ++k) {
+      const pb::Measurement* t = Find(ms, axis, "event_" + std::to_string(k) + "_time");
+      if (t != nullptr && std::abs(t->value() - t_s) < 5 * bin_s) return k;
+    }
+    return 0;
+  };
+  for (const char* axis : {"gx", "gz"}) EXPECT_EQ(event_at(axis, 198 * bin_s), 0) << axis;
+  const int k = event_at("gy", 198 * bin_s);
+  ASSERT_GT(k, 0);
+  const pb::Measurement* time = Find(ms, "gy", "event_" + std::to_string(k) + "_time");
+  EXPECT_NEAR(time->value(), 198 * bin_s, 1e-6);
+  EXPECT_NE(time->uncertainty_method().find("anywhere in the missing stretch, 6599 to 6766 s"),
+            std::string::npos)
+      << time->uncertainty_method();
+  const pb::Measurement* size = Find(ms, "gy", "event_" + std::to_string(k));
+  EXPECT_NEAR(size->value(), 400, 3 * size->uncertainty());
+  EXPECT_NE(size->note().find("while the record was missing, between 6599 and 6766 s"),
+            std::string::npos)
+      << size->note();
+  for (const char* axis : {"gy", "gz"}) EXPECT_GT(event_at(axis, 3083), 0) << axis;
+}
+
 TEST(StationarityMeasureTest, PlanActionsOnACount) {
   pb::TestPlan plan = AdisPlan();
   EXPECT_EQ(StationarityOutcome(plan, 1), pb::OUTCOME_UNSET);  // QUALIFIER_ONLY
