@@ -38,6 +38,17 @@ pb::TestPlan AdisPlan() {
   return plan;
 }
 
+// The recording's three gyro axes as 300 bins of 33.33 s.
+std::vector<StationarityAxis> AdisAxes() {
+  std::vector<StationarityAxis> axes(3);
+  const char* names[] = {"gx", "gy", "gz"};
+  for (int a = 0; a < 3; ++a) {
+    axes[a].axis = {names[a], pb::GYRO};
+    for (const auto& row : kAdisGyroBins) axes[a].bin_means.push_back(row[a]);
+  }
+  return axes;
+}
+
 const pb::Measurement* Find(const std::vector<pb::Measurement>& ms, const std::string& axis,
                             const std::string& name) {
   for (const pb::Measurement& m : ms) {
@@ -60,13 +71,8 @@ TEST(StationarityMeasureTest, TheAdisStepIsFoundOnGyAndGzNotGx) {
   // GIVEN the recording's three gyro axes as 300 bins of 33.33 s, scanned
   // together against the envelope, as the station scans a run
   const pb::TestPlan plan = AdisPlan();
-  std::vector<StationarityAxis> axes(3);
   const char* names[] = {"gx", "gy", "gz"};
-  for (int a = 0; a < 3; ++a) {
-    axes[a].axis = {names[a], pb::GYRO};
-    for (const auto& row : kAdisGyroBins) axes[a].bin_means.push_back(row[a]);
-  }
-  const std::vector<pb::Measurement> ms = MeasureStationarity(plan, axes, 3333 * 0.01, 0.01);
+  const std::vector<pb::Measurement> ms = MeasureStationarity(plan, AdisAxes(), 3333 * 0.01, 0.01);
   // THEN gy and gz each have a level step near 0.87 h and gx has none
   // there. (Against a tighter envelope, B 25 deg/h, the joint scan also
   // names a burst on all three axes at 2366-2499 s and the warm-up of gx and
@@ -127,12 +133,9 @@ TEST(StationarityMeasureTest, AStepInMissingDataIsFoundAndTimedAsTheGap) {
   // step is close to the threshold against this envelope: with bins 92..94
   // missing, the bins around it, it is no longer found.)
   const pb::TestPlan plan = AdisPlan();
-  std::vector<StationarityAxis> axes(3);
-  const char* names[] = {"gx", "gy", "gz"};
-  for (int a = 0; a < 3; ++a) {
-    axes[a].axis = {names[a], pb::GYRO};
-    for (const auto& row : kAdisGyroBins) axes[a].bin_means.push_back(row[a]);
-    for (int i = 198; i < 203; ++i) axes[a].bin_means[i] = std::nan("");
+  std::vector<StationarityAxis> axes = AdisAxes();
+  for (StationarityAxis& a : axes) {
+    for (int i = 198; i < 203; ++i) a.bin_means[i] = std::nan("");
   }
   for (int i = 200; i < 300; ++i) axes[1].bin_means[i] += 400.0 / 3600;
   const double bin_s = 3333 * 0.01;
