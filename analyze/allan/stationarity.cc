@@ -301,19 +301,32 @@ void BinAccumulator::Append(std::span<const float> values, std::span<const uint8
     if (bin >= sum_.size()) {
       sum_.resize(bin + 1, 0);
       valid_.resize(bin + 1, 0);
+      square_.resize(bin + 1, 0);
+      diffs_.resize(bin + 1, 0);
     }
     const size_t end = std::min(values.size(), i + static_cast<size_t>(base_ - samples_ % base_));
-    double sum = 0;
-    int64_t valid = 0;
+    double sum = 0, square = 0;
+    int64_t valid = 0, diffs = 0;
     samples_ += static_cast<int64_t>(end - i);
     for (; i < end; ++i) {
       if (!(i < invalid.size() && invalid[i]) && std::isfinite(values[i])) {
-        sum += values[i];
+        const double v = values[i];
+        sum += v;
         ++valid;
+        if (has_last_) {
+          square += (v - last_) * (v - last_);
+          ++diffs;
+        }
+        has_last_ = true;
+        last_ = v;
+      } else {
+        has_last_ = false;
       }
     }
     sum_[bin] += sum;
     valid_[bin] += valid;
+    square_[bin] += square;
+    diffs_[bin] += diffs;
     if (sum_.size() > static_cast<size_t>(kMaxBaseBins)) Merge();
   }
 }
@@ -321,21 +334,27 @@ void BinAccumulator::Append(std::span<const float> values, std::span<const uint8
 void BinAccumulator::AppendMissing(int64_t count) {
   if (count <= 0) return;
   samples_ += count;
+  has_last_ = false;
   const size_t bins = static_cast<size_t>((samples_ + base_ - 1) / base_);
   sum_.resize(bins, 0);
   valid_.resize(bins, 0);
+  square_.resize(bins, 0);
+  diffs_.resize(bins, 0);
   while (sum_.size() > static_cast<size_t>(kMaxBaseBins)) Merge();
 }
 
 void BinAccumulator::Merge() {
   const size_t half = (sum_.size() + 1) / 2;
-  for (size_t i = 0; i < half; ++i) {
-    const size_t a = 2 * i, b = 2 * i + 1;
-    sum_[i] = sum_[a] + (b < sum_.size() ? sum_[b] : 0);
-    valid_[i] = valid_[a] + (b < valid_.size() ? valid_[b] : 0);
-  }
-  sum_.resize(half);
-  valid_.resize(half);
+  const auto merge = [half](auto& v) {
+    for (size_t i = 0; i < half; ++i) {
+      v[i] = v[2 * i] + (2 * i + 1 < v.size() ? v[2 * i + 1] : 0);
+    }
+    v.resize(half);
+  };
+  merge(sum_);
+  merge(valid_);
+  merge(square_);
+  merge(diffs_);
   base_ *= 2;
 }
 
@@ -354,6 +373,148 @@ std::vector<double> BinAccumulator::Means(int64_t* bin_samples) const {
     }
     if (2 * valid >= *bin_samples) out[static_cast<size_t>(k)] = sum / static_cast<double>(valid);
   }
+  return out;
+}
+
+std::vector<double> BinAccumulator::MeanSquareDifferences(int64_t bin_samples) const {
+  const int64_t per = std::max<int64_t>(1, bin_samples / base_);
+  const int64_t bins = samples_ / (per * base_);
+  std::vector<double> out(static_cast<size_t>(bins), kNaN);
+  for (int64_t k = 0; k < bins; ++k) {
+    double square = 0;
+    int64_t diffs = 0;
+    for (int64_t j = k * per; j < (k + 1) * per; ++j) {
+      square += square_[static_cast<size_t>(j)];
+      diffs += diffs_[static_cast<size_t>(j)];
+    }
+    if (2 * diffs >= per * base_) out[static_cast<size_t>(k)] = square / static_cast<double>(diffs);
+  }
+  return out;
+}
+
+std::vector<double> BinMeanSquareDifferences(std::span<const double> rate, int64_t bin_samples,
+                                             int bins) {
+  std::vector<double> out(static_cast<size_t>(std::max(bins, 0)), kNaN);
+  for (int bin = 0; bin < bins; ++bin) {
+    double square = 0;
+    int64_t diffs = 0;
+    for (int64_t i = std::max<int64_t>(1, bin * bin_samples);
+         i < (bin + 1) * bin_samples && i < static_cast<int64_t>(rate.size()); ++i) {
+      const double a = rate[static_cast<size_t>(i - 1)], b = rate[static_cast<size_t>(i)];
+      if (std::isfinite(a) && std::isfinite(b)) {
+        square += (b - a) * (b - a);
+        ++diffs;
+      }
+    }
+    if (2 * diffs >= bin_samples)
+      out[static_cast<size_t>(bin)] = square / static_cast<double>(diffs);
+  }
+  return out;
+}
+
+namespace {
+// The CUSUM statistic of x (above) and its boundary: max_k |S_k| / (s
+// sqrt(n)), s^2 from successive differences; NaN when s is 0.
+double CusumStatistic(const std::vector<double>& x, int* k_best) {
+  const int n = static_cast<int>(x.size());
+  double mean = 0;
+  for (double v : x) mean += v;
+  mean /= n;
+  double ss = 0;
+  for (int i = 0; i + 1 < n; ++i) ss += (x[i + 1] - x[i]) * (x[i + 1] - x[i]);
+  const double s = std::sqrt(ss / (2.0 * (n - 1)));
+  if (!(s > 0)) return kNaN;
+  double cusum = 0, best = 0;
+  *k_best = 0;
+  for (int k = 1; k < n; ++k) {
+    cusum += x[k - 1] - mean;
+    if (std::fabs(cusum) > best) {
+      best = std::fabs(cusum);
+      *k_best = k;
+    }
+  }
+  return best / (s * std::sqrt(static_cast<double>(n)));
+}
+
+// The statistic's null distribution for n independent Gaussian x, drawn
+// (sorted, largest last), per n for the process.
+std::shared_ptr<const std::vector<double>> CusumNull(int n) {
+  static std::mutex mutex;
+  static std::map<int, std::shared_ptr<const std::vector<double>>> cache;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    const auto it = cache.find(n);
+    if (it != cache.end()) return it->second;
+  }
+  std::vector<double> drawn(kNoiseLevelDraws);
+  std::mt19937_64 rng(0x5eedc05u + static_cast<uint64_t>(n));
+  std::normal_distribution<double> gauss;
+  std::vector<double> x(n);
+  for (double& t : drawn) {
+    for (double& v : x) v = gauss(rng);
+    int k = 0;
+    t = CusumStatistic(x, &k);
+  }
+  std::sort(drawn.begin(), drawn.end());
+  auto value = std::make_shared<const std::vector<double>>(std::move(drawn));
+  std::lock_guard<std::mutex> lock(mutex);
+  if (cache.size() >= 64) cache.clear();
+  cache.emplace(n, value);
+  return value;
+}
+}  // namespace
+
+Result<NoiseLevelChange> ScanNoiseLevel(std::span<const double> mean_square, double bin_s,
+                                        double false_alarm, double tolerance, int min_bins) {
+  if (!(false_alarm > 0 && false_alarm < 0.5)) {
+    return Status::InvalidArgument("noise level scan: false_alarm must be in (0, 0.5)");
+  }
+  if (!(tolerance >= 0) || !std::isfinite(tolerance)) {
+    return Status::InvalidArgument("noise level scan: the tolerance must be >= 0");
+  }
+  if (!(bin_s > 0) || !std::isfinite(bin_s)) {
+    return Status::InvalidArgument("noise level scan: bin_s must be positive");
+  }
+  NoiseLevelChange out;
+  std::vector<double> x;
+  std::vector<int> at;
+  for (size_t i = 0; i < mean_square.size(); ++i) {
+    if (std::isfinite(mean_square[i]) && mean_square[i] > 0) {
+      x.push_back(std::log(mean_square[i]));
+      at.push_back(static_cast<int>(i));
+    }
+  }
+  const int n = static_cast<int>(x.size());
+  out.bins = n;
+  if (n < std::max(min_bins, 4)) {
+    out.note = "too few bins with a noise level to scan (" + std::to_string(n) + ", " +
+               std::to_string(std::max(min_bins, 4)) + " needed)";
+    return out;
+  }
+  int k_best = 0;
+  out.statistic = CusumStatistic(x, &k_best);
+  if (!std::isfinite(out.statistic)) {
+    out.note = "the noise level does not vary from bin to bin (quantized to one value?)";
+    return out;
+  }
+  out.scanned = true;
+  const std::vector<double>& null = *CusumNull(n);
+  const auto above = null.end() - std::lower_bound(null.begin(), null.end(), out.statistic);
+  out.p = static_cast<double>(1 + above) / static_cast<double>(null.size() + 1);
+  if (k_best == 0) return out;
+  double before = 0, after = 0;
+  for (int i = 0; i < n; ++i) (i < k_best ? before : after) += x[i];
+  before /= k_best;
+  after /= n - k_best;
+  double ss = 0;
+  for (int i = 0; i + 1 < n; ++i) ss += (x[i + 1] - x[i]) * (x[i + 1] - x[i]);
+  const double s = std::sqrt(ss / (2.0 * (n - 1)));
+  const double log_ratio = (after - before) / 2;
+  out.ratio = std::exp(log_ratio);
+  out.ratio_sigma = out.ratio * s * std::sqrt(1.0 / k_best + 1.0 / (n - k_best)) / 2;
+  out.time_s = at[k_best] * bin_s;
+  out.significant = out.p < false_alarm;
+  out.beyond_tolerance = std::fabs(log_ratio) > std::log1p(tolerance);
   return out;
 }
 

@@ -226,10 +226,56 @@ void RemoveEvents(const StationarityScan& scan, int axis, double tau0_s, std::sp
 // with fewer than half its samples finite is NaN.
 std::vector<double> BinMeans(std::span<const double> rate, int64_t bin_samples, int bins);
 
+// Per bin of `bin_samples` samples: the mean square of the differences of
+// successive valid samples (a difference belongs to the bin of its later
+// sample; there is none across an invalid or missing sample); NaN where
+// fewer than half the bin's samples end one.
+std::vector<double> BinMeanSquareDifferences(std::span<const double> rate, int64_t bin_samples,
+                                             int bins);
+
+// A change of an axis's noise level (its short-tau noise: white noise and
+// quantization rule the differences of successive samples, the wander of
+// flicker, random walk and a slow Gauss-Markov barely moves them). The
+// logarithms x_i of the bins' mean square differences are, for a
+// stationary record, nearly independent with a common mean, whatever the
+// noise model; their CUSUM S_k = sum_{i<k} (x_i - xbar) over the n present
+// bins, scaled by s sqrt(n) (s^2 from successive differences of x, which a
+// change barely moves), has max_k |S_k| / (s sqrt(n)) -> sup |Brownian
+// bridge| (Kolmogorov's distribution); for a finite record its p is read
+// from kNoiseLevelDraws records of n independent Gaussian x drawn for the
+// purpose (cached per n; Kolmogorov's limit would be conservative, 2.5 %
+// at 5 % for 300 bins, as the discrete maximum is below the supremum). The
+// change is at the largest |S_k|; its size is
+// the noise amplitude after over before, sqrt of the ratio of the
+// geometric mean squares, with the 1-sigma s sqrt(1/k + 1/(n-k)) / 2 of its
+// logarithm. A gradual drift of the level reads as one change near its
+// middle. What it does not see: a change in the wander alone.
+inline constexpr int kNoiseLevelDraws = 9999;
+struct NoiseLevelChange {
+  bool scanned = false;  // false: too few bins (see note)
+  std::string note;
+  int bins = 0;                   // present bins scanned
+  double statistic = kNaN;        // max |S_k| / (s sqrt(n))
+  double p = kNaN;                // the drawn records' tail at the statistic
+  double time_s = kNaN;           // the change's bin boundary, s from the record's first sample
+  double ratio = kNaN;            // noise amplitude after / before
+  double ratio_sigma = kNaN;      // its 1-sigma
+  bool significant = false;       // p < the level
+  bool beyond_tolerance = false;  // ratio outside [1 / (1 + tol), 1 + tol]
+  bool found() const { return significant && beyond_tolerance; }
+};
+// mean_square: BinMeanSquareDifferences (NaN: missing); bins of bin_s
+// seconds. Errors: a level outside (0, 0.5), a negative tolerance, bin_s
+// not positive.
+Result<NoiseLevelChange> ScanNoiseLevel(std::span<const double> mean_square, double bin_s,
+                                        double false_alarm, double tolerance, int min_bins = 32);
+
 // Bin sums of a record as it streams in, for ScanBinMeans without keeping
 // the samples: base bins of `base_samples` samples each (the sum and count
-// of the valid samples, and every sample's place, valid or not), two merged
-// into one whenever there would be more than kMaxBaseBins. Not thread-safe.
+// of the valid samples, the sum and count of the squared differences of
+// successive valid samples, and every sample's place, valid or not), two
+// merged into one whenever there would be more than kMaxBaseBins. Not
+// thread-safe.
 class BinAccumulator {
  public:
   static constexpr int64_t kMaxBaseBins = 1 << 18;
@@ -245,13 +291,20 @@ class BinAccumulator {
   // back), NaN where fewer than half the bin's samples were valid; a partial
   // last bin is left out.
   std::vector<double> Means(int64_t* bin_samples) const;
+  // The bins' mean square differences (BinMeanSquareDifferences) at a bin
+  // length Means returned.
+  std::vector<double> MeanSquareDifferences(int64_t bin_samples) const;
 
  private:
   void Merge();
   int64_t base_;
   int64_t samples_ = 0;
+  bool has_last_ = false;  // the last sample was valid
+  double last_ = 0;
   std::vector<double> sum_;     // per base bin
   std::vector<int64_t> valid_;  // per base bin
+  std::vector<double> square_;  // per base bin: squared differences
+  std::vector<int64_t> diffs_;  // per base bin
 };
 
 // The phase structure function D(s) of the model (above), s > 0 seconds,
