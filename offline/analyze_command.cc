@@ -350,6 +350,22 @@ std::string StationaritySummary(const allan::StationarityScan& scan,
   return text;
 }
 
+// The noise level's scan: its largest change, whether it is an event.
+std::string NoiseLevelSummary(const allan::NoiseLevelChange& n, double tolerance) {
+  if (!n.scanned) return "noise level: not scanned: " + n.note + "\n";
+  char text[512];
+  std::snprintf(text, sizeof text,
+                "noise level (mean square difference of successive samples per bin): largest "
+                "change x%.4g +- %.2g at %.0f s, p %.2g over %d bins: %s\n",
+                n.ratio, n.ratio_sigma, n.time_s, n.p, n.bins,
+                n.found()       ? "an event"
+                : n.significant ? ("significant, within the tolerance x" +
+                                   std::to_string(1 + tolerance).substr(0, 5))
+                                      .c_str()
+                                : "no change found");
+  return text;
+}
+
 // One row per event: where, what, its size with its 1-sigma (datasheet rate
 // units when the kind is known), z at detection and the p adjusted for the
 // whole scan.
@@ -435,6 +451,8 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   // The stationarity scan: the series as one axis, its own noise model.
   std::optional<allan::StationarityScan> scan;
   std::string reference_source;  // the plan's reference model scanned against, if any
+  std::optional<allan::NoiseLevelChange> noise;
+  double noise_tolerance = judge::kDefaultNoiseLevelTolerance;
   if (o.stationarity_level > 0) {
     allan::StationarityOptions so;
     so.false_alarm = o.stationarity_level;
@@ -455,6 +473,9 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
         return 1;
       }
       so.bin_s = plan->stationarity().bin_s();
+      if (plan->stationarity().noise_level_tolerance() != 0) {
+        noise_tolerance = plan->stationarity().noise_level_tolerance();
+      }
       s = allan::ScanStationarity({std::span<const double>(*values)},
                                   {judge::ReferenceModel(*reference)}, tau0, so);
       if (s.ok()) reference_source = reference->source();
@@ -466,6 +487,18 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
       return 1;
     }
     scan = *s;
+    // The noise level over the same bins (no model; the plan's tolerance).
+    if (scan->scanned && noise_tolerance >= 0) {
+      const int64_t bin_samples = std::llround(scan->bin_s / tau0);
+      auto n =
+          allan::ScanNoiseLevel(allan::BinMeanSquareDifferences(*values, bin_samples, scan->bins),
+                                scan->bin_s, o.stationarity_level, noise_tolerance);
+      if (!n.ok()) {
+        LogError("--stationarity: " + n.status().message());
+        return 1;
+      }
+      noise = *n;
+    }
   }
 
   // The dynamic Allan deviation, before anything is printed: a window that
@@ -507,6 +540,7 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     if (scan && !scan->events.empty()) {
       std::printf("%s", EventTable(*scan, p.kind).Render(Format::kTable).c_str());
     }
+    if (noise) std::printf("%s", NoiseLevelSummary(*noise, noise_tolerance).c_str());
   } else if (p.format == Format::kCsv) {
     std::printf("%s",
                 CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kCsv).c_str());
@@ -530,7 +564,19 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
           ", \"false_alarm\": " + JsonNumber(scan->false_alarm) +
           ", \"bin_s\": " + JsonNumber(scan->bin_s) +
           ", \"model\": " + JsonString(scan->models.empty() ? "" : scan->models.front()) +
-          ", \"events\": " + EventTable(*scan, p.kind).Render(Format::kJson) + "}";
+          ", \"events\": " + EventTable(*scan, p.kind).Render(Format::kJson);
+      if (noise) {
+        json +=
+            ", \"noise_level\": {\"scanned\": " + std::string(noise->scanned ? "true" : "false") +
+            ", \"note\": " + JsonString(noise->note) +
+            ", \"bins\": " + std::to_string(noise->bins) + ", \"p\": " + JsonNumber(noise->p) +
+            ", \"time_s\": " + JsonNumber(noise->time_s) +
+            ", \"ratio\": " + JsonNumber(noise->ratio) +
+            ", \"ratio_sigma\": " + JsonNumber(noise->ratio_sigma) +
+            ", \"tolerance\": " + JsonNumber(noise_tolerance) +
+            ", \"event\": " + std::string(noise->found() ? "true" : "false") + "}";
+      }
+      json += "}";
     }
     std::printf("%s}\n", json.c_str());
   }

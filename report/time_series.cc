@@ -368,19 +368,22 @@ Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string&
         mark.channel = a;
         mark.start_s = warmup + time->value();
         mark.end_s = end != nullptr ? warmup + end->value() : mark.start_s;
-        mark.label =
-            axis + " " + (end != nullptr ? "burst " : "step ") +
+        const std::string value =
             MarkedValue(size->value(), pb::MEASURED,
-                        size->has_uncertainty() ? size->uncertainty() : allan::kNaN, 3, true) +
-            " " + size->unit();
+                        size->has_uncertainty() ? size->uncertainty() : allan::kNaN, 3, true);
+        mark.label =
+            size->unit() == judge::kNoiseLevelRatioUnit
+                ? axis + " noise level x" + value
+                : axis + " " + (end != nullptr ? "burst " : "step ") + value + " " + size->unit();
         plot.events.push_back(std::move(mark));
         ++marked;
       }
     }
     if (marked > 0) {
-      plot.notes.push_back("Marked: " + std::to_string(marked) +
-                           (marked == 1 ? " event" : " events") +
-                           " of the stationarity scan (dashed: level step; shaded: burst).");
+      plot.notes.push_back(
+          "Marked: " + std::to_string(marked) + (marked == 1 ? " event" : " events") +
+          " of the stationarity scan (dashed: level step or noise level change; shaded: "
+          "burst).");
     }
   }
   const double bin_s = static_cast<double>(builder.width()) / info->nominal_rate_hz;

@@ -68,7 +68,7 @@ inline constexpr std::string_view kTemperatureSlope = "temperature_slope";
 inline constexpr std::string_view kDecisionTime = "decision_time";
 
 // The stationarity scan (plans with `stationarity`, stationarity_measure.h):
-// the level steps and bursts found on an axis. Not catalogued (archived for
+// the level steps, bursts and noise level changes found on an axis. Not catalogued (archived for
 // the record, the plots and audits; a plan judges the count): each event k
 // of the axis as "event_<k>" (its size, after - before, in bias_offset's
 // unit, with its 1-sigma), "event_<k>_time" (s from the end of the warm-up:
@@ -76,6 +76,9 @@ inline constexpr std::string_view kDecisionTime = "decision_time";
 // start) and, for a burst, "event_<k>_end".
 inline constexpr std::string_view kStationarityEvents = "stationarity_events";
 inline constexpr std::string_view kEventPrefix = "event_";
+// The unit of a noise-level change's event_<k> (the short-tau noise
+// amplitude after over before), which has no _end.
+inline constexpr std::string_view kNoiseLevelRatioUnit = "ratio";
 
 const std::vector<MeasurementDef>& MeasurementCatalog();
 // True for the measurements read off the noise model (fit_*,

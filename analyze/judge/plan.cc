@@ -243,6 +243,12 @@ Status ValidateStationarity(const pb::TestPlan& plan, const Locator& where) {
   if (!pb::Stationarity::OnEvent_IsValid(s.on_event())) {
     return bad("on_event", "unknown action " + std::to_string(s.on_event()));
   }
+  if (!Finite(s.noise_level_tolerance()) || s.noise_level_tolerance() > 10) {
+    return bad("noise_level_tolerance",
+               "must be a factor's excess of at most 10 (0: 0.05; negative: the noise level is "
+               "not scanned), got " +
+                   Num(s.noise_level_tolerance()));
+  }
   std::set<int> kinds;
   const double nyquist = plan.nominal_rate_hz() / 2;
   for (int i = 0; i < s.reference_model_size(); ++i) {

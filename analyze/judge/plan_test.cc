@@ -114,6 +114,8 @@ TEST(PlanTest, RejectsBadPlans) {
       {"nominal_rate_hz: 100 stationarity { false_alarm: 0.6 }",
        "stationarity.false_alarm: must be in [0.001, 0.5)"},
       {"nominal_rate_hz: 100 stationarity { bin_s: -1 }", "stationarity.bin_s: must be >= 0 s"},
+      {"nominal_rate_hz: 100 stationarity { noise_level_tolerance: inf }",
+       "stationarity.noise_level_tolerance: must be a factor's excess of at most 10"},
       {"nominal_rate_hz: 100 stationarity { reference_model { random_walk: 0.01 source: \"s\" } }",
        "stationarity.reference_model[0].axis_kind: must be GYRO or ACCEL"},
       {"nominal_rate_hz: 100 stationarity { reference_model { axis_kind: GYRO random_walk: 0.01 } "

@@ -137,6 +137,8 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
   const pb::Stationarity& st = plan.stationarity();
   allan::StationarityOptions options;
   if (st.false_alarm() > 0) options.false_alarm = st.false_alarm();
+  const double noise_tolerance =
+      st.noise_level_tolerance() == 0 ? kDefaultNoiseLevelTolerance : st.noise_level_tolerance();
   std::vector<std::vector<pb::Measurement>> per_axis(axes.size());
   for (const pb::AxisKind kind : {pb::GYRO, pb::ACCEL}) {
     std::vector<size_t> group;
@@ -264,7 +266,50 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
           details.push_back(std::move(end));
         }
       }
-      std::string summary = texts.empty() ? "no level step or burst found"
+      // The axis's noise level (no model needed; the level split over the
+      // group's axes).
+      std::string noise_text;
+      if (noise_tolerance >= 0 && !axes[a].mean_square.empty()) {
+        const double level = scan->false_alarm / static_cast<double>(group.size());
+        auto noise = allan::ScanNoiseLevel(axes[a].mean_square, scan->bin_s, level, noise_tolerance,
+                                           scan->bins >= 32 ? 32 : scan->bins);
+        if (!noise.ok()) {
+          noise_text = "; noise level not scanned: " + noise.status().message();
+        } else if (!noise->scanned) {
+          noise_text = "; noise level not scanned: " + noise->note;
+        } else {
+          noise_text =
+              "; noise level (the mean square difference of successive samples per "
+              "bin, CUSUM of its logarithm over " +
+              std::to_string(noise->bins) + " bins): p " + Fmt("%.2g", noise->p) + " at a level " +
+              Fmt("%.2g", level) + ", the largest change x" + Fmt("%.4g", noise->ratio) +
+              " \u00b1 " + Fmt("%.2g", noise->ratio_sigma) + " at " + Fmt("%.0f", noise->time_s) +
+              " s, an event beyond x" + Fmt("%.4g", 1 + noise_tolerance) + " either way";
+          if (noise->found()) {
+            const int k = static_cast<int>(texts.size()) + 1;
+            texts.push_back("noise level x" + Fmt("%.4g", noise->ratio) + " \u00b1 " +
+                            Fmt("%.2g", noise->ratio_sigma) + " from " +
+                            Fmt("%.0f", noise->time_s) + " s");
+            const std::string name = std::string(kEventPrefix) + std::to_string(k);
+            pb::Measurement size = NewMeasurement(
+                axis.name, name, noise->ratio, std::string(kNoiseLevelRatioUnit),
+                texts.back() + " from the end of the warm-up: the short-tau noise amplitude " +
+                    "after over before (p " + Fmt("%.2g", noise->p) + ")");
+            size.set_uncertainty(noise->ratio_sigma);
+            size.set_uncertainty_method(
+                "the bins' log mean squares' spread from their successive differences, over the "
+                "bins before and after");
+            details.push_back(std::move(size));
+            pb::Measurement time = NewMeasurement(
+                axis.name, name + "_time", noise->time_s, "s",
+                "the noise level's change: the bin boundary of the largest CUSUM, s from the end "
+                "of the warm-up (a gradual drift reads as one change near its middle)");
+            time.set_uncertainty_method("none: a bin boundary");
+            details.push_back(std::move(time));
+          }
+        }
+      }
+      std::string summary = texts.empty() ? "no level step, burst or noise level change found"
                                           : std::to_string(texts.size()) +
                                                 (texts.size() == 1 ? " event: " : " events: ");
       for (size_t t = 0; t < texts.size(); ++t) summary += (t ? "; " : "") + texts[t];
@@ -275,7 +320,7 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
       }
       pb::Measurement count = NewMeasurement(axis.name, std::string(kStationarityEvents),
                                              static_cast<double>(texts.size()), "1",
-                                             summary + kScanSeparator + scan_text(i));
+                                             summary + kScanSeparator + scan_text(i) + noise_text);
       count.set_uncertainty_method("none: a count");
       per_axis[a].push_back(std::move(count));
       for (pb::Measurement& d : details) per_axis[a].push_back(std::move(d));

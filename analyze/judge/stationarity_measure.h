@@ -11,11 +11,19 @@
 //                        and whether the unit's curve shows noise above
 //                        the reference, for which the rate is not bounded)
 //   event_<k>            the event's size (after - before; a burst: its
-//                        departure), bias_offset's unit, with its 1-sigma
+//                        departure), bias_offset's unit, with its 1-sigma;
+//                        a noise level change: the short-tau noise
+//                        amplitude after over before (unit "ratio")
 //   event_<k>_time       s from the end of the warm-up (a step's bin boundary
-//                        or the middle of the bin holding it, a burst's start)
+//                        or the middle of the bin holding it, or the start
+//                        of the missing stretch it fell in; a burst's
+//                        start; a noise level change's boundary)
 //   event_<k>_end        a burst's end
-// Pure.
+// Each axis's noise level is scanned on its own when the axis has its bins'
+// mean square differences and the plan's noise_level_tolerance is not
+// negative (allan::ScanNoiseLevel, at false_alarm / the group's axes each;
+// an event only when the change is beyond the tolerance), after the level
+// scan and only when that was made. Pure.
 #ifndef IMUQUAL_ANALYZE_JUDGE_STATIONARITY_MEASURE_H_
 #define IMUQUAL_ANALYZE_JUDGE_STATIONARITY_MEASURE_H_
 
@@ -67,7 +75,14 @@ struct StationarityAxis {
   std::vector<double>
       bin_means;  // deg/s or m/s^2; NaN: a bin with fewer than half its samples valid
   const allan::Curve* curve = nullptr;  // the record's OADEV (chi-square 1-sigma intervals)
+  // Per bin, the mean square difference of successive valid samples
+  // (allan::BinMeanSquareDifferences); empty: the noise level is not
+  // scanned.
+  std::vector<double> mean_square;
 };
+
+// A plan's noise_level_tolerance of 0.
+inline constexpr double kDefaultNoiseLevelTolerance = 0.05;
 
 // The scan's measurements of every axis (above), in the axes' order; every
 // axis gets its stationarity_events, not measurable (NaN, the note says why)

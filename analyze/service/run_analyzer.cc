@@ -429,6 +429,7 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
     for (size_t a = 0; a < axes; ++a) {
       scan_axes[a].axis = desc_.axes[a];
       scan_axes[a].bin_means = bins_[a].Means(&bin_samples);
+      scan_axes[a].mean_square = bins_[a].MeanSquareDifferences(bin_samples);
       scan_axes[a].curve =
           curves != nullptr ? &(*curves)[curves->size() - axes + a].second : &with_ci[a];
     }

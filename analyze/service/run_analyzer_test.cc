@@ -393,9 +393,11 @@ RunDescription StationarityDesc(pb::Stationarity::OnEvent action) {
 }
 
 // 40 min of white noise (sd 0.1) after a 10 s warm-up on both axes, with
-// `step` added to x from `step_at_s` after the warm-up on, and the batches
-// of [gap_from_s, gap_from_s + 30 s) lost.
-RunOutcome WhiteRun(const RunDescription& d, double step, double step_at_s, double gap_from_s) {
+// `step` added to x from `step_at_s` after the warm-up on, the batches of
+// [gap_from_s, gap_from_s + 30 s) lost, and ax's noise `ax_factor` times
+// larger from `ax_change_s` on.
+RunOutcome WhiteRun(const RunDescription& d, double step, double step_at_s, double gap_from_s,
+                    double ax_change_s = 1e9, double ax_factor = 1) {
   auto a = RunAnalyzer::Create(d);
   EXPECT_TRUE(a.ok());
   std::mt19937_64 rng(42);
@@ -406,7 +408,7 @@ RunOutcome WhiteRun(const RunDescription& d, double step, double step_at_s, doub
     for (int i = 0; i < per_batch; ++i) {
       const double t = (seq * per_batch + i) / kRate - 10;  // after the warm-up
       b.x[i] = static_cast<float>(g(rng) + (t >= step_at_s ? step : 0));
-      b.a[i] = static_cast<float>(9.8 + g(rng));
+      b.a[i] = static_cast<float>(9.8 + g(rng) * (t >= ax_change_s ? ax_factor : 1));
     }
     const double t0 = seq - 10.0;
     if (t0 >= gap_from_s && t0 < gap_from_s + 30) continue;
@@ -457,6 +459,43 @@ TEST(RunAnalyzerTest, ALevelStepIsFoundArchivedAndJudgedAsThePlanSays) {
   EXPECT_NE(out.judgement.reasons.back().find("x: stationarity: 1 event: level step"),
             std::string::npos)
       << out.judgement.reasons.back();
+}
+
+TEST(RunAnalyzerTest, ANoiseLevelChangeIsAnEventWithItsRatio) {
+  // GIVEN ax's white noise 20 % larger from 1500 s after the warm-up on
+  // (nothing else moves), under a plan whose events make a unit MARGINAL
+  const RunOutcome out =
+      WhiteRun(StationarityDesc(pb::Stationarity::EVENT_MARGINAL), 0, 0, 600, 1500, 1.2);
+  // THEN ax has a noise level change x1.2 within 3 sigma, at the bin
+  // boundary nearest 1500 s (its larger noise is now above the white
+  // reference, so the level scan may read it as steps or bursts too, as
+  // the note warns); x has none
+  const pb::Measurement* ax = Find(out, "ax", judge::kStationarityEvents);
+  const pb::Measurement* x = Find(out, "x", judge::kStationarityEvents);
+  ASSERT_NE(ax, nullptr);
+  ASSERT_NE(x, nullptr);
+  EXPECT_GE(ax->value(), 1) << ax->note();
+  EXPECT_EQ(x->value(), 0) << x->note();
+  EXPECT_NE(ax->note().find("noise level x1.2"), std::string::npos) << ax->note();
+  int k = 1;
+  for (; k <= ax->value(); ++k) {
+    const pb::Measurement* e = Find(out, "ax", "event_" + std::to_string(k));
+    if (e != nullptr && e->unit() == judge::kNoiseLevelRatioUnit) break;
+  }
+  const pb::Measurement* ratio = Find(out, "ax", "event_" + std::to_string(k));
+  const pb::Measurement* time = Find(out, "ax", "event_" + std::to_string(k) + "_time");
+  ASSERT_NE(ratio, nullptr) << ax->note();
+  ASSERT_NE(time, nullptr);
+  EXPECT_EQ(ratio->unit(), judge::kNoiseLevelRatioUnit);
+  EXPECT_EQ(Find(out, "ax", "event_" + std::to_string(k) + "_end"), nullptr);
+  ASSERT_TRUE(ratio->has_uncertainty());
+  EXPECT_LT(std::abs(ratio->value() - 1.2), 3 * ratio->uncertainty());
+  EXPECT_LE(std::abs(time->value() - 1500), 8.01);
+  EXPECT_EQ(ax->outcome(), pb::MARGINAL);
+  EXPECT_EQ(out.judgement.verdict, pb::MARGINAL);
+  // ... and x's scan says what its noise level showed
+  EXPECT_NE(x->note().find("noise level (the mean square difference"), std::string::npos)
+      << x->note();
 }
 
 TEST(RunAnalyzerTest, AnEventUnderQualifierOnlyIsNamedButLeavesTheVerdict) {
