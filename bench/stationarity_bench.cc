@@ -36,6 +36,10 @@ struct Rates {
   int above_records = 0, above_alarms = 0;
   // Of those, the profile's planted failures (bias instability x4, K x3).
   int failing_records = 0, failing_alarms = 0;
+  // The noise-level scan (no model) of every stationary record's groups, at
+  // 1 % per group (split over its axes): groups with a significant change,
+  // and with one beyond the default 5 % tolerance (an event).
+  int noise_groups = 0, noise_significant = 0, noise_events = 0;
 };
 
 // 'g' for a gyro axis (gx, gy, gz, or any other name), 'a' for an accelerometer (ax, ay, az).
@@ -111,6 +115,28 @@ Rates Run(const std::string& profile_name, int seeds, double duration_s, double 
     std::vector<allan::StationarityScan> scans;
     scan_groups(y, &scans);
     ++r.records;
+    // Each group's noise level, axis by axis, over the level scan's bins.
+    for (const char kind : {'g', 'a'}) {
+      std::vector<int> members;
+      for (int a = 0; a < axes; ++a) {
+        if (KindOf(truth.axes(a)) == kind) members.push_back(a);
+      }
+      if (members.empty() || scans.empty() || !scans.front().scanned) continue;
+      const double bin_s = scans.front().bin_s;
+      const int64_t bin_samples = std::llround(bin_s / tau0);
+      bool significant = false, event = false;
+      for (int a : members) {
+        auto noise = allan::ScanNoiseLevel(
+            allan::BinMeanSquareDifferences(y[a], bin_samples, scans.front().bins), bin_s,
+            0.01 / static_cast<double>(members.size()), judge::kDefaultNoiseLevelTolerance);
+        if (!noise.ok() || !noise->scanned) continue;
+        significant = significant || noise->significant;
+        event = event || noise->found();
+      }
+      ++r.noise_groups;
+      r.noise_significant += significant ? 1 : 0;
+      r.noise_events += event ? 1 : 0;
+    }
     bool alarm = false;
     for (const auto& s : scans) alarm = alarm || !s.events.empty();
     // A unit above the envelope in some term: its rate is not bounded.
@@ -273,6 +299,14 @@ int main(int argc, char** argv) {
           "stationarity_false_alarm_planted_failures_%s %.4f fraction (%d records of the "
           "profile's planted failures, far above the reference)\n",
           p.c_str(), static_cast<double>(r.failing_alarms) / r.failing_records, r.failing_records);
+    }
+    if (r.noise_groups > 0) {
+      std::printf(
+          "stationarity_noise_level_false_alarm_per_group_%s %.4f fraction (+- %.4f, %d groups "
+          "of every unit; stated 0.01); beyond the 5 %% tolerance %.4f\n",
+          p.c_str(), static_cast<double>(r.noise_significant) / r.noise_groups,
+          std::sqrt(0.01 * 0.99 / r.noise_groups), r.noise_groups,
+          static_cast<double>(r.noise_events) / r.noise_groups);
     }
     if (r.planted > 0) {
       std::printf(

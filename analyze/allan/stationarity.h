@@ -2,8 +2,8 @@
 // into its noise figures: level steps (a bias jump, a
 // knock, a power glitch) and bursts (a stretch whose level departs and comes
 // back: a tilt, a shock, a warm spell), on each axis and on the axes of one
-// kind together (a unit-wide event moves several axes at once). Variance
-// changes are not looked for.
+// kind together (a unit-wide event moves several axes at once). A change
+// of the noise level is ScanNoiseLevel's (below).
 //
 // The record is cut into bins of b seconds (bin means of the valid samples;
 // a bin with fewer than half its samples valid is missing). The first
@@ -40,8 +40,7 @@
 // r / (M + 1), `false_alarm` itself, in expectation over the calibration
 // (the draws have a fixed seed: one threshold's own rate is within about
 // +-1/sqrt(r), 32 %, of it; 3x the draws would bring that to 18 % at 3x the
-// cost of every scan whose draws are not cached: with them, the scans in the
-// built-in plans' runs added 150 s to the Release test suite), whatever the
+// cost of every scan whose draws are not cached), whatever the
 // correlations between the
 // candidates (Bonferroni over them is only a bound, well above the rate of
 // correlated candidates; stationarity_test measures the rate). The draws
