@@ -114,8 +114,8 @@ int Severity(std::string_view verdict) { return store::OutcomeSeverity(verdict);
 
 std::string OutcomeName(pb::Outcome o) { return store::OutcomeText(o); }
 
-// Level steps or bursts the stationarity scan found on any axis of the run
-// (a stationarity_events count of one or more).
+// The events (level steps, bursts, noise level changes) the stationarity
+// scan found on the run's axes (stationarity_events counts).
 int StationarityEventCount(const RunPlotData& r) {
   int events = 0;
   for (const AxisPlotData& a : r.axes) {
@@ -129,9 +129,9 @@ int StationarityEventCount(const RunPlotData& r) {
 }
 
 // The runs whose units need a look, worst first (store::AttentionRank),
-// then the units that pass but whose record shows a level step or burst (a
-// plan's qualifier-only stationarity: the verdict stands, but the time
-// series says where the record moved).
+// then the units that pass but whose record shows a stationarity event (a
+// level step, burst or noise level change under a plan's qualifier-only
+// stationarity: the verdict stands, but the time series shows where).
 std::vector<const RunPlotData*> NeedALook(const std::vector<RunPlotData>& runs) {
   auto rank = [](const RunPlotData* r) {
     const int attention = store::AttentionRank(store::OutcomeFromText(r->verdict));
@@ -479,7 +479,7 @@ void Attention(const ReportData& d, const std::map<std::string, std::string>& pl
   const std::vector<const RunPlotData*> flagged = NeedALook(d.runs);
   *out +=
       "<section id=\"attention\">\n<h2>Units that fail, are marginal or inconclusive, were "
-      "not measured to the end, or whose record moved</h2>\n";
+      "not measured to the end, or whose record shows a stationarity event</h2>\n";
   if (flagged.empty()) {
     *out += "<p class=\"ok\">Every judged unit passes without a marginal value.</p>\n</section>\n";
     return;

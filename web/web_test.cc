@@ -384,7 +384,6 @@ TEST_F(WebTest, ATokenGuardsEveryPage) {
   EXPECT_EQ(header->status, 200);
 }
 
-// A damaged chunk costs the unit's raw-sample plot, not the lot's report.
 // A unit that passes but whose record moved (a qualifier-only stationarity
 // event) is listed among the units that need a look, after the failing
 // ones, with its reasons; a passing unit without events is not.
@@ -429,6 +428,7 @@ TEST(WebPagesTest, AUnitWhoseRecordMovedNeedsALook) {
   EXPECT_EQ(attention.find("U-STILL"), std::string::npos) << attention;
 }
 
+// A damaged chunk costs the unit's raw-sample plot, not the lot's report.
 TEST(WebPagesTest, ADamagedChunkCostsOnlyItsPlot) {
   testing::TempDir dir("web_damaged");
   const std::string db = MakeArchive(dir);

@@ -105,7 +105,6 @@ class AxisGls {
       for (int j = 0; j < n; ++j) span(j) = to_[j] - from_[j];
       x_.push_back(span);
     }
-    first_event_ = x_.size();
     Refit();
   }
   // Whether a step candidate lies in missing bins (its difference joins
@@ -121,9 +120,17 @@ class AxisGls {
   }
   bool ok() const { return ok_; }
 
-  // Adds a nuisance regressor (an accepted event) and refits.
-  void AddNuisance(const Candidate& c) {
-    x_.push_back(Sparse(c));
+  // Adds candidate `i` (an accepted event) as a nuisance regressor and
+  // refits, unless it is not identifiable here (its difference is missing
+  // on this axis, or it repeats the nuisances, e.g. a second event in the
+  // same gap): then this axis has no estimate of it (Amplitude: NaN).
+  void AddNuisance(size_t i) {
+    if (!(prepared_[i].inv_sd > 0)) {
+      event_column_.push_back(-1);
+      return;
+    }
+    event_column_.push_back(static_cast<int>(x_.size()));
+    x_.push_back(Sparse((*candidates_)[i]));
     Refit();
   }
 
@@ -161,7 +168,9 @@ class AxisGls {
 
   // The joint estimate of accepted event j's amplitude and its 1-sigma.
   void Amplitude(size_t j, double* value, double* sigma) const {
-    const int i = static_cast<int>(first_event_ + j);
+    const int i = event_column_[j];
+    *value = *sigma = kNaN;
+    if (i < 0) return;
     *value = beta_(i);
     *sigma = std::sqrt(m_(i, i));
   }
@@ -218,7 +227,7 @@ class AxisGls {
 
   const std::vector<Candidate>* candidates_;
   bool ok_ = false;
-  size_t first_event_ = 0;
+  std::vector<int> event_column_;  // per accepted event: its column of X, -1 for none
   Eigen::MatrixXd chol_;
   std::vector<int> from_, to_, index_;
   Eigen::MatrixXd p_, px_, m_, xmat_;
@@ -377,7 +386,9 @@ std::vector<double> BinAccumulator::Means(int64_t* bin_samples) const {
 }
 
 std::vector<double> BinAccumulator::MeanSquareDifferences(int64_t bin_samples) const {
-  const int64_t per = std::max<int64_t>(1, bin_samples / base_);
+  // As Means rounds the bin to whole base bins.
+  const int64_t per = std::max<int64_t>(
+      1, std::llround(static_cast<double>(bin_samples) / static_cast<double>(base_)));
   const int64_t bins = samples_ / (per * base_);
   std::vector<double> out(static_cast<size_t>(bins), kNaN);
   for (int64_t k = 0; k < bins; ++k) {
@@ -476,16 +487,30 @@ Result<NoiseLevelChange> ScanNoiseLevel(std::span<const double> mean_square, dou
     return Status::InvalidArgument("noise level scan: bin_s must be positive");
   }
   NoiseLevelChange out;
+  // A bin whose successive samples never differ (a frozen or stuck output)
+  // is the largest change there is: it reads at a millionth of the least
+  // power of the others (an amplitude a thousandth), not left out.
+  double least = std::numeric_limits<double>::infinity();
+  int frozen = 0;
+  for (double v : mean_square) {
+    if (std::isfinite(v) && v > 0) least = std::min(least, v);
+    if (v == 0) ++frozen;
+  }
   std::vector<double> x;
   std::vector<int> at;
   for (size_t i = 0; i < mean_square.size(); ++i) {
-    if (std::isfinite(mean_square[i]) && mean_square[i] > 0) {
-      x.push_back(std::log(mean_square[i]));
-      at.push_back(static_cast<int>(i));
-    }
+    const double v = mean_square[i];
+    if (!std::isfinite(v) || v < 0 || (v == 0 && !std::isfinite(least))) continue;
+    x.push_back(std::log(v > 0 ? v : 1e-6 * least));
+    at.push_back(static_cast<int>(i));
   }
   const int n = static_cast<int>(x.size());
   out.bins = n;
+  if (frozen > 0 && std::isfinite(least)) {
+    out.note = std::to_string(frozen) + (frozen == 1 ? " bin" : " bins") +
+               " without a difference between successive samples (a frozen output), read at a "
+               "thousandth of the least amplitude of the others";
+  }
   if (n < std::max(min_bins, 4)) {
     out.note = "too few bins with a noise level to scan (" + std::to_string(n) + ", " +
                std::to_string(std::max(min_bins, 4)) + " needed)";
@@ -498,9 +523,10 @@ Result<NoiseLevelChange> ScanNoiseLevel(std::span<const double> mean_square, dou
     return out;
   }
   out.scanned = true;
-  const std::vector<double>& null = *CusumNull(n);
-  const auto above = null.end() - std::lower_bound(null.begin(), null.end(), out.statistic);
-  out.p = static_cast<double>(1 + above) / static_cast<double>(null.size() + 1);
+  // Held while read: another scan may empty the cache meanwhile.
+  const std::shared_ptr<const std::vector<double>> null = CusumNull(n);
+  const auto above = null->end() - std::lower_bound(null->begin(), null->end(), out.statistic);
+  out.p = static_cast<double>(1 + above) / static_cast<double>(null->size() + 1);
   if (k_best == 0) return out;
   double before = 0, after = 0;
   for (int i = 0; i < n; ++i) (i < k_best ? before : after) += x[i];
@@ -802,7 +828,7 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
       }
     }
     if (!any) e.axes[loudest].named = true;
-    for (AxisGls& g : gls) g.AddNuisance(*best);
+    for (AxisGls& g : gls) g.AddNuisance(best_index);
     events.push_back(std::move(e));
   }
   // Sizes from the joint estimate with every event.

@@ -290,8 +290,8 @@ class BinAccumulator {
   // back), NaN where fewer than half the bin's samples were valid; a partial
   // last bin is left out.
   std::vector<double> Means(int64_t* bin_samples) const;
-  // The bins' mean square differences (BinMeanSquareDifferences) at a bin
-  // length Means returned.
+  // The bins' mean square differences (BinMeanSquareDifferences), the bin
+  // length rounded to whole base bins as Means rounds it.
   std::vector<double> MeanSquareDifferences(int64_t bin_samples) const;
 
  private:

@@ -379,6 +379,22 @@ TEST(NoiseLevelTest, FalseAlarmsAtTheLevelWhateverTheNoise) {
   }
 }
 
+TEST(NoiseLevelTest, AFrozenOutputIsTheLargestChange) {
+  // GIVEN a white record whose output freezes (one value repeated) for its
+  // last 60 s of 300: those bins' successive samples never differ; THEN the
+  // change is found there, its ratio under a hundredth, and the note says
+  // how the frozen bins were read.
+  std::vector<double> y = WhiteRecord(1e-3, 30000, 41);
+  for (size_t i = 24000; i < y.size(); ++i) y[i] = y[23999];
+  auto scan = ScanNoiseLevel(BinMeanSquareDifferences(y, 100, 300), 1.0, 0.01, 0.05);
+  ASSERT_TRUE(scan.ok());
+  ASSERT_TRUE(scan->scanned) << scan->note;
+  EXPECT_TRUE(scan->found());
+  EXPECT_NEAR(scan->time_s, 240, 1.5);
+  EXPECT_LT(scan->ratio, 0.01);
+  EXPECT_NE(scan->note.find("frozen"), std::string::npos) << scan->note;
+}
+
 TEST(NoiseLevelTest, FindsALevelChangeWithItsSizeAndTime) {
   // GIVEN a white record whose amplitude rises 10 % at 180 s of 300
   auto y = WhiteRecordWithLevelChange(1e-3, 30000, 18000, 1.10, 21);
@@ -401,6 +417,35 @@ TEST(NoiseLevelTest, FindsALevelChangeWithItsSizeAndTime) {
   EXPECT_NE(short_scan->note.find("too few bins"), std::string::npos);
   EXPECT_FALSE(ScanNoiseLevel(BinMeanSquareDifferences(y, 100, 300), 1.0, 0.7, 0.05).ok());
   EXPECT_FALSE(ScanNoiseLevel(BinMeanSquareDifferences(y, 100, 300), 1.0, 0.01, -1).ok());
+}
+
+TEST(StationarityTest, TwoEventsInAnotherAxisGapLeaveThatAxisWithoutAnEstimate) {
+  // GIVEN two white axes scanned together, A missing 100..140 s, B with two
+  // steps of 5e-3 at 110 and 125 s (both inside A's gap): on A both events'
+  // regressors are the one difference across the gap, so the second is not
+  // identifiable there. THEN both steps are named on B only, A's estimate
+  // of the second is NaN (not a number from a singular fit) and A's of the
+  // first is within 4 sigma of 0.
+  std::vector<double> a = WhiteRecord(1e-3, 30000, 31);
+  std::vector<double> b = WhiteRecord(1e-3, 30000, 32);
+  for (size_t i = 10000; i < 14000; ++i) a[i] = std::nan("");
+  for (size_t i = 11000; i < b.size(); ++i) b[i] += 5e-3;
+  for (size_t i = 12500; i < b.size(); ++i) b[i] += 5e-3;
+  auto scan = ScanStationarity({a, b}, {White(1e-3), White(1e-3)}, kTau0, {.bin_s = 1});
+  ASSERT_TRUE(scan.ok()) << scan.status().message();
+  ASSERT_EQ(scan->events.size(), 2u);
+  int nan_on_a = 0;
+  for (const StationarityEvent& e : scan->events) {
+    EXPECT_TRUE(e.axes[1].named);
+    EXPECT_FALSE(e.axes[0].named);
+    EXPECT_NEAR(e.axes[1].size, 5e-3, 4 * e.axes[1].sigma);
+    if (std::isnan(e.axes[0].size)) {
+      ++nan_on_a;
+    } else {
+      EXPECT_LT(std::fabs(e.axes[0].size), 4 * e.axes[0].sigma);
+    }
+  }
+  EXPECT_EQ(nan_on_a, 1);
 }
 
 TEST(StationarityTest, BadArgumentsAreNamed) {

@@ -284,7 +284,8 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
               std::to_string(noise->bins) + " bins): p " + Fmt("%.2g", noise->p) + " at a level " +
               Fmt("%.2g", level) + ", the largest change x" + Fmt("%.4g", noise->ratio) +
               " \u00b1 " + Fmt("%.2g", noise->ratio_sigma) + " at " + Fmt("%.0f", noise->time_s) +
-              " s, an event beyond x" + Fmt("%.4g", 1 + noise_tolerance) + " either way";
+              " s, an event beyond x" + Fmt("%.4g", 1 + noise_tolerance) + " either way" +
+              (noise->note.empty() ? "" : " (" + noise->note + ")");
           if (noise->found()) {
             const int k = static_cast<int>(texts.size()) + 1;
             texts.push_back("noise level x" + Fmt("%.4g", noise->ratio) + " \u00b1 " +
