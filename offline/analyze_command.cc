@@ -353,17 +353,15 @@ std::string StationaritySummary(const allan::StationarityScan& scan,
 // The noise level's scan: its largest change, whether it is an event.
 std::string NoiseLevelSummary(const allan::NoiseLevelChange& n, double tolerance) {
   if (!n.scanned) return "noise level: not scanned: " + n.note + "\n";
-  char text[512];
+  char text[320];
   std::snprintf(text, sizeof text,
                 "noise level (mean square difference of successive samples per bin): largest "
-                "change x%.4g +- %.2g at %.0f s, p %.2g over %d bins: %s\n",
-                n.ratio, n.ratio_sigma, n.time_s, n.p, n.bins,
-                n.found()       ? "an event"
-                : n.significant ? ("significant, within the tolerance x" +
-                                   std::to_string(1 + tolerance).substr(0, 5))
-                                      .c_str()
-                                : "no change found");
-  return text;
+                "change x%.4g +- %.2g at %.0f s, p %.2g over %d bins: ",
+                n.ratio, n.ratio_sigma, n.time_s, n.p, n.bins);
+  char within[64];
+  std::snprintf(within, sizeof within, "significant, within the tolerance x%.4g", 1 + tolerance);
+  return text + std::string(n.found() ? "an event" : n.significant ? within : "no change found") +
+         "\n";
 }
 
 // One row per event: where, what, its size with its 1-sigma (datasheet rate

@@ -114,18 +114,15 @@ int Severity(std::string_view verdict) { return store::OutcomeSeverity(verdict);
 
 std::string OutcomeName(pb::Outcome o) { return store::OutcomeText(o); }
 
-// The events (level steps, bursts, noise level changes) the stationarity
-// scan found on the run's axes (stationarity_events counts).
-int StationarityEventCount(const RunPlotData& r) {
-  int events = 0;
+// Whether the stationarity scan found an event (a level step, burst or
+// noise level change) on any of the run's axes.
+bool HasStationarityEvent(const RunPlotData& r) {
   for (const AxisPlotData& a : r.axes) {
     for (const pb::Measurement& m : a.measurements) {
-      if (m.name() == judge::kStationarityEvents && m.value() >= 1) {
-        events += static_cast<int>(m.value());
-      }
+      if (m.name() == judge::kStationarityEvents && m.value() >= 1) return true;
     }
   }
-  return events;
+  return false;
 }
 
 // The runs whose units need a look, worst first (store::AttentionRank),
@@ -135,7 +132,7 @@ int StationarityEventCount(const RunPlotData& r) {
 std::vector<const RunPlotData*> NeedALook(const std::vector<RunPlotData>& runs) {
   auto rank = [](const RunPlotData* r) {
     const int attention = store::AttentionRank(store::OutcomeFromText(r->verdict));
-    return attention > 0 ? 2 * attention : StationarityEventCount(*r) > 0 ? 1 : 0;
+    return attention > 0 ? 2 * attention : HasStationarityEvent(*r) ? 1 : 0;
   };
   std::vector<const RunPlotData*> flagged;
   for (const RunPlotData& r : runs) {

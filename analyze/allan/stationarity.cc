@@ -237,8 +237,9 @@ class AxisGls {
 };
 
 // The smallest p-values of the records drawn to calibrate a scan, by what
-// they depend on (models, bins, missing bins, draws), for the process: at
-// most kEntries, all dropped when full. Thread-safe.
+// they depend on (models, bins, missing bins, draws), and the noise-level
+// scan's null distributions by bin count, for the process: at most
+// kEntries, all dropped when full. Thread-safe.
 class CalibrationCache {
  public:
   static std::shared_ptr<const std::vector<double>> Find(const std::string& key) {
@@ -367,40 +368,35 @@ void BinAccumulator::Merge() {
   base_ *= 2;
 }
 
-std::vector<double> BinAccumulator::Means(int64_t* bin_samples) const {
-  const int64_t per = std::max<int64_t>(
-      1, std::llround(static_cast<double>(*bin_samples) / static_cast<double>(base_)));
-  *bin_samples = per * base_;
-  const int64_t bins = samples_ / *bin_samples;
+int64_t BinAccumulator::BaseBinsPer(int64_t bin_samples) const {
+  return std::max<int64_t>(
+      1, std::llround(static_cast<double>(bin_samples) / static_cast<double>(base_)));
+}
+
+std::vector<double> BinAccumulator::Pooled(const std::vector<double>& num,
+                                           const std::vector<int64_t>& den, int64_t per) const {
+  const int64_t bins = samples_ / (per * base_);
   std::vector<double> out(static_cast<size_t>(bins), kNaN);
   for (int64_t k = 0; k < bins; ++k) {
     double sum = 0;
-    int64_t valid = 0;
+    int64_t count = 0;
     for (int64_t j = k * per; j < (k + 1) * per; ++j) {
-      sum += sum_[static_cast<size_t>(j)];
-      valid += valid_[static_cast<size_t>(j)];
+      sum += num[static_cast<size_t>(j)];
+      count += den[static_cast<size_t>(j)];
     }
-    if (2 * valid >= *bin_samples) out[static_cast<size_t>(k)] = sum / static_cast<double>(valid);
+    if (2 * count >= per * base_) out[static_cast<size_t>(k)] = sum / static_cast<double>(count);
   }
   return out;
 }
 
+std::vector<double> BinAccumulator::Means(int64_t* bin_samples) const {
+  const int64_t per = BaseBinsPer(*bin_samples);
+  *bin_samples = per * base_;
+  return Pooled(sum_, valid_, per);
+}
+
 std::vector<double> BinAccumulator::MeanSquareDifferences(int64_t bin_samples) const {
-  // As Means rounds the bin to whole base bins.
-  const int64_t per = std::max<int64_t>(
-      1, std::llround(static_cast<double>(bin_samples) / static_cast<double>(base_)));
-  const int64_t bins = samples_ / (per * base_);
-  std::vector<double> out(static_cast<size_t>(bins), kNaN);
-  for (int64_t k = 0; k < bins; ++k) {
-    double square = 0;
-    int64_t diffs = 0;
-    for (int64_t j = k * per; j < (k + 1) * per; ++j) {
-      square += square_[static_cast<size_t>(j)];
-      diffs += diffs_[static_cast<size_t>(j)];
-    }
-    if (2 * diffs >= per * base_) out[static_cast<size_t>(k)] = square / static_cast<double>(diffs);
-  }
-  return out;
+  return Pooled(square_, diffs_, BaseBinsPer(bin_samples));
 }
 
 std::vector<double> BinMeanSquareDifferences(std::span<const double> rate, int64_t bin_samples,
@@ -424,54 +420,50 @@ std::vector<double> BinMeanSquareDifferences(std::span<const double> rate, int64
 }
 
 namespace {
-// The CUSUM statistic of x (above) and its boundary: max_k |S_k| / (s
-// sqrt(n)), s^2 from successive differences; NaN when s is 0.
-double CusumStatistic(const std::vector<double>& x, int* k_best) {
+// The CUSUM statistic of x (above), its boundary and s: max_k |S_k| / (s
+// sqrt(n)), s^2 from successive differences; the statistic NaN when s is 0.
+struct Cusum {
+  double statistic = kNaN;
+  int k = 0;  // the boundary of the largest |S_k| (0: none)
+  double s = kNaN;
+};
+Cusum CusumOf(const std::vector<double>& x) {
+  Cusum out;
   const int n = static_cast<int>(x.size());
   double mean = 0;
   for (double v : x) mean += v;
   mean /= n;
   double ss = 0;
   for (int i = 0; i + 1 < n; ++i) ss += (x[i + 1] - x[i]) * (x[i + 1] - x[i]);
-  const double s = std::sqrt(ss / (2.0 * (n - 1)));
-  if (!(s > 0)) return kNaN;
+  out.s = std::sqrt(ss / (2.0 * (n - 1)));
+  if (!(out.s > 0)) return out;
   double cusum = 0, best = 0;
-  *k_best = 0;
   for (int k = 1; k < n; ++k) {
     cusum += x[k - 1] - mean;
     if (std::fabs(cusum) > best) {
       best = std::fabs(cusum);
-      *k_best = k;
+      out.k = k;
     }
   }
-  return best / (s * std::sqrt(static_cast<double>(n)));
+  out.statistic = best / (out.s * std::sqrt(static_cast<double>(n)));
+  return out;
 }
 
 // The statistic's null distribution for n independent Gaussian x, drawn
-// (sorted, largest last), per n for the process.
+// (sorted), cached for the process with the scans' calibrations.
 std::shared_ptr<const std::vector<double>> CusumNull(int n) {
-  static std::mutex mutex;
-  static std::map<int, std::shared_ptr<const std::vector<double>>> cache;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    const auto it = cache.find(n);
-    if (it != cache.end()) return it->second;
-  }
+  const std::string key = "noise level null|" + std::to_string(n);
+  if (auto cached = CalibrationCache::Find(key)) return cached;
   std::vector<double> drawn(kNoiseLevelDraws);
   std::mt19937_64 rng(0x5eedc05u + static_cast<uint64_t>(n));
   std::normal_distribution<double> gauss;
   std::vector<double> x(n);
   for (double& t : drawn) {
     for (double& v : x) v = gauss(rng);
-    int k = 0;
-    t = CusumStatistic(x, &k);
+    t = CusumOf(x).statistic;
   }
   std::sort(drawn.begin(), drawn.end());
-  auto value = std::make_shared<const std::vector<double>>(std::move(drawn));
-  std::lock_guard<std::mutex> lock(mutex);
-  if (cache.size() >= 64) cache.clear();
-  cache.emplace(n, value);
-  return value;
+  return CalibrationCache::Put(key, std::move(drawn));
 }
 }  // namespace
 
@@ -516,8 +508,8 @@ Result<NoiseLevelChange> ScanNoiseLevel(std::span<const double> mean_square, dou
                std::to_string(std::max(min_bins, 4)) + " needed)";
     return out;
   }
-  int k_best = 0;
-  out.statistic = CusumStatistic(x, &k_best);
+  const Cusum cusum = CusumOf(x);
+  out.statistic = cusum.statistic;
   if (!std::isfinite(out.statistic)) {
     out.note = "the noise level does not vary from bin to bin (quantized to one value?)";
     return out;
@@ -527,17 +519,15 @@ Result<NoiseLevelChange> ScanNoiseLevel(std::span<const double> mean_square, dou
   const std::shared_ptr<const std::vector<double>> null = CusumNull(n);
   const auto above = null->end() - std::lower_bound(null->begin(), null->end(), out.statistic);
   out.p = static_cast<double>(1 + above) / static_cast<double>(null->size() + 1);
+  const int k_best = cusum.k;
   if (k_best == 0) return out;
   double before = 0, after = 0;
   for (int i = 0; i < n; ++i) (i < k_best ? before : after) += x[i];
   before /= k_best;
   after /= n - k_best;
-  double ss = 0;
-  for (int i = 0; i + 1 < n; ++i) ss += (x[i + 1] - x[i]) * (x[i + 1] - x[i]);
-  const double s = std::sqrt(ss / (2.0 * (n - 1)));
   const double log_ratio = (after - before) / 2;
   out.ratio = std::exp(log_ratio);
-  out.ratio_sigma = out.ratio * s * std::sqrt(1.0 / k_best + 1.0 / (n - k_best)) / 2;
+  out.ratio_sigma = out.ratio * cusum.s * std::sqrt(1.0 / k_best + 1.0 / (n - k_best)) / 2;
   out.time_s = at[k_best] * bin_s;
   out.significant = out.p < false_alarm;
   out.beyond_tolerance = std::fabs(log_ratio) > std::log1p(tolerance);

@@ -296,6 +296,12 @@ class BinAccumulator {
 
  private:
   void Merge();
+  // Base bins per bin of about `bin_samples` samples (at least one).
+  int64_t BaseBinsPer(int64_t bin_samples) const;
+  // Per whole bin of `per` base bins: sum(num) / sum(den), NaN where
+  // sum(den) is under half the bin's samples.
+  std::vector<double> Pooled(const std::vector<double>& num, const std::vector<int64_t>& den,
+                             int64_t per) const;
   int64_t base_;
   int64_t samples_ = 0;
   bool has_last_ = false;  // the last sample was valid

@@ -271,8 +271,8 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
       std::string noise_text;
       if (noise_tolerance >= 0 && !axes[a].mean_square.empty()) {
         const double level = scan->false_alarm / static_cast<double>(group.size());
-        auto noise = allan::ScanNoiseLevel(axes[a].mean_square, scan->bin_s, level, noise_tolerance,
-                                           scan->bins >= 32 ? 32 : scan->bins);
+        auto noise =
+            allan::ScanNoiseLevel(axes[a].mean_square, scan->bin_s, level, noise_tolerance);
         if (!noise.ok()) {
           noise_text = "; noise level not scanned: " + noise.status().message();
         } else if (!noise->scanned) {
