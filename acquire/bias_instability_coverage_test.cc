@@ -1,10 +1,13 @@
 // Coverage of the bias-instability uncertainty (analyze/allan/noise_model.h
 // MinimumUncertainty) through the simulator: records of known truths
-// (white + flicker + rate random walk, and with a Gauss-Markov bump) analysed
-// as the station does (streaming engine, dense grid, 9-bin rule), the curve
-// minimum and its 1-sigma uncertainty against the truth's own minimum over
-// the same taus. Over 200 seeds the 1-sigma interval must cover the truth in
-// 60-76 % of records (68 % nominal) and the 2-sigma one in >= 90 %. The
+// (white + flicker + rate random walk, with a Gauss-Markov bump, with a
+// stronger random walk, and filtered white noise with a strong random walk)
+// analysed as the station does (streaming engine, dense grid, 9-bin rule),
+// the curve minimum and its 1-sigma uncertainty against the truth's own
+// minimum over the same taus. Over 200 seeds the 1-sigma interval must cover
+// the truth in 60-76 % of records (68 % nominal) and the 2-sigma one in
+// >= 90 % (measured 92-95.5 %); on the steepest bottom it covers more
+// (measured 86 % and 99 %): held to >= 60 % and >= 93 % there. The
 // reading itself (the curve's minimum, as datasheets define it) lies low:
 // measured mean z -0.5 (the minimum of a noisy curve is picked from its
 // dips); the test keeps that bias within [-0.8, 0] and prints it.
@@ -74,6 +77,20 @@ std::vector<Scenario> Scenarios() {
   return out;
 }
 
+// Two more whose minimum is steeper and further inside the record: white
+// noise through a first-order 20 Hz filter with weak flicker and a strong
+// random walk (tau* 46 s), and the first with a stronger random walk (87 s).
+std::vector<Scenario> SteeperScenarios() {
+  const pb::AxisTruth base = Scenarios().front().truth;
+  pb::AxisTruth sharp = base;
+  sharp.set_white_bandwidth_hz(20);
+  sharp.set_bias_instability(1e-4);
+  sharp.set_rate_random_walk(1.5e-4);
+  pb::AxisTruth steeper = base;
+  steeper.set_rate_random_walk(8e-5);
+  return {{"filtered 20 Hz+fl+rrw", sharp}, {"white+fl+stronger rrw", steeper}};
+}
+
 // One simulated record of `axis` (seed), analysed as the station does:
 // streaming engine, dense grid, 9-bin rule.
 allan::Curve StationCurve(const pb::AxisTruth& axis, uint64_t seed) {
@@ -95,7 +112,13 @@ allan::Curve StationCurve(const pb::AxisTruth& axis, uint64_t seed) {
 }
 
 TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {
-  for (const Scenario& s : Scenarios()) {
+  std::vector<Scenario> scenarios = Scenarios();
+  for (const Scenario& s : SteeperScenarios()) scenarios.push_back(s);
+  for (const Scenario& s : scenarios) {
+    // The steepest bottom (tau* 46 s) is covered more than stated: the
+    // points within an octave lie above the minimum for the curve's own
+    // bend, not only for its noise.
+    const bool steepest = s.name == SteeperScenarios().front().name;
     int covered1 = 0, covered2 = 0, n = 0;
     double sum_z = 0;
     for (int seed = 1; seed <= kSeeds; ++seed) {
@@ -118,8 +141,10 @@ TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {
     std::printf("%-22s 1-sigma %.1f %%  2-sigma %.1f %%  mean z %+.2f  (%d records)\n",
                 s.name.c_str(), 100 * c1, 100 * c2, sum_z / n, n);
     EXPECT_GE(c1, 0.60) << s.name;
-    EXPECT_LE(c1, 0.76) << s.name;
-    EXPECT_GE(c2, 0.90) << s.name;
+    if (!steepest) {
+      EXPECT_LE(c1, 0.76) << s.name;
+    }
+    EXPECT_GE(c2, steepest ? 0.93 : 0.90) << s.name;
     EXPECT_GE(sum_z / n, -0.8) << s.name;
     EXPECT_LE(sum_z / n, 0.0) << s.name;
   }
@@ -180,6 +205,68 @@ TEST(SlopeReadoffCoverageTest, AngleRandomWalkUncertaintyCoversTheTruth) {
       EXPECT_GE(c2, 0.93) << s.name;
       EXPECT_GE(sum_z / n, -0.5) << s.name;
       EXPECT_LE(sum_z / n, 0.5) << s.name;
+    }
+  }
+}
+
+// The standard uncertainty of the minimum's tau (FitMinimumVertex,
+// LnUncertaintyAt: the value is the curve's minimum point, where B is read)
+// against the truth's own tau at its minimum, on ln tau: over 200 records of
+// each of three mixtures whose minimum lies well inside the record (tau* at
+// 46, 87 and 264 s, the curve ending at 582 s) the 1-sigma interval must
+// cover in 60-76 % and the 2-sigma one in >= 93 %. A fourth mixture has its
+// minimum at 346 s, 0.75 octave from the curve's end, where the rising line
+// is barely seen: there a third or more of the records say "not measurable"
+// and the rest cover less than stated (measured 2-sigma 86-88 %; the test
+// holds it at >= 80 % and prints it).
+TEST(TauAtMinimumCoverageTest, VertexUncertaintyCoversTheTruth) {
+  const std::vector<Scenario> two = Scenarios();
+  struct TauScenario {
+    Scenario s;
+    bool inside;  // the minimum well inside the record: held to the band
+  };
+  std::vector<TauScenario> scenarios = {{two[1], true}, {two[0], false}};
+  for (const Scenario& s : SteeperScenarios()) scenarios.push_back({s, true});
+  for (const TauScenario& ts : scenarios) {
+    const Scenario& s = ts.s;
+    double truth_tau = 0, truth_min = INFINITY;
+    for (double tau = 0.1; tau <= 1e4; tau *= 1.0005) {
+      const double d = std::sqrt(TruthAvar(s.truth, tau));
+      if (d < truth_min) truth_min = d, truth_tau = tau;
+    }
+    int covered1 = 0, covered2 = 0, n = 0, not_measurable = 0;
+    double sum_z = 0;
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+      const allan::Curve dense = StationCurve(s.truth, 7919 * seed + 11);
+      const auto min = allan::FindCurveMinimum(dense);
+      ASSERT_TRUE(min.has_value());
+      const allan::MinimumVertex v = allan::FitMinimumVertex(dense, *min);
+      if (!v.resolved) {
+        EXPECT_FALSE(v.why.empty());
+        ++not_measurable;
+        continue;
+      }
+      const double u = v.LnUncertaintyAt(min->tau_s);
+      ASSERT_TRUE(std::isfinite(u) && u > 0) << s.name << " seed " << seed;
+      const double z = std::log(min->tau_s / truth_tau) / u;
+      sum_z += z;
+      covered1 += std::abs(z) <= 1;
+      covered2 += std::abs(z) <= 2;
+      ++n;
+    }
+    ASSERT_GT(n, 0) << s.name;
+    const double c1 = static_cast<double>(covered1) / n, c2 = static_cast<double>(covered2) / n;
+    std::printf(
+        "%-22s tau* %.0f s: 1-sigma %.1f %%  2-sigma %.1f %%  mean z %+.2f  (%d records, %d not "
+        "measurable)\n",
+        s.name.c_str(), truth_tau, 100 * c1, 100 * c2, sum_z / n, n, not_measurable);
+    if (ts.inside) {
+      EXPECT_LE(not_measurable, kSeeds / 4) << s.name;
+      EXPECT_GE(c1, 0.60) << s.name;
+      EXPECT_LE(c1, 0.76) << s.name;
+      EXPECT_GE(c2, 0.93) << s.name;
+    } else {
+      EXPECT_GE(c2, 0.80) << s.name;
     }
   }
 }

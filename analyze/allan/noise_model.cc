@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -599,21 +600,114 @@ double MinimumUncertainty(const Curve& curve, const CurveMinimum& min) {
   return std::hypot(statistical, selection);
 }
 
-double MinimumTauUncertainty(const Curve& curve, const CurveMinimum& min, double dev_uncertainty) {
-  if (!std::isfinite(dev_uncertainty)) return kNaN;
-  size_t at = curve.points.size();
-  for (size_t i = 0; i < curve.points.size(); ++i) {
-    if (curve.points[i].m == min.m) at = i;
+double MinimumVertex::LnUncertaintyAt(double at_s) const {
+  return resolved ? std::hypot(u_ln_tau, std::log(at_s / tau_s)) : kNaN;
+}
+
+MinimumVertex FitMinimumVertex(const Curve& curve, const CurveMinimum& min,
+                               double half_width_octaves) {
+  MinimumVertex out;
+  std::vector<const CurvePoint*> pts;
+  for (const CurvePoint& p : curve.points) {
+    if (!(std::isfinite(p.dev) && p.dev > 0 && p.tau_s > 0)) continue;
+    if (!std::isfinite(PointEdf(p, curve.n_phase, -1))) continue;
+    pts.push_back(&p);
   }
-  if (at == curve.points.size()) return kNaN;
-  const double ceiling = min.dev + dev_uncertainty;
-  auto close = [&](size_t i) {
-    return std::isfinite(curve.points[i].dev) && curve.points[i].dev <= ceiling;
-  };
-  size_t lo = at, hi = at;
-  while (lo > 0 && close(lo - 1)) --lo;
-  while (hi + 1 < curve.points.size() && close(hi + 1)) ++hi;
-  return (curve.points[hi].tau_s - curve.points[lo].tau_s) / 2;
+  const double half = half_width_octaves * std::numbers::ln2;
+  double centre = std::log(min.tau_s);
+  for (int pass = 0; pass < 6; ++pass) {
+    // The points within reach of the bottom, at least the five nearest
+    // (an octave grid has four or five within two octaves).
+    std::vector<const CurvePoint*> in = pts;
+    auto distance = [&](const CurvePoint* p) { return std::abs(std::log(p->tau_s) - centre); };
+    std::stable_sort(in.begin(), in.end(), [&](const CurvePoint* a, const CurvePoint* b) {
+      return distance(a) < distance(b);
+    });
+    size_t keep = 0;
+    while (keep < in.size() && (keep < 5 || distance(in[keep]) <= half)) ++keep;
+    in.resize(keep);
+    std::sort(in.begin(), in.end(),
+              [](const CurvePoint* a, const CurvePoint* b) { return a->tau_s < b->tau_s; });
+    const int k = static_cast<int>(in.size());
+    out.points = k;
+    if (k < 5) {
+      out.why = "fewer than 5 points with an edf";
+      return out;
+    }
+    const double tlo = in.front()->tau_s, thi = in.back()->tau_s;
+    std::vector<int64_t> m(k);
+    Eigen::VectorXd y(k), two_over_edf(k);
+    Eigen::MatrixXd x(k, 3);
+    for (int j = 0; j < k; ++j) {
+      m[j] = in[j]->m;
+      y(j) = in[j]->dev * in[j]->dev;
+      x(j, 0) = tlo / in[j]->tau_s;
+      x(j, 1) = 1;
+      x(j, 2) = in[j]->tau_s / thi;
+      two_over_edf(j) = 2 / PointEdf(*in[j], curve.n_phase, -1);
+    }
+    // Pass 1 with flicker FM's edf and correlations, pass 2 with the local
+    // model's (white + flicker + random walk as fitted).
+    std::vector<double> r = TermAvarCorrelations(TermKind::kFlicker, m);
+    AvarFit f;
+    for (int round = 0; round < 2; ++round) {
+      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
+          rho(r.data(), k, k);
+      f = FitAvars(x, y, two_over_edf, rho);
+      if (!f.beta.allFinite() || !f.cov.allFinite()) {
+        out.why = "the white + flicker + random-walk line through the bottom could not be fitted";
+        return out;
+      }
+      if (round == 1) break;
+      const double floor = 1e-6 * y.minCoeff();
+      const double a = std::max(f.beta(0), floor) * tlo, b = std::max(f.beta(1), floor),
+                   c = std::max(f.beta(2), floor) / thi;
+      CompositeModel local;
+      local.terms.push_back({TermKind::kWhite, std::sqrt(a)});
+      local.terms.push_back(
+          {TermKind::kFlicker, std::sqrt(b * std::numbers::pi / (2 * std::numbers::ln2))});
+      local.terms.push_back({TermKind::kRandomWalk, std::sqrt(3 * c)});
+      r = AvarCorrelationMatrix(local, curve.tau0_s, m);
+      for (int j = 0; j < k; ++j) {
+        const double t = in[j]->tau_s;
+        const double slope = (-a / t + c * t) / (a / t + b + c * t);
+        const double edf = PointEdf(*in[j], curve.n_phase, AlphaFromAvarSlope(slope));
+        if (std::isfinite(edf) && edf > 0) two_over_edf(j) = 2 / edf;
+      }
+    }
+    const double inflate = f.birge > 1 ? f.birge : 1.0;
+    const double i2 = inflate * inflate;
+    const double b1 = f.beta(0), b3 = f.beta(2);
+    const double v11 = f.cov(0, 0) * i2, v13 = f.cov(0, 2) * i2, v33 = f.cov(2, 2) * i2;
+    out.rising_z = b3 / std::sqrt(std::max(v33, 0.0));
+    out.birge = f.birge;
+    out.tau_lo_s = tlo;
+    out.tau_hi_s = thi;
+    if (!(b3 > 0)) {
+      out.why = "no rising (random-walk) line beyond the bottom";
+      return out;
+    }
+    if (!(b1 > 0)) {
+      out.why = "no falling (white-noise) line before the bottom";
+      return out;
+    }
+    // a = b1 tlo, c = b3 / thi (the columns are scaled to [0, 1]).
+    const double vertex = 0.5 * std::log(b1 / b3 * tlo * thi);
+    const double var_ln = 0.25 * (v11 / (b1 * b1) + v33 / (b3 * b3) - 2 * v13 / (b1 * b3));
+    const bool settled = std::abs(vertex - centre) < 0.1 * std::numbers::ln2;
+    centre = std::clamp(vertex, centre - half, centre + half);
+    if (!settled && pass + 1 < 6) continue;
+    if (!(vertex >= std::log(tlo) && vertex <= std::log(thi))) {
+      out.why = "the vertex lies outside the points fitted";
+      return out;
+    }
+    out.resolved = true;
+    out.why.clear();
+    out.tau_s = std::exp(vertex);
+    out.u_ln_tau = std::sqrt(std::max(var_ln, 0.0));
+    return out;
+  }
+  return out;
 }
 
 }  // namespace imuqual::allan

@@ -20,6 +20,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -213,13 +214,34 @@ std::optional<CurveMinimum> FindCurveMinimum(const Curve& curve);
 // edf is not defined at that point.
 double MinimumUncertainty(const Curve& curve, const CurveMinimum& min);
 
-// The 1-sigma uncertainty of the minimum's tau: half the span of the
-// contiguous run of points around the minimum whose deviation lies within
-// `dev_uncertainty` (MinimumUncertainty) of it — the taus the minimum could
-// as well have been read at. 0 when no neighbour is that close (a sharp
-// minimum, known to the grid's resolution); NaN when dev_uncertainty is not
-// finite or the minimum is not a point of the curve.
-double MinimumTauUncertainty(const Curve& curve, const CurveMinimum& min, double dev_uncertainty);
+// Where the curve's bottom lies, for the standard uncertainty of the
+// minimum's tau: the points within `half_width_octaves` of the bottom (at
+// least the five nearest) are fitted as AVAR = a / tau + b + c tau (the falling white-noise line,
+// the flicker floor and the rising random-walk line; FitAvars: a first pass with flicker FM's edf
+// and correlations, a second with the edf of each point's local slope and the correlations of the
+// fitted white + flicker + random walk), recentred on its vertex tau* = sqrt(a / c) until it moves
+// less than a tenth of an octave; u(ln tau*) by the delta method from the covariance of a and c,
+// inflated by the Birge ratio when the points scatter more than their errors say. `resolved` is
+// false, with the reason in `why`, when the curve has fewer than five points with an edf, either
+// line is not there (a or c not positive: no minimum between them) or the vertex lies outside the
+// points fitted.
+struct MinimumVertex {
+  bool resolved = false;
+  std::string why;
+  double tau_s = kNaN;
+  double u_ln_tau = kNaN;  // standard uncertainty of ln tau*
+  double rising_z = kNaN;  // c / sigma(c): how well the rising line is seen
+  double birge = kNaN;
+  int points = 0;
+  double tau_lo_s = kNaN, tau_hi_s = kNaN;  // the points fitted
+
+  // The standard uncertainty of ln tau read at `tau_s` (the curve's minimum
+  // point, where B was read): u(ln tau*) combined with how far tau_s lies
+  // from the vertex. NaN when not resolved.
+  double LnUncertaintyAt(double tau_s) const;
+};
+MinimumVertex FitMinimumVertex(const Curve& curve, const CurveMinimum& min,
+                               double half_width_octaves = 2.0);
 
 }  // namespace imuqual::allan
 

@@ -639,6 +639,21 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
     scan.note = text;
     return scan;
   }
+  // Each axis needs as many bins with data: an axis missing most of its
+  // record would give the joint test nothing at most candidates.
+  for (int a = 0; a < num_axes; ++a) {
+    const auto present =
+        std::count_if(means[a].begin(), means[a].end(), [](double v) { return std::isfinite(v); });
+    if (present < options.min_bins) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "axis %d has data in %d of its %d bins of %g s (%d needed for a stationarity "
+                    "scan)",
+                    a + 1, static_cast<int>(present), bins, b, options.min_bins);
+      scan.note = text;
+      return scan;
+    }
+  }
 
   // The candidates: every boundary, bursts of 1, 2, 4, ... bins up to a
   // ninth of the record (the longest tau a fitted model has seen).

@@ -256,6 +256,16 @@ TEST(StationarityTest, MissingSamplesAndShortRecords) {
   ASSERT_TRUE(too_short.ok());
   EXPECT_FALSE(too_short->scanned);
   EXPECT_NE(too_short->note.find("too short"), std::string::npos);
+
+  // An axis with data in fewer bins than a scan needs is named, and the
+  // group not scanned (the station leaves such an axis out of its group).
+  std::vector<double> dropped = WhiteRecord(1e-3, 30000, 4);
+  for (size_t i = 2000; i < dropped.size(); ++i) dropped[i] = std::nan("");
+  auto sparse = ScanStationarity({y, dropped}, {White(1e-3), White(1e-3)}, kTau0, {.bin_s = 1});
+  ASSERT_TRUE(sparse.ok());
+  EXPECT_FALSE(sparse->scanned);
+  EXPECT_EQ(sparse->note,
+            "axis 2 has data in 20 of its 300 bins of 1 s (32 needed for a stationarity scan)");
 }
 
 // White noise N and a rate random walk K (the wander that makes the bin

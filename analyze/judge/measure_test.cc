@@ -215,10 +215,11 @@ TEST(MeasureAxisTest, UnresolvedMinimumAndUpperBoundReadOffs) {
             "chi2 (Greenhall edf, flicker FM) at the minimum combined with the spread of points "
             "within an octave");
   EXPECT_TRUE(Find(ms, kBiasInstabilityIeee)->uncertainty_method().starts_with("chi2 (Greenhall"));
+  // The tau of a minimum that is the curve's last point has no standard
+  // uncertainty: the curve may fall further.
   const pb::Measurement* tau = Find(ms, kTauAtMinimum);
-  ASSERT_TRUE(tau->has_uncertainty());
-  EXPECT_GT(tau->uncertainty(), 0);
-  EXPECT_TRUE(tau->uncertainty_method().starts_with("half the span of the taus")) << tau->uncertainty_method();
+  EXPECT_FALSE(tau->has_uncertainty());
+  EXPECT_EQ(tau->uncertainty_method(), "none: the minimum is at the longest tau (not resolved)");
   const pb::Measurement* k = Find(ms, kRateRandomWalk);
   ASSERT_NE(k, nullptr);
   EXPECT_EQ(k->qualifier(), pb::UPPER_BOUND);
@@ -245,7 +246,13 @@ TEST(MeasureAxisTest, ResolvedMinimumIsAMeasuredValue) {
     EXPECT_FALSE(m.uncertainty_method().empty()) << m.name();
   }
   EXPECT_TRUE(Find(ms, kBiasInstability)->has_uncertainty());
-  EXPECT_TRUE(Find(ms, kTauAtMinimum)->has_uncertainty());
+  // The minimum's tau: its u from the bottom's vertex, named in the note.
+  const pb::Measurement* tau = Find(ms, kTauAtMinimum);
+  ASSERT_TRUE(tau->has_uncertainty()) << tau->uncertainty_method();
+  EXPECT_GT(tau->uncertainty(), 0);
+  EXPECT_LT(tau->uncertainty(), tau->value());
+  EXPECT_TRUE(tau->uncertainty_method().starts_with("from the bottom's vertex"));
+  EXPECT_TRUE(tau->note().starts_with("the bottom's vertex at ")) << tau->note();
   EXPECT_TRUE(Find(ms, kAngleRandomWalk)->has_uncertainty());
   EXPECT_FALSE(Find(ms, kRateRandomWalk)->has_uncertainty());
   EXPECT_TRUE(Find(ms, kRateRandomWalk)->uncertainty_method().starts_with("none: the +1/2 line"));

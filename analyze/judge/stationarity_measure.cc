@@ -141,19 +141,33 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
       st.noise_level_tolerance() == 0 ? kDefaultNoiseLevelTolerance : st.noise_level_tolerance();
   std::vector<std::vector<pb::Measurement>> per_axis(axes.size());
   for (const pb::AxisKind kind : {pb::GYRO, pb::ACCEL}) {
+    const auto not_scanned = [&](size_t a, const std::string& why) {
+      pb::Measurement m = NewMeasurement(axes[a].axis.name, std::string(kStationarityEvents),
+                                         allan::kNaN, "1", "not scanned: " + why);
+      m.set_qualifier(pb::NOT_MEASURABLE);
+      m.set_uncertainty_method("none: a count");
+      per_axis[a].push_back(std::move(m));
+    };
+    // The group: the axes of this kind with data in enough bins (an axis
+    // missing most of its record is left out, not let to blind the joint
+    // test of the others).
     std::vector<size_t> group;
     for (size_t a = 0; a < axes.size(); ++a) {
-      if (axes[a].axis.kind == kind) group.push_back(a);
+      if (axes[a].axis.kind != kind) continue;
+      const auto& bm = axes[a].bin_means;
+      const auto present =
+          std::count_if(bm.begin(), bm.end(), [](double v) { return std::isfinite(v); });
+      if (!bm.empty() && present < options.min_bins && present < static_cast<long>(bm.size())) {
+        not_scanned(a, "data in " + std::to_string(present) + " of its " +
+                           std::to_string(bm.size()) + " bins (" +
+                           std::to_string(options.min_bins) + " needed)");
+        continue;
+      }
+      group.push_back(a);
     }
     if (group.empty()) continue;
     const auto not_measurable = [&](const std::string& why) {
-      for (size_t a : group) {
-        pb::Measurement m = NewMeasurement(axes[a].axis.name, std::string(kStationarityEvents),
-                                           allan::kNaN, "1", "not scanned: " + why);
-        m.set_qualifier(pb::NOT_MEASURABLE);
-        m.set_uncertainty_method("none: a count");
-        per_axis[a].push_back(std::move(m));
-      }
+      for (size_t a : group) not_scanned(a, why);
     };
     const pb::ReferenceNoiseModel* reference = ReferenceModelFor(plan, kind);
     std::vector<allan::CompositeModel> models;

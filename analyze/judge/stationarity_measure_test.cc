@@ -123,6 +123,29 @@ TEST(StationarityMeasureTest, TheAdisStepIsFoundOnGyAndGzNotGx) {
   }
 }
 
+TEST(StationarityMeasureTest, AnAxisMissingMostOfItsRecordIsLeftOutNotTheGroup) {
+  // GIVEN the recording's gyros with gx's data in only 20 of its 300 bins
+  // (a channel that dropped out early), THEN gx says it was not scanned and
+  // why, and gy and gz are scanned without it: their 0.87 h step is found.
+  std::vector<StationarityAxis> axes = AdisAxes();
+  for (size_t i = 20; i < axes[0].bin_means.size(); ++i) axes[0].bin_means[i] = std::nan("");
+  const std::vector<pb::Measurement> ms = MeasureStationarity(AdisPlan(), axes, 3333 * 0.01, 0.01);
+  const pb::Measurement* gx = Find(ms, "gx", std::string(kStationarityEvents));
+  ASSERT_NE(gx, nullptr);
+  EXPECT_EQ(gx->qualifier(), pb::NOT_MEASURABLE);
+  EXPECT_EQ(gx->note(), "not scanned: data in 20 of its 300 bins (32 needed)");
+  for (const char* name : {"gy", "gz"}) {
+    SCOPED_TRACE(name);
+    const pb::Measurement* n = Find(ms, name, std::string(kStationarityEvents));
+    ASSERT_NE(n, nullptr);
+    EXPECT_GE(n->value(), 1) << n->note();
+    EXPECT_NE(n->note().find("for the gyro axes together"), std::string::npos) << n->note();
+    const pb::Measurement* t = Find(ms, name, "event_1_time");
+    ASSERT_NE(t, nullptr);
+    EXPECT_LT(std::abs(t->value() - 0.87 * 3600), 5 * 33.33);
+  }
+}
+
 TEST(StationarityMeasureTest, AStepInMissingDataIsFoundAndTimedAsTheGap) {
   // GIVEN the recording's gyros with bins 198..202 (6599-6766 s) missing on
   // every axis, as if those batches never arrived, and a level step of +400
