@@ -212,13 +212,16 @@ TEST(SlopeReadoffCoverageTest, AngleRandomWalkUncertaintyCoversTheTruth) {
 // The standard uncertainty of the minimum's tau (FitMinimumVertex,
 // LnUncertaintyAt: the value is the curve's minimum point, where B is read)
 // against the truth's own tau at its minimum, on ln tau: over 200 records of
-// each of three mixtures whose minimum lies well inside the record (tau* at
-// 46, 87 and 264 s, the curve ending at 582 s) the 1-sigma interval must
+// each of three mixtures whose minimum lies inside the record (tau* at 46,
+// 87 and 264 s, the curve ending at 582 s) the 1-sigma interval must
 // cover in 60-76 % and the 2-sigma one in >= 93 %. A fourth mixture has its
 // minimum at 346 s, 0.75 octave from the curve's end, where the rising line
 // is barely seen: there a third or more of the records say "not measurable"
-// and the rest cover less than stated (measured 2-sigma 86-88 %; the test
-// holds it at >= 80 % and prints it).
+// and the rest cover less than stated (measured 2-sigma 85.5 %, 87.9 % on
+// other seeds; the test holds it at >= 80 % and prints it). The coverage is
+// over all records: conditioned on how well a record's rising line is seen
+// it is not held (its z is the ratio's denominator: a record whose line
+// reads strong by chance gets a low vertex and a small u).
 TEST(TauAtMinimumCoverageTest, VertexUncertaintyCoversTheTruth) {
   const std::vector<Scenario> two = Scenarios();
   struct TauScenario {
@@ -261,7 +264,7 @@ TEST(TauAtMinimumCoverageTest, VertexUncertaintyCoversTheTruth) {
         "measurable)\n",
         s.name.c_str(), truth_tau, 100 * c1, 100 * c2, sum_z / n, n, not_measurable);
     if (ts.inside) {
-      EXPECT_LE(not_measurable, kSeeds / 4) << s.name;
+      EXPECT_LE(not_measurable, kSeeds * 3 / 10) << s.name;  // measured 0, 5 and 48
       EXPECT_GE(c1, 0.60) << s.name;
       EXPECT_LE(c1, 0.76) << s.name;
       EXPECT_GE(c2, 0.93) << s.name;

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <numbers>
 #include <string>
@@ -600,6 +601,41 @@ double MinimumUncertainty(const Curve& curve, const CurveMinimum& min) {
   return std::hypot(statistical, selection);
 }
 
+namespace {
+
+// The correlations of the AVAR estimates at factors m of white noise,
+// flicker and a random walk with AVAR a / tau + b + c tau. They depend on
+// the terms' ratios alone, so a / b and c / b are rounded to a quarter of a
+// binary order (19 %: the correlations change little over it) and the
+// matrix of the rounded model kept (at most 64; computing one takes ~20 ms,
+// and the station measures every axis at each interim publication). The
+// value depends only on the arguments, never on what was kept before.
+std::vector<double> LocalModelCorrelations(double a, double b, double c, double tau0_s,
+                                           const std::vector<int64_t>& m) {
+  const auto quarter = [&](double v) { return std::lround(4 * std::log2(v / b)); };
+  const long qa = quarter(a), qc = quarter(c);
+  using Key = std::tuple<long, long, double, std::vector<int64_t>>;
+  static std::mutex mu;
+  static std::map<Key, std::shared_ptr<const std::vector<double>>> known;
+  Key key{qa, qc, tau0_s, m};
+  {
+    std::lock_guard<std::mutex> lock(mu);
+    if (const auto it = known.find(key); it != known.end()) return *it->second;
+  }
+  CompositeModel local;
+  local.terms.push_back({TermKind::kWhite, std::sqrt(std::exp2(qa / 4.0))});
+  local.terms.push_back(
+      {TermKind::kFlicker, std::sqrt(std::numbers::pi / (2 * std::numbers::ln2))});
+  local.terms.push_back({TermKind::kRandomWalk, std::sqrt(3 * std::exp2(qc / 4.0))});
+  auto r = std::make_shared<const std::vector<double>>(AvarCorrelationMatrix(local, tau0_s, m));
+  std::lock_guard<std::mutex> lock(mu);
+  if (known.size() >= 64) known.clear();
+  known.emplace(std::move(key), r);
+  return *r;
+}
+
+}  // namespace
+
 double MinimumVertex::LnUncertaintyAt(double at_s) const {
   return resolved ? std::hypot(u_ln_tau, std::log(at_s / tau_s)) : kNaN;
 }
@@ -662,12 +698,7 @@ MinimumVertex FitMinimumVertex(const Curve& curve, const CurveMinimum& min,
       const double floor = 1e-6 * y.minCoeff();
       const double a = std::max(f.beta(0), floor) * tlo, b = std::max(f.beta(1), floor),
                    c = std::max(f.beta(2), floor) / thi;
-      CompositeModel local;
-      local.terms.push_back({TermKind::kWhite, std::sqrt(a)});
-      local.terms.push_back(
-          {TermKind::kFlicker, std::sqrt(b * std::numbers::pi / (2 * std::numbers::ln2))});
-      local.terms.push_back({TermKind::kRandomWalk, std::sqrt(3 * c)});
-      r = AvarCorrelationMatrix(local, curve.tau0_s, m);
+      r = LocalModelCorrelations(a, b, c, curve.tau0_s, m);
       for (int j = 0; j < k; ++j) {
         const double t = in[j]->tau_s;
         const double slope = (-a / t + c * t) / (a / t + b + c * t);
@@ -701,10 +732,14 @@ MinimumVertex FitMinimumVertex(const Curve& curve, const CurveMinimum& min,
       out.why = "the vertex lies outside the points fitted";
       return out;
     }
+    if (!(var_ln > 0)) {
+      out.why = "the vertex's variance is not positive";
+      return out;
+    }
     out.resolved = true;
     out.why.clear();
     out.tau_s = std::exp(vertex);
-    out.u_ln_tau = std::sqrt(std::max(var_ln, 0.0));
+    out.u_ln_tau = std::sqrt(var_ln);
     return out;
   }
   return out;

@@ -58,8 +58,8 @@
 //     tau in (tau_min, B] is; a sum of power-law noises is convex in log-log,
 //     so no point beyond can undo it (measure.h MinimumSideEvidence). On a
 //     flat bottom the rising side's points are too noisy one by one, and the
-//     value and its uncertainty (the spread of taus whose curve values lie
-//     within the minimum's uncertainty) decide. More data can only move a
+//     value and its uncertainty (tau x u(ln tau) from the bottom's vertex,
+//     measure.cc; none where no rising line is seen, so pending) decide. More data can only move a
 //     minimum to longer taus: "below" needs it resolved and settled, "above"
 //     does not;
 //   * a value qualified as an upper bound (or a minimum not resolved)

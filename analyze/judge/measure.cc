@@ -37,9 +37,12 @@ constexpr const char* kTauMethod =
     "random-walk lines) fitted over the points within 2 octaves of it, weighted with the edf and "
     "correlations of that model, vertex sqrt(a/c); u(ln tau) by the delta method, times the "
     "Birge ratio when the points scatter more, combined with how far the minimum's point lies "
-    "from the vertex; the value's u is tau x u(ln tau) (on simulated records of three noise "
-    "mixtures the 1-sigma interval on ln tau covered the truth's minimum in 68-73 %, 2-sigma "
-    "93-97 %; less where the minimum lies within an octave of the curve's end)";
+    "from the vertex; the value's u is tau x u(ln tau), first order: for u(ln tau) above ~0.3 "
+    "the interval tau exp(+-k u(ln tau)) is the better one, wider above than below. On simulated "
+    "records of three noise mixtures the 1-sigma interval on ln tau covered the truth's minimum "
+    "in 68-73 %, 2-sigma 93-97 %, counted over all records: a record whose rising line is barely "
+    "seen (the note gives its z) has a u too small as often as too large, and a minimum within "
+    "an octave of the curve's end is covered less";
 constexpr const char* kArwMethod =
     "weighted fit of AVAR x tau = N^2 + b/tau + c tau over the clean points of the -1/2 line "
     "(b: quantization or the sensor filter's deficit, c: flicker's rise), sandwich covariance "
@@ -117,12 +120,14 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
   if (min && min->m != curve.points.back().m) {
     const allan::MinimumVertex v = allan::FitMinimumVertex(curve, *min);
     if (v.resolved) {
-      out.back().set_uncertainty(min->tau_s * v.LnUncertaintyAt(min->tau_s));
+      const double u_ln = v.LnUncertaintyAt(min->tau_s);
+      out.back().set_uncertainty(min->tau_s * u_ln);
       out.back().set_note("the bottom's vertex at " + Num(v.tau_s) + " s (" +
                           std::to_string(v.points) + " points, " + Num(v.tau_lo_s) + "-" +
-                          Num(v.tau_hi_s) + " s)");
+                          Num(v.tau_hi_s) + " s; rising line at " + Num(v.rising_z) +
+                          " sigma; Birge ratio " + Num(v.birge) + "); u(ln tau) " + Num(u_ln));
     } else {
-      tau_none = "none: the minimum's tau is not measurable from this curve: " + v.why;
+      tau_none = "none: no standard uncertainty for the minimum's tau from this curve: " + v.why;
     }
   }
   const bool unresolved = min && min->m == curve.points.back().m;
@@ -136,7 +141,7 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
                                                      : kMinimumMethod);
     } else if (m.name() == kTauAtMinimum && !tau_none.empty()) {
       m.set_uncertainty_method(tau_none);
-    } else if (unresolved) {
+    } else if (m.name() == kTauAtMinimum && unresolved) {
       m.set_uncertainty_method("none: the minimum is at the longest tau (not resolved)");
     } else {
       m.set_uncertainty_method("none: no Greenhall edf at the minimum's point");

@@ -152,15 +152,18 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
     // missing most of its record is left out, not let to blind the joint
     // test of the others).
     std::vector<size_t> group;
+    std::string left_out;
     for (size_t a = 0; a < axes.size(); ++a) {
       if (axes[a].axis.kind != kind) continue;
       const auto& bm = axes[a].bin_means;
       const auto present =
           std::count_if(bm.begin(), bm.end(), [](double v) { return std::isfinite(v); });
       if (!bm.empty() && present < options.min_bins && present < static_cast<long>(bm.size())) {
-        not_scanned(a, "data in " + std::to_string(present) + " of its " +
-                           std::to_string(bm.size()) + " bins (" +
-                           std::to_string(options.min_bins) + " needed)");
+        const std::string why = "data in " + std::to_string(present) + " of its " +
+                                std::to_string(bm.size()) + " bins (" +
+                                std::to_string(options.min_bins) + " needed)";
+        not_scanned(a, why);
+        left_out += (left_out.empty() ? "" : "; ") + axes[a].axis.name + ": " + why;
         continue;
       }
       group.push_back(a);
@@ -222,8 +225,9 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
              "a step away or read its wander as one, so the false-alarm level is not held)";
       }
       t += ", false-alarm level " + Fmt("%g", scan->false_alarm) + " per run for the " +
-           KindWord(kind) + " axes together (threshold p " + Fmt("%.2g", scan->threshold_p) +
-           ", calibrated on records drawn from the model)";
+           KindWord(kind) + " axes together" +
+           (left_out.empty() ? "" : " (left out, " + left_out + ")") + " (threshold p " +
+           Fmt("%.2g", scan->threshold_p) + ", calibrated on records drawn from the model)";
       return t + envelopes[i].text;
     };
     for (size_t i = 0; i < group.size(); ++i) {
