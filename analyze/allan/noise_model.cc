@@ -607,8 +607,9 @@ namespace {
 // flicker and a random walk with AVAR a / tau + b + c tau. They depend on
 // the terms' ratios alone, so a / b and c / b are rounded to a quarter of a
 // binary order (19 %: the correlations change little over it) and the
-// matrix of the rounded model kept (at most 64; computing one takes ~20 ms,
-// and the station measures every axis at each interim publication). The
+// matrix of the rounded model kept (at most 1024, ~8 kB each; computing one
+// takes ~20 ms, and a station measures every axis of every unit at each
+// look). The
 // value depends only on the arguments, never on what was kept before.
 std::vector<double> LocalModelCorrelations(double a, double b, double c, double tau0_s,
                                            const std::vector<int64_t>& m) {
@@ -629,7 +630,7 @@ std::vector<double> LocalModelCorrelations(double a, double b, double c, double 
   local.terms.push_back({TermKind::kRandomWalk, std::sqrt(3 * std::exp2(qc / 4.0))});
   auto r = std::make_shared<const std::vector<double>>(AvarCorrelationMatrix(local, tau0_s, m));
   std::lock_guard<std::mutex> lock(mu);
-  if (known.size() >= 64) known.clear();
+  if (known.size() >= 1024) known.clear();
   known.emplace(std::move(key), r);
   return *r;
 }

@@ -88,7 +88,8 @@ double Datasheet(NoiseTerm term, pb::AxisKind kind, double base) {
 }  // namespace
 
 std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind kind,
-                                         const allan::Curve& curve, double mean_rate) {
+                                         const allan::Curve& curve, double mean_rate,
+                                         bool tau_uncertainty) {
   const bool gyro = kind != pb::ACCEL;
   std::vector<pb::Measurement> out;
 
@@ -117,7 +118,9 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
   // Its standard uncertainty: from the vertex of the bottom (the value stays
   // the point B was read at, an archived point of the curve).
   std::string tau_none;
-  if (min && min->m != curve.points.back().m) {
+  if (min && min->m != curve.points.back().m && !tau_uncertainty) {
+    tau_none = "none: worked out at the looks and in the final result, not on live updates";
+  } else if (min && min->m != curve.points.back().m) {
     const allan::MinimumVertex v = allan::FitMinimumVertex(curve, *min);
     if (v.resolved) {
       const double u_ln = v.LnUncertaintyAt(min->tau_s);

@@ -19,8 +19,12 @@ namespace imuqual::judge {
 // `curve`: OADEV of the axis in deg/s (gyro) or m/s^2 (accel), preferably
 // on a dense grid (more points near the minimum and on the slopes).
 // `mean_rate`: mean output over the analysed record, same unit.
+// `tau_uncertainty`: fit the bottom's vertex for tau_at_minimum's u (tens of
+// ms per axis); false for a live view republished every few seconds, whose
+// tau then says it has none there.
 std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind kind,
-                                         const allan::Curve& curve, double mean_rate);
+                                         const allan::Curve& curve, double mean_rate,
+                                         bool tau_uncertainty = true);
 
 struct NoiseModelOptions {
   // Report the values of an inadequate model (the plan's

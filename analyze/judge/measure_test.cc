@@ -253,6 +253,12 @@ TEST(MeasureAxisTest, ResolvedMinimumIsAMeasuredValue) {
   EXPECT_LT(tau->uncertainty(), tau->value());
   EXPECT_TRUE(tau->uncertainty_method().starts_with("from the bottom's vertex"));
   EXPECT_TRUE(tau->note().starts_with("the bottom's vertex at ")) << tau->note();
+  // A live update leaves the vertex to the looks and the final result.
+  const std::vector<pb::Measurement> live =
+      MeasureAxis("x", pb::GYRO, ExactCurve(WhitePlusRandomWalk()), 0.0, false);
+  EXPECT_FALSE(Find(live, kTauAtMinimum)->has_uncertainty());
+  EXPECT_EQ(Find(live, kTauAtMinimum)->value(), tau->value());
+  EXPECT_TRUE(Find(live, kTauAtMinimum)->uncertainty_method().starts_with("none: worked out at"));
   EXPECT_TRUE(Find(ms, kAngleRandomWalk)->has_uncertainty());
   EXPECT_FALSE(Find(ms, kRateRandomWalk)->has_uncertainty());
   EXPECT_TRUE(Find(ms, kRateRandomWalk)->uncertainty_method().starts_with("none: the +1/2 line"));

@@ -406,8 +406,10 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
                                    allan::CiMethod::kChi2, allan::kOneSigmaConfidence));
     }
     const double mean = count_[a] > 0 ? sum_[a] / static_cast<double>(count_[a]) : allan::kNaN;
-    for (pb::Measurement& m :
-         judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, mean)) {
+    // tau_at_minimum's u at looks and in the final result only (a live
+    // update every few seconds would refit every axis's bottom).
+    for (pb::Measurement& m : judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense,
+                                                 mean, final || dense_curves != nullptr)) {
       out.push_back(std::move(m));
     }
     for (pb::Measurement& m : model_of[a]) out.push_back(std::move(m));
