@@ -3,21 +3,20 @@
 // process of a running soak and checks the archive afterwards: every batch
 // there, or recorded as a gap with the verdict saying so; results equal to
 // an undisturbed run's; nothing left hanging.
+#include <dirent.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/mount.h>
-
-#include <dirent.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <map>
-#include <set>
-#include <filesystem>
-#include <cstring>
 #include <cerrno>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
 #include <sstream>
 
 #include "common/clock.h"
@@ -566,7 +565,8 @@ TEST(FaultTest, KillingImuqualRunLeavesNoOrphans) {
   {
     auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
     ASSERT_TRUE(a.ok());
-    auto s = (*a)->db().Prepare("SELECT run_id FROM runs WHERE lot = 'ORPHAN' AND finalized_utime IS NULL");
+    auto s = (*a)->db().Prepare(
+        "SELECT run_id FROM runs WHERE lot = 'ORPHAN' AND finalized_utime IS NULL");
     while (*s->Step()) left_open.insert(s->Text(0));
   }
   // AND the station's next run on that archive judges the runs the crash
