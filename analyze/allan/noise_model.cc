@@ -12,6 +12,7 @@
 #include <string>
 #include <tuple>
 
+#include "analyze/allan/bounded_memo.h"
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/fit_rows.h"
 #include "analyze/allan/gmwm.h"
@@ -609,30 +610,22 @@ namespace {
 // binary order (19 %: the correlations change little over it) and the
 // matrix of the rounded model kept (at most 1024, ~8 kB each; computing one
 // takes ~20 ms, and a station measures every axis of every unit at each
-// look). The
-// value depends only on the arguments, never on what was kept before.
+// look). The value depends only on the arguments, never on what was kept
+// before.
 std::vector<double> LocalModelCorrelations(double a, double b, double c, double tau0_s,
                                            const std::vector<int64_t>& m) {
   const auto quarter = [&](double v) { return std::lround(4 * std::log2(v / b)); };
   const long qa = quarter(a), qc = quarter(c);
   using Key = std::tuple<long, long, double, std::vector<int64_t>>;
-  static std::mutex mu;
-  static std::map<Key, std::shared_ptr<const std::vector<double>>> known;
+  static BoundedMemo<Key, std::vector<double>> known(1024);
   Key key{qa, qc, tau0_s, m};
-  {
-    std::lock_guard<std::mutex> lock(mu);
-    if (const auto it = known.find(key); it != known.end()) return *it->second;
-  }
+  if (const auto hit = known.Find(key)) return *hit;
   CompositeModel local;
   local.terms.push_back({TermKind::kWhite, std::sqrt(std::exp2(qa / 4.0))});
   local.terms.push_back(
       {TermKind::kFlicker, std::sqrt(std::numbers::pi / (2 * std::numbers::ln2))});
   local.terms.push_back({TermKind::kRandomWalk, std::sqrt(3 * std::exp2(qc / 4.0))});
-  auto r = std::make_shared<const std::vector<double>>(AvarCorrelationMatrix(local, tau0_s, m));
-  std::lock_guard<std::mutex> lock(mu);
-  if (known.size() >= 1024) known.clear();
-  known.emplace(std::move(key), r);
-  return *r;
+  return *known.Put(std::move(key), AvarCorrelationMatrix(local, tau0_s, m));
 }
 
 }  // namespace

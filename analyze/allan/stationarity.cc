@@ -6,13 +6,12 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <map>
 #include <memory>
-#include <mutex>
 #include <numbers>
 #include <random>
 #include <string>
 
+#include "analyze/allan/bounded_memo.h"
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/estimators.h"
 #include "analyze/allan/gmwm.h"
@@ -238,29 +237,11 @@ class AxisGls {
 
 // The smallest p-values of the records drawn to calibrate a scan, by what
 // they depend on (models, bins, missing bins, draws), and the noise-level
-// scan's null distributions by bin count, for the process: at most
-// kEntries, all dropped when full. Thread-safe.
-class CalibrationCache {
- public:
-  static std::shared_ptr<const std::vector<double>> Find(const std::string& key) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const auto it = entries_.find(key);
-    return it == entries_.end() ? nullptr : it->second;
-  }
-  static std::shared_ptr<const std::vector<double>> Put(const std::string& key,
-                                                        std::vector<double> drawn) {
-    auto value = std::make_shared<const std::vector<double>>(std::move(drawn));
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (entries_.size() >= kEntries) entries_.clear();
-    entries_.emplace(key, value);
-    return value;
-  }
-
- private:
-  static constexpr size_t kEntries = 32;
-  static inline std::mutex mutex_;
-  static inline std::map<std::string, std::shared_ptr<const std::vector<double>>> entries_;
-};
+// scan's null distributions by bin count, for the process.
+BoundedMemo<std::string, std::vector<double>>& Calibrations() {
+  static BoundedMemo<std::string, std::vector<double>> memo(32);
+  return memo;
+}
 
 double TwoSidedNormal(double z) { return std::erfc(std::fabs(z) / std::numbers::sqrt2); }
 
@@ -299,6 +280,11 @@ std::vector<double> BinMeans(std::span<const double> rate, int64_t bin_samples, 
     if (2 * count >= bin_samples) mean[static_cast<size_t>(bin)] = sum / static_cast<double>(count);
   }
   return mean;
+}
+
+int BinsWithData(std::span<const double> means) {
+  return static_cast<int>(
+      std::count_if(means.begin(), means.end(), [](double v) { return std::isfinite(v); }));
 }
 
 BinAccumulator::BinAccumulator(int64_t base_samples) : base_(std::max<int64_t>(base_samples, 1)) {}
@@ -453,7 +439,7 @@ Cusum CusumOf(const std::vector<double>& x) {
 // (sorted), cached for the process with the scans' calibrations.
 std::shared_ptr<const std::vector<double>> CusumNull(int n) {
   const std::string key = "noise level null|" + std::to_string(n);
-  if (auto cached = CalibrationCache::Find(key)) return cached;
+  if (auto cached = Calibrations().Find(key)) return cached;
   std::vector<double> drawn(kNoiseLevelDraws);
   std::mt19937_64 rng(0x5eedc05u + static_cast<uint64_t>(n));
   std::normal_distribution<double> gauss;
@@ -463,7 +449,7 @@ std::shared_ptr<const std::vector<double>> CusumNull(int n) {
     t = CusumOf(x).statistic;
   }
   std::sort(drawn.begin(), drawn.end());
-  return CalibrationCache::Put(key, std::move(drawn));
+  return Calibrations().Put(key, std::move(drawn));
 }
 }  // namespace
 
@@ -642,14 +628,13 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   // Each axis needs as many bins with data: an axis missing most of its
   // record would give the joint test nothing at most candidates.
   for (int a = 0; a < num_axes; ++a) {
-    const auto present =
-        std::count_if(means[a].begin(), means[a].end(), [](double v) { return std::isfinite(v); });
+    const int present = BinsWithData(means[a]);
     if (present < options.min_bins) {
       char text[200];
       std::snprintf(text, sizeof text,
                     "axis %d has data in %d of its %d bins of %g s (%d needed for a stationarity "
                     "scan)",
-                    a + 1, static_cast<int>(present), bins, b, options.min_bins);
+                    a + 1, present, bins, b, options.min_bins);
       scan.note = text;
       return scan;
     }
@@ -745,7 +730,7 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   // earlier ones as nuisances) are held to the same p.
   // The draws depend on the models, the bins and which of them are missing,
   // not on the data: a station's runs under one plan's reference models
-  // share them (CalibrationCache).
+  // share them (Calibrations).
   const int draws = static_cast<int>(std::ceil(10 / options.false_alarm)) - 1;
   std::string key;
   const auto put = [&key](double v) { key.append(reinterpret_cast<const char*>(&v), sizeof v); };
@@ -766,7 +751,7 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
     for (double v : means[a]) key += std::isfinite(v) ? '1' : '0';
     key += '|';
   }
-  std::shared_ptr<const std::vector<double>> cached = CalibrationCache::Find(key);
+  std::shared_ptr<const std::vector<double>> cached = Calibrations().Find(key);
   if (cached == nullptr) {
     std::vector<double> drawn;
     drawn.reserve(draws);
@@ -784,7 +769,7 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
       }
     }
     std::sort(drawn.begin(), drawn.end());
-    cached = CalibrationCache::Put(key, std::move(drawn));
+    cached = Calibrations().Put(key, std::move(drawn));
   }
   const std::vector<double>& drawn_p = *cached;
   const int rank = std::max(1, static_cast<int>(std::floor((draws + 1) * options.false_alarm)));

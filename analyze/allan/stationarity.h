@@ -225,6 +225,9 @@ void RemoveEvents(const StationarityScan& scan, int axis, double tau0_s, std::sp
 // with fewer than half its samples finite is NaN.
 std::vector<double> BinMeans(std::span<const double> rate, int64_t bin_samples, int bins);
 
+// How many of `means` (bin means, NaN for a bin without data) hold data.
+int BinsWithData(std::span<const double> means);
+
 // Per bin of `bin_samples` samples: the mean square of the differences of
 // successive valid samples (a difference belongs to the bin of its later
 // sample; there is none across an invalid or missing sample); NaN where

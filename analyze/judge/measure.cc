@@ -95,8 +95,9 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
 
   // The curve minimum and IEEE 952's B = minimum / 0.664.
   const std::optional<allan::CurveMinimum> min = allan::FindCurveMinimum(curve);
+  const bool unresolved = min && min->m == curve.points.back().m;
   std::string min_note = min ? "" : "no curve";
-  if (min && min->m == curve.points.back().m) {
+  if (unresolved) {
     min_note = "minimum at the longest tau: the curve has not turned up yet (upper bound)";
   }
   const double nan = allan::kNaN;
@@ -118,9 +119,11 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
   // Its standard uncertainty: from the vertex of the bottom (the value stays
   // the point B was read at, an archived point of the curve).
   std::string tau_none;
-  if (min && min->m != curve.points.back().m && !tau_uncertainty) {
-    tau_none = "none: worked out at the looks and in the final result, not on live updates";
-  } else if (min && min->m != curve.points.back().m) {
+  if (min && !unresolved && !tau_uncertainty) {
+    tau_none =
+        "none: worked out in the final result (and at the looks when the plan judges it), not on "
+        "live updates";
+  } else if (min && !unresolved) {
     const allan::MinimumVertex v = allan::FitMinimumVertex(curve, *min);
     if (v.resolved) {
       const double u_ln = v.LnUncertaintyAt(min->tau_s);
@@ -133,7 +136,6 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
       tau_none = "none: no standard uncertainty for the minimum's tau from this curve: " + v.why;
     }
   }
-  const bool unresolved = min && min->m == curve.points.back().m;
   for (size_t i = out.size() - 3; i < out.size(); ++i) {
     pb::Measurement& m = out[i];
     if (unresolved) m.set_qualifier(pb::MINIMUM_NOT_RESOLVED);

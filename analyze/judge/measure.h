@@ -20,8 +20,8 @@ namespace imuqual::judge {
 // on a dense grid (more points near the minimum and on the slopes).
 // `mean_rate`: mean output over the analysed record, same unit.
 // `tau_uncertainty`: fit the bottom's vertex for tau_at_minimum's u (tens of
-// ms per axis); false for a live view republished every few seconds, whose
-// tau then says it has none there.
+// ms per axis); false for a live view republished every few seconds (and a
+// look whose plan does not judge it), whose tau then says it has none there.
 std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind kind,
                                          const allan::Curve& curve, double mean_rate,
                                          bool tau_uncertainty = true);

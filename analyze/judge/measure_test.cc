@@ -258,7 +258,9 @@ TEST(MeasureAxisTest, ResolvedMinimumIsAMeasuredValue) {
       MeasureAxis("x", pb::GYRO, ExactCurve(WhitePlusRandomWalk()), 0.0, false);
   EXPECT_FALSE(Find(live, kTauAtMinimum)->has_uncertainty());
   EXPECT_EQ(Find(live, kTauAtMinimum)->value(), tau->value());
-  EXPECT_TRUE(Find(live, kTauAtMinimum)->uncertainty_method().starts_with("none: worked out at"));
+  EXPECT_TRUE(Find(live, kTauAtMinimum)
+                  ->uncertainty_method()
+                  .starts_with("none: worked out in the final result"));
   EXPECT_TRUE(Find(ms, kAngleRandomWalk)->has_uncertainty());
   EXPECT_FALSE(Find(ms, kRateRandomWalk)->has_uncertainty());
   EXPECT_TRUE(Find(ms, kRateRandomWalk)->uncertainty_method().starts_with("none: the +1/2 line"));

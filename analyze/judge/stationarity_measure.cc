@@ -156,9 +156,8 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
     for (size_t a = 0; a < axes.size(); ++a) {
       if (axes[a].axis.kind != kind) continue;
       const auto& bm = axes[a].bin_means;
-      const auto present =
-          std::count_if(bm.begin(), bm.end(), [](double v) { return std::isfinite(v); });
-      if (!bm.empty() && present < options.min_bins && present < static_cast<long>(bm.size())) {
+      const int present = allan::BinsWithData(bm);
+      if (!bm.empty() && present < options.min_bins && present < static_cast<int>(bm.size())) {
         const std::string why = "data in " + std::to_string(present) + " of its " +
                                 std::to_string(bm.size()) + " bins (" +
                                 std::to_string(options.min_bins) + " needed)";

@@ -406,10 +406,14 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
                                    allan::CiMethod::kChi2, allan::kOneSigmaConfidence));
     }
     const double mean = count_[a] > 0 ? sum_[a] / static_cast<double>(count_[a]) : allan::kNaN;
-    // tau_at_minimum's u at looks and in the final result only (a live
-    // update every few seconds would refit every axis's bottom).
-    for (pb::Measurement& m : judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense,
-                                                 mean, final || dense_curves != nullptr)) {
+    // tau_at_minimum's u in the final result, and at a look when the plan
+    // judges it on this axis (a live update every few seconds would refit
+    // every axis's bottom).
+    const bool tau_u = final || (dense_curves != nullptr &&
+                                 judge::FindLimit(desc_.plan, std::string(judge::kTauAtMinimum),
+                                                  &desc_.axes[a]) != nullptr);
+    for (pb::Measurement& m :
+         judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, mean, tau_u)) {
       out.push_back(std::move(m));
     }
     for (pb::Measurement& m : model_of[a]) out.push_back(std::move(m));
