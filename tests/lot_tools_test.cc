@@ -743,7 +743,9 @@ TEST(SamplesExportTest, EverySampleAsArchivedWithGapsFlagsAndTemperature) {
   // ... every value the archived float32, bit for bit
   for (int i = 0; i < 5; ++i) {
     EXPECT_EQ(std::stof(csv.rows[i][3]), 0.3f + 0.1f * i);
-    if (i != 2) EXPECT_EQ(std::stof(csv.rows[i][4]), 0.3f + 0.1f * i + 9.8f);
+    if (i != 2) {
+      EXPECT_EQ(std::stof(csv.rows[i][4]), 0.3f + 0.1f * i + 9.8f);
+    }
     EXPECT_EQ(csv.rows[i][5], "25.5");
     EXPECT_EQ(csv.rows[i][2], std::to_string(1'800'000'000'001'000 + i * 20'000));  // 20 ms apart
     EXPECT_EQ(csv.rows[i][6], i >= 2 ? "ax:invalid" : "");  // NaN; beyond 1.05 g

@@ -370,12 +370,14 @@ Look EarlyDecider::Evaluate(int index, const std::vector<pb::Measurement>& measu
     // read-offs), per direction; what it leaves NaN comes from v and u.
     auto side_evidence = [&](double b) {
       SideEvidence ev = evidence ? evidence(m, b) : SideEvidence{};
+      // On the scale the judge guards it on (ln tau for tau_at_minimum).
+      const double z = has_u ? SigmasAbove(m, b) : NAN;
       if (!std::isfinite(ev.above)) {
-        ev.above = has_u ? (v - b) / u : -INFINITY;
+        ev.above = std::isnan(z) ? -INFINITY : z;
         ev.above_source = "";
       }
       if (!std::isfinite(ev.below)) {
-        ev.below = has_u ? (b - v) / u : -INFINITY;
+        ev.below = std::isnan(z) ? -INFINITY : -z;
         ev.below_source = "";
       }
       return ev;

@@ -90,26 +90,53 @@ bool IsUpperBound(const pb::Measurement& m) {
          (m.qualifier() == pb::MINIMUM_NOT_RESOLVED && m.name() != kTauAtMinimum);
 }
 
+}  // namespace
+
+bool GuardedOnLogScale(const pb::Measurement& m) {
+  return m.name() == kTauAtMinimum && m.value() > 0;
+}
+
+double SigmasAbove(const pb::Measurement& m, double bound) {
+  const double v = m.value(), u = m.has_uncertainty() ? m.uncertainty() : NAN;
+  if (!(u > 0) || !std::isfinite(u)) return NAN;
+  if (GuardedOnLogScale(m)) return (bound > 0 ? std::log(v / bound) : INFINITY) / (u / v);
+  return (v - bound) / u;
+}
+
+namespace {
+
 // Applies `limit` under `rule` with guard band `w` (0: none) to the
-// measurement's finite value.
+// measurement's finite value. A measurement guarded on the log scale
+// (GuardedOnLogScale) is compared as ln v against ln b with the band w / v.
 Decision DecideValue(const pb::Limit& limit, pb::Limit::DecisionRule rule, double w,
                      const pb::Measurement& m) {
   const double v = m.value();
   const std::string unit = UnitSuffix(m);
   const bool bound = IsUpperBound(m);
   const bool with_u = w > 0 && m.has_uncertainty();
+  const bool log_scale = GuardedOnLogScale(m) && w > 0;
   const std::string shown =
       Who(m) + " " + Num(v) + (with_u ? " ± " + Num(m.uncertainty()) : "") + unit +
       (m.qualifier() == pb::UPPER_BOUND            ? " (upper bound)"
        : m.qualifier() == pb::MINIMUM_NOT_RESOLVED ? " (minimum not resolved)"
                                                    : "");
   const std::string rule_name = DecisionRuleName(rule);
-  const std::string band = w > 0 ? " (w = " + Num(w) + ", " + rule_name + ")" : "";
+  // The band as applied: [v / f, v f] with f = exp(w / v) on the log scale.
+  const std::string band_text = log_scale ? "w = " + Num(w) + unit +
+                                                ", on ln: " + Num(v * std::exp(-w / v)) + "-" +
+                                                Num(v * std::exp(w / v)) + unit
+                                          : "w = " + Num(w);
+  const std::string band = w > 0 ? " (" + band_text + ", " + rule_name + ")" : "";
 
   Decision d;
   auto at = [&](bool high) {
     if (!(high ? limit.has_high() : limit.has_low())) return Side::kInside;
     const double b = high ? limit.high() : limit.low();
+    if (!bound && log_scale) {
+      // ln v - ln b; a bound at or below 0 lies below every positive value.
+      const double above = b > 0 ? std::log(v / b) : INFINITY;
+      return AtBound(rule, high ? above : -above, w / v);
+    }
     if (!bound) return AtBound(rule, high ? v - b : b - v, w);
     // An upper bound: the truth lies at or below it.
     if (high && v <= b) return Side::kInside;   // conforms, whatever the band
@@ -135,7 +162,7 @@ Decision DecideValue(const pb::Limit& limit, pb::Limit::DecisionRule rule, doubl
                  " the " + names[i] + " limit " + Num(bounds[i]) + unit + ": inconclusive (" +
                  rule_name + ")";
     } else {
-      d.reason = shown + " within the guard band (w = " + Num(w) + ") of the " + names[i] +
+      d.reason = shown + " within the guard band (" + band_text + ") of the " + names[i] +
                  " limit " + Num(bounds[i]) + unit + ": inconclusive (" + rule_name + ")";
     }
     return d;

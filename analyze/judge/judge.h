@@ -36,6 +36,16 @@ pb::Limit::DecisionRule ResolvedRule(const pb::TestPlan& plan, const pb::Limit& 
 // Its guard_k: its own, else the plan's default_guard_k, else kDefaultGuardK.
 double ResolvedGuardK(const pb::TestPlan& plan, const pb::Limit& limit);
 
+// Whether `m` is guarded on the log scale: tau_at_minimum, whose u is
+// tau x u(ln tau) (measure.cc), is judged as ln tau against ln bound with
+// the band w / tau = guard_k u(ln tau), i.e. over [tau / f, tau f] with
+// f = exp(w / tau): wider above than below, as its spread is.
+bool GuardedOnLogScale(const pb::Measurement& m);
+
+// How many of its uncertainties `m`'s value lies above `bound` on the scale
+// it is guarded on (negative: below); NaN without a positive uncertainty.
+double SigmasAbove(const pb::Measurement& m, double bound);
+
 // Judges one measurement against `limit` of `plan` (ISO 14253-1 /
 // JCGM 106:2012 decision rules), at each of low and high, with the guard
 // band w = guard_k * u (u: the measurement's 1-sigma uncertainty):

@@ -286,6 +286,48 @@ TEST(DecisionRuleTest, GuardedRejectionFailsOnlyWellOutside) {
   EXPECT_EQ(OutcomeOf(plan, 0.9, 0.5), pb::FAIL);
 }
 
+// tau_at_minimum is guarded on ln tau: its u is tau x u(ln tau), so with
+// u(ln tau) = 0.25 and k = 2 the band around 100 s is 60.7-164.9 s, not
+// 50-150 s. A high limit of 160 s is then still within the band (linear:
+// passed); a low limit of 55 s is outside it (linear: inconclusive).
+TEST(DecisionRuleTest, TauAtMinimumIsGuardedOnItsLogScale) {
+  pb::TestPlan plan;
+  plan.set_nominal_rate_hz(100);
+  plan.add_axes()->set_name("gx");
+  plan.mutable_axes(0)->set_kind(pb::GYRO);
+  pb::Limit* lim = plan.add_limits();
+  lim->set_measurement("tau_at_minimum");
+  lim->set_axis_kind(pb::GYRO);
+  lim->set_unit("s");
+  lim->set_high(160);
+  lim->set_decision_rule(pb::Limit::GUARDED_ACCEPTANCE);
+  ASSERT_TRUE(ValidatePlan(plan).ok()) << ValidatePlan(plan).message();
+  auto judge = [&](double tau, double u_ln, std::string* reason = nullptr) {
+    std::vector<pb::Measurement> ms = {M("gx", "tau_at_minimum", tau, "s")};
+    ms[0].set_uncertainty(tau * u_ln);
+    Judgement j = Judge(plan, {{"gx", pb::GYRO}}, &ms);
+    if (reason != nullptr && !j.reasons.empty()) *reason = j.reasons[0];
+    return ms[0];
+  };
+  std::string reason;
+  const pb::Measurement m = judge(100, 0.25, &reason);
+  EXPECT_EQ(m.outcome(), pb::INCONCLUSIVE);
+  EXPECT_DOUBLE_EQ(m.guard_band(), 50);  // w = k u, the record's unit
+  EXPECT_NE(reason.find("on ln: 60.65-164.9 s"), std::string::npos) << reason;
+  EXPECT_EQ(judge(96, 0.25).outcome(), pb::PASS);          // 96 e^0.5 = 158.3
+  EXPECT_EQ(judge(98, 0.25).outcome(), pb::INCONCLUSIVE);  // 161.6
+  lim->clear_high();
+  lim->set_low(55);
+  EXPECT_EQ(judge(100, 0.25).outcome(), pb::PASS);         // 60.65 > 55
+  EXPECT_EQ(judge(90, 0.25).outcome(), pb::INCONCLUSIVE);  // 54.6
+  EXPECT_EQ(judge(54, 0.25).outcome(), pb::FAIL);
+  // The early decision's evidence counts sigmas on the same scale.
+  EXPECT_NEAR(SigmasAbove(m, 160), std::log(100.0 / 160) / 0.25, 1e-12);
+  pb::Measurement bi = M("gx", "bias_instability", 9, "deg/h");
+  bi.set_uncertainty(0.5);
+  EXPECT_DOUBLE_EQ(SigmasAbove(bi, 10), -2);
+}
+
 // The plan's default rule and guard_k apply to limits that choose none; a
 // limit's own beat them.
 TEST(DecisionRuleTest, PlanDefaultsAndLimitOverrides) {

@@ -201,12 +201,15 @@ void RunAnalyzer::LookIfDue() {
     if (curve == nullptr) return ev;
     if (m.name() == judge::kTauAtMinimum) {
       const double c = judge::MinimumSideEvidence(*curve, bound);
-      const bool has_u = m.has_uncertainty() && m.uncertainty() > 0;
-      const double v = has_u ? (m.value() - bound) / m.uncertainty() : -INFINITY;
-      ev.above = std::max(c, v);
-      ev.above_source = c >= v ? "curve evidence" : "tau spread";
-      ev.below = std::max(-c, -v);
-      ev.below_source = -c >= -v ? "curve evidence" : "tau spread";
+      // The value's own spread on ln tau, as the judge guards it (none
+      // without a u: then the curve's evidence alone).
+      const double z = judge::SigmasAbove(m, bound);
+      const double above = std::isnan(z) ? -INFINITY : z;
+      const double below = std::isnan(z) ? -INFINITY : -z;
+      ev.above = std::max(c, above);
+      ev.above_source = c >= above ? "curve evidence" : "tau spread";
+      ev.below = std::max(-c, below);
+      ev.below_source = -c >= below ? "curve evidence" : "tau spread";
     } else if (m.name() == judge::kAngleRandomWalk || m.name() == judge::kVelocityRandomWalk) {
       std::string source;
       const double z = judge::WhiteNoiseBelowEvidence(*curve, kind_of(m.axis()), bound, &source);
