@@ -673,34 +673,48 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   scan.scanned = true;
 
   // The strongest candidate of each family: the largest |z| of any axis,
-  // and (more than one axis) the largest sum of z^2 over the axes at one
-  // candidate, chi-square with as many degrees of freedom as axes.
-  const boost::math::chi_squared joint(num_axes);
+  // and (more than one axis) the joint test at one candidate: the sum of z^2
+  // over the axes with data there, chi-square with as many degrees of
+  // freedom as those axes (an axis missing part of its record leaves the
+  // others' joint test standing at the candidates it misses). The smallest
+  // joint p is the smallest over the axis counts of each count's largest sum.
+  std::vector<boost::math::chi_squared> joint;
+  for (int k = 1; k <= num_axes; ++k) joint.emplace_back(k);
   constexpr size_t kNone = static_cast<size_t>(-1);
   struct Strongest {
     double axis_z = 0;
     size_t axis_candidate = kNone;
     int axis = -1;
-    double joint_sum = 0;
-    size_t joint_candidate = kNone;
+    std::vector<double> joint_sum;        // per count of axes with data (2..)
+    std::vector<size_t> joint_candidate;  // its candidate
     double AxisP() const { return axis_candidate != kNone ? TwoSidedNormal(axis_z) : 1.0; }
-    double JointP(const boost::math::chi_squared& dist) const {
-      return joint_candidate != kNone ? boost::math::cdf(boost::math::complement(dist, joint_sum))
-                                      : 1.0;
+    // The smallest joint p and its candidate.
+    double JointP(const std::vector<boost::math::chi_squared>& dist, size_t* at) const {
+      double p = 1.0;
+      *at = kNone;
+      for (size_t k = 2; k < joint_candidate.size(); ++k) {
+        if (joint_candidate[k] == kNone) continue;
+        const double q = boost::math::cdf(boost::math::complement(dist[k - 1], joint_sum[k]));
+        if (q < p || *at == kNone) {
+          p = std::min(p, q);
+          *at = joint_candidate[k];
+        }
+      }
+      return p;
     }
   };
   // v[a]: axis a's residual (the data's, or a drawn record's).
   const auto strongest = [&](const std::vector<const double*>& v) {
     Strongest s;
+    s.joint_sum.assign(num_axes + 1, 0.0);
+    s.joint_candidate.assign(num_axes + 1, kNone);
     for (size_t c = 0; c < candidates.size(); ++c) {
-      bool all = true;
+      int present = 0;
       double sum = 0;
       for (int a = 0; a < num_axes; ++a) {
         const double z = gls[a].Z(c, v[a]);
-        if (!std::isfinite(z)) {
-          all = false;
-          continue;
-        }
+        if (!std::isfinite(z)) continue;
+        ++present;
         sum += z * z;
         if (std::fabs(z) > s.axis_z) {
           s.axis_z = std::fabs(z);
@@ -708,9 +722,9 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
           s.axis = a;
         }
       }
-      if (all && num_axes > 1 && sum > s.joint_sum) {
-        s.joint_sum = sum;
-        s.joint_candidate = c;
+      if (present > 1 && sum > s.joint_sum[present]) {
+        s.joint_sum[present] = sum;
+        s.joint_candidate[present] = c;
       }
     }
     return s;
@@ -765,7 +779,8 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
       for (int j = 0; j < count; ++j) {
         for (int a = 0; a < num_axes; ++a) v[a] = block[a].col(j).data();
         const Strongest s = strongest(v);
-        drawn.push_back(std::min(s.AxisP(), s.JointP(joint)));
+        size_t at = kNone;
+        drawn.push_back(std::min(s.AxisP(), s.JointP(joint, &at)));
       }
     }
     std::sort(drawn.begin(), drawn.end());
@@ -780,10 +795,11 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
   std::vector<double> size(num_axes), sigma(num_axes);
   for (int round = 0; round < options.max_events; ++round) {
     const Strongest s = strongest(data_residuals());
-    const double axis_p = s.AxisP(), joint_p = s.JointP(joint);
+    size_t joint_candidate = kNone;
+    const double axis_p = s.AxisP(), joint_p = s.JointP(joint, &joint_candidate);
     const bool best_joint = joint_p < axis_p;
     const double best_p = std::min(axis_p, joint_p);
-    const size_t best_index = best_joint ? s.joint_candidate : s.axis_candidate;
+    const size_t best_index = best_joint ? joint_candidate : s.axis_candidate;
     if (best_index == kNone || !(best_p < p_threshold)) break;
     const Candidate* best = &candidates[best_index];
     const int best_axis = best_joint ? -1 : s.axis;

@@ -30,8 +30,9 @@
 // with boundaries alone a step between them reads as two half steps) and
 // bursts of w = 1, 2, 4, ... bins up to a ninth
 // of the record (the bins-9 stop: the longest tau the model was fitted to);
-// joint: the group's sum of z^2 at one candidate, chi-square with A degrees
-// of freedom. The record's smallest p over every candidate of every family
+// joint: the group's sum of z^2 at one candidate over the axes with data
+// there, chi-square with as many degrees of freedom (A when none misses it).
+// The record's smallest p over every candidate of every family
 // (each axis alone, and the joint family when A > 1) is compared with a
 // threshold calibrated on M = 10 / false_alarm - 1 records drawn from the
 // models (each axis independent, differences with covariance C at the
