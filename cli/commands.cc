@@ -11,7 +11,7 @@
 #include <map>
 
 #include "common/clock.h"
-#include "common/command_line.h"
+#include "common/exit_codes.h"
 #include "common/log.h"
 #include "common/text_util.h"
 #include "report/archive_tables.h"

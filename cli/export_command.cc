@@ -18,7 +18,7 @@
 #include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
 #include "common/clock.h"
-#include "common/command_line.h"
+#include "common/exit_codes.h"
 #include "common/log.h"
 #include "common/strings.h"
 #include "common/text_util.h"

@@ -9,7 +9,7 @@
 #include "analyze/judge/measurements.h"
 #include "cli/commands.h"
 #include "common/clock.h"
-#include "common/command_line.h"
+#include "common/exit_codes.h"
 #include "common/log.h"
 #include "report/archive_tables.h"
 #include "report/early_decisions.h"

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "common/command_line.h"
+#include "common/exit_codes.h"
 #include "common/log.h"
 #include "common/text_util.h"
 #include "report/allan_plots.h"

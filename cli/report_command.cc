@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <string>
 
-#include "common/command_line.h"
+#include "common/exit_codes.h"
 #include "common/log.h"
 #include "common/text_util.h"
 #include "report/report.h"

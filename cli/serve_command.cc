@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <thread>
 
-#include "common/command_line.h"
+#include "common/exit_codes.h"
 #include "common/log.h"
 #include "common/shutdown.h"
 #include "common/text_util.h"

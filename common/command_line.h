@@ -1,33 +1,20 @@
-// Exit codes shared by every imuqual binary, and the command-line parse that
-// uses them (README, "Exit codes").
+// The command-line parse every imuqual binary uses, with the exit codes of
+// common/exit_codes.h (README, "Exit codes").
 #ifndef IMUQUAL_COMMON_COMMAND_LINE_H_
 #define IMUQUAL_COMMON_COMMAND_LINE_H_
 
+#include <CLI/CLI.hpp>
 #include <cctype>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
+#include "common/exit_codes.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "common/text_util.h"
 
 namespace imuqual {
-
-inline constexpr int kExitOk = 0;
-inline constexpr int kExitError = 1;   // data, archive, device or process failure
-inline constexpr int kExitUsage = 2;   // the command line or a configuration file is wrong
-
-// The exit code of a command whose input could not be opened or read: a
-// file that is not there or not what it should be is bad input (2), like a
-// bad option; anything else is a failure while working (1).
-inline int ExitCodeOf(const Status& s) {
-  return s.code() == Status::Code::kNotFound || s.code() == Status::Code::kInvalidArgument
-             ? kExitUsage
-             : kExitError;
-}
 
 // Parses the command line. --help and --version print and give kExitOk; any
 // other parse error is one line "<program>: error: ..." and gives kExitUsage

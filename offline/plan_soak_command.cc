@@ -16,7 +16,7 @@
 #include "analyze/judge/early_decision.h"
 #include "analyze/judge/plan_file.h"
 #include "analyze/service/run_analyzer.h"
-#include "common/command_line.h"
+#include "common/exit_codes.h"
 #include "common/log.h"
 #include "report/allan_plots.h"
 #include "report/lot_model_view.h"

@@ -10,7 +10,7 @@
 
 #include "analyze/judge/judge.h"
 #include "analyze/judge/measurements.h"
-#include "common/command_line.h"
+#include "common/exit_codes.h"
 #include "common/log.h"
 #include "offline/curve_request.h"
 #include "report/early_decisions.h"

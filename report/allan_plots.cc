@@ -11,7 +11,6 @@
 #include "analyze/allan/noise_model.h"
 #include "analyze/allan/units.h"
 #include "analyze/judge/measurements.h"
-#include "common/command_line.h"
 #include "common/log.h"
 #include "common/text_util.h"
 #include "report/model_plot.h"

@@ -14,7 +14,6 @@
 #include "analyze/allan/model_quantities.h"
 #include "analyze/judge/measurements.h"
 #include "common/clock.h"
-#include "common/command_line.h"
 #include "common/log.h"
 #include "common/strings.h"
 #include "common/text_util.h"
