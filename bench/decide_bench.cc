@@ -34,6 +34,7 @@
 #include "analyze/judge/judge.h"
 #include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
+#include "analyze/judge/stationarity_measure.h"
 #include "analyze/service/run_analyzer.h"
 #include "offline/plan_soak_command.h"
 
@@ -105,22 +106,6 @@ void PrintCalibration(const std::vector<UnitResult>& results) {
   }
 }
 
-allan::CompositeModel TruthModel(const pb::AxisTruth& t) {
-  allan::CompositeModel m;
-  auto add = [&](allan::TermKind kind, double scale) {
-    if (scale > 0) m.terms.push_back({kind, scale, 0, 0});
-  };
-  add(allan::TermKind::kQuantization, t.quantization());
-  add(allan::TermKind::kWhite, t.random_walk());
-  add(allan::TermKind::kFlicker, t.bias_instability());
-  add(allan::TermKind::kRandomWalk, t.rate_random_walk());
-  add(allan::TermKind::kDrift, t.rate_ramp());
-  for (const pb::GaussMarkov& g : t.gauss_markov()) {
-    m.terms.push_back({allan::TermKind::kGaussMarkov, g.sigma(), g.correlation_time_s(), 0});
-  }
-  return m;
-}
-
 // The truth's verdict: the plan's limits on the truth's bias instability
 // (curve minimum up to m_max), tau at minimum and angle random walk.
 pb::Outcome TruthVerdict(const pb::TestPlan& plan, const pb::SimTruth& truth, double tau0,
@@ -131,7 +116,7 @@ pb::Outcome TruthVerdict(const pb::TestPlan& plan, const pb::SimTruth& truth, do
     if (o == pb::FAIL || (o == pb::MARGINAL && worst == pb::PASS)) worst = o;
   };
   for (const pb::AxisTruth& a : truth.axes()) {
-    const allan::CompositeModel model = TruthModel(a);
+    const allan::CompositeModel model = judge::CompositeModelOf(a);
     double best = INFINITY, best_m = 1;
     const int steps = 2000;
     for (int i = 0; i <= steps; ++i) {

@@ -1,0 +1,216 @@
+// Coverage of the noise model's judged figures (fit_angle_random_walk,
+// fit_bias_instability, fit_rate_random_walk: judge::MeasureNoiseModel, as the
+// station reports them at the end of a run) through the simulator: records of
+// known gyro truths analysed as the station does (streaming engine, dense
+// grid, 9-bin rule), each figure's value and 1-sigma uncertainty against the
+// truth's own value:
+//   fit_angle_random_walk  the truth's N;
+//   fit_bias_instability   the truth's ADEV minimum over the analysed taus
+//                          / 0.664 (IEEE 952's B, as the model reports it);
+//   fit_rate_random_walk   the truth's K.
+// Per mixture and figure it prints the fraction of records whose 1-sigma and
+// 2-sigma intervals cover the truth (of those with a value and u), the mean
+// and rms z, and how many records had no u: withheld (model inadequate), an
+// upper bound (term left out; with how often the bound covers), or none.
+// Usage: fit_coverage_bench [--seeds N] [--threads T]
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <mutex>
+#include <numbers>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "acquire/imu_simulator.h"
+#include "analyze/allan/noise_model.h"
+#include "analyze/allan/streaming.h"
+#include "analyze/allan/units.h"
+#include "analyze/judge/measure.h"
+#include "analyze/judge/measurements.h"
+
+namespace imuqual {
+namespace {
+
+constexpr double kRateHz = 100.0;
+constexpr int kSamples = 1 << 19;  // 87 min at 100 Hz
+
+struct Mixture {
+  std::string name;
+  pb::AxisTruth truth;
+};
+
+// The truth's AVAR at tau, written out (IEEE 952 terms and first-order
+// Gauss-Markov processes) rather than taken from the library measured.
+double TruthAvar(const pb::AxisTruth& t, double tau) {
+  double avar =
+      t.random_walk() * t.random_walk() / tau +
+      2 * std::numbers::ln2 / std::numbers::pi * t.bias_instability() * t.bias_instability() +
+      t.rate_random_walk() * t.rate_random_walk() * tau / 3;
+  for (const pb::GaussMarkov& g : t.gauss_markov()) {
+    const double q = g.sigma() * g.sigma();
+    const double T = g.correlation_time_s();
+    const double x = tau / T;
+    avar += q * T / tau * (2 - T / tau * (3 - 4 * std::exp(-x) + std::exp(-2 * x)));
+  }
+  return avar;
+}
+
+std::vector<Mixture> Mixtures() {
+  std::vector<Mixture> out;
+  pb::AxisTruth base;
+  base.set_axis("x");
+  base.set_random_walk(0.004);
+  base.set_bias_instability(5e-4);
+  base.set_rate_random_walk(2e-5);
+  out.push_back({"white+flicker+rrw", base});
+  pb::AxisTruth gm = base;
+  gm.set_bias_instability(3e-4);
+  gm.set_rate_random_walk(3e-5);
+  pb::GaussMarkov* g = gm.add_gauss_markov();
+  g->set_sigma(4e-4);
+  g->set_correlation_time_s(20);
+  out.push_back({"white+flicker+gm+rrw", gm});
+  pb::AxisTruth sharp = base;
+  sharp.set_white_bandwidth_hz(20);
+  sharp.set_bias_instability(1e-4);
+  sharp.set_rate_random_walk(1.5e-4);
+  out.push_back({"filtered20Hz+flicker+rrw", sharp});
+  pb::AxisTruth steeper = base;
+  steeper.set_rate_random_walk(8e-5);
+  out.push_back({"white+flicker+stronger_rrw", steeper});
+  return out;
+}
+
+allan::Curve StationCurve(const pb::AxisTruth& axis, uint64_t seed) {
+  pb::SimTruth truth;
+  truth.set_seed(seed);
+  truth.set_actual_rate_hz(kRateHz);
+  *truth.add_axes() = axis;
+  auto sim = sim::ImuSimulator::Create(truth);
+  if (!sim.ok()) {
+    std::fprintf(stderr, "fit_coverage_bench: %s\n", sim.status().message().c_str());
+    std::exit(1);
+  }
+  std::vector<std::vector<float>> out(1);
+  out[0].reserve(kSamples);
+  sim->Generate(kSamples, out);
+  allan::StreamingOptions so;
+  so.tau0_s = 1 / kRateHz;
+  allan::StreamingAllan engine(so);
+  engine.Append(std::span<const float>(out[0]));
+  return engine.Oadev(allan::StreamGrid::kDense, allan::StopRule::kBins9, allan::CiMethod::kNone);
+}
+
+struct Tally {
+  int records = 0, with_u = 0, in1 = 0, in2 = 0, withheld = 0, bounds = 0, bound_covers = 0;
+  int no_u = 0;
+  double sum_z = 0, sum_z2 = 0;
+  void Add(const pb::Measurement& m, double truth) {
+    ++records;
+    if (m.model_inadequate() && std::isnan(m.value())) {
+      ++withheld;
+    } else if (m.qualifier() == pb::UPPER_BOUND) {
+      ++bounds;
+      if (truth <= m.value()) ++bound_covers;
+    } else if (m.has_uncertainty() && m.uncertainty() > 0 && std::isfinite(m.value())) {
+      const double z = (m.value() - truth) / m.uncertainty();
+      ++with_u;
+      in1 += std::fabs(z) <= 1;
+      in2 += std::fabs(z) <= 2;
+      sum_z += z;
+      sum_z2 += z * z;
+    } else {
+      ++no_u;
+    }
+  }
+  void Print(const std::string& mixture, const char* figure) const {
+    const double n = std::max(with_u, 1);
+    std::printf("fit_coverage_%s_%s_1sigma %.3f fraction\n", figure, mixture.c_str(), in1 / n);
+    std::printf("fit_coverage_%s_%s_2sigma %.3f fraction\n", figure, mixture.c_str(), in2 / n);
+    std::printf(
+        "# %s %s: %d records, %d with u (mean z %+.2f, rms z %.2f), %d withheld (model "
+        "inadequate), %d upper bounds (covering %d), %d without u\n",
+        mixture.c_str(), figure, records, with_u, sum_z / n, std::sqrt(sum_z2 / n), withheld,
+        bounds, bound_covers, no_u);
+  }
+};
+
+const pb::Measurement* Find(const std::vector<pb::Measurement>& ms, std::string_view name) {
+  for (const pb::Measurement& m : ms) {
+    if (m.name() == name) return &m;
+  }
+  return nullptr;
+}
+
+}  // namespace
+}  // namespace imuqual
+
+int main(int argc, char** argv) {
+  using namespace imuqual;
+  int seeds = 200;
+  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string flag = argv[i];
+    if (flag == "--seeds") {
+      seeds = std::atoi(argv[i + 1]);
+    } else if (flag == "--threads") {
+      threads = std::atoi(argv[i + 1]);
+    } else {
+      std::fprintf(stderr, "fit_coverage_bench: unknown option %s (--seeds N, --threads T)\n",
+                   argv[i]);
+      return 2;
+    }
+  }
+  if (seeds < 1 || threads < 1) {
+    std::fprintf(stderr, "fit_coverage_bench: --seeds and --threads must be positive\n");
+    return 2;
+  }
+  using allan::NoiseTerm;
+  const auto gyro = allan::SensorKind::kGyro;
+  for (const Mixture& mix : Mixtures()) {
+    Tally arw, bi, rrw;
+    std::mutex mu;
+    std::atomic<int> next{0};
+    const auto work = [&] {
+      for (int s = next++; s < seeds; s = next++) {
+        const allan::Curve curve = StationCurve(mix.truth, 0xc0fe + 7919ull * s);
+        const std::vector<pb::Measurement> ms =
+            judge::MeasureNoiseModel("x", pb::GYRO, curve, judge::NoiseModelOptions{});
+        // The truth's minimum over the taus the curve analysed.
+        double min_dev = INFINITY;
+        const double lo = curve.points.front().tau_s, hi = curve.points.back().tau_s;
+        for (int k = 0; k <= 2000; ++k) {
+          const double tau = lo * std::pow(hi / lo, k / 2000.0);
+          min_dev = std::min(min_dev, std::sqrt(TruthAvar(mix.truth, tau)));
+        }
+        const double n_true =
+            allan::ToDatasheetUnits(NoiseTerm::kAngleRandomWalk, gyro, mix.truth.random_walk())
+                .value;
+        const double b_true =
+            allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, gyro, min_dev / 0.664).value;
+        const double k_true =
+            allan::ToDatasheetUnits(NoiseTerm::kRateRandomWalk, gyro, mix.truth.rate_random_walk())
+                .value;
+        const pb::Measurement* a = Find(ms, judge::kFitAngleRandomWalk);
+        const pb::Measurement* b = Find(ms, judge::kFitBiasInstability);
+        const pb::Measurement* k = Find(ms, judge::kFitRateRandomWalk);
+        std::lock_guard<std::mutex> lock(mu);
+        if (a != nullptr) arw.Add(*a, n_true);
+        if (b != nullptr) bi.Add(*b, b_true);
+        if (k != nullptr) rrw.Add(*k, k_true);
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) pool.emplace_back(work);
+    for (std::thread& t : pool) t.join();
+    arw.Print(mix.name, "arw");
+    bi.Print(mix.name, "bi");
+    rrw.Print(mix.name, "rrw");
+    std::fflush(stdout);
+  }
+  return 0;
+}
