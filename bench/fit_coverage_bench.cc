@@ -109,6 +109,9 @@ struct Tally {
   int records = 0, with_u = 0, in1 = 0, in2 = 0, withheld = 0, bounds = 0, bound_covers = 0;
   int no_u = 0;
   double sum_z = 0, sum_z2 = 0;
+  // Bounds that carry a u: how often value +- 2u covers, and the mean z.
+  int bound_with_u = 0, bound_in2 = 0;
+  double bound_sum_z = 0;
   void Add(const pb::Measurement& m, double truth) {
     ++records;
     if (m.model_inadequate() && std::isnan(m.value())) {
@@ -116,6 +119,12 @@ struct Tally {
     } else if (m.qualifier() == pb::UPPER_BOUND) {
       ++bounds;
       if (truth <= m.value()) ++bound_covers;
+      if (m.has_uncertainty() && m.uncertainty() > 0) {
+        const double z = (m.value() - truth) / m.uncertainty();
+        ++bound_with_u;
+        bound_in2 += std::fabs(z) <= 2;
+        bound_sum_z += z;
+      }
     } else if (m.has_uncertainty() && m.uncertainty() > 0 && std::isfinite(m.value())) {
       const double z = (m.value() - truth) / m.uncertainty();
       ++with_u;
@@ -133,9 +142,11 @@ struct Tally {
     std::printf("fit_coverage_%s_%s_2sigma %.3f fraction\n", figure, mixture.c_str(), in2 / n);
     std::printf(
         "# %s %s: %d records, %d with u (mean z %+.2f, rms z %.2f), %d withheld (model "
-        "inadequate), %d upper bounds (covering %d), %d without u\n",
+        "inadequate), %d upper bounds (covering %d; %d with a u: +-2u covers %d, mean z %+.2f), "
+        "%d without u\n",
         mixture.c_str(), figure, records, with_u, sum_z / n, std::sqrt(sum_z2 / n), withheld,
-        bounds, bound_covers, no_u);
+        bounds, bound_covers, bound_with_u, bound_in2, bound_sum_z / std::max(bound_with_u, 1),
+        no_u);
   }
 };
 

@@ -117,7 +117,9 @@ std::vector<ModelQuantity> DescribeCompositeFit(const CompositeFit& fit,
                              : "-1/2 asymptote only: the model has no -1/2 region");
   }
   const std::string edge =
-      fit.minimum_at_edge ? "minimum at the edge of the analysed taus: a bound, not a minimum" : "";
+      fit.minimum_at_edge ? "minimum at the edge of the analysed taus (the model has not turned up "
+                            "there): reads low, not a bound on the truth's"
+                          : "";
   add("bias_instability", true, NoiseTerm::kBiasInstability, fit.curve_minimum.value,
       fit.curve_minimum.sigma, edge.empty() ? "minimum of the model curve" : edge);
   add("bias_instability_ieee", true, NoiseTerm::kBiasInstability, fit.bias_instability_ieee.value,
