@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "acquire/imu_simulator.h"
+#include "acquire/coverage_records.h"
 #include "analyze/allan/noise_model.h"
 #include "analyze/allan/streaming.h"
 
@@ -31,84 +31,22 @@ constexpr double kRateHz = 100.0;
 constexpr int kSamples = 1 << 19;  // 87 min at 100 Hz
 constexpr int kSeeds = 200;
 
-struct Scenario {
-  std::string name;
-  pb::AxisTruth truth;
-};
+using Scenario = sim::CoverageMixture;
+using sim::TruthAvar;
 
-// The truth's AVAR at tau, written out here (IEEE 952 terms and a
-// first-order Gauss-Markov process) so the test does not take it from the
-// library it checks.
-double TruthAvar(const pb::AxisTruth& t, double tau) {
-  double avar = t.random_walk() * t.random_walk() / tau +
-                2 * std::numbers::ln2 / std::numbers::pi * t.bias_instability() *
-                    t.bias_instability() +
-                t.rate_random_walk() * t.rate_random_walk() * tau / 3;
-  for (const pb::GaussMarkov& g : t.gauss_markov()) {
-    const double q = g.sigma() * g.sigma();
-    const double T = g.correlation_time_s();
-    const double x = tau / T;
-    avar += q * T / tau * (2 - T / tau * (3 - 4 * std::exp(-x) + std::exp(-2 * x)));
-  }
-  return avar;
-}
+// White + flicker + RRW, and with a Gauss-Markov bump (coverage_records.h).
+std::vector<Scenario> Scenarios() { return sim::PlainMixtures(); }
 
-std::vector<Scenario> Scenarios() {
-  std::vector<Scenario> out;
-  {
-    pb::AxisTruth a;
-    a.set_axis("x");
-    a.set_random_walk(0.004);
-    a.set_bias_instability(5e-4);
-    a.set_rate_random_walk(2e-5);
-    out.push_back({"white+flicker+rrw", a});
-  }
-  {
-    pb::AxisTruth a;
-    a.set_axis("x");
-    a.set_random_walk(0.004);
-    a.set_bias_instability(3e-4);
-    a.set_rate_random_walk(3e-5);
-    pb::GaussMarkov* g = a.add_gauss_markov();
-    g->set_sigma(4e-4);
-    g->set_correlation_time_s(20);
-    out.push_back({"white+flicker+gm+rrw", a});
-  }
-  return out;
-}
+// Two whose minimum is steeper and further inside the record: 20 Hz filtered
+// white noise with weak flicker and a strong random walk (tau* 46 s), and the
+// first with a stronger random walk (87 s).
+std::vector<Scenario> SteeperScenarios() { return sim::SteeperMixtures(); }
 
-// Two more whose minimum is steeper and further inside the record: white
-// noise through a first-order 20 Hz filter with weak flicker and a strong
-// random walk (tau* 46 s), and the first with a stronger random walk (87 s).
-std::vector<Scenario> SteeperScenarios() {
-  const pb::AxisTruth base = Scenarios().front().truth;
-  pb::AxisTruth sharp = base;
-  sharp.set_white_bandwidth_hz(20);
-  sharp.set_bias_instability(1e-4);
-  sharp.set_rate_random_walk(1.5e-4);
-  pb::AxisTruth steeper = base;
-  steeper.set_rate_random_walk(8e-5);
-  return {{"filtered 20 Hz+fl+rrw", sharp}, {"white+fl+stronger rrw", steeper}};
-}
-
-// One simulated record of `axis` (seed), analysed as the station does:
-// streaming engine, dense grid, 9-bin rule.
+// One simulated record of `axis` (seed), analysed as the station does.
 allan::Curve StationCurve(const pb::AxisTruth& axis, uint64_t seed) {
-  pb::SimTruth truth;
-  truth.set_seed(seed);
-  truth.set_actual_rate_hz(kRateHz);
-  *truth.add_axes() = axis;
-  auto sim = sim::ImuSimulator::Create(truth);
-  EXPECT_TRUE(sim.ok());
-  if (!sim.ok()) return {};
-  std::vector<std::vector<float>> out(1);
-  out[0].reserve(kSamples);
-  sim->Generate(kSamples, out);
-  allan::StreamingOptions so;
-  so.tau0_s = 1 / kRateHz;
-  allan::StreamingAllan engine(so);
-  engine.Append(std::span<const float>(out[0]));
-  return engine.Oadev(allan::StreamGrid::kDense, allan::StopRule::kBins9, allan::CiMethod::kNone);
+  auto curve = sim::StationCurve(axis, seed, kSamples, kRateHz);
+  EXPECT_TRUE(curve.ok()) << curve.status().message();
+  return curve.ok() ? *curve : allan::Curve{};
 }
 
 TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {

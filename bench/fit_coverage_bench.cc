@@ -19,15 +19,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <mutex>
-#include <numbers>
-#include <span>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
-#include "acquire/imu_simulator.h"
+#include "acquire/coverage_records.h"
 #include "analyze/allan/noise_model.h"
-#include "analyze/allan/streaming.h"
 #include "analyze/allan/units.h"
 #include "analyze/judge/measure.h"
 #include "analyze/judge/measurements.h"
@@ -38,71 +36,22 @@ namespace {
 constexpr double kRateHz = 100.0;
 constexpr int kSamples = 1 << 19;  // 87 min at 100 Hz
 
-struct Mixture {
-  std::string name;
-  pb::AxisTruth truth;
-};
+using sim::TruthAvar;
 
-// The truth's AVAR at tau, written out (IEEE 952 terms and first-order
-// Gauss-Markov processes) rather than taken from the library measured.
-double TruthAvar(const pb::AxisTruth& t, double tau) {
-  double avar =
-      t.random_walk() * t.random_walk() / tau +
-      2 * std::numbers::ln2 / std::numbers::pi * t.bias_instability() * t.bias_instability() +
-      t.rate_random_walk() * t.rate_random_walk() * tau / 3;
-  for (const pb::GaussMarkov& g : t.gauss_markov()) {
-    const double q = g.sigma() * g.sigma();
-    const double T = g.correlation_time_s();
-    const double x = tau / T;
-    avar += q * T / tau * (2 - T / tau * (3 - 4 * std::exp(-x) + std::exp(-2 * x)));
-  }
-  return avar;
-}
-
-std::vector<Mixture> Mixtures() {
-  std::vector<Mixture> out;
-  pb::AxisTruth base;
-  base.set_axis("x");
-  base.set_random_walk(0.004);
-  base.set_bias_instability(5e-4);
-  base.set_rate_random_walk(2e-5);
-  out.push_back({"white+flicker+rrw", base});
-  pb::AxisTruth gm = base;
-  gm.set_bias_instability(3e-4);
-  gm.set_rate_random_walk(3e-5);
-  pb::GaussMarkov* g = gm.add_gauss_markov();
-  g->set_sigma(4e-4);
-  g->set_correlation_time_s(20);
-  out.push_back({"white+flicker+gm+rrw", gm});
-  pb::AxisTruth sharp = base;
-  sharp.set_white_bandwidth_hz(20);
-  sharp.set_bias_instability(1e-4);
-  sharp.set_rate_random_walk(1.5e-4);
-  out.push_back({"filtered20Hz+flicker+rrw", sharp});
-  pb::AxisTruth steeper = base;
-  steeper.set_rate_random_walk(8e-5);
-  out.push_back({"white+flicker+stronger_rrw", steeper});
+// The four mixtures of coverage_records.h.
+std::vector<sim::CoverageMixture> Mixtures() {
+  std::vector<sim::CoverageMixture> out = sim::PlainMixtures();
+  for (sim::CoverageMixture& m : sim::SteeperMixtures()) out.push_back(std::move(m));
   return out;
 }
 
 allan::Curve StationCurve(const pb::AxisTruth& axis, uint64_t seed) {
-  pb::SimTruth truth;
-  truth.set_seed(seed);
-  truth.set_actual_rate_hz(kRateHz);
-  *truth.add_axes() = axis;
-  auto sim = sim::ImuSimulator::Create(truth);
-  if (!sim.ok()) {
-    std::fprintf(stderr, "fit_coverage_bench: %s\n", sim.status().message().c_str());
+  auto curve = sim::StationCurve(axis, seed, kSamples, kRateHz);
+  if (!curve.ok()) {
+    std::fprintf(stderr, "fit_coverage_bench: %s\n", curve.status().message().c_str());
     std::exit(1);
   }
-  std::vector<std::vector<float>> out(1);
-  out[0].reserve(kSamples);
-  sim->Generate(kSamples, out);
-  allan::StreamingOptions so;
-  so.tau0_s = 1 / kRateHz;
-  allan::StreamingAllan engine(so);
-  engine.Append(std::span<const float>(out[0]));
-  return engine.Oadev(allan::StreamGrid::kDense, allan::StopRule::kBins9, allan::CiMethod::kNone);
+  return std::move(curve).value();
 }
 
 struct Tally {
@@ -182,7 +131,7 @@ int main(int argc, char** argv) {
   }
   using allan::NoiseTerm;
   const auto gyro = allan::SensorKind::kGyro;
-  for (const Mixture& mix : Mixtures()) {
+  for (const sim::CoverageMixture& mix : Mixtures()) {
     Tally arw, bi, rrw;
     std::mutex mu;
     std::atomic<int> next{0};
