@@ -695,8 +695,8 @@ Result<StationarityScan> ScanBinMeans(const std::vector<std::vector<double>>& me
       for (size_t k = 2; k < joint_candidate.size(); ++k) {
         if (joint_candidate[k] == kNone) continue;
         const double q = boost::math::cdf(boost::math::complement(dist[k - 1], joint_sum[k]));
-        if (q < p || *at == kNone) {
-          p = std::min(p, q);
+        if (*at == kNone || q < p) {
+          p = q;
           *at = joint_candidate[k];
         }
       }
