@@ -73,6 +73,111 @@ double Slope(const std::vector<double>& xs, const std::vector<double>& ys) {
   return sxx > 0 ? sxy / sxx : kNaN;
 }
 
+// One tracked averaging factor's point before its interval.
+struct Tracked {
+  CurvePoint point;
+  int c = 0;
+  int64_t stride = 1;
+};
+
+// The point of m = c 2^j from the sum of its n valid terms' squared second
+// differences: AVAR(m) = sum d^2 / (2 m^2 n), d in rate x samples.
+Tracked TrackedPoint(int64_t m, int c, size_t j, double sum, int64_t n, double tau0_s) {
+  const double md = static_cast<double>(m);
+  Tracked t;
+  t.point.m = m;
+  t.point.tau_s = md * tau0_s;
+  t.point.dev = std::sqrt(sum / (2.0 * md * md * static_cast<double>(n)));
+  t.point.n = n;
+  t.point.stride = int64_t{1} << j;
+  t.c = c;
+  t.stride = t.point.stride;
+  return t;
+}
+
+// The curve of `tracked` (increasing m, within the stop rule) over a record
+// of `samples` samples, `invalid` of them invalid or missing: the points on
+// `grid` with their intervals per `ci` (StreamingAllan::Oadev).
+Curve CurveOfTracked(std::vector<Tracked> tracked, double tau0_s, int64_t samples,
+                     int64_t invalid, StreamGrid grid, CiMethod ci, double confidence) {
+  Curve curve;
+  curve.deviation = Deviation::kOadev;
+  curve.tau0_s = tau0_s;
+  curve.n_phase = samples + 1;
+  curve.invalid_rate_samples = invalid;
+  curve.ci = ci;
+  // The simple band is 1 sigma whatever the level asked for.
+  curve.confidence = ci == CiMethod::kSimple ? kOneSigmaConfidence : confidence;
+  constexpr int64_t kMinNoiseIdClusters = StreamingAllan::kMinNoiseIdClusters;
+  const int64_t valid_samples = samples - invalid;
+  // Noise identification for the chi-square interval: the local slope of
+  // ln AVAR against ln m over one octave either side, at every tracked point
+  // with at least kMinNoiseIdPoints clusters; beyond (the long-tau end, where
+  // the slope of a few noisy points says little) the alpha of the nearest
+  // identified point, the shorter tau on a tie (alpha_inherited).
+  std::vector<std::optional<int>> alphas(tracked.size());
+  if (ci == CiMethod::kChi2) {
+    // ln m and ln AVAR of every tracked point, taken once.
+    std::vector<double> ln_m(tracked.size()), ln_avar(tracked.size());
+    for (size_t u = 0; u < tracked.size(); ++u) {
+      ln_m[u] = std::log(static_cast<double>(tracked[u].point.m));
+      if (tracked[u].point.dev > 0) ln_avar[u] = 2.0 * std::log(tracked[u].point.dev);
+    }
+    std::vector<double> log_m, log_avar;
+    for (size_t i = 0; i < tracked.size(); ++i) {
+      const CurvePoint& point = tracked[i].point;
+      if (valid_samples / point.m < kMinNoiseIdClusters) continue;
+      log_m.clear();
+      log_avar.clear();
+      const double center = ln_m[i];
+      for (size_t u = 0; u < tracked.size(); ++u) {
+        const double lm = ln_m[u];
+        if (std::fabs(lm - center) > std::log(2.0) * (1 + 1e-9) || !(tracked[u].point.dev > 0)) {
+          continue;
+        }
+        log_m.push_back(lm);
+        log_avar.push_back(ln_avar[u]);
+      }
+      const double mu = log_m.size() >= 2 ? Slope(log_m, log_avar) : kNaN;
+      if (std::isfinite(mu))
+        alphas[i] = static_cast<int>(std::clamp(std::lround(-mu - 1.0), -2L, 1L));
+    }
+  }
+  for (size_t i = 0; i < tracked.size(); ++i) {
+    const Tracked& t = tracked[i];
+    if (grid == StreamGrid::kOctave && !IsPowerOfTwo(t.point.m)) continue;
+    CurvePoint point = t.point;
+    if (ci == CiMethod::kSimple) {
+      const int64_t clusters = valid_samples / point.m;
+      if (clusters >= 2) {
+        const double f = SimpleErrorFraction(clusters);
+        point.lo = point.dev * (1.0 - f);
+        point.hi = point.dev * (1.0 + f);
+        point.edf = static_cast<double>(clusters - 1);
+      }
+    } else if (ci == CiMethod::kChi2) {
+      const std::optional<int> alpha = NearestIdentifiedAlpha(alphas, i);
+      if (alpha) {
+        const int64_t n_eff = (point.n - 1) * t.stride + 2 * point.m + 1;
+        const std::optional<double> edf =
+            GreenhallEdf(*alpha, /*d=*/2, point.m, n_eff, /*F=*/static_cast<double>(point.m),
+                         /*S=*/static_cast<double>(t.c));
+        if (edf.has_value() && std::isfinite(*edf) && *edf > 0) {
+          const auto [lo, hi] = Chi2Interval(point.dev, *edf, confidence);
+          point.lo = lo;
+          point.hi = hi;
+          point.edf = *edf;
+          point.alpha = *alpha;
+          point.alpha_inherited = !alphas[i].has_value();
+        }
+      }
+    }
+    curve.points.push_back(point);
+  }
+  return curve;
+}
+
+
 }  // namespace
 
 Status StreamingOptions::Validate() const {
@@ -319,25 +424,9 @@ void StreamingAllan::Flush() {
 Curve StreamingAllan::Oadev(StreamGrid grid, StopRule stop, CiMethod ci, double confidence) const {
   StreamingAllan flushed = *this;
   flushed.Flush();
-
-  Curve curve;
-  curve.deviation = Deviation::kOadev;
-  curve.tau0_s = options_.tau0_s;
-  curve.n_phase = samples_ + 1;
-  curve.invalid_rate_samples = invalid_samples();
-  curve.ci = ci;
-  // The simple band is 1 sigma whatever the level asked for.
-  curve.confidence = ci == CiMethod::kSimple ? kOneSigmaConfidence : confidence;
-
   const int64_t m_stop =
-      std::min(options_.max_m, StopRuleMaxAveragingFactor(stop, Deviation::kOadev, curve.n_phase));
-
+      std::min(options_.max_m, StopRuleMaxAveragingFactor(stop, Deviation::kOadev, samples_ + 1));
   // Every tracked point within the stop rule, in increasing m.
-  struct Tracked {
-    CurvePoint point;
-    int c = 0;
-    int64_t stride = 1;
-  };
   std::vector<Tracked> tracked;
   for (size_t j = 0; j < flushed.levels_.size(); ++j) {
     const Level& level = flushed.levels_[j];
@@ -348,85 +437,73 @@ Curve StreamingAllan::Oadev(StreamGrid grid, StopRule stop, CiMethod ci, double 
       if (m > m_stop || n <= 1) continue;
       double sum = 0.0;
       for (int l = 0; l < kLanes; ++l) sum += level.sum[ci_index * kLanes + l];
-      // AVAR(m) = sum d^2 / (2 m^2 n), d in rate x samples.
-      const double md = static_cast<double>(m);
-      Tracked t;
-      t.point.m = m;
-      t.point.tau_s = md * options_.tau0_s;
-      t.point.dev = std::sqrt(sum / (2.0 * md * md * static_cast<double>(n)));
-      t.point.n = n;
-      t.point.stride = int64_t{1} << j;
-      t.c = c;
-      t.stride = t.point.stride;
-      tracked.push_back(t);
+      tracked.push_back(TrackedPoint(m, c, j, sum, n, options_.tau0_s));
     }
   }
+  return CurveOfTracked(std::move(tracked), options_.tau0_s, samples_, invalid_samples(), grid, ci,
+                        confidence);
+}
 
-  const int64_t valid_samples = samples_ - invalid_samples();
-  // Noise identification for the chi-square interval: the local slope of
-  // ln AVAR against ln m over one octave either side, at every tracked point
-  // with at least kMinNoiseIdPoints clusters; beyond (the long-tau end, where
-  // the slope of a few noisy points says little) the alpha of the nearest
-  // identified point, the shorter tau on a tie (alpha_inherited).
-  std::vector<std::optional<int>> alphas(tracked.size());
-  if (ci == CiMethod::kChi2) {
-    // ln m and ln AVAR of every tracked point, taken once.
-    std::vector<double> ln_m(tracked.size()), ln_avar(tracked.size());
-    for (size_t u = 0; u < tracked.size(); ++u) {
-      ln_m[u] = std::log(static_cast<double>(tracked[u].point.m));
-      if (tracked[u].point.dev > 0) ln_avar[u] = 2.0 * std::log(tracked[u].point.dev);
-    }
-    std::vector<double> log_m, log_avar;
-    for (size_t i = 0; i < tracked.size(); ++i) {
-      const CurvePoint& point = tracked[i].point;
-      if (valid_samples / point.m < kMinNoiseIdClusters) continue;
-      log_m.clear();
-      log_avar.clear();
-      const double center = ln_m[i];
-      for (size_t u = 0; u < tracked.size(); ++u) {
-        const double lm = ln_m[u];
-        if (std::fabs(lm - center) > std::log(2.0) * (1 + 1e-9) || !(tracked[u].point.dev > 0)) {
-          continue;
-        }
-        log_m.push_back(lm);
-        log_avar.push_back(ln_avar[u]);
-      }
-      const double mu = log_m.size() >= 2 ? Slope(log_m, log_avar) : kNaN;
-      if (std::isfinite(mu))
-        alphas[i] = static_cast<int>(std::clamp(std::lround(-mu - 1.0), -2L, 1L));
+StreamMark StreamingAllan::Mark() const {
+  StreamingAllan flushed = *this;
+  flushed.Flush();
+  StreamMark mark;
+  mark.samples = samples_;
+  mark.invalid = invalid_samples();
+  for (const Level& level : flushed.levels_) {
+    for (int ci_index = 0; ci_index < level.c_count; ++ci_index) {
+      double sum = 0.0;
+      for (int l = 0; l < kLanes; ++l) sum += level.sum[ci_index * kLanes + l];
+      mark.sum.push_back(sum);
+      mark.terms.push_back(level.terms[ci_index]);
     }
   }
-  for (size_t i = 0; i < tracked.size(); ++i) {
-    const Tracked& t = tracked[i];
-    if (grid == StreamGrid::kOctave && !IsPowerOfTwo(t.point.m)) continue;
-    CurvePoint point = t.point;
-    if (ci == CiMethod::kSimple) {
-      const int64_t clusters = valid_samples / point.m;
-      if (clusters >= 2) {
-        const double f = SimpleErrorFraction(clusters);
-        point.lo = point.dev * (1.0 - f);
-        point.hi = point.dev * (1.0 + f);
-        point.edf = static_cast<double>(clusters - 1);
-      }
-    } else if (ci == CiMethod::kChi2) {
-      const std::optional<int> alpha = NearestIdentifiedAlpha(alphas, i);
-      if (alpha) {
-        const int64_t n_eff = (point.n - 1) * t.stride + 2 * point.m + 1;
-        const std::optional<double> edf =
-            GreenhallEdf(*alpha, /*d=*/2, point.m, n_eff, /*F=*/static_cast<double>(point.m),
-                         /*S=*/static_cast<double>(t.c));
-        if (edf.has_value() && std::isfinite(*edf) && *edf > 0) {
-          const auto [lo, hi] = Chi2Interval(point.dev, *edf, confidence);
-          point.lo = lo;
-          point.hi = hi;
-          point.edf = *edf;
-          point.alpha = *alpha;
-          point.alpha_inherited = !alphas[i].has_value();
-        }
-      }
+  size_t keep = mark.terms.size();
+  while (keep > 0 && mark.terms[keep - 1] == 0) --keep;
+  mark.sum.resize(keep);
+  mark.terms.resize(keep);
+  mark.sum.shrink_to_fit();
+  mark.terms.shrink_to_fit();
+  return mark;
+}
+
+Curve StreamingAllan::SegmentOadev(std::span<const StreamMark> marks, size_t from, size_t to,
+                                   StreamGrid grid, StopRule stop, CiMethod ci,
+                                   double confidence) const {
+  assert(from < to && to < marks.size());
+  const StreamMark& first = marks[from];
+  const StreamMark& last = marks[to];
+  const int64_t samples = last.samples - first.samples;
+  const int64_t invalid = last.invalid - first.invalid;
+  const int64_t m_stop =
+      std::min(options_.max_m, StopRuleMaxAveragingFactor(stop, Deviation::kOadev, samples + 1));
+  const auto at = [](const StreamMark& mark, size_t k) {
+    return k < mark.terms.size() ? std::pair{mark.sum[k], mark.terms[k]}
+                                 : std::pair{0.0, int64_t{0}};
+  };
+  std::vector<Tracked> tracked;
+  size_t index = 0;
+  size_t cut = from;  // the mark whose terms are taken away, for the current m
+  for (size_t j = 0; j < levels_.size(); ++j) {
+    const Level& level = levels_[j];
+    for (int ci_index = 0; ci_index < level.c_count; ++ci_index, ++index) {
+      const int c = level.c_first + ci_index;
+      const int64_t m = int64_t{c} << j;
+      if (m > m_stop) continue;
+      // A term of m ending at phase point p spans samples [p - 2m, p): it
+      // lies in the stretch iff p >= first.samples + 2m.
+      while (cut < to && marks[cut].samples < first.samples + 2 * m - 1) ++cut;
+      if (cut >= to) continue;
+      const auto [sum_end, n_end] = at(last, index);
+      const auto [sum_cut, n_cut] = at(marks[cut], index);
+      const int64_t n = n_end - n_cut;
+      if (n <= 1) continue;
+      tracked.push_back(
+          TrackedPoint(m, c, j, std::max(sum_end - sum_cut, 0.0), n, options_.tau0_s));
     }
-    curve.points.push_back(point);
   }
+  Curve curve = CurveOfTracked(std::move(tracked), options_.tau0_s, samples, invalid, grid, ci,
+                               confidence);
   return curve;
 }
 

@@ -64,6 +64,20 @@ struct StreamingOptions {
   Status Validate() const;
 };
 
+// The terms an engine has accumulated up to a moment (StreamingAllan::Mark):
+// for each tracked averaging factor, in the engine's order (level by level,
+// c within a level), the sum of squared second differences and the count of
+// the valid terms whose last phase point is at or before the mark; entries
+// past the last factor with terms are left out (zero). Two marks of one
+// engine give the curve of the stretch between them (SegmentOadev).
+struct StreamMark {
+  int64_t samples = 0;  // samples appended before the mark
+  int64_t invalid = 0;  // of them invalid or missing
+  std::vector<double> sum;
+  std::vector<int64_t> terms;
+  size_t Bytes() const { return sizeof(*this) + sum.capacity() * 8 + terms.capacity() * 8; }
+};
+
 // Which tracked averaging factors Oadev() reports.
 enum class StreamGrid {
   kOctave,  // m = 2^k only
@@ -129,6 +143,25 @@ class StreamingAllan {
   //    is undefined.
   Curve Oadev(StreamGrid grid, StopRule stop, CiMethod ci,
               double confidence = 0.682689492137086) const;
+
+  // The terms accumulated so far (see StreamMark). Costs a copy of the
+  // engine's state and the terms of its partial blocks (microseconds).
+  StreamMark Mark() const;
+
+  // The overlapping Allan deviation of the samples between two marks of this
+  // engine, [marks[from].samples, marks[to].samples), from the terms that lie
+  // wholly inside that stretch: for averaging factor m, the terms that end
+  // by marks[to] less those that end by the first mark at or after
+  // marks[from].samples + 2m - 1 (every term reaching back before the
+  // stretch, and those up to that mark: a term wholly inside is never
+  // counted twice nor across the boundary, so each point is the unbiased
+  // estimator on fewer terms, exact when the marks fall at term ends).
+  // Marks in increasing samples; from < to. Grid, stop rule (on the
+  // stretch's length) and intervals as Oadev(), on the stretch's own
+  // samples, invalid samples and terms.
+  Curve SegmentOadev(std::span<const StreamMark> marks, size_t from, size_t to, StreamGrid grid,
+                     StopRule stop, CiMethod ci,
+                     double confidence = 0.682689492137086) const;
 
   // Bytes of state held by this engine (object plus heap), bounded by the
   // options whatever the record length.

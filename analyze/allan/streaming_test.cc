@@ -486,6 +486,72 @@ TEST(StreamingAllanTest, WithinOneSigmaOfExactFullOverlapCurve) {
   }
 }
 
+// GIVEN a gappy record with a mark after every sample
+// WHEN the curve of a stretch is taken between two marks
+// THEN it has exactly the terms of an engine fed that stretch alone (same m,
+//      same n, the same deviation to rounding: the same reference rate);
+//      with marks every 256 samples it has a subset of them, none reaching
+//      outside the stretch, and the whole record's stretch is the record's
+//      curve.
+TEST(StreamingAllanTest, SegmentBetweenMarksHasTheStretchsOwnTerms) {
+  const Record r = WithGaps(WhitePlusWalk(6000, 1.5, 0.1, 1e-3, 21), 0.002, 22);
+  std::vector<double> rate;
+  std::vector<uint8_t> invalid;
+  Expand(r, &rate, &invalid);
+  StreamingAllan engine(Options(8, 1.5));
+  std::vector<StreamMark> marks{engine.Mark()};
+  for (size_t i = 0; i < rate.size(); ++i) {
+    engine.Append(std::span<const double>(&rate[i], 1), std::span<const uint8_t>(&invalid[i], 1));
+    marks.push_back(engine.Mark());
+  }
+  // At a multiple of the largest stride used, so the engine's strided terms
+  // fall at the same places in the stretch as in an engine fed it alone.
+  const size_t from = 1024, to = 5120;
+  StreamingAllan alone(Options(8, 1.5));
+  alone.Append(std::span<const double>(rate).subspan(from, to - from),
+               std::span<const uint8_t>(invalid).subspan(from, to - from));
+  for (CiMethod ci : {CiMethod::kNone, CiMethod::kChi2}) {
+    const Curve want = alone.Oadev(StreamGrid::kDense, StopRule::kBins9, ci);
+    const Curve got =
+        engine.SegmentOadev(marks, from, to, StreamGrid::kDense, StopRule::kBins9, ci);
+    ASSERT_GT(want.points.size(), 20u);
+    ASSERT_EQ(got.points.size(), want.points.size());
+    EXPECT_EQ(got.n_phase, want.n_phase);
+    EXPECT_EQ(got.invalid_rate_samples, want.invalid_rate_samples);
+    for (size_t i = 0; i < want.points.size(); ++i) {
+      EXPECT_EQ(got.points[i].m, want.points[i].m);
+      EXPECT_EQ(got.points[i].n, want.points[i].n) << "m " << want.points[i].m;
+      EXPECT_NEAR(got.points[i].dev, want.points[i].dev, 1e-9 * want.points[i].dev);
+      if (ci == CiMethod::kChi2) EXPECT_NEAR(got.points[i].edf, want.points[i].edf, 1e-6);
+    }
+  }
+  // Marks every 256 samples: fewer terms, and the deviation within its own
+  // spread of the stretch's.
+  std::vector<StreamMark> coarse;
+  for (size_t k = 0; k < marks.size(); k += 256) coarse.push_back(marks[k]);
+  const Curve want = alone.Oadev(StreamGrid::kDense, StopRule::kBins9, CiMethod::kNone);
+  const Curve got = engine.SegmentOadev(coarse, from / 256, to / 256, StreamGrid::kDense,
+                                        StopRule::kBins9, CiMethod::kNone);
+  ASSERT_FALSE(got.points.empty());
+  for (const CurvePoint& p : got.points) {
+    const auto w = std::find_if(want.points.begin(), want.points.end(),
+                                [&](const CurvePoint& q) { return q.m == p.m; });
+    ASSERT_NE(w, want.points.end()) << p.m;
+    EXPECT_LE(p.n, w->n) << p.m;
+    EXPECT_GE(p.n, w->n - 256 / p.stride - 1) << p.m;
+    EXPECT_NEAR(p.dev, w->dev, 3 * w->dev / std::sqrt(static_cast<double>(p.n))) << p.m;
+  }
+  // The whole record between its first and last marks is the record.
+  const Curve all = engine.Oadev(StreamGrid::kDense, StopRule::kBins9, CiMethod::kChi2);
+  const Curve whole = engine.SegmentOadev(marks, 0, marks.size() - 1, StreamGrid::kDense,
+                                          StopRule::kBins9, CiMethod::kChi2);
+  ASSERT_EQ(whole.points.size(), all.points.size());
+  for (size_t i = 0; i < all.points.size(); ++i) {
+    EXPECT_EQ(whole.points[i].n, all.points[i].n);
+    EXPECT_NEAR(whole.points[i].dev, all.points[i].dev, 1e-12 * all.points[i].dev);
+  }
+}
+
 // A single point (or none) gives no chi2 interval rather than a guess.
 TEST(StreamingAllanTest, NoChi2IntervalWithoutASlope) {
   StreamingOptions o = Options(1, 0.0);
