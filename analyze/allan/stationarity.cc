@@ -968,12 +968,17 @@ Segment LongestStationarySegment(const StationarityScan& scan, double length_s, 
       cuts.emplace_back(e.time_s, e.time_s + e.window_s);
     }
   }
+  return LongestUncutStretch(std::move(cuts), length_s);
+}
+
+Segment LongestUncutStretch(std::vector<std::pair<double, double>> cuts, double length_s) {
   std::sort(cuts.begin(), cuts.end());
   Segment best{0, 0};
   double from = 0;
   for (const auto& [lo, hi] : cuts) {
-    if (lo - from > best.end_s - best.begin_s) best = {from, lo};
-    from = std::max(from, hi);
+    const double end = std::min(lo, length_s);
+    if (end - from > best.end_s - best.begin_s) best = {from, end};
+    from = std::clamp(hi, from, length_s);
   }
   if (length_s - from > best.end_s - best.begin_s) best = {from, length_s};
   return best;

@@ -17,6 +17,15 @@ std::string Num(double v) {
   return buf;
 }
 
+// Where the axis was judged: its judged_segment's note up to its first comma
+// ("the stretch 0-1192 s of the 2400 s record"), or "the whole record".
+std::string JudgedSegmentText(const std::vector<pb::Measurement>& ms, const std::string& axis) {
+  for (const pb::Measurement& m : ms) {
+    if (m.axis() == axis && m.name() == kJudgedSegment) return m.note().substr(0, m.note().find(','));
+  }
+  return "the whole record";
+}
+
 const AxisDesc* FindAxis(const std::vector<AxisDesc>& axes, const std::string& name) {
   for (const AxisDesc& a : axes) {
     if (a.name == name) return &a;
@@ -366,7 +375,27 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
       if (o != pb::OUTCOME_UNSET && o != pb::PASS) {
         j.reasons.push_back(what + " (the plan's on_event: " + action + ")");
       } else if (o == pb::OUTCOME_UNSET && m.value() > 0) {
-        qualifier_reasons.push_back(what + " (" + action + ": the verdict is the limits')");
+        qualifier_reasons.push_back(
+            what + " (" + action + ": the verdict is the limits'" +
+            (plan.stationarity().on_event() == pb::Stationarity::JUDGE_LONGEST_SEGMENT
+                 ? " on " + JudgedSegmentText(*measurements, m.axis())
+                 : std::string()) +
+            ")");
+      }
+      continue;
+    }
+    if (limit == nullptr && axis != nullptr && m.name() == kJudgedSegment) {
+      // No limit on the stretch: at least the plan's minimum duration, else
+      // the unit is not judged (a retest), never failed for its events.
+      const double need = plan.min_duration_s();
+      const bool enough = std::isfinite(m.value()) && m.value() >= need;
+      m.set_outcome(enough ? pb::PASS : pb::INCONCLUSIVE);
+      m.set_decision_rule(pb::Limit::RULE_DEFAULT);
+      m.clear_guard_band();
+      if (!enough) {
+        j.reasons.push_back(m.axis() + ": the longest stretch without a found event, " +
+                            Num(m.value()) + " s, is shorter than the plan's " +
+                            Num(need) + " s (min_duration_s): not judged, retest");
       }
       continue;
     }

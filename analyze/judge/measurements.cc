@@ -37,6 +37,9 @@ const std::vector<MeasurementDef>& MeasurementCatalog() {
       {kStationarityEvents, false, "1", "1",
        "level steps and bursts the stationarity scan found on the axis (plans with "
        "stationarity; not measurable when the record was too short to scan)"},
+      {kJudgedSegment, false, "s", "s",
+       "length of the stretch the axis was judged on: its longest without a found event (plans "
+       "whose stationarity judges the longest segment; the whole record where none was found)"},
       {kDecisionTime, true, "s", "s",
        "analysed device time at which early decisions decided the unit (plans with "
        "early_decision; not measurable when it stayed pending to the end)"},

@@ -75,6 +75,11 @@ inline constexpr std::string_view kDecisionTime = "decision_time";
 // a step's bin boundary or the middle of the bin holding it, a burst's
 // start) and, for a burst, "event_<k>_end".
 inline constexpr std::string_view kStationarityEvents = "stationarity_events";
+// Plans whose stationarity judges the longest segment (JUDGE_LONGEST_SEGMENT):
+// the length of the stretch an axis was judged on (every axis of such a
+// plan; the whole record where no event was found), s; its note says where
+// it lies and why.
+inline constexpr std::string_view kJudgedSegment = "judged_segment";
 inline constexpr std::string_view kEventPrefix = "event_";
 // The unit of a noise-level change's event_<k> (the short-tau noise
 // amplitude after over before), which has no _end.

@@ -219,6 +219,16 @@ std::vector<std::string> Problems(const pb::TestPlan& plan, const Locator& where
 
 // The stationarity block's first problem.
 Status ValidateStationarity(const pb::TestPlan& plan, const Locator& where) {
+  const bool segments = plan.has_stationarity() &&
+                        plan.stationarity().on_event() == pb::Stationarity::JUDGE_LONGEST_SEGMENT;
+  for (int i = 0; i < plan.limits_size() && !segments; ++i) {
+    if (plan.limits(i).measurement() == kJudgedSegment) {
+      return Fail(where, "limits", i, "limits[" + std::to_string(i) + "].measurement",
+                  "judged_segment needs stationarity.on_event JUDGE_LONGEST_SEGMENT (the stretch "
+                  "an axis is judged on)",
+                  "measurement");
+    }
+  }
   if (!plan.has_stationarity()) {
     for (int i = 0; i < plan.limits_size(); ++i) {
       if (plan.limits(i).measurement() == kStationarityEvents) {
@@ -333,6 +343,11 @@ Status ValidateStationarity(const pb::TestPlan& plan, const Locator& where) {
       return bad("on_event", pb::Stationarity::OnEvent_Name(s.on_event()) +
                                  " needs a reference_model for " + m + kWhy);
     }
+  }
+  if (segments && plan.has_early_decision()) {
+    return bad("on_event",
+               "JUDGE_LONGEST_SEGMENT cannot go with early_decision: the looks judge the whole "
+               "record as it grows, the segment is chosen once it has ended");
   }
   for (int i = 0; i < plan.limits_size(); ++i) {
     const pb::Limit& lim = plan.limits(i);

@@ -151,6 +151,12 @@ TEST(PlanTest, RejectsBadPlans) {
        "limits { measurement: \"stationarity_events\" high: 0 unit: \"1\" }",
        "limits[0]: a limit on stationarity_events needs a stationarity.reference_model for GYRO "
        "axes (axis 'x')"},
+      {"nominal_rate_hz: 100 limits { measurement: \"judged_segment\" low: 600 unit: \"s\" }",
+       "limits[0].measurement: judged_segment needs stationarity.on_event JUDGE_LONGEST_SEGMENT"},
+      {"nominal_rate_hz: 100 axes { name: \"x\" kind: GYRO } stationarity { on_event: "
+       "JUDGE_LONGEST_SEGMENT reference_model { axis_kind: GYRO source: \"s\" random_walk: 0.01 "
+       "} } early_decision { risk: 0.01 min_duration_s: 600 }",
+       "stationarity.on_event: JUDGE_LONGEST_SEGMENT cannot go with early_decision"},
       {"nominal_rate_hz: 100 min_duration_s: 600 stationarity { bin_s: 30 }",
        "stationarity.bin_s: 30 s leaves fewer than the 32 bins a scan needs in 600 s"},
       {"nominal_rate_hz: 100 min_duration_s: 36000 stationarity { bin_s: 1 }",

@@ -114,6 +114,8 @@ pb::Outcome StationarityOutcome(const pb::TestPlan& plan, double events) {
   if (!std::isfinite(events)) return pb::INCONCLUSIVE;
   if (events < 1) return pb::PASS;
   switch (action) {
+    case pb::Stationarity::JUDGE_LONGEST_SEGMENT:
+      return pb::OUTCOME_UNSET;  // the limits judge the stretch without events
     case pb::Stationarity::EVENT_MARGINAL:
       return pb::MARGINAL;
     case pb::Stationarity::EVENT_FAIL:
@@ -131,8 +133,10 @@ std::string StationarityEventSummary(const pb::Measurement& events) {
 
 std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
                                                  const std::vector<StationarityAxis>& axes,
-                                                 double bin_s, double tau0_s) {
+                                                 double bin_s, double tau0_s,
+                                                 std::vector<EventCuts>* cuts) {
   std::vector<pb::Measurement> out;
+  if (cuts != nullptr) cuts->assign(axes.size(), {});
   if (!plan.has_stationarity()) return out;
   const pb::Stationarity& st = plan.stationarity();
   allan::StationarityOptions options;
@@ -237,6 +241,17 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
       for (const allan::StationarityEvent& e : scan->events) {
         const allan::EventAxis& ea = e.axes[i];
         if (!ea.named) continue;
+        if (cuts != nullptr) {
+          // A bin either side: the scan places an event to within its bins.
+          const double w = scan->bin_s;
+          if (std::isfinite(ea.gap_from_s)) {
+            (*cuts)[a].emplace_back(ea.gap_from_s - w, ea.gap_to_s + w);
+          } else if (e.kind == allan::EventKind::kStep) {
+            (*cuts)[a].emplace_back(e.time_s - w, e.time_s + w);
+          } else {
+            (*cuts)[a].emplace_back(e.time_s - w, e.time_s + e.window_s + w);
+          }
+        }
         const int k = static_cast<int>(texts.size()) + 1;
         texts.push_back(EventText(e, ea, kind));
         const std::string name = std::string(kEventPrefix) + std::to_string(k);
@@ -304,6 +319,9 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
               " s, an event beyond x" + Fmt("%.4g", 1 + noise_tolerance) + " either way" +
               (noise->note.empty() ? "" : " (" + noise->note + ")");
           if (noise->found()) {
+            if (cuts != nullptr) {
+              (*cuts)[a].emplace_back(noise->time_s - scan->bin_s, noise->time_s + scan->bin_s);
+            }
             const int k = static_cast<int>(texts.size()) + 1;
             texts.push_back("noise level x" + Fmt("%.4g", noise->ratio) + " \u00b1 " +
                             Fmt("%.2g", noise->ratio_sigma) + " from " +

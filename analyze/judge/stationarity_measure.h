@@ -28,6 +28,7 @@
 #define IMUQUAL_ANALYZE_JUDGE_STATIONARITY_MEASURE_H_
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "analyze/allan/composite_model.h"
@@ -88,10 +89,16 @@ inline constexpr double kDefaultNoiseLevelTolerance = 0.05;
 // axis gets its stationarity_events, not measurable (NaN, the note says why)
 // when the record is too short or no model could be had. `bin_s`: the bins'
 // length, `tau0_s` the samples' interval. Does nothing without the plan's
-// stationarity block.
+// stationarity block. `cuts`, if given, gets per axis (in the axes' order)
+// the stretches [from_s, to_s] its events touch, s from the end of the
+// warm-up, a bin either side (the scan places an event to within its bins):
+// a step's or a noise level change's time, a burst from start to end, a
+// step in missing data its missing stretch.
+using EventCuts = std::vector<std::pair<double, double>>;
 std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
                                                  const std::vector<StationarityAxis>& axes,
-                                                 double bin_s, double tau0_s);
+                                                 double bin_s, double tau0_s,
+                                                 std::vector<EventCuts>* cuts = nullptr);
 
 // The bins a plan's scan wants for an analysed record of `samples` at
 // `tau0_s`: the plan's bin_s, else the record's length / 300, in samples.
@@ -99,7 +106,9 @@ int64_t StationarityBinSamples(const pb::TestPlan& plan, int64_t samples, double
 
 // What a found event does under the plan's on_event when no limit judges
 // stationarity_events: the outcome of a count (PASS for none; a not
-// measurable count is INCONCLUSIVE) and, for QUALIFIER_ONLY, UNSET.
+// measurable count is INCONCLUSIVE) and, for QUALIFIER_ONLY and for events
+// under JUDGE_LONGEST_SEGMENT (the limits judge the stretch without them),
+// UNSET.
 pb::Outcome StationarityOutcome(const pb::TestPlan& plan, double events);
 
 // A stationarity_events measurement's events as its note lists them ("1

@@ -112,6 +112,14 @@ Result<RunAnalyzer> RunAnalyzer::Create(RunDescription description, AnalyzerOpti
   }
   a.sum_.assign(a.desc_.axes.size(), 0.0);
   a.count_.assign(a.desc_.axes.size(), 0);
+  if (a.desc_.plan.has_stationarity() &&
+      a.desc_.plan.stationarity().on_event() == pb::Stationarity::JUDGE_LONGEST_SEGMENT) {
+    a.mark_every_ = std::max<int64_t>(1, std::llround(a.desc_.nominal_rate_hz));
+    for (const allan::StreamingAllan& e : a.engines_) {
+      a.marks_.push_back({e.Mark()});
+      a.mark_sums_.push_back({SumMark{}});
+    }
+  }
   a.invalid_samples_.assign(a.desc_.axes.size(), 0);
   a.clock_ = DeviceClockFit(a.desc_.nominal_rate_hz);
   a.invalid_scratch_.resize(a.desc_.axes.size());
@@ -139,18 +147,53 @@ void RunAnalyzer::Push(int64_t count_missing) {
       after_decision_ += rest;
       return;
     }
-    const int64_t n = std::min(rest, UntilLook());
+    const int64_t n = std::min(rest, UntilStop());
     for (allan::StreamingAllan& e : engines_) e.AppendMissing(n);
     for (allan::BinAccumulator& b : bins_) b.AppendMissing(n);
     gap_samples_ += n;
     rest -= n;
-    LookIfDue();
+    AtStop();
   }
 }
 
 int64_t RunAnalyzer::UntilLook() const {
   if (!decider_ || next_look_ >= look_samples_.size()) return INT64_MAX;
   return std::max<int64_t>(look_samples_[next_look_] - engines_.front().samples(), 0);
+}
+
+int64_t RunAnalyzer::UntilStop() const {
+  int64_t until = UntilLook();
+  if (mark_every_ > 0) {
+    const int64_t since = engines_.front().samples() - marks_.front().back().samples;
+    until = std::min(until, std::max<int64_t>(mark_every_ - since, 0));
+  }
+  return until;
+}
+
+void RunAnalyzer::AtStop() {
+  if (mark_every_ > 0 &&
+      engines_.front().samples() - marks_.front().back().samples >= mark_every_) {
+    for (size_t a = 0; a < engines_.size(); ++a) {
+      marks_[a].push_back(engines_[a].Mark());
+      mark_sums_[a].push_back({sum_[a], count_[a]});
+    }
+    if (marks_.front().size() > kMaxMarks) {
+      // Every other mark (those at odd multiples of the spacing) goes.
+      mark_every_ *= 2;
+      for (size_t a = 0; a < engines_.size(); ++a) {
+        size_t kept = 0;
+        for (size_t k = 0; k < marks_[a].size(); ++k) {
+          if (marks_[a][k].samples % mark_every_ != 0) continue;
+          marks_[a][kept] = std::move(marks_[a][k]);
+          mark_sums_[a][kept] = mark_sums_[a][k];
+          ++kept;
+        }
+        marks_[a].resize(kept);
+        mark_sums_[a].resize(kept);
+      }
+    }
+  }
+  LookIfDue();
 }
 
 void RunAnalyzer::LookIfDue() {
@@ -288,7 +331,7 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
       break;
     }
     const size_t len =
-        static_cast<size_t>(std::min<int64_t>(static_cast<int64_t>(n - pos), UntilLook()));
+        static_cast<size_t>(std::min<int64_t>(static_cast<int64_t>(n - pos), UntilStop()));
     for (size_t a = 0; a < axes; ++a) {
       const std::span<const float> values = batch.samples[a].subspan(pos, len);
       const std::span<const uint8_t> invalid =
@@ -305,7 +348,7 @@ Status RunAnalyzer::AddBatch(const BatchView& batch) {
       }
     }
     pos += len;
-    LookIfDue();
+    AtStop();
   }
   next_counter_ = batch.first_sample + static_cast<int64_t>(n);
   // The batch's temperature, weighted by the samples it contributed to the
@@ -377,6 +420,38 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
   for (size_t a = 0; a < axes; ++a) {
     dense_of[a] = engines_[a].Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kNone);
   }
+  // The final result of a plan with stationarity: each axis's whole-record
+  // curve with its intervals, and the scan (the reference check reads the
+  // curves); with JUDGE_LONGEST_SEGMENT, the stretch each axis is judged on.
+  std::vector<allan::Curve> whole_ci;
+  std::vector<pb::Measurement> stationarity;
+  std::vector<std::optional<allan::Curve>> segment_ci(axes);
+  std::vector<double> means(axes);
+  for (size_t a = 0; a < axes; ++a) {
+    means[a] = count_[a] > 0 ? sum_[a] / static_cast<double>(count_[a]) : allan::kNaN;
+  }
+  if (final && !bins_.empty()) {
+    for (const allan::StreamingAllan& e : engines_) {
+      whole_ci.push_back(e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kChi2,
+                                 allan::kOneSigmaConfidence));
+    }
+    int64_t bin_samples = judge::StationarityBinSamples(plan, engines_.front().samples(), tau0_s_);
+    std::vector<judge::StationarityAxis> scan_axes(axes);
+    for (size_t a = 0; a < axes; ++a) {
+      scan_axes[a].axis = desc_.axes[a];
+      scan_axes[a].bin_means = bins_[a].Means(&bin_samples);
+      scan_axes[a].mean_square = bins_[a].MeanSquareDifferences(bin_samples);
+      scan_axes[a].curve = &whole_ci[a];
+    }
+    std::vector<judge::EventCuts> cuts;
+    stationarity = judge::MeasureStationarity(plan, scan_axes,
+                                              static_cast<double>(bin_samples) * tau0_s_, tau0_s_,
+                                              marks_.empty() ? nullptr : &cuts);
+    for (size_t a = 0; a < axes && !marks_.empty(); ++a) {
+      pb::Measurement m = JudgeOnSegment(a, cuts[a], stop, &dense_of[a], &segment_ci[a], &means[a]);
+      stationarity.push_back(std::move(m));
+    }
+  }
   // The noise model once the run has ended (a fit costs 20-500 ms per axis;
   // interim looks judge the read-offs only), every axis on its own thread.
   std::vector<std::vector<pb::Measurement>> model_of(axes);
@@ -398,17 +473,22 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
     const allan::StreamingAllan& e = engines_[a];
     // The judged curve is the dense grid (every tracked averaging factor, a
     // superset of the octave grid): the final result publishes it, so the
-    // archive holds every point a measurement was read from. Interim looks
-    // publish the plan's grid. Both with chi-square intervals (Greenhall edf,
-    // noise identified from the local slope; the long-tau rule in
-    // streaming.h).
+    // archive holds every point a measurement was read from (an axis judged
+    // on a stretch: that stretch's curve). Interim looks publish the plan's
+    // grid. Both with chi-square intervals (Greenhall edf, noise identified
+    // from the local slope; the long-tau rule in streaming.h).
     allan::Curve& dense = dense_of[a];
     if (curves) {
-      curves->emplace_back(desc_.axes[a].name,
-                           e.Oadev(final ? allan::StreamGrid::kDense : grid, stop,
-                                   allan::CiMethod::kChi2, allan::kOneSigmaConfidence));
+      if (segment_ci[a]) {
+        curves->emplace_back(desc_.axes[a].name, std::move(*segment_ci[a]));
+      } else if (!whole_ci.empty()) {
+        curves->emplace_back(desc_.axes[a].name, whole_ci[a]);
+      } else {
+        curves->emplace_back(desc_.axes[a].name,
+                             e.Oadev(final ? allan::StreamGrid::kDense : grid, stop,
+                                     allan::CiMethod::kChi2, allan::kOneSigmaConfidence));
+      }
     }
-    const double mean = count_[a] > 0 ? sum_[a] / static_cast<double>(count_[a]) : allan::kNaN;
     // tau_at_minimum's u in the final result, and at a look when the plan
     // judges it on this axis (a live update every few seconds would refit
     // every axis's bottom).
@@ -416,37 +496,13 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
                                  judge::FindLimit(desc_.plan, std::string(judge::kTauAtMinimum),
                                                   &desc_.axes[a]) != nullptr);
     for (pb::Measurement& m :
-         judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, mean, tau_u)) {
+         judge::MeasureAxis(desc_.axes[a].name, desc_.axes[a].kind, dense, means[a], tau_u)) {
       out.push_back(std::move(m));
     }
     for (pb::Measurement& m : model_of[a]) out.push_back(std::move(m));
     if (dense_curves) dense_curves->push_back(std::move(dense));
   }
-  if (final && !bins_.empty()) {
-    // The stationarity scan of the record (every axis's bin means; the
-    // curves with their intervals for the reference check and the record's
-    // own model).
-    std::vector<allan::Curve> with_ci;
-    if (curves == nullptr) {
-      for (const allan::StreamingAllan& e : engines_) {
-        with_ci.push_back(e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kChi2,
-                                  allan::kOneSigmaConfidence));
-      }
-    }
-    int64_t bin_samples = judge::StationarityBinSamples(plan, engines_.front().samples(), tau0_s_);
-    std::vector<judge::StationarityAxis> scan_axes(axes);
-    for (size_t a = 0; a < axes; ++a) {
-      scan_axes[a].axis = desc_.axes[a];
-      scan_axes[a].bin_means = bins_[a].Means(&bin_samples);
-      scan_axes[a].mean_square = bins_[a].MeanSquareDifferences(bin_samples);
-      scan_axes[a].curve =
-          curves != nullptr ? &(*curves)[curves->size() - axes + a].second : &with_ci[a];
-    }
-    for (pb::Measurement& m : judge::MeasureStationarity(
-             plan, scan_axes, static_cast<double>(bin_samples) * tau0_s_, tau0_s_)) {
-      out.push_back(std::move(m));
-    }
-  }
+  for (pb::Measurement& m : stationarity) out.push_back(std::move(m));
   const int64_t samples = engines_.front().samples();
   int64_t invalid = 0;
   for (int64_t n : invalid_samples_) invalid += n;
@@ -464,6 +520,76 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
     }
   }
   return out;
+}
+
+pb::Measurement RunAnalyzer::JudgeOnSegment(size_t a, const judge::EventCuts& cuts,
+                                            allan::StopRule stop, allan::Curve* dense,
+                                            std::optional<allan::Curve>* with_ci,
+                                            double* mean) const {
+  const allan::StreamingAllan& engine = engines_[a];
+  const double length_s = static_cast<double>(engine.samples()) * tau0_s_;
+  const judge::AxisDesc& axis = desc_.axes[a];
+  const auto number = [](double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+    return std::string(buf);
+  };
+  pb::Measurement m;
+  m.set_axis(axis.name);
+  m.set_name(std::string(judge::kJudgedSegment));
+  m.set_unit("s");
+  m.set_uncertainty_method("none: exact (device sample counter)");
+  if (cuts.empty()) {
+    m.set_value(length_s);
+    m.set_note("the whole record, 0-" + number(length_s) + " s: no event found on the axis");
+    return m;
+  }
+  // The marks and the record's end.
+  std::vector<allan::StreamMark> marks = marks_[a];
+  std::vector<SumMark> sums = mark_sums_[a];
+  if (marks.back().samples < engine.samples()) {
+    marks.push_back(engine.Mark());
+    sums.push_back({sum_[a], count_[a]});
+  }
+  const allan::Segment stretch = allan::LongestUncutStretch(cuts, length_s);
+  // Its ends on the marks, rounded inward.
+  size_t from = 0;
+  while (from + 1 < marks.size() &&
+         static_cast<double>(marks[from].samples) * tau0_s_ < stretch.begin_s - 1e-9) {
+    ++from;
+  }
+  size_t to = marks.size() - 1;
+  while (to > from && static_cast<double>(marks[to].samples) * tau0_s_ > stretch.end_s + 1e-9) {
+    --to;
+  }
+  std::string touched;
+  for (const auto& [lo, hi] : cuts) {
+    touched += (touched.empty() ? "" : ", ") + number(std::max(lo, 0.0)) + "-" +
+               number(std::min(hi, length_s)) + " s";
+  }
+  const double begin_s = static_cast<double>(marks[from].samples) * tau0_s_;
+  const double end_s = static_cast<double>(marks[to].samples) * tau0_s_;
+  m.set_value(end_s - begin_s);
+  m.set_note("the stretch " + number(begin_s) + "-" + number(end_s) + " s of the " +
+             number(length_s) + " s record, the longest that no found event touches (events at " +
+             touched + ", a scan bin either side), its ends on the analysis's marks (every " +
+             number(static_cast<double>(mark_every_) * tau0_s_) +
+             " s, rounded inward); the curve, the read-offs and the noise model are of that "
+             "stretch");
+  if (to <= from) {
+    *dense = allan::Curve{};
+    dense->tau0_s = tau0_s_;
+    *with_ci = *dense;
+    *mean = allan::kNaN;
+    return m;
+  }
+  *dense = engine.SegmentOadev(marks, from, to, allan::StreamGrid::kDense, stop,
+                               allan::CiMethod::kNone);
+  *with_ci = engine.SegmentOadev(marks, from, to, allan::StreamGrid::kDense, stop,
+                                 allan::CiMethod::kChi2, allan::kOneSigmaConfidence);
+  const int64_t count = sums[to].count - sums[from].count;
+  *mean = count > 0 ? (sums[to].sum - sums[from].sum) / static_cast<double>(count) : allan::kNaN;
+  return m;
 }
 
 RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {

@@ -24,6 +24,7 @@
 #include "analyze/judge/early_decision.h"
 #include "analyze/judge/judge.h"
 #include "analyze/judge/measure.h"
+#include "analyze/judge/stationarity_measure.h"
 #include "analyze/service/device_clock.h"
 #include "common/status.h"
 #include "imuqual/plan.pb.h"
@@ -148,6 +149,10 @@ class RunAnalyzer {
   int64_t UntilLook() const;
   // Runs the look due now (early decisions), if one is.
   void LookIfDue();
+  // Analysed samples left before the next mark or look; the mark and the
+  // look due now, if any.
+  int64_t UntilStop() const;
+  void AtStop();
   // Every measurement of the record as analysed so far (the noise model
   // only when `final`); the judged curves into `curves` if given, and the
   // dense curves the measurements were read from (no intervals), one per
@@ -155,6 +160,15 @@ class RunAnalyzer {
   std::vector<pb::Measurement> MeasureNow(bool final,
                                           std::vector<std::pair<std::string, allan::Curve>>* curves,
                                           std::vector<allan::Curve>* dense_curves = nullptr) const;
+
+  // Axis a judged on its longest stretch that none of `cuts` touches (plans
+  // that judge the longest stationary segment): that stretch's dense curve
+  // without intervals into `dense`, with them into `with_ci`, its mean into
+  // `mean` (all left alone when no event cut the record), and the axis's
+  // judged_segment measurement.
+  pb::Measurement JudgeOnSegment(size_t a, const judge::EventCuts& cuts, allan::StopRule stop,
+                                 allan::Curve* dense, std::optional<allan::Curve>* with_ci,
+                                 double* mean) const;
 
   RunDescription desc_;
   AnalyzerOptions options_;
@@ -174,6 +188,20 @@ class RunAnalyzer {
   std::vector<int64_t> count_;
   std::vector<std::vector<uint8_t>> invalid_scratch_;  // per axis
   std::vector<double> out_of_range_at_;                // per axis: |sample| >= it is invalid
+  // Marks of every axis's engine and of its valid samples' sum and count,
+  // every mark_every_ analysed samples from the first (plans that judge the
+  // longest stationary segment; none otherwise): the curve and the mean of
+  // a stretch between two marks. The spacing doubles (every other mark
+  // dropped) when there would be more than kMaxMarks, so they stay bounded
+  // and at most 1/256 of the record apart.
+  struct SumMark {
+    double sum = 0;
+    int64_t count = 0;
+  };
+  static constexpr size_t kMaxMarks = 512;
+  std::vector<std::vector<allan::StreamMark>> marks_;  // per axis
+  std::vector<std::vector<SumMark>> mark_sums_;        // per axis
+  int64_t mark_every_ = 0;
   std::optional<judge::EarlyDecider> decider_;
   std::vector<int64_t> look_samples_;  // analysed samples at each look
   size_t next_look_ = 0;

@@ -461,6 +461,66 @@ TEST(RunAnalyzerTest, ALevelStepIsFoundArchivedAndJudgedAsThePlanSays) {
       << out.judgement.reasons.back();
 }
 
+TEST(RunAnalyzerTest, JudgeLongestSegmentJudgesEachAxisOnItsStretchWithoutEvents) {
+  // GIVEN the step of 0.035 deg/s on x at 1203 s of the 2400 s record (no
+  // batch lost), under a plan that judges each axis's longest stretch
+  // without an event and limits bias_offset to +-20 deg/h (the whole
+  // record's mean is +63 deg/h: half of it after the step)
+  RunDescription d = StationarityDesc(pb::Stationarity::JUDGE_LONGEST_SEGMENT);
+  pb::Limit* l = d.plan.add_limits();
+  l->set_measurement(std::string(judge::kBiasOffset));
+  l->set_axis_kind(pb::GYRO);
+  l->set_low(-20);
+  l->set_high(20);
+  l->set_unit("deg/h");
+  const RunOutcome out = WhiteRun(d, 0.035, 1203, 1e9);
+  // THEN x is judged on 0 s to a mark at most 8 s before the step's cut (a
+  // bin either side of it) and ax on the whole record
+  const pb::Measurement* x = Find(out, "x", judge::kJudgedSegment);
+  const pb::Measurement* ax = Find(out, "ax", judge::kJudgedSegment);
+  ASSERT_NE(x, nullptr);
+  ASSERT_NE(ax, nullptr);
+  EXPECT_EQ(Find(out, "x", judge::kStationarityEvents)->value(), 1);
+  EXPECT_LE(x->value(), 1203 - 8 + 1e-9) << x->note();
+  EXPECT_GE(x->value(), 1203 - 8 - 8 - 8 - 1e-9) << x->note();
+  EXPECT_NE(x->note().find("the stretch 0-"), std::string::npos) << x->note();
+  EXPECT_DOUBLE_EQ(ax->value(), 2400);
+  EXPECT_NE(ax->note().find("the whole record"), std::string::npos) << ax->note();
+  // AND x's mean, curve and noise model are the stretch's: bias_offset
+  // within 5 sigma of 0 (1.0 deg/h), the published curve of its samples
+  const pb::Measurement* offset = Find(out, "x", judge::kBiasOffset);
+  ASSERT_NE(offset, nullptr);
+  EXPECT_LT(std::abs(offset->value()), 5.2) << offset->value();
+  EXPECT_EQ(offset->outcome(), pb::PASS);
+  for (const auto& [axis, curve] : out.curves) {
+    const double want = axis == "x" ? x->value() : 2400;
+    EXPECT_NEAR(static_cast<double>(curve.n_phase - 1) / kRate, want, 1e-9) << axis;
+  }
+  // AND the verdict is the limits' on the stretches, the event named
+  EXPECT_EQ(out.judgement.verdict, pb::PASS);
+  bool named = false;
+  for (const std::string& r : out.judgement.reasons) {
+    named |= r.find("x: stationarity: 1 event: level step") != std::string::npos &&
+             r.find("JUDGE_LONGEST_SEGMENT: the verdict is the limits' on the stretch 0-") !=
+                 std::string::npos;
+  }
+  EXPECT_TRUE(named) << ::testing::PrintToString(out.judgement.reasons);
+
+  // GIVEN the same under the plan's min_duration_s of 1500 s: neither side
+  // of the step is that long, so x is not judged: INCONCLUSIVE, a retest
+  d.plan.set_min_duration_s(1500);
+  const RunOutcome short_stretch = WhiteRun(d, 0.035, 1203, 1e9);
+  EXPECT_EQ(short_stretch.judgement.verdict, pb::INCONCLUSIVE);
+  EXPECT_EQ(Find(short_stretch, "x", judge::kJudgedSegment)->outcome(), pb::INCONCLUSIVE);
+  EXPECT_EQ(Find(short_stretch, "ax", judge::kJudgedSegment)->outcome(), pb::PASS);
+  bool retest = false;
+  for (const std::string& r : short_stretch.judgement.reasons) {
+    retest |= r.find("x: the longest stretch without a found event") != std::string::npos &&
+              r.find("retest") != std::string::npos;
+  }
+  EXPECT_TRUE(retest) << ::testing::PrintToString(short_stretch.judgement.reasons);
+}
+
 TEST(RunAnalyzerTest, ANoiseLevelChangeIsAnEventWithItsRatio) {
   // GIVEN ax's white noise 20 % larger from 1500 s after the warm-up on
   // (nothing else moves), under a plan whose events make a unit MARGINAL
