@@ -195,6 +195,15 @@ std::string TimeSeriesPlot::ToSvg(const EnvelopeBuilder& builder) const {
         ++labelled;
       }
     }
+    for (const JudgedStretch& j : judged) {
+      if (j.channel != c) continue;
+      const auto jx = [&](double t_s) {
+        return left + std::clamp(t_s / time_unit / x_max, 0.0, 1.0) * pw;
+      };
+      svg += "<rect class=\"judged\" x=\"" + F(jx(j.start_s)) + "\" y=\"" + F(ptop + ph - 5) +
+             "\" width=\"" + F(std::max(jx(j.end_s) - jx(j.start_s), 1.0)) +
+             "\" height=\"5\" fill=\"#2ca02c\"><title>" + Esc(j.label) + "</title></rect>\n";
+    }
     svg += "<rect x=\"" + F(left) + "\" y=\"" + F(ptop) + "\" width=\"" + F(pw) + "\" height=\"" +
            F(ph) + "\" fill=\"none\" stroke=\"#888888\"/>\n";
     svg += "<text transform=\"translate(16," + F(ptop + ph / 2) +
@@ -378,6 +387,19 @@ Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string&
         plot.events.push_back(std::move(mark));
         ++marked;
       }
+      // The stretch the axis was judged on, when it is not the whole record.
+      const pb::Measurement* judged = find(std::string(judge::kJudgedSegment));
+      const pb::Measurement* from = find(std::string(judge::kJudgedSegmentStart));
+      if (judged != nullptr && from != nullptr && judged->note().starts_with("the stretch")) {
+        plot.judged.push_back(
+            {a, warmup + from->value(), warmup + from->value() + judged->value(),
+             axis + " judged on " + judged->note().substr(0, judged->note().find(','))});
+      }
+    }
+    if (!plot.judged.empty()) {
+      plot.notes.push_back(
+          "Green bar: the stretch an axis was judged on (the plan judges each axis's longest "
+          "stretch without a found event).");
     }
     if (marked > 0) {
       plot.notes.push_back(

@@ -69,9 +69,19 @@ struct EventMark {
   double end_s = 0;  // == start_s: a step
   std::string label;
 };
+// The stretch a channel's axis was judged on when the plan judged its longest
+// segment without events (and it was not the whole record): a green bar
+// along the bottom of that channel's panels, seconds from the first sample.
+struct JudgedStretch {
+  size_t channel = 0;
+  double start_s = 0;
+  double end_s = 0;
+  std::string label;
+};
 struct TimeSeriesPlot {
   std::string title;
   std::vector<EventMark> events;
+  std::vector<JudgedStretch> judged;
   std::vector<SeriesPanel> panels;  // channels of `builder` (others skipped)
   double counters_per_second = 1;   // device rate
   std::vector<std::string> notes;   // lines under the plot

@@ -184,6 +184,21 @@ TEST(TimeSeriesPlotTest, EventsAreMarkedOnTheirChannel) {
   EXPECT_EQ(svg.find("<b>"), std::string::npos);
   EXPECT_NE(svg.find(">gx step +3600 \u00b1 12 deg/h &lt;b&gt;</text>"), std::string::npos);
   EXPECT_NE(svg.find(">gx burst +10 \u00b1 2 deg/h</text>"), std::string::npos);
+
+  // The stretch gx was judged on (5.5-10 s): a green bar in gx's panels only.
+  plot.judged = {{0, 5.5, 10.0, "gx judged on the stretch 5.5-10 s"}};
+  const std::string judged = plot.ToSvg(builder);
+  size_t bars = 0;
+  for (size_t p = judged.find("<rect class=\"judged\""); p != std::string::npos;
+       p = judged.find("<rect class=\"judged\"", p + 1)) {
+    ++bars;
+    const size_t x = judged.find("x=\"", p) + 3;
+    EXPECT_NEAR(std::stod(judged.substr(x)), 78 + 0.55 * (760 - 78 - 16), 3.0);
+    const size_t w = judged.find("width=\"", p) + 7;
+    EXPECT_NEAR(std::stod(judged.substr(w)), 0.45 * (760 - 78 - 16), 3.0);
+  }
+  EXPECT_EQ(bars, 2u);
+  EXPECT_NE(judged.find("<title>gx judged on the stretch 5.5-10 s</title>"), std::string::npos);
 }
 
 }  // namespace

@@ -80,6 +80,8 @@ inline constexpr std::string_view kStationarityEvents = "stationarity_events";
 // plan; the whole record where no event was found), s; its note says where
 // it lies and why.
 inline constexpr std::string_view kJudgedSegment = "judged_segment";
+// Not catalogued: where that stretch starts, s from the end of the warm-up.
+inline constexpr std::string_view kJudgedSegmentStart = "judged_segment_start";
 inline constexpr std::string_view kEventPrefix = "event_";
 // The unit of a noise-level change's event_<k> (the short-tau noise
 // amplitude after over before), which has no _end.

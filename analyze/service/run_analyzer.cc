@@ -448,8 +448,10 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
                                               static_cast<double>(bin_samples) * tau0_s_, tau0_s_,
                                               marks_.empty() ? nullptr : &cuts);
     for (size_t a = 0; a < axes && !marks_.empty(); ++a) {
-      pb::Measurement m = JudgeOnSegment(a, cuts[a], stop, &dense_of[a], &segment_ci[a], &means[a]);
-      stationarity.push_back(std::move(m));
+      for (pb::Measurement& m :
+           JudgeOnSegment(a, cuts[a], stop, &dense_of[a], &segment_ci[a], &means[a])) {
+        stationarity.push_back(std::move(m));
+      }
     }
   }
   // The noise model once the run has ended (a fit costs 20-500 ms per axis;
@@ -522,10 +524,10 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
   return out;
 }
 
-pb::Measurement RunAnalyzer::JudgeOnSegment(size_t a, const judge::EventCuts& cuts,
-                                            allan::StopRule stop, allan::Curve* dense,
-                                            std::optional<allan::Curve>* with_ci,
-                                            double* mean) const {
+std::vector<pb::Measurement> RunAnalyzer::JudgeOnSegment(size_t a, const judge::EventCuts& cuts,
+                                                         allan::StopRule stop, allan::Curve* dense,
+                                                         std::optional<allan::Curve>* with_ci,
+                                                         double* mean) const {
   const allan::StreamingAllan& engine = engines_[a];
   const double length_s = static_cast<double>(engine.samples()) * tau0_s_;
   const judge::AxisDesc& axis = desc_.axes[a];
@@ -539,10 +541,14 @@ pb::Measurement RunAnalyzer::JudgeOnSegment(size_t a, const judge::EventCuts& cu
   m.set_name(std::string(judge::kJudgedSegment));
   m.set_unit("s");
   m.set_uncertainty_method("none: exact (device sample counter)");
+  pb::Measurement start = m;
+  start.set_name(std::string(judge::kJudgedSegmentStart));
+  start.set_note("where the judged stretch starts, s from the end of the warm-up");
+  start.set_value(0);
   if (cuts.empty()) {
     m.set_value(length_s);
     m.set_note("the whole record, 0-" + number(length_s) + " s: no event found on the axis");
-    return m;
+    return {m, start};
   }
   // The marks and the record's end.
   std::vector<allan::StreamMark> marks = marks_[a];
@@ -570,6 +576,7 @@ pb::Measurement RunAnalyzer::JudgeOnSegment(size_t a, const judge::EventCuts& cu
   const double begin_s = static_cast<double>(marks[from].samples) * tau0_s_;
   const double end_s = static_cast<double>(marks[to].samples) * tau0_s_;
   m.set_value(end_s - begin_s);
+  start.set_value(begin_s);
   m.set_note("the stretch " + number(begin_s) + "-" + number(end_s) + " s of the " +
              number(length_s) + " s record, the longest that no found event touches (events at " +
              touched + ", a scan bin either side), its ends on the analysis's marks (every " +
@@ -581,7 +588,7 @@ pb::Measurement RunAnalyzer::JudgeOnSegment(size_t a, const judge::EventCuts& cu
     dense->tau0_s = tau0_s_;
     *with_ci = *dense;
     *mean = allan::kNaN;
-    return m;
+    return {m, start};
   }
   *dense = engine.SegmentOadev(marks, from, to, allan::StreamGrid::kDense, stop,
                                allan::CiMethod::kNone);
@@ -589,7 +596,7 @@ pb::Measurement RunAnalyzer::JudgeOnSegment(size_t a, const judge::EventCuts& cu
                                  allan::CiMethod::kChi2, allan::kOneSigmaConfidence);
   const int64_t count = sums[to].count - sums[from].count;
   *mean = count > 0 ? (sums[to].sum - sums[from].sum) / static_cast<double>(count) : allan::kNaN;
-  return m;
+  return {m, start};
 }
 
 RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {

@@ -165,10 +165,11 @@ class RunAnalyzer {
   // that judge the longest stationary segment): that stretch's dense curve
   // without intervals into `dense`, with them into `with_ci`, its mean into
   // `mean` (all left alone when no event cut the record), and the axis's
-  // judged_segment measurement.
-  pb::Measurement JudgeOnSegment(size_t a, const judge::EventCuts& cuts, allan::StopRule stop,
-                                 allan::Curve* dense, std::optional<allan::Curve>* with_ci,
-                                 double* mean) const;
+  // judged_segment and judged_segment_start measurements.
+  std::vector<pb::Measurement> JudgeOnSegment(size_t a, const judge::EventCuts& cuts,
+                                              allan::StopRule stop, allan::Curve* dense,
+                                              std::optional<allan::Curve>* with_ci,
+                                              double* mean) const;
 
   RunDescription desc_;
   AnalyzerOptions options_;
