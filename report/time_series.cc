@@ -390,7 +390,8 @@ Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string&
       // The stretch the axis was judged on, when it is not the whole record.
       const pb::Measurement* judged = find(std::string(judge::kJudgedSegment));
       const pb::Measurement* from = find(std::string(judge::kJudgedSegmentStart));
-      if (judged != nullptr && from != nullptr && judged->note().starts_with("the stretch")) {
+      if (judged != nullptr && from != nullptr && judged->value() > 0 &&
+          !judged->note().starts_with(judge::kWholeRecordNote)) {
         plot.judged.push_back(
             {a, warmup + from->value(), warmup + from->value() + judged->value(),
              axis + " judged on " + judged->note().substr(0, judged->note().find(','))});

@@ -971,16 +971,24 @@ Segment LongestStationarySegment(const StationarityScan& scan, double length_s, 
   return LongestUncutStretch(std::move(cuts), length_s);
 }
 
-Segment LongestUncutStretch(std::vector<std::pair<double, double>> cuts, double length_s) {
+std::vector<Segment> UncutStretches(std::vector<std::pair<double, double>> cuts, double length_s) {
   std::sort(cuts.begin(), cuts.end());
-  Segment best{0, 0};
+  std::vector<Segment> out;
   double from = 0;
   for (const auto& [lo, hi] : cuts) {
     const double end = std::min(lo, length_s);
-    if (end - from > best.end_s - best.begin_s) best = {from, end};
+    if (end > from) out.push_back({from, end});
     from = std::clamp(hi, from, length_s);
   }
-  if (length_s - from > best.end_s - best.begin_s) best = {from, length_s};
+  if (length_s > from) out.push_back({from, length_s});
+  return out;
+}
+
+Segment LongestUncutStretch(std::vector<std::pair<double, double>> cuts, double length_s) {
+  Segment best{0, 0};
+  for (const Segment& s : UncutStretches(std::move(cuts), length_s)) {
+    if (s.end_s - s.begin_s > best.end_s - best.begin_s) best = s;
+  }
   return best;
 }
 

@@ -327,8 +327,10 @@ struct Segment {
   double end_s = 0;
 };
 Segment LongestStationarySegment(const StationarityScan& scan, double length_s, int axis = -1);
-// The longest stretch of [0, length_s) that no cut [from_s, to_s] (a point
-// when equal) touches, clipped to the record; the earliest of equal ones.
+// The stretches of [0, length_s) that no cut [from_s, to_s] (a point when
+// equal) touches, in time order, clipped to the record; the longest of them
+// (the earliest of equal ones).
+std::vector<Segment> UncutStretches(std::vector<std::pair<double, double>> cuts, double length_s);
 Segment LongestUncutStretch(std::vector<std::pair<double, double>> cuts, double length_s);
 
 }  // namespace imuqual::allan

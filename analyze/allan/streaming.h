@@ -75,7 +75,6 @@ struct StreamMark {
   int64_t invalid = 0;  // of them invalid or missing
   std::vector<double> sum;
   std::vector<int64_t> terms;
-  size_t Bytes() const { return sizeof(*this) + sum.capacity() * 8 + terms.capacity() * 8; }
 };
 
 // Which tracked averaging factors Oadev() reports.

@@ -385,17 +385,23 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
       continue;
     }
     if (limit == nullptr && axis != nullptr && m.name() == kJudgedSegment) {
-      // No limit on the stretch: at least the plan's minimum duration, else
-      // the unit is not judged (a retest), never failed for its events.
+      // No limit on the stretch: where events cut the record, its data at
+      // least the plan's minimum duration (and some), else the unit is not
+      // judged (a retest), never failed for its events. The whole record is
+      // the duration limit's to judge.
       const double need = plan.min_duration_s();
-      const bool enough = std::isfinite(m.value()) && m.value() >= need;
+      const bool enough = m.note().starts_with(kWholeRecordNote) ||
+                          (std::isfinite(m.value()) && m.value() > 0 && m.value() >= need);
       m.set_outcome(enough ? pb::PASS : pb::INCONCLUSIVE);
       m.set_decision_rule(pb::Limit::RULE_DEFAULT);
       m.clear_guard_band();
       if (!enough) {
-        j.reasons.push_back(m.axis() + ": the longest stretch without a found event, " +
-                            Num(m.value()) + " s, is shorter than the plan's " +
-                            Num(need) + " s (min_duration_s): not judged, retest");
+        j.reasons.push_back(m.axis() + ": the stretch without a found event holds " +
+                            Num(m.value()) + " s of data, " +
+                            (m.value() > 0
+                                 ? "less than the plan's " + Num(need) + " s (min_duration_s)"
+                                 : std::string("none to judge")) +
+                            ": not judged, retest");
       }
       continue;
     }

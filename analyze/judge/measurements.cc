@@ -38,8 +38,9 @@ const std::vector<MeasurementDef>& MeasurementCatalog() {
        "level steps and bursts the stationarity scan found on the axis (plans with "
        "stationarity; not measurable when the record was too short to scan)"},
       {kJudgedSegment, false, "s", "s",
-       "length of the stretch the axis was judged on: its longest without a found event (plans "
-       "whose stationarity judges the longest segment; the whole record where none was found)"},
+       "data (valid samples, s) in the stretch the axis was judged on: the stretch without a "
+       "found event that holds the most (plans whose stationarity judges the longest segment; "
+       "the whole record where none was found)"},
       {kDecisionTime, true, "s", "s",
        "analysed device time at which early decisions decided the unit (plans with "
        "early_decision; not measurable when it stayed pending to the end)"},

@@ -76,10 +76,13 @@ inline constexpr std::string_view kDecisionTime = "decision_time";
 // start) and, for a burst, "event_<k>_end".
 inline constexpr std::string_view kStationarityEvents = "stationarity_events";
 // Plans whose stationarity judges the longest segment (JUDGE_LONGEST_SEGMENT):
-// the length of the stretch an axis was judged on (every axis of such a
-// plan; the whole record where no event was found), s; its note says where
-// it lies and why.
+// the data (valid samples, s) in the stretch an axis was judged on, every
+// axis of such a plan: the stretch without a found event that holds the
+// most data, or the whole record where no event cut it (its note starts
+// with kWholeRecordNote: none found, or the record was not scanned); the
+// note says where it lies and why.
 inline constexpr std::string_view kJudgedSegment = "judged_segment";
+inline constexpr std::string_view kWholeRecordNote = "the whole record";
 // Not catalogued: where that stretch starts, s from the end of the warm-up.
 inline constexpr std::string_view kJudgedSegmentStart = "judged_segment_start";
 inline constexpr std::string_view kEventPrefix = "event_";

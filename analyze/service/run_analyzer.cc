@@ -448,8 +448,13 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
                                               static_cast<double>(bin_samples) * tau0_s_, tau0_s_,
                                               marks_.empty() ? nullptr : &cuts);
     for (size_t a = 0; a < axes && !marks_.empty(); ++a) {
+      bool scanned = false;
+      for (const pb::Measurement& m : stationarity) {
+        scanned |= m.axis() == desc_.axes[a].name && m.name() == judge::kStationarityEvents &&
+                   std::isfinite(m.value());
+      }
       for (pb::Measurement& m :
-           JudgeOnSegment(a, cuts[a], stop, &dense_of[a], &segment_ci[a], &means[a])) {
+           JudgeOnSegment(a, cuts[a], scanned, stop, &dense_of[a], &segment_ci[a], &means[a])) {
         stationarity.push_back(std::move(m));
       }
     }
@@ -525,7 +530,8 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
 }
 
 std::vector<pb::Measurement> RunAnalyzer::JudgeOnSegment(size_t a, const judge::EventCuts& cuts,
-                                                         allan::StopRule stop, allan::Curve* dense,
+                                                         bool scanned, allan::StopRule stop,
+                                                         allan::Curve* dense,
                                                          std::optional<allan::Curve>* with_ci,
                                                          double* mean) const {
   const allan::StreamingAllan& engine = engines_[a];
@@ -545,9 +551,13 @@ std::vector<pb::Measurement> RunAnalyzer::JudgeOnSegment(size_t a, const judge::
   start.set_name(std::string(judge::kJudgedSegmentStart));
   start.set_note("where the judged stretch starts, s from the end of the warm-up");
   start.set_value(0);
+  const double valid_s = static_cast<double>(engine.samples() - engine.invalid_samples()) * tau0_s_;
   if (cuts.empty()) {
-    m.set_value(length_s);
-    m.set_note("the whole record, 0-" + number(length_s) + " s: no event found on the axis");
+    m.set_value(valid_s);
+    m.set_note(std::string(judge::kWholeRecordNote) + ", 0-" + number(length_s) + " s (" +
+               number(valid_s) + " s of data): " +
+               (scanned ? "no event found on the axis"
+                        : "not scanned (see stationarity_events), so no stretch was chosen"));
     return {m, start};
   }
   // The marks and the record's end.
@@ -557,39 +567,55 @@ std::vector<pb::Measurement> RunAnalyzer::JudgeOnSegment(size_t a, const judge::
     marks.push_back(engine.Mark());
     sums.push_back({sum_[a], count_[a]});
   }
-  const allan::Segment stretch = allan::LongestUncutStretch(cuts, length_s);
-  // Its ends on the marks, rounded inward.
-  size_t from = 0;
-  while (from + 1 < marks.size() &&
-         static_cast<double>(marks[from].samples) * tau0_s_ < stretch.begin_s - 1e-9) {
-    ++from;
-  }
-  size_t to = marks.size() - 1;
-  while (to > from && static_cast<double>(marks[to].samples) * tau0_s_ > stretch.end_s + 1e-9) {
-    --to;
+  const auto data = [&](size_t k) { return marks[k].samples - marks[k].invalid; };
+  // Of the stretches no cut touches, each with its ends on the marks
+  // (rounded inward), the one with the most data (valid samples: a stretch
+  // that is mostly missing is not long), the earliest of equal ones.
+  size_t from = 0, to = 0;
+  for (const allan::Segment& stretch : allan::UncutStretches(cuts, length_s)) {
+    size_t f = 0;
+    while (f + 1 < marks.size() &&
+           static_cast<double>(marks[f].samples) * tau0_s_ < stretch.begin_s - 1e-9) {
+      ++f;
+    }
+    size_t t = marks.size() - 1;
+    while (t > f && static_cast<double>(marks[t].samples) * tau0_s_ > stretch.end_s + 1e-9) --t;
+    if (t > f && data(t) - data(f) > data(to) - data(from)) {
+      from = f;
+      to = t;
+    }
   }
   std::string touched;
   for (const auto& [lo, hi] : cuts) {
     touched += (touched.empty() ? "" : ", ") + number(std::max(lo, 0.0)) + "-" +
                number(std::min(hi, length_s)) + " s";
   }
-  const double begin_s = static_cast<double>(marks[from].samples) * tau0_s_;
-  const double end_s = static_cast<double>(marks[to].samples) * tau0_s_;
-  m.set_value(end_s - begin_s);
-  start.set_value(begin_s);
-  m.set_note("the stretch " + number(begin_s) + "-" + number(end_s) + " s of the " +
-             number(length_s) + " s record, the longest that no found event touches (events at " +
-             touched + ", a scan bin either side), its ends on the analysis's marks (every " +
-             number(static_cast<double>(mark_every_) * tau0_s_) +
-             " s, rounded inward); the curve, the read-offs and the noise model are of that "
-             "stretch");
+  const std::string cut_text = "cut at " + touched +
+                               " (each found event and a scan bin either side); its ends on the "
+                               "analysis's marks (every " +
+                               number(static_cast<double>(mark_every_) * tau0_s_) +
+                               " s, rounded inward)";
   if (to <= from) {
+    m.set_value(0);
+    m.set_note(
+        "no stretch: the events leave no stretch between two of the analysis's marks with "
+        "data in it (" +
+        cut_text + ")");
     *dense = allan::Curve{};
     dense->tau0_s = tau0_s_;
     *with_ci = *dense;
     *mean = allan::kNaN;
     return {m, start};
   }
+  const double begin_s = static_cast<double>(marks[from].samples) * tau0_s_;
+  const double end_s = static_cast<double>(marks[to].samples) * tau0_s_;
+  const double stretch_data_s = static_cast<double>(data(to) - data(from)) * tau0_s_;
+  m.set_value(stretch_data_s);
+  start.set_value(begin_s);
+  m.set_note("the stretch " + number(begin_s) + "-" + number(end_s) + " s of the " +
+             number(length_s) + " s record (" + number(stretch_data_s) +
+             " s of data), of those no found event touches the one with the most data, " +
+             cut_text + "; the curve, the read-offs and the noise model are of that stretch");
   *dense = engine.SegmentOadev(marks, from, to, allan::StreamGrid::kDense, stop,
                                allan::CiMethod::kNone);
   *with_ci = engine.SegmentOadev(marks, from, to, allan::StreamGrid::kDense, stop,

@@ -161,12 +161,13 @@ class RunAnalyzer {
                                           std::vector<std::pair<std::string, allan::Curve>>* curves,
                                           std::vector<allan::Curve>* dense_curves = nullptr) const;
 
-  // Axis a judged on its longest stretch that none of `cuts` touches (plans
-  // that judge the longest stationary segment): that stretch's dense curve
-  // without intervals into `dense`, with them into `with_ci`, its mean into
-  // `mean` (all left alone when no event cut the record), and the axis's
-  // judged_segment and judged_segment_start measurements.
-  std::vector<pb::Measurement> JudgeOnSegment(size_t a, const judge::EventCuts& cuts,
+  // Axis a judged on the stretch that none of `cuts` touches with the most
+  // data (plans that judge the longest stationary segment; `scanned`: the
+  // scan ran on the axis): that stretch's dense curve without intervals into
+  // `dense`, with them into `with_ci`, its mean into `mean` (all left alone
+  // when no event cut the record), and the axis's judged_segment and
+  // judged_segment_start measurements.
+  std::vector<pb::Measurement> JudgeOnSegment(size_t a, const judge::EventCuts& cuts, bool scanned,
                                               allan::StopRule stop, allan::Curve* dense,
                                               std::optional<allan::Curve>* with_ci,
                                               double* mean) const;
@@ -192,9 +193,10 @@ class RunAnalyzer {
   // Marks of every axis's engine and of its valid samples' sum and count,
   // every mark_every_ analysed samples from the first (plans that judge the
   // longest stationary segment; none otherwise): the curve and the mean of
-  // a stretch between two marks. The spacing doubles (every other mark
-  // dropped) when there would be more than kMaxMarks, so they stay bounded
-  // and at most 1/256 of the record apart.
+  // a stretch between two marks. The spacing (a second of samples at
+  // first) doubles, every other mark dropped, when there would be more than
+  // kMaxMarks: at most 513 marks of a few kB per axis, a second apart in a
+  // record of up to 512 s, between 1/512 and 1/256 of a longer one.
   struct SumMark {
     double sum = 0;
     int64_t count = 0;
