@@ -537,6 +537,68 @@ TEST(RunAnalyzerTest, JudgeLongestSegmentJudgesEachAxisOnItsStretchWithoutEvents
   EXPECT_NE(whole->note().find("no event found on the axis"), std::string::npos);
 }
 
+TEST(RunAnalyzerTest, TheJudgedStretchDoesNotDependOnBatchBoundaries) {
+  // GIVEN one record (white noise, the step of 0.035 deg/s on x at 1203 s
+  // after a 10 s warm-up) under JUDGE_LONGEST_SEGMENT, fed in batches of
+  // 100 samples and of 137 (a live run and its archived re-analysis may cut
+  // it differently)
+  const RunDescription d = StationarityDesc(pb::Stationarity::JUDGE_LONGEST_SEGMENT);
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> g(0, 0.1);
+  const int total = 241000;
+  std::vector<float> x(total), ax(total);
+  for (int i = 0; i < total; ++i) {
+    x[i] = static_cast<float>(g(rng) + (i / kRate - 10 >= 1203 ? 0.035 : 0));
+    ax[i] = static_cast<float>(9.8 + g(rng));
+  }
+  const auto run = [&](int per_batch) {
+    auto a = RunAnalyzer::Create(d);
+    EXPECT_TRUE(a.ok());
+    int64_t seq = 0;
+    for (int first = 0; first < total; first += per_batch, ++seq) {
+      const int n = std::min(per_batch, total - first);
+      BatchView view;
+      view.seq = seq;
+      view.first_sample = first;
+      view.nominal_rate_hz = kRate;
+      view.samples = {std::span<const float>(x).subspan(first, n),
+                      std::span<const float>(ax).subspan(first, n)};
+      EXPECT_TRUE(a->AddBatch(view).ok());
+    }
+    a->Finish(0, total);
+    return a->Outcome(true);
+  };
+  const RunOutcome by100 = run(100), by137 = run(137);
+  // THEN x is judged on a stretch, and every measurement and every point of
+  // the published curves is the same, bit for bit
+  ASSERT_NE(Find(by100, "x", judge::kJudgedSegmentStart), nullptr);
+  EXPECT_GT(Find(by100, "x", judge::kJudgedSegment)->value(), 0);
+  EXPECT_LT(Find(by100, "x", judge::kJudgedSegment)->value(), 2400);
+  ASSERT_EQ(by100.measurements.size(), by137.measurements.size());
+  for (size_t i = 0; i < by100.measurements.size(); ++i) {
+    const pb::Measurement& p = by100.measurements[i];
+    const pb::Measurement& q = by137.measurements[i];
+    EXPECT_EQ(p.name(), q.name());
+    if (std::isnan(p.value())) {
+      EXPECT_TRUE(std::isnan(q.value())) << p.axis() << " " << p.name();
+    } else {
+      EXPECT_EQ(p.value(), q.value()) << p.axis() << " " << p.name();
+    }
+    EXPECT_EQ(p.note(), q.note()) << p.axis() << " " << p.name();
+  }
+  ASSERT_EQ(by100.curves.size(), by137.curves.size());
+  for (size_t c = 0; c < by100.curves.size(); ++c) {
+    const allan::Curve& p = by100.curves[c].second;
+    const allan::Curve& q = by137.curves[c].second;
+    ASSERT_EQ(p.points.size(), q.points.size());
+    for (size_t i = 0; i < p.points.size(); ++i) {
+      EXPECT_EQ(p.points[i].n, q.points[i].n);
+      EXPECT_EQ(p.points[i].dev, q.points[i].dev);
+    }
+  }
+  EXPECT_EQ(by100.judgement.verdict, by137.judgement.verdict);
+}
+
 TEST(RunAnalyzerTest, ANoiseLevelChangeIsAnEventWithItsRatio) {
   // GIVEN ax's white noise 20 % larger from 1500 s after the warm-up on
   // (nothing else moves), under a plan whose events make a unit MARGINAL
