@@ -28,6 +28,7 @@
 #include "acquire/imu_simulator.h"
 #include "analyze/judge/measurements.h"
 #include "analyze/service/run_analyzer.h"
+#include "bench/planted_steps.h"
 
 namespace imuqual {
 namespace {
@@ -137,21 +138,6 @@ double Z(const pb::Measurement* m, double truth) {
   return (m->value() - truth) / m->uncertainty();
 }
 
-double BinMeanSd(const std::vector<float>& y, int64_t per) {
-  std::vector<double> means;
-  for (size_t i = 0; i + per <= y.size(); i += per) {
-    double s = 0;
-    for (int64_t k = 0; k < per; ++k) s += y[i + k];
-    means.push_back(s / static_cast<double>(per));
-  }
-  double m = 0;
-  for (double v : means) m += v;
-  m /= static_cast<double>(means.size());
-  double v2 = 0;
-  for (double v : means) v2 += (v - m) * (v - m);
-  return std::sqrt(v2 / static_cast<double>(means.size() - 1));
-}
-
 }  // namespace
 }  // namespace imuqual
 
@@ -195,8 +181,9 @@ int main(int argc, char** argv) {
       std::vector<std::vector<float>> clean(1);
       sim->Generate(samples, clean);
       std::vector<float> stepped = clean[0];
-      const double size = step_sigmas * BinMeanSd(clean[0], static_cast<int64_t>(100 * kRateHz)) *
-                          (seed % 2 ? 1 : -1);
+      const std::vector<double> as_double(clean[0].begin(), clean[0].end());
+      const double size =
+          step_sigmas * bench::BinMeanSd(as_double, 1 / kRateHz, 100.0) * (seed % 2 ? 1 : -1);
       const size_t at = static_cast<size_t>(when(rng) * samples);
       for (size_t k = at; k < stepped.size(); ++k) stepped[k] += static_cast<float>(size);
       const auto qualifier = Describe(mix.truth, pb::Stationarity::QUALIFIER_ONLY);

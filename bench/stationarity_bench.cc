@@ -22,6 +22,7 @@
 #include "analyze/allan/stationarity.h"
 #include "analyze/judge/stationarity_measure.h"
 #include "bench/bench_summary.h"
+#include "bench/planted_steps.h"
 
 namespace imuqual {
 namespace {
@@ -53,18 +54,6 @@ allan::CompositeModel TrueModel(const pb::AxisTruth& a) {
     m.terms.push_back({allan::TermKind::kSinusoid, a.sine_amplitude(), 0, a.sine_frequency_hz()});
   }
   return m;
-}
-
-double BinMeanSd(const std::vector<double>& y, double tau0_s, double bin_s) {
-  const int64_t per = std::llround(bin_s / tau0_s);
-  const std::vector<double> means =
-      allan::BinMeans(y, per, static_cast<int>(static_cast<int64_t>(y.size()) / per));
-  double m = 0;
-  for (double v : means) m += v;
-  m /= static_cast<double>(means.size());
-  double v2 = 0;
-  for (double v : means) v2 += (v - m) * (v - m);
-  return std::sqrt(v2 / static_cast<double>(means.size() - 1));
 }
 
 Rates Run(const std::string& profile_name, int seeds, double duration_s, double step_sigmas,
@@ -197,7 +186,7 @@ Rates Run(const std::string& profile_name, int seeds, double duration_s, double 
     sim::Random rng(555 + seed);
     const int axis = seed % axes;
     const double at_s = duration_s * (0.2 + 0.6 * rng.Uniform());
-    const double size = step_sigmas * BinMeanSd(y[axis], tau0, 100.0) * (seed % 2 ? 1 : -1);
+    const double size = step_sigmas * bench::BinMeanSd(y[axis], tau0, 100.0) * (seed % 2 ? 1 : -1);
     for (int i = static_cast<int>(at_s / tau0); i < n; ++i) y[axis][i] += size;
     scan_groups(y, &scans);
     ++r.planted;

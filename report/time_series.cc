@@ -168,12 +168,13 @@ std::string TimeSeriesPlot::ToSvg(const EnvelopeBuilder& builder) const {
     // The stationarity scan's events on this channel: a burst's stretch
     // shaded, a step's time a dashed line; labelled in the channel's first
     // panel.
+    // A time, s from the first sample, as x in the panel.
+    const auto ex = [&](double t_s) {
+      return left + std::clamp(t_s / time_unit / x_max, 0.0, 1.0) * pw;
+    };
     int labelled = 0;
     for (const EventMark& e : events) {
       if (e.channel != c || !std::isfinite(e.start_s)) continue;
-      const auto ex = [&](double t_s) {
-        return left + std::clamp(t_s / time_unit / x_max, 0.0, 1.0) * pw;
-      };
       const double x0 = ex(e.start_s);
       if (e.end_s > e.start_s) {
         svg += "<rect class=\"event\" x=\"" + F(x0) + "\" y=\"" + F(ptop) + "\" width=\"" +
@@ -197,11 +198,8 @@ std::string TimeSeriesPlot::ToSvg(const EnvelopeBuilder& builder) const {
     }
     for (const JudgedStretch& j : judged) {
       if (j.channel != c) continue;
-      const auto jx = [&](double t_s) {
-        return left + std::clamp(t_s / time_unit / x_max, 0.0, 1.0) * pw;
-      };
-      svg += "<rect class=\"judged\" x=\"" + F(jx(j.start_s)) + "\" y=\"" + F(ptop + ph - 5) +
-             "\" width=\"" + F(std::max(jx(j.end_s) - jx(j.start_s), 1.0)) +
+      svg += "<rect class=\"judged\" x=\"" + F(ex(j.start_s)) + "\" y=\"" + F(ptop + ph - 5) +
+             "\" width=\"" + F(std::max(ex(j.end_s) - ex(j.start_s), 1.0)) +
              "\" height=\"5\" fill=\"#2ca02c\"><title>" + Esc(j.label) + "</title></rect>\n";
     }
     svg += "<rect x=\"" + F(left) + "\" y=\"" + F(ptop) + "\" width=\"" + F(pw) + "\" height=\"" +
@@ -390,11 +388,11 @@ Result<std::string> RunTimeSeriesSvg(store::Archive& archive, const std::string&
       // The stretch the axis was judged on, when it is not the whole record.
       const pb::Measurement* judged = find(std::string(judge::kJudgedSegment));
       const pb::Measurement* from = find(std::string(judge::kJudgedSegmentStart));
-      if (judged != nullptr && from != nullptr && judged->value() > 0 &&
-          !judged->note().starts_with(judge::kWholeRecordNote)) {
-        plot.judged.push_back(
-            {a, warmup + from->value(), warmup + from->value() + judged->value(),
-             axis + " judged on " + judged->note().substr(0, judged->note().find(','))});
+      const pb::Measurement* to = find(std::string(judge::kJudgedSegmentEnd));
+      if (judged != nullptr && from != nullptr && to != nullptr && judged->value() > 0 &&
+          !judge::JudgedWholeRecord(*judged)) {
+        plot.judged.push_back({a, warmup + from->value(), warmup + to->value(),
+                               axis + " judged on " + judge::JudgedStretchText(*judged)});
       }
     }
     if (!plot.judged.empty()) {

@@ -177,7 +177,6 @@ Curve CurveOfTracked(std::vector<Tracked> tracked, double tau0_s, int64_t sample
   return curve;
 }
 
-
 }  // namespace
 
 Status StreamingOptions::Validate() const {
@@ -422,22 +421,20 @@ void StreamingAllan::Flush() {
 }
 
 Curve StreamingAllan::Oadev(StreamGrid grid, StopRule stop, CiMethod ci, double confidence) const {
-  StreamingAllan flushed = *this;
-  flushed.Flush();
+  const StreamMark all = Mark();
   const int64_t m_stop =
       std::min(options_.max_m, StopRuleMaxAveragingFactor(stop, Deviation::kOadev, samples_ + 1));
   // Every tracked point within the stop rule, in increasing m.
   std::vector<Tracked> tracked;
-  for (size_t j = 0; j < flushed.levels_.size(); ++j) {
-    const Level& level = flushed.levels_[j];
-    for (int ci_index = 0; ci_index < level.c_count; ++ci_index) {
+  size_t index = 0;
+  for (size_t j = 0; j < levels_.size(); ++j) {
+    const Level& level = levels_[j];
+    for (int ci_index = 0; ci_index < level.c_count; ++ci_index, ++index) {
       const int c = level.c_first + ci_index;
       const int64_t m = int64_t{c} << j;
-      const int64_t n = level.terms[ci_index];
+      const int64_t n = index < all.terms.size() ? all.terms[index] : 0;
       if (m > m_stop || n <= 1) continue;
-      double sum = 0.0;
-      for (int l = 0; l < kLanes; ++l) sum += level.sum[ci_index * kLanes + l];
-      tracked.push_back(TrackedPoint(m, c, j, sum, n, options_.tau0_s));
+      tracked.push_back(TrackedPoint(m, c, j, all.sum[index], n, options_.tau0_s));
     }
   }
   return CurveOfTracked(std::move(tracked), options_.tau0_s, samples_, invalid_samples(), grid, ci,
@@ -502,9 +499,8 @@ Curve StreamingAllan::SegmentOadev(std::span<const StreamMark> marks, size_t fro
           TrackedPoint(m, c, j, std::max(sum_end - sum_cut, 0.0), n, options_.tau0_s));
     }
   }
-  Curve curve = CurveOfTracked(std::move(tracked), options_.tau0_s, samples, invalid, grid, ci,
-                               confidence);
-  return curve;
+  return CurveOfTracked(std::move(tracked), options_.tau0_s, samples, invalid, grid, ci,
+                        confidence);
 }
 
 size_t StreamingAllan::StateBytes() const {

@@ -21,9 +21,9 @@ std::string Num(double v) {
 // ("the stretch 0-1192 s of the 2400 s record"), or "the whole record".
 std::string JudgedSegmentText(const std::vector<pb::Measurement>& ms, const std::string& axis) {
   for (const pb::Measurement& m : ms) {
-    if (m.axis() == axis && m.name() == kJudgedSegment) return m.note().substr(0, m.note().find(','));
+    if (m.axis() == axis && m.name() == kJudgedSegment) return JudgedStretchText(m);
   }
-  return "the whole record";
+  return std::string(kWholeRecordNote);
 }
 
 const AxisDesc* FindAxis(const std::vector<AxisDesc>& axes, const std::string& name) {
@@ -390,8 +390,8 @@ Judgement Judge(const pb::TestPlan& plan, const std::vector<AxisDesc>& axes,
       // judged (a retest), never failed for its events. The whole record is
       // the duration limit's to judge.
       const double need = plan.min_duration_s();
-      const bool enough = m.note().starts_with(kWholeRecordNote) ||
-                          (std::isfinite(m.value()) && m.value() > 0 && m.value() >= need);
+      const bool enough =
+          JudgedWholeRecord(m) || (std::isfinite(m.value()) && m.value() > 0 && m.value() >= need);
       m.set_outcome(enough ? pb::PASS : pb::INCONCLUSIVE);
       m.set_decision_rule(pb::Limit::RULE_DEFAULT);
       m.clear_guard_band();

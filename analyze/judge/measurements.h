@@ -83,8 +83,20 @@ inline constexpr std::string_view kStationarityEvents = "stationarity_events";
 // note says where it lies and why.
 inline constexpr std::string_view kJudgedSegment = "judged_segment";
 inline constexpr std::string_view kWholeRecordNote = "the whole record";
-// Not catalogued: where that stretch starts, s from the end of the warm-up.
+// Not catalogued: where that stretch starts and ends, s from the end of the
+// warm-up (with gaps in it, end - start exceeds its data).
 inline constexpr std::string_view kJudgedSegmentStart = "judged_segment_start";
+inline constexpr std::string_view kJudgedSegmentEnd = "judged_segment_end";
+// Whether a judged_segment row judged the whole record (no event cut it, or
+// the record was not scanned).
+inline bool JudgedWholeRecord(const pb::Measurement& judged_segment) {
+  return judged_segment.note().starts_with(kWholeRecordNote);
+}
+// Where it lies, in words: its note up to the first comma ("the stretch
+// 0-1192 s of the 2400 s record (1192 s of data)", "the whole record").
+inline std::string JudgedStretchText(const pb::Measurement& judged_segment) {
+  return judged_segment.note().substr(0, judged_segment.note().find(','));
+}
 inline constexpr std::string_view kEventPrefix = "event_";
 // The unit of a noise-level change's event_<k> (the short-tau noise
 // amplitude after over before), which has no _end.

@@ -551,6 +551,10 @@ std::vector<pb::Measurement> RunAnalyzer::JudgeOnSegment(size_t a, const judge::
   start.set_name(std::string(judge::kJudgedSegmentStart));
   start.set_note("where the judged stretch starts, s from the end of the warm-up");
   start.set_value(0);
+  pb::Measurement end = start;
+  end.set_name(std::string(judge::kJudgedSegmentEnd));
+  end.set_note("where the judged stretch ends, s from the end of the warm-up");
+  end.set_value(length_s);
   const double valid_s = static_cast<double>(engine.samples() - engine.invalid_samples()) * tau0_s_;
   if (cuts.empty()) {
     m.set_value(valid_s);
@@ -558,7 +562,7 @@ std::vector<pb::Measurement> RunAnalyzer::JudgeOnSegment(size_t a, const judge::
                number(valid_s) + " s of data): " +
                (scanned ? "no event found on the axis"
                         : "not scanned (see stationarity_events), so no stretch was chosen"));
-    return {m, start};
+    return {m, start, end};
   }
   // The marks and the record's end.
   std::vector<allan::StreamMark> marks = marks_[a];
@@ -605,13 +609,15 @@ std::vector<pb::Measurement> RunAnalyzer::JudgeOnSegment(size_t a, const judge::
     dense->tau0_s = tau0_s_;
     *with_ci = *dense;
     *mean = allan::kNaN;
-    return {m, start};
+    end.set_value(0);
+    return {m, start, end};
   }
   const double begin_s = static_cast<double>(marks[from].samples) * tau0_s_;
   const double end_s = static_cast<double>(marks[to].samples) * tau0_s_;
   const double stretch_data_s = static_cast<double>(data(to) - data(from)) * tau0_s_;
   m.set_value(stretch_data_s);
   start.set_value(begin_s);
+  end.set_value(end_s);
   m.set_note("the stretch " + number(begin_s) + "-" + number(end_s) + " s of the " +
              number(length_s) + " s record (" + number(stretch_data_s) +
              " s of data), of those no found event touches the one with the most data, " +
@@ -622,7 +628,7 @@ std::vector<pb::Measurement> RunAnalyzer::JudgeOnSegment(size_t a, const judge::
                                  allan::CiMethod::kChi2, allan::kOneSigmaConfidence);
   const int64_t count = sums[to].count - sums[from].count;
   *mean = count > 0 ? (sums[to].sum - sums[from].sum) / static_cast<double>(count) : allan::kNaN;
-  return {m, start};
+  return {m, start, end};
 }
 
 RunOutcome RunAnalyzer::Outcome(bool final, const RunEnding& ending) const {

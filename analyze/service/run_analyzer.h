@@ -166,7 +166,7 @@ class RunAnalyzer {
   // scan ran on the axis): that stretch's dense curve without intervals into
   // `dense`, with them into `with_ci`, its mean into `mean` (all left alone
   // when no event cut the record), and the axis's judged_segment and
-  // judged_segment_start measurements.
+  // judged_segment_start and judged_segment_end measurements.
   std::vector<pb::Measurement> JudgeOnSegment(size_t a, const judge::EventCuts& cuts, bool scanned,
                                               allan::StopRule stop, allan::Curve* dense,
                                               std::optional<allan::Curve>* with_ci,

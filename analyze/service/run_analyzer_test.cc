@@ -531,9 +531,11 @@ TEST(RunAnalyzerTest, JudgeLongestSegmentJudgesEachAxisOnItsStretchWithoutEvents
   EXPECT_EQ(Find(gappy, "x", judge::kJudgedSegmentStart)->value(), 0);
   EXPECT_LE(before->value(), 800 - 8 + 1e-9) << before->note();
   EXPECT_GE(before->value(), 800 - 8 - 16 - 1e-9) << before->note();
+  EXPECT_DOUBLE_EQ(Find(gappy, "x", judge::kJudgedSegmentEnd)->value(), before->value());
   // AND ax (no event) on the whole record, its value the record's data
   const pb::Measurement* whole = Find(gappy, "ax", judge::kJudgedSegment);
   EXPECT_DOUBLE_EQ(whole->value(), 2400 - 1100);
+  EXPECT_DOUBLE_EQ(Find(gappy, "ax", judge::kJudgedSegmentEnd)->value(), 2400);
   EXPECT_NE(whole->note().find("no event found on the axis"), std::string::npos);
 }
 
