@@ -94,10 +94,13 @@ wait_screen "^A1 +SN-101 .*running" 30
 v='(≤ )?[0-9.]+(†|‡)?( ± [0-9.e+-]+)?'
 p='((pass|marginal|fail)\?|pending)'
 wait_screen "^A1 .* x +($p +)?$v deg/h" 30
+# Both analyze shards heard (on a loaded host a shard's status can lag its
+# first results, and the line reads "analyze 1/1" or "1/2" for a moment).
+wait_screen "analyze 2/2" 30
 now="$(screen)"
 # Each row: slot, unit, the unit's verdict (and why, when not a pass), state,
 # elapsed / planned, axis, the axis's verdict, its live value, samples, gaps.
-for want in "^\[#*\.*\] +[0-9]+% +elapsed" "analyze 2/2" "^B2 +SN-104 .*running +[0-9:]+ / 20:00" \
+for want in "^\[#*\.*\] +[0-9]+% +elapsed" "^B2 +SN-104 .*running +[0-9:]+ / 20:00" \
     "^A1 +SN-101 +$p .* x +$p +$v deg/h" "^ +y +$p +$v deg/h" "^ +z +$p +$v deg/h" \
     "Ctrl-C: stop the soak"; do
   printf '%s\n' "$now" | grep -Eq -- "$want" || fail "live table lacks '$want'"
