@@ -6,11 +6,13 @@
 // the curve minimum and its 1-sigma uncertainty against the truth's own
 // minimum over the same taus. Over 200 seeds the 1-sigma interval must cover
 // the truth in 60-76 % of records (68 % nominal) and the 2-sigma one in
-// >= 90 % (measured 92-95.5 %); on the steepest bottom it covers more
-// (measured 86 % and 99 %): held to >= 60 % and >= 93 % there. The
-// reading itself (the curve's minimum, as datasheets define it) lies low:
-// measured mean z -0.5 (the minimum of a noisy curve is picked from its
-// dips); the test keeps that bias within [-0.8, 0] and prints it.
+// >= 93 % (measured 72.5 / 74.0 % and 94.5 / 93.0 %). On the two steeper
+// bottoms it covers more than stated (measured 79.0 % and 98.5 / 98.0 %: the
+// draws spread a V's points ~15 % wider than the records do): held to
+// 60-82 % and >= 93 % there. The reading itself (the curve's minimum, as
+// datasheets define it) lies low: measured mean z -0.5 (the minimum of a
+// noisy curve is picked from its dips); the test keeps that bias within
+// [-0.8, 0] and prints it.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -53,10 +55,8 @@ TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {
   std::vector<Scenario> scenarios = Scenarios();
   for (const Scenario& s : SteeperScenarios()) scenarios.push_back(s);
   for (const Scenario& s : scenarios) {
-    // The steepest bottom (tau* 46 s) is covered more than stated: the
-    // points within an octave lie above the minimum for the curve's own
-    // bend, not only for its noise.
-    const bool steepest = s.name == SteeperScenarios().front().name;
+    const bool steeper =
+        s.name == SteeperScenarios().front().name || s.name == SteeperScenarios().back().name;
     int covered1 = 0, covered2 = 0, n = 0;
     double sum_z = 0;
     for (int seed = 1; seed <= kSeeds; ++seed) {
@@ -79,10 +79,8 @@ TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {
     std::printf("%-22s 1-sigma %.1f %%  2-sigma %.1f %%  mean z %+.2f  (%d records)\n",
                 s.name.c_str(), 100 * c1, 100 * c2, sum_z / n, n);
     EXPECT_GE(c1, 0.60) << s.name;
-    if (!steepest) {
-      EXPECT_LE(c1, 0.76) << s.name;
-    }
-    EXPECT_GE(c2, steepest ? 0.93 : 0.90) << s.name;
+    EXPECT_LE(c1, steeper ? 0.82 : 0.76) << s.name;
+    EXPECT_GE(c2, 0.93) << s.name;
     EXPECT_GE(sum_z / n, -0.8) << s.name;
     EXPECT_LE(sum_z / n, 0.0) << s.name;
   }

@@ -9,6 +9,7 @@
 #include <memory>
 #include <mutex>
 #include <numbers>
+#include <random>
 #include <string>
 #include <tuple>
 
@@ -579,29 +580,6 @@ std::optional<CurveMinimum> FindCurveMinimum(const Curve& curve) {
   return best;
 }
 
-double MinimumUncertainty(const Curve& curve, const CurveMinimum& min) {
-  const CurvePoint* at = nullptr;
-  for (const CurvePoint& p : curve.points) {
-    if (p.m == min.m) at = &p;
-  }
-  if (at == nullptr) return kNaN;
-  const double edf = PointEdf(*at, curve.n_phase, /*alpha=*/-1);
-  if (!std::isfinite(edf)) return kNaN;
-  const double statistical = min.dev / std::sqrt(2 * edf);
-  // The minimum of a noisy curve lies low: the points within an octave of it
-  // on either side (the flat bottom it was picked from) say by how much.
-  double sum = 0;
-  int count = 0;
-  for (const CurvePoint& p : curve.points) {
-    if (p.tau_s >= min.tau_s / 2 && p.tau_s <= min.tau_s * 2 && std::isfinite(p.dev)) {
-      sum += p.dev;
-      ++count;
-    }
-  }
-  const double selection = count > 0 ? sum / count - min.dev : 0.0;
-  return std::hypot(statistical, selection);
-}
-
 namespace {
 
 // The correlations of the AVAR estimates at factors m of white noise,
@@ -629,6 +607,217 @@ std::vector<double> LocalModelCorrelations(double a, double b, double c, double 
 }
 
 }  // namespace
+
+double MinimumUncertainty(const Curve& curve, const CurveMinimum& min) {
+  if (const std::optional<double> u = MinimumSelectionSpread(curve, min); u.has_value()) return *u;
+  return MinimumPointSpread(curve, min);
+}
+
+double MinimumPointSpread(const Curve& curve, const CurveMinimum& min) {
+  const CurvePoint* at = nullptr;
+  for (const CurvePoint& p : curve.points) {
+    if (p.m == min.m) at = &p;
+  }
+  if (at == nullptr) return kNaN;
+  const double edf = PointEdf(*at, curve.n_phase, /*alpha=*/-1);
+  if (!std::isfinite(edf)) return kNaN;
+  // The point's chi-square spread and how far it lies below the points
+  // within an octave of it on either side (the flat bottom it was picked
+  // from).
+  const double statistical = min.dev / std::sqrt(2 * edf);
+  double sum = 0;
+  int count = 0;
+  for (const CurvePoint& p : curve.points) {
+    if (p.tau_s >= min.tau_s / 2 && p.tau_s <= min.tau_s * 2 && std::isfinite(p.dev)) {
+      sum += p.dev;
+      ++count;
+    }
+  }
+  const double selection = count > 0 ? sum / count - min.dev : 0.0;
+  return std::hypot(statistical, selection);
+}
+
+namespace {
+
+// The points within two octaves of `min` that have an edf, ascending tau.
+std::vector<const CurvePoint*> BottomPoints(const Curve& curve, const CurveMinimum& min) {
+  std::vector<const CurvePoint*> out;
+  for (const CurvePoint& p : curve.points) {
+    if (!(std::isfinite(p.dev) && p.dev > 0 && p.tau_s >= min.tau_s / 4 &&
+          p.tau_s <= min.tau_s * 4)) {
+      continue;
+    }
+    const double edf = PointEdf(p, curve.n_phase, /*alpha=*/-1);
+    if (std::isfinite(edf) && edf > 0) out.push_back(&p);
+  }
+  return out;
+}
+
+// Standard normal deviates from a fixed seed (Box-Muller over a 64-bit
+// Mersenne twister, bit-exact everywhere: the spread is a pure function of
+// the curve, so re-analysis reproduces it bit for bit).
+class FixedNormals {
+ public:
+  double Next() {
+    if (have_) {
+      have_ = false;
+      return spare_;
+    }
+    const double u1 = (static_cast<double>(rng_() >> 11) + 0.5) * 0x1.0p-53;
+    const double u2 = static_cast<double>(rng_() >> 11) * 0x1.0p-53;
+    const double r = std::sqrt(-2 * std::log(u1));
+    spare_ = r * std::sin(2 * std::numbers::pi * u2);
+    have_ = true;
+    return r * std::cos(2 * std::numbers::pi * u2);
+  }
+
+ private:
+  std::mt19937_64 rng_{0x1EEE952};
+  double spare_ = 0;
+  bool have_ = false;
+};
+
+// AVAR = a / tau + b + c tau, a, b, c >= 0, by weighted least squares: AVAR_j
+// has variance ~2 AVAR_j^2 / edf_j, and the fit weighs each by its inverse.
+// The best of the non-negative fits over every subset of the three lines
+// (the unconstrained optimum when it is non-negative; else on a face).
+std::optional<BottomShape> FitShape(const std::vector<double>& tau, const std::vector<double>& avar,
+                                    const std::vector<double>& edf, double tau_ref) {
+  const int k = static_cast<int>(tau.size());
+  if (k < 3) return std::nullopt;
+  std::optional<BottomShape> best;
+  double best_chi2 = INFINITY;
+  for (int subset = 1; subset < 8; ++subset) {
+    std::vector<int> cols;
+    for (int c = 0; c < 3; ++c) {
+      if (subset & (1 << c)) cols.push_back(c);
+    }
+    const int n = static_cast<int>(cols.size());
+    Eigen::MatrixXd x(k, n);
+    Eigen::VectorXd y(k), w(k);
+    for (int j = 0; j < k; ++j) {
+      // Columns scaled to 1 at the reference tau.
+      const double col[3] = {tau_ref / tau[j], 1.0, tau[j] / tau_ref};
+      for (int c = 0; c < n; ++c) x(j, c) = col[cols[c]];
+      y(j) = avar[j];
+      w(j) = avar[j] > 0 ? edf[j] / (2 * avar[j] * avar[j]) : 0.0;
+    }
+    const Eigen::MatrixXd xw = w.asDiagonal() * x;
+    const Eigen::VectorXd beta = (x.transpose() * xw).ldlt().solve(xw.transpose() * y);
+    if (!beta.allFinite() || (beta.array() < 0).any()) continue;
+    const double chi2 = (w.array() * (y - x * beta).array().square()).sum();
+    if (!(chi2 < best_chi2)) continue;
+    best_chi2 = chi2;
+    BottomShape b;
+    for (int c = 0; c < n; ++c) {
+      const double v = beta(c);
+      if (cols[c] == 0) b.a = v * tau_ref;
+      if (cols[c] == 1) b.b = v;
+      if (cols[c] == 2) b.c = v / tau_ref;
+    }
+    best = b;
+  }
+  return best;
+}
+
+}  // namespace
+
+std::optional<double> MinimumSelectionSpread(const Curve& curve, const CurveMinimum& min) {
+  const std::optional<BottomShape> shape = FitBottomShape(curve, min);
+  if (!shape) return std::nullopt;
+  std::vector<const CurvePoint*> pts = BottomPoints(curve, min);
+  std::erase_if(pts, [&](const CurvePoint* p) {
+    return p->tau_s < min.tau_s / 2 || p->tau_s > min.tau_s * 2;
+  });
+  const int k = static_cast<int>(pts.size());
+  if (k < 1) return std::nullopt;
+  // The points within an octave of the minimum (those it is picked from),
+  // each about its expectation (the bottom's shape) with its chi-square
+  // spread, correlated as flicker FM's AVAR estimates are (the noise that
+  // makes a bottom flat; a random walk's correlations gave the same figures).
+  std::vector<int64_t> m(k);
+  Eigen::VectorXd mu(k), h(k);  // h = 2 / (9 edf)
+  for (int j = 0; j < k; ++j) {
+    const double t = pts[j]->tau_s;
+    m[j] = pts[j]->m;
+    mu(j) = shape->Dev(t);
+    // The relative variance of a mixture's AVAR estimate as the terms'
+    // relative variances weighted by their shares of the AVAR (Greenhall edf
+    // of white, flicker and random-walk FM).
+    const double share[3] = {shape->a / t, shape->b, shape->c * t};
+    double inverse_edf = 0;
+    for (int term = 0; term < 3; ++term) {
+      if (!(share[term] > 0)) continue;
+      const double e = PointEdf(*pts[j], curve.n_phase, -term);
+      inverse_edf += share[term] / (mu(j) * mu(j)) / (std::isfinite(e) && e > 0 ? e : kNaN);
+    }
+    const double edf = 1 / inverse_edf;
+    h(j) = 2 / (9 * edf);
+  }
+  if (!mu.allFinite() || !h.allFinite() || !(mu.minCoeff() > 0)) return std::nullopt;
+  const std::vector<double> r = TermAvarCorrelations(TermKind::kFlicker, m);
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
+      rho(r.data(), k, k);
+  // A correlation matrix of many close factors is near singular: a little
+  // ridge keeps its factor real (it decorrelates by at most 1e-9).
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(rho + 1e-9 * Eigen::MatrixXd::Identity(k, k));
+  if (ldlt.info() != Eigen::Success) return std::nullopt;
+  const Eigen::MatrixXd root = ldlt.transpositionsP().transpose() *
+                               Eigen::MatrixXd(ldlt.matrixL()) *
+                               ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  // The truth's minimum over the points' span: the shape's vertex when it
+  // lies inside, else its lower end.
+  double truth = mu.minCoeff();
+  if (shape->a > 0 && shape->c > 0) {
+    const double vertex = std::sqrt(shape->a / shape->c);
+    if (vertex > pts.front()->tau_s && vertex < pts.back()->tau_s) {
+      truth = std::min(truth, shape->Dev(vertex));
+    }
+  }
+  // The curve's minimum is the least of these correlated points: it
+  // scatters and lies low. A record whose bottom reads low gets a smaller u
+  // as well as a larger error, so u is read as a fraction of the bottom's
+  // level (the mean of these points): u = level x r, with r set so that
+  // +-2u covers the truth in 95.45 % of the draws (half that quantile of
+  // |least - truth| / level, each draw with its own level). The +-1u
+  // interval then covers at least the normal 68.3 %: the tail is heavier.
+  constexpr int kDraws = 4000;
+  FixedNormals normals;
+  Eigen::VectorXd z(k);
+  std::vector<double> miss;
+  miss.reserve(kDraws);
+  for (int d = 0; d < kDraws; ++d) {
+    for (int j = 0; j < k; ++j) z(j) = normals.Next();
+    // Each point's AVAR / its expectation is chi-square / edf (its cube
+    // root nearly normal: Wilson-Hilferty), the normals correlated.
+    const Eigen::VectorXd g = root * z;
+    double least = INFINITY, level = 0;
+    for (int j = 0; j < k; ++j) {
+      const double w = 1 - h(j) + g(j) * std::sqrt(h(j));
+      const double x = w > 0 ? mu(j) * w * std::sqrt(w) : 0.0;
+      least = std::min(least, x);
+      level += x / k;
+    }
+    // A draw at or below zero: no reading, as far from the truth as can be.
+    miss.push_back(level > 0 ? std::abs(least - truth) / level : INFINITY);
+  }
+  const auto q = miss.begin() + static_cast<std::ptrdiff_t>(0.9545 * kDraws);
+  std::nth_element(miss.begin(), q, miss.end());
+  if (!std::isfinite(*q)) return std::nullopt;
+  double level = 0;
+  for (const CurvePoint* p : pts) level += p->dev / k;
+  return level * *q / 2;
+}
+
+std::optional<BottomShape> FitBottomShape(const Curve& curve, const CurveMinimum& min) {
+  std::vector<double> tau, avar, edf;
+  for (const CurvePoint* p : BottomPoints(curve, min)) {
+    tau.push_back(p->tau_s);
+    avar.push_back(p->dev * p->dev);
+    edf.push_back(PointEdf(*p, curve.n_phase, -1));
+  }
+  return FitShape(tau, avar, edf, min.tau_s);
+}
 
 double MinimumVertex::LnUncertaintyAt(double at_s) const {
   return resolved ? std::hypot(u_ln_tau, std::log(at_s / tau_s)) : kNaN;

@@ -207,12 +207,41 @@ struct CurveMinimum {
 std::optional<CurveMinimum> FindCurveMinimum(const Curve& curve);
 
 // The 1-sigma standard uncertainty of `min`, a minimum of `curve` (a deviation,
-// the bias-instability reading), in the curve's unit. Method: the point's
-// chi-square spread, dev / sqrt(2 edf), with the Greenhall edf (d = 2,
-// F = m, S = m / stride, N from its valid terms) for flicker FM (alpha = -1,
-// the noise whose Allan deviation is flat: what makes a minimum). NaN when the
-// edf is not defined at that point.
+// the bias-instability reading), in the curve's unit: MinimumSelectionSpread
+// where the bottom's shape can be fitted, else MinimumPointSpread.
 double MinimumUncertainty(const Curve& curve, const CurveMinimum& min);
+
+// The fallback: the point's chi-square spread, dev / sqrt(2 edf) (Greenhall
+// edf, d = 2, F = m, S = m / stride, N from its valid terms, flicker FM: the
+// noise whose Allan deviation is flat), combined with how far the point lies
+// below the points within an octave of it. NaN when the edf is not defined
+// at that point.
+double MinimumPointSpread(const Curve& curve, const CurveMinimum& min);
+
+// The standard uncertainty of a curve's minimum as a reading of the truth's
+// minimum (the bias-instability reading): the curve's minimum is the least
+// of the correlated noisy points of its bottom, so it scatters and lies low.
+// The points within an octave of `min` are drawn (4000 draws from a fixed
+// seed: a pure function of the curve) about the bottom's shape
+// (FitBottomShape), each AVAR as chi-square / edf (Wilson-Hilferty; the edf
+// of the shape's white, flicker and random-walk shares) with flicker FM's
+// correlations between overlapping AVAR estimates. u = level x r, level the
+// mean of those points, r half the 95.45 % quantile of |least - truth| /
+// level over the draws (each with its own level; the truth is the shape's
+// minimum over the points fitted): the +-2u interval is calibrated, the
+// +-1u one covers at least 68.3 %. None when the shape cannot be fitted.
+std::optional<double> MinimumSelectionSpread(const Curve& curve, const CurveMinimum& min);
+
+// The bottom's own shape: AVAR = a / tau + b + c tau (white noise, flicker
+// and a random walk; a, b, c >= 0) fitted by weighted least squares to the
+// points within two octaves of `min` (weights edf / (2 AVAR^2), flicker FM's
+// Greenhall edf; no correlations: a cheap fit whose shape, not its
+// uncertainty, is used). None with fewer than 3 points.
+struct BottomShape {
+  double a = 0, b = 0, c = 0;
+  double Dev(double tau_s) const { return std::sqrt(a / tau_s + b + c * tau_s); }
+};
+std::optional<BottomShape> FitBottomShape(const Curve& curve, const CurveMinimum& min);
 
 // Where the curve's bottom lies, for the standard uncertainty of the
 // minimum's tau: the points within `half_width_octaves` of the bottom (at

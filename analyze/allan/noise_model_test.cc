@@ -424,6 +424,44 @@ TEST(NoiseModelTest, MinimumVertexIsWhereTheLinesCross) {
   EXPECT_TRUE(std::isnan(none.LnUncertaintyAt(100)));
 }
 
+// The curve minimum's u: drawn about the bottom's shape (a pure function of
+// the curve), or, with too few points about the bottom, the point's spread.
+TEST(NoiseModelTest, MinimumSelectionSpreadIsDrawnAboutTheBottomsShape) {
+  Curve exact = ModelCurve(kWorkedExample, kWorkedExampleSamples, kTau0, NoPerturbation);
+  for (CurvePoint& p : exact.points) p.stride = 1;
+  const std::optional<CurveMinimum> min = FindCurveMinimum(exact);
+  ASSERT_TRUE(min.has_value());
+  // On a noise-free curve the shape goes through the points.
+  const std::optional<BottomShape> shape = FitBottomShape(exact, *min);
+  ASSERT_TRUE(shape.has_value());
+  EXPECT_NEAR(shape->Dev(min->tau_s) / min->dev, 1.0, 0.01);
+  const std::optional<double> u = MinimumSelectionSpread(exact, *min);
+  ASSERT_TRUE(u.has_value());
+  EXPECT_GT(*u, 0);
+  EXPECT_LT(*u, min->dev);
+  EXPECT_EQ(*u, *MinimumSelectionSpread(exact, *min));  // the same bits every time
+  EXPECT_EQ(MinimumUncertainty(exact, *min), *u);
+  // Of the order of the minimum point's own chi-square spread.
+  double edf = 0;
+  for (const CurvePoint& p : exact.points) {
+    if (p.m == min->m) edf = PointEdf(p, exact.n_phase, -1);
+  }
+  const double point = min->dev / std::sqrt(2 * edf);
+  EXPECT_GT(*u, 0.5 * point);
+  EXPECT_LT(*u, 3 * point);
+
+  Curve two = exact;
+  two.points.clear();
+  for (const CurvePoint& p : exact.points) {
+    if (p.m >= min->m && two.points.size() < 2) two.points.push_back(p);
+  }
+  ASSERT_EQ(two.points.size(), 2u);
+  EXPECT_FALSE(FitBottomShape(two, *min).has_value());
+  EXPECT_FALSE(MinimumSelectionSpread(two, *min).has_value());
+  EXPECT_EQ(MinimumUncertainty(two, *min), MinimumPointSpread(two, *min));
+  EXPECT_TRUE(std::isfinite(MinimumPointSpread(two, *min)));
+}
+
 TEST(NoiseModelTest, SlopeReadoffsOnSingleTermCurves) {
   struct Case {
     NoiseTerm term;

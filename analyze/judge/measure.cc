@@ -30,8 +30,13 @@ pb::Measurement Make(const std::string& axis, std::string_view name, double valu
 // How an uncertainty was obtained, or why a measurement has none
 // (Measurement.uncertainty_method).
 constexpr const char* kMinimumMethod =
+    "the least of the bottom's points within an octave, drawn 4000 times about the bottom's shape "
+    "(AVAR = a/tau + b + c tau fitted within 2 octaves) with their chi-square spreads (Greenhall "
+    "edf) and flicker FM's correlations: half the 95.45 % quantile of |least - truth| as a "
+    "fraction of the bottom's level, times this curve's level";
+constexpr const char* kMinimumPointMethod =
     "chi2 (Greenhall edf, flicker FM) at the minimum combined with the spread of points within "
-    "an octave";
+    "an octave (too few points about the bottom to fit its shape)";
 constexpr const char* kTauMethod =
     "from the bottom's vertex: AVAR = a/tau + b + c tau (the white-noise, flicker and "
     "random-walk lines) fitted over the points within 2 octaves of it, weighted with the edf and "
@@ -108,9 +113,16 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
       Make(axis, kBiasInstabilityIeee,
            min ? Datasheet(NoiseTerm::kBiasInstability, kind, min->bias_instability_ieee) : nan,
            kind, min_note));
-  // Their 1-sigma uncertainty: the chi-square spread of the minimum's point
-  // and how far it lies below its neighbours (allan::MinimumUncertainty).
-  if (const double u = min ? allan::MinimumUncertainty(curve, *min) : nan; std::isfinite(u)) {
+  // Their 1-sigma uncertainty: the spread of the least of the bottom's
+  // noisy points (allan::MinimumSelectionSpread), else the minimum point's
+  // chi-square spread and how far it lies below its neighbours.
+  const std::optional<double> drawn =
+      min ? allan::MinimumSelectionSpread(curve, *min) : std::nullopt;
+  const char* minimum_method = drawn ? kMinimumMethod : kMinimumPointMethod;
+  if (const double u = drawn ? *drawn
+                       : min ? allan::MinimumPointSpread(curve, *min)
+                             : nan;
+      std::isfinite(u)) {
     const double ratio = min->bias_instability_ieee / min->dev;
     out[out.size() - 2].set_uncertainty(Datasheet(NoiseTerm::kBiasInstability, kind, u));
     out.back().set_uncertainty(Datasheet(NoiseTerm::kBiasInstability, kind, u * ratio));
@@ -141,9 +153,9 @@ std::vector<pb::Measurement> MeasureAxis(const std::string& axis, pb::AxisKind k
     if (unresolved) m.set_qualifier(pb::MINIMUM_NOT_RESOLVED);
     if (m.has_uncertainty()) {
       m.set_uncertainty_method(m.name() == kTauAtMinimum ? std::string(kTauMethod)
-                               : i + 2 == out.size()     ? std::string(kMinimumMethod) +
+                               : i + 2 == out.size()     ? std::string(minimum_method) +
                                                            "; divided by 0.664 like the value"
-                                                     : kMinimumMethod);
+                                                     : minimum_method);
     } else if (m.name() == kTauAtMinimum && !tau_none.empty()) {
       m.set_uncertainty_method(tau_none);
     } else if (m.name() == kTauAtMinimum && unresolved) {
