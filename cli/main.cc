@@ -234,6 +234,10 @@ int main(int argc, char** argv) {
   analyze_cmd->add_option("--stationarity-plan", an.stationarity_plan,
                           "with --stationarity and --kind: scan against this plan's reference "
                           "noise model (builtin:NAME or a .textproto) instead of the series' own");
+  analyze_cmd->add_flag("--judge-longest-segment", an.judge_longest_segment,
+                        "with --stationarity: the curves, the fit and the read-offs are those of "
+                        "the longest stretch (most valid data) that no found event touches, a "
+                        "scan bin either side of each (as a plan's JUDGE_LONGEST_SEGMENT)");
   analyze_cmd->add_option("--kind", an.kind, "gyro or accel: datasheet units for the fit");
   analyze_cmd->add_option("--unit", an.unit,
                           "the values' unit, with --kind: gyro deg/s (default), rad/s, mrad/s, "

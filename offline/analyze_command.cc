@@ -97,6 +97,10 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
     }
     if (o.type != "rate") return Status::InvalidArgument("--stationarity needs --type rate");
   }
+  if (o.judge_longest_segment && o.stationarity_level == 0) {
+    return Status::InvalidArgument(
+        "--judge-longest-segment needs --stationarity LEVEL (the scan finds what cuts the record)");
+  }
   if (!o.stationarity_plan.empty()) {
     if (o.stationarity_level == 0) {
       return Status::InvalidArgument("--stationarity-plan needs --stationarity LEVEL");
@@ -382,6 +386,91 @@ TableWriter EventTable(const allan::StationarityScan& scan,
   return t;
 }
 
+// The stretch of the record that --judge-longest-segment judges: the one
+// with the most valid samples that no found event touches, each event cut
+// with a scan bin either side (a step or a noise-level change at its time, a
+// burst from its start to its end, a step in missing data across the missing
+// stretch), as a station's JUDGE_LONGEST_SEGMENT cuts an axis. The whole
+// record where nothing was found or the scan could not run.
+struct JudgedStretch {
+  int64_t begin = 0, end = 0;  // samples [begin, end)
+  int64_t valid = 0;           // valid samples in it
+  bool whole_record = true;
+  std::string why;  // what cut the record, or why it is judged whole
+};
+
+JudgedStretch LongestStretch(const allan::StationarityScan& scan,
+                             const std::optional<allan::NoiseLevelChange>& noise,
+                             const std::vector<double>& values, double tau0) {
+  JudgedStretch out;
+  const auto n = static_cast<int64_t>(values.size());
+  out.end = n;
+  for (double v : values) out.valid += std::isfinite(v) ? 1 : 0;
+  if (!scan.scanned) {
+    out.why = "the whole record: not scanned (" + scan.note + ")";
+    return out;
+  }
+  std::vector<std::pair<double, double>> cuts;
+  std::vector<std::string> named;
+  const double w = scan.bin_s;
+  for (const allan::StationarityEvent& e : scan.events) {
+    const allan::EventAxis& a = e.axes.front();
+    if (!a.named) continue;
+    char text[96];
+    if (std::isfinite(a.gap_from_s)) {
+      cuts.emplace_back(a.gap_from_s - w, a.gap_to_s + w);
+      std::snprintf(text, sizeof text, "missing data %.0f-%.0f s", a.gap_from_s, a.gap_to_s);
+    } else if (e.kind == allan::EventKind::kStep) {
+      cuts.emplace_back(e.time_s - w, e.time_s + w);
+      std::snprintf(text, sizeof text, "step at %.0f s", e.time_s);
+    } else {
+      cuts.emplace_back(e.time_s - w, e.time_s + e.window_s + w);
+      std::snprintf(text, sizeof text, "%s %.0f-%.0f s",
+                    std::string(allan::EventKindName(e.kind)).c_str(), e.time_s,
+                    e.time_s + e.window_s);
+    }
+    named.push_back(text);
+  }
+  if (noise && noise->found()) {
+    cuts.emplace_back(noise->time_s - w, noise->time_s + w);
+    char text[96];
+    std::snprintf(text, sizeof text, "noise level x%.3g at %.0f s", noise->ratio, noise->time_s);
+    named.push_back(text);
+  }
+  if (cuts.empty()) {
+    out.why = "the whole record: no event found";
+    return out;
+  }
+  // The stretch with the most valid samples (the earliest of equal ones).
+  const std::vector<allan::Segment> stretches =
+      allan::UncutStretches(cuts, static_cast<double>(n) * tau0);
+  out.whole_record = false;
+  out.begin = out.end = 0;
+  out.valid = 0;
+  for (const allan::Segment& seg : stretches) {
+    const int64_t from = std::clamp<int64_t>(std::llround(seg.begin_s / tau0), 0, n);
+    const int64_t to = std::clamp<int64_t>(std::llround(seg.end_s / tau0), from, n);
+    int64_t valid = 0;
+    for (int64_t i = from; i < to; ++i) valid += std::isfinite(values[i]) ? 1 : 0;
+    if (valid > out.valid) out.begin = from, out.end = to, out.valid = valid;
+  }
+  std::string list;
+  for (const std::string& t : named) list += (list.empty() ? "" : ", ") + t;
+  char bin[48];
+  std::snprintf(bin, sizeof bin, " (a %.4g s bin either side)", w);
+  out.why = "cut by " + list + bin;
+  return out;
+}
+
+// The judged stretch as one row: where it lies and why.
+TableWriter StretchTable(const JudgedStretch& s, double tau0) {
+  TableWriter t({"judged_from_s", "judged_to_s", "samples", "valid", "whole_record", "why"}, 6);
+  t.AddRow({Cell::Real(static_cast<double>(s.begin) * tau0),
+            Cell::Real(static_cast<double>(s.end) * tau0), Cell::Int(s.end - s.begin),
+            Cell::Int(s.valid), Cell::Bool(s.whole_record), Cell::Text(s.why)});
+  return t;
+}
+
 int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   auto parsed = ParseOptions(o);
   if (!parsed.ok()) {
@@ -407,45 +496,6 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     for (double& v : *values) v *= p.factor;
   }
   const double tau0 = 1.0 / o.rate_hz;
-  const allan::PhaseRecord phase =
-      o.type == "rate" ? allan::PhaseFromRate(*values, tau0) : allan::PhaseFromPhase(*values, tau0);
-  const std::vector<Curve> curves = ComputeCurves(phase, p.curves);
-
-  // The fit works on an Allan variance curve: the OADEV (or ADEV) asked for,
-  // else an octave OADEV computed for it.
-  std::optional<allan::CompositeFit> fit;
-  Curve fit_curve;
-  if (o.fit) {
-    bool found = false;
-    for (const Curve& c : curves) {
-      if (!found && (c.deviation == Deviation::kOadev || c.deviation == Deviation::kAdev)) {
-        fit_curve = c;
-        found = true;
-      }
-    }
-    if (!found) {
-      const std::vector<int64_t> m = allan::AveragingFactors(
-          allan::TauGridSpec{}, tau0, phase.size(), Deviation::kOadev, p.curves.stop);
-      fit_curve = allan::ComputeDeviation(phase, Deviation::kOadev, m);
-    }
-    // The fit's first pass weighs each point by the edf of its identified
-    // noise: identify it whatever --ci shows (as the station's final curves
-    // do), so that the interval option never changes the model.
-    if (fit_curve.ci != allan::CiMethod::kChi2) {  // chi2 at any level: the same edf
-      allan::AttachConfidence(phase, allan::CiMethod::kChi2, allan::kOneSigmaConfidence,
-                              &fit_curve);
-    }
-    allan::GmwmOptions fo;
-    fo.stop = allan::StopRule::kNone;  // the curve is already cut by --stop
-    fo.min_tau_s = o.fit_min_tau_s;
-    auto f = allan::FitCompositeModel(fit_curve, fo);
-    if (!f.ok()) {
-      LogError("--fit: " + f.status().message());
-      return 1;
-    }
-    fit = *f;
-  }
-
   // The stationarity scan: the series as one axis, its own noise model.
   std::optional<allan::StationarityScan> scan;
   std::string reference_source;  // the plan's reference model scanned against, if any
@@ -499,6 +549,55 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     }
   }
 
+  // --judge-longest-segment: the curves, the fit and every read-off are the
+  // longest stretch's that no found event touches (as a plan's
+  // JUDGE_LONGEST_SEGMENT judges a station's axis).
+  std::optional<JudgedStretch> stretch;
+  std::vector<double> stretch_values;
+  if (o.judge_longest_segment) {
+    stretch = LongestStretch(*scan, noise, *values, tau0);
+    stretch_values.assign(values->begin() + stretch->begin, values->begin() + stretch->end);
+  }
+  const std::vector<double>& series = stretch ? stretch_values : *values;
+  const allan::PhaseRecord phase =
+      o.type == "rate" ? allan::PhaseFromRate(series, tau0) : allan::PhaseFromPhase(series, tau0);
+  const std::vector<Curve> curves = ComputeCurves(phase, p.curves);
+
+  // The fit works on an Allan variance curve: the OADEV (or ADEV) asked for,
+  // else an octave OADEV computed for it.
+  std::optional<allan::CompositeFit> fit;
+  Curve fit_curve;
+  if (o.fit) {
+    bool found = false;
+    for (const Curve& c : curves) {
+      if (!found && (c.deviation == Deviation::kOadev || c.deviation == Deviation::kAdev)) {
+        fit_curve = c;
+        found = true;
+      }
+    }
+    if (!found) {
+      const std::vector<int64_t> m = allan::AveragingFactors(
+          allan::TauGridSpec{}, tau0, phase.size(), Deviation::kOadev, p.curves.stop);
+      fit_curve = allan::ComputeDeviation(phase, Deviation::kOadev, m);
+    }
+    // The fit's first pass weighs each point by the edf of its identified
+    // noise: identify it whatever --ci shows (as the station's final curves
+    // do), so that the interval option never changes the model.
+    if (fit_curve.ci != allan::CiMethod::kChi2) {  // chi2 at any level: the same edf
+      allan::AttachConfidence(phase, allan::CiMethod::kChi2, allan::kOneSigmaConfidence,
+                              &fit_curve);
+    }
+    allan::GmwmOptions fo;
+    fo.stop = allan::StopRule::kNone;  // the curve is already cut by --stop
+    fo.min_tau_s = o.fit_min_tau_s;
+    auto f = allan::FitCompositeModel(fit_curve, fo);
+    if (!f.ok()) {
+      LogError("--fit: " + f.status().message());
+      return 1;
+    }
+    fit = *f;
+  }
+
   // The dynamic Allan deviation, before anything is printed: a window that
   // does not fit the record is an error of the command.
   std::optional<allan::DynamicAllan> davar;
@@ -514,9 +613,22 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   }
 
   const bool with_ci = p.curves.ci != allan::CiMethod::kNone;
+  // The whole record's invalid samples (the phase's are the judged stretch's).
+  const int64_t invalid = stretch ? static_cast<int64_t>(values->size()) -
+                                        std::count_if(values->begin(), values->end(),
+                                                      [](double v) { return std::isfinite(v); })
+                                  : phase.invalid_count();
   if (p.format == Format::kTable) {
     std::printf("%s: %zu %s samples at %g Hz, %lld invalid\n", o.path.c_str(), values->size(),
-                o.type.c_str(), o.rate_hz, static_cast<long long>(phase.invalid_count()));
+                o.type.c_str(), o.rate_hz, static_cast<long long>(invalid));
+    if (stretch) {
+      std::printf(
+          "judged on %.6g-%.6g s (%lld samples, %lld valid): %s; the curves, fit and "
+          "read-offs below are this stretch's\n",
+          static_cast<double>(stretch->begin) * tau0, static_cast<double>(stretch->end) * tau0,
+          static_cast<long long>(stretch->end - stretch->begin),
+          static_cast<long long>(stretch->valid), stretch->why.c_str());
+    }
     for (const Curve& c : curves) {
       std::printf("\n%s (grid %s, stop %s, ci %s)\n",
                   std::string(allan::DeviationName(c.deviation)).c_str(), o.grid.c_str(),
@@ -548,10 +660,11 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     }
     if (scan && scan->scanned)
       std::printf("\n%s", EventTable(*scan, p.kind).Render(Format::kCsv).c_str());
+    if (stretch) std::printf("\n%s", StretchTable(*stretch, tau0).Render(Format::kCsv).c_str());
   } else {
     std::string json = "{\"file\": " + report::JsonString(o.path) +
                        ", \"samples\": " + std::to_string(values->size()) +
-                       ", \"invalid_samples\": " + std::to_string(phase.invalid_count()) +
+                       ", \"invalid_samples\": " + std::to_string(invalid) +
                        ", \"rate_hz\": " + std::to_string(o.rate_hz) + ",\n\"curves\": " +
                        CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kJson);
     if (fit) json += ",\n\"fit\": " + FitJson(*fit, fit_curve, p.kind);
@@ -575,6 +688,9 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
             ", \"event\": " + std::string(noise->found() ? "true" : "false") + "}";
       }
       json += "}";
+    }
+    if (stretch) {
+      json += ",\n\"judged_segment\": " + StretchTable(*stretch, tau0).Render(Format::kJson);
     }
     std::printf("%s}\n", json.c_str());
   }

@@ -30,6 +30,9 @@ struct AnalyzeFileOptions {
   // With stationarity_level: scan against this plan's reference model of
   // --kind (plan.proto Stationarity) instead of the series' own model.
   std::string stationarity_plan;
+  // With stationarity_level: the curves, fit and read-offs are the longest
+  // stretch's that no found event touches.
+  bool judge_longest_segment = false;
   std::string kind;  // gyro, accel or "" (units of the fit report)
   // The values' unit (a gyro's deg/s, rad/s, mrad/s, deg/h, rpm; an
   // accelerometer's m/s^2, g, mg, ug; needs kind) and a factor (an LSB):

@@ -318,6 +318,61 @@ TEST(AnalyzeCliTest, StationarityFindsAPlantedStepWithItsSize) {
   }
 }
 
+// --judge-longest-segment: with a step found at 250 s of a 600 s record
+// (bins of 2 s), the curves are those of 252-600 s, the longest stretch no
+// event touches, and the output says where it lies and what cut it; a record
+// with no event is judged whole and says so; without --stationarity the
+// flag is a one-line usage error.
+TEST(AnalyzeCliTest, JudgeLongestSegmentAnalysesTheStretchWithoutEvents) {
+  testing::TempDir dir("analyze_cli_segment");
+  const std::string stepped = dir.path("step.txt"), flat = dir.path("flat.txt");
+  {
+    std::ofstream a(stepped), b(flat);
+    a.precision(17);
+    b.precision(17);
+    std::mt19937_64 rng(5);
+    std::normal_distribution<double> gauss;
+    for (int i = 0; i < 60000; ++i) {
+      const double x = gauss(rng);
+      a << x + (i >= 25000 ? 0.5 : 0.0) << "\n";
+      b << x << "\n";
+    }
+  }
+  // The output of `analyze FILE` with the flags and `extra`, which must hold
+  // every one of `wants`.
+  const auto expect_output = [&](const std::string& file, const std::string& extra,
+                                 const std::vector<std::string>& wants) {
+    const auto r = RunCommand(Bin("imuqual") + " analyze " + file +
+                              " --rate 100 --stationarity 0.01 --judge-longest-segment" + extra);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    for (const std::string& want : wants) {
+      EXPECT_NE(r.output.find(want), std::string::npos) << want << "\n" << r.output;
+    }
+  };
+  expect_output(stepped, " --format json",
+                {// the whole record's count
+                 "\"samples\": 60000,",
+                 "\"judged_segment\": [\n {\"judged_from_s\": 252, \"judged_to_s\": 600, "
+                 "\"samples\": 34800, \"valid\": 34800, \"whole_record\": false, "
+                 "\"why\": \"cut by step at 250 s (a 2 s bin either side)\"}\n]",
+                 // the curves are the stretch's: 34800 samples, 34799 first differences
+                 "\"m\": 1, \"tau\": 0.01, \"n\": 34799,"});
+  expect_output(stepped, "",
+                {"judged on 252-600 s (34800 samples, 34800 valid): cut by step at 250 s (a 2 s "
+                 "bin either side); the curves, fit and read-offs below are this stretch's"});
+  expect_output(flat, " --format json",
+                {"\"judged_from_s\": 0, \"judged_to_s\": 600, \"samples\": 60000, \"valid\": "
+                 "60000, \"whole_record\": true, \"why\": \"the whole record: no event found\"",
+                 "\"m\": 1, \"tau\": 0.01, \"n\": 59999,"});
+
+  const auto bad = RunCommand(Bin("imuqual") + " analyze " + stepped +
+                              " --rate 100 --judge-longest-segment 2>&1");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(bad.output,
+            "imuqual: error: --judge-longest-segment needs --stationarity LEVEL (the scan finds "
+            "what cuts the record)\n");
+}
+
 // GIVEN a record with a level step, WHEN --davar draws its dynamic Allan
 // deviation, THEN the plot has a curve per window (every quarter window by
 // default, or the window asked for), and a window that does not fit the
