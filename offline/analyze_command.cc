@@ -556,6 +556,11 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   std::vector<double> stretch_values;
   if (o.judge_longest_segment) {
     stretch = LongestStretch(*scan, noise, *values, tau0);
+    if (stretch->valid == 0) {
+      LogError("--judge-longest-segment: no stretch without events holds a valid sample (" +
+               stretch->why + ")");
+      return 1;
+    }
     stretch_values.assign(values->begin() + stretch->begin, values->begin() + stretch->end);
   }
   const std::vector<double>& series = stretch ? stretch_values : *values;
