@@ -395,6 +395,7 @@ TableWriter EventTable(const allan::StationarityScan& scan,
 struct JudgedStretch {
   int64_t begin = 0, end = 0;  // samples [begin, end)
   int64_t valid = 0;           // valid samples in it
+  int64_t record_valid = 0;    // valid samples in the whole record
   bool whole_record = true;
   std::string why;  // what cut the record, or why it is judged whole
 };
@@ -405,7 +406,8 @@ JudgedStretch LongestStretch(const allan::StationarityScan& scan,
   JudgedStretch out;
   const auto n = static_cast<int64_t>(values.size());
   out.end = n;
-  for (double v : values) out.valid += std::isfinite(v) ? 1 : 0;
+  for (double v : values) out.record_valid += std::isfinite(v) ? 1 : 0;
+  out.valid = out.record_valid;
   if (!scan.scanned) {
     out.why = "the whole record: not scanned (" + scan.note + ")";
     return out;
@@ -416,15 +418,13 @@ JudgedStretch LongestStretch(const allan::StationarityScan& scan,
   for (const allan::StationarityEvent& e : scan.events) {
     const allan::EventAxis& a = e.axes.front();
     if (!a.named) continue;
+    cuts.push_back(allan::EventCut(e, a, w));
     char text[96];
     if (std::isfinite(a.gap_from_s)) {
-      cuts.emplace_back(a.gap_from_s - w, a.gap_to_s + w);
       std::snprintf(text, sizeof text, "missing data %.0f-%.0f s", a.gap_from_s, a.gap_to_s);
     } else if (e.kind == allan::EventKind::kStep) {
-      cuts.emplace_back(e.time_s - w, e.time_s + w);
       std::snprintf(text, sizeof text, "step at %.0f s", e.time_s);
     } else {
-      cuts.emplace_back(e.time_s - w, e.time_s + e.window_s + w);
       std::snprintf(text, sizeof text, "%s %.0f-%.0f s",
                     std::string(allan::EventKindName(e.kind)).c_str(), e.time_s,
                     e.time_s + e.window_s);
@@ -619,9 +619,7 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
 
   const bool with_ci = p.curves.ci != allan::CiMethod::kNone;
   // The whole record's invalid samples (the phase's are the judged stretch's).
-  const int64_t invalid = stretch ? static_cast<int64_t>(values->size()) -
-                                        std::count_if(values->begin(), values->end(),
-                                                      [](double v) { return std::isfinite(v); })
+  const int64_t invalid = stretch ? static_cast<int64_t>(values->size()) - stretch->record_valid
                                   : phase.invalid_count();
   if (p.format == Format::kTable) {
     std::printf("%s: %zu %s samples at %g Hz, %lld invalid\n", o.path.c_str(), values->size(),

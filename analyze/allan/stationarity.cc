@@ -953,20 +953,24 @@ Result<StationarityScan> ScanStationarityRefitting(const std::vector<std::span<c
   return scan;
 }
 
+std::pair<double, double> EventCut(const StationarityEvent& e, const EventAxis& a,
+                                   double margin_s) {
+  if (std::isfinite(a.gap_from_s)) return {a.gap_from_s - margin_s, a.gap_to_s + margin_s};
+  if (e.kind == EventKind::kStep) return {e.time_s - margin_s, e.time_s + margin_s};
+  return {e.time_s - margin_s, e.time_s + e.window_s + margin_s};
+}
+
 Segment LongestStationarySegment(const StationarityScan& scan, double length_s, int axis) {
-  // Cut points: a step's boundary; a burst's departing stretch [t, t + w).
+  static const EventAxis kNoAxis;  // an event no axis names: its time and window
   std::vector<std::pair<double, double>> cuts;
   for (const StationarityEvent& e : scan.events) {
-    bool on = axis < 0;
-    for (size_t a = 0; a < e.axes.size() && !on; ++a) {
-      on = static_cast<int>(a) == axis && e.axes[a].named;
+    // The axis's entry; for all axes, the first that names the event.
+    const EventAxis* on = nullptr;
+    for (size_t a = 0; a < e.axes.size() && on == nullptr; ++a) {
+      if ((axis < 0 || static_cast<int>(a) == axis) && e.axes[a].named) on = &e.axes[a];
     }
-    if (!on) continue;
-    if (e.kind == EventKind::kStep) {
-      cuts.emplace_back(e.time_s, e.time_s);
-    } else {
-      cuts.emplace_back(e.time_s, e.time_s + e.window_s);
-    }
+    if (on == nullptr && axis < 0) on = &kNoAxis;
+    if (on != nullptr) cuts.push_back(EventCut(e, *on, 0));
   }
   return LongestUncutStretch(std::move(cuts), length_s);
 }

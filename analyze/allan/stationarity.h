@@ -94,6 +94,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "analyze/allan/composite_model.h"
@@ -320,8 +321,16 @@ class BinAccumulator {
 // rate unit^2 s^2. Exposed for tests.
 double PhaseStructureFunction(const CompositeModel& model, double tau0_s, double s);
 
+// What a found event cuts from a record when the longest stationary stretch
+// is judged: a step in missing data its missing stretch, a step its time, a
+// burst from its start to its end, each widened by `margin_s` either side
+// (a scan bin: the scan places an event to within its bins). `a` is the
+// event's entry for the axis cut.
+std::pair<double, double> EventCut(const StationarityEvent& e, const EventAxis& a, double margin_s);
+
 // The longest stretch [begin_s, end_s) of a record of `length_s` seconds that
-// no event of the scan touches on the given axis (all axes: axis < 0).
+// no event of the scan touches on the given axis (all axes: axis < 0), each
+// event cut as EventCut with no margin.
 struct Segment {
   double begin_s = 0;
   double end_s = 0;

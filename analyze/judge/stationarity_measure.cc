@@ -241,17 +241,7 @@ std::vector<pb::Measurement> MeasureStationarity(const pb::TestPlan& plan,
       for (const allan::StationarityEvent& e : scan->events) {
         const allan::EventAxis& ea = e.axes[i];
         if (!ea.named) continue;
-        if (cuts != nullptr) {
-          // A bin either side: the scan places an event to within its bins.
-          const double w = scan->bin_s;
-          if (std::isfinite(ea.gap_from_s)) {
-            (*cuts)[a].emplace_back(ea.gap_from_s - w, ea.gap_to_s + w);
-          } else if (e.kind == allan::EventKind::kStep) {
-            (*cuts)[a].emplace_back(e.time_s - w, e.time_s + w);
-          } else {
-            (*cuts)[a].emplace_back(e.time_s - w, e.time_s + e.window_s + w);
-          }
-        }
+        if (cuts != nullptr) (*cuts)[a].push_back(allan::EventCut(e, ea, scan->bin_s));
         const int k = static_cast<int>(texts.size()) + 1;
         texts.push_back(EventText(e, ea, kind));
         const std::string name = std::string(kEventPrefix) + std::to_string(k);
