@@ -45,6 +45,30 @@ TEST(DeviceClockFitTest, LateAndBurstyArrivalsDoNotTiltTheClock) {
   EXPECT_LT(fit.JitterRmsS(), 0.1);
 }
 
+TEST(DeviceClockFitTest, AStarvationLongerThanAWindowDoesNotTiltTheClock) {
+  // A 10 s run of a 2010 Hz part (nominal 2000) on a starved host: from 3 s
+  // to 6.5 s of device time nothing is delivered, then the backlog arrives
+  // over 0.5 s. Every window inside the spell has only late arrivals, so a
+  // line through per-window minima tilts by thousands of ppm; the line under
+  // the arrivals rests on the on-time ones either side.
+  const double actual = 2010;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> latency(0.1e-3, 2e-3);
+  DeviceClockFit fit(2000);
+  for (int64_t c = 0; c < 2010 * 10; c += 20) {
+    const double emitted = c / actual;
+    double arrival = emitted + latency(rng);
+    if (emitted > 3.0 && emitted < 6.5) arrival = 6.5 + (emitted - 3.0) / 7.0 + latency(rng);
+    fit.Add(c, 1'000'000'000 + std::llround(arrival * 1e6));
+  }
+  ASSERT_TRUE(fit.Usable(2000 * 2));
+  const double ppm = (fit.RateHz() / 2000 - 1) * 1e6;
+  EXPECT_NEAR(ppm, 5000, 50) << fit.RateHz();
+  // The spell shows in the spread, not in the line.
+  EXPECT_GT(fit.RateSigmaHz(), 0);
+  EXPECT_GT(fit.JitterRmsS(), 0.01);
+}
+
 TEST(DeviceClockFitTest, TooFewWindowsOrTooShortASpanIsNotUsable) {
   DeviceClockFit fit(100);
   fit.Add(0, 1'000'000);
