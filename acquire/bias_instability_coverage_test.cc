@@ -6,8 +6,8 @@
 // the curve minimum and its 1-sigma uncertainty against the truth's own
 // minimum over the same taus. Over 200 seeds the 1-sigma interval must cover
 // the truth in 60-76 % of records (68 % nominal) and the 2-sigma one in
-// >= 93 % (measured 72.5 / 74.0 % and 94.5 / 93.0 %). On the two steeper
-// bottoms it covers more than stated (measured 79.0 % and 98.5 / 98.0 %: the
+// >= 93 % (measured 72.5 / 74.0 % and 95.0 / 93.0 %). On the two steeper
+// bottoms it covers more than stated (measured 78.5 / 79.0 % and 98.5 / 98.0 %: the
 // draws spread a V's points ~15 % wider than the records do): held to
 // 60-82 % and >= 93 % there. The reading itself (the curve's minimum, as
 // datasheets define it) lies low: measured mean z -0.5 (the minimum of a
@@ -145,24 +145,20 @@ TEST(SlopeReadoffCoverageTest, AngleRandomWalkUncertaintyCoversTheTruth) {
   }
 }
 
-// The standard uncertainty of the minimum's tau (FitMinimumVertex,
-// LnUncertaintyAt: the value is the curve's minimum point, where B is read)
-// against the truth's own tau at its minimum, on ln tau: over 200 records of
-// each of three mixtures whose minimum lies inside the record (tau* at 46,
-// 87 and 264 s, the curve ending at 582 s) the 1-sigma interval must
-// cover in 60-76 % and the 2-sigma one in >= 93 %. A fourth mixture has its
-// minimum at 346 s, 0.75 octave from the curve's end, where the rising line
-// is barely seen: there a third or more of the records say "not measurable"
-// and the rest cover less than stated (measured 2-sigma 85.5 %, 87.9 % on
-// other seeds; the test holds it at >= 80 % and prints it). The coverage is
-// over all records: conditioned on how well a record's rising line is seen
-// it is not held (its z is the ratio's denominator: a record whose line
-// reads strong by chance gets a low vertex and a small u).
-TEST(TauAtMinimumCoverageTest, VertexUncertaintyCoversTheTruth) {
+// The standard uncertainty of the minimum's tau (MinimumTauSelectionSpread:
+// the value is the curve's minimum point, where B is read) against the
+// truth's own tau at its minimum, on ln tau, over 200 records of each of
+// four mixtures (tau* at 46, 87, 264 and 346 s, the curve ending at 582 s):
+// the 1-sigma interval must cover in 60-76 % and the 2-sigma one in >= 93 %
+// (measured 70.5, 72.8, 75.5 and 67.2 %; 99.5, 93.3, 93.4 and 94.5 %). The
+// fourth has its minimum 0.75 octave from the curve's end, where the rising
+// line is barely seen: a third of its records say "not measurable" (no rising
+// line in the bottom's shape), which the others may not.
+TEST(TauAtMinimumCoverageTest, DrawnUncertaintyCoversTheTruth) {
   const std::vector<Scenario> two = Scenarios();
   struct TauScenario {
     Scenario s;
-    bool inside;  // the minimum well inside the record: held to the band
+    bool inside;  // the minimum well inside the record: nearly always measurable
   };
   std::vector<TauScenario> scenarios = {{two[1], true}, {two[0], false}};
   for (const Scenario& s : SteeperScenarios()) scenarios.push_back({s, true});
@@ -179,13 +175,13 @@ TEST(TauAtMinimumCoverageTest, VertexUncertaintyCoversTheTruth) {
       const allan::Curve dense = StationCurve(s.truth, 7919 * seed + 11);
       const auto min = allan::FindCurveMinimum(dense);
       ASSERT_TRUE(min.has_value());
-      const allan::MinimumVertex v = allan::FitMinimumVertex(dense, *min);
+      const allan::MinimumTauSpread v = allan::MinimumTauSelectionSpread(dense, *min);
       if (!v.resolved) {
         EXPECT_FALSE(v.why.empty());
         ++not_measurable;
         continue;
       }
-      const double u = v.LnUncertaintyAt(min->tau_s);
+      const double u = v.u_ln_tau;
       ASSERT_TRUE(std::isfinite(u) && u > 0) << s.name << " seed " << seed;
       const double z = std::log(min->tau_s / truth_tau) / u;
       sum_z += z;
@@ -199,14 +195,11 @@ TEST(TauAtMinimumCoverageTest, VertexUncertaintyCoversTheTruth) {
         "%-22s tau* %.0f s: 1-sigma %.1f %%  2-sigma %.1f %%  mean z %+.2f  (%d records, %d not "
         "measurable)\n",
         s.name.c_str(), truth_tau, 100 * c1, 100 * c2, sum_z / n, n, not_measurable);
-    if (ts.inside) {
-      EXPECT_LE(not_measurable, kSeeds * 3 / 10) << s.name;  // measured 0, 5 and 48
-      EXPECT_GE(c1, 0.60) << s.name;
-      EXPECT_LE(c1, 0.76) << s.name;
-      EXPECT_GE(c2, 0.93) << s.name;
-    } else {
-      EXPECT_GE(c2, 0.80) << s.name;
-    }
+    // Measured 0, 5 and 49 not measurable inside, 72 near the end.
+    EXPECT_LE(not_measurable, ts.inside ? kSeeds * 3 / 10 : kSeeds / 2) << s.name;
+    EXPECT_GE(c1, 0.60) << s.name;
+    EXPECT_LE(c1, 0.76) << s.name;
+    EXPECT_GE(c2, 0.93) << s.name;
   }
 }
 

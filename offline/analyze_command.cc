@@ -178,7 +178,13 @@ std::pair<double, double> ReadOff(const std::string& name, const Curve& curve,
     return {present(NoiseTerm::kBiasInstability, min->bias_instability_ieee),
             present(NoiseTerm::kBiasInstability, u_min / allan::kBiasInstabilityFactor)};
   }
-  if (name == "tau_at_minimum") return {min->tau_s, allan::kNaN};
+  if (name == "tau_at_minimum") {
+    // Its u as the station's (none where the minimum is the longest tau).
+    const allan::MinimumTauSpread spread = min->m == curve.points.back().m
+                                               ? allan::MinimumTauSpread{}
+                                               : allan::MinimumTauSelectionSpread(curve, *min);
+    return {min->tau_s, spread.resolved ? min->tau_s * spread.u_ln_tau : allan::kNaN};
+  }
   return {allan::kNaN, allan::kNaN};
 }
 

@@ -682,7 +682,8 @@ class FixedNormals {
 // The best of the non-negative fits over every subset of the three lines
 // (the unconstrained optimum when it is non-negative; else on a face).
 std::optional<BottomShape> FitShape(const std::vector<double>& tau, const std::vector<double>& avar,
-                                    const std::vector<double>& edf, double tau_ref) {
+                                    const std::vector<double>& edf, double tau_ref,
+                                    const std::optional<BottomShape>& weights_from = std::nullopt) {
   const int k = static_cast<int>(tau.size());
   if (k < 3) return std::nullopt;
   std::optional<BottomShape> best;
@@ -700,7 +701,9 @@ std::optional<BottomShape> FitShape(const std::vector<double>& tau, const std::v
       const double col[3] = {tau_ref / tau[j], 1.0, tau[j] / tau_ref};
       for (int c = 0; c < n; ++c) x(j, c) = col[cols[c]];
       y(j) = avar[j];
-      w(j) = avar[j] > 0 ? edf[j] / (2 * avar[j] * avar[j]) : 0.0;
+      const double expected =
+          weights_from ? weights_from->Dev(tau[j]) * weights_from->Dev(tau[j]) : avar[j];
+      w(j) = expected > 0 ? edf[j] / (2 * expected * expected) : 0.0;
     }
     const Eigen::MatrixXd xw = w.asDiagonal() * x;
     const Eigen::VectorXd beta = (x.transpose() * xw).ldlt().solve(xw.transpose() * y);
@@ -720,6 +723,76 @@ std::optional<BottomShape> FitShape(const std::vector<double>& tau, const std::v
   return best;
 }
 
+// Noisy copies of a bottom's points about its shape: each point's AVAR /
+// its expectation is chi-square / edf (its cube root nearly normal:
+// Wilson-Hilferty), the edf the shape's white, flicker and random-walk
+// shares of the Greenhall edfs, the normals correlated as flicker FM's
+// overlapping AVAR estimates (the noise that makes a bottom flat; a random
+// walk's correlations gave the same figures). Fixed seed: a pure function.
+class BottomDraws {
+ public:
+  BottomDraws(const Curve& curve, const std::vector<const CurvePoint*>& pts,
+              const BottomShape& shape, bool local_correlations = false)
+      : k_(static_cast<int>(pts.size())), mu_(k_), h_(k_), z_(k_) {
+    if (k_ < 1) return;
+    std::vector<int64_t> m(k_);
+    for (int j = 0; j < k_; ++j) {
+      const double t = pts[j]->tau_s;
+      m[j] = pts[j]->m;
+      mu_(j) = shape.Dev(t);
+      // The relative variance of a mixture's AVAR estimate as the terms'
+      // relative variances weighted by their shares of the AVAR.
+      const double share[3] = {shape.a / t, shape.b, shape.c * t};
+      double inverse_edf = 0;
+      for (int term = 0; term < 3; ++term) {
+        if (!(share[term] > 0)) continue;
+        const double e = PointEdf(*pts[j], curve.n_phase, -term);
+        inverse_edf += share[term] / (mu_(j) * mu_(j)) / (std::isfinite(e) && e > 0 ? e : kNaN);
+      }
+      h_(j) = 2 / (9 / inverse_edf);  // 2 / (9 edf)
+    }
+    if (!mu_.allFinite() || !h_.allFinite() || !(mu_.minCoeff() > 0)) return;
+    const double floor = 1e-6 * mu_.minCoeff() * mu_.minCoeff();
+    const std::vector<double> r =
+        local_correlations
+            ? LocalModelCorrelations(std::max(shape.a, floor), std::max(shape.b, floor),
+                                     std::max(shape.c, floor), curve.tau0_s, m)
+            : TermAvarCorrelations(TermKind::kFlicker, m);
+    const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
+        rho(r.data(), k_, k_);
+    // A correlation matrix of many close factors is near singular: a little
+    // ridge keeps its factor real (it decorrelates by at most 1e-9).
+    Eigen::LDLT<Eigen::MatrixXd> ldlt(rho + 1e-9 * Eigen::MatrixXd::Identity(k_, k_));
+    if (ldlt.info() != Eigen::Success) return;
+    root_ = ldlt.transpositionsP().transpose() * Eigen::MatrixXd(ldlt.matrixL()) *
+            ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+    ok_ = true;
+  }
+  bool ok() const { return ok_; }
+  // The shape's deviations at the points.
+  const Eigen::VectorXd& expected() const { return mu_; }
+  // One draw of the points' deviations into *dev (0 for a draw at or below
+  // zero).
+  void Draw(Eigen::VectorXd* dev) {
+    for (int j = 0; j < k_; ++j) z_(j) = normals_.Next();
+    const Eigen::VectorXd g = root_ * z_;
+    dev->resize(k_);
+    for (int j = 0; j < k_; ++j) {
+      const double w = 1 - h_(j) + g(j) * std::sqrt(h_(j));
+      (*dev)(j) = w > 0 ? mu_(j) * w * std::sqrt(w) : 0.0;
+    }
+  }
+
+ private:
+  int k_;
+  Eigen::VectorXd mu_, h_, z_;
+  Eigen::MatrixXd root_;
+  FixedNormals normals_;
+  bool ok_ = false;
+};
+
+constexpr int kBottomDraws = 4000;
+
 }  // namespace
 
 std::optional<double> MinimumSelectionSpread(const Curve& curve, const CurveMinimum& min) {
@@ -732,42 +805,12 @@ std::optional<double> MinimumSelectionSpread(const Curve& curve, const CurveMini
   const int k = static_cast<int>(pts.size());
   if (k < 1) return std::nullopt;
   // The points within an octave of the minimum (those it is picked from),
-  // each about its expectation (the bottom's shape) with its chi-square
-  // spread, correlated as flicker FM's AVAR estimates are (the noise that
-  // makes a bottom flat; a random walk's correlations gave the same figures).
-  std::vector<int64_t> m(k);
-  Eigen::VectorXd mu(k), h(k);  // h = 2 / (9 edf)
-  for (int j = 0; j < k; ++j) {
-    const double t = pts[j]->tau_s;
-    m[j] = pts[j]->m;
-    mu(j) = shape->Dev(t);
-    // The relative variance of a mixture's AVAR estimate as the terms'
-    // relative variances weighted by their shares of the AVAR (Greenhall edf
-    // of white, flicker and random-walk FM).
-    const double share[3] = {shape->a / t, shape->b, shape->c * t};
-    double inverse_edf = 0;
-    for (int term = 0; term < 3; ++term) {
-      if (!(share[term] > 0)) continue;
-      const double e = PointEdf(*pts[j], curve.n_phase, -term);
-      inverse_edf += share[term] / (mu(j) * mu(j)) / (std::isfinite(e) && e > 0 ? e : kNaN);
-    }
-    const double edf = 1 / inverse_edf;
-    h(j) = 2 / (9 * edf);
-  }
-  if (!mu.allFinite() || !h.allFinite() || !(mu.minCoeff() > 0)) return std::nullopt;
-  const std::vector<double> r = TermAvarCorrelations(TermKind::kFlicker, m);
-  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
-      rho(r.data(), k, k);
-  // A correlation matrix of many close factors is near singular: a little
-  // ridge keeps its factor real (it decorrelates by at most 1e-9).
-  Eigen::LDLT<Eigen::MatrixXd> ldlt(rho + 1e-9 * Eigen::MatrixXd::Identity(k, k));
-  if (ldlt.info() != Eigen::Success) return std::nullopt;
-  const Eigen::MatrixXd root = ldlt.transpositionsP().transpose() *
-                               Eigen::MatrixXd(ldlt.matrixL()) *
-                               ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  // each about its expectation (the bottom's shape).
+  BottomDraws draws(curve, pts, *shape);
+  if (!draws.ok()) return std::nullopt;
   // The truth's minimum over the points' span: the shape's vertex when it
   // lies inside, else its lower end.
-  double truth = mu.minCoeff();
+  double truth = draws.expected().minCoeff();
   if (shape->a > 0 && shape->c > 0) {
     const double vertex = std::sqrt(shape->a / shape->c);
     if (vertex > pts.front()->tau_s && vertex < pts.back()->tau_s) {
@@ -781,32 +824,81 @@ std::optional<double> MinimumSelectionSpread(const Curve& curve, const CurveMini
   // +-2u covers the truth in 95.45 % of the draws (half that quantile of
   // |least - truth| / level, each draw with its own level). The +-1u
   // interval then covers at least the normal 68.3 %: the tail is heavier.
-  constexpr int kDraws = 4000;
-  FixedNormals normals;
-  Eigen::VectorXd z(k);
+  Eigen::VectorXd dev;
   std::vector<double> miss;
-  miss.reserve(kDraws);
-  for (int d = 0; d < kDraws; ++d) {
-    for (int j = 0; j < k; ++j) z(j) = normals.Next();
-    // Each point's AVAR / its expectation is chi-square / edf (its cube
-    // root nearly normal: Wilson-Hilferty), the normals correlated.
-    const Eigen::VectorXd g = root * z;
-    double least = INFINITY, level = 0;
-    for (int j = 0; j < k; ++j) {
-      const double w = 1 - h(j) + g(j) * std::sqrt(h(j));
-      const double x = w > 0 ? mu(j) * w * std::sqrt(w) : 0.0;
-      least = std::min(least, x);
-      level += x / k;
-    }
+  miss.reserve(kBottomDraws);
+  for (int d = 0; d < kBottomDraws; ++d) {
+    draws.Draw(&dev);
+    const double least = dev.minCoeff(), level = dev.mean();
     // A draw at or below zero: no reading, as far from the truth as can be.
     miss.push_back(level > 0 ? std::abs(least - truth) / level : INFINITY);
   }
-  const auto q = miss.begin() + static_cast<std::ptrdiff_t>(0.9545 * kDraws);
+  const auto q = miss.begin() + static_cast<std::ptrdiff_t>(0.9545 * kBottomDraws);
   std::nth_element(miss.begin(), q, miss.end());
   if (!std::isfinite(*q)) return std::nullopt;
   double level = 0;
   for (const CurvePoint* p : pts) level += p->dev / k;
   return level * *q / 2;
+}
+
+MinimumTauSpread MinimumTauSelectionSpread(const Curve& curve, const CurveMinimum& min) {
+  MinimumTauSpread out;
+  const std::optional<BottomShape> shape = FitBottomShape(curve, min);
+  if (!shape) {
+    out.why = "fewer than 3 points within 2 octaves of the minimum";
+    return out;
+  }
+  out.shape = *shape;
+  if (!(shape->c > 0)) {
+    out.why = "the bottom shows no rising (random-walk) line";
+    return out;
+  }
+  if (!(shape->a > 0)) {
+    out.why = "the bottom shows no falling (white-noise) line";
+    return out;
+  }
+  const std::vector<const CurvePoint*> pts = BottomPoints(curve, min);
+  BottomDraws draws(curve, pts, *shape, /*local_correlations=*/true);
+  if (!draws.ok()) {
+    out.why = "the bottom's points have no edf";
+    return out;
+  }
+  out.vertex_s = std::sqrt(shape->a / shape->c);
+  out.points = static_cast<int>(pts.size());
+  out.tau_lo_s = pts.front()->tau_s;
+  out.tau_hi_s = pts.back()->tau_s;
+  if (out.vertex_s < out.tau_lo_s / 2 || out.vertex_s > out.tau_hi_s * 2) {
+    char why[160];
+    std::snprintf(why, sizeof why,
+                  "the bottom's vertex (%.3g s) lies more than an octave outside its points "
+                  "(%.3g-%.3g s): the curve does not show where the minimum is",
+                  out.vertex_s, out.tau_lo_s, out.tau_hi_s);
+    out.why = why;
+    return out;
+  }
+  // The curve's minimum is at the least of the noisy points: on a flat
+  // bottom it wanders far from the vertex, and where the record ends near
+  // the vertex it cannot reach beyond the last point. Its error on ln tau
+  // against the shape's vertex, over the draws.
+  const double ln_vertex = std::log(out.vertex_s);
+  Eigen::VectorXd dev;
+  std::vector<double> miss;
+  miss.reserve(kBottomDraws);
+  for (int d = 0; d < kBottomDraws; ++d) {
+    draws.Draw(&dev);
+    Eigen::Index at = 0;
+    dev.minCoeff(&at);
+    miss.push_back(std::abs(std::log(pts[at]->tau_s) - ln_vertex));
+  }
+  // u(ln tau) is the 68.27 % quantile of that error: the wander is near
+  // uniform over a flat bottom (half the 95.45 % quantile would under-cover
+  // at 1 sigma), and the 2-sigma coverage is measured, not assumed.
+  const auto q = miss.begin() + static_cast<std::ptrdiff_t>(0.6827 * kBottomDraws);
+  std::nth_element(miss.begin(), q, miss.end());
+  out.u_ln_tau = *q;
+  out.resolved = out.u_ln_tau > 0 && std::isfinite(out.u_ln_tau);
+  if (!out.resolved) out.why = "the drawn minimum never moves from the vertex";
+  return out;
 }
 
 std::optional<BottomShape> FitBottomShape(const Curve& curve, const CurveMinimum& min) {
@@ -816,116 +908,13 @@ std::optional<BottomShape> FitBottomShape(const Curve& curve, const CurveMinimum
     avar.push_back(p->dev * p->dev);
     edf.push_back(PointEdf(*p, curve.n_phase, -1));
   }
-  return FitShape(tau, avar, edf, min.tau_s);
-}
-
-double MinimumVertex::LnUncertaintyAt(double at_s) const {
-  return resolved ? std::hypot(u_ln_tau, std::log(at_s / tau_s)) : kNaN;
-}
-
-MinimumVertex FitMinimumVertex(const Curve& curve, const CurveMinimum& min,
-                               double half_width_octaves) {
-  MinimumVertex out;
-  std::vector<const CurvePoint*> pts;
-  for (const CurvePoint& p : curve.points) {
-    if (!(std::isfinite(p.dev) && p.dev > 0 && p.tau_s > 0)) continue;
-    if (!std::isfinite(PointEdf(p, curve.n_phase, -1))) continue;
-    pts.push_back(&p);
-  }
-  const double half = half_width_octaves * std::numbers::ln2;
-  double centre = std::log(min.tau_s);
-  for (int pass = 0; pass < 6; ++pass) {
-    // The points within reach of the bottom, at least the five nearest
-    // (an octave grid has four or five within two octaves).
-    std::vector<const CurvePoint*> in = pts;
-    auto distance = [&](const CurvePoint* p) { return std::abs(std::log(p->tau_s) - centre); };
-    std::stable_sort(in.begin(), in.end(), [&](const CurvePoint* a, const CurvePoint* b) {
-      return distance(a) < distance(b);
-    });
-    size_t keep = 0;
-    while (keep < in.size() && (keep < 5 || distance(in[keep]) <= half)) ++keep;
-    in.resize(keep);
-    std::sort(in.begin(), in.end(),
-              [](const CurvePoint* a, const CurvePoint* b) { return a->tau_s < b->tau_s; });
-    const int k = static_cast<int>(in.size());
-    out.points = k;
-    if (k < 5) {
-      out.why = "fewer than 5 points with an edf";
-      return out;
-    }
-    const double tlo = in.front()->tau_s, thi = in.back()->tau_s;
-    std::vector<int64_t> m(k);
-    Eigen::VectorXd y(k), two_over_edf(k);
-    Eigen::MatrixXd x(k, 3);
-    for (int j = 0; j < k; ++j) {
-      m[j] = in[j]->m;
-      y(j) = in[j]->dev * in[j]->dev;
-      x(j, 0) = tlo / in[j]->tau_s;
-      x(j, 1) = 1;
-      x(j, 2) = in[j]->tau_s / thi;
-      two_over_edf(j) = 2 / PointEdf(*in[j], curve.n_phase, -1);
-    }
-    // Pass 1 with flicker FM's edf and correlations, pass 2 with the local
-    // model's (white + flicker + random walk as fitted).
-    std::vector<double> r = TermAvarCorrelations(TermKind::kFlicker, m);
-    AvarFit f;
-    for (int round = 0; round < 2; ++round) {
-      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
-          rho(r.data(), k, k);
-      f = FitAvars(x, y, two_over_edf, rho);
-      if (!f.beta.allFinite() || !f.cov.allFinite()) {
-        out.why = "the white + flicker + random-walk line through the bottom could not be fitted";
-        return out;
-      }
-      if (round == 1) break;
-      const double floor = 1e-6 * y.minCoeff();
-      const double a = std::max(f.beta(0), floor) * tlo, b = std::max(f.beta(1), floor),
-                   c = std::max(f.beta(2), floor) / thi;
-      r = LocalModelCorrelations(a, b, c, curve.tau0_s, m);
-      for (int j = 0; j < k; ++j) {
-        const double t = in[j]->tau_s;
-        const double slope = (-a / t + c * t) / (a / t + b + c * t);
-        const double edf = PointEdf(*in[j], curve.n_phase, AlphaFromAvarSlope(slope));
-        if (std::isfinite(edf) && edf > 0) two_over_edf(j) = 2 / edf;
-      }
-    }
-    const double inflate = f.birge > 1 ? f.birge : 1.0;
-    const double i2 = inflate * inflate;
-    const double b1 = f.beta(0), b3 = f.beta(2);
-    const double v11 = f.cov(0, 0) * i2, v13 = f.cov(0, 2) * i2, v33 = f.cov(2, 2) * i2;
-    out.rising_z = b3 / std::sqrt(std::max(v33, 0.0));
-    out.birge = f.birge;
-    out.tau_lo_s = tlo;
-    out.tau_hi_s = thi;
-    if (!(b3 > 0)) {
-      out.why = "no rising (random-walk) line beyond the bottom";
-      return out;
-    }
-    if (!(b1 > 0)) {
-      out.why = "no falling (white-noise) line before the bottom";
-      return out;
-    }
-    // a = b1 tlo, c = b3 / thi (the columns are scaled to [0, 1]).
-    const double vertex = 0.5 * std::log(b1 / b3 * tlo * thi);
-    const double var_ln = 0.25 * (v11 / (b1 * b1) + v33 / (b3 * b3) - 2 * v13 / (b1 * b3));
-    const bool settled = std::abs(vertex - centre) < 0.1 * std::numbers::ln2;
-    centre = std::clamp(vertex, centre - half, centre + half);
-    if (!settled && pass + 1 < 6) continue;
-    if (!(vertex >= std::log(tlo) && vertex <= std::log(thi))) {
-      out.why = "the vertex lies outside the points fitted";
-      return out;
-    }
-    if (!(var_ln > 0)) {
-      out.why = "the vertex's variance is not positive";
-      return out;
-    }
-    out.resolved = true;
-    out.why.clear();
-    out.tau_s = std::exp(vertex);
-    out.u_ln_tau = std::sqrt(var_ln);
-    return out;
-  }
-  return out;
+  // Weighed first by the points themselves, then by the first fit's values
+  // (a point that reads low by chance would otherwise weigh more, and flatten
+  // the shape).
+  const std::optional<BottomShape> first = FitShape(tau, avar, edf, min.tau_s);
+  if (!first) return first;
+  const std::optional<BottomShape> second = FitShape(tau, avar, edf, min.tau_s, first);
+  return second ? second : first;
 }
 
 }  // namespace imuqual::allan

@@ -235,42 +235,39 @@ std::optional<double> MinimumSelectionSpread(const Curve& curve, const CurveMini
 // The bottom's own shape: AVAR = a / tau + b + c tau (white noise, flicker
 // and a random walk; a, b, c >= 0) fitted by weighted least squares to the
 // points within two octaves of `min` (weights edf / (2 AVAR^2), flicker FM's
-// Greenhall edf; no correlations: a cheap fit whose shape, not its
-// uncertainty, is used). None with fewer than 3 points.
+// Greenhall edf, AVAR first the points' own and then the first fit's, so
+// that a point reading low by chance does not weigh more; no correlations: a
+// cheap fit whose shape, not its uncertainty, is used). None with fewer than
+// 3 points.
 struct BottomShape {
   double a = 0, b = 0, c = 0;
   double Dev(double tau_s) const { return std::sqrt(a / tau_s + b + c * tau_s); }
 };
 std::optional<BottomShape> FitBottomShape(const Curve& curve, const CurveMinimum& min);
 
-// Where the curve's bottom lies, for the standard uncertainty of the
-// minimum's tau: the points within `half_width_octaves` of the bottom (at
-// least the five nearest) are fitted as AVAR = a / tau + b + c tau (the falling white-noise line,
-// the flicker floor and the rising random-walk line; FitAvars: a first pass with flicker FM's edf
-// and correlations, a second with the edf of each point's local slope and the correlations of the
-// fitted white + flicker + random walk), recentred on its vertex tau* = sqrt(a / c) until it moves
-// less than a tenth of an octave; u(ln tau*) by the delta method from the covariance of a and c,
-// inflated by the Birge ratio when the points scatter more than their errors say. `resolved` is
-// false, with the reason in `why`, when the curve has fewer than five points with an edf, either
-// line is not there (a or c not positive: no minimum between them) or the vertex lies outside the
-// points fitted.
-struct MinimumVertex {
+// The standard uncertainty of the minimum's tau as a reading of the truth's
+// (the value is the curve's minimum point, where B is read): the points
+// within two octaves of `min` are drawn about the bottom's shape as in
+// MinimumSelectionSpread (4000 draws, fixed seed; the shape's own
+// white + flicker + random-walk correlations), and u(ln tau) is the 68.27 %
+// quantile of |ln tau(least point) - ln vertex| over the draws, vertex =
+// sqrt(a / c) (a flat bottom's minimum wanders near-uniformly, so half the
+// 95.45 % quantile would under-cover at 1 sigma; the 2-sigma coverage is
+// measured). A record that ends near the vertex cannot put its minimum
+// beyond the last point, and the draws say so. Not resolved, with the
+// reason, when the shape cannot be fitted, has no rising or no falling line
+// (no vertex to read) or puts its vertex more than an octave outside the
+// points drawn.
+struct MinimumTauSpread {
   bool resolved = false;
   std::string why;
-  double tau_s = kNaN;
-  double u_ln_tau = kNaN;  // standard uncertainty of ln tau*
-  double rising_z = kNaN;  // c / sigma(c): how well the rising line is seen
-  double birge = kNaN;
+  double u_ln_tau = kNaN;
+  double vertex_s = kNaN;  // sqrt(a / c) of the shape
+  BottomShape shape;
   int points = 0;
-  double tau_lo_s = kNaN, tau_hi_s = kNaN;  // the points fitted
-
-  // The standard uncertainty of ln tau read at `tau_s` (the curve's minimum
-  // point, where B was read): u(ln tau*) combined with how far tau_s lies
-  // from the vertex. NaN when not resolved.
-  double LnUncertaintyAt(double tau_s) const;
+  double tau_lo_s = kNaN, tau_hi_s = kNaN;  // the points drawn
 };
-MinimumVertex FitMinimumVertex(const Curve& curve, const CurveMinimum& min,
-                               double half_width_octaves = 2.0);
+MinimumTauSpread MinimumTauSelectionSpread(const Curve& curve, const CurveMinimum& min);
 
 }  // namespace imuqual::allan
 

@@ -264,14 +264,15 @@ TEST(MeasureAxisTest, ResolvedMinimumIsAMeasuredValue) {
     EXPECT_FALSE(m.uncertainty_method().empty()) << m.name();
   }
   EXPECT_TRUE(Find(ms, kBiasInstability)->has_uncertainty());
-  // The minimum's tau: its u from the bottom's vertex, named in the note.
+  // The minimum's tau: its u drawn about the bottom's shape, whose vertex
+  // the note names.
   const pb::Measurement* tau = Find(ms, kTauAtMinimum);
   ASSERT_TRUE(tau->has_uncertainty()) << tau->uncertainty_method();
   EXPECT_GT(tau->uncertainty(), 0);
   EXPECT_LT(tau->uncertainty(), tau->value());
-  EXPECT_TRUE(tau->uncertainty_method().starts_with("from the bottom's vertex"));
+  EXPECT_TRUE(tau->uncertainty_method().starts_with("drawn about the bottom's shape"));
   EXPECT_TRUE(tau->note().starts_with("the bottom's vertex at ")) << tau->note();
-  // A live update leaves the vertex to the looks and the final result.
+  // A live update leaves the draws to the looks and the final result.
   const std::vector<pb::Measurement> live =
       MeasureAxis("x", pb::GYRO, ExactCurve(WhitePlusRandomWalk()), 0.0, false);
   EXPECT_FALSE(Find(live, kTauAtMinimum)->has_uncertainty());
