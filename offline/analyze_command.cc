@@ -180,9 +180,7 @@ std::pair<double, double> ReadOff(const std::string& name, const Curve& curve,
   }
   if (name == "tau_at_minimum") {
     // Its u as the station's (none where the minimum is the longest tau).
-    const allan::MinimumTauSpread spread = min->m == curve.points.back().m
-                                               ? allan::MinimumTauSpread{}
-                                               : allan::MinimumTauSelectionSpread(curve, *min);
+    const allan::MinimumTauSpread spread = allan::MinimumTauSelectionSpread(curve, *min);
     return {min->tau_s, spread.resolved ? min->tau_s * spread.u_ln_tau : allan::kNaN};
   }
   return {allan::kNaN, allan::kNaN};

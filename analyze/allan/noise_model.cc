@@ -727,8 +727,11 @@ std::optional<BottomShape> FitShape(const std::vector<double>& tau, const std::v
 // its expectation is chi-square / edf (its cube root nearly normal:
 // Wilson-Hilferty), the edf the shape's white, flicker and random-walk
 // shares of the Greenhall edfs, the normals correlated as flicker FM's
-// overlapping AVAR estimates (the noise that makes a bottom flat; a random
-// walk's correlations gave the same figures). Fixed seed: a pure function.
+// overlapping AVAR estimates (the noise that makes a bottom flat; for the
+// minimum's value a random walk's correlations gave the same figures) or,
+// with `local_correlations`, as the shape's own white + flicker + random
+// walk's (for the minimum's tau: flicker's made its u wider than measured).
+// Fixed seed: a pure function.
 class BottomDraws {
  public:
   BottomDraws(const Curve& curve, const std::vector<const CurvePoint*>& pts,
@@ -843,6 +846,10 @@ std::optional<double> MinimumSelectionSpread(const Curve& curve, const CurveMini
 
 MinimumTauSpread MinimumTauSelectionSpread(const Curve& curve, const CurveMinimum& min) {
   MinimumTauSpread out;
+  if (!curve.points.empty() && min.m == curve.points.back().m) {
+    out.why = "the minimum is at the longest tau (not resolved)";
+    return out;
+  }
   const std::optional<BottomShape> shape = FitBottomShape(curve, min);
   if (!shape) {
     out.why = "fewer than 3 points within 2 octaves of the minimum";

@@ -255,7 +255,8 @@ std::optional<BottomShape> FitBottomShape(const Curve& curve, const CurveMinimum
 // 95.45 % quantile would under-cover at 1 sigma; the 2-sigma coverage is
 // measured). A record that ends near the vertex cannot put its minimum
 // beyond the last point, and the draws say so. Not resolved, with the
-// reason, when the shape cannot be fitted, has no rising or no falling line
+// reason, when the minimum is the curve's longest tau (the curve has not
+// turned up), the shape cannot be fitted, has no rising or no falling line
 // (no vertex to read) or puts its vertex more than an octave outside the
 // points drawn.
 struct MinimumTauSpread {

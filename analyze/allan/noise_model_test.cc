@@ -420,8 +420,19 @@ TEST(NoiseModelTest, MinimumTauSpreadIsDrawnAboutTheBottomsVertex) {
   const Curve no_rise = overlapped(ModelCurve(flat, kWorkedExampleSamples, kTau0, NoPerturbation));
   const MinimumTauSpread none = MinimumTauSelectionSpread(no_rise, *FindCurveMinimum(no_rise));
   EXPECT_FALSE(none.resolved);
-  EXPECT_FALSE(none.why.empty());
+  EXPECT_NE(none.why.find("longest tau"), std::string::npos) << none.why;
   EXPECT_TRUE(std::isnan(none.u_ln_tau));
+  // Read at an inner point of that falling curve, the bottom's shape has no
+  // rising line, or puts its vertex far beyond its points: no u either.
+  const CurvePoint* inner = nullptr;
+  for (const CurvePoint& p : no_rise.points) {
+    if (p.tau_s <= no_rise.points.back().tau_s / 8) inner = &p;
+  }
+  ASSERT_NE(inner, nullptr);
+  const CurveMinimum at_inner{inner->dev, inner->tau_s, inner->m, inner->dev / 0.664};
+  const MinimumTauSpread falling = MinimumTauSelectionSpread(no_rise, at_inner);
+  EXPECT_FALSE(falling.resolved);
+  EXPECT_FALSE(falling.why.empty());
 }
 
 // The curve minimum's u: drawn about the bottom's shape (a pure function of

@@ -45,7 +45,7 @@ constexpr const char* kTauMethod =
     "flat bottom and cannot pass the curve's end); the value's u is tau x u(ln tau), first "
     "order: for u(ln tau) above ~0.3 the interval tau exp(+-k u(ln tau)) is the better one, "
     "wider above than below; coverage on ln tau over 200 simulated records of each of four "
-    "mixtures (one with its minimum 0.75 octave from the curve's end): 1-sigma 68-76 %, 2-sigma "
+    "mixtures (one with its minimum 0.75 octave from the curve's end): 1-sigma 69-79 %, 2-sigma "
     "93-99.5 %";
 constexpr const char* kArwMethod =
     "weighted fit of AVAR x tau = N^2 + b/tau + c tau over the clean points of the -1/2 line "
@@ -381,8 +381,10 @@ std::vector<pb::Measurement> MeasureTiming(double nominal_rate_hz, double measur
     rate.set_uncertainty(rate_sigma_hz);
     error.set_uncertainty(rate_sigma_hz / nominal_rate_hz * 1e6);
     rate.set_uncertainty_method(
-        "standard error of the slope of the least-squares line through each window's "
-        "least-late arrival (device counter against host clock); the host clock's own error "
+        "the line under each second's least-late arrival (device counter against host clock; "
+        "the lower convex hull's edge above the arrivals' mean counter): the least-squares "
+        "standard error of its slope from those arrivals' scatter about it, a busy spell's "
+        "seconds (beyond 5 robust sigma above the line) left out; the host clock's own error "
         "not included");
     error.set_uncertainty_method("measured_rate's standard error, relative to the nominal rate");
   } else {

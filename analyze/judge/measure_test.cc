@@ -309,7 +309,7 @@ TEST(MeasureRunTest, CountsAreExactAndTimingSaysHowItsSigmaWasObtained) {
   std::vector<pb::Measurement> timing = MeasureTiming(100, 100.01, 0.002, 0.001);
   ASSERT_EQ(timing.size(), 3u);
   EXPECT_TRUE(timing[0].has_uncertainty());
-  EXPECT_TRUE(timing[0].uncertainty_method().starts_with("standard error of the slope"))
+  EXPECT_TRUE(timing[0].uncertainty_method().starts_with("the line under each second's least-late"))
       << timing[0].uncertainty_method();
   EXPECT_TRUE(timing[1].uncertainty_method().starts_with("measured_rate's standard error"));
   EXPECT_TRUE(timing[2].uncertainty_method().starts_with("none:"));

@@ -12,19 +12,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 DeviceClockFit::DeviceClockFit(double nominal_rate_hz, double window_s)
     : tau0_s_(1.0 / nominal_rate_hz), window_samples_(std::max(1.0, window_s * nominal_rate_hz)) {}
 
-void DeviceClockFit::Moments::Add(double x, double y) {
-  ++n;
-  min_x = n == 1 ? x : std::min(min_x, x);
-  max_x = n == 1 ? x : std::max(max_x, x);
-  const double dx = x - mean_x;
-  const double dy = y - mean_y;
-  mean_x += dx / static_cast<double>(n);
-  mean_y += dy / static_cast<double>(n);
-  sxx += dx * (x - mean_x);
-  syy += dy * (y - mean_y);
-  sxy += dx * (y - mean_y);
-}
-
 double DeviceClockFit::State::Slope() const {
   if (hull.size() < 2 || n == 0) return 0.0;
   const double mean_x = sum_x / static_cast<double>(n);
@@ -46,14 +33,14 @@ void DeviceClockFit::Add(int64_t counter, int64_t utime) {
   const double y = static_cast<double>(utime - u0_) * 1e-6 - x * tau0_s_;
   const int64_t window = static_cast<int64_t>(std::floor(x / window_samples_));
   if (window != window_ && !open_.empty()) {
-    Close(open_, &closed_);
+    minima_.push_back(Close(open_, &closed_));
     open_.clear();
   }
   window_ = window;
   open_.push_back({x, y});
 }
 
-void DeviceClockFit::Close(const std::vector<Point>& window, State* s) {
+DeviceClockFit::Point DeviceClockFit::Close(const std::vector<Point>& window, State* s) {
   // Lateness is judged along the clock fitted so far (a device 0.5% fast
   // drifts 5 ms a second against the nominal clock).
   const double slope = s->Slope();
@@ -69,12 +56,11 @@ void DeviceClockFit::Close(const std::vector<Point>& window, State* s) {
     s->dxy += dx * dy;
     s->dxx += dx * dx;
   }
-  s->minima.Add(best->x, best->y);
   // Monotone chain: counters only rise, so the new point ends the hull; drop
   // the points it makes non-convex from below.
   std::vector<Point>& h = s->hull;
   if (!h.empty() && best->x <= h.back().x) {
-    if (best->y >= h.back().y) return;
+    if (best->y >= h.back().y) return *best;
     h.pop_back();
   }
   while (h.size() >= 2) {
@@ -85,11 +71,16 @@ void DeviceClockFit::Close(const std::vector<Point>& window, State* s) {
     h.pop_back();
   }
   h.push_back(*best);
+  return *best;
 }
 
-DeviceClockFit::State DeviceClockFit::Current() const {
+DeviceClockFit::State DeviceClockFit::Current(std::vector<Point>* minima) const {
   State s = closed_;
-  if (!open_.empty()) Close(open_, &s);
+  if (minima != nullptr) *minima = minima_;
+  if (!open_.empty()) {
+    const Point best = Close(open_, &s);
+    if (minima != nullptr) minima->push_back(best);
+  }
   return s;
 }
 
@@ -100,24 +91,49 @@ double DeviceClockFit::Slope() const {
 }
 
 bool DeviceClockFit::Usable(double min_span_samples) const {
-  const State s = Current();
-  const Moments& m = s.minima;
-  return m.n >= 3 && s.hull.size() >= 2 && m.max_x - m.min_x >= min_span_samples &&
-         tau0_s_ + s.Slope() > 0;
+  std::vector<Point> minima;
+  const State s = Current(&minima);
+  return minima.size() >= 3 && s.hull.size() >= 2 &&
+         minima.back().x - minima.front().x >= min_span_samples && tau0_s_ + s.Slope() > 0;
 }
 
 double DeviceClockFit::RateHz() const { return 1.0 / Slope(); }
 
 double DeviceClockFit::RateSigmaHz() const {
-  const State s = Current();
-  const Moments& m = s.minima;
-  if (m.n < 3 || !(m.sxx > 0) || s.hull.size() < 2) return kNaN;
-  // The minima's scatter about the line: their residuals y - k x, centred.
+  std::vector<Point> minima;
+  const State s = Current(&minima);
+  if (minima.size() < 3 || s.hull.size() < 2) return kNaN;
+  // Each window's lateness above the line; those of a busy spell lie far
+  // above the rest and are left out (beyond the median + 5 robust sigma).
   const double k = s.Slope();
-  const double ss = std::max(m.syy - 2 * k * m.sxy + k * k * m.sxx, 0.0);
-  const double var = ss / static_cast<double>(m.n - 2);
+  const Point& o = s.hull.front();
+  std::vector<double> late;
+  late.reserve(minima.size());
+  for (const Point& p : minima) late.push_back(p.y - o.y - k * (p.x - o.x));
+  std::vector<double> spread = late;
+  const auto mid = spread.begin() + static_cast<std::ptrdiff_t>(spread.size() / 2);
+  std::nth_element(spread.begin(), mid, spread.end());
+  const double median = *mid;
+  for (double& v : spread) v = std::abs(v - median);
+  std::nth_element(spread.begin(), mid, spread.end());
+  const double cut = median + 5 * 1.4826 * *mid;
+  // The least-squares standard error of a slope through the kept windows.
+  int64_t n = 0;
+  double mean_x = 0, mean_r = 0, sxx = 0, srr = 0, sxr = 0;
+  for (size_t i = 0; i < late.size(); ++i) {
+    if (late[i] > cut) continue;
+    ++n;
+    const double dx = minima[i].x - mean_x, dr = late[i] - mean_r;
+    mean_x += dx / static_cast<double>(n);
+    mean_r += dr / static_cast<double>(n);
+    sxx += dx * (minima[i].x - mean_x);
+    srr += dr * (late[i] - mean_r);
+    sxr += dx * (late[i] - mean_r);
+  }
+  if (n < 3 || !(sxx > 0)) return kNaN;
+  const double var = std::max(srr - sxr * sxr / sxx, 0.0) / static_cast<double>(n - 2);
   const double slope = tau0_s_ + k;
-  return std::sqrt(var / m.sxx) / (slope * slope);
+  return std::sqrt(var / sxx) / (slope * slope);
 }
 
 double DeviceClockFit::JitterRmsS() const {

@@ -3,24 +3,24 @@
 //
 // Arrival = emission + latency, and latency is never negative: USB polling,
 // the kernel and a busy host only ever make data late, in bursts. So every
-// arrival lies on or above the line of emission times, and the device clock
-// is the line that supports the arrivals from below: the edge of their lower
-// convex hull above the arrivals' mean counter (the line under every arrival
-// with the least total lateness; the linear-programming estimator of clock
-// skew). A busy spell of any length only adds arrivals above the hull, so it
-// cannot tilt the line; a least-squares line through per-window minima could
-// be tilted by a spell longer than a window. The slope is the device's real
-// sample period: a part sold as 2000 Hz that runs at 2010 Hz shows +5000 ppm.
-// The jitter is the RMS of each arrival's lateness over its window's
-// least-late one (one second of device time per window).
+// arrival lies on or above the line of emission times. Each window of device
+// time (one second) keeps its least-late arrival, and the device clock is
+// the line that supports those from below with the least total lateness:
+// the edge of their lower convex hull above the arrivals' mean counter (the
+// linear-programming estimator of clock skew). A busy spell inside the run
+// only adds points above the hull, so it cannot tilt the line; a
+// least-squares line through the window minima was tilted by a spell longer
+// than a window. The slope is the device's real sample period: a part sold
+// as 2000 Hz that runs at 2010 Hz shows +5000 ppm. The jitter is the RMS of
+// each arrival's lateness over its window's least-late one.
 //
 // The host clock is the reference: its own error (NTP-disciplined, usually
-// well under 10 ppm) bounds what a rate error can mean; a host clock stepped
-// backwards (an arrival earlier than physics allows) is the one thing that
-// moves the hull, and shows as a large RateSigmaHz(). Memory: one window of
-// arrivals, and the hull of the windows' least-late arrivals (a few dozen
-// points for random latencies; at most one per window). Pure; not
-// thread-safe.
+// well under 10 ppm) bounds what a rate error can mean. What can still move
+// the line: an arrival earlier than physics allows (the host clock stepped
+// backwards), and a spell that lasts from the run's start or to its end past
+// the mean counter (a forward clock step looks the same); both show in
+// RateSigmaHz(). Memory: one window of arrivals and one point per window
+// (16 bytes a second). Pure; not thread-safe.
 #ifndef IMUQUAL_ANALYZE_SERVICE_DEVICE_CLOCK_H_
 #define IMUQUAL_ANALYZE_SERVICE_DEVICE_CLOCK_H_
 
@@ -47,7 +47,9 @@ class DeviceClockFit {
   // 1-sigma standard error of RateHz(): the scatter of the windows'
   // least-late arrivals about the line, as a least-squares line through
   // them would have it (the supporting line is at least as precise when
-  // latencies are random; a busy spell widens this, never the line).
+  // latencies are random), over the windows whose lateness above the line is
+  // within 5 robust sigma of the median one (a busy spell's windows lie far
+  // above the line and do not widen it).
   double RateSigmaHz() const;
   // RMS lateness of arrivals over their window's least-late one, seconds.
   double JitterRmsS() const;
@@ -56,16 +58,8 @@ class DeviceClockFit {
   struct Point {
     double x, y;
   };
-  // Co-moments of the windows' least-late arrivals (Welford-style).
-  struct Moments {
-    int64_t n = 0;
-    double mean_x = 0, mean_y = 0, sxx = 0, syy = 0, sxy = 0;
-    double min_x = 0, max_x = 0;
-    void Add(double x, double y);
-  };
   struct State {
-    Moments minima;            // y is seconds minus x * tau0
-    std::vector<Point> hull;   // lower convex hull of the minima, x rising
+    std::vector<Point> hull;   // lower convex hull of the windows' minima
     double sum_x = 0;          // of every arrival, for the hull edge
     int64_t n = 0;
     // Each arrival against its window's least-late one (dx, dy): the
@@ -76,10 +70,11 @@ class DeviceClockFit {
     // arrivals' mean counter; 0 while the hull has one point.
     double Slope() const;
   };
-  // Folds a window's points into *s.
-  static void Close(const std::vector<Point>& window, State* s);
-  // The state with the open window folded in.
-  State Current() const;
+  // Folds a window's points into *s; returns its least-late arrival.
+  static Point Close(const std::vector<Point>& window, State* s);
+  // The state with the open window folded in, and every window's least-late
+  // arrival (x rising) into *minima when asked for.
+  State Current(std::vector<Point>* minima = nullptr) const;
   double Slope() const;  // seconds per sample
 
   double tau0_s_;
@@ -89,6 +84,8 @@ class DeviceClockFit {
   int64_t window_ = -1;      // index of the open window
   std::vector<Point> open_;
   State closed_;
+  std::vector<Point> minima_;  // closed windows' least-late arrivals; y is
+                               // seconds minus x * tau0
 };
 
 }  // namespace imuqual::analyze
