@@ -855,7 +855,6 @@ MinimumTauSpread MinimumTauSelectionSpread(const Curve& curve, const CurveMinimu
     out.why = "fewer than 3 points within 2 octaves of the minimum";
     return out;
   }
-  out.shape = *shape;
   if (!(shape->c > 0)) {
     out.why = "the bottom shows no rising (random-walk) line";
     return out;

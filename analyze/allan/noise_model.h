@@ -264,7 +264,6 @@ struct MinimumTauSpread {
   std::string why;
   double u_ln_tau = kNaN;
   double vertex_s = kNaN;  // sqrt(a / c) of the shape
-  BottomShape shape;
   int points = 0;
   double tau_lo_s = kNaN, tau_hi_s = kNaN;  // the points drawn
 };

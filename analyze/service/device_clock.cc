@@ -74,12 +74,12 @@ DeviceClockFit::Point DeviceClockFit::Close(const std::vector<Point>& window, St
   return *best;
 }
 
-DeviceClockFit::State DeviceClockFit::Current(std::vector<Point>* minima) const {
+DeviceClockFit::State DeviceClockFit::Current(Point* open_best, bool* has_open) const {
   State s = closed_;
-  if (minima != nullptr) *minima = minima_;
+  if (has_open != nullptr) *has_open = !open_.empty();
   if (!open_.empty()) {
     const Point best = Close(open_, &s);
-    if (minima != nullptr) minima->push_back(best);
+    if (open_best != nullptr) *open_best = best;
   }
   return s;
 }
@@ -91,25 +91,31 @@ double DeviceClockFit::Slope() const {
 }
 
 bool DeviceClockFit::Usable(double min_span_samples) const {
-  std::vector<Point> minima;
-  const State s = Current(&minima);
-  return minima.size() >= 3 && s.hull.size() >= 2 &&
-         minima.back().x - minima.front().x >= min_span_samples && tau0_s_ + s.Slope() > 0;
+  Point open_best{};
+  bool has_open = false;
+  const State s = Current(&open_best, &has_open);
+  const size_t windows = minima_.size() + (has_open ? 1 : 0);
+  if (windows < 3 || s.hull.size() < 2) return false;
+  const double first = minima_.front().x;  // windows >= 3: at least two closed
+  const double last = has_open ? open_best.x : minima_.back().x;
+  return last - first >= min_span_samples && tau0_s_ + s.Slope() > 0;
 }
 
 double DeviceClockFit::RateHz() const { return 1.0 / Slope(); }
 
 double DeviceClockFit::RateSigmaHz() const {
-  std::vector<Point> minima;
-  const State s = Current(&minima);
-  if (minima.size() < 3 || s.hull.size() < 2) return kNaN;
+  Point open_best{};
+  bool has_open = false;
+  const State s = Current(&open_best, &has_open);
+  const Point* open = has_open ? &open_best : nullptr;
+  if (minima_.size() + (has_open ? 1 : 0) < 3 || s.hull.size() < 2) return kNaN;
   // Each window's lateness above the line; those of a busy spell lie far
   // above the rest and are left out (beyond the median + 5 robust sigma).
   const double k = s.Slope();
   const Point& o = s.hull.front();
   std::vector<double> late;
-  late.reserve(minima.size());
-  for (const Point& p : minima) late.push_back(p.y - o.y - k * (p.x - o.x));
+  late.reserve(minima_.size() + 1);
+  ForEachMinimum(open, [&](const Point& p) { late.push_back(p.y - o.y - k * (p.x - o.x)); });
   std::vector<double> spread = late;
   const auto mid = spread.begin() + static_cast<std::ptrdiff_t>(spread.size() / 2);
   std::nth_element(spread.begin(), mid, spread.end());
@@ -119,17 +125,19 @@ double DeviceClockFit::RateSigmaHz() const {
   const double cut = median + 5 * 1.4826 * *mid;
   // The least-squares standard error of a slope through the kept windows.
   int64_t n = 0;
+  size_t i = 0;
   double mean_x = 0, mean_r = 0, sxx = 0, srr = 0, sxr = 0;
-  for (size_t i = 0; i < late.size(); ++i) {
-    if (late[i] > cut) continue;
+  ForEachMinimum(open, [&](const Point& p) {
+    const double r = late[i++];
+    if (r > cut) return;
     ++n;
-    const double dx = minima[i].x - mean_x, dr = late[i] - mean_r;
+    const double dx = p.x - mean_x, dr = r - mean_r;
     mean_x += dx / static_cast<double>(n);
     mean_r += dr / static_cast<double>(n);
-    sxx += dx * (minima[i].x - mean_x);
-    srr += dr * (late[i] - mean_r);
-    sxr += dx * (late[i] - mean_r);
-  }
+    sxx += dx * (p.x - mean_x);
+    srr += dr * (r - mean_r);
+    sxr += dx * (r - mean_r);
+  });
   if (n < 3 || !(sxx > 0)) return kNaN;
   const double var = std::max(srr - sxr * sxr / sxx, 0.0) / static_cast<double>(n - 2);
   const double slope = tau0_s_ + k;

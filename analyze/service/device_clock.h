@@ -72,9 +72,16 @@ class DeviceClockFit {
   };
   // Folds a window's points into *s; returns its least-late arrival.
   static Point Close(const std::vector<Point>& window, State* s);
-  // The state with the open window folded in, and every window's least-late
-  // arrival (x rising) into *minima when asked for.
-  State Current(std::vector<Point>* minima = nullptr) const;
+  // The state with the open window folded in, and that window's least-late
+  // arrival into *open_best when asked for (false when no window is open).
+  State Current(Point* open_best = nullptr, bool* has_open = nullptr) const;
+  // Every window's least-late arrival, x rising: the closed ones, then the
+  // open one's. Calls f(point) for each, without copying.
+  template <typename F>
+  void ForEachMinimum(const Point* open_best, F&& f) const {
+    for (const Point& p : minima_) f(p);
+    if (open_best != nullptr) f(*open_best);
+  }
   double Slope() const;  // seconds per sample
 
   double tau0_s_;

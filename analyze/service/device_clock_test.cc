@@ -10,6 +10,20 @@
 namespace imuqual::analyze {
 namespace {
 
+// A part running at `actual_hz` for `samples` counts, in batches of `batch`:
+// each batch arrives at host second `arrival(emitted, latency)`, latency a
+// fresh uniform draw in [lo, hi] seconds, after host time `origin_us`.
+template <typename Arrival>
+void Feed(DeviceClockFit* fit, double actual_hz, int64_t samples, int64_t batch, unsigned seed,
+          double lo, double hi, int64_t origin_us, Arrival arrival) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> latency(lo, hi);
+  for (int64_t c = 0; c < samples; c += batch) {
+    const double emitted = static_cast<double>(c) / actual_hz;
+    fit->Add(c, origin_us + std::llround(arrival(emitted, latency(rng)) * 1e6));
+  }
+}
+
 TEST(DeviceClockFitTest, ExactArrivalsGiveTheRateAndNoJitter) {
   DeviceClockFit fit(200);
   // 201.5 Hz real, batches of 50 samples, arrivals exactly on time.
@@ -26,17 +40,11 @@ TEST(DeviceClockFitTest, LateAndBurstyArrivalsDoNotTiltTheClock) {
   // A 2000 Hz part running 5000 ppm fast; the host sees each batch 0.2-3 ms
   // late, and for 300 ms of every 10 s it is busy: those batches arrive
   // together at the end of the busy spell.
-  const double actual = 2010;
-  std::mt19937_64 rng(5);
-  std::uniform_real_distribution<double> latency(0.2e-3, 3e-3);
   DeviceClockFit fit(2000);
-  for (int64_t c = 0; c < 2000 * 120; c += 48) {
-    const double emitted = c / actual;
-    double arrival = emitted + latency(rng);
+  Feed(&fit, 2010, 2000 * 120, 48, 5, 0.2e-3, 3e-3, 0, [](double emitted, double late) {
     const double in_spell = std::fmod(emitted, 10.0);
-    if (in_spell > 4.0 && in_spell < 4.3) arrival = emitted - in_spell + 4.3 + latency(rng);
-    fit.Add(c, std::llround(arrival * 1e6));
-  }
+    return in_spell > 4.0 && in_spell < 4.3 ? emitted - in_spell + 4.3 + late : emitted + late;
+  });
   ASSERT_TRUE(fit.Usable(2000 * 2));
   const double ppm = (fit.RateHz() / 2000 - 1) * 1e6;
   EXPECT_NEAR(ppm, 5000, 20) << fit.RateHz();
@@ -51,16 +59,10 @@ TEST(DeviceClockFitTest, AStarvationLongerThanAWindowDoesNotTiltTheClock) {
   // over 0.5 s. Every window inside the spell has only late arrivals, so a
   // line through per-window minima tilts by thousands of ppm; the line under
   // the arrivals rests on the on-time ones either side.
-  const double actual = 2010;
-  std::mt19937_64 rng(11);
-  std::uniform_real_distribution<double> latency(0.1e-3, 2e-3);
   DeviceClockFit fit(2000);
-  for (int64_t c = 0; c < 2010 * 10; c += 20) {
-    const double emitted = c / actual;
-    double arrival = emitted + latency(rng);
-    if (emitted > 3.0 && emitted < 6.5) arrival = 6.5 + (emitted - 3.0) / 7.0 + latency(rng);
-    fit.Add(c, 1'000'000'000 + std::llround(arrival * 1e6));
-  }
+  Feed(&fit, 2010, 2010 * 10, 20, 11, 0.1e-3, 2e-3, 1'000'000'000, [](double emitted, double late) {
+    return emitted > 3.0 && emitted < 6.5 ? 6.5 + (emitted - 3.0) / 7.0 + late : emitted + late;
+  });
   ASSERT_TRUE(fit.Usable(2000 * 2));
   const double ppm = (fit.RateHz() / 2000 - 1) * 1e6;
   EXPECT_NEAR(ppm, 5000, 50) << fit.RateHz();
