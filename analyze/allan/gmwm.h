@@ -179,7 +179,11 @@ struct CompositeFit {
   //    (1+phi)/(1-phi)); has_white_region: the model's local slope comes
   //    within +-0.1 of -1/2 somewhere over the analysed taus.
   //  curve_minimum / tau_at_minimum: the minimum of the model deviation over
-  //    the analysed taus; minimum_at_edge when it sits at either end.
+  //    the analysed taus; minimum_at_edge when it sits at either end. Where
+  //    it sits at the edge and the model has no random walk, curve_minimum
+  //    is the midpoint between that minimum and the one with the random walk
+  //    the data allow at 1 sigma (edge_rate_random_walk, K; the profile of J
+  //    rising by 1), and its sigma includes the half-span (edge_half_span).
   //  bias_instability_ieee = curve_minimum / 0.664.
   //  rate_random_walk: K of the random walk term (0 when not selected).
   //  The figures are model-averaged (see above).
@@ -188,6 +192,14 @@ struct CompositeFit {
   ModelFigure curve_minimum;
   ModelFigure tau_at_minimum;
   bool minimum_at_edge = false;
+  double edge_rate_random_walk = kNaN;  // K [u/sqrt(s)], where used (above)
+  double edge_half_span = 0;            // [u], added to curve_minimum
+  // Where the model has a random walk and no flicker term: the flicker the
+  // data allow at 1 sigma (B [u]), and half the fall of K with it fixed
+  // beside the model's terms [u/sqrt(s)], taken off rate_random_walk (and
+  // ieee_terms[3]), whose sigma includes it / sqrt(3).
+  double flicker_for_rate_random_walk = kNaN;
+  double rate_random_walk_half_span = 0;
   ModelFigure bias_instability_ieee;
   ModelFigure rate_random_walk;
   // Q, N, B, K, R, model-averaged where the selected model has the term, else

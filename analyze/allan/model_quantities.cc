@@ -116,20 +116,38 @@ std::vector<ModelQuantity> DescribeCompositeFit(const CompositeFit& fit,
         fit.has_white_region ? "-1/2 asymptote of the model at 1 s"
                              : "-1/2 asymptote only: the model has no -1/2 region");
   }
-  const std::string edge =
+  const UnitOf k_unit = Unit(NoiseTerm::kRateRandomWalk, kind);
+  const std::string tau_edge =
       fit.minimum_at_edge ? "minimum at the edge of the analysed taus (the model has not turned up "
-                            "there): reads low, not a bound on the truth's"
+                            "there)"
                           : "";
+  const std::string edge =
+      !fit.minimum_at_edge ? ""
+      : fit.edge_half_span > 0
+          ? "minimum at the edge of the analysed taus (the model has no random walk and has not "
+            "turned up there): the midpoint between that minimum and the one with the random "
+            "walk the data allow at 1 sigma (K " +
+                Num(fit.edge_rate_random_walk * k_unit.factor) + " " + k_unit.unit +
+                "), the half-span in the u"
+          : "minimum at the edge of the analysed taus (the model has not turned up there): reads "
+            "low, not a bound on the truth's";
   add("bias_instability", true, NoiseTerm::kBiasInstability, fit.curve_minimum.value,
       fit.curve_minimum.sigma, edge.empty() ? "minimum of the model curve" : edge);
   add("bias_instability_ieee", true, NoiseTerm::kBiasInstability, fit.bias_instability_ieee.value,
       fit.bias_instability_ieee.sigma, edge.empty() ? "model-curve minimum / 0.664" : edge);
   out.push_back(
-      {"tau_at_minimum", true, fit.tau_at_minimum.value, fit.tau_at_minimum.sigma, "s", edge});
+      {"tau_at_minimum", true, fit.tau_at_minimum.value, fit.tau_at_minimum.sigma, "s", tau_edge});
   const bool has_k = fit.model.CountOf(TermKind::kRandomWalk) > 0;
   if (has_k) {
+    const UnitOf b_unit = Unit(NoiseTerm::kBiasInstability, kind);
     add("rate_random_walk", true, NoiseTerm::kRateRandomWalk, fit.rate_random_walk.value,
-        fit.rate_random_walk.sigma, "averaged over the plausible models");
+        fit.rate_random_walk.sigma,
+        fit.rate_random_walk_half_span > 0
+            ? "averaged over the plausible models; the model has no flicker term: the midpoint "
+              "down to K with the flicker the data allow at 1 sigma (B " +
+                  Num(fit.flicker_for_rate_random_walk * b_unit.factor) + " " + b_unit.unit +
+                  ") fixed beside it, the span (rectangular) in the u"
+            : "averaged over the plausible models");
   } else {
     add("rate_random_walk", true, NoiseTerm::kRateRandomWalk, 0.0, kNaN, "absent",
         fit.rate_random_walk.upper_bound);

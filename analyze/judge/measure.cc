@@ -304,14 +304,32 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
       m.set_note(q->note);
       // A model curve whose minimum over the analysed taus is at their edge
       // (typically a model that left the rate random walk out, so it never
-      // turns up): still the model's minimum over those taus, with its u,
-      // but not a bound on the truth's, which lay above it in 68-91 % of
-      // simulated records where this happened (fit_coverage_bench: the value
-      // reads low, mean z -0.5 to -1.7, +-2u covering 74-92 %).
+      // turns up). Where the data bound the random walk, the value is the
+      // midpoint up to the minimum with the random walk allowed at 1 sigma
+      // and the u holds the half-span (the model's own note says so;
+      // fit_coverage_bench: 73.5 / 98.0 % and 73.5 / 97.5 % at 1 / 2 sigma
+      // where the bare minimum gave 67.0 / 92.0 and 64.0 / 93.5 %). Else it
+      // is the model's minimum over those taus, reading low (mean z -0.5 to
+      // -1.7 simulated).
+      // K of a model without flicker reads high (the random walk absorbs an
+      // unresolved flicker floor): the midpoint down to K with the flicker
+      // allowed at 1 sigma, the span rectangular in the u (the note says so).
+      if (name == kFitRateRandomWalk && fit->rate_random_walk_half_span > 0) {
+        m.set_uncertainty_method(std::string(kFitMethod) +
+                                 ", in quadrature with the span to K under the flicker the data "
+                                 "allow at 1 sigma (rectangular: half-span / sqrt 3)");
+      }
       if (name == kFitBiasInstability && fit->minimum_at_edge) {
-        m.set_note(
-            "the model curve's minimum over the analysed taus is at their edge (it has not turned "
-            "up there): the value reads low there (simulated: mean z -0.5 to -1.7)");
+        if (fit->edge_half_span > 0) {
+          m.set_uncertainty_method(
+              std::string(kFitMethod) +
+              ", in quadrature with half the rise of the minimum under the random walk the data "
+              "allow at 1 sigma");
+        } else {
+          m.set_note(
+              "the model curve's minimum over the analysed taus is at their edge (it has not "
+              "turned up there): the value reads low there (simulated: mean z -0.5 to -1.7)");
+        }
       }
     }
     if (!fit->adequate) {

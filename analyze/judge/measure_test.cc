@@ -56,17 +56,31 @@ allan::CompositeModel WhitePlusRandomWalk() {
 // A curve that never turns up (white noise and flicker, no random walk):
 // the model's minimum over the analysed taus is at their end. Reported with
 // its u, not as an upper bound: on simulated records where a fit left the
-// random walk out, the truth's minimum lay above that value in 68-91 %.
+// random walk out, the truth's minimum lay above that minimum in 68-91 %, so
+// the value is the midpoint up to the minimum with the random walk the data
+// allow at 1 sigma, the half-span in its u.
 TEST(MeasureNoiseModelTest, AModelMinimumAtTheEdgeIsNotCalledABound) {
   allan::CompositeModel model;
   model.terms.push_back({allan::TermKind::kWhite, 0.1 / 60});
   model.terms.push_back({allan::TermKind::kFlicker, 1.0 / 3600});
-  const std::vector<pb::Measurement> ms = MeasureNoiseModel("x", pb::GYRO, ExactCurve(model));
+  const allan::Curve curve = ExactCurve(model);
+  const std::vector<pb::Measurement> ms = MeasureNoiseModel("x", pb::GYRO, curve);
   const pb::Measurement* b = Find(ms, kFitBiasInstability);
   ASSERT_NE(b, nullptr);
   EXPECT_EQ(b->qualifier(), pb::QUALIFIER_NONE);
-  EXPECT_NE(b->note().find("at their edge"), std::string::npos) << b->note();
-  EXPECT_TRUE(std::isfinite(b->value()));
+  EXPECT_NE(b->note().find("minimum at the edge of the analysed taus"), std::string::npos)
+      << b->note();
+  EXPECT_NE(b->note().find("random walk the data allow at 1 sigma"), std::string::npos)
+      << b->note();
+  EXPECT_NE(b->uncertainty_method().find("half the rise"), std::string::npos)
+      << b->uncertainty_method();
+  // The exact curve's minimum (its longest tau), as B in deg/h: the value
+  // lies above it by the half-span, which its u holds.
+  double truth = INFINITY;
+  for (const allan::CurvePoint& p : curve.points) truth = std::min(truth, p.dev * 3600 / 0.664);
+  ASSERT_TRUE(b->has_uncertainty());
+  EXPECT_GT(b->value(), truth * (1 + 1e-3));
+  EXPECT_LE(b->value() - truth, b->uncertainty() * (1 + 1e-6));
 }
 
 TEST(MeasureNoiseModelTest, ModelOfAnExactCurveIsJudgedAndArchived) {
