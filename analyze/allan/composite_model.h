@@ -71,6 +71,30 @@ double TermAvar(const ModelTerm& term, double m, double tau0_s);
 // deterministic here and return 0. Used for the covariance of AVAR estimates.
 double TermPsd(const ModelTerm& term, double f_cycles, double tau0_s);
 
+// Theo1 under the model (ALGORITHMS.md's Theo1; long_tau.h). Theo1 sums,
+// for k = 1..m/2, (1/k) u_k^2 with u_k = x_i - x_{i+k} - x_{i+m-k} + x_{i+m}
+// of the phase x (x_n = tau0 sum_{j<n} y_j), so
+//   E[Theo1(m)] = 1 / (0.75 (m tau0)^2) sum_{k=1}^{m/2} Var(u_k) / k.
+// u_k removes a constant and a line, so Var(u_k) is finite for every term,
+// the random walk and flicker too; per term, with d = distances in samples:
+//   quantization  Q^2 (4, or 6 at k = m/2 where two points coincide)
+//   white         2 N^2 tau0 k                   (phase structure N^2 tau0 d)
+//   flicker       kernel (B^2 / 2 pi) s^2 ln s, s = d tau0 (the generalized
+//                 covariance whose second difference gives the flicker
+//                 floor; continuous time, no exact discrete form exists)
+//   random walk   K^2 tau0^3 k^2 (3m - 4k) / 3 (kernel K^2 s^3 / 12) plus
+//                 the discrete walk's white part, N^2 = K^2 tau0^2 / 6
+//   drift         (R tau0^2 k (m - k))^2
+//   Gauss-Markov  2 D(k) + 2 D(m-k) - D(m) - D(m-2k), D(d) = tau0^2 sigma^2
+//                 [d (1+phi)/(1-phi) - 2 phi (1 - phi^d) / (1-phi)^2]
+//   sinusoid      2 tau0^2 A^2 sin^2(pi f' k) sin^2(pi f' (m-k)) / sin^2(pi f')
+// At k = m/2, u_k is the second difference at m/2, so Var(u_{m/2}) =
+// 2 (m tau0 / 2)^2 AVAR(m/2) for every term (the test holds each kernel to
+// TermAvar so). The ratio AVAR(0.75 m) / E[Theo1(m)] is Howe & Tasset's bias
+// of Theo1 for any mix of terms (their Table 1 for pure power laws), which
+// TheoBR can only estimate with one ratio for the whole curve. `m` even >= 2.
+double TermTheo1PairVariance(const ModelTerm& term, int64_t m, int64_t k, double tau0_s);
+
 struct CompositeModel {
   std::vector<ModelTerm> terms;
 
@@ -80,6 +104,12 @@ struct CompositeModel {
   // Compact name in a fixed term order, e.g. "N+B+K+2GM+S".
   std::string Name() const;
   int CountOf(TermKind kind) const;
+  // E[Theo1(m)] (above), m even >= 2; O(m) per call.
+  double ExpectedTheo1(int64_t m, double tau0_s) const;
+  // AVAR(0.75 m) / E[Theo1(m)]: multiplies a Theo1 estimate at m into an
+  // estimate of AVAR at its effective tau 0.75 m tau0 without TheoBR's
+  // one-ratio assumption (a model bias removal).
+  double Theo1BiasFactor(int64_t m, double tau0_s) const;
 };
 
 // A model prepared for evaluation at many averaging factors or frequencies

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "analyze/allan/composite_model.h"
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/estimators.h"
 #include "analyze/allan/phase.h"
@@ -491,24 +492,37 @@ TEST(Theo1Statistics, TheoBrReadsLowWhereWhiteNoiseTurnsIntoRandomWalk) {
   // WHEN TheoBR at m = 2048 is compared with OADEV at its effective factor
   // 1536 (1024 terms) on the same records, THEN TheoBR reads low: the ratio
   // is set where white noise dominates (about 1) while the random walk needs
-  // Howe & Tasset's 2.7. This is why no plan judges a curve minimum on the
-  // Theo family (long_tau.h).
+  // Howe & Tasset's 2.7. Theo1 times the noise model's own bias factor
+  // (CompositeModel::Theo1BiasFactor, here of the true model: N 1, K the
+  // step) agrees with OADEV on the same records.
   constexpr int kRecords = 8 * kSeeds;  // the paired spread is wide at long tau
-  std::vector<double> theobr, avar;
+  const double step = std::sqrt(3.0) / 1024;
+  CompositeModel truth;
+  truth.terms.push_back(ModelTerm{TermKind::kWhite, 1.0});
+  truth.terms.push_back(ModelTerm{TermKind::kRandomWalk, step});
+  const double factor = truth.Theo1BiasFactor(2048, 1.0);
+  std::vector<double> theobr, avar, theo1_model;
   for (int s = 0; s < kRecords; ++s) {
     PhaseRecord phase = PowerLawPhase(0, 4096, 13000 + s);
     const PhaseRecord walk = PowerLawPhase(-2, 4096, 14000 + s);
-    const double step = std::sqrt(3.0) / 1024;
     for (int64_t k = 0; k < phase.size(); ++k) phase.x[k] += step * walk.x[k];
     const double t = ComputeDeviationAt(phase, Deviation::kTheoBr, 2048).dev;
+    const double t1 = ComputeDeviationAt(phase, Deviation::kTheo1, 2048).dev;
     const double a = ComputeDeviationAt(phase, Deviation::kOadev, 1536).dev;
     theobr.push_back(t * t);
+    theo1_model.push_back(factor * t1 * t1);
     avar.push_back(a * a);
   }
   const PairedMean p = Paired(theobr, avar);
   std::printf("white + random walk FM: mean TheoBR^2 / OAVAR at 0.75 m = %.3f (se of diff %.3f)\n",
               p.mean_a / p.mean_b, p.se_diff / p.mean_b);
   EXPECT_LT(p.mean_diff, -kStandardErrors * p.se_diff);
+  const PairedMean q = Paired(theo1_model, avar);
+  std::printf(
+      "  model factor %.3f: mean factor Theo1 / OAVAR = %.3f (se of diff %.3f); the true model's "
+      "OAVAR / mean OAVAR = %.3f\n",
+      factor, q.mean_a / q.mean_b, q.se_diff / q.mean_b, truth.Avar(1536, 1.0) / q.mean_b);
+  EXPECT_LE(std::fabs(q.mean_diff), kStandardErrors * q.se_diff) << q.mean_a << " " << q.mean_b;
 }
 
 }  // namespace
