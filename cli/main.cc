@@ -228,6 +228,10 @@ int main(int argc, char** argv) {
                           "of the fit, where the sensor's own output filter shapes the curve "
                           "(the report says so); e.g. --fit-min-tau 0.16")
       ->capture_default_str();
+  analyze_cmd->add_flag("--long-tau-check", an.long_tau_check,
+                        "with --fit: Theo1 at octaves beyond the fitted curve's last tau (to "
+                        "0.75 of the record) against what the model expects of it, with Theo1's "
+                        "edf: whether the model holds where OADEV does not reach");
   analyze_cmd->add_option("--stationarity", an.stationarity_level,
                           "scan the series for level steps and bursts at this false-alarm level "
                           "per record (calibrated on the series' own noise model), e.g. 0.01");

@@ -1,8 +1,12 @@
 #include "offline/analyze_command.h"
 
+#include <algorithm>
+#include <boost/math/distributions/chi_squared.hpp>
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/dynamic_allan.h"
@@ -80,6 +84,9 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   }
   if (o.fit_min_tau_s > 0 && !o.fit) {
     return Status::InvalidArgument("--fit-min-tau needs --fit");
+  }
+  if (o.long_tau_check && !o.fit) {
+    return Status::InvalidArgument("--long-tau-check needs --fit");
   }
   if (!(o.davar_window_s >= 0) || !std::isfinite(o.davar_window_s)) {
     return Status::InvalidArgument("--davar-window must be >= 0 s (0: a quarter of the record)");
@@ -230,6 +237,95 @@ TableWriter ModelCurveTable(const allan::CompositeFit& fit, const Curve& curve) 
     t.AddRow({Cell::Real(p.tau_s), Cell::Real(fit.ModelDeviation(p.tau_s))});
   }
   return t;
+}
+
+// Theo1 beyond the fitted curve against the model (CompositeModel::
+// ExpectedTheo1): at even m from twice the fit curve's last effective tau, by
+// octaves, to the record's reach (m <= N - 1). Under the model Theo1^2 /
+// E[Theo1] ~ chi2(edf) / edf, edf Theo1Edf for the model's local slope there.
+struct LongTauCheck {
+  double tau_s = 0;  // 0.75 m tau0
+  int64_t m = 0;
+  double measured = 0, expected = 0;  // deviations, base units
+  double edf = 0;                     // NaN when Theo1 has none for the slope
+  double lo = 0, hi = 0;              // 95 % range of measured / expected
+};
+
+std::vector<LongTauCheck> CheckLongTau(const allan::PhaseRecord& phase,
+                                       const allan::CompositeFit& fit, const Curve& fit_curve) {
+  std::vector<LongTauCheck> out;
+  if (fit_curve.points.empty()) return out;
+  const double tau0 = phase.tau0_s;
+  const int64_t n = phase.size();
+  std::vector<int64_t> m_list;
+  double tau = 2 * fit_curve.points.back().tau_s;
+  for (;; tau *= 2) {
+    const int64_t m = 2 * std::llround(tau / (0.75 * tau0) / 2);
+    if (m < 2 || m > n - 1) break;
+    if (m_list.empty() || m > m_list.back()) m_list.push_back(m);
+  }
+  const Curve theo1 = allan::ComputeDeviation(phase, Deviation::kTheo1, m_list);
+  for (const allan::CurvePoint& p : theo1.points) {
+    LongTauCheck c;
+    c.m = p.m;
+    c.tau_s = 0.75 * static_cast<double>(p.m) * tau0;
+    c.measured = p.dev;
+    c.expected = std::sqrt(fit.model.ExpectedTheo1(p.m, tau0));
+    // The model's slope of AVAR at the point: mu = -alpha - 1.
+    const double r = 0.75 * static_cast<double>(p.m);
+    const double mu = std::log(fit.model.Avar(r * 1.1, tau0) / fit.model.Avar(r / 1.1, tau0)) /
+                      (2 * std::log(1.1));
+    const int alpha = static_cast<int>(std::clamp(std::lround(-mu - 1), -2L, 2L));
+    const std::optional<double> edf = allan::Theo1Edf(alpha, p.m, n);
+    c.edf = edf ? *edf : allan::kNaN;
+    if (edf) {
+      const boost::math::chi_squared chi2(*edf);
+      c.lo = std::sqrt(boost::math::quantile(chi2, 0.025) / *edf);
+      c.hi = std::sqrt(boost::math::quantile(chi2, 0.975) / *edf);
+    }
+    out.push_back(c);
+  }
+  return out;
+}
+
+std::string LongTauCheckText(const std::vector<LongTauCheck>& rows,
+                             const std::optional<allan::SensorKind>& kind) {
+  const allan::DatasheetValue unit =
+      kind ? allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *kind, 1.0)
+           : allan::DatasheetValue{1.0, "(input unit)"};
+  std::string out =
+      "long-tau check: Theo1 beyond the fitted taus against the model's expectation of it (Howe "
+      "& Tasset's bias included; 95 % chi-square range for Theo1's edf at the model's slope)\n";
+  if (rows.empty()) return out + "  none: the record reaches no octave beyond the fitted taus\n";
+  auto g = [](double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.3g", v);
+    return std::string(b);
+  };
+  int outside = 0;
+  for (const LongTauCheck& c : rows) {
+    const double ratio = c.measured / c.expected;
+    const bool known = std::isfinite(c.edf);
+    const bool in = known && ratio >= c.lo && ratio <= c.hi;
+    outside += known && !in;
+    const std::string range = g(c.lo) + "-" + g(c.hi) + " (edf " + g(c.edf) + ")";
+    const std::string verdict = !known ? "no edf for the model's slope there"
+                                : in   ? "inside " + range
+                                       : "OUTSIDE " + range + ": the model does not hold there";
+    char line[160];
+    std::snprintf(line, sizeof line,
+                  "  tau %-9.4g m %-8lld Theo1 %-10.4g model %-10.4g %s ratio %.3f  ", c.tau_s,
+                  static_cast<long long>(c.m), c.measured * unit.value, c.expected * unit.value,
+                  std::string(unit.unit).c_str(), ratio);
+    out += line + verdict + "\n";
+  }
+  if (outside > 0) {
+    out += "  " + std::to_string(outside) +
+           " point(s) outside: the model extrapolates wrongly beyond the fitted taus (a term the "
+           "fitted range cannot see, e.g. a rate random walk whose minimum lies beyond T/9); the "
+           "points are correlated, read them together\n";
+  }
+  return out;
 }
 
 std::string FitSummary(const allan::CompositeFit& fit, double min_tau_s) {
@@ -475,6 +571,26 @@ TableWriter StretchTable(const JudgedStretch& s, double tau0) {
   return t;
 }
 
+// The long-tau check's rows for --format csv and json (deviations in the
+// datasheet unit of --kind, else the input's).
+TableWriter LongTauCheckTable(const std::vector<LongTauCheck>& rows,
+                              const std::optional<allan::SensorKind>& kind) {
+  const allan::DatasheetValue unit =
+      kind ? allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *kind, 1.0)
+           : allan::DatasheetValue{1.0, ""};
+  TableWriter t(
+      {"tau_s", "m", "theo1", "model", "unit", "ratio", "edf", "range_lo", "range_hi", "inside"},
+      6);
+  for (const LongTauCheck& c : rows) {
+    const double ratio = c.measured / c.expected;
+    t.AddRow({Cell::Real(c.tau_s), Cell::Int(c.m), Cell::Real(c.measured * unit.value),
+              Cell::Real(c.expected * unit.value), Cell::Text(std::string(unit.unit)),
+              Cell::Real(ratio), Cell::Real(c.edf), Cell::Real(c.lo), Cell::Real(c.hi),
+              Cell::Bool(std::isfinite(c.edf) && ratio >= c.lo && ratio <= c.hi)});
+  }
+  return t;
+}
+
 int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
   auto parsed = ParseOptions(o);
   if (!parsed.ok()) {
@@ -621,6 +737,8 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     davar = std::move(*d);
   }
 
+  std::optional<std::vector<LongTauCheck>> long_tau;
+  if (fit && o.long_tau_check) long_tau = CheckLongTau(phase, *fit, fit_curve);
   const bool with_ci = p.curves.ci != allan::CiMethod::kNone;
   // The whole record's invalid samples (the phase's are the judged stretch's).
   const int64_t invalid = stretch ? static_cast<int64_t>(values->size()) - stretch->record_valid
@@ -653,6 +771,7 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
           "2k(k+1)/(p-k-1); figures and IEEE terms are averaged with the weights)\n%s",
           CandidateTable(*fit).Render(Format::kTable).c_str());
     }
+    if (long_tau) std::printf("\n%s", LongTauCheckText(*long_tau, p.kind).c_str());
     if (scan) std::printf("\n%s", StationaritySummary(*scan, reference_source).c_str());
     if (scan && !scan->events.empty()) {
       std::printf("%s", EventTable(*scan, p.kind).Render(Format::kTable).c_str());
@@ -665,6 +784,9 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
       std::printf("\n%s", QuantityTable(*fit, fit_curve, p.kind).Render(Format::kCsv).c_str());
       std::printf("\n%s", CandidateTable(*fit).Render(Format::kCsv).c_str());
     }
+    if (long_tau) {
+      std::printf("\n%s", LongTauCheckTable(*long_tau, p.kind).Render(Format::kCsv).c_str());
+    }
     if (scan && scan->scanned)
       std::printf("\n%s", EventTable(*scan, p.kind).Render(Format::kCsv).c_str());
     if (stretch) std::printf("\n%s", StretchTable(*stretch, tau0).Render(Format::kCsv).c_str());
@@ -675,6 +797,10 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
                        ", \"rate_hz\": " + std::to_string(o.rate_hz) + ",\n\"curves\": " +
                        CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kJson);
     if (fit) json += ",\n\"fit\": " + FitJson(*fit, fit_curve, p.kind);
+    if (long_tau) {
+      json +=
+          ",\n\"long_tau_check\": " + LongTauCheckTable(*long_tau, p.kind).Render(Format::kJson);
+    }
     if (scan) {
       json +=
           ",\n\"stationarity\": {\"scanned\": " + std::string(scan->scanned ? "true" : "false") +

@@ -24,6 +24,9 @@ struct AnalyzeFileOptions {
   double confidence = 0.682689492137086;
   bool fit = false;  // composite noise model and slope-line read-offs
   double fit_min_tau_s = 0;  // points below it are not fitted (a sensor filter's range)
+  // With fit: Theo1 beyond the fitted curve's last tau against the model's
+  // expectation of it (does the model hold where OADEV does not reach?).
+  bool long_tau_check = false;
   // Scan the series for level steps and bursts (analyze/allan/stationarity.h)
   // at this false-alarm level per record; 0: no scan.
   double stationarity_level = 0;

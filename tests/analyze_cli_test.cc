@@ -6,11 +6,16 @@
 // reference has one, and none where it has none.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <random>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "analyze/allan/reference_testing.h"
 #include "common/text_util.h"
@@ -316,6 +321,86 @@ TEST(AnalyzeCliTest, StationarityFindsAPlantedStepWithItsSize) {
         << bad.output;
     EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
   }
+}
+
+// --long-tau-check: Theo1 beyond the fitted taus against the model, over 24
+// records of 600 s at 100 Hz of each kind. White rate noise is modelled
+// exactly (N), so the octaves beyond the fit (82, 164 and 328 s) lie inside
+// their 95 % ranges about as often as stated. A rate random walk whose Allan
+// minimum lies at 100 s, beyond T/9, is often left out of a model fitted to
+// 41 s; where it is, Theo1 at the longest octave reads far above what that
+// model expects (a mean ratio^2 of several, where white noise gives ~1).
+TEST(AnalyzeCliTest, LongTauCheckComparesTheo1WithTheModel) {
+  testing::TempDir dir("analyze_cli_long_tau");
+  struct Check {
+    std::string model;
+    std::vector<std::pair<double, bool>> rows;  // ratio, inside
+  };
+  auto run = [&](int seed, double k_step) {
+    const std::string path = dir.path("record.txt");
+    {
+      std::ofstream out(path);
+      out.precision(17);
+      std::mt19937_64 rng(1000 + seed);
+      std::normal_distribution<double> gauss;
+      double walk = 0;
+      for (int i = 0; i < 60000; ++i) {
+        walk += k_step * gauss(rng);
+        out << gauss(rng) + walk << "\n";
+      }
+    }
+    const auto r =
+        RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 --fit --long-tau-check");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    Check c;
+    const size_t name = r.output.find("noise model ");
+    if (name != std::string::npos) {
+      c.model = r.output.substr(name + 12, r.output.find(' ', name + 12) - name - 12);
+    }
+    const size_t at = r.output.find("long-tau check: Theo1 beyond the fitted taus");
+    EXPECT_NE(at, std::string::npos) << r.output;
+    std::istringstream lines(at == std::string::npos ? "" : r.output.substr(at));
+    std::string line;
+    std::getline(lines, line);
+    while (std::getline(lines, line) && line.rfind("  tau ", 0) == 0) {
+      c.rows.emplace_back(std::stod(line.substr(line.find("ratio ") + 6)),
+                          line.find(" inside ") != std::string::npos);
+    }
+    return c;
+  };
+  constexpr int kRecords = 24;
+  int rows = 0, inside = 0;
+  for (int s = 0; s < kRecords; ++s) {
+    const Check c = run(s, 0.0);
+    ASSERT_EQ(c.rows.size(), 3u) << "seed " << s;
+    for (const auto& [ratio, in] : c.rows) {
+      ++rows;
+      inside += in;
+    }
+  }
+  EXPECT_GE(inside, 0.85 * rows) << inside << " of " << rows;  // stated 95 %, rows correlated
+  // White noise of 1 per sample (N^2 = 0.01 in a 0.01 s step) and a walk of
+  // 1.73e-4 per sample (K^2 tau0 = 3e-8): the minimum at sqrt(3) N / K = 100 s.
+  int without_k = 0;
+  double sum_ratio2 = 0;
+  for (int s = 0; s < kRecords; ++s) {
+    const Check c = run(s, 1.73e-4);
+    ASSERT_EQ(c.rows.size(), 3u) << "seed " << s;
+    if (c.model.find('K') != std::string::npos) continue;
+    ++without_k;
+    sum_ratio2 += c.rows.back().first * c.rows.back().first;
+  }
+  std::printf(
+      "long-tau check: white %d of %d octaves inside; walk beyond T/9: %d of %d models "
+      "without K, mean ratio^2 at 328 s %.2f\n",
+      inside, rows, without_k, kRecords, sum_ratio2 / std::max(without_k, 1));
+  ASSERT_GE(without_k, 6);
+  EXPECT_GT(sum_ratio2 / without_k, 2.0) << without_k << " records without K";
+  // Without --fit there is no model to check.
+  const auto bad = RunCommand(Bin("imuqual") + " analyze " + dir.path("record.txt") +
+                              " --rate 100 --long-tau-check 2>&1");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(bad.output, "imuqual: error: --long-tau-check needs --fit\n");
 }
 
 // --judge-longest-segment: with a step found at 250 s of a 600 s record
