@@ -275,8 +275,10 @@ std::vector<LongTauCheck> CheckLongTau(const allan::PhaseRecord& phase,
     const double r = 0.75 * static_cast<double>(p.m);
     const double mu = std::log(fit.model.Avar(r * 1.1, tau0) / fit.model.Avar(r / 1.1, tau0)) /
                       (2 * std::log(1.1));
-    const int alpha = static_cast<int>(std::clamp(std::lround(-mu - 1), -2L, 2L));
-    const std::optional<double> edf = allan::Theo1Edf(alpha, p.m, n);
+    const std::optional<double> edf =
+        std::isfinite(mu)
+            ? allan::Theo1Edf(static_cast<int>(std::clamp(std::lround(-mu - 1), -2L, 2L)), p.m, n)
+            : std::nullopt;
     c.edf = edf ? *edf : allan::kNaN;
     if (edf) {
       const boost::math::chi_squared chi2(*edf);
