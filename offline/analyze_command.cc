@@ -249,7 +249,17 @@ struct LongTauCheck {
   double measured = 0, expected = 0;  // deviations, base units
   double edf = 0;                     // NaN when Theo1 has none for the slope
   double lo = 0, hi = 0;              // 95 % range of measured / expected
+  double Ratio() const { return measured / expected; }
+  bool Inside() const { return std::isfinite(edf) && Ratio() >= lo && Ratio() <= hi; }
 };
+
+// The unit the check's deviations are shown in: --kind's datasheet unit of
+// bias instability, else the input's (`unnamed` names it).
+allan::DatasheetValue LongTauUnit(const std::optional<allan::SensorKind>& kind,
+                                  std::string_view unnamed) {
+  return kind ? allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *kind, 1.0)
+              : allan::DatasheetValue{1.0, unnamed};
+}
 
 std::vector<LongTauCheck> CheckLongTau(const allan::PhaseRecord& phase,
                                        const allan::CompositeFit& fit, const Curve& fit_curve) {
@@ -292,9 +302,7 @@ std::vector<LongTauCheck> CheckLongTau(const allan::PhaseRecord& phase,
 
 std::string LongTauCheckText(const std::vector<LongTauCheck>& rows,
                              const std::optional<allan::SensorKind>& kind) {
-  const allan::DatasheetValue unit =
-      kind ? allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *kind, 1.0)
-           : allan::DatasheetValue{1.0, "(input unit)"};
+  const allan::DatasheetValue unit = LongTauUnit(kind, "(input unit)");
   std::string out =
       "long-tau check: Theo1 beyond the fitted taus against the model's expectation of it (Howe "
       "& Tasset's bias included; 95 % chi-square range for Theo1's edf at the model's slope)\n";
@@ -306,19 +314,17 @@ std::string LongTauCheckText(const std::vector<LongTauCheck>& rows,
   };
   int outside = 0;
   for (const LongTauCheck& c : rows) {
-    const double ratio = c.measured / c.expected;
     const bool known = std::isfinite(c.edf);
-    const bool in = known && ratio >= c.lo && ratio <= c.hi;
-    outside += known && !in;
+    outside += known && !c.Inside();
     const std::string range = g(c.lo) + "-" + g(c.hi) + " (edf " + g(c.edf) + ")";
-    const std::string verdict = !known ? "no edf for the model's slope there"
-                                : in   ? "inside " + range
-                                       : "OUTSIDE " + range + ": the model does not hold there";
+    const std::string verdict = !known       ? "no edf for the model's slope there"
+                                : c.Inside() ? "inside " + range
+                                             : "OUTSIDE " + range + ": the model does not hold there";
     char line[160];
     std::snprintf(line, sizeof line,
                   "  tau %-9.4g m %-8lld Theo1 %-10.4g model %-10.4g %s ratio %.3f  ", c.tau_s,
                   static_cast<long long>(c.m), c.measured * unit.value, c.expected * unit.value,
-                  std::string(unit.unit).c_str(), ratio);
+                  std::string(unit.unit).c_str(), c.Ratio());
     out += line + verdict + "\n";
   }
   if (outside > 0) {
@@ -577,18 +583,15 @@ TableWriter StretchTable(const JudgedStretch& s, double tau0) {
 // datasheet unit of --kind, else the input's).
 TableWriter LongTauCheckTable(const std::vector<LongTauCheck>& rows,
                               const std::optional<allan::SensorKind>& kind) {
-  const allan::DatasheetValue unit =
-      kind ? allan::ToDatasheetUnits(NoiseTerm::kBiasInstability, *kind, 1.0)
-           : allan::DatasheetValue{1.0, ""};
+  const allan::DatasheetValue unit = LongTauUnit(kind, "");
   TableWriter t(
       {"tau_s", "m", "theo1", "model", "unit", "ratio", "edf", "range_lo", "range_hi", "inside"},
       6);
   for (const LongTauCheck& c : rows) {
-    const double ratio = c.measured / c.expected;
     t.AddRow({Cell::Real(c.tau_s), Cell::Int(c.m), Cell::Real(c.measured * unit.value),
               Cell::Real(c.expected * unit.value), Cell::Text(std::string(unit.unit)),
-              Cell::Real(ratio), Cell::Real(c.edf), Cell::Real(c.lo), Cell::Real(c.hi),
-              Cell::Bool(std::isfinite(c.edf) && ratio >= c.lo && ratio <= c.hi)});
+              Cell::Real(c.Ratio()), Cell::Real(c.edf), Cell::Real(c.lo), Cell::Real(c.hi),
+              Cell::Bool(c.Inside())});
   }
   return t;
 }

@@ -1034,13 +1034,6 @@ Figures ComputeFigures(const CompositeModel& model, const MinimumGrid& grid,
   return f;
 }
 
-// The largest scale of an IEEE 952 term the selected model leaves out that
-// the data still allow: the profile of J over the term's scale s (the
-// selected model's own parameters refitted with the term held at s), and the
-// bound where J(s) - J(0) = delta_j (likelihood-ratio; see GmwmOptions). Bisection on ln s
-// between a scale the data do not notice and 2 to 16 times the scale at
-// which the term alone reaches the measured curve. NaN if the profile never rises that
-// far (the term is indistinguishable from the model's own terms everywhere).
 // The best candidate re-estimated with a term of `kind` at `scale` fixed
 // beside its own terms (the profile of J in that term).
 Candidate WithFixedTerm(const Candidate& best, TermKind kind, const Problem& p, double scale) {
@@ -1053,6 +1046,13 @@ Candidate WithFixedTerm(const Candidate& best, TermKind kind, const Problem& p, 
   return Estimate(best.kinds, best.theta, fixed, kProfileTolerance);
 }
 
+// The largest scale of an IEEE 952 term the selected model leaves out that
+// the data still allow: the profile of J over the term's scale s (the
+// selected model's own parameters refitted with the term held at s), and the
+// bound where J(s) - J(0) = delta_j (likelihood-ratio; see GmwmOptions). Bisection on ln s
+// between a scale the data do not notice and 2 to 16 times the scale at
+// which the term alone reaches the measured curve. NaN if the profile never rises that
+// far (the term is indistinguishable from the model's own terms everywhere).
 double AbsentTermUpperBound(const Candidate& best, TermKind kind, const Problem& p,
                             const std::vector<FitRow>& rows, double delta_j) {
   // A term 1000x below the curve everywhere changes J by ~1e-6: the bracket

@@ -124,13 +124,12 @@ std::vector<ModelQuantity> DescribeCompositeFit(const CompositeFit& fit,
   const std::string edge =
       !fit.minimum_at_edge ? ""
       : fit.edge_half_span > 0
-          ? "minimum at the edge of the analysed taus (the model has no random walk and has not "
-            "turned up there): the midpoint between that minimum and the one with the random "
-            "walk the data allow at 1 sigma (K " +
+          ? tau_edge +
+                ": the model has no random walk; the midpoint between that minimum and the one "
+                "with the random walk the data allow at 1 sigma (K " +
                 Num(fit.edge_rate_random_walk * k_unit.factor) + " " + k_unit.unit +
                 "), the half-span in the u"
-          : "minimum at the edge of the analysed taus (the model has not turned up there): reads "
-            "low, not a bound on the truth's";
+          : tau_edge + ": reads low, not a bound on the truth's";
   add("bias_instability", true, NoiseTerm::kBiasInstability, fit.curve_minimum.value,
       fit.curve_minimum.sigma, edge.empty() ? "minimum of the model curve" : edge);
   add("bias_instability_ieee", true, NoiseTerm::kBiasInstability, fit.bias_instability_ieee.value,

@@ -302,6 +302,14 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
       if (std::isfinite(q->sigma)) m.set_uncertainty(q->sigma);
       m.set_uncertainty_method(std::isfinite(q->sigma) ? kFitMethod : kNoBootstrapSigma);
       m.set_note(q->note);
+      // K of a model without flicker reads high (the random walk absorbs an
+      // unresolved flicker floor): the midpoint down to K with the flicker
+      // allowed at 1 sigma, the span rectangular in the u (the note says so).
+      if (name == kFitRateRandomWalk && fit->rate_random_walk_half_span > 0) {
+        m.set_uncertainty_method(std::string(kFitMethod) +
+                                 ", in quadrature with the span to K under the flicker the data "
+                                 "allow at 1 sigma (rectangular: half-span / sqrt 3)");
+      }
       // A model curve whose minimum over the analysed taus is at their edge
       // (typically a model that left the rate random walk out, so it never
       // turns up). Where the data bound the random walk, the value is the
@@ -311,14 +319,6 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
       // where the bare minimum gave 67.0 / 92.0 and 64.0 / 93.5 %). Else it
       // is the model's minimum over those taus, reading low (mean z -0.5 to
       // -1.7 simulated).
-      // K of a model without flicker reads high (the random walk absorbs an
-      // unresolved flicker floor): the midpoint down to K with the flicker
-      // allowed at 1 sigma, the span rectangular in the u (the note says so).
-      if (name == kFitRateRandomWalk && fit->rate_random_walk_half_span > 0) {
-        m.set_uncertainty_method(std::string(kFitMethod) +
-                                 ", in quadrature with the span to K under the flicker the data "
-                                 "allow at 1 sigma (rectangular: half-span / sqrt 3)");
-      }
       if (name == kFitBiasInstability && fit->minimum_at_edge) {
         if (fit->edge_half_span > 0) {
           m.set_uncertainty_method(
