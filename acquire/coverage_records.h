@@ -16,6 +16,8 @@
 #include <vector>
 
 #include "acquire/imu_simulator.h"
+#include "analyze/allan/long_tau.h"
+#include "analyze/allan/phase.h"
 #include "analyze/allan/streaming.h"
 #include "common/status.h"
 
@@ -73,9 +75,12 @@ inline std::vector<CoverageMixture> SteeperMixtures() {
 }
 
 // One record of `axis` (seed), `samples` long at `rate_hz`, analysed as the
-// station does: streaming engine, dense grid, 9-bin rule, no intervals.
+// station does: streaming engine, dense grid, 9-bin rule, no intervals;
+// with `long_taus`, also Theo1 at the octaves beyond the curve
+// (allan::Theo1MomentsBeyond) into it.
 inline Result<allan::Curve> StationCurve(const pb::AxisTruth& axis, uint64_t seed, int samples,
-                                         double rate_hz) {
+                                         double rate_hz,
+                                         std::vector<allan::Theo1Moment>* long_taus = nullptr) {
   pb::SimTruth truth;
   truth.set_seed(seed);
   truth.set_actual_rate_hz(rate_hz);
@@ -89,7 +94,14 @@ inline Result<allan::Curve> StationCurve(const pb::AxisTruth& axis, uint64_t see
   so.tau0_s = 1 / rate_hz;
   allan::StreamingAllan engine(so);
   engine.Append(std::span<const float>(out[0]));
-  return engine.Oadev(allan::StreamGrid::kDense, allan::StopRule::kBins9, allan::CiMethod::kNone);
+  allan::Curve curve =
+      engine.Oadev(allan::StreamGrid::kDense, allan::StopRule::kBins9, allan::CiMethod::kNone);
+  if (long_taus != nullptr && !curve.points.empty()) {
+    const allan::PhaseRecord phase =
+        allan::PhaseFromRate(std::span<const float>(out[0]), so.tau0_s);
+    *long_taus = allan::Theo1MomentsBeyond(phase, curve.points.back().tau_s);
+  }
+  return curve;
 }
 
 }  // namespace imuqual::sim

@@ -12,7 +12,11 @@
 // 2-sigma intervals cover the truth (of those with a value and u), the mean
 // and rms z, and how many records had no u: withheld (model inadequate), an
 // upper bound (term left out; with how often the bound covers), or none.
-// Usage: fit_coverage_bench [--seeds N] [--threads T]
+// With --long-taus, Theo1 at the octaves beyond each curve joins the fit as
+// moments (judge::NoiseModelOptions::long_taus) and the truth's minimum is
+// taken over the taus the model then reaches (0.75 of the record); the
+// printed names carry "_longtau".
+// Usage: fit_coverage_bench [--seeds N] [--threads T] [--long-taus]
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -45,8 +49,9 @@ std::vector<sim::CoverageMixture> Mixtures() {
   return out;
 }
 
-allan::Curve StationCurve(const pb::AxisTruth& axis, uint64_t seed) {
-  auto curve = sim::StationCurve(axis, seed, kSamples, kRateHz);
+allan::Curve StationCurve(const pb::AxisTruth& axis, uint64_t seed,
+                          std::vector<allan::Theo1Moment>* long_taus) {
+  auto curve = sim::StationCurve(axis, seed, kSamples, kRateHz, long_taus);
   if (!curve.ok()) {
     std::fprintf(stderr, "fit_coverage_bench: %s\n", curve.status().message().c_str());
     std::exit(1);
@@ -113,14 +118,23 @@ int main(int argc, char** argv) {
   using namespace imuqual;
   int seeds = 200;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  for (int i = 1; i + 1 < argc; i += 2) {
+  bool long_taus = false;
+  for (int i = 1; i < argc; i += 2) {
     const std::string flag = argv[i];
-    if (flag == "--seeds") {
+    if (flag == "--long-taus") {
+      long_taus = true;
+      --i;  // no value
+    } else if (i + 1 >= argc) {
+      std::fprintf(stderr, "fit_coverage_bench: %s needs a value\n", argv[i]);
+      return 2;
+    } else if (flag == "--seeds") {
       seeds = std::atoi(argv[i + 1]);
     } else if (flag == "--threads") {
       threads = std::atoi(argv[i + 1]);
     } else {
-      std::fprintf(stderr, "fit_coverage_bench: unknown option %s (--seeds N, --threads T)\n",
+      std::fprintf(stderr,
+                   "fit_coverage_bench: unknown option %s (--seeds N, --threads T, "
+                   "--long-taus)\n",
                    argv[i]);
       return 2;
     }
@@ -137,12 +151,17 @@ int main(int argc, char** argv) {
     std::atomic<int> next{0};
     const auto work = [&] {
       for (int s = next++; s < seeds; s = next++) {
-        const allan::Curve curve = StationCurve(mix.truth, 0xc0fe + 7919ull * s);
+        judge::NoiseModelOptions options;
+        const allan::Curve curve =
+            StationCurve(mix.truth, 0xc0fe + 7919ull * s, long_taus ? &options.long_taus : nullptr);
         const std::vector<pb::Measurement> ms =
-            judge::MeasureNoiseModel("x", pb::GYRO, curve, judge::NoiseModelOptions{});
-        // The truth's minimum over the taus the curve analysed.
+            judge::MeasureNoiseModel("x", pb::GYRO, curve, options);
+        // The truth's minimum over the taus the model analysed.
         double min_dev = INFINITY;
-        const double lo = curve.points.front().tau_s, hi = curve.points.back().tau_s;
+        const double lo = curve.points.front().tau_s;
+        const double hi = options.long_taus.empty()
+                              ? curve.points.back().tau_s
+                              : 0.75 * static_cast<double>(options.long_taus.back().m) / kRateHz;
         for (int k = 0; k <= 2000; ++k) {
           const double tau = lo * std::pow(hi / lo, k / 2000.0);
           min_dev = std::min(min_dev, std::sqrt(TruthAvar(mix.truth, tau)));
@@ -167,9 +186,10 @@ int main(int argc, char** argv) {
     std::vector<std::thread> pool;
     for (int t = 0; t < threads; ++t) pool.emplace_back(work);
     for (std::thread& t : pool) t.join();
-    arw.Print(mix.name, "arw");
-    bi.Print(mix.name, "bi");
-    rrw.Print(mix.name, "rrw");
+    const std::string name = mix.name + (long_taus ? "_longtau" : "");
+    arw.Print(name, "arw");
+    bi.Print(name, "bi");
+    rrw.Print(name, "rrw");
     std::fflush(stdout);
   }
   return 0;

@@ -88,6 +88,14 @@ Result<Parsed> ParseOptions(const AnalyzeFileOptions& o) {
   if (o.long_tau_check && !o.fit) {
     return Status::InvalidArgument("--long-tau-check needs --fit");
   }
+  if (o.fit_long_taus && !o.fit) {
+    return Status::InvalidArgument("--fit-long-taus needs --fit");
+  }
+  if (o.fit_long_taus && o.long_tau_check) {
+    return Status::InvalidArgument(
+        "--long-tau-check tests a model fitted without the long taus; with --fit-long-taus the "
+        "Theo1 points are in the fit (its long-tau moments table shows them against the model)");
+  }
   if (!(o.davar_window_s >= 0) || !std::isfinite(o.davar_window_s)) {
     return Status::InvalidArgument("--davar-window must be >= 0 s (0: a quarter of the record)");
   }
@@ -261,52 +269,73 @@ allan::DatasheetValue LongTauUnit(const std::optional<allan::SensorKind>& kind,
               : allan::DatasheetValue{1.0, unnamed};
 }
 
+// A row with the 95 % chi-square range of measured / expected for `edf`
+// (NaN: none).
+LongTauCheck LongTauRow(double tau_s, int64_t m, double measured, double expected, double edf) {
+  LongTauCheck c;
+  c.tau_s = tau_s;
+  c.m = m;
+  c.measured = measured;
+  c.expected = expected;
+  c.edf = edf;
+  if (std::isfinite(edf) && edf > 0) {
+    const boost::math::chi_squared chi2(edf);
+    c.lo = std::sqrt(boost::math::quantile(chi2, 0.025) / edf);
+    c.hi = std::sqrt(boost::math::quantile(chi2, 0.975) / edf);
+  }
+  return c;
+}
+
 std::vector<LongTauCheck> CheckLongTau(const allan::PhaseRecord& phase,
                                        const allan::CompositeFit& fit, const Curve& fit_curve) {
   std::vector<LongTauCheck> out;
   if (fit_curve.points.empty()) return out;
   const double tau0 = phase.tau0_s;
   const int64_t n = phase.size();
-  std::vector<int64_t> m_list;
-  double tau = 2 * fit_curve.points.back().tau_s;
-  for (;; tau *= 2) {
-    const int64_t m = 2 * std::llround(tau / (0.75 * tau0) / 2);
-    if (m < 2 || m > n - 1) break;
-    if (m_list.empty() || m > m_list.back()) m_list.push_back(m);
-  }
+  const std::vector<int64_t> m_list =
+      allan::Theo1OctavesBeyond(fit_curve.points.back().tau_s, tau0, n);
   const Curve theo1 = allan::ComputeDeviation(phase, Deviation::kTheo1, m_list);
   for (const allan::CurvePoint& p : theo1.points) {
-    LongTauCheck c;
-    c.m = p.m;
-    c.tau_s = 0.75 * static_cast<double>(p.m) * tau0;
-    c.measured = p.dev;
-    c.expected = std::sqrt(fit.model.ExpectedTheo1(p.m, tau0));
     // The model's slope of AVAR at the point: mu = -alpha - 1.
     const double r = 0.75 * static_cast<double>(p.m);
     const double mu = std::log(fit.model.Avar(r * 1.1, tau0) / fit.model.Avar(r / 1.1, tau0)) /
                       (2 * std::log(1.1));
     const std::optional<double> edf =
-        std::isfinite(mu)
-            ? allan::Theo1Edf(static_cast<int>(std::clamp(std::lround(-mu - 1), -2L, 2L)), p.m, n)
-            : std::nullopt;
-    c.edf = edf ? *edf : allan::kNaN;
-    if (edf) {
-      const boost::math::chi_squared chi2(*edf);
-      c.lo = std::sqrt(boost::math::quantile(chi2, 0.025) / *edf);
-      c.hi = std::sqrt(boost::math::quantile(chi2, 0.975) / *edf);
-    }
-    out.push_back(c);
+        std::isfinite(mu) ? allan::Theo1EdfMeasured(
+                                static_cast<int>(std::clamp(std::lround(-mu - 1), -2L, 2L)), p.m, n)
+                          : std::nullopt;
+    out.push_back(LongTauRow(r * tau0, p.m, p.dev, std::sqrt(fit.model.ExpectedTheo1(p.m, tau0)),
+                             edf ? *edf : allan::kNaN));
   }
   return out;
 }
 
+// The Theo1 moments a fit made with --fit-long-taus weighed, as the check's
+// rows (in sample: the model was fitted to them).
+std::vector<LongTauCheck> FitLongTauRows(const allan::CompositeFit& fit) {
+  std::vector<LongTauCheck> out;
+  for (const allan::GmwmPoint& p : fit.points) {
+    if (p.theo1) {
+      out.push_back(LongTauRow(p.tau_s, p.m, std::sqrt(p.avar), std::sqrt(p.model_avar), p.edf));
+    }
+  }
+  return out;
+}
+
+// `in_fit`: the rows are the fit's own Theo1 moments (FitLongTauRows).
 std::string LongTauCheckText(const std::vector<LongTauCheck>& rows,
-                             const std::optional<allan::SensorKind>& kind) {
+                             const std::optional<allan::SensorKind>& kind, bool in_fit) {
   const allan::DatasheetValue unit = LongTauUnit(kind, "(input unit)");
   std::string out =
-      "long-tau check: Theo1 beyond the fitted taus against the model's expectation of it (Howe "
-      "& Tasset's bias included; 95 % chi-square range for Theo1's edf at the model's slope)\n";
-  if (rows.empty()) return out + "  none: the record reaches no octave beyond the fitted taus\n";
+      in_fit ? "long-tau moments in the fit: Theo1 beyond the Allan range against the fitted "
+               "model's expectation of it (Howe & Tasset's bias included; 95 % chi-square range "
+               "for Theo1's edf at the model's slope)\n"
+             : "long-tau check: Theo1 beyond the fitted taus against the model's expectation of it "
+               "(Howe & Tasset's bias included; 95 % chi-square range for Theo1's edf at the "
+               "model's slope)\n";
+  if (rows.empty()) {
+    return out + "  none: the record reaches no octave beyond the Allan range's last tau\n";
+  }
   auto g = [](double v) {
     char b[32];
     std::snprintf(b, sizeof b, "%.3g", v);
@@ -327,7 +356,11 @@ std::string LongTauCheckText(const std::vector<LongTauCheck>& rows,
                   std::string(unit.unit).c_str(), c.Ratio());
     out += line + verdict + "\n";
   }
-  if (outside > 0) {
+  if (outside > 0 && in_fit) {
+    out += "  " + std::to_string(outside) +
+           " point(s) outside: the model misses the record there even with these points in its "
+           "fit; the points are correlated, read them together\n";
+  } else if (outside > 0) {
     out += "  " + std::to_string(outside) +
            " point(s) outside: the model extrapolates wrongly beyond the fitted taus (a term the "
            "fitted range cannot see, e.g. a rate random walk whose minimum lies beyond T/9); the "
@@ -720,7 +753,11 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
     allan::GmwmOptions fo;
     fo.stop = allan::StopRule::kNone;  // the curve is already cut by --stop
     fo.min_tau_s = o.fit_min_tau_s;
-    auto f = allan::FitCompositeModel(fit_curve, fo);
+    std::vector<allan::Theo1Moment> long_taus;
+    if (o.fit_long_taus && !fit_curve.points.empty()) {
+      long_taus = allan::Theo1MomentsBeyond(phase, fit_curve.points.back().tau_s);
+    }
+    auto f = allan::FitCompositeModel(fit_curve, fo, long_taus);
     if (!f.ok()) {
       LogError("--fit: " + f.status().message());
       return 1;
@@ -744,6 +781,7 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
 
   std::optional<std::vector<LongTauCheck>> long_tau;
   if (fit && o.long_tau_check) long_tau = CheckLongTau(phase, *fit, fit_curve);
+  if (fit && o.fit_long_taus) long_tau = FitLongTauRows(*fit);
   const bool with_ci = p.curves.ci != allan::CiMethod::kNone;
   // The whole record's invalid samples (the phase's are the judged stretch's).
   const int64_t invalid = stretch ? static_cast<int64_t>(values->size()) - stretch->record_valid
@@ -776,7 +814,9 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
           "2k(k+1)/(p-k-1); figures and IEEE terms are averaged with the weights)\n%s",
           CandidateTable(*fit).Render(Format::kTable).c_str());
     }
-    if (long_tau) std::printf("\n%s", LongTauCheckText(*long_tau, p.kind).c_str());
+    if (long_tau) {
+      std::printf("\n%s", LongTauCheckText(*long_tau, p.kind, o.fit_long_taus).c_str());
+    }
     if (scan) std::printf("\n%s", StationaritySummary(*scan, reference_source).c_str());
     if (scan && !scan->events.empty()) {
       std::printf("%s", EventTable(*scan, p.kind).Render(Format::kTable).c_str());
@@ -803,8 +843,8 @@ int AnalyzeFileCommand(const AnalyzeFileOptions& o) {
                        CurveTable(Unlabeled(curves), with_ci, true, false).Render(Format::kJson);
     if (fit) json += ",\n\"fit\": " + FitJson(*fit, fit_curve, p.kind);
     if (long_tau) {
-      json +=
-          ",\n\"long_tau_check\": " + LongTauCheckTable(*long_tau, p.kind).Render(Format::kJson);
+      json += ",\n\"" + std::string(o.fit_long_taus ? "long_tau_moments" : "long_tau_check") +
+              "\": " + LongTauCheckTable(*long_tau, p.kind).Render(Format::kJson);
     }
     if (scan) {
       json +=

@@ -403,6 +403,69 @@ TEST(AnalyzeCliTest, LongTauCheckComparesTheo1WithTheModel) {
   EXPECT_EQ(bad.output, "imuqual: error: --long-tau-check needs --fit\n");
 }
 
+// --fit-long-taus: the same walk beyond T/9 (minimum at 100 s of 600 s
+// records), Theo1 at 82, 164 and 328 s in the fit: the model takes a
+// long-tau term (K or R) in more records than the fit to OADEV alone, and
+// the output shows the three moments against the model.
+TEST(AnalyzeCliTest, FitLongTausPutsTheo1IntoTheModel) {
+  testing::TempDir dir("analyze_cli_fit_long_taus");
+  const std::string path = dir.path("record.txt");
+  auto write = [&](int seed) {
+    std::ofstream out(path);
+    out.precision(17);
+    std::mt19937_64 rng(1000 + seed);
+    std::normal_distribution<double> gauss;
+    double walk = 0;
+    for (int i = 0; i < 60000; ++i) {
+      walk += 1.73e-4 * gauss(rng);
+      out << gauss(rng) + walk << "\n";
+    }
+  };
+  auto model_of = [](const std::string& output) {
+    const size_t name = output.find("noise model ");
+    return name == std::string::npos
+               ? std::string()
+               : output.substr(name + 12, output.find(' ', name + 12) - name - 12);
+  };
+  auto long_term = [](const std::string& model) {
+    return model.find('K') != std::string::npos || model.find('R') != std::string::npos;
+  };
+  constexpr int kRecords = 12;
+  int plain = 0, with = 0;
+  for (int s = 0; s < kRecords; ++s) {
+    write(s);
+    const auto a = RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 --fit");
+    const auto b =
+        RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 --fit --fit-long-taus");
+    ASSERT_EQ(a.exit_code, 0) << a.output;
+    ASSERT_EQ(b.exit_code, 0) << b.output;
+    plain += long_term(model_of(a.output));
+    with += long_term(model_of(b.output));
+    const size_t at = b.output.find("long-tau moments in the fit:");
+    ASSERT_NE(at, std::string::npos) << b.output;
+    std::istringstream lines(b.output.substr(at));
+    std::string line;
+    std::getline(lines, line);
+    int rows = 0;
+    while (std::getline(lines, line) && line.rfind("  tau ", 0) == 0) ++rows;
+    EXPECT_EQ(rows, 3) << b.output;
+    EXPECT_NE(b.output.find("fitted over tau 0.01 ... 327.675 s"), std::string::npos) << b.output;
+  }
+  std::printf("fit-long-taus: a K or R term in %d of %d models (OADEV alone: %d)\n", with, kRecords,
+              plain);
+  EXPECT_GE(with, plain + 3);
+  const auto json = RunCommand(Bin("imuqual") + " analyze " + path +
+                               " --rate 100 --fit --fit-long-taus --format json");
+  ASSERT_EQ(json.exit_code, 0) << json.output;
+  EXPECT_NE(json.output.find("\"long_tau_moments\": "), std::string::npos) << json.output;
+  for (const char* flags : {"--fit-long-taus", "--fit --fit-long-taus --long-tau-check"}) {
+    const auto bad =
+        RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 " + flags + " 2>&1");
+    EXPECT_EQ(bad.exit_code, 2) << flags;
+    EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
+  }
+}
+
 // --judge-longest-segment: with a step found at 250 s of a 600 s record
 // (bins of 2 s), the curves are those of 252-600 s, the longest stretch no
 // event touches, and the output says where it lies and what cut it; a record

@@ -1,7 +1,10 @@
 #include "analyze/allan/composite_model.h"
 
+#include <algorithm>
 #include <array>
+#include <boost/math/special_functions/digamma.hpp>
 #include <cmath>
+#include <complex>
 #include <numbers>
 
 namespace imuqual::allan {
@@ -145,13 +148,36 @@ double TermPsd(const ModelTerm& t, double f, double tau0_s) {
   return 0;
 }
 
-double TermTheo1PairVariance(const ModelTerm& t, int64_t m_int, int64_t k_int, double tau0_s) {
-  const double m = static_cast<double>(m_int), k = static_cast<double>(k_int);
+namespace {
+
+// A Gauss-Markov term's Var(u_k) / (tau0 sigma)^2 from its phase structure
+// function D(n) = tau0^2 sigma^2 [n coth(x/2) - (1 - e^-nx) / (2 sinh^2(x/2))],
+// x = tau0 / T (the geometric sums of sigma^2 phi^|j|). For T >> tau0 both
+// parts are ~2n/x and D ~ n^2, and the four D's cancel again to ~x n^3:
+// long double keeps ~eps_ld / (x n)^2 (1e-10 at x n = 4e-5).
+struct GaussMarkovPair {
+  using Long = long double;
+  explicit GaussMarkovPair(double x_in)
+      : x(x_in),
+        half_over_sh2(1 / (2 * std::sinh(x / 2) * std::sinh(x / 2))),
+        coth(1 / std::tanh(x / 2)) {}
+  Long D(Long n) const { return n * coth + std::expm1(-n * x) * half_over_sh2; }
+  double Variance(double m, double k) const {
+    const Long mm = m, kk = k;
+    return static_cast<double>(2 * D(kk) + 2 * D(mm - kk) - D(mm) - D(mm - 2 * kk));
+  }
+  Long x, half_over_sh2, coth;
+};
+
+// TermTheo1PairVariance at real m and k (the closed forms are smooth in k;
+// SmoothSum samples them between integers). `half`: k == m / 2, where the
+// quantization's two middle points coincide.
+double PairVariance(const ModelTerm& t, double m, double k, bool half, double tau0_s) {
   const double s2 = t.scale * t.scale;
   const double tau0_2 = tau0_s * tau0_s;
   switch (t.kind) {
     case TermKind::kQuantization:
-      return (2 * k_int == m_int ? 6.0 : 4.0) * s2;
+      return (half ? 6.0 : 4.0) * s2;
     case TermKind::kWhite:
       return 2.0 * s2 * tau0_s * k;
     case TermKind::kFlicker: {
@@ -172,19 +198,8 @@ double TermTheo1PairVariance(const ModelTerm& t, int64_t m_int, int64_t k_int, d
       const double v = t.scale * tau0_2 * k * (m - k);
       return v * v;
     }
-    case TermKind::kGaussMarkov: {
-      // D(n) = tau0^2 sigma^2 [n coth(x/2) - (1 - e^-nx) / (2 sinh^2(x/2))],
-      // x = tau0 / T (the geometric sums of sigma^2 phi^|j|). For T >> tau0
-      // both parts are ~2n/x and D ~ n^2, and the four D's cancel again to
-      // ~x n^3: long double keeps ~eps_ld / (x n)^2 (1e-10 at x n = 4e-5).
-      using Long = long double;
-      const Long x = static_cast<Long>(tau0_s) / t.correlation_time_s;
-      const Long sh = std::sinh(x / 2);
-      const Long coth = 1 / std::tanh(x / 2);
-      auto d = [&](Long n) { return n * coth + std::expm1(-n * x) / (2 * sh * sh); };
-      const Long mm = m, kk = k;
-      return tau0_2 * s2 * static_cast<double>(2 * d(kk) + 2 * d(mm - kk) - d(mm) - d(mm - 2 * kk));
-    }
+    case TermKind::kGaussMarkov:
+      return tau0_2 * s2 * GaussMarkovPair(tau0_s / t.correlation_time_s).Variance(m, k);
     case TermKind::kSinusoid: {
       const double f = t.frequency_hz * tau0_s;
       const double a = std::sin(kPi * f * k), b = std::sin(kPi * f * (m - k)),
@@ -195,15 +210,155 @@ double TermTheo1PairVariance(const ModelTerm& t, int64_t m_int, int64_t k_int, d
   return 0;
 }
 
-double CompositeModel::ExpectedTheo1(int64_t m, double tau0_s) const {
+// sum_{k=1}^{n} g(k) for a g that is smooth in k away from both ends on the
+// scale of a few hundred: the first and last kExact terms exactly, the rest
+// by the Euler-Maclaurin midpoint rule,
+//   sum_{k=a}^{b} g(k) = int_{a-1/2}^{b+1/2} g - (g'(b+1/2) - g'(a-1/2)) / 24 + ...,
+// the integral by 8-point Gauss-Legendre on panels growing by 10 % away from
+// each end (g's features sit at k ~ 0 and at k ~ n, where m - 2k -> 0).
+// About 1500 evaluations of g for any n; every term for n <= 8 kExact.
+template <typename G>
+double SmoothSum(G g, int64_t n) {
+  constexpr int64_t kExact = 256;
   double sum = 0;
-  for (int64_t k = 1; 2 * k <= m; ++k) {
-    double v = 0;
-    for (const ModelTerm& t : terms) v += TermTheo1PairVariance(t, m, k, tau0_s);
-    sum += v / static_cast<double>(k);
+  if (n <= 8 * kExact) {
+    for (int64_t k = 1; k <= n; ++k) sum += g(static_cast<double>(k));
+    return sum;
   }
-  const double tau = static_cast<double>(m) * tau0_s;
-  return sum / (0.75 * tau * tau);
+  for (int64_t k = 1; k <= kExact; ++k) sum += g(static_cast<double>(k));
+  for (int64_t k = n - kExact + 1; k <= n; ++k) sum += g(static_cast<double>(k));
+  static constexpr std::array<double, 4> kNode = {0.1834346424956498, 0.5255324099163290,
+                                                  0.7966664774136267, 0.9602898564975363};
+  static constexpr std::array<double, 4> kWeight = {0.3626837833783620, 0.3137066458778873,
+                                                    0.2223810344533745, 0.1012285362903763};
+  auto panel = [&](double a, double b) {
+    const double c = 0.5 * (a + b), h = 0.5 * (b - a);
+    double s = 0;
+    for (int i = 0; i < 4; ++i) s += kWeight[i] * (g(c - h * kNode[i]) + g(c + h * kNode[i]));
+    return s * h;
+  };
+  const double lo = static_cast<double>(kExact) + 0.5;
+  const double hi = static_cast<double>(n - kExact) + 0.5;
+  const double mid = 0.5 * (lo + hi), top = static_cast<double>(n) + 0.5;
+  for (double t = lo; t < mid;) {
+    const double next = std::min(mid, 1.1 * t);
+    sum += panel(t, next);
+    t = next;
+  }
+  for (double d = top - hi; d < top - mid;) {  // distance from the upper end
+    const double next = std::min(top - mid, 1.1 * d);
+    sum += panel(top - next, top - d);
+    d = next;
+  }
+  auto slope = [&](double x) { return g(x + 0.5) - g(x - 0.5); };
+  return sum - (slope(hi) - slope(lo)) / 24.0;
+}
+
+// sum_{k=1}^{n} e^{i c k} / k. Where n |1 - e^{ic}| >= 30: -ln(1 - e^{ic})
+// minus the tail sum_{k>n} z^k / k, summed by parts (Abel) into
+// sum_j D^{j+1} z^{N+j} (-1)^j j! / (N (N+1) ... (N+j)), N = n + 1,
+// D = 1 / (1 - z): each term is ~ j / 30 of the last, so a dozen reach
+// 1e-12. Elsewhere e^{ick} / k is smooth in k (a period >= n / 5) and
+// SmoothSum sums it.
+std::complex<double> LogSeriesPartial(double c, int64_t n) {
+  c = std::remainder(c, 2 * kPi);
+  const double nn = static_cast<double>(n);
+  if (nn * 2 * std::abs(std::sin(c / 2)) >= 30) {
+    const std::complex<double> z = std::polar(1.0, c);
+    const std::complex<double> d = 1.0 / (1.0 - z);
+    const double big_n = nn + 1;
+    std::complex<double> term = d * std::polar(1.0, std::remainder(c * big_n, 2 * kPi)) / big_n;
+    std::complex<double> tail = term;
+    for (int j = 1; j < 40 && std::abs(term) > 1e-17 * std::abs(tail); ++j) {
+      term *= -d * z * static_cast<double>(j) / (big_n + j);
+      tail += term;
+    }
+    return -std::log(1.0 - z) - tail;
+  }
+  const double re = SmoothSum([&](double k) { return std::cos(c * k) / k; }, n);
+  const double im = SmoothSum([&](double k) { return std::sin(c * k) / k; }, n);
+  return {re, im};
+}
+
+double Harmonic(int64_t n) {
+  return n <= 64 ? SmoothSum([](double k) { return 1 / k; }, n)
+                 : boost::math::digamma(static_cast<double>(n) + 1) + std::numbers::egamma;
+}
+
+}  // namespace
+
+double TermTheo1PairVariance(const ModelTerm& t, int64_t m, int64_t k, double tau0_s) {
+  return PairVariance(t, static_cast<double>(m), static_cast<double>(k), 2 * k == m, tau0_s);
+}
+
+double Theo1SinusoidSum(double f, int64_t m) {
+  const int64_t n = m / 2;
+  const double a = kPi * f;
+  if (static_cast<double>(n) * 2 * std::abs(std::sin(a)) < 30) {
+    // a m < ~30: the summand's period in k is >= m / 10, smooth.
+    const double md = static_cast<double>(m);
+    return SmoothSum(
+        [&](double k) {
+          const double s = std::sin(a * k), r = std::sin(a * (md - k));
+          return s * s * r * r / k;
+        },
+        n);
+  }
+  // 4 sin^2(ak) sin^2(a(m-k)) = 1 - cos 2ak - cos 2a(m-k) + cos(2am)/2 +
+  // cos 2a(2k-m) / 2, each a partial sum of the log series.
+  const double h = Harmonic(n);
+  const std::complex<double> e2 = LogSeriesPartial(2 * a, n), e4 = LogSeriesPartial(4 * a, n);
+  const std::complex<double> rot =
+      std::polar(1.0, std::remainder(2 * a * static_cast<double>(m), 2 * kPi));
+  const double four = h * (1 + 0.5 * rot.real()) - e2.real() - (rot * std::conj(e2)).real() +
+                      0.5 * (std::conj(rot) * e4).real();
+  return 0.25 * four;
+}
+
+double TermExpectedTheo1(const ModelTerm& t, int64_t m, double tau0_s) {
+  const int64_t n = m / 2;
+  const double md = static_cast<double>(m), nd = static_cast<double>(n);
+  const double s2 = t.scale * t.scale, tau0_3 = tau0_s * tau0_s * tau0_s;
+  double sum = 0;  // sum_{k=1}^{m/2} Var(u_k) / k
+  switch (t.kind) {
+    case TermKind::kQuantization:
+      sum = s2 * (4 * Harmonic(n) + 2 / nd);
+      break;
+    case TermKind::kWhite:
+      sum = 2 * s2 * tau0_s * nd;
+      break;
+    case TermKind::kRandomWalk: {
+      // sum k (3m - 4k) / 3 + 1 / 3 (the discrete walk's white part)
+      const double s1 = nd * (nd + 1) / 2, sq = nd * (nd + 1) * (2 * nd + 1) / 6;
+      sum = s2 * tau0_3 * (3 * md * s1 - 4 * sq + nd) / 3;
+      break;
+    }
+    case TermKind::kDrift: {
+      const double s1 = nd * (nd + 1) / 2, sq = nd * (nd + 1) * (2 * nd + 1) / 6;
+      sum = s2 * tau0_3 * tau0_s * (md * md * s1 - 2 * md * sq + s1 * s1);
+      break;
+    }
+    case TermKind::kSinusoid: {
+      const double f = t.frequency_hz * tau0_s, s = std::sin(kPi * f);
+      sum = 2 * tau0_s * tau0_s * s2 * Theo1SinusoidSum(f, m) / (s * s);
+      break;
+    }
+    case TermKind::kFlicker:
+      sum = SmoothSum([&](double k) { return PairVariance(t, md, k, false, tau0_s) / k; }, n);
+      break;
+    case TermKind::kGaussMarkov: {
+      const GaussMarkovPair pair(tau0_s / t.correlation_time_s);
+      sum = tau0_s * tau0_s * s2 * SmoothSum([&](double k) { return pair.Variance(md, k) / k; }, n);
+      break;
+    }
+  }
+  return sum / (0.75 * md * md * tau0_s * tau0_s);
+}
+
+double CompositeModel::ExpectedTheo1(int64_t m, double tau0_s) const {
+  double v = 0;
+  for (const ModelTerm& t : terms) v += TermExpectedTheo1(t, m, tau0_s);
+  return v;
 }
 
 double CompositeModel::Theo1BiasFactor(int64_t m, double tau0_s) const {

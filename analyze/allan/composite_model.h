@@ -95,6 +95,21 @@ double TermPsd(const ModelTerm& term, double f_cycles, double tau0_s);
 // TheoBR can only estimate with one ratio for the whole curve. `m` even >= 2.
 double TermTheo1PairVariance(const ModelTerm& term, int64_t m, int64_t k, double tau0_s);
 
+// E[Theo1(m)] of one term, the sum over k above without visiting every k:
+// closed forms for quantization, white noise, the random walk and drift;
+// flicker and Gauss-Markov summed exactly for the 256 k nearest each end and
+// by quadrature between (smooth there; ~1500 evaluations for any m); a
+// sinusoid through Theo1SinusoidSum. Within 1e-10 of the sum over every k
+// (1.2e-11 the largest seen; composite_model_test). `m` even >= 2.
+double TermExpectedTheo1(const ModelTerm& term, int64_t m, double tau0_s);
+
+// sum_{k=1}^{m/2} sin^2(pi f k) sin^2(pi f (m-k)) / k, f in cycles per sample
+// in (0, 1/2]: Theo1's response to a sampled sinusoid (and, over f, Theo1's
+// spectral window). Where m f is large, a closed form in the partial sums of
+// the log series sum e^{ick} / k, whose tails are summed by parts; else the
+// smooth quadrature above.
+double Theo1SinusoidSum(double f_cycles, int64_t m);
+
 struct CompositeModel {
   std::vector<ModelTerm> terms;
 
@@ -104,7 +119,7 @@ struct CompositeModel {
   // Compact name in a fixed term order, e.g. "N+B+K+2GM+S".
   std::string Name() const;
   int CountOf(TermKind kind) const;
-  // E[Theo1(m)] (above), m even >= 2; O(m) per call.
+  // E[Theo1(m)] (above), m even >= 2: the sum of TermExpectedTheo1.
   double ExpectedTheo1(int64_t m, double tau0_s) const;
   // AVAR(0.75 m) / E[Theo1(m)]: multiplies a Theo1 estimate at m into an
   // estimate of AVAR at its effective tau 0.75 m tau0 without TheoBR's

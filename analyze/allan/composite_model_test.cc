@@ -561,6 +561,33 @@ TEST(CompositeModelTest, Theo1PairVarianceAtHalfMIsTheSecondDifference) {
   }
 }
 
+TEST(CompositeModelTest, Theo1ExpectationWithoutEveryKEqualsTheSumOverEveryK) {
+  // GIVEN every kind of term, Gauss-Markov terms from far below tau0 to far
+  // beyond the record, and sinusoids from m f << 1 through m f ~ 30 (where
+  // the closed form takes over) to near Nyquist, THEN TermExpectedTheo1
+  // equals the sum of TermTheo1PairVariance / k over every k to 1e-10 (the largest
+  // error seen is 1.2e-11).
+  CompositeModel model = EveryKindOfTerm();
+  for (double t : {2e-3, 0.3, 40.0, 1e5})
+    model.terms.push_back(Term(TermKind::kGaussMarkov, 1e-3, t));
+  for (double f : {1e-4, 0.002, 0.031, 0.37, 11.0, 49.9, 50.0}) {
+    model.terms.push_back(Term(TermKind::kSinusoid, 1e-3, 0, f));
+  }
+  for (int64_t m : {2, 6, 512, 4098, 9000, 131072, 500002}) {
+    for (const ModelTerm& t : model.terms) {
+      CompensatedSum sum;
+      for (int64_t k = 1; 2 * k <= m; ++k) {
+        sum.Add(TermTheo1PairVariance(t, m, k, kTau0) / static_cast<Real>(k));
+      }
+      const double md = static_cast<double>(m);
+      const Real truth = sum.value() / (0.75 * md * md * kTau0 * kTau0);
+      EXPECT_LE(RelativeError(TermExpectedTheo1(t, m, kTau0), truth), 1e-10)
+          << TermKindName(t.kind) << " " << t.correlation_time_s << " " << t.frequency_hz << " m "
+          << m;
+    }
+  }
+}
+
 TEST(CompositeModelTest, Theo1BiasFollowsHoweAndTasset) {
   // White rate noise (white FM): Theo1 is unbiased, E[Theo1(m)] = AVAR(0.75 m).
   const CompositeModel white{{Term(TermKind::kWhite, 0.02)}};

@@ -73,6 +73,18 @@ std::optional<double> TotalDeviationEdf(int alpha, int64_t m, int64_t n_phase);
 // nullopt for other alphas, m outside [2, N-1], or a non-positive value.
 std::optional<double> Theo1Edf(int alpha, int64_t m, int64_t n_phase);
 
+// Theo1's edf as measured (Monte Carlo) where SP1065's formulas do not hold:
+// for white, flicker and random-walk FM (alpha 0, -1, -2) at r = 0.75 m >=
+// 0.1 N, the edf nu whose psi(nu/2) - ln(nu/2) is the mean of ln(Theo1 /
+// E[Theo1]) (the bias a fit's log moment removes; the variance of ln Theo1
+// is at most psi'(nu/2)), linear in r / N between a table's points 0.05
+// apart; Theo1Edf elsewhere. SP1065's random-walk formula gives 0.5 at r =
+// N/2 where Theo1 has 1.9 and none beyond r = 0.63 N; its white-FM one is
+// 25-45 % low beyond r = N/4 (theo1_edf_bench prints both). The noise-model
+// fit's Theo1 moments and the long-tau check use this; the curves' intervals
+// keep SP1065's (as the references print them).
+std::optional<double> Theo1EdfMeasured(int alpha, int64_t m, int64_t n_phase);
+
 // MTOT edf nu = b N/m - c (SP1065 MTOT edf table): (b, c) = (1.90, 2.10) WPM,
 // (1.20, 1.40) FPM, (1.10, 1.20) WFM, (0.85, 0.50) FFM, (0.75, 0.31) RWFM.
 // TTOT is tau/sqrt(3) MTOT, a fixed scale, so it has the same edf. nullopt for

@@ -8,10 +8,12 @@
 #include <boost/math/special_functions/trigamma.hpp>
 #include <cassert>
 #include <cmath>
+#include <complex>
 #include <cstdio>
 #include <cstring>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <random>
@@ -23,6 +25,12 @@
 
 namespace imuqual::allan {
 namespace {
+
+std::string FormatG(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
 
 constexpr double kPi = std::numbers::pi;
 constexpr std::array<TermKind, 5> kIeeeKinds = {TermKind::kQuantization, TermKind::kWhite,
@@ -41,6 +49,42 @@ constexpr size_t kMaxAveraged = 4;
 // record: beyond them the term is white noise or a random walk to the data.
 constexpr double kMinCorrelationTimeFactor = 0.1;
 constexpr double kMaxCorrelationTimeFactor = 100.0;
+
+// E[Theo1(m)] of a unit-scale Gauss-Markov term against u = ln(T / tau0),
+// tabulated once per Theo1 point (16 nodes per octave over the correlation
+// times the fit allows) and interpolated in ln E by Catmull-Rom cubics (C1,
+// so the Jacobian's forward differences stay consistent): the exact value
+// costs ~1500 long-double evaluations (TermExpectedTheo1), which every
+// evaluation of every Gauss-Markov term would otherwise pay. E is analytic
+// in u; the interpolation's error is at most 1e-6 of it (measured against
+// the exact value over the range at m = 1366 to 480000), far below any
+// moment's sd.
+class GaussMarkovTheo1Table {
+ public:
+  static constexpr int kPerOctave = 16;
+  GaussMarkovTheo1Table(int64_t m, double tau0_s, double u_min, double u_max)
+      : step_(std::numbers::ln2 / kPerOctave), u0_(u_min - 2 * step_) {
+    const int n = static_cast<int>(std::ceil((u_max + 2 * step_ - u0_) / step_)) + 1;
+    ln_.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const ModelTerm t{TermKind::kGaussMarkov, 1.0, tau0_s * std::exp(u0_ + i * step_)};
+      ln_[i] = std::log(TermExpectedTheo1(t, m, tau0_s));
+    }
+  }
+  double At(double u) const {
+    const double at = std::clamp((u - u0_) / step_, 1.0, static_cast<double>(ln_.size()) - 2.0);
+    const int i = std::min(static_cast<int>(at), static_cast<int>(ln_.size()) - 3);
+    const double t = at - i, p0 = ln_[i - 1], p1 = ln_[i], p2 = ln_[i + 1], p3 = ln_[i + 2];
+    const double v =
+        p1 +
+        0.5 * t * (p2 - p0 + t * (2 * p0 - 5 * p1 + 4 * p2 - p3 + t * (3 * (p1 - p2) + p3 - p0)));
+    return std::exp(v);
+  }
+
+ private:
+  double step_, u0_;
+  std::vector<double> ln_;
+};
 
 // The moments, their covariance and the bounds of one estimation pass.
 struct Problem {
@@ -65,14 +109,49 @@ struct Problem {
   // AVAR of a term held fixed outside the fitted parameters (the profile of
   // an absent term's upper bound); empty: none.
   Eigen::VectorXd fixed_avar;
+  // Which points are Theo1 moments (FitCompositeModel's long_taus): a term's
+  // value there is E[Theo1(m)], not AVAR(m). theo1_unit[i][j]: the IEEE 952
+  // kind kIeeeKinds[i] at unit scale at point j (0 at AVAR points), computed
+  // once; Gauss-Markov terms and sinusoids are computed per evaluation.
+  std::vector<char> theo1;
+  std::array<std::vector<double>, 5> theo1_unit;
+  // Per point, the Gauss-Markov table (null at AVAR points); shared by the
+  // passes and the profiles' copies of a problem.
+  std::vector<std::shared_ptr<const GaussMarkovTheo1Table>> gm_theo1;
 
   int points() const { return static_cast<int>(m.size()); }
 };
 
-Problem MakeProblem(const std::vector<FitRow>& rows, double tau0_s, int64_t n_phase,
-                    const Eigen::VectorXd& edf, const Eigen::MatrixXd& correlation,
-                    const GmwmOptions& options) {
+// The index of an IEEE 952 kind in kIeeeKinds, -1 for the others.
+int IeeeIndex(TermKind kind) {
+  for (size_t i = 0; i < kIeeeKinds.size(); ++i) {
+    if (kIeeeKinds[i] == kind) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+// A term's E[Theo1] at Theo1 point j.
+double Theo1TermMoment(const ModelTerm& term, const Problem& p, int j) {
+  const int i = IeeeIndex(term.kind);
+  if (i >= 0) return term.scale * term.scale * p.theo1_unit[i][j];
+  if (term.kind == TermKind::kGaussMarkov) {
+    return term.scale * term.scale *
+           p.gm_theo1[j]->At(std::log(term.correlation_time_s / p.tau0_s));
+  }
+  return TermExpectedTheo1(term, static_cast<int64_t>(p.m[j]), p.tau0_s);
+}
+
+// A term's model value at point j: AVAR(m_j), or E[Theo1(m_j)] at a Theo1
+// point.
+double TermMoment(const ModelTerm& term, const Problem& p, int j) {
+  return p.theo1[j] ? Theo1TermMoment(term, p, j) : TermAvar(term, p.m[j], p.tau0_s);
+}
+
+Problem MakeProblem(const std::vector<FitRow>& rows, const std::vector<char>& theo1, double tau0_s,
+                    int64_t n_phase, const Eigen::VectorXd& edf, const Eigen::MatrixXd& correlation,
+                    const GmwmOptions& options, const Problem* same_points = nullptr) {
   Problem p;
+  p.theo1 = theo1;
   p.penalty = options.parameter_penalty;
   p.single_penalty = options.single_term_penalty;
   p.tau0_s = tau0_s;
@@ -102,6 +181,21 @@ Problem MakeProblem(const std::vector<FitRow>& rows, double tau0_s, int64_t n_ph
   p.whitener = l.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(n, n));
   p.ln_t_min = std::log(kMinCorrelationTimeFactor);
   p.ln_t_max = std::log(kMaxCorrelationTimeFactor * static_cast<double>(n_phase));
+  if (same_points != nullptr) {  // the same rows: the same tables
+    p.theo1_unit = same_points->theo1_unit;
+    p.gm_theo1 = same_points->gm_theo1;
+    return p;
+  }
+  p.gm_theo1.resize(n);
+  for (size_t i = 0; i < kIeeeKinds.size(); ++i) p.theo1_unit[i].assign(n, 0.0);
+  for (int j = 0; j < n; ++j) {
+    if (!theo1[j]) continue;
+    for (size_t i = 0; i < kIeeeKinds.size(); ++i) {
+      p.theo1_unit[i][j] = TermExpectedTheo1(ModelTerm{kIeeeKinds[i], 1.0}, rows[j].m, tau0_s);
+    }
+    p.gm_theo1[j] =
+        std::make_shared<const GaussMarkovTheo1Table>(rows[j].m, tau0_s, p.ln_t_min, p.ln_t_max);
+  }
   return p;
 }
 
@@ -152,7 +246,15 @@ double LogAvar(double model_avar, const Problem& p, int j) {
 Eigen::VectorXd LogModel(const CompositeModel& model, const Problem& p) {
   const ModelEvaluator ev(model, p.tau0_s);
   Eigen::VectorXd v(p.points());
-  for (int j = 0; j < p.points(); ++j) v(j) = LogAvar(ev.Avar(p.m[j]), p, j);
+  for (int j = 0; j < p.points(); ++j) {
+    double value = 0;
+    if (p.theo1[j]) {
+      for (const ModelTerm& t : model.terms) value += Theo1TermMoment(t, p, j);
+    } else {
+      value = ev.Avar(p.m[j]);
+    }
+    v(j) = LogAvar(value, p, j);
+  }
   return v;
 }
 
@@ -233,10 +335,13 @@ class ResidualFunctor {
           Eigen::VectorXd moved = theta;
           moved(offset + 1) += kStep;
           const double h = moved(offset + 1) - second;  // the step as represented
+          const ModelTerm term = ToTerm(kind, moved, offset, p);
           step_ev_.Resize(1, p.tau0_s);
-          step_ev_.SetTerm(0, ToTerm(kind, moved, offset, p));
+          step_ev_.SetTerm(0, term);
           for (int j = 0; j < n; ++j) {
-            d_(j, offset + 1) = (step_ev_.TermAvar(0, p.m[j]) - avar[j]) / (h * total_[j]);
+            const double v =
+                p.theo1[j] ? Theo1TermMoment(term, p, j) : step_ev_.TermAvar(0, p.m[j]);
+            d_(j, offset + 1) = (v - avar[j]) / (h * total_[j]);
           }
         }
       }
@@ -282,8 +387,11 @@ class ResidualFunctor {
           if (s.used < found->used) found = &s;
         }
         std::copy(theta.data() + offset, theta.data() + offset + width, found->key.begin());
-        ev_.SetTerm(t, ToTerm(kind, theta, offset, p));
-        for (int j = 0; j < n; ++j) found->avar[j] = ev_.TermAvar(t, p.m[j]);
+        const ModelTerm term = ToTerm(kind, theta, offset, p);
+        ev_.SetTerm(t, term);
+        for (int j = 0; j < n; ++j) {
+          found->avar[j] = p.theo1[j] ? Theo1TermMoment(term, p, j) : ev_.TermAvar(t, p.m[j]);
+        }
       }
       found->used = clock_;
       current_[t] = found;
@@ -518,10 +626,7 @@ Eigen::VectorXd LinearStart(const std::vector<TermKind>& kinds, Eigen::VectorXd 
     offset[t] = i;
     ModelTerm term = ToTerm(kinds[t], theta, i, p);
     term.scale = 1;
-    CompositeModel one;
-    one.terms.push_back(term);
-    const ModelEvaluator ev(one, p.tau0_s);
-    for (int j = 0; j < n; ++j) shape(j, t) = ev.Avar(p.m[j]);
+    for (int j = 0; j < n; ++j) shape(j, t) = TermMoment(term, p, j);
     i += ParameterCount(kinds[t]);
   }
   const Eigen::VectorXd inv = (-p.y.array()).exp();
@@ -956,6 +1061,93 @@ double SpectralOverlap(const ModelEvaluator& model, double ma, double mb, const 
   return total;
 }
 
+// Spectral windows of the moments: a point's expectation is
+// int_0^1/2 4 S(f) W(f) df, S the two-sided PSD, with
+//   AVAR(m)       W_A(f) = 4 sin^4(pi f m) / (m^2 sin^2(pi f)),
+//   E[Theo1(m)]   W_T(f) = 8 P_m(f) / (0.75 m^2 sin^2(pi f)),
+// P_m = Theo1SinusoidSum (W is the moment of a unit-amplitude sinusoid at f,
+// times 4). Their asymptotic covariance is I_ab = int S^2 W_a W_b df, as for
+// the AVAR pairs above. Above ~32 / m both windows oscillate in f with
+// period ~1/m about a slowly varying mean; there they are replaced by the
+// mean over that fast phase (the mean square for a point with itself).
+// 4 P_m = A0 + Re(e^{i 2 pi f m} C) + O(1 / (m sin(pi f))) (the partial
+// sums of the log series at their limits -ln(1 - e^{ic})), so
+//   mean 4 P = A0 = H + ln(2 sin(pi f)),  mean (4 P)^2 = A0^2 + |C|^2 / 2,
+//   C = H / 2 + conj ln(1 - e^{2 i pi f}) - conj ln(1 - e^{4 i pi f}) / 2,
+// H the harmonic number H_{m/2}; sin^4 has mean 3/8 and sin^8 35/128. The
+// means of products of two different points' fast parts vanish: a Theo1
+// point's factor is beyond 2.67 times every AVAR point's (twice its tau)
+// and Theo1 points are octaves apart, so no two fast phases coincide.
+struct Window {
+  double m = 0;
+  bool theo1 = false;
+  double harmonic = 0;  // H_{m/2} (Theo1)
+};
+
+double WindowAt(const Window& w, double f, double sin_pi_f) {
+  const double d2 = sin_pi_f * sin_pi_f;
+  if (!w.theo1) return 4 * Sin4(kPi * f * w.m) / (w.m * w.m * d2);
+  return 8 * Theo1SinusoidSum(f, static_cast<int64_t>(w.m)) / (0.75 * w.m * w.m * d2);
+}
+
+// The window's mean over its fast phase at f, or its mean square.
+double WindowMean(const Window& w, double f, double sin_pi_f, bool square) {
+  const double d2 = sin_pi_f * sin_pi_f;
+  if (!w.theo1) {
+    const double base = 4 / (w.m * w.m * d2);
+    return square ? base * base * 35.0 / 128.0 : base * 3.0 / 8.0;
+  }
+  const double a0 = w.harmonic + std::log(2 * sin_pi_f);
+  double four = a0;
+  if (square) {
+    const std::complex<double> e2 = std::polar(1.0, 2 * kPi * f);
+    const std::complex<double> e4 = std::polar(1.0, 4 * kPi * f);
+    const std::complex<double> c =
+        0.5 * w.harmonic + std::conj(std::log(1.0 - e2)) - 0.5 * std::conj(std::log(1.0 - e4));
+    four = std::sqrt(a0 * a0 + 0.5 * std::norm(c));
+  }
+  const double base = 8 * (four / 4) / (0.75 * w.m * w.m * d2);
+  return square ? base * base : base;
+}
+
+// I_ab for windows a and b (the same window for a point with itself): exact
+// windows on a linear grid to 32 / m_hi (8 per 1 / m_hi), the faster
+// window's mean with the slower one exact to 32 / m_lo, both means beyond
+// (16 per octave).
+double WindowOverlap(const ModelEvaluator& model, const Window& a, const Window& b, bool same) {
+  const Window& hi = a.m >= b.m ? a : b;
+  const Window& lo = a.m >= b.m ? b : a;
+  auto s2 = [&](double f, double d) {
+    const double s = model.Psd(f, d);
+    return s * s;
+  };
+  const double f1 = std::min(0.5, kOverlapCycles / hi.m);
+  const double f2 = same ? f1 : std::min(0.5, kOverlapCycles / lo.m);
+  double total = Midpoint(
+      [&](double f) {
+        const double d = std::sin(kPi * f);
+        const double wa = WindowAt(a, f, d);
+        return s2(f, d) * wa * (same ? wa : WindowAt(b, f, d));
+      },
+      0, f1, 1 / (kOverlapFine * hi.m));
+  if (!same) {
+    total += Midpoint(
+        [&](double f) {
+          const double d = std::sin(kPi * f);
+          return s2(f, d) * WindowMean(hi, f, d, false) * WindowAt(lo, f, d);
+        },
+        f1, f2, 1 / (kOverlapFine * lo.m));
+  }
+  total += LogMidpoint(
+      [&](double f) {
+        const double d = std::sin(kPi * f);
+        return s2(f, d) * (same ? WindowMean(a, f, d, true)
+                                : WindowMean(a, f, d, false) * WindowMean(b, f, d, false));
+      },
+      f2, 0.5, 16);
+  return total;
+}
+
 // Value of each datasheet figure for a parameter vector.
 struct Figures {
   double white_asymptote = kNaN;
@@ -1042,7 +1234,7 @@ Candidate WithFixedTerm(const Candidate& best, TermKind kind, const Problem& p, 
   term.terms.push_back(ModelTerm{kind, scale});
   Problem fixed = p;
   fixed.fixed_avar.resize(p.points());
-  for (int j = 0; j < p.points(); ++j) fixed.fixed_avar(j) = term.Avar(p.m[j], p.tau0_s);
+  for (int j = 0; j < p.points(); ++j) fixed.fixed_avar(j) = TermMoment(term.terms[0], p, j);
   return Estimate(best.kinds, best.theta, fixed, kProfileTolerance);
 }
 
@@ -1058,12 +1250,11 @@ double AbsentTermUpperBound(const Candidate& best, TermKind kind, const Problem&
   // A term 1000x below the curve everywhere changes J by ~1e-6: the bracket
   // starts there; 9 bisections of its ~7.6 in ln s leave ~1.5 %.
   constexpr int kBisections = 9;
-  CompositeModel unit;
-  unit.terms.push_back(ModelTerm{kind, 1.0});
+  const ModelTerm unit{kind, 1.0};
   Eigen::VectorXd unit_avar(p.points());
   double reach = std::numeric_limits<double>::infinity();  // term alone = curve
   for (int j = 0; j < p.points(); ++j) {
-    unit_avar(j) = unit.Avar(p.m[j], p.tau0_s);
+    unit_avar(j) = TermMoment(unit, p, j);
     if (unit_avar(j) > 0) reach = std::min(reach, std::sqrt(rows[j].avar / unit_avar(j)));
   }
   if (!std::isfinite(reach) || reach <= 0) return kNaN;
@@ -1080,6 +1271,39 @@ double AbsentTermUpperBound(const Candidate& best, TermKind kind, const Problem&
     (rise(std::exp(mid)) > delta_j ? hi : lo) = mid;
   }
   return std::exp(hi);
+}
+
+// The Theo1 moments as fit rows after the curve's (tau = 0.75 m tau0, avar =
+// Theo1, local slope to the previous row), each checked: m even in [2, N-1],
+// Theo1 positive and finite, tau beyond the curve's last fitted tau and
+// beyond the previous moment's.
+Status AppendTheo1Rows(std::span<const Theo1Moment> long_taus, const Curve& curve,
+                       std::vector<FitRow>* rows) {
+  for (const Theo1Moment& t : long_taus) {
+    const int64_t n_phase = t.n_phase > 0 ? t.n_phase : curve.n_phase;
+    const std::string at = "Theo1 moment at m " + std::to_string(t.m);
+    if (t.m < 2 || t.m % 2 != 0 || t.m > n_phase - 1) {
+      return Status::InvalidArgument(at + ": m must be even in [2, " + std::to_string(n_phase - 1) +
+                                     "]");
+    }
+    if (!(t.theo1 > 0 && std::isfinite(t.theo1))) {
+      return Status::InvalidArgument(at + ": Theo1 must be positive and finite, got " +
+                                     FormatG(t.theo1));
+    }
+    FitRow r;
+    r.m = t.m;
+    r.tau_s = 0.75 * static_cast<double>(t.m) * curve.tau0_s;
+    r.avar = t.theo1;
+    r.n_eff = n_phase;
+    if (!(r.tau_s > rows->back().tau_s)) {
+      return Status::InvalidArgument(at + ": its tau " + FormatG(r.tau_s) +
+                                     " s must lie beyond the last fitted tau " +
+                                     FormatG(rows->back().tau_s) + " s");
+    }
+    r.local_slope = std::log(r.avar / rows->back().avar) / std::log(r.tau_s / rows->back().tau_s);
+    rows->push_back(r);
+  }
+  return Status::Ok();
 }
 
 }  // namespace
@@ -1158,13 +1382,48 @@ std::vector<double> AvarCorrelationMatrix(const CompositeModel& model, double ta
   return out;
 }
 
-namespace {
-std::string FormatG(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
+std::vector<double> MomentCorrelationMatrix(const CompositeModel& model, double tau0_s,
+                                            const std::vector<int64_t>& m,
+                                            const std::vector<char>& theo1) {
+  const size_t n = m.size();
+  std::vector<int64_t> avar_m;
+  std::vector<size_t> avar_at;
+  for (size_t j = 0; j < n; ++j) {
+    if (!theo1[j]) {
+      avar_m.push_back(m[j]);
+      avar_at.push_back(j);
+    }
+  }
+  std::vector<double> out(n * n, 0.0);
+  const std::vector<double> avar = AvarCorrelationMatrix(model, tau0_s, avar_m);
+  for (size_t a = 0; a < avar_at.size(); ++a) {
+    for (size_t b = 0; b < avar_at.size(); ++b) {
+      out[avar_at[a] * n + avar_at[b]] = avar[a * avar_at.size() + b];
+    }
+  }
+  if (avar_at.size() == n) return out;
+  const ModelEvaluator ev(model, tau0_s);
+  std::vector<Window> w(n);
+  std::vector<double> self(n);
+  for (size_t j = 0; j < n; ++j) {
+    w[j].m = static_cast<double>(m[j]);
+    w[j].theo1 = theo1[j] != 0;
+    if (w[j].theo1) {
+      w[j].harmonic =
+          boost::math::digamma(static_cast<double>(m[j] / 2) + 1) + std::numbers::egamma;
+    }
+    self[j] = WindowOverlap(ev, w[j], w[j], true);
+    out[j * n + j] = 1.0;
+  }
+  for (size_t j = 0; j < n; ++j) {
+    for (size_t k = j + 1; k < n; ++k) {
+      if (!theo1[j] && !theo1[k]) continue;
+      const double r = WindowOverlap(ev, w[j], w[k], false) / std::sqrt(self[j] * self[k]);
+      out[j * n + k] = out[k * n + j] = std::isfinite(r) ? std::clamp(r, -1.0, 1.0) : 0.0;
+    }
+  }
+  return out;
 }
-}  // namespace
 
 std::string LargestResiduals(const CompositeFit& fit, int count) {
   std::vector<const GmwmPoint*> order;
@@ -1184,7 +1443,8 @@ std::string LargestResiduals(const CompositeFit& fit, int count) {
   return out;
 }
 
-Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& options) {
+Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& options,
+                                       std::span<const Theo1Moment> long_taus) {
   IMUQUAL_RETURN_IF_ERROR(options.Validate());
   if (curve.deviation != Deviation::kOadev && curve.deviation != Deviation::kAdev) {
     return Status::InvalidArgument("noise model fit needs an ADEV or OADEV curve, got " +
@@ -1192,24 +1452,43 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   }
   std::vector<FitRow> rows = UsableFitRows(curve, options.stop, options.thin_to_octaves);
   std::erase_if(rows, [&](const FitRow& r) { return r.tau_s < options.min_tau_s * (1 - 1e-9); });
-  const int n = static_cast<int>(rows.size());
-  if (n < 4) {
+  const int n_avar = static_cast<int>(rows.size());
+  if (n_avar < 4) {
     return Status::InvalidArgument(
-        "noise model fit needs at least 4 usable curve points, got " + std::to_string(n) +
+        "noise model fit needs at least 4 usable curve points, got " + std::to_string(n_avar) +
         (options.min_tau_s > 0 ? " at or above tau " + FormatG(options.min_tau_s) + " s" : ""));
   }
   const double tau0 = curve.tau0_s;
+  IMUQUAL_RETURN_IF_ERROR(AppendTheo1Rows(long_taus, curve, &rows));
+  const int n = static_cast<int>(rows.size());
+  std::vector<char> theo1(n, 0);
+  std::vector<int64_t> theo1_n(n, 0);  // phase points behind each Theo1 row
+  for (int j = n_avar; j < n; ++j) {
+    theo1[j] = 1;
+    const Theo1Moment& t = long_taus[j - n_avar];
+    theo1_n[j] = t.n_phase > 0 ? t.n_phase : curve.n_phase;
+  }
+  // Theo1's edf (Theo1EdfMeasured) for noise alpha; WFM's where there is none.
+  auto theo1_edf = [&](int alpha, int j) {
+    std::optional<double> e = Theo1EdfMeasured(alpha, rows[j].m, theo1_n[j]);
+    if (!e) e = Theo1EdfMeasured(0, rows[j].m, theo1_n[j]);
+    return e ? *e : 1.0;
+  };
 
   // Pass 1: diagonal covariance from the data's own noise identification.
   Eigen::VectorXd edf1(n);
   for (int j = 0; j < n; ++j) {
     const FitRow& r = rows[j];
+    if (theo1[j]) {
+      edf1(j) = theo1_edf(AlphaFromAvarSlope(r.local_slope), j);
+      continue;
+    }
     edf1(j) = r.identified && std::isfinite(r.point_edf) && r.point_edf > 0
                   ? r.point_edf
                   : FitRowEdf(AlphaFromAvarSlope(r.local_slope), r);
   }
   const Problem p1 =
-      MakeProblem(rows, tau0, curve.n_phase, edf1, Eigen::MatrixXd::Identity(n, n), options);
+      MakeProblem(rows, theo1, tau0, curve.n_phase, edf1, Eigen::MatrixXd::Identity(n, n), options);
   std::map<std::string, Candidate> seen1;
   const Candidate pilot = Search(p1, rows, options, &seen1);
   if (!std::isfinite(pilot.criterion)) {
@@ -1222,12 +1501,15 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   Eigen::VectorXd edf2(n);
   std::vector<int64_t> ms;
   for (int j = 0; j < n; ++j) {
-    edf2(j) = FitRowEdf(AlphaFromAvarSlope(ModelAvarSlope(pilot_evaluator, p1.m[j])), rows[j]);
+    // A Theo1 point's noise is the model's at its effective tau, 0.75 m.
+    const double at = theo1[j] ? 0.75 * p1.m[j] : p1.m[j];
+    const int alpha = AlphaFromAvarSlope(ModelAvarSlope(pilot_evaluator, at));
+    edf2(j) = theo1[j] ? theo1_edf(alpha, j) : FitRowEdf(alpha, rows[j]);
     ms.push_back(rows[j].m);
   }
-  const std::vector<double> corr_values = AvarCorrelationMatrix(pilot_model, tau0, ms);
+  const std::vector<double> corr_values = MomentCorrelationMatrix(pilot_model, tau0, ms, theo1);
   const Eigen::MatrixXd corr = Eigen::Map<const Eigen::MatrixXd>(corr_values.data(), n, n);
-  const Problem p2 = MakeProblem(rows, tau0, curve.n_phase, edf2, corr, options);
+  const Problem p2 = MakeProblem(rows, theo1, tau0, curve.n_phase, edf2, corr, options, &p1);
   std::vector<Candidate> pass1(seen1.size());
   std::transform(seen1.begin(), seen1.end(), pass1.begin(),
                  [](const auto& kv) { return kv.second; });
@@ -1492,6 +1774,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
     pt.model_avar = std::exp(model_log(j));
     pt.edf = edf2(j);
     pt.z = (p2.y(j) - model_log(j)) / std::sqrt(p2.sigma(j, j));
+    pt.theo1 = theo1[j] != 0;
     fit.points.push_back(pt);
   }
   return fit;

@@ -67,11 +67,13 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "analyze/allan/composite_model.h"
 #include "analyze/allan/curve.h"
+#include "analyze/allan/long_tau.h"
 #include "common/status.h"
 
 namespace imuqual::allan {
@@ -157,6 +159,9 @@ struct GmwmPoint {
   double model_avar = kNaN;  // selected model
   double edf = kNaN;         // final pass
   double z = kNaN;           // (y - ln model) / sd, the point's standardized residual
+  // A Theo1 moment: tau_s is 0.75 m tau0, avar the measured Theo1 and
+  // model_avar the model's E[Theo1(m)].
+  bool theo1 = false;
 };
 
 struct CompositeFit {
@@ -218,8 +223,12 @@ struct CompositeFit {
 std::string LargestResiduals(const CompositeFit& fit, int count = 3);
 
 // Errors: not an ADEV/OADEV curve, fewer than 4 usable points (at or above
-// min_tau_s), bad options, no candidate could be estimated.
-Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& options = {});
+// min_tau_s), bad options or Theo1 moments (naming which), no candidate
+// could be estimated. `long_taus` (ascending tau, beyond the curve's last
+// fitted point) join the curve's points as moments (above); the figures'
+// taus then reach the longest of them.
+Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& options = {},
+                                       std::span<const Theo1Moment> long_taus = {});
 
 // Correlation between the AVAR estimates at averaging factors m_a and m_b of
 // a Gaussian process with the model's spectrum (see above); 1 when
@@ -229,6 +238,12 @@ double AvarCorrelation(const CompositeModel& model, double tau0_s, int64_t m_a, 
 // diagonal (the pass-2 covariance's correlations).
 std::vector<double> AvarCorrelationMatrix(const CompositeModel& model, double tau0_s,
                                           const std::vector<int64_t>& m);
+// The same for moments some of which are Theo1 estimates (theo1[j] != 0),
+// as FitCompositeModel weighs them with long_taus: AVAR pairs as above,
+// pairs with a Theo1 point from the spectral windows of both (gmwm.cc).
+std::vector<double> MomentCorrelationMatrix(const CompositeModel& model, double tau0_s,
+                                            const std::vector<int64_t>& m,
+                                            const std::vector<char>& theo1);
 
 }  // namespace imuqual::allan
 

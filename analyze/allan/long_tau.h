@@ -144,6 +144,27 @@ std::vector<CurvePoint> LongTauPoints(const PhaseRecord& phase, Deviation dev,
                                       std::span<const int64_t> m_list,
                                       TheoTau tau = TheoTau::kEffective);
 
+// A Theo1 estimate beyond a curve's fitted taus, for a noise-model fit
+// (gmwm.h's FitCompositeModel) that follows the model where OADEV does not reach (up to 0.75 of the
+// record instead of the stop rule's T/9). Its moment is ln Theo1 with
+// Theo1's edf (Theo1Edf at the model's local slope), and the model's value
+// there is E[Theo1(m)] under the model (CompositeModel::ExpectedTheo1), not
+// AVAR: Theo1's bias against AVAR depends on the noise (1 for white FM, 2.7
+// for a random walk), and the model knows its own mix at every tau.
+struct Theo1Moment {
+  int64_t m = 0;        // even, in [2, n_phase - 1]
+  double theo1 = kNaN;  // Theo1(m), the rate unit squared
+  int64_t n_phase = 0;  // phase points the estimate spans; 0: the curve's
+};
+
+// Factors for Theo1 moments beyond a fit's last tau: even m at effective
+// taus 0.75 m tau0 from twice `last_tau_s`, by octaves, while m <= n - 1.
+std::vector<int64_t> Theo1OctavesBeyond(double last_tau_s, double tau0_s, int64_t n_phase);
+
+// Theo1 of the record at Theo1OctavesBeyond(last_tau_s) (on the longest
+// gap-free span, whose length each moment carries).
+std::vector<Theo1Moment> Theo1MomentsBeyond(const PhaseRecord& phase, double last_tau_s);
+
 // ---------------------------------------------------------------------------
 // The Theo1 machinery, exposed for tests and benchmarks.
 

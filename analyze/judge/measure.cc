@@ -226,11 +226,16 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
   allan::GmwmOptions fit_options;
   fit_options.stop = allan::StopRule::kNone;  // the curve is already cut by the plan's rule
   fit_options.min_tau_s = options.min_tau_s;
-  const std::string range_note =
-      options.min_tau_s > 0 ? "; fitted at tau >= " + Num(options.min_tau_s) + " s (" +
-                                  options.range_reason + ")"
-                            : "";
-  const Result<allan::CompositeFit> fit = allan::FitCompositeModel(curve, fit_options);
+  std::string range_note = options.min_tau_s > 0 ? "; fitted at tau >= " + Num(options.min_tau_s) +
+                                                       " s (" + options.range_reason + ")"
+                                                 : "";
+  if (!options.long_taus.empty()) {
+    range_note += "; Theo1 moments to " +
+                  Num(0.75 * static_cast<double>(options.long_taus.back().m) * curve.tau0_s) +
+                  " s in the fit";
+  }
+  const Result<allan::CompositeFit> fit =
+      allan::FitCompositeModel(curve, fit_options, options.long_taus);
   if (!fit.ok()) {
     for (std::string_view name : judged) {
       out.push_back(

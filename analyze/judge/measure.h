@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "analyze/allan/curve.h"
+#include "analyze/allan/long_tau.h"
 #include "imuqual/plan.pb.h"
 #include "imuqual/record.pb.h"
 
@@ -35,6 +36,10 @@ struct NoiseModelOptions {
   // reason.
   double min_tau_s = 0;
   std::string range_reason;
+  // Theo1 beyond the curve's last tau (allan::Theo1MomentsBeyond of the
+  // whole record), fitted as moments beside the curve's points (gmwm.h):
+  // the model and its minimum then reach 0.75 of the record. Empty: none.
+  std::vector<allan::Theo1Moment> long_taus;
 };
 
 // The composite noise model of an axis (analyze/allan/gmwm.h: GMWM fit,
