@@ -72,6 +72,7 @@ class GaussMarkovTheo1Table {
     }
   }
   double At(double u) const {
+    if (std::isnan(u)) return kNaN;  // a trial step's NaN parameter: a NaN model, as TermAvar's
     const double at = std::clamp((u - u0_) / step_, 1.0, static_cast<double>(ln_.size()) - 2.0);
     const int i = std::min(static_cast<int>(at), static_cast<int>(ln_.size()) - 3);
     const double t = at - i, p0 = ln_[i - 1], p1 = ln_[i], p2 = ln_[i + 1], p3 = ln_[i + 2];
