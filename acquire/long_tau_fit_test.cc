@@ -161,7 +161,7 @@ TEST(LongTauFitTest, Theo1MomentsSeeARandomWalkBeyondTheAllanRange) {
   // GIVEN 24 records of 8192 s of white rate noise and a rate random walk
   // whose Allan minimum (0.0442 at 1024 s) lies beyond T/9 = 910 s,
   // WHEN the model is fitted to OADEV alone and with the Theo1 moments at
-  // the octaves beyond (to 4096 s),
+  // the octaves beyond (1024 and 2048 s: the moments' reach is 0.3 T),
   // THEN OADEV alone rarely selects a long-tau term and reads the minimum at
   // the edge, high (mean z ~ +1, covering the truth at 1 sigma in a few
   // records), while with the moments the model reaches the walk in part of
@@ -171,7 +171,7 @@ TEST(LongTauFitTest, Theo1MomentsSeeARandomWalkBeyondTheAllanRange) {
   const double k = std::sqrt(3.0) / 1024;
   const double true_min = std::sqrt(Truth(k).Avar(1024, kTau0));
   constexpr int kRecords = 24;
-  int long_terms[2] = {0, 0}, covered[2] = {0, 0};
+  int long_terms[2] = {0, 0}, covered[2] = {0, 0}, covered2[2] = {0, 0};
   double mean_z[2] = {0, 0};
   for (int s = 0; s < kRecords; ++s) {
     const allan::PhaseRecord phase = WhiteAndWalk(k, 500 + s);
@@ -182,28 +182,30 @@ TEST(LongTauFitTest, Theo1MomentsSeeARandomWalkBeyondTheAllanRange) {
     allan::AttachConfidence(phase, allan::CiMethod::kChi2, allan::kOneSigmaConfidence, &curve);
     const std::vector<allan::Theo1Moment> moments =
         allan::Theo1MomentsBeyond(phase, curve.points.back().tau_s);
-    ASSERT_EQ(moments.size(), 3u);
+    ASSERT_EQ(moments.size(), 2u);
     for (int with = 0; with < 2; ++with) {
       auto fit =
           with ? allan::FitCompositeModel(curve, {}, moments) : allan::FitCompositeModel(curve);
       ASSERT_TRUE(fit.ok()) << fit.status().message();
-      EXPECT_EQ(fit->points.size(), curve.points.size() + (with ? 3u : 0u));
+      EXPECT_EQ(fit->points.size(), curve.points.size() + (with ? 2u : 0u));
       EXPECT_EQ(fit->points.back().theo1, with == 1);
       long_terms[with] +=
           fit->model.CountOf(TermKind::kRandomWalk) > 0 || fit->model.CountOf(TermKind::kDrift) > 0;
       const double z = (fit->curve_minimum.value - true_min) / fit->curve_minimum.sigma;
       mean_z[with] += z / kRecords;
       covered[with] += std::abs(z) < 1;
+      covered2[with] += std::abs(z) < 2;
     }
   }
   std::printf(
       "walk beyond T/9: K or R selected %d / %d of %d records (OADEV / with Theo1); minimum's "
-      "mean z %+.2f / %+.2f, 1-sigma coverage %d / %d\n",
-      long_terms[0], long_terms[1], kRecords, mean_z[0], mean_z[1], covered[0], covered[1]);
+      "mean z %+.2f / %+.2f, 1-sigma coverage %d / %d, 2-sigma %d / %d\n",
+      long_terms[0], long_terms[1], kRecords, mean_z[0], mean_z[1], covered[0], covered[1],
+      covered2[0], covered2[1]);
   EXPECT_LE(long_terms[0], 4);
   EXPECT_GE(long_terms[1], long_terms[0] + 6);
   EXPECT_GT(mean_z[0], 0.5);
-  EXPECT_LT(std::abs(mean_z[1]), 0.5);
+  EXPECT_LT(std::abs(mean_z[1]), 0.75);
   EXPECT_GE(covered[1], covered[0] + 6);
 }
 

@@ -14,9 +14,11 @@
 // upper bound (term left out; with how often the bound covers), or none.
 // With --long-taus, Theo1 at the octaves beyond each curve joins the fit as
 // moments (judge::NoiseModelOptions::long_taus) and the truth's minimum is
-// taken over the taus the model then reaches (0.75 of the record); the
+// taken over the taus the model then reaches (0.3 of the record); the
 // printed names carry "_longtau".
-// Usage: fit_coverage_bench [--seeds N] [--threads T] [--long-taus]
+// --outliers prints each record whose fit_bias_instability lies beyond 2u of
+// the truth (seed, value, u, truth, note: which model, which rule).
+// Usage: fit_coverage_bench [--seeds N] [--threads T] [--long-taus] [--outliers]
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -118,11 +120,11 @@ int main(int argc, char** argv) {
   using namespace imuqual;
   int seeds = 200;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  bool long_taus = false;
+  bool long_taus = false, outliers = false;
   for (int i = 1; i < argc; i += 2) {
     const std::string flag = argv[i];
-    if (flag == "--long-taus") {
-      long_taus = true;
+    if (flag == "--long-taus" || flag == "--outliers") {
+      (flag == "--long-taus" ? long_taus : outliers) = true;
       --i;  // no value
     } else if (i + 1 >= argc) {
       std::fprintf(stderr, "fit_coverage_bench: %s needs a value\n", argv[i]);
@@ -134,7 +136,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "fit_coverage_bench: unknown option %s (--seeds N, --threads T, "
-                   "--long-taus)\n",
+                   "--long-taus, --outliers)\n",
                    argv[i]);
       return 2;
     }
@@ -180,6 +182,11 @@ int main(int argc, char** argv) {
         std::lock_guard<std::mutex> lock(mu);
         if (a != nullptr) arw.Add(*a, n_true);
         if (b != nullptr) bi.Add(*b, b_true);
+        if (outliers && b != nullptr && b->has_uncertainty() &&
+            std::fabs(b->value() - b_true) > 2 * b->uncertainty()) {
+          std::printf("# outlier %s seed %d: bi %.4g +- %.3g, truth %.4g; %s\n", mix.name.c_str(),
+                      s, b->value(), b->uncertainty(), b_true, b->note().c_str());
+        }
         if (k != nullptr) rrw.Add(*k, k_true);
       }
     };

@@ -233,7 +233,7 @@ int main(int argc, char** argv) {
                         "0.75 of the record) against what the model expects of it, with Theo1's "
                         "edf: whether the model holds where OADEV does not reach");
   analyze_cmd->add_flag("--fit-long-taus", an.fit_long_taus,
-                        "with --fit: Theo1 at octaves beyond the curve's last tau (to 0.75 of "
+                        "with --fit: Theo1 at octaves beyond the curve's last tau (to 0.3 of "
                         "the record) joins the fit as moments, each against what the model "
                         "expects of Theo1 there: the model and its minimum follow the record "
                         "beyond the Allan range");

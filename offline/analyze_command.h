@@ -29,7 +29,7 @@ struct AnalyzeFileOptions {
   bool long_tau_check = false;
   // With fit: Theo1 at octaves beyond the curve's last tau joins the fit as
   // moments (E[Theo1] under the model), so the model follows the record to
-  // 0.75 of its length instead of the stop rule's reach.
+  // 0.3 of its length instead of the stop rule's reach.
   bool fit_long_taus = false;
   // Scan the series for level steps and bursts (analyze/allan/stationarity.h)
   // at this false-alarm level per record; 0: no scan.

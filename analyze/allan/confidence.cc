@@ -471,10 +471,10 @@ std::optional<double> DeviationEdf(Deviation dev, int alpha, int64_t m, int64_t 
       return TotalDeviationEdf(alpha, m, n_phase);
     case Deviation::kTheo1:
     case Deviation::kTheoBr:
-      return Theo1Edf(alpha, m, n_phase);
+      return Theo1EdfMeasured(alpha, m, n_phase);
     case Deviation::kTheoH:
       return TheoHIsAllanPoint(m, n_phase) ? GreenhallEdf(alpha, 2, m, n_phase, md, md)
-                                           : Theo1Edf(alpha, m, n_phase);
+                                           : Theo1EdfMeasured(alpha, m, n_phase);
     case Deviation::kMtotdev:
     case Deviation::kTtotdev:
       return ModifiedTotalEdf(alpha, m, n_phase);

@@ -81,8 +81,8 @@ std::optional<double> Theo1Edf(int alpha, int64_t m, int64_t n_phase);
 // apart; Theo1Edf elsewhere. SP1065's random-walk formula gives 0.5 at r =
 // N/2 where Theo1 has 1.9 and none beyond r = 0.63 N; its white-FM one is
 // 25-45 % low beyond r = N/4 (theo1_edf_bench prints both). The noise-model
-// fit's Theo1 moments and the long-tau check use this; the curves' intervals
-// keep SP1065's (as the references print them).
+// fit's Theo1 moments, the long-tau check and the theo1, theobr and theoh
+// curves' intervals (DeviationEdf) use this.
 std::optional<double> Theo1EdfMeasured(int alpha, int64_t m, int64_t n_phase);
 
 // MTOT edf nu = b N/m - c (SP1065 MTOT edf table): (b, c) = (1.90, 2.10) WPM,
@@ -102,7 +102,7 @@ std::optional<double> HadamardTotalEdf(int alpha, int64_t m, int64_t n_phase);
 // The edf behind a point of `dev` at averaging factor m for noise alpha:
 // Greenhall with d = 2 (3 for hdev/ohdev), F = m (1 for mdev/tdev), S = m for
 // the overlapped estimators (1 for adev/hdev); TotalDeviationEdf for totdev;
-// Theo1Edf for theo1, theobr and theoh's Theo points (the OADEV Greenhall edf
+// Theo1EdfMeasured for theo1, theobr and theoh's Theo points (the OADEV Greenhall edf
 // at its Allan points, TheoHIsAllanPoint with N = n_phase);
 // ModifiedTotalEdf for mtotdev and ttotdev; HadamardTotalEdf for htotdev.
 std::optional<double> DeviationEdf(Deviation dev, int alpha, int64_t m, int64_t n_phase);

@@ -612,7 +612,39 @@ TEST(LongTauEdf, TheoHUsesTheAllanEdfOnItsAllanPart) {
   // N = 1001: Allan part m < 200.
   EXPECT_EQ(DeviationEdf(Deviation::kTheoH, 0, 128, 1001),
             GreenhallEdf(0, 2, 128, 1001, 128.0, 128.0));
-  EXPECT_EQ(DeviationEdf(Deviation::kTheoH, 0, 512, 1001), Theo1Edf(0, 512, 1001));
+  EXPECT_EQ(DeviationEdf(Deviation::kTheoH, 0, 512, 1001), Theo1EdfMeasured(0, 512, 1001));
+}
+
+TEST(LongTauEdf, MeasuredTheo1EdfWhereSp1065DoesNotHold) {
+  // Below r = 0.1 N and for the phase noises: SP1065's formulas.
+  for (int alpha : {2, 1, 0, -1, -2}) {
+    EXPECT_EQ(Theo1EdfMeasured(alpha, 100, 1001), Theo1Edf(alpha, 100, 1001)) << alpha;
+  }
+  EXPECT_EQ(Theo1EdfMeasured(2, 2000, 4097), Theo1Edf(2, 2000, 4097));
+  // The table's nodes (theo1_edf_bench): r = N/2 and 0.75 N for each FM noise.
+  // 1 000 001 points: m = 666 666 is r = 0.49999995 N, m = 1 000 000 r = 0.75 N.
+  const int64_t n = 1000001;
+  EXPECT_NEAR(*Theo1EdfMeasured(0, 666666, n), 7.31, 0.01);
+  EXPECT_NEAR(*Theo1EdfMeasured(-1, 666666, n), 2.84, 0.01);
+  EXPECT_NEAR(*Theo1EdfMeasured(-2, 666666, n), 1.89, 0.01);
+  EXPECT_NEAR(*Theo1EdfMeasured(-2, 1000000, n), 1.26, 0.01);
+  // SP1065's random-walk formula: 0.52 at N/2 and none at 0.75 N.
+  EXPECT_NEAR(*Theo1Edf(-2, 666666, n), 0.52, 0.01);
+  EXPECT_FALSE(Theo1Edf(-2, 1000000, n).has_value());
+  // Continuous across r = 0.1 N within the 15 % the two differ there, and
+  // decreasing along the table.
+  for (int alpha : {0, -1, -2}) {
+    const double below = *Theo1EdfMeasured(alpha, 133332, n);  // r = 0.099999 N
+    const double above = *Theo1EdfMeasured(alpha, 133334, n);  // r = 0.1000005 N
+    EXPECT_NEAR(above, below, 0.15 * below) << alpha;
+    double last = above;
+    for (int64_t m = 140000; m <= 1000000; m += 20000) {
+      const double e = *Theo1EdfMeasured(alpha, m, n);
+      EXPECT_LE(e, last) << alpha << " m " << m;
+      last = e;
+    }
+  }
+  EXPECT_FALSE(Theo1EdfMeasured(0, 1001, 1001).has_value());  // m > N - 1
 }
 
 TEST(LongTauEdf, Theo1HasMoreEdfThanOadevAtTheSameTau) {

@@ -642,11 +642,12 @@ std::vector<CurvePoint> LongTauPoints(const PhaseRecord& phase, Deviation dev,
   return points;
 }
 
-std::vector<int64_t> Theo1OctavesBeyond(double last_tau_s, double tau0_s, int64_t n_phase) {
+std::vector<int64_t> Theo1OctavesBeyond(double last_tau_s, double tau0_s, int64_t n_phase,
+                                        double max_fraction) {
   std::vector<int64_t> out;
   for (double tau = 2 * last_tau_s;; tau *= 2) {
     const int64_t m = 2 * std::llround(tau / (0.75 * tau0_s) / 2);
-    if (m < 2 || m > n_phase - 1) break;
+    if (m < 2 || m > n_phase - 1 || 0.75 * static_cast<double>(m) > max_fraction * n_phase) break;
     if (out.empty() || m > out.back()) out.push_back(m);
   }
   return out;
@@ -654,7 +655,7 @@ std::vector<int64_t> Theo1OctavesBeyond(double last_tau_s, double tau0_s, int64_
 
 std::vector<Theo1Moment> Theo1MomentsBeyond(const PhaseRecord& phase, double last_tau_s) {
   const int64_t n = LongestValidSpan(phase).size();
-  const std::vector<int64_t> m = Theo1OctavesBeyond(last_tau_s, phase.tau0_s, n);
+  const std::vector<int64_t> m = Theo1OctavesBeyond(last_tau_s, phase.tau0_s, n, kTheo1MomentReach);
   std::vector<Theo1Moment> out;
   for (const CurvePoint& p : LongTauPoints(phase, Deviation::kTheo1, m)) {
     if (std::isfinite(p.dev) && p.dev > 0) out.push_back({p.m, p.dev * p.dev, n});

@@ -145,9 +145,10 @@ std::vector<CurvePoint> LongTauPoints(const PhaseRecord& phase, Deviation dev,
                                       TheoTau tau = TheoTau::kEffective);
 
 // A Theo1 estimate beyond a curve's fitted taus, for a noise-model fit
-// (gmwm.h's FitCompositeModel) that follows the model where OADEV does not reach (up to 0.75 of the
-// record instead of the stop rule's T/9). Its moment is ln Theo1 with
-// Theo1's edf (Theo1Edf at the model's local slope), and the model's value
+// (gmwm.h's FitCompositeModel) that follows the model where OADEV does not
+// reach (up to 0.3 of the record instead of the stop rule's T/9). Its
+// moment is ln Theo1 with Theo1's edf (Theo1EdfMeasured at the model's local
+// slope), and the model's value
 // there is E[Theo1(m)] under the model (CompositeModel::ExpectedTheo1), not
 // AVAR: Theo1's bias against AVAR depends on the noise (1 for white FM, 2.7
 // for a random walk), and the model knows its own mix at every tau.
@@ -157,12 +158,23 @@ struct Theo1Moment {
   int64_t n_phase = 0;  // phase points the estimate spans; 0: the curve's
 };
 
-// Factors for Theo1 moments beyond a fit's last tau: even m at effective
-// taus 0.75 m tau0 from twice `last_tau_s`, by octaves, while m <= n - 1.
-std::vector<int64_t> Theo1OctavesBeyond(double last_tau_s, double tau0_s, int64_t n_phase);
+// Factors for Theo1 beyond a fit's last tau: even m at effective taus
+// 0.75 m tau0 from twice `last_tau_s`, by octaves, while m <= n - 1 and
+// 0.75 m <= max_fraction n.
+std::vector<int64_t> Theo1OctavesBeyond(double last_tau_s, double tau0_s, int64_t n_phase,
+                                        double max_fraction = 0.75);
 
-// Theo1 of the record at Theo1OctavesBeyond(last_tau_s) (on the longest
-// gap-free span, whose length each moment carries).
+// The reach of the fit's Theo1 moments, r = 0.75 m <= 0.3 N. Beyond it
+// Theo1's edf falls below ~3.5 for a random walk and ln Theo1 is far from
+// the Gaussian the fit's J and bootstrap assume (its left tail is long): one
+// low point kept the walk out of the model and its minimum low. Measured
+// (fit_coverage_bench --long-taus, 87-min records): fit_bias_instability's
+// 2-sigma coverage on white + flicker + RRW was 92.5 % with a moment at
+// 0.44 N and 96.5 % with the moments to 0.3 N.
+inline constexpr double kTheo1MomentReach = 0.3;
+
+// Theo1 of the record at Theo1OctavesBeyond(last_tau_s, ..., kTheo1MomentReach)
+// (on the longest gap-free span, whose length each moment carries).
 std::vector<Theo1Moment> Theo1MomentsBeyond(const PhaseRecord& phase, double last_tau_s);
 
 // ---------------------------------------------------------------------------

@@ -38,7 +38,7 @@ struct NoiseModelOptions {
   std::string range_reason;
   // Theo1 beyond the curve's last tau (allan::Theo1MomentsBeyond of the
   // whole record), fitted as moments beside the curve's points (gmwm.h):
-  // the model and its minimum then reach 0.75 of the record. Empty: none.
+  // the model and its minimum then reach 0.3 of the record (allan::kTheo1MomentReach). Empty: none.
   std::vector<allan::Theo1Moment> long_taus;
 };
 
