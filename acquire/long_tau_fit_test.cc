@@ -14,7 +14,6 @@
 
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/estimators.h"
-#include "analyze/allan/fit_rows.h"
 #include "analyze/allan/gmwm.h"
 #include "analyze/allan/long_tau.h"
 #include "analyze/allan/phase.h"
@@ -45,16 +44,6 @@ allan::PhaseRecord WhiteAndWalk(double k, uint64_t seed) {
 
 CompositeModel Truth(double k) {
   return CompositeModel{{ModelTerm{TermKind::kWhite, 1.0}, ModelTerm{TermKind::kRandomWalk, k}}};
-}
-
-// The edf the fit gives a Theo1 moment: Theo1EdfMeasured at the model's
-// local slope.
-double FitEdf(const CompositeModel& model, int64_t m) {
-  const double r = 0.75 * static_cast<double>(m);
-  const double mu =
-      std::log(model.Avar(r * 1.1, kTau0) / model.Avar(r / 1.1, kTau0)) / (2 * std::log(1.1));
-  const int alpha = allan::AlphaFromAvarSlope(mu);
-  return *allan::Theo1EdfMeasured(alpha, m, kSamples);
 }
 
 TEST(LongTauFitTest, MomentCorrelationsAndTheo1EdfMatchMonteCarlo) {
@@ -115,7 +104,7 @@ TEST(LongTauFitTest, MomentCorrelationsAndTheo1EdfMatchMonteCarlo) {
       }
     }
     for (size_t j = am.size(); j < n; ++j) {
-      const double edf = FitEdf(truth, all[j]);
+      const double edf = *allan::Theo1MomentEdf(truth, kTau0, all[j], kSamples);
       const double stated_sd = std::sqrt(boost::math::trigamma(edf / 2));
       const double offset = mean[j] - std::log(truth.ExpectedTheo1(all[j], kTau0));
       const double stated_offset = boost::math::digamma(edf / 2) - std::log(edf / 2);

@@ -11,65 +11,43 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <random>
 #include <vector>
 
 #include "analyze/allan/confidence.h"
 #include "analyze/allan/long_tau.h"
 #include "analyze/allan/phase.h"
+#include "analyze/allan/power_law_testing.h"
 
 namespace {
 
-std::vector<double> White(int64_t count, std::mt19937_64& rng) {
-  std::normal_distribution<double> normal;
-  std::vector<double> out(static_cast<size_t>(count));
-  for (double& v : out) v = normal(rng);
-  return out;
-}
+using imuqual::allan::testing::Flicker;
+using imuqual::allan::testing::Integrate;
+using imuqual::allan::testing::White;
 
-std::vector<double> Integrate(const std::vector<double>& in) {
-  std::vector<double> out(in.size());
-  double sum = 0;
-  for (size_t k = 0; k < in.size(); ++k) out[k] = sum += in[k];
-  return out;
-}
-
-// Kasdin & Walter's fractional integration of white noise (1/f).
-std::vector<double> Flicker(int64_t count, std::mt19937_64& rng) {
-  const std::vector<double> w = White(count, rng);
-  std::vector<double> h(static_cast<size_t>(count));
-  h[0] = 1;
-  for (int64_t k = 1; k < count; ++k) h[k] = h[k - 1] * (static_cast<double>(k) - 0.5) / k;
-  std::vector<double> out(static_cast<size_t>(count), 0.0);
-  for (int64_t t = 0; t < count; ++t) {
-    double sum = 0;
-    for (int64_t k = 0; k <= t; ++k) sum += h[k] * w[t - k];
-    out[t] = sum;
-  }
-  return out;
-}
-
-std::vector<double> Phase(int alpha, int64_t n, std::mt19937_64& rng) {
+// Phase of power-law noise alpha (rate PSD ~ f^alpha).
+std::vector<double> Phase(int alpha, int64_t n, uint64_t seed) {
   switch (alpha) {
     case 2:
-      return White(n, rng);
+      return White(n, seed);
     case 1:
-      return Flicker(n, rng);
+      return Flicker(n, seed);
     case 0:
-      return Integrate(White(n, rng));
+      return Integrate(White(n, seed));
     case -1:
-      return Integrate(Flicker(n, rng));
+      return Integrate(Flicker(n, seed));
     default:
-      return Integrate(Integrate(White(n, rng)));
+      return Integrate(Integrate(White(n, seed)));
   }
 }
 
-// nu with psi'(nu/2) = v.
-double EdfFromLogVariance(double v) {
+// The edf nu in [0.01, 1e6] at which `increasing(nu)` reaches `target`
+// (bisection in ln nu).
+template <typename F>
+double EdfWhere(F increasing, double target) {
   double lo = 0.01, hi = 1e6;
   for (int i = 0; i < 200; ++i) {
     const double mid = std::sqrt(lo * hi);
-    (boost::math::trigamma(mid / 2) > v ? lo : hi) = mid;
+    (increasing(mid) < target ? lo : hi) = mid;
   }
   return std::sqrt(lo * hi);
 }
@@ -90,10 +68,9 @@ int main(int argc, char** argv) {
     m_list.push_back(m);
   }
   for (int alpha : alphas) {
-    std::mt19937_64 rng(1000 + alpha);
     std::vector<std::vector<double>> logs(m_list.size()), values(m_list.size());
     for (int r = 0; r < records; ++r) {
-      const std::vector<double> x = Phase(alpha, n, rng);
+      const std::vector<double> x = Phase(alpha, n, 1000000 * (alpha + 3) + r);
       const std::vector<double> sums = imuqual::allan::Theo1Sums(x, m_list);
       for (size_t q = 0; q < m_list.size(); ++q) {
         logs[q].push_back(std::log(sums[q]));
@@ -106,16 +83,15 @@ int main(int argc, char** argv) {
       for (double v : logs[q]) var += (v - mean) * (v - mean) / (records - 1);
       for (double v : values[q]) vmean += v / records;
       const double offset = mean - std::log(vmean);  // E ln - ln E (sample mean for E)
-      const double nu_var = EdfFromLogVariance(var);
-      double lo = 0.01, hi = 1e6;  // nu with psi(nu/2) - ln(nu/2) = offset
-      for (int i = 0; i < 200; ++i) {
-        const double mid = std::sqrt(lo * hi);
-        ((boost::math::digamma(mid / 2) - std::log(mid / 2)) < offset ? lo : hi) = mid;
-      }
+      // Var ln(chi2_nu / nu) = psi'(nu/2), E = psi(nu/2) - ln(nu/2).
+      const double nu_var =
+          EdfWhere([](double nu) { return -boost::math::trigamma(nu / 2); }, -var);
+      const double nu_mean = EdfWhere(
+          [](double nu) { return boost::math::digamma(nu / 2) - std::log(nu / 2); }, offset);
       const auto sp = imuqual::allan::Theo1Edf(alpha, m_list[q], n);
       std::printf("theo1_edf alpha %+d m %lld r/N %.3f sp1065 %.2f mc_var %.2f mc_mean %.2f\n",
                   alpha, static_cast<long long>(m_list[q]), 0.75 * m_list[q] / n, sp ? *sp : NAN,
-                  nu_var, std::sqrt(lo * hi));
+                  nu_var, nu_mean);
     }
   }
   return 0;

@@ -250,12 +250,13 @@ TableWriter ModelCurveTable(const allan::CompositeFit& fit, const Curve& curve) 
 // Theo1 beyond the fitted curve against the model (CompositeModel::
 // ExpectedTheo1): at even m from twice the fit curve's last effective tau, by
 // octaves, to the record's reach (m <= N - 1). Under the model Theo1^2 /
-// E[Theo1] ~ chi2(edf) / edf, edf Theo1Edf for the model's local slope there.
+// E[Theo1] ~ chi2(edf) / edf, edf allan::Theo1MomentEdf (the model's noise
+// there, as the fit weighs its own Theo1 moments).
 struct LongTauCheck {
   double tau_s = 0;  // 0.75 m tau0
   int64_t m = 0;
   double measured = 0, expected = 0;  // deviations, base units
-  double edf = 0;                     // NaN when Theo1 has none for the slope
+  double edf = 0;                     // NaN when Theo1 has none there
   double lo = 0, hi = 0;              // 95 % range of measured / expected
   double Ratio() const { return measured / expected; }
   bool Inside() const { return std::isfinite(edf) && Ratio() >= lo && Ratio() <= hi; }
@@ -296,16 +297,9 @@ std::vector<LongTauCheck> CheckLongTau(const allan::PhaseRecord& phase,
       allan::Theo1OctavesBeyond(fit_curve.points.back().tau_s, tau0, n);
   const Curve theo1 = allan::ComputeDeviation(phase, Deviation::kTheo1, m_list);
   for (const allan::CurvePoint& p : theo1.points) {
-    // The model's slope of AVAR at the point: mu = -alpha - 1.
     const double r = 0.75 * static_cast<double>(p.m);
-    const double mu = std::log(fit.model.Avar(r * 1.1, tau0) / fit.model.Avar(r / 1.1, tau0)) /
-                      (2 * std::log(1.1));
-    const std::optional<double> edf =
-        std::isfinite(mu) ? allan::Theo1EdfMeasured(
-                                static_cast<int>(std::clamp(std::lround(-mu - 1), -2L, 2L)), p.m, n)
-                          : std::nullopt;
     out.push_back(LongTauRow(r * tau0, p.m, p.dev, std::sqrt(fit.model.ExpectedTheo1(p.m, tau0)),
-                             edf ? *edf : allan::kNaN));
+                             allan::Theo1MomentEdf(fit.model, tau0, p.m, n).value_or(allan::kNaN)));
   }
   return out;
 }

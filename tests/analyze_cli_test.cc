@@ -323,6 +323,28 @@ TEST(AnalyzeCliTest, StationarityFindsAPlantedStepWithItsSize) {
   }
 }
 
+// A 600 s record at 100 Hz of white rate noise (1 per sample) plus a rate
+// random walk of `k_step` per sample, one value per line.
+void WriteWhiteAndWalk(const std::string& path, int seed, double k_step) {
+  std::ofstream out(path);
+  out.precision(17);
+  std::mt19937_64 rng(1000 + seed);
+  std::normal_distribution<double> gauss;
+  double walk = 0;
+  for (int i = 0; i < 60000; ++i) {
+    walk += k_step * gauss(rng);
+    out << gauss(rng) + walk << "\n";
+  }
+}
+
+// The selected model's name in analyze's text output ("" without one).
+std::string ModelName(const std::string& output) {
+  const size_t name = output.find("noise model ");
+  return name == std::string::npos
+             ? std::string()
+             : output.substr(name + 12, output.find(' ', name + 12) - name - 12);
+}
+
 // --long-tau-check: Theo1 beyond the fitted taus against the model, over 24
 // records of 600 s at 100 Hz of each kind. White rate noise is modelled
 // exactly (N), so the octaves beyond the fit (82, 164 and 328 s) lie inside
@@ -338,25 +360,12 @@ TEST(AnalyzeCliTest, LongTauCheckComparesTheo1WithTheModel) {
   };
   auto run = [&](int seed, double k_step) {
     const std::string path = dir.path("record.txt");
-    {
-      std::ofstream out(path);
-      out.precision(17);
-      std::mt19937_64 rng(1000 + seed);
-      std::normal_distribution<double> gauss;
-      double walk = 0;
-      for (int i = 0; i < 60000; ++i) {
-        walk += k_step * gauss(rng);
-        out << gauss(rng) + walk << "\n";
-      }
-    }
+    WriteWhiteAndWalk(path, seed, k_step);
     const auto r =
         RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 --fit --long-tau-check");
     EXPECT_EQ(r.exit_code, 0) << r.output;
     Check c;
-    const size_t name = r.output.find("noise model ");
-    if (name != std::string::npos) {
-      c.model = r.output.substr(name + 12, r.output.find(' ', name + 12) - name - 12);
-    }
+    c.model = ModelName(r.output);
     const size_t at = r.output.find("long-tau check: Theo1 beyond the fitted taus");
     EXPECT_NE(at, std::string::npos) << r.output;
     std::istringstream lines(at == std::string::npos ? "" : r.output.substr(at));
@@ -410,37 +419,20 @@ TEST(AnalyzeCliTest, LongTauCheckComparesTheo1WithTheModel) {
 TEST(AnalyzeCliTest, FitLongTausPutsTheo1IntoTheModel) {
   testing::TempDir dir("analyze_cli_fit_long_taus");
   const std::string path = dir.path("record.txt");
-  auto write = [&](int seed) {
-    std::ofstream out(path);
-    out.precision(17);
-    std::mt19937_64 rng(1000 + seed);
-    std::normal_distribution<double> gauss;
-    double walk = 0;
-    for (int i = 0; i < 60000; ++i) {
-      walk += 1.73e-4 * gauss(rng);
-      out << gauss(rng) + walk << "\n";
-    }
-  };
-  auto model_of = [](const std::string& output) {
-    const size_t name = output.find("noise model ");
-    return name == std::string::npos
-               ? std::string()
-               : output.substr(name + 12, output.find(' ', name + 12) - name - 12);
-  };
   auto long_term = [](const std::string& model) {
     return model.find('K') != std::string::npos || model.find('R') != std::string::npos;
   };
   constexpr int kRecords = 12;
   int plain = 0, with = 0;
   for (int s = 0; s < kRecords; ++s) {
-    write(s);
+    WriteWhiteAndWalk(path, s, 1.73e-4);
     const auto a = RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 --fit");
     const auto b =
         RunCommand(Bin("imuqual") + " analyze " + path + " --rate 100 --fit --fit-long-taus");
     ASSERT_EQ(a.exit_code, 0) << a.output;
     ASSERT_EQ(b.exit_code, 0) << b.output;
-    plain += long_term(model_of(a.output));
-    with += long_term(model_of(b.output));
+    plain += long_term(ModelName(a.output));
+    with += long_term(ModelName(b.output));
     const size_t at = b.output.find("long-tau moments in the fit:");
     ASSERT_NE(at, std::string::npos) << b.output;
     std::istringstream lines(b.output.substr(at));

@@ -1383,6 +1383,18 @@ std::vector<double> AvarCorrelationMatrix(const CompositeModel& model, double ta
   return out;
 }
 
+std::optional<double> Theo1MomentEdf(int alpha, int64_t m, int64_t n_phase) {
+  const std::optional<double> e = Theo1EdfMeasured(alpha, m, n_phase);
+  return e ? e : Theo1EdfMeasured(0, m, n_phase);
+}
+
+std::optional<double> Theo1MomentEdf(const CompositeModel& model, double tau0_s, int64_t m,
+                                     int64_t n_phase) {
+  const ModelEvaluator ev(model, tau0_s);
+  const int alpha = AlphaFromAvarSlope(ModelAvarSlope(ev, 0.75 * static_cast<double>(m)));
+  return Theo1MomentEdf(alpha, m, n_phase);
+}
+
 std::vector<double> MomentCorrelationMatrix(const CompositeModel& model, double tau0_s,
                                             const std::vector<int64_t>& m,
                                             const std::vector<char>& theo1) {
@@ -1469,11 +1481,8 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
     const Theo1Moment& t = long_taus[j - n_avar];
     theo1_n[j] = t.n_phase > 0 ? t.n_phase : curve.n_phase;
   }
-  // Theo1's edf (Theo1EdfMeasured) for noise alpha; WFM's where there is none.
   auto theo1_edf = [&](int alpha, int j) {
-    std::optional<double> e = Theo1EdfMeasured(alpha, rows[j].m, theo1_n[j]);
-    if (!e) e = Theo1EdfMeasured(0, rows[j].m, theo1_n[j]);
-    return e ? *e : 1.0;
+    return Theo1MomentEdf(alpha, rows[j].m, theo1_n[j]).value_or(1.0);
   };
 
   // Pass 1: diagonal covariance from the data's own noise identification.

@@ -67,6 +67,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -221,6 +222,16 @@ struct CompositeFit {
 // inadequate model can have no single |z| above 2: the misfit is then in the
 // curve's shape across neighbouring points.
 std::string LargestResiduals(const CompositeFit& fit, int count = 3);
+
+// The edf of a Theo1 moment at m on n_phase points for noise alpha as the
+// fit takes it: Theo1EdfMeasured, white FM's where alpha has none; nullopt
+// when neither has one.
+std::optional<double> Theo1MomentEdf(int alpha, int64_t m, int64_t n_phase);
+// The same for the noise of `model` at the moment's effective tau: alpha
+// from the model's AVAR slope at 0.75 m (AlphaFromAvarSlope), as the fit's
+// second pass weighs its moments and the long-tau check judges Theo1.
+std::optional<double> Theo1MomentEdf(const CompositeModel& model, double tau0_s, int64_t m,
+                                     int64_t n_phase);
 
 // Errors: not an ADEV/OADEV curve, fewer than 4 usable points (at or above
 // min_tau_s), bad options or Theo1 moments (naming which), no candidate

@@ -4,47 +4,20 @@
 
 #include <cmath>
 #include <cstdint>
-#include <random>
 #include <string>
 #include <vector>
 
 #include "analyze/allan/phase.h"
+#include "analyze/allan/power_law_testing.h"
 #include "analyze/allan/reference_testing.h"
 #include "analyze/allan/tau_grid.h"
 
 namespace imuqual::allan {
 namespace {
 
-std::vector<double> White(int64_t count, uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal;
-  std::vector<double> out(static_cast<size_t>(count));
-  for (double& v : out) v = normal(rng);
-  return out;
-}
-
-std::vector<double> Integrate(const std::vector<double>& in) {
-  std::vector<double> out(in.size());
-  double sum = 0;
-  for (size_t k = 0; k < in.size(); ++k) out[k] = sum += in[k];
-  return out;
-}
-
-// Flicker (1/f) noise by fractional integration of white noise (Kasdin &
-// Walter 1992): x_t = sum_k h_k w_{t-k}, h_0 = 1, h_k = h_{k-1} (k - 1/2) / k.
-std::vector<double> Flicker(int64_t count, uint64_t seed) {
-  const std::vector<double> w = White(count, seed);
-  std::vector<double> h(static_cast<size_t>(count));
-  h[0] = 1;
-  for (int64_t k = 1; k < count; ++k) h[k] = h[k - 1] * (k - 0.5) / k;
-  std::vector<double> out(static_cast<size_t>(count), 0.0);
-  for (int64_t t = 0; t < count; ++t) {
-    double sum = 0;
-    for (int64_t k = 0; k <= t; ++k) sum += h[k] * w[t - k];
-    out[t] = sum;
-  }
-  return out;
-}
+using testing::Flicker;
+using testing::Integrate;
+using testing::White;
 
 // A phase record with rate PSD S_y(f) ~ f^alpha, alpha in -4..2.
 PhaseRecord PowerLawPhase(int alpha, int64_t n_rate, uint64_t seed) {
