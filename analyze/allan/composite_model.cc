@@ -355,6 +355,52 @@ double TermExpectedTheo1(const ModelTerm& t, int64_t m, double tau0_s) {
   return sum / (0.75 * md * md * tau0_s * tau0_s);
 }
 
+double TermExpectedTheo1OfMeans(const ModelTerm& t, int64_t m, double tau0_s, int64_t block) {
+  if (block <= 1) return TermExpectedTheo1(t, m, tau0_s);
+  const double b = static_cast<double>(block), wide = b * tau0_s;
+  // E[Theo1] is linear in the phase structure function: a white part of
+  // variance v (possibly negative) adds v times the unit white term's.
+  const auto white = [&](double v) {
+    return v * TermExpectedTheo1(ModelTerm{TermKind::kWhite, 1.0}, m, wide);
+  };
+  switch (t.kind) {
+    case TermKind::kQuantization:
+    case TermKind::kWhite:
+    case TermKind::kFlicker:
+    case TermKind::kDrift:
+      return TermExpectedTheo1(t, m, wide);
+    case TermKind::kRandomWalk:
+      // The walk's cubic kernel is the same; its discrete white part is
+      // K^2 tau0^2 / 6 of the samples, not of the means.
+      return TermExpectedTheo1(t, m, wide) +
+             white(t.scale * t.scale * (tau0_s * tau0_s - wide * wide) / 6);
+    case TermKind::kGaussMarkov: {
+      // The samples' phase structure D at distances k b, summed as
+      // TermExpectedTheo1 sums it (an AR(1) of the means plus a white part
+      // would be the same in exact arithmetic, but the two cancel to many
+      // digits where T << b tau0 or T >> m b tau0).
+      const GaussMarkovPair pair(tau0_s / t.correlation_time_s);
+      const double md = static_cast<double>(m);
+      const double sum =
+          tau0_s * tau0_s * t.scale * t.scale *
+          SmoothSum([&](double k) { return pair.Variance(md * b, k * b) / k; }, m / 2);
+      return sum / (0.75 * md * md * wide * wide);
+    }
+    case TermKind::kSinusoid: {
+      // Sampled every b-th phase point: the means' sinusoid has amplitude
+      // A |sin(pi f b)| / (b |sin(pi f)|) (f in cycles per sample) at b f,
+      // folded into (0, 1/2] cycles per mean; none at multiples of 1/b.
+      const double f = t.frequency_hz * tau0_s;
+      double g = b * f - std::floor(b * f);
+      if (g > 0.5) g = 1 - g;
+      const double amplitude = t.scale * std::abs(std::sin(kPi * b * f) / (b * std::sin(kPi * f)));
+      if (!(g > 1e-12) || !(amplitude > 0)) return 0;
+      return TermExpectedTheo1(ModelTerm{TermKind::kSinusoid, amplitude, 0, g / wide}, m, wide);
+    }
+  }
+  return 0;
+}
+
 double CompositeModel::ExpectedTheo1(int64_t m, double tau0_s) const {
   double v = 0;
   for (const ModelTerm& t : terms) v += TermExpectedTheo1(t, m, tau0_s);

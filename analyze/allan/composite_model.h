@@ -103,6 +103,18 @@ double TermTheo1PairVariance(const ModelTerm& term, int64_t m, int64_t k, double
 // (1.2e-11 the largest seen; composite_model_test). `m` even >= 2.
 double TermExpectedTheo1(const ModelTerm& term, int64_t m, double tau0_s);
 
+// E[Theo1(m)] of one term for the record of the means of `block`
+// consecutive samples (interval block tau0; its phase is every block-th
+// point of the samples' phase), m even >= 2 counting means: the sum above
+// over the distances k block only. Q, N, B and R are the same term at
+// interval block tau0; the random walk is too, less the white part
+// K^2 ((block tau0)^2 - tau0^2) / 6 (the samples' discrete walk); a
+// sinusoid is the means' sinusoid (amplitude A |sin(pi f' b)| / (b
+// |sin(pi f')|)) at its frequency folded into the means' band, none at a
+// multiple of their rate; Gauss-Markov is summed over the distances k block
+// as TermExpectedTheo1 sums it. block 1: TermExpectedTheo1.
+double TermExpectedTheo1OfMeans(const ModelTerm& term, int64_t m, double tau0_s, int64_t block);
+
 // sum_{k=1}^{m/2} sin^2(pi f k) sin^2(pi f (m-k)) / k, f in cycles per sample
 // in (0, 1/2]: Theo1's response to a sampled sinusoid (and, over f, Theo1's
 // spectral window). Where m f is large, a closed form in the partial sums of

@@ -62,13 +62,14 @@ constexpr double kMaxCorrelationTimeFactor = 100.0;
 class GaussMarkovTheo1Table {
  public:
   static constexpr int kPerOctave = 16;
-  GaussMarkovTheo1Table(int64_t m, double tau0_s, double u_min, double u_max)
+  // m counts means of `block` samples (TermExpectedTheo1OfMeans).
+  GaussMarkovTheo1Table(int64_t m, int64_t block, double tau0_s, double u_min, double u_max)
       : step_(std::numbers::ln2 / kPerOctave), u0_(u_min - 2 * step_) {
     const int n = static_cast<int>(std::ceil((u_max + 2 * step_ - u0_) / step_)) + 1;
     ln_.resize(n);
     for (int i = 0; i < n; ++i) {
       const ModelTerm t{TermKind::kGaussMarkov, 1.0, tau0_s * std::exp(u0_ + i * step_)};
-      ln_[i] = std::log(TermExpectedTheo1(t, m, tau0_s));
+      ln_[i] = std::log(TermExpectedTheo1OfMeans(t, m, tau0_s, block));
     }
   }
   double At(double u) const {
@@ -115,6 +116,9 @@ struct Problem {
   // kind kIeeeKinds[i] at unit scale at point j (0 at AVAR points), computed
   // once; Gauss-Markov terms and sinusoids are computed per evaluation.
   std::vector<char> theo1;
+  // Per point, the samples behind each of the record's points that a Theo1
+  // moment was computed on (Theo1Moment::block; 1 at AVAR points).
+  std::vector<int64_t> block;
   std::array<std::vector<double>, 5> theo1_unit;
   // Per point, the Gauss-Markov table (null at AVAR points); shared by the
   // passes and the profiles' copies of a problem.
@@ -139,7 +143,8 @@ double Theo1TermMoment(const ModelTerm& term, const Problem& p, int j) {
     return term.scale * term.scale *
            p.gm_theo1[j]->At(std::log(term.correlation_time_s / p.tau0_s));
   }
-  return TermExpectedTheo1(term, static_cast<int64_t>(p.m[j]), p.tau0_s);
+  return TermExpectedTheo1OfMeans(term, static_cast<int64_t>(p.m[j]) / p.block[j], p.tau0_s,
+                                  p.block[j]);
 }
 
 // A term's model value at point j: AVAR(m_j), or E[Theo1(m_j)] at a Theo1
@@ -148,11 +153,13 @@ double TermMoment(const ModelTerm& term, const Problem& p, int j) {
   return p.theo1[j] ? Theo1TermMoment(term, p, j) : TermAvar(term, p.m[j], p.tau0_s);
 }
 
-Problem MakeProblem(const std::vector<FitRow>& rows, const std::vector<char>& theo1, double tau0_s,
-                    int64_t n_phase, const Eigen::VectorXd& edf, const Eigen::MatrixXd& correlation,
+Problem MakeProblem(const std::vector<FitRow>& rows, const std::vector<char>& theo1,
+                    const std::vector<int64_t>& block, double tau0_s, int64_t n_phase,
+                    const Eigen::VectorXd& edf, const Eigen::MatrixXd& correlation,
                     const GmwmOptions& options, const Problem* same_points = nullptr) {
   Problem p;
   p.theo1 = theo1;
+  p.block = block;
   p.penalty = options.parameter_penalty;
   p.single_penalty = options.single_term_penalty;
   p.tau0_s = tau0_s;
@@ -192,10 +199,11 @@ Problem MakeProblem(const std::vector<FitRow>& rows, const std::vector<char>& th
   for (int j = 0; j < n; ++j) {
     if (!theo1[j]) continue;
     for (size_t i = 0; i < kIeeeKinds.size(); ++i) {
-      p.theo1_unit[i][j] = TermExpectedTheo1(ModelTerm{kIeeeKinds[i], 1.0}, rows[j].m, tau0_s);
+      p.theo1_unit[i][j] = TermExpectedTheo1OfMeans(ModelTerm{kIeeeKinds[i], 1.0},
+                                                    rows[j].m / block[j], tau0_s, block[j]);
     }
-    p.gm_theo1[j] =
-        std::make_shared<const GaussMarkovTheo1Table>(rows[j].m, tau0_s, p.ln_t_min, p.ln_t_max);
+    p.gm_theo1[j] = std::make_shared<const GaussMarkovTheo1Table>(rows[j].m / block[j], block[j],
+                                                                  tau0_s, p.ln_t_min, p.ln_t_max);
   }
   return p;
 }
@@ -1281,8 +1289,12 @@ double AbsentTermUpperBound(const Candidate& best, TermKind kind, const Problem&
 Status AppendTheo1Rows(std::span<const Theo1Moment> long_taus, const Curve& curve,
                        std::vector<FitRow>* rows) {
   for (const Theo1Moment& t : long_taus) {
-    const int64_t n_phase = t.n_phase > 0 ? t.n_phase : curve.n_phase;
     const std::string at = "Theo1 moment at m " + std::to_string(t.m);
+    if (t.block < 1) {
+      return Status::InvalidArgument(at + ": block must be at least 1, got " +
+                                     std::to_string(t.block));
+    }
+    const int64_t n_phase = t.n_phase > 0 ? t.n_phase : curve.n_phase / t.block;
     if (t.m < 2 || t.m % 2 != 0 || t.m > n_phase - 1) {
       return Status::InvalidArgument(at + ": m must be even in [2, " + std::to_string(n_phase - 1) +
                                      "]");
@@ -1292,10 +1304,10 @@ Status AppendTheo1Rows(std::span<const Theo1Moment> long_taus, const Curve& curv
                                      FormatG(t.theo1));
     }
     FitRow r;
-    r.m = t.m;
-    r.tau_s = 0.75 * static_cast<double>(t.m) * curve.tau0_s;
+    r.m = t.m * t.block;  // the curve's samples
+    r.tau_s = 0.75 * static_cast<double>(r.m) * curve.tau0_s;
     r.avar = t.theo1;
-    r.n_eff = n_phase;
+    r.n_eff = n_phase * t.block;
     if (!(r.tau_s > rows->back().tau_s)) {
       return Status::InvalidArgument(at + ": its tau " + FormatG(r.tau_s) +
                                      " s must lie beyond the last fitted tau " +
@@ -1475,14 +1487,16 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   IMUQUAL_RETURN_IF_ERROR(AppendTheo1Rows(long_taus, curve, &rows));
   const int n = static_cast<int>(rows.size());
   std::vector<char> theo1(n, 0);
-  std::vector<int64_t> theo1_n(n, 0);  // phase points behind each Theo1 row
+  std::vector<int64_t> theo1_n(n, 0);  // phase points (of means) behind each Theo1 row
+  std::vector<int64_t> block(n, 1);
   for (int j = n_avar; j < n; ++j) {
     theo1[j] = 1;
     const Theo1Moment& t = long_taus[j - n_avar];
-    theo1_n[j] = t.n_phase > 0 ? t.n_phase : curve.n_phase;
+    block[j] = t.block;
+    theo1_n[j] = t.n_phase > 0 ? t.n_phase : curve.n_phase / t.block;
   }
   auto theo1_edf = [&](int alpha, int j) {
-    return Theo1MomentEdf(alpha, rows[j].m, theo1_n[j]).value_or(1.0);
+    return Theo1MomentEdf(alpha, rows[j].m / block[j], theo1_n[j]).value_or(1.0);
   };
 
   // Pass 1: diagonal covariance from the data's own noise identification.
@@ -1497,8 +1511,8 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
                   ? r.point_edf
                   : FitRowEdf(AlphaFromAvarSlope(r.local_slope), r);
   }
-  const Problem p1 =
-      MakeProblem(rows, theo1, tau0, curve.n_phase, edf1, Eigen::MatrixXd::Identity(n, n), options);
+  const Problem p1 = MakeProblem(rows, theo1, block, tau0, curve.n_phase, edf1,
+                                 Eigen::MatrixXd::Identity(n, n), options);
   std::map<std::string, Candidate> seen1;
   const Candidate pilot = Search(p1, rows, options, &seen1);
   if (!std::isfinite(pilot.criterion)) {
@@ -1519,7 +1533,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   }
   const std::vector<double> corr_values = MomentCorrelationMatrix(pilot_model, tau0, ms, theo1);
   const Eigen::MatrixXd corr = Eigen::Map<const Eigen::MatrixXd>(corr_values.data(), n, n);
-  const Problem p2 = MakeProblem(rows, theo1, tau0, curve.n_phase, edf2, corr, options, &p1);
+  const Problem p2 = MakeProblem(rows, theo1, block, tau0, curve.n_phase, edf2, corr, options, &p1);
   std::vector<Candidate> pass1(seen1.size());
   std::transform(seen1.begin(), seen1.end(), pass1.begin(),
                  [](const auto& kv) { return kv.second; });

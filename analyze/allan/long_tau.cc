@@ -653,12 +653,13 @@ std::vector<int64_t> Theo1OctavesBeyond(double last_tau_s, double tau0_s, int64_
   return out;
 }
 
-std::vector<Theo1Moment> Theo1MomentsBeyond(const PhaseRecord& phase, double last_tau_s) {
+std::vector<Theo1Moment> Theo1MomentsBeyond(const PhaseRecord& phase, double last_tau_s,
+                                            int64_t block) {
   const int64_t n = LongestValidSpan(phase).size();
   const std::vector<int64_t> m = Theo1OctavesBeyond(last_tau_s, phase.tau0_s, n, kTheo1MomentReach);
   std::vector<Theo1Moment> out;
   for (const CurvePoint& p : LongTauPoints(phase, Deviation::kTheo1, m)) {
-    if (std::isfinite(p.dev) && p.dev > 0) out.push_back({p.m, p.dev * p.dev, n});
+    if (std::isfinite(p.dev) && p.dev > 0) out.push_back({p.m, p.dev * p.dev, n, block});
   }
   return out;
 }

@@ -156,6 +156,14 @@ struct Theo1Moment {
   int64_t m = 0;        // even, in [2, n_phase - 1]
   double theo1 = kNaN;  // Theo1(m), the rate unit squared
   int64_t n_phase = 0;  // phase points the estimate spans; 0: the curve's
+  // Theo1 of the record of the means of `block` consecutive curve samples
+  // (every block-th phase point: what a station keeps instead of the
+  // samples); m and n_phase count means, the effective tau is
+  // 0.75 m block tau0. Its expectation under a model is exact
+  // (TermExpectedTheo1OfMeans); its correlations with the curve's points are
+  // taken as the samples' Theo1's at m block (the means change the phase
+  // only above 1 / (2 block tau0), far above the moment's band).
+  int64_t block = 1;
 };
 
 // Factors for Theo1 beyond a fit's last tau: even m at effective taus
@@ -174,8 +182,11 @@ std::vector<int64_t> Theo1OctavesBeyond(double last_tau_s, double tau0_s, int64_
 inline constexpr double kTheo1MomentReach = 0.3;
 
 // Theo1 of the record at Theo1OctavesBeyond(last_tau_s, ..., kTheo1MomentReach)
-// (on the longest gap-free span, whose length each moment carries).
-std::vector<Theo1Moment> Theo1MomentsBeyond(const PhaseRecord& phase, double last_tau_s);
+// (on the longest gap-free span, whose length each moment carries). `block`:
+// the phase is that of the means of `block` samples of the curve the
+// moments go with (phase.tau0_s = block times the curve's tau0).
+std::vector<Theo1Moment> Theo1MomentsBeyond(const PhaseRecord& phase, double last_tau_s,
+                                            int64_t block = 1);
 
 // ---------------------------------------------------------------------------
 // The Theo1 machinery, exposed for tests and benchmarks.

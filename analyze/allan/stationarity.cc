@@ -385,6 +385,21 @@ std::vector<double> BinAccumulator::MeanSquareDifferences(int64_t bin_samples) c
   return Pooled(square_, diffs_, BaseBinsPer(bin_samples));
 }
 
+PhaseRecord BinAccumulator::MeansPhase(double tau0_s, int64_t begin, int64_t end) const {
+  const int64_t first = (std::max<int64_t>(begin, 0) + base_ - 1) / base_;
+  const int64_t last = std::min(end, samples_) / base_;  // whole bins before it
+  std::vector<double> means;
+  std::vector<uint8_t> invalid;
+  for (int64_t k = first; k < last; ++k) {
+    const size_t i = static_cast<size_t>(k);
+    const bool whole = valid_[i] == base_;
+    means.push_back(whole ? sum_[i] / static_cast<double>(base_) : kNaN);
+    invalid.push_back(whole ? 0 : 1);
+  }
+  return PhaseFromRate(std::span<const double>(means), tau0_s * static_cast<double>(base_),
+                       invalid);
+}
+
 std::vector<double> BinMeanSquareDifferences(std::span<const double> rate, int64_t bin_samples,
                                              int bins) {
   std::vector<double> out(static_cast<size_t>(std::max(bins, 0)), kNaN);

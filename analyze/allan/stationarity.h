@@ -99,6 +99,7 @@
 
 #include "analyze/allan/composite_model.h"
 #include "analyze/allan/curve.h"
+#include "analyze/allan/phase.h"
 #include "common/status.h"
 
 namespace imuqual::allan {
@@ -298,6 +299,12 @@ class BinAccumulator {
   // The bins' mean square differences (BinMeanSquareDifferences), the bin
   // length rounded to whole base bins as Means rounds it.
   std::vector<double> MeanSquareDifferences(int64_t bin_samples) const;
+  // The phase of the base bins' means at interval base_samples() tau0_s
+  // (every base_samples()-th point of the samples' phase), over the whole
+  // base bins inside samples [begin, end); a base bin with an invalid or
+  // missing sample is a gap, a partial one at either end left out. What a
+  // Theo1 moment of means is computed on (long_tau.h, Theo1Moment::block).
+  PhaseRecord MeansPhase(double tau0_s, int64_t begin = 0, int64_t end = INT64_MAX) const;
 
  private:
   void Merge();

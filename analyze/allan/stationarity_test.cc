@@ -67,6 +67,54 @@ TEST(BinMeansTest, MeansOfFiniteSamplesAndHalfEmptyBinsAreNaN) {
 // Streamed bin sums give BinMeans' means of the same record, whatever the
 // pieces it arrives in, with missing samples, invalid flags, and past the
 // merge that keeps at most kMaxBaseBins base bins.
+TEST(BinAccumulatorTest, MeansPhaseIsEveryBaseBinsPointOfThePhase) {
+  // GIVEN 1000 samples in base bins of 10, appended in uneven batches, with
+  // one invalid sample in bin 37, 15 missing samples from 500 and a partial
+  // last bin,
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g;
+  std::vector<float> y(1003);
+  for (float& v : y) v = static_cast<float>(3.0 + g(rng));
+  std::vector<uint8_t> invalid(y.size(), 0);
+  invalid[374] = 1;
+  BinAccumulator acc(10);
+  size_t i = 0;
+  while (i < y.size()) {
+    if (i == 500) {
+      acc.AppendMissing(15);
+      i += 15;
+      continue;
+    }
+    const size_t n = std::min<size_t>({y.size() - i, 1 + rng() % 37, i < 500 ? 500 - i : 9999});
+    acc.Append(std::span<const float>(y).subspan(i, n),
+               std::span<const uint8_t>(invalid).subspan(i, n));
+    i += n;
+  }
+  std::vector<uint8_t> flags = invalid;
+  for (size_t k = 500; k < 515; ++k) flags[k] = 1;
+  const PhaseRecord samples = PhaseFromRate(std::span<const float>(y).first(1000), 0.01,
+                                            std::span<const uint8_t>(flags).first(1000));
+  // WHEN the means' phase is taken, THEN it has a point every 10 samples
+  // (interval 0.1 s) over the whole bins; bins 37, 50 and 51 are gaps; and
+  // away from them its second differences are the samples' phase's at every
+  // 10th point (the phases differ by their reference slope only).
+  const PhaseRecord means = acc.MeansPhase(0.01);
+  EXPECT_DOUBLE_EQ(means.tau0_s, 0.1);
+  ASSERT_EQ(means.size(), 101);
+  EXPECT_EQ(InvalidRateIndices(means), (std::vector<int64_t>{37, 50, 51}));
+  for (int64_t j = 1; j + 1 < means.size(); ++j) {
+    if (j >= 37 && j <= 38) continue;
+    if (j >= 50 && j <= 52) continue;
+    const double want = samples.x[10 * (j + 1)] - 2 * samples.x[10 * j] + samples.x[10 * (j - 1)];
+    const double got = means.x[j + 1] - 2 * means.x[j] + means.x[j - 1];
+    EXPECT_NEAR(got, want, 1e-12) << j;
+  }
+  // A stretch: the whole bins inside samples [95, 512), bins 10..50.
+  const PhaseRecord part = acc.MeansPhase(0.01, 95, 512);
+  EXPECT_EQ(part.size(), 42);
+  EXPECT_EQ(InvalidRateIndices(part), (std::vector<int64_t>{27, 40}));
+}
+
 TEST(BinAccumulatorTest, MatchesBinMeansThroughGapsFlagsAndMerges) {
   std::mt19937_64 rng(3);
   std::normal_distribution<double> g;

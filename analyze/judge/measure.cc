@@ -230,9 +230,14 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
                                                        " s (" + options.range_reason + ")"
                                                  : "";
   if (!options.long_taus.empty()) {
-    range_note += "; Theo1 moments to " +
-                  Num(0.75 * static_cast<double>(options.long_taus.back().m) * curve.tau0_s) +
-                  " s in the fit";
+    range_note +=
+        "; Theo1 moments to " +
+        Num(0.75 * static_cast<double>(options.long_taus.back().m) *
+            static_cast<double>(options.long_taus.back().block) * curve.tau0_s) +
+        " s in the fit" +
+        (options.long_taus.back().block > 1
+             ? " (of the means of " + std::to_string(options.long_taus.back().block) + " samples)"
+             : "");
   }
   const Result<allan::CompositeFit> fit =
       allan::FitCompositeModel(curve, fit_options, options.long_taus);

@@ -104,9 +104,10 @@ Result<RunAnalyzer> RunAnalyzer::Create(RunDescription description, AnalyzerOpti
   so.density = options.density;
   IMUQUAL_RETURN_IF_ERROR(so.Validate());
   for (size_t i = 0; i < a.desc_.axes.size(); ++i) a.engines_.emplace_back(so);
-  if (a.desc_.plan.has_stationarity()) {
+  if (a.desc_.plan.has_stationarity() || a.desc_.plan.noise_model_long_taus()) {
     // Base bins of a second (at least a sample): the scan's bins are whole
-    // multiples of them, chosen once the record's length is known.
+    // multiples of them, chosen once the record's length is known; their
+    // means are the record Theo1 runs on for the noise model's long taus.
     const int64_t base = std::max<int64_t>(1, std::llround(a.desc_.nominal_rate_hz));
     a.bins_.assign(a.desc_.axes.size(), allan::BinAccumulator(base));
   }
@@ -430,7 +431,7 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
   for (size_t a = 0; a < axes; ++a) {
     means[a] = count_[a] > 0 ? sum_[a] / static_cast<double>(count_[a]) : allan::kNaN;
   }
-  if (final && !bins_.empty()) {
+  if (final && plan.has_stationarity()) {
     for (const allan::StreamingAllan& e : engines_) {
       whole_ci.push_back(e.Oadev(allan::StreamGrid::kDense, stop, allan::CiMethod::kChi2,
                                  allan::kOneSigmaConfidence));
@@ -471,6 +472,9 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
       if (const pb::NoiseModelRange* r = judge::NoiseModelRangeFor(plan, desc_.axes[a].kind)) {
         axis_options.min_tau_s = r->min_tau_s();
         axis_options.range_reason = r->reason();
+      }
+      if (plan.noise_model_long_taus() && !dense_of[a].points.empty()) {
+        axis_options.long_taus = LongTauMoments(a, dense_of[a].points.back().tau_s, stationarity);
       }
       model_of[a] = judge::MeasureNoiseModel(desc_.axes[a].name, desc_.axes[a].kind, dense_of[a],
                                              axis_options);
@@ -527,6 +531,19 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
     }
   }
   return out;
+}
+
+std::vector<allan::Theo1Moment> RunAnalyzer::LongTauMoments(
+    size_t a, double last_tau_s, const std::vector<pb::Measurement>& stationarity) const {
+  // An axis judged on a stretch: its one-second means inside that stretch.
+  int64_t begin = 0, end = INT64_MAX;
+  for (const pb::Measurement& m : stationarity) {
+    if (m.axis() != desc_.axes[a].name || !std::isfinite(m.value())) continue;
+    if (m.name() == judge::kJudgedSegmentStart) begin = std::llround(m.value() / tau0_s_);
+    if (m.name() == judge::kJudgedSegmentEnd) end = std::llround(m.value() / tau0_s_);
+  }
+  const allan::PhaseRecord means = bins_[a].MeansPhase(tau0_s_, begin, end);
+  return allan::Theo1MomentsBeyond(means, last_tau_s, bins_[a].base_samples());
 }
 
 std::vector<pb::Measurement> RunAnalyzer::JudgeOnSegment(size_t a, const judge::EventCuts& cuts,

@@ -161,6 +161,13 @@ class RunAnalyzer {
                                           std::vector<std::pair<std::string, allan::Curve>>* curves,
                                           std::vector<allan::Curve>* dense_curves = nullptr) const;
 
+  // The Theo1 moments of axis a beyond `last_tau_s` (plans with
+  // noise_model_long_taus), from its one-second means over the stretch the
+  // axis is judged on (`stationarity`'s judged_segment_start and _end, the
+  // whole record without them).
+  std::vector<allan::Theo1Moment> LongTauMoments(
+      size_t a, double last_tau_s, const std::vector<pb::Measurement>& stationarity) const;
+
   // Axis a judged on the stretch that none of `cuts` touches with the most
   // data (plans that judge the longest stationary segment; `scanned`: the
   // scan ran on the axis): that stretch's dense curve without intervals into
@@ -184,7 +191,8 @@ class RunAnalyzer {
   std::vector<int64_t> invalid_samples_;  // per axis, after warm-up
   int64_t batches_ = 0;
   std::vector<allan::StreamingAllan> engines_;
-  // Bin sums per axis for the stationarity scan (plans with stationarity).
+  // Bin sums per axis for the stationarity scan and the noise model's long
+  // taus (plans with stationarity or noise_model_long_taus).
   std::vector<allan::BinAccumulator> bins_;
   std::vector<double> sum_;  // per axis, valid samples after warm-up
   std::vector<int64_t> count_;

@@ -672,6 +672,64 @@ TEST(RunAnalyzerTest, WithoutAReferenceTheRecordsOwnModelIsScanned) {
   EXPECT_NE(x->note().find("not held"), std::string::npos);
 }
 
+TEST(RunAnalyzerTest, NoiseModelLongTausFitTheo1OfTheOneSecondMeans) {
+  // GIVEN 1200 s at 100 Hz of white rate noise (0.1 deg/s per sample) and a
+  // rate random walk whose Allan minimum (200 s) lies beyond the stop
+  // rule's T/9, under a plan with noise_model_long_taus
+  RunDescription d = Desc();
+  d.plan.set_noise_model_long_taus(true);
+  auto a = RunAnalyzer::Create(d);
+  ASSERT_TRUE(a.ok());
+  std::mt19937_64 rng(77);
+  std::normal_distribution<double> g;
+  const double k = std::sqrt(3.0) * 0.01 / 200;  // deg/s/sqrt(s)
+  double walk = 0;
+  std::vector<double> means;  // of each second of x, as the analysis sums them
+  for (int seq = 0; seq < 1200; ++seq) {
+    Batch b(seq, seq * 100, 100);
+    double sum = 0;
+    for (int i = 0; i < 100; ++i) {
+      walk += k * std::sqrt(1 / kRate) * g(rng);
+      b.x[i] = static_cast<float>(0.1 * g(rng) + walk);
+      b.a[i] = static_cast<float>(9.8 + 0.01 * g(rng));
+      sum += b.x[i];
+    }
+    means.push_back(sum / 100);
+    ASSERT_TRUE(a->AddBatch(b.view).ok());
+  }
+  a->Finish(0, 120000);
+  const RunOutcome out = a->Outcome(true);
+  // THEN x's model is fitted with Theo1 of the one-second means beyond the
+  // curve (one octave: 0.3 of 1200 s reaches 360 s), and every model value
+  // is the one the offline fit gives with the same moments
+  const pb::Measurement* arw = Find(out, "x", judge::kFitAngleRandomWalk);
+  ASSERT_NE(arw, nullptr);
+  EXPECT_NE(arw->note().find("Theo1 moments to"), std::string::npos) << arw->note();
+  EXPECT_NE(arw->note().find("(of the means of 100 samples)"), std::string::npos) << arw->note();
+  const allan::Curve* curve = nullptr;
+  for (const auto& [axis, c] : out.curves) {
+    if (axis == "x") curve = &c;
+  }
+  ASSERT_NE(curve, nullptr);
+  const allan::PhaseRecord phase = allan::PhaseFromRate(std::span<const double>(means), 1.0);
+  judge::NoiseModelOptions options;
+  options.long_taus = allan::Theo1MomentsBeyond(phase, curve->points.back().tau_s, 100);
+  ASSERT_EQ(options.long_taus.size(), 1u);
+  EXPECT_LE(0.75 * static_cast<double>(options.long_taus[0].m), 0.3 * 1200);
+  // From twice the curve's last tau, m rounded to an even count of means.
+  EXPECT_NEAR(0.75 * static_cast<double>(options.long_taus[0].m), 2 * curve->points.back().tau_s,
+              1.5);
+  int compared = 0;
+  for (const pb::Measurement& m : judge::MeasureNoiseModel("x", pb::GYRO, *curve, options)) {
+    const pb::Measurement* got = Find(out, "x", m.name());
+    ASSERT_NE(got, nullptr) << m.name();
+    if (!std::isfinite(m.value())) continue;
+    EXPECT_NEAR(got->value(), m.value(), 1e-9 * std::abs(m.value())) << m.name();
+    ++compared;
+  }
+  EXPECT_GE(compared, 3);
+}
+
 TEST(RunAnalyzerTest, TemperatureOfTheAnalysedBatchesIsMeasuredAndLimited) {
   // GIVEN a 10 s warm-up and 60 one-second batches whose temperature climbs
   // 0.05 deg C per batch from 20 deg C (the warm-up's readings are 30 deg C,
