@@ -1746,13 +1746,19 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
         }
         return std::sqrt(k2);
       };
-      const double half = 0.5 * (k_of(best.theta) - k_of(with_b.theta));
-      if (std::isfinite(with_b.criterion) && half > 0) {
+      const double k_best = k_of(best.theta);
+      const double half = 0.5 * (k_best - k_of(with_b.theta));
+      if (std::isfinite(with_b.criterion) && half > 0 && k_best > 0) {
+        // The span as a fraction of the selected model's K, applied to the
+        // model-averaged K: candidates without a random walk pull the
+        // average below the selected K, and the span in absolute terms took
+        // it below 0 (a 2 h FOG record: -0.0044 deg/h/sqrt(h)).
         ModelFigure& k = fit.ieee_terms[3];
-        k.value -= half;
-        k.sigma = std::hypot(k.sigma, half / std::sqrt(3.0));
+        const double span = half * k.value / k_best;
+        k.value -= span;
+        k.sigma = std::hypot(k.sigma, span / std::sqrt(3.0));
         fit.flicker_for_rate_random_walk = b;
-        fit.rate_random_walk_half_span = half;
+        fit.rate_random_walk_half_span = span;
       }
     }
   }
