@@ -138,7 +138,7 @@ TEST(LongTauFitTest, BadTheo1MomentsAreOneLineErrors) {
         Bad{{1366, std::nan(""), 0},
             "Theo1 moment at m 1366: Theo1 must be positive and finite, got nan"},
         Bad{{1366, 1e-3, 0, 0}, "Theo1 moment at m 1366: block must be at least 1, got 0"},
-        Bad{{1366, 1e-3, 0, 8}, "Theo1 moment at m 1366: m must be even in [2, 1023]"},
+        Bad{{1366, 1e-3, 0, 8}, "Theo1 moment at m 1366: m must be even in [2, 1024]"},
         Bad{{600, 1e-3, 0},
             "Theo1 moment at m 600: its tau 450 s must lie beyond the last fitted tau 512 s"}}) {
     const std::vector<allan::Theo1Moment> moments = {b.moment};

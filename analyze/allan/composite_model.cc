@@ -393,7 +393,8 @@ double TermExpectedTheo1OfMeans(const ModelTerm& t, int64_t m, double tau0_s, in
       const double f = t.frequency_hz * tau0_s;
       double g = b * f - std::floor(b * f);
       if (g > 0.5) g = 1 - g;
-      const double amplitude = t.scale * std::abs(std::sin(kPi * b * f) / (b * std::sin(kPi * f)));
+      // |sin(pi b f)| = |sin(pi g)|, the form TermExpectedTheo1 divides by.
+      const double amplitude = t.scale * std::abs(std::sin(kPi * g) / (b * std::sin(kPi * f)));
       if (!(g > 1e-12) || !(amplitude > 0)) return 0;
       return TermExpectedTheo1(ModelTerm{TermKind::kSinusoid, amplitude, 0, g / wide}, m, wide);
     }

@@ -1282,6 +1282,10 @@ double AbsentTermUpperBound(const Candidate& best, TermKind kind, const Problem&
   return std::exp(hi);
 }
 
+// The phase points of the record of the means of `block` samples of a
+// record with n_phase phase points (whole means only).
+int64_t MeansPhasePoints(int64_t n_phase, int64_t block) { return (n_phase - 1) / block + 1; }
+
 // The Theo1 moments as fit rows after the curve's (tau = 0.75 m tau0, avar =
 // Theo1, local slope to the previous row), each checked: m even in [2, N-1],
 // Theo1 positive and finite, tau beyond the curve's last fitted tau and
@@ -1294,7 +1298,7 @@ Status AppendTheo1Rows(std::span<const Theo1Moment> long_taus, const Curve& curv
       return Status::InvalidArgument(at + ": block must be at least 1, got " +
                                      std::to_string(t.block));
     }
-    const int64_t n_phase = t.n_phase > 0 ? t.n_phase : curve.n_phase / t.block;
+    const int64_t n_phase = t.n_phase > 0 ? t.n_phase : MeansPhasePoints(curve.n_phase, t.block);
     if (t.m < 2 || t.m % 2 != 0 || t.m > n_phase - 1) {
       return Status::InvalidArgument(at + ": m must be even in [2, " + std::to_string(n_phase - 1) +
                                      "]");
@@ -1493,7 +1497,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
     theo1[j] = 1;
     const Theo1Moment& t = long_taus[j - n_avar];
     block[j] = t.block;
-    theo1_n[j] = t.n_phase > 0 ? t.n_phase : curve.n_phase / t.block;
+    theo1_n[j] = t.n_phase > 0 ? t.n_phase : MeansPhasePoints(curve.n_phase, t.block);
   }
   auto theo1_edf = [&](int alpha, int j) {
     return Theo1MomentEdf(alpha, rows[j].m / block[j], theo1_n[j]).value_or(1.0);

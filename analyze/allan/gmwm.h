@@ -201,9 +201,10 @@ struct CompositeFit {
   double edge_rate_random_walk = kNaN;  // K [u/sqrt(s)], where used (above)
   double edge_half_span = 0;            // [u], added to curve_minimum
   // Where the model has a random walk and no flicker term: the flicker the
-  // data allow at 1 sigma (B [u]), and half the fall of K with it fixed
-  // beside the model's terms [u/sqrt(s)], taken off rate_random_walk (and
-  // ieee_terms[3]), whose sigma includes it / sqrt(3).
+  // data allow at 1 sigma (B [u]), and half the fall of the selected
+  // model's K with it fixed beside the model's terms, as a fraction of that
+  // K applied to the model-averaged K [u/sqrt(s)], taken off
+  // rate_random_walk (and ieee_terms[3]), whose sigma includes it / sqrt(3).
   double flicker_for_rate_random_walk = kNaN;
   double rate_random_walk_half_span = 0;
   ModelFigure bias_instability_ieee;

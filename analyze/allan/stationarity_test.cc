@@ -64,9 +64,6 @@ TEST(BinMeansTest, MeansOfFiniteSamplesAndHalfEmptyBinsAreNaN) {
   EXPECT_TRUE(std::isnan(past[2]));
 }
 
-// Streamed bin sums give BinMeans' means of the same record, whatever the
-// pieces it arrives in, with missing samples, invalid flags, and past the
-// merge that keeps at most kMaxBaseBins base bins.
 TEST(BinAccumulatorTest, MeansPhaseIsEveryBaseBinsPointOfThePhase) {
   // GIVEN 1000 samples in base bins of 10, appended in uneven batches, with
   // one invalid sample in bin 37, 15 missing samples from 500 and a partial
@@ -115,6 +112,9 @@ TEST(BinAccumulatorTest, MeansPhaseIsEveryBaseBinsPointOfThePhase) {
   EXPECT_EQ(InvalidRateIndices(part), (std::vector<int64_t>{27, 40}));
 }
 
+// Streamed bin sums give BinMeans' means of the same record, whatever the
+// pieces it arrives in, with missing samples, invalid flags, and past the
+// merge that keeps at most kMaxBaseBins base bins.
 TEST(BinAccumulatorTest, MatchesBinMeansThroughGapsFlagsAndMerges) {
   std::mt19937_64 rng(3);
   std::normal_distribution<double> g;

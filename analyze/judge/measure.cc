@@ -238,6 +238,8 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
         (options.long_taus.back().block > 1
              ? " (of the means of " + std::to_string(options.long_taus.back().block) + " samples)"
              : "");
+  } else if (!options.long_tau_note.empty()) {
+    range_note += "; " + options.long_tau_note;
   }
   const Result<allan::CompositeFit> fit =
       allan::FitCompositeModel(curve, fit_options, options.long_taus);

@@ -40,6 +40,9 @@ struct NoiseModelOptions {
   // whole record), fitted as moments beside the curve's points (gmwm.h):
   // the model and its minimum then reach 0.3 of the record (allan::kTheo1MomentReach). Empty: none.
   std::vector<allan::Theo1Moment> long_taus;
+  // Where the plan asked for them and there are none: why (every model
+  // value's note says so).
+  std::string long_tau_note;
 };
 
 // The composite noise model of an axis (analyze/allan/gmwm.h: GMWM fit,

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <thread>
 
@@ -474,7 +475,8 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
         axis_options.range_reason = r->reason();
       }
       if (plan.noise_model_long_taus() && !dense_of[a].points.empty()) {
-        axis_options.long_taus = LongTauMoments(a, dense_of[a].points.back().tau_s, stationarity);
+        axis_options.long_taus = LongTauMoments(a, dense_of[a].points.back().tau_s, stationarity,
+                                                &axis_options.long_tau_note);
       }
       model_of[a] = judge::MeasureNoiseModel(desc_.axes[a].name, desc_.axes[a].kind, dense_of[a],
                                              axis_options);
@@ -534,7 +536,8 @@ std::vector<pb::Measurement> RunAnalyzer::MeasureNow(
 }
 
 std::vector<allan::Theo1Moment> RunAnalyzer::LongTauMoments(
-    size_t a, double last_tau_s, const std::vector<pb::Measurement>& stationarity) const {
+    size_t a, double last_tau_s, const std::vector<pb::Measurement>& stationarity,
+    std::string* note) const {
   // An axis judged on a stretch: its one-second means inside that stretch.
   int64_t begin = 0, end = INT64_MAX;
   for (const pb::Measurement& m : stationarity) {
@@ -543,7 +546,19 @@ std::vector<allan::Theo1Moment> RunAnalyzer::LongTauMoments(
     if (m.name() == judge::kJudgedSegmentEnd) end = std::llround(m.value() / tau0_s_);
   }
   const allan::PhaseRecord means = bins_[a].MeansPhase(tau0_s_, begin, end);
-  return allan::Theo1MomentsBeyond(means, last_tau_s, bins_[a].base_samples());
+  std::vector<allan::Theo1Moment> moments =
+      allan::Theo1MomentsBeyond(means, last_tau_s, bins_[a].base_samples());
+  if (moments.empty()) {
+    // A mean with an invalid or missing sample is a gap in the means' record.
+    const int64_t span = std::max<int64_t>(allan::LongestValidSpan(means).size() - 1, 0);
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "no Theo1 moments: the longest stretch of whole valid means (%.0f s) reaches no "
+                  "octave beyond the curve's last tau %.4g s",
+                  static_cast<double>(span) * means.tau0_s, last_tau_s);
+    *note = buf;
+  }
+  return moments;
 }
 
 std::vector<pb::Measurement> RunAnalyzer::JudgeOnSegment(size_t a, const judge::EventCuts& cuts,

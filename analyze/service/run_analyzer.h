@@ -165,8 +165,10 @@ class RunAnalyzer {
   // noise_model_long_taus), from its one-second means over the stretch the
   // axis is judged on (`stationarity`'s judged_segment_start and _end, the
   // whole record without them).
-  std::vector<allan::Theo1Moment> LongTauMoments(
-      size_t a, double last_tau_s, const std::vector<pb::Measurement>& stationarity) const;
+  // None: why, into `note`.
+  std::vector<allan::Theo1Moment> LongTauMoments(size_t a, double last_tau_s,
+                                                 const std::vector<pb::Measurement>& stationarity,
+                                                 std::string* note) const;
 
   // Axis a judged on the stretch that none of `cuts` touches with the most
   // data (plans that judge the longest stationary segment; `scanned`: the

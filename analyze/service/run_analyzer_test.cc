@@ -730,6 +730,37 @@ TEST(RunAnalyzerTest, NoiseModelLongTausFitTheo1OfTheOneSecondMeans) {
   EXPECT_GE(compared, 3);
 }
 
+TEST(RunAnalyzerTest, NoiseModelLongTausSayWhyThereAreNone) {
+  // GIVEN a plan with noise_model_long_taus and 600 s of white noise whose
+  // every second has one sample flagged invalid (no whole valid second)
+  RunDescription d = Desc();
+  d.plan.set_noise_model_long_taus(true);
+  auto a = RunAnalyzer::Create(d);
+  ASSERT_TRUE(a.ok());
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> g;
+  for (int seq = 0; seq < 600; ++seq) {
+    Batch b(seq, seq * 100, 100);
+    for (int i = 0; i < 100; ++i) {
+      b.x[i] = static_cast<float>(0.1 * g(rng));
+      b.a[i] = static_cast<float>(9.8 + 0.01 * g(rng));
+    }
+    b.view.flags.push_back({50, 0, 2});
+    ASSERT_TRUE(a->AddBatch(b.view).ok());
+  }
+  a->Finish(0, 60000);
+  const RunOutcome out = a->Outcome(true);
+  // THEN x's model values say there are no moments and why; ax has them
+  const pb::Measurement* x = Find(out, "x", judge::kFitAngleRandomWalk);
+  ASSERT_NE(x, nullptr);
+  EXPECT_NE(x->note().find("no Theo1 moments: the longest stretch of whole valid means (0 s)"),
+            std::string::npos)
+      << x->note();
+  const pb::Measurement* ax = Find(out, "ax", judge::kFitVelocityRandomWalk);
+  ASSERT_NE(ax, nullptr);
+  EXPECT_NE(ax->note().find("Theo1 moments to"), std::string::npos) << ax->note();
+}
+
 TEST(RunAnalyzerTest, TemperatureOfTheAnalysedBatchesIsMeasuredAndLimited) {
   // GIVEN a 10 s warm-up and 60 one-second batches whose temperature climbs
   // 0.05 deg C per batch from 20 deg C (the warm-up's readings are 30 deg C,
