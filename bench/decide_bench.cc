@@ -140,8 +140,6 @@ pb::Outcome TruthVerdict(const pb::TestPlan& plan, const pb::SimTruth& truth, do
   return worst;
 }
 
-bool Accepts(pb::Outcome o) { return o == pb::PASS || o == pb::MARGINAL; }
-
 }  // namespace
 }  // namespace imuqual
 
@@ -324,9 +322,9 @@ int main(int argc, char** argv) {
       if (r.early == pb::FAIL) ++early_fail_decided;
     }
     disagree += r.early != r.full;
-    disagree_side += Accepts(r.early) != Accepts(r.full);
-    early_wrong += Accepts(r.early) != Accepts(r.truth);
-    full_wrong += Accepts(r.full) != Accepts(r.truth);
+    disagree_side += judge::Accepted(r.early) != judge::Accepted(r.full);
+    early_wrong += judge::Accepted(r.early) != judge::Accepted(r.truth);
+    full_wrong += judge::Accepted(r.full) != judge::Accepted(r.truth);
     early_cat += r.early != r.truth;
     full_cat += r.full != r.truth;
     truth_fail += r.truth == pb::FAIL;

@@ -19,6 +19,7 @@
 // with a u (else an upper bound: the term left out), their rms z against
 // the truth and their 1- and 2-sigma coverage. The truth of a unit is its
 // simulated K per axis judged by the same limit. Never asserts.
+// LONGTAU_TRACE=i prints unit i's curves and noise-model values per arm.
 // Usage: long_tau_soak_bench [--profile P] [--units N] [--fractions 0.5,2]
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -35,6 +36,7 @@
 
 #include "acquire/imu_simulator.h"
 #include "acquire/lot_profile.h"
+#include "analyze/allan/units.h"
 #include "analyze/judge/judge.h"
 #include "analyze/judge/measurements.h"
 #include "analyze/judge/plan.h"
@@ -43,8 +45,6 @@
 
 namespace imuqual {
 namespace {
-
-constexpr double kDegPerHourRootHour = 1.0 / 216000;  // deg/h/sqrt(h) in deg/s/sqrt(s)
 
 struct Arm {
   std::string name;
@@ -61,8 +61,6 @@ struct ArmResult {
   pb::Outcome verdict = pb::OUTCOME_UNSET;
   std::vector<Reading> readings;  // per gyro axis
 };
-
-bool Accepts(pb::Outcome o) { return o == pb::PASS || o == pb::MARGINAL; }
 
 }  // namespace
 }  // namespace imuqual
@@ -168,7 +166,8 @@ int main(int argc, char** argv) {
       std::vector<double> true_k;
       pb::Outcome worst = pb::PASS;
       for (int a : gyro) {
-        true_k.push_back(t.axes(a).rate_random_walk() / kDegPerHourRootHour);
+        true_k.push_back(
+            allan::DegPerSecPerRootSecToDegPerHourPerRootHour(t.axes(a).rate_random_walk()));
         const pb::Outcome o = judge::Evaluate(*limit, true_k.back());
         if (o == pb::FAIL || (o == pb::MARGINAL && worst == pb::PASS)) worst = o;
       }
@@ -283,9 +282,9 @@ int main(int argc, char** argv) {
       if (r.verdict == pb::INCONCLUSIVE) {
         ++inconclusive;
       } else {
-        wrong += Accepts(r.verdict) != Accepts(truth[i]);
+        wrong += judge::Accepted(r.verdict) != judge::Accepted(truth[i]);
       }
-      differs += Accepts(r.verdict) != Accepts(full.verdict);
+      differs += judge::Accepted(r.verdict) != judge::Accepted(full.verdict);
       category += r.verdict != truth[i];
       for (const Reading& k : r.readings) {
         if (k.upper_bound) {

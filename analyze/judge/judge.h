@@ -110,6 +110,10 @@ pb::Outcome VerdictOf(const std::vector<pb::Measurement>& measurements);
 // "PASS", "MARGINAL", "FAIL", "INCONCLUSIVE", "ABORTED", "ERROR", "-".
 const char* OutcomeName(pb::Outcome outcome);
 
+// The disposition a verdict gives the unit: accepted (PASS or MARGINAL, a
+// flag) or not (FAIL; INCONCLUSIVE and the rest are no acceptance either).
+inline bool Accepted(pb::Outcome outcome) { return outcome == pb::PASS || outcome == pb::MARGINAL; }
+
 // "simple", "guarded", "guarded acceptance", "guarded rejection", "default".
 const char* DecisionRuleName(pb::Limit::DecisionRule rule);
 

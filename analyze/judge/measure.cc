@@ -230,14 +230,11 @@ std::vector<pb::Measurement> MeasureNoiseModel(const std::string& axis, pb::Axis
                                                        " s (" + options.range_reason + ")"
                                                  : "";
   if (!options.long_taus.empty()) {
+    const allan::Theo1Moment& last = options.long_taus.back();
     range_note +=
         "; Theo1 moments to " +
-        Num(0.75 * static_cast<double>(options.long_taus.back().m) *
-            static_cast<double>(options.long_taus.back().block) * curve.tau0_s) +
-        " s in the fit" +
-        (options.long_taus.back().block > 1
-             ? " (of the means of " + std::to_string(options.long_taus.back().block) + " samples)"
-             : "");
+        Num(0.75 * static_cast<double>(last.m * last.block) * curve.tau0_s) + " s in the fit" +
+        (last.block > 1 ? " (of the means of " + std::to_string(last.block) + " samples)" : "");
   } else if (!options.long_tau_note.empty()) {
     range_note += "; " + options.long_tau_note;
   }

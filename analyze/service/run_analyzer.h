@@ -164,8 +164,7 @@ class RunAnalyzer {
   // The Theo1 moments of axis a beyond `last_tau_s` (plans with
   // noise_model_long_taus), from its one-second means over the stretch the
   // axis is judged on (`stationarity`'s judged_segment_start and _end, the
-  // whole record without them).
-  // None: why, into `note`.
+  // whole record without them). When there are none, why into `note`.
   std::vector<allan::Theo1Moment> LongTauMoments(size_t a, double last_tau_s,
                                                  const std::vector<pb::Measurement>& stationarity,
                                                  std::string* note) const;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <string_view>
 
@@ -672,33 +673,41 @@ TEST(RunAnalyzerTest, WithoutAReferenceTheRecordsOwnModelIsScanned) {
   EXPECT_NE(x->note().find("not held"), std::string::npos);
 }
 
+// A run of `seconds` one-second batches under a plan with
+// noise_model_long_taus, each batch filled by fill(batch), to its end.
+RunOutcome LongTauRun(int seconds, const std::function<void(Batch*)>& fill) {
+  RunDescription d = Desc();
+  d.plan.set_noise_model_long_taus(true);
+  auto a = RunAnalyzer::Create(d);
+  EXPECT_TRUE(a.ok());
+  for (int seq = 0; seq < seconds; ++seq) {
+    Batch b(seq, seq * 100, 100);
+    fill(&b);
+    EXPECT_TRUE(a->AddBatch(b.view).ok());
+  }
+  a->Finish(0, int64_t{100} * seconds);
+  return a->Outcome(true);
+}
+
 TEST(RunAnalyzerTest, NoiseModelLongTausFitTheo1OfTheOneSecondMeans) {
   // GIVEN 1200 s at 100 Hz of white rate noise (0.1 deg/s per sample) and a
   // rate random walk whose Allan minimum (200 s) lies beyond the stop
   // rule's T/9, under a plan with noise_model_long_taus
-  RunDescription d = Desc();
-  d.plan.set_noise_model_long_taus(true);
-  auto a = RunAnalyzer::Create(d);
-  ASSERT_TRUE(a.ok());
   std::mt19937_64 rng(77);
   std::normal_distribution<double> g;
   const double k = std::sqrt(3.0) * 0.01 / 200;  // deg/s/sqrt(s)
   double walk = 0;
   std::vector<double> means;  // of each second of x, as the analysis sums them
-  for (int seq = 0; seq < 1200; ++seq) {
-    Batch b(seq, seq * 100, 100);
+  const RunOutcome out = LongTauRun(1200, [&](Batch* b) {
     double sum = 0;
     for (int i = 0; i < 100; ++i) {
       walk += k * std::sqrt(1 / kRate) * g(rng);
-      b.x[i] = static_cast<float>(0.1 * g(rng) + walk);
-      b.a[i] = static_cast<float>(9.8 + 0.01 * g(rng));
-      sum += b.x[i];
+      b->x[i] = static_cast<float>(0.1 * g(rng) + walk);
+      b->a[i] = static_cast<float>(9.8 + 0.01 * g(rng));
+      sum += b->x[i];
     }
     means.push_back(sum / 100);
-    ASSERT_TRUE(a->AddBatch(b.view).ok());
-  }
-  a->Finish(0, 120000);
-  const RunOutcome out = a->Outcome(true);
+  });
   // THEN x's model is fitted with Theo1 of the one-second means beyond the
   // curve (one octave: 0.3 of 1200 s reaches 360 s), and every model value
   // is the one the offline fit gives with the same moments
@@ -733,23 +742,15 @@ TEST(RunAnalyzerTest, NoiseModelLongTausFitTheo1OfTheOneSecondMeans) {
 TEST(RunAnalyzerTest, NoiseModelLongTausSayWhyThereAreNone) {
   // GIVEN a plan with noise_model_long_taus and 600 s of white noise whose
   // every second has one sample flagged invalid (no whole valid second)
-  RunDescription d = Desc();
-  d.plan.set_noise_model_long_taus(true);
-  auto a = RunAnalyzer::Create(d);
-  ASSERT_TRUE(a.ok());
   std::mt19937_64 rng(3);
   std::normal_distribution<double> g;
-  for (int seq = 0; seq < 600; ++seq) {
-    Batch b(seq, seq * 100, 100);
+  const RunOutcome out = LongTauRun(600, [&](Batch* b) {
     for (int i = 0; i < 100; ++i) {
-      b.x[i] = static_cast<float>(0.1 * g(rng));
-      b.a[i] = static_cast<float>(9.8 + 0.01 * g(rng));
+      b->x[i] = static_cast<float>(0.1 * g(rng));
+      b->a[i] = static_cast<float>(9.8 + 0.01 * g(rng));
     }
-    b.view.flags.push_back({50, 0, 2});
-    ASSERT_TRUE(a->AddBatch(b.view).ok());
-  }
-  a->Finish(0, 60000);
-  const RunOutcome out = a->Outcome(true);
+    b->view.flags.push_back({50, 0, 2});
+  });
   // THEN x's model values say there are no moments and why; ax has them
   const pb::Measurement* x = Find(out, "x", judge::kFitAngleRandomWalk);
   ASSERT_NE(x, nullptr);
