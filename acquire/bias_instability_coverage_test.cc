@@ -4,14 +4,13 @@
 // stronger random walk, and filtered white noise with a strong random walk)
 // analysed as the station does (streaming engine, dense grid, 9-bin rule),
 // the curve minimum and its 1-sigma uncertainty against the truth's own
-// minimum over the same taus. Over 200 seeds the 1-sigma interval must cover
+// minimum over the same taus. Over 600 seeds the 1-sigma interval must cover
 // the truth in 60-76 % of records (68 % nominal) and the 2-sigma one in
-// >= 93 % (measured 72.5 / 74.0 % and 95.0 / 93.0 %). On the two steeper
-// bottoms it covers more than stated (measured 78.5 / 79.0 % and 98.5 / 98.0 %: the
-// draws spread a V's points ~15 % wider than the records do): held to
-// 60-82 % and >= 93 % there. The reading itself (the curve's minimum, as
-// datasheets define it) lies low: measured mean z -0.5 (the minimum of a
-// noisy curve is picked from its dips); the test keeps that bias within
+// >= 93 % (measured 70.3 / 74.5 / 75.2 / 75.0 % and 93.8 / 95.7 / 97.5 /
+// 95.8 %; over the first 200 seeds 69.5 / 69.0 / 74.0 / 75.5 % and 93.5 /
+// 92.5 / 97.0 / 96.5 %). The reading itself (the curve's minimum, as
+// datasheets define it) lies low: measured mean z -0.2 to -0.6 (the minimum
+// of a noisy curve is picked from its dips); the test keeps that bias within
 // [-0.8, 0] and prints it.
 #include <gtest/gtest.h>
 
@@ -32,6 +31,10 @@ namespace {
 constexpr double kRateHz = 100.0;
 constexpr int kSamples = 1 << 19;  // 87 min at 100 Hz
 constexpr int kSeeds = 200;
+// The minimum's value over more records: its 2-sigma coverage sits 1-3
+// points above the line, where 200 records' Monte Carlo error (1.5 %) is as
+// large as the margin.
+constexpr int kValueSeeds = 600;
 
 using Scenario = sim::CoverageMixture;
 using sim::TruthAvar;
@@ -55,11 +58,9 @@ TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {
   std::vector<Scenario> scenarios = Scenarios();
   for (const Scenario& s : SteeperScenarios()) scenarios.push_back(s);
   for (const Scenario& s : scenarios) {
-    const bool steeper =
-        s.name == SteeperScenarios().front().name || s.name == SteeperScenarios().back().name;
     int covered1 = 0, covered2 = 0, n = 0;
     double sum_z = 0;
-    for (int seed = 1; seed <= kSeeds; ++seed) {
+    for (int seed = 1; seed <= kValueSeeds; ++seed) {
       const allan::Curve dense = StationCurve(s.truth, 9001 * seed + 17);
       const auto min = allan::FindCurveMinimum(dense);
       ASSERT_TRUE(min.has_value());
@@ -79,7 +80,7 @@ TEST(BiasInstabilityCoverageTest, OneSigmaCoversTheTruthsMinimumAsStated) {
     std::printf("%-22s 1-sigma %.1f %%  2-sigma %.1f %%  mean z %+.2f  (%d records)\n",
                 s.name.c_str(), 100 * c1, 100 * c2, sum_z / n, n);
     EXPECT_GE(c1, 0.60) << s.name;
-    EXPECT_LE(c1, steeper ? 0.82 : 0.76) << s.name;
+    EXPECT_LE(c1, 0.76) << s.name;
     EXPECT_GE(c2, 0.93) << s.name;
     EXPECT_GE(sum_z / n, -0.8) << s.name;
     EXPECT_LE(sum_z / n, 0.0) << s.name;

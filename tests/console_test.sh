@@ -29,7 +29,17 @@ fail() {
   tail -n 30 "$work/lot.db.log" >&2 2>/dev/null || true
   exit 1
 }
-screen() { tm capture-pane -p -t soak; }
+# A capture that fails (tmux once said "server exited unexpectedly" here on a
+# host loaded by other work while its server went on) is tried again; a
+# server that is really gone fails the test with the process log.
+screen() {
+  local try
+  for try in 1 2 3 4 5; do
+    tm capture-pane -p -t soak 2>"$work/tmux.err" && return 0
+    sleep 0.5
+  done
+  fail "tmux capture-pane failed 5 times: $(cat "$work/tmux.err")"
+}
 # Waits until the screen matches the extended regular expression.
 wait_screen() {
   local pattern="$1" timeout="$2" t=0

@@ -337,6 +337,47 @@ std::optional<double> GreenhallEdf(int alpha, int d, int64_t m, int64_t n_phase,
   return 1.0 / *inverse;
 }
 
+std::optional<double> GreenhallMixtureEdf(std::span<const PowerLawShare> shares, int d, int64_t m,
+                                          int64_t n_phase, double S) {
+  if (d < 1 || d > 3 || m < 1 || !(S > 0.0) || shares.empty()) return std::nullopt;
+  double total = 0;
+  for (const PowerLawShare& p : shares) {
+    if (p.alpha < -4 || p.alpha > 0 || p.alpha + 2 * d <= 1 || !(p.share >= 0)) return std::nullopt;
+    total += p.share;
+  }
+  if (!(total > 0) || !std::isfinite(total)) return std::nullopt;
+  constexpr double kJmax = 100.0;
+  const double md = static_cast<double>(m), F = md;
+  const double L = md / F + md * d;
+  if (static_cast<double>(n_phase) < L) return std::nullopt;
+  const double M = 1.0 + std::floor(S * (static_cast<double>(n_phase) - L) / md);
+  double J = std::min(M, std::floor((d + 1) * S));
+  if (J < 1) return std::nullopt;
+  double m_count = M, s = S, f = md * (d + 1) <= kJmax ? F : kInf;
+  if (J > kJmax) {
+    // The same r = M / S on a lag grid of at most kJmax steps.
+    const double r = M / S;
+    s = r >= d + 1 ? kJmax / (d + 1) : kJmax / r;
+    m_count = r * s;
+    J = kJmax;
+    f = kInf;
+  }
+  // The mixture's sz at lag j / s, each noise's scaled to its share.
+  const int count = static_cast<int>(J) + 1;
+  std::vector<double> sz(count, 0.0);
+  for (const PowerLawShare& p : shares) {
+    if (!(p.share > 0)) continue;
+    const double at0 = Sz(0, f, p.alpha, d);
+    if (!(at0 != 0) || !std::isfinite(at0)) return std::nullopt;
+    for (int j = 0; j < count; ++j) sz[j] += p.share / total * Sz(j / s, f, p.alpha, d) / at0;
+  }
+  double sum = sz[0] * sz[0] + (1.0 - J / m_count) * sz[count - 1] * sz[count - 1];
+  for (int j = 1; j < count - 1; ++j) sum += 2.0 * (1.0 - j / m_count) * sz[j] * sz[j];
+  const double inverse = sum / (m_count * sz[0] * sz[0]);
+  if (!(inverse > 0.0) || !std::isfinite(inverse)) return std::nullopt;
+  return 1.0 / inverse;
+}
+
 std::optional<double> TotalDeviationEdf(int alpha, int64_t m, int64_t n_phase) {
   if (m < 1) return std::nullopt;
   double b = 0.0;

@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -54,6 +55,23 @@ double Chi2Inv(double p, double nu);
 // m d, or non-positive m, F, S.
 std::optional<double> GreenhallEdf(int alpha, int d, int64_t m, int64_t n_phase, double F,
                                    double S);
+
+// The same for an unmodified estimate (F = m) of a mixture of independent
+// power-law noises, alpha in -4..0, each with its share of the estimate's
+// expectation (shares >= 0, summing to 1 or not: they are normalised). The
+// estimate's terms are correlated as the mixture's own structure function
+// says (the sum of each noise's sz scaled to its share), so its variance
+// carries the noises' cross terms: it is not a combination of the noises'
+// edfs. Where Greenhall & Riley read a table (J > 100 with r = M/S >= d + 1)
+// the basic sum is taken on a coarser lag grid with the same r (S' = 100 /
+// (d + 1)), as their r < d + 1 case does. nullopt as GreenhallEdf, or when
+// no share is positive.
+struct PowerLawShare {
+  int alpha = 0;
+  double share = 0;
+};
+std::optional<double> GreenhallMixtureEdf(std::span<const PowerLawShare> shares, int d, int64_t m,
+                                          int64_t n_phase, double S);
 
 // TOTVAR edf nu = b N/m - c (NIST SP1065 Table 7): (b, c) = (1.50, 0) white FM
 // (alpha 0), (1.17, 0.22) flicker FM (-1), (0.93, 0.36) random-walk FM (-2).

@@ -20,10 +20,12 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "analyze/allan/confidence.h"
 #include "analyze/allan/curve.h"
 #include "common/status.h"
 
@@ -194,6 +196,10 @@ SlopeReadoff ReadSlopeLine(const Curve& curve, NoiseTerm term);
 // point for noise alpha, with N the gap-free record that gives its valid
 // terms (capped at curve_n_phase when > 0). NaN when undefined.
 double PointEdf(const CurvePoint& point, int64_t curve_n_phase, int alpha);
+// The same for a mixture of power-law noises with their shares of the
+// point's AVAR (GreenhallMixtureEdf: the noises' cross terms in).
+double PointMixtureEdf(const CurvePoint& point, int64_t curve_n_phase,
+                       std::span<const PowerLawShare> shares);
 
 // The curve's minimum (the convention of many datasheets, and of the seed's
 // "bias instability") and min/0.664 (IEEE 952's B), both in the rate unit.
