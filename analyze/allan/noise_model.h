@@ -230,8 +230,9 @@ double MinimumPointSpread(const Curve& curve, const CurveMinimum& min);
 // The points within an octave of `min` are drawn (4000 draws from a fixed
 // seed: a pure function of the curve) about the bottom's shape
 // (FitBottomShape), each AVAR as chi-square / edf (Wilson-Hilferty; the edf
-// of the shape's white, flicker and random-walk shares) with flicker FM's
-// correlations between overlapping AVAR estimates. u = level x r, level the
+// of the shape's white + flicker + random-walk mixture, PointMixtureEdf:
+// the terms' cross terms in) with flicker FM's correlations between
+// overlapping AVAR estimates. u = level x r, level the
 // mean of those points, r half the 95.45 % quantile of |least - truth| /
 // level over the draws (each with its own level; the truth is the shape's
 // minimum over the points fitted): the +-2u interval is calibrated, the

@@ -32,7 +32,8 @@ pb::Measurement Make(const std::string& axis, std::string_view name, double valu
 constexpr const char* kMinimumMethod =
     "the least of the bottom's points within an octave, drawn 4000 times about the bottom's shape "
     "(AVAR = a/tau + b + c tau fitted within 2 octaves) with their chi-square spreads (Greenhall "
-    "edf) and flicker FM's correlations: half the 95.45 % quantile of |least - truth| as a "
+    "edf of the shape's white + flicker + random-walk mixture) and flicker FM's correlations: "
+    "half the 95.45 % quantile of |least - truth| as a "
     "fraction of the bottom's level, times this curve's level";
 constexpr const char* kMinimumPointMethod =
     "chi2 (Greenhall edf, flicker FM) at the minimum combined with the spread of points within "

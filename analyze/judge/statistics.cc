@@ -1,11 +1,12 @@
 #include "analyze/judge/statistics.h"
 
 #include <algorithm>
+#include <boost/math/distributions/fisher_f.hpp>
+#include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 #include <numeric>
 
-#include <boost/math/distributions/fisher_f.hpp>
-#include <boost/math/distributions/students_t.hpp>
+#include "analyze/judge/judge.h"
 
 namespace imuqual::judge {
 namespace {
@@ -33,10 +34,9 @@ Summary Summarize(std::span<const double> values, std::span<const pb::Outcome> o
     // Yield counts PASS and MARGINAL against PASS, MARGINAL and FAIL: an
     // INCONCLUSIVE value is neither a pass nor a loss (and ABORTED / ERROR
     // are no measurement's outcome).
-    if (i < outcomes.size() &&
-        (outcomes[i] == pb::PASS || outcomes[i] == pb::MARGINAL || outcomes[i] == pb::FAIL)) {
+    if (i < outcomes.size() && (Accepted(outcomes[i]) || outcomes[i] == pb::FAIL)) {
       ++s.judged;
-      if (outcomes[i] == pb::PASS || outcomes[i] == pb::MARGINAL) ++s.passed;
+      if (Accepted(outcomes[i])) ++s.passed;
       if (outcomes[i] == pb::MARGINAL) ++s.marginal;
     }
     if (!std::isfinite(v)) continue;
