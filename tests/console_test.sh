@@ -30,8 +30,10 @@ fail() {
   exit 1
 }
 # A capture that fails (tmux once said "server exited unexpectedly" here on a
-# host loaded by other work while its server went on) is tried again; a
-# server that is really gone fails the test with the process log.
+# host loaded by other work) is tried again; a server that is really gone
+# fails the test with the process log. Read it as `x="$(screen)" || exit 1`
+# (fail, in the command substitution's subshell, prints why), never in a
+# pipeline, where its exit would end only the pipeline.
 screen() {
   local try
   for try in 1 2 3 4 5; do
@@ -42,8 +44,10 @@ screen() {
 }
 # Waits until the screen matches the extended regular expression.
 wait_screen() {
-  local pattern="$1" timeout="$2" t=0
-  until screen | grep -Eq -- "$pattern"; do
+  local pattern="$1" timeout="$2" t=0 now
+  while :; do
+    now="$(screen)" || exit 1
+    printf '%s\n' "$now" | grep -Eq -- "$pattern" && return 0
     sleep 0.5
     t=$((t + 1))
     [ "$t" -lt $((timeout * 2)) ] || fail "no '$pattern' on screen within $timeout s"
@@ -56,8 +60,10 @@ start_soak() {  # [COLUMNS ROWS], default 140 x 45
     "trap : INT; '$bin/imuqual' run --station '$work/station.textproto'; echo \"imuqual run exited with \$?\""
 }
 wait_exit() {
+  local now
   wait_screen "^imuqual run exited with [0-9]+$" "$1"
-  screen | sed -nE 's/^imuqual run exited with ([0-9]+)$/\1/p' | tail -n 1
+  now="$(screen)" || exit 1
+  printf '%s\n' "$now" | sed -nE 's/^imuqual run exited with ([0-9]+)$/\1/p' | tail -n 1
 }
 sql() { sqlite3 "$work/lot.db" "$1"; }
 
@@ -107,7 +113,7 @@ wait_screen "^A1 .* x +($p +)?$v deg/h" 30
 # Both analyze shards heard (on a loaded host a shard's status can lag its
 # first results, and the line reads "analyze 1/1" or "1/2" for a moment).
 wait_screen "analyze 2/2" 30
-now="$(screen)"
+now="$(screen)" || exit 1
 # Each row: slot, unit, the unit's verdict (and why, when not a pass), state,
 # elapsed / planned, axis, the axis's verdict, its live value, samples, gaps.
 for want in "^\[#*\.*\] +[0-9]+% +elapsed" "^B2 +SN-104 .*running +[0-9:]+ / 20:00" \
@@ -124,7 +130,7 @@ pkill -9 -P "$station_pid" -f "imuqual-analyze .*--shard 1/2" || fail "no analyz
 wait_screen "analyze 2/2 \(restarted 1x\)" 30
 code="$(wait_exit 240)"
 [ "$code" = 0 ] || fail "soak 1: imuqual run exit $code"
-final="$(screen)"
+final="$(screen)" || exit 1
 for want in "^4 units: [0-9]+ PASS, [0-9]+ MARGINAL, [0-9]+ FAIL$" "^A1 +SN-101 +x " "^B2 +SN-104 +z " \
     "^report: $work/lot-CONSOLE-LOT.html$" "restarted 2 time"; do
   printf '%s\n' "$final" | grep -Eq -- "$want" || fail "final screen lacks '$want'"
@@ -242,7 +248,7 @@ write_config 10
 start_soak 80 24
 wait_screen "^A1 +SN-101 .*running" 30
 wait_screen "^A1 +SN-101 +((pass|marginal|fail)\?|pending) " 60
-now="$(screen)"
+now="$(screen)" || exit 1
 for unit in "A2 +SN-102" "B1 +SN-103" "B2 +SN-104"; do
   printf '%s\n' "$now" | grep -Eq -- "^$unit +(((pass|marginal|fail)\?|pending) +)?.*(running|waiting|no data)" ||
     fail "80 x 24: no row '$unit ... running'"
@@ -252,7 +258,7 @@ done
 tm send-keys -t soak C-c
 code="$(wait_exit 120)"
 [ "$code" = 130 ] || fail "soak 2: imuqual run exit $code after Ctrl-C"
-final="$(screen)"
+final="$(screen)" || exit 1
 for want in "^4 units: 0 PASS, 0 MARGINAL, 0 FAIL, 4 ABORTED \(interrupted: runs aborted\)$" \
     "^yield not measurable: no judged unit$" "slot B2 SN-104: run aborted before completion" "^report: "; do
   printf '%s\n' "$final" | grep -Eq -- "$want" || fail "final screen after Ctrl-C lacks '$want'"

@@ -118,8 +118,8 @@ TEST(GreenhallEdf, FiguresOfTheAlgorithmNote) {
 }
 
 // The edf of a mixture's estimate (GreenhallMixtureEdf): one noise alone is
-// Greenhall's edf bit for bit where the basic sum is exact (J <= 100, or
-// r < d + 1), and within 3 % of the tables where they are read; a mixture's
+// Greenhall's edf to 1e-12 where the basic sum is exact (J <= 100, or
+// r < d + 1), and within 1 % of the tables where they are read; a mixture's
 // variance carries its cross terms. (Measured once against the spectral
 // overlap of the mixture's PSD at factors 15360-57344 of a 2^19-sample
 // record: the same relative variance within 0.8 %; and against 1000
@@ -145,7 +145,7 @@ TEST(GreenhallMixtureEdf, OneNoiseIsGreenhallsEdf) {
       // The tables are read where J > 100 and r >= 3: m 300 and 11111 of
       // 100001, S = m (measured 4e-4 apart at 11111).
       const bool table = p.n == 100001 && (p.m == 300 || p.m == 11111);
-      EXPECT_NEAR(*mix / *g, 1.0, table ? 0.03 : 1e-12) << "m " << p.m << " alpha " << alpha;
+      EXPECT_NEAR(*mix / *g, 1.0, table ? 0.01 : 1e-12) << "m " << p.m << " alpha " << alpha;
     }
   }
 }
@@ -157,19 +157,15 @@ TEST(GreenhallMixtureEdf, AMixturesVarianceCarriesItsCrossTerms) {
   const double mix = *GreenhallMixtureEdf(half, 2, m, n, m);
   // Independent noises: the variance is more than the two terms' own
   // (positive cross terms) and less than their shares' weighted inverse
-  // edfs (which takes the noises as fully correlated).
+  // edfs (which by Jensen lie above even fully correlated terms' bound).
   EXPECT_GT(1 / mix, 0.25 / e_white + 0.25 / e_walk);
   EXPECT_LT(1 / mix, 0.5 / e_white + 0.5 / e_walk);
-  // Shares are normalised, and one noise split in two is that noise.
+  // Shares are normalised: scaled together they give the same edf, and a
+  // larger share of the noise with the larger edf gives a larger one.
   const PowerLawShare scaled[] = {{0, 3.0}, {-2, 3.0}};
   EXPECT_DOUBLE_EQ(*GreenhallMixtureEdf(scaled, 2, m, n, m), mix);
-  const PowerLawShare split[] = {{-1, 0.3}, {-1, 0.7}};
-  const PowerLawShare whole[] = {{-1, 1.0}};
-  EXPECT_NEAR(*GreenhallMixtureEdf(split, 2, m, n, m), *GreenhallMixtureEdf(whole, 2, m, n, m),
-              1e-9);
-  // A noise with no share is no noise.
-  const PowerLawShare with_zero[] = {{0, 0.5}, {-1, 0.0}, {-2, 0.5}};
-  EXPECT_DOUBLE_EQ(*GreenhallMixtureEdf(with_zero, 2, m, n, m), mix);
+  const PowerLawShare whiter[] = {{0, 0.8}, {-2, 0.2}};
+  EXPECT_GT(*GreenhallMixtureEdf(whiter, 2, m, n, m), mix);
 }
 
 TEST(GreenhallMixtureEdf, UndefinedCases) {
@@ -182,6 +178,10 @@ TEST(GreenhallMixtureEdf, UndefinedCases) {
   const PowerLawShare white[] = {{0, 1.0}};
   EXPECT_FALSE(GreenhallMixtureEdf(white, 2, 60000, 100001, 60000).has_value());  // N < L
   EXPECT_FALSE(GreenhallMixtureEdf({}, 2, 100, 100001, 100).has_value());
+  EXPECT_FALSE(GreenhallMixtureEdf(white, 4, 100, 100001, 100).has_value());  // d out of range
+  EXPECT_FALSE(GreenhallMixtureEdf(white, 2, 100, 100001, 0).has_value());    // S <= 0
+  const PowerLawShare nan_share[] = {{0, std::nan("")}};
+  EXPECT_FALSE(GreenhallMixtureEdf(nan_share, 2, 100, 100001, 100).has_value());
 }
 
 TEST(GreenhallEdf, StrideFactorTableOfTheAlgorithmNote) {

@@ -753,9 +753,10 @@ enum class BottomDrawsFor { kValue, kTau };
 //   estimates (the noise that makes a bottom flat; a random walk's or the
 //   shape's own correlations gave the same figures). The shares' weighted
 //   inverse edfs, used before, overstate a point's variance where two terms
-//   share it (a V's vertex: 1.2-1.4 times the variance measured over 200
-//   simulated records, which the mixture's edf matches within 10 %), and
-//   the steeper bottoms' 1-sigma coverage was 78.5 / 79.0 % with them.
+//   share it (by Jensen above even fully correlated terms' bound; at a V's
+//   vertex 1.2-1.4 times the variance measured over 200 simulated records,
+//   which the mixture's edf matches within 10 %), and the steeper bottoms'
+//   1-sigma coverage was 78.5 / 79.0 % with them.
 // - For the minimum's tau, the edf is the shares' weighted inverse edfs and
 //   the correlations the shape's own white + flicker + random walk's: the
 //   calibration whose coverage was measured (flicker's correlations made its
