@@ -169,16 +169,26 @@ class SzValues {
   std::unordered_map<Key, std::vector<double>, KeyHash> entries_;
 };
 
-// BS(J, M, S, F) = sz(0)^2 + (1 - J/M) sz(J/S)^2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)^2.
-// J is a whole number >= 1 (j/S and J/S are then the same quotients).
-double BasicSum(double J, double M, double S, double f, int alpha, int d) {
+// sz(j/S, F) for j = 0..count-1, from this thread's SzValues.
+const double* SzAt(double S, double f, int alpha, int d, int count) {
   thread_local SzValues values;
-  const double* sz = values.Get(S, f, alpha, d, static_cast<int>(J) + 1);
+  return values.Get(S, f, alpha, d, count);
+}
+
+// BS = sz[0]^2 + (1 - J/M) sz[J]^2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz[j]^2, sz
+// holding J + 1 values.
+double BasicSumOf(const double* sz, double J, double M) {
   const double sz0 = sz[0];
   const double szj = sz[static_cast<int>(J)];
   double sum = sz0 * sz0 + (1.0 - J / M) * szj * szj;
   for (int j = 1; j < J; ++j) sum += 2.0 * (1.0 - j / M) * sz[j] * sz[j];
   return sum;
+}
+
+// BS(J, M, S, F) = sz(0)^2 + (1 - J/M) sz(J/S)^2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)^2.
+// J is a whole number >= 1 (j/S and J/S are then the same quotients).
+double BasicSum(double J, double M, double S, double f, int alpha, int d) {
+  return BasicSumOf(SzAt(S, f, alpha, d, static_cast<int>(J) + 1), J, M);
 }
 
 struct TableEntry {
@@ -367,13 +377,11 @@ std::optional<double> GreenhallMixtureEdf(std::span<const PowerLawShare> shares,
   std::vector<double> sz(count, 0.0);
   for (const PowerLawShare& p : shares) {
     if (!(p.share > 0)) continue;
-    const double at0 = Sz(0, f, p.alpha, d);
-    if (!(at0 != 0) || !std::isfinite(at0)) return std::nullopt;
-    for (int j = 0; j < count; ++j) sz[j] += p.share / total * Sz(j / s, f, p.alpha, d) / at0;
+    const double* own = SzAt(s, f, p.alpha, d, count);
+    if (!(own[0] != 0) || !std::isfinite(own[0])) return std::nullopt;
+    for (int j = 0; j < count; ++j) sz[j] += p.share / total * own[j] / own[0];
   }
-  double sum = sz[0] * sz[0] + (1.0 - J / m_count) * sz[count - 1] * sz[count - 1];
-  for (int j = 1; j < count - 1; ++j) sum += 2.0 * (1.0 - j / m_count) * sz[j] * sz[j];
-  const double inverse = sum / (m_count * sz[0] * sz[0]);
+  const double inverse = BasicSumOf(sz.data(), J, m_count) / (m_count * sz[0] * sz[0]);
   if (!(inverse > 0.0) || !std::isfinite(inverse)) return std::nullopt;
   return 1.0 / inverse;
 }
