@@ -1,0 +1,281 @@
+// Do a record's model figures and its read-offs agree? Both come from the
+// same record, so their errors are correlated and neither u alone is the u of
+// their difference. This bench fits the noise model to a recorded series (as
+// `imuqual analyze --fit` does: octave OADEV, chi-square edf, from
+// --fit-min-tau), then simulates twins of the record from the fitted model
+// (same rate and length, each term as the simulator draws it, the output
+// rounded to --lsb), reads each twin as the record was read, and prints the
+// twins' distribution of (read-off - model) for the curve minimum and for
+// N: its mean (the two estimators' relative bias under the model), its
+// standard deviation (the u of the difference), and the record's own
+// difference as z against them.
+//
+// Usage: twin_agreement_bench CSV --column NAME --rate HZ [--scale S]
+//          [--fit-min-tau T] [--lsb L] [--twins N] [--threads T] [--each]
+// --each prints every twin's selected model and its curve minimum's z.
+// --lsb adds the rounding to the twins; leave it out where the record's
+// rounding is already in its fitted white noise (it would count twice).
+// CSV: a header line, comma-separated values; the column's values times S.
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "acquire/imu_simulator.h"
+#include "analyze/allan/confidence.h"
+#include "analyze/allan/estimators.h"
+#include "analyze/allan/gmwm.h"
+#include "analyze/allan/noise_model.h"
+#include "analyze/allan/phase.h"
+#include "analyze/allan/tau_grid.h"
+
+namespace imuqual {
+namespace {
+
+struct Reading {
+  double readoff_min = NAN, readoff_min_u = NAN, model_min = NAN, model_min_u = NAN;
+  double readoff_n = NAN, readoff_n_u = NAN, model_n = NAN, model_n_u = NAN;
+  std::string model;
+  bool adequate = false;
+};
+
+Reading Read(const std::vector<double>& rate, double tau0, double fit_min_tau,
+             allan::CompositeFit* fit_out = nullptr) {
+  Reading r;
+  const allan::PhaseRecord phase = allan::PhaseFromRate(rate, tau0);
+  const std::vector<int64_t> m = allan::AveragingFactors(
+      allan::TauGridSpec{}, tau0, phase.size(), allan::Deviation::kOadev, allan::StopRule::kBins9);
+  allan::Curve curve = allan::ComputeDeviation(phase, allan::Deviation::kOadev, m);
+  allan::AttachConfidence(phase, allan::CiMethod::kChi2, allan::kOneSigmaConfidence, &curve);
+  if (const auto min = allan::FindCurveMinimum(curve)) {
+    r.readoff_min = min->dev;
+    r.readoff_min_u = allan::MinimumUncertainty(curve, *min);
+  }
+  const allan::SlopeReadoff n = allan::ReadSlopeLine(curve, allan::NoiseTerm::kAngleRandomWalk);
+  r.readoff_n = n.value;
+  r.readoff_n_u = n.uncertainty;
+  allan::GmwmOptions fo;
+  fo.stop = allan::StopRule::kNone;
+  fo.min_tau_s = fit_min_tau;
+  auto fit = allan::FitCompositeModel(curve, fo);
+  if (!fit.ok()) return r;
+  r.model_min = fit->curve_minimum.value;
+  r.model_min_u = fit->curve_minimum.sigma;
+  r.model_n = fit->white_asymptote.value;
+  r.model_n_u = fit->white_asymptote.sigma;
+  r.model = fit->model.Name();
+  r.adequate = fit->adequate;
+  if (fit_out != nullptr) *fit_out = *fit;
+  return r;
+}
+
+// The simulator's truth for one axis from the fitted model's terms.
+pb::SimTruth TwinTruth(const allan::CompositeModel& model, double rate_hz, double lsb,
+                       uint64_t seed) {
+  pb::SimTruth truth;
+  truth.set_seed(seed);
+  truth.set_actual_rate_hz(rate_hz);
+  pb::AxisTruth* axis = truth.add_axes();
+  axis->set_axis("x");
+  axis->set_rate_lsb(lsb);
+  for (const allan::ModelTerm& t : model.terms) {
+    switch (t.kind) {
+      case allan::TermKind::kQuantization:
+        axis->set_quantization(t.scale);
+        break;
+      case allan::TermKind::kWhite:
+        axis->set_random_walk(t.scale);
+        break;
+      case allan::TermKind::kFlicker:
+        axis->set_bias_instability(t.scale);
+        break;
+      case allan::TermKind::kRandomWalk:
+        axis->set_rate_random_walk(t.scale);
+        break;
+      case allan::TermKind::kDrift:
+        axis->set_rate_ramp(t.scale);
+        break;
+      case allan::TermKind::kGaussMarkov: {
+        pb::GaussMarkov* g = axis->add_gauss_markov();
+        g->set_sigma(t.scale);
+        g->set_correlation_time_s(t.correlation_time_s);
+        break;
+      }
+      case allan::TermKind::kSinusoid: {
+        pb::Sinusoid* s = axis->add_sinusoids();
+        s->set_amplitude(t.scale);
+        s->set_frequency_hz(t.frequency_hz);
+        break;
+      }
+    }
+  }
+  return truth;
+}
+
+struct Stats {
+  double n = 0, sum = 0, sum2 = 0;
+  void Add(double x) {
+    if (!std::isfinite(x)) return;
+    ++n;
+    sum += x;
+    sum2 += x * x;
+  }
+  double Mean() const { return sum / n; }
+  double Sd() const { return std::sqrt(std::max(0.0, (sum2 - sum * sum / n) / (n - 1))); }
+};
+
+int Fail(const std::string& why) {
+  std::fprintf(stderr, "twin_agreement_bench: %s\n", why.c_str());
+  return 2;
+}
+
+}  // namespace
+}  // namespace imuqual
+
+int main(int argc, char** argv) {
+  using namespace imuqual;
+  if (argc < 2) return Fail("usage: twin_agreement_bench CSV --column NAME --rate HZ [...]");
+  std::string path = argv[1], column;
+  double rate_hz = 0, scale = 1, fit_min_tau = 0, lsb = 0;
+  int twins = 200, threads = 2;
+  bool each = false;
+  for (int i = 2; i < argc; i += 2) {
+    const std::string flag = argv[i];
+    if (flag == "--each") {
+      each = true;
+      --i;  // no value
+      continue;
+    }
+    if (i + 1 >= argc) return Fail(flag + " needs a value");
+    const char* v = argv[i + 1];
+    if (flag == "--column") {
+      column = v;
+    } else if (flag == "--rate") {
+      rate_hz = std::atof(v);
+    } else if (flag == "--scale") {
+      scale = std::atof(v);
+    } else if (flag == "--fit-min-tau") {
+      fit_min_tau = std::atof(v);
+    } else if (flag == "--lsb") {
+      lsb = std::atof(v);
+    } else if (flag == "--twins") {
+      twins = std::atoi(v);
+    } else if (flag == "--threads") {
+      threads = std::atoi(v);
+    } else {
+      return Fail("unknown option " + flag);
+    }
+  }
+  if (column.empty() || !(rate_hz > 0) || twins < 2 || threads < 1) {
+    return Fail("--column, --rate > 0, --twins >= 2 and --threads >= 1 are needed");
+  }
+  std::ifstream in(path);
+  if (!in) return Fail("cannot read " + path);
+  std::string line;
+  std::getline(in, line);
+  int col = -1, at = 0;
+  {
+    std::stringstream header(line);
+    std::string name;
+    while (std::getline(header, name, ',')) {
+      if (name == column) col = at;
+      ++at;
+    }
+  }
+  if (col < 0) return Fail("no column " + column + " in " + path);
+  std::vector<double> rate;
+  while (std::getline(in, line)) {
+    std::stringstream row(line);
+    std::string cell;
+    for (int c = 0; c <= col && std::getline(row, cell, ','); ++c) {
+      if (c == col) rate.push_back(std::atof(cell.c_str()) * scale);
+    }
+  }
+  const double tau0 = 1 / rate_hz;
+  allan::CompositeFit fit;
+  const Reading real = Read(rate, tau0, fit_min_tau, &fit);
+  if (real.model.empty()) return Fail("the record's fit failed");
+  std::printf(
+      "# record: %zu samples, model %s (%s), curve minimum read-off %.6g +- %.3g, model "
+      "%.6g +- %.3g; N read-off %.6g +- %.3g, model %.6g +- %.3g\n",
+      rate.size(), real.model.c_str(), real.adequate ? "adequate" : "INADEQUATE", real.readoff_min,
+      real.readoff_min_u, real.model_min, real.model_min_u, real.readoff_n, real.readoff_n_u,
+      real.model_n, real.model_n_u);
+  // The twins' truth: the selected model's N and its deviation's minimum
+  // over the fitted taus (the record's figures are model-averaged; the
+  // twins are drawn from the selected model alone).
+  double truth_n = 0, truth_min = INFINITY;
+  for (const allan::ModelTerm& t : fit.model.terms) {
+    if (t.kind == allan::TermKind::kWhite) truth_n = t.scale;
+  }
+  const double tau_lo = fit.points.front().tau_s, tau_hi = fit.points.back().tau_s;
+  for (int k = 0; k <= 4000; ++k) {
+    const double m = tau_lo * std::pow(tau_hi / tau_lo, k / 4000.0) / tau0;
+    truth_min = std::min(truth_min, std::sqrt(fit.model.Avar(m, tau0)));
+  }
+  std::printf("# twins' truth: N %.6g, curve minimum %.6g over %.3g-%.3g s\n", truth_n, truth_min,
+              tau_lo, tau_hi);
+  std::vector<Reading> out(twins);
+  std::atomic<int> next{0};
+  const auto work = [&] {
+    for (int s = next++; s < twins; s = next++) {
+      auto sim = sim::ImuSimulator::Create(TwinTruth(fit.model, rate_hz, lsb, 0x7a1 + 7919ull * s));
+      if (!sim.ok()) {
+        std::fprintf(stderr, "twin_agreement_bench: %s\n", sim.status().message().c_str());
+        std::exit(2);
+      }
+      std::vector<std::vector<float>> samples(1);
+      sim->Generate(static_cast<int>(rate.size()), samples);
+      out[s] = Read(std::vector<double>(samples[0].begin(), samples[0].end()), tau0, fit_min_tau);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(work);
+  for (std::thread& t : pool) t.join();
+  // The truth of every twin is the record's model: its minimum and N.
+  Stats d_min, d_n, e_ro, e_mo, cross, z_ro, z_mo, ze_n_ro, ze_n_mo;
+  int same_model = 0;
+  for (const Reading& r : out) {
+    if (each) {
+      std::printf("# twin %s %s min %.4g +- %.3g (z %+.2f)\n", r.model.c_str(),
+                  r.adequate ? "ok" : "INADEQUATE", r.model_min, r.model_min_u,
+                  (r.model_min - truth_min) / r.model_min_u);
+    }
+    d_min.Add(r.readoff_min - r.model_min);
+    d_n.Add(r.readoff_n - r.model_n);
+    e_ro.Add(r.readoff_min - truth_min);
+    e_mo.Add(r.model_min - truth_min);
+    cross.Add((r.readoff_min - truth_min) * (r.model_min - truth_min));
+    z_ro.Add((r.readoff_min - truth_min) / r.readoff_min_u);
+    z_mo.Add((r.model_min - truth_min) / r.model_min_u);
+    ze_n_ro.Add((r.readoff_n - truth_n) / r.readoff_n_u);
+    ze_n_mo.Add((r.model_n - truth_n) / r.model_n_u);
+    same_model += r.model == real.model;
+  }
+  const double corr = (cross.Mean() - e_ro.Mean() * e_mo.Mean()) / (e_ro.Sd() * e_mo.Sd());
+  std::printf("# %d twins of %s (lsb %g), %d fitted with the record's model\n", twins,
+              real.model.c_str(), lsb, same_model);
+  std::printf(
+      "# curve minimum: read-off error mean %+.3g sd %.3g (z rms %.2f), model error "
+      "mean %+.3g sd %.3g (z rms %.2f), correlation %.2f\n",
+      e_ro.Mean(), e_ro.Sd(), std::sqrt(z_ro.sum2 / z_ro.n), e_mo.Mean(), e_mo.Sd(),
+      std::sqrt(z_mo.sum2 / z_mo.n), corr);
+  const double zr_min = (real.readoff_min - real.model_min - d_min.Mean()) / d_min.Sd();
+  const double zr_n = (real.readoff_n - real.model_n - d_n.Mean()) / d_n.Sd();
+  std::printf("twin_minimum_difference_mean %.6g\ntwin_minimum_difference_sd %.6g\n", d_min.Mean(),
+              d_min.Sd());
+  std::printf("record_minimum_difference %.6g\nrecord_minimum_difference_z %.2f\n",
+              real.readoff_min - real.model_min, zr_min);
+  std::printf("# N: read-off z rms %.2f, model z rms %.2f\n", std::sqrt(ze_n_ro.sum2 / ze_n_ro.n),
+              std::sqrt(ze_n_mo.sum2 / ze_n_mo.n));
+  std::printf("twin_n_difference_mean %.6g\ntwin_n_difference_sd %.6g\n", d_n.Mean(), d_n.Sd());
+  std::printf("record_n_difference %.6g\nrecord_n_difference_z %.2f\n",
+              real.readoff_n - real.model_n, zr_n);
+  return 0;
+}
