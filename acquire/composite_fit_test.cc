@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "acquire/coverage_records.h"
 #include "acquire/imu_simulator.h"
 #include "acquire/lot_profile.h"
 #include "analyze/allan/confidence.h"
@@ -351,6 +352,51 @@ TEST(CompositeFitTest, TheFitDoesNotDependOnTheUnitTheRecordIsReadIn) {
         EXPECT_NEAR(fit->white_asymptote.sigma / unit, base->white_asymptote.sigma,
                     2e-2 * base->white_asymptote.sigma)
             << "seed " << seed << " unit " << unit;
+      }
+    }
+  }
+}
+
+// A term swapped into a model that collapses to nothing leaves the smaller
+// model, which is not a rival of itself: on these records of the
+// Gauss-Markov mixture (fit_coverage_bench's seeds 451 and 488) the swaps
+// once gave N+K+GM, N+B+GM and N+R+GM, each N+GM with a dead third term at
+// one criterion, and a rate random walk of exactly 0 with u 0 "averaged
+// over the plausible models". Every term of the selected model is alive and
+// every IEEE figure it carries has a u.
+TEST(CompositeFitTest, ATermCollapsedToNothingIsTheSmallerModel) {
+  const pb::AxisTruth gm = sim::PlainMixtures()[1].truth;
+  for (int s : {451, 488}) {
+    auto curve = sim::StationCurve(gm, 0xc0fe + 7919ull * s, kSamples, kRateHz);
+    ASSERT_TRUE(curve.ok()) << curve.status().message();
+    allan::GmwmOptions options;
+    options.stop = allan::StopRule::kNone;
+    auto fit = allan::FitCompositeModel(*curve, options);
+    ASSERT_TRUE(fit.ok()) << fit.status().message();
+    for (const allan::FittedTerm& t : fit->terms) {
+      EXPECT_GT(t.term.scale, 0) << "seed " << s << " " << fit->model.Name();
+    }
+    for (size_t i = 0; i < fit->ieee_terms.size(); ++i) {
+      if (fit->ieee_terms[i].value == 0 && std::isnan(fit->ieee_terms[i].sigma))
+        continue;  // absent
+      EXPECT_GT(fit->ieee_terms[i].value, 0)
+          << "seed " << s << " term " << i << " " << fit->model.Name();
+      EXPECT_GT(fit->ieee_terms[i].sigma, 0)
+          << "seed " << s << " term " << i << " " << fit->model.Name();
+    }
+    // No two candidates are one model: the objectives of candidates nested
+    // in one another differ.
+    for (const allan::ModelCandidate& a : fit->candidates) {
+      for (const allan::ModelCandidate& b : fit->candidates) {
+        if (a.parameters >= b.parameters) continue;
+        bool nested = true;
+        for (const allan::ModelTerm& t : a.model.terms) {
+          nested = nested && b.model.CountOf(t.kind) >= a.model.CountOf(t.kind);
+        }
+        if (nested) {
+          EXPECT_GT(std::abs(a.objective - b.objective), 1e-9 * (1 + a.objective))
+              << "seed " << s << ": " << b.name << " is " << a.name;
+        }
       }
     }
   }

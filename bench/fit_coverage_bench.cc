@@ -16,7 +16,8 @@
 // moments (judge::NoiseModelOptions::long_taus) and the truth's minimum is
 // taken over the taus the model then reaches (0.3 of the record); the
 // printed names carry "_longtau".
-// --outliers prints each record whose fit_bias_instability lies beyond 2u of
+// --outliers prints each record whose fit_rate_random_walk is a value
+// without a u, and each record whose fit_bias_instability lies beyond 2u of
 // the truth (seed, value, u, truth, note: which model, which rule).
 // Usage: fit_coverage_bench [--seeds N] [--threads T] [--long-taus] [--outliers]
 #include <algorithm>
@@ -188,6 +189,12 @@ int main(int argc, char** argv) {
                       s, b->value(), b->uncertainty(), b_true, b->note().c_str());
         }
         if (k != nullptr) rrw.Add(*k, k_true);
+        if (outliers && k != nullptr && k->qualifier() != pb::UPPER_BOUND &&
+            std::isfinite(k->value()) && !(k->has_uncertainty() && k->uncertainty() > 0)) {
+          const pb::Measurement* pv = Find(ms, judge::kNoiseModelPValue);
+          std::printf("# rrw without u %s seed %d: %.4g; %s; %s\n", mix.name.c_str(), s, k->value(),
+                      k->note().c_str(), pv != nullptr ? pv->note().c_str() : "");
+        }
       }
     };
     std::vector<std::thread> pool;

@@ -12,7 +12,8 @@
 //
 // Usage: twin_agreement_bench CSV --column NAME --rate HZ [--scale S]
 //          [--fit-min-tau T] [--lsb L] [--twins N] [--threads T] [--each]
-// --each prints every twin's selected model and its curve minimum's z.
+// --each prints every twin's selected model, its curve minimum's z and its
+// first four candidates (J, criterion, averaging weight).
 // --lsb adds the rounding to the twins; leave it out where the record's
 // rounding is already in its fitted white noise (it would count twice).
 // CSV: a header line, comma-separated values; the column's values times S.
@@ -41,7 +42,7 @@ namespace {
 struct Reading {
   double readoff_min = NAN, readoff_min_u = NAN, model_min = NAN, model_min_u = NAN;
   double readoff_n = NAN, readoff_n_u = NAN, model_n = NAN, model_n_u = NAN;
-  std::string model;
+  std::string model, candidates;  // the selected model; the first four candidates
   bool adequate = false;
 };
 
@@ -71,6 +72,13 @@ Reading Read(const std::vector<double>& rate, double tau0, double fit_min_tau,
   r.model_n_u = fit->white_asymptote.sigma;
   r.model = fit->model.Name();
   r.adequate = fit->adequate;
+  for (size_t i = 0; i < fit->candidates.size() && i < 4; ++i) {
+    char b[160];
+    std::snprintf(b, sizeof b, "%s%s J %.1f crit %.1f w %.2f", i == 0 ? "" : "; ",
+                  fit->candidates[i].name.c_str(), fit->candidates[i].objective,
+                  fit->candidates[i].criterion, fit->candidates[i].weight);
+    r.candidates += b;
+  }
   if (fit_out != nullptr) *fit_out = *fit;
   return r;
 }
@@ -243,9 +251,10 @@ int main(int argc, char** argv) {
   int same_model = 0;
   for (const Reading& r : out) {
     if (each) {
-      std::printf("# twin %s %s min %.4g +- %.3g (z %+.2f)\n", r.model.c_str(),
+      std::printf("# twin %s %s min %.4g +- %.3g (z %+.2f) N z %+.2f [%s]\n", r.model.c_str(),
                   r.adequate ? "ok" : "INADEQUATE", r.model_min, r.model_min_u,
-                  (r.model_min - truth_min) / r.model_min_u);
+                  (r.model_min - truth_min) / r.model_min_u, (r.model_n - truth_n) / r.model_n_u,
+                  r.candidates.c_str());
     }
     d_min.Add(r.readoff_min - r.model_min);
     d_n.Add(r.readoff_n - r.model_n);
