@@ -17,6 +17,7 @@
 // --lsb adds the rounding to the twins; leave it out where the record's
 // rounding is already in its fitted white noise (it would count twice).
 // CSV: a header line, comma-separated values; the column's values times S.
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -183,12 +184,16 @@ int main(int argc, char** argv) {
   if (column.empty() || !(rate_hz > 0) || twins < 2 || threads < 1) {
     return Fail("--column, --rate > 0, --twins >= 2 and --threads >= 1 are needed");
   }
+  if (!(std::isfinite(scale) && scale != 0) || !(lsb >= 0) || !(fit_min_tau >= 0)) {
+    return Fail("--scale must be finite and non-zero, --lsb and --fit-min-tau >= 0");
+  }
   std::ifstream in(path);
   if (!in) return Fail("cannot read " + path);
   std::string line;
   std::getline(in, line);
   int col = -1, at = 0;
   {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
     std::stringstream header(line);
     std::string name;
     while (std::getline(header, name, ',')) {
@@ -198,13 +203,26 @@ int main(int argc, char** argv) {
   }
   if (col < 0) return Fail("no column " + column + " in " + path);
   std::vector<double> rate;
-  while (std::getline(in, line)) {
+  for (int64_t row_number = 2; std::getline(in, line); ++row_number) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
     std::stringstream row(line);
     std::string cell;
-    for (int c = 0; c <= col && std::getline(row, cell, ','); ++c) {
-      if (c == col) rate.push_back(std::atof(cell.c_str()) * scale);
+    int c = 0;
+    while (c <= col && std::getline(row, cell, ',')) {
+      if (c++ < col) continue;
+      char* end = nullptr;
+      const double v = std::strtod(cell.c_str(), &end);
+      if (cell.empty() || end == cell.c_str() || *end != '\0' || !std::isfinite(v)) {
+        return Fail(path + " row " + std::to_string(row_number) + ": " + column +
+                    " is not a number (\"" + cell + "\")");
+      }
+      rate.push_back(v * scale);
+    }
+    if (c <= col) {
+      return Fail(path + " row " + std::to_string(row_number) + " has no " + column + " cell");
     }
   }
+  if (rate.size() < 1000) return Fail(path + ": fewer than 1000 samples of " + column);
   const double tau0 = 1 / rate_hz;
   allan::CompositeFit fit;
   const Reading real = Read(rate, tau0, fit_min_tau, &fit);
@@ -218,10 +236,18 @@ int main(int argc, char** argv) {
   // The twins' truth: the selected model's N and its deviation's minimum
   // over the fitted taus (the record's figures are model-averaged; the
   // twins are drawn from the selected model alone).
-  double truth_n = 0, truth_min = INFINITY;
+  // N as the model's white asymptote counts it: white noise and every
+  // Gauss-Markov term fast against 1 s.
+  double white2 = 0, truth_min = INFINITY;
+  const double fast_t = allan::GmwmOptions{}.fast_gauss_markov_fraction * 1.0;
   for (const allan::ModelTerm& t : fit.model.terms) {
-    if (t.kind == allan::TermKind::kWhite) truth_n = t.scale;
+    if (t.kind == allan::TermKind::kWhite) white2 += t.scale * t.scale;
+    if (t.kind == allan::TermKind::kGaussMarkov && t.correlation_time_s < fast_t) {
+      const double phi = std::exp(-tau0 / t.correlation_time_s);
+      white2 += t.scale * t.scale * tau0 * (1 + phi) / (1 - phi);
+    }
   }
+  const double truth_n = std::sqrt(white2);
   const double tau_lo = fit.points.front().tau_s, tau_hi = fit.points.back().tau_s;
   for (int k = 0; k <= 4000; ++k) {
     const double m = tau_lo * std::pow(tau_hi / tau_lo, k / 4000.0) / tau0;
@@ -248,8 +274,14 @@ int main(int argc, char** argv) {
   for (std::thread& t : pool) t.join();
   // The truth of every twin is the record's model: its minimum and N.
   Stats d_min, d_n, e_ro, e_mo, cross, z_ro, z_mo, ze_n_ro, ze_n_mo;
-  int same_model = 0;
+  int same_model = 0, used = 0;
   for (const Reading& r : out) {
+    // A twin whose fit or read-offs failed counts in no statistic.
+    if (r.model.empty() || !std::isfinite(r.readoff_min) || !std::isfinite(r.model_min) ||
+        !std::isfinite(r.readoff_n) || !std::isfinite(r.model_n)) {
+      continue;
+    }
+    ++used;
     if (each) {
       std::printf("# twin %s %s min %.4g +- %.3g (z %+.2f) N z %+.2f [%s]\n", r.model.c_str(),
                   r.adequate ? "ok" : "INADEQUATE", r.model_min, r.model_min_u,
@@ -267,9 +299,13 @@ int main(int argc, char** argv) {
     ze_n_mo.Add((r.model_n - truth_n) / r.model_n_u);
     same_model += r.model == real.model;
   }
-  const double corr = (cross.Mean() - e_ro.Mean() * e_mo.Mean()) / (e_ro.Sd() * e_mo.Sd());
-  std::printf("# %d twins of %s (lsb %g), %d fitted with the record's model\n", twins,
-              real.model.c_str(), lsb, same_model);
+  const double corr =
+      (cross.sum - cross.n * e_ro.Mean() * e_mo.Mean()) / (cross.n - 1) / (e_ro.Sd() * e_mo.Sd());
+  std::printf(
+      "# %d twins of %s (lsb %g), %d read (fit and read-offs defined), %d fitted with the "
+      "record's model\n",
+      twins, real.model.c_str(), lsb, used, same_model);
+  if (used < 2) return Fail("fewer than 2 twins could be read");
   std::printf(
       "# curve minimum: read-off error mean %+.3g sd %.3g (z rms %.2f), model error "
       "mean %+.3g sd %.3g (z rms %.2f), correlation %.2f\n",

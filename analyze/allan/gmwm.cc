@@ -815,12 +815,16 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
     // flicker floor) that compete for the curve's rising end are otherwise
     // never exchanged: adding the second costs a parameter, and the model
     // with only it lies a step beyond. Tried only where the search would
-    // stop, so it ends where it did or lower and has seen every model it
-    // saw. On 200 twins of each ADIS16405 accelerometer (13 points from
-    // 0.16 s; bench/twin_agreement_bench.cc) the selected model's criterion
-    // was higher without them in 10 / 51 / 58 (ax / ay / az), and az's twins
-    // of N+B+K+2S selected it in 75, not 108: most of the rest ended at
-    // N+B+R+2S, their curve minimum 3 sigma low. Swaps among all five terms went further
+    // stop, so one call of Search ends where it did without them or lower,
+    // having seen every model it saw (the fit as a whole can still end
+    // elsewhere: pass 2's problem comes from pass 1's pilot and starts from
+    // pass 1's eight best). On 200 twins of each ADIS16405 accelerometer (13
+    // points from 0.16 s; bench/twin_agreement_bench.cc) the selected
+    // model's criterion was higher without the swaps in 10 / 51 / 58 and
+    // lower in 2 / 12 / 4 (ax / ay / az); az's twins of N+B+K+2S selected it
+    // in 108 with them and 75 without, most of the rest then ending at
+    // N+B+R+2S with their curve minimum 3 sigma low. Swaps among all five
+    // terms went further
     // (white noise for quantization, then neither) and reached models whose
     // white asymptote is a fast Gauss-Markov term's, 7 sigma off on 8 of
     // 200 az twins: not taken.
