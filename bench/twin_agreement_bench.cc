@@ -23,7 +23,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -233,37 +232,24 @@ int main(int argc, char** argv) {
       rate.size(), real.model.c_str(), real.adequate ? "adequate" : "INADEQUATE", real.readoff_min,
       real.readoff_min_u, real.model_min, real.model_min_u, real.readoff_n, real.readoff_n_u,
       real.model_n, real.model_n_u);
-  // The twins' truth: the selected model's N and its deviation's minimum
-  // over the fitted taus (the record's figures are model-averaged; the
-  // twins are drawn from the selected model alone).
-  // N as the model's white asymptote counts it: white noise and every
-  // Gauss-Markov term fast against 1 s.
-  double white2 = 0, truth_min = INFINITY;
-  const double fast_t = allan::GmwmOptions{}.fast_gauss_markov_fraction * 1.0;
-  for (const allan::ModelTerm& t : fit.model.terms) {
-    if (t.kind == allan::TermKind::kWhite) white2 += t.scale * t.scale;
-    if (t.kind == allan::TermKind::kGaussMarkov && t.correlation_time_s < fast_t) {
-      const double phi = std::exp(-tau0 / t.correlation_time_s);
-      white2 += t.scale * t.scale * tau0 * (1 + phi) / (1 - phi);
-    }
-  }
-  const double truth_n = std::sqrt(white2);
+  // The twins' truth: the selected model's own N and deviation minimum over
+  // the fitted taus, as the fit computes them (the record's figures are
+  // model-averaged; the twins are drawn from the selected model alone).
   const double tau_lo = fit.points.front().tau_s, tau_hi = fit.points.back().tau_s;
-  for (int k = 0; k <= 4000; ++k) {
-    const double m = tau_lo * std::pow(tau_hi / tau_lo, k / 4000.0) / tau0;
-    truth_min = std::min(truth_min, std::sqrt(fit.model.Avar(m, tau0)));
-  }
+  const allan::ModelCurveFigures truth = allan::ModelFiguresOver(fit.model, tau0, tau_lo, tau_hi);
+  const double truth_n = truth.white_asymptote, truth_min = truth.curve_minimum;
   std::printf("# twins' truth: N %.6g, curve minimum %.6g over %.3g-%.3g s\n", truth_n, truth_min,
               tau_lo, tau_hi);
+  // The simulator refuses a truth it cannot draw (a line at Nyquist, say):
+  // here, once, rather than in a worker.
+  if (auto sim = sim::ImuSimulator::Create(TwinTruth(fit.model, rate_hz, lsb, 0)); !sim.ok()) {
+    return Fail("the model cannot be simulated: " + sim.status().message());
+  }
   std::vector<Reading> out(twins);
   std::atomic<int> next{0};
   const auto work = [&] {
     for (int s = next++; s < twins; s = next++) {
       auto sim = sim::ImuSimulator::Create(TwinTruth(fit.model, rate_hz, lsb, 0x7a1 + 7919ull * s));
-      if (!sim.ok()) {
-        std::fprintf(stderr, "twin_agreement_bench: %s\n", sim.status().message().c_str());
-        std::exit(2);
-      }
       std::vector<std::vector<float>> samples(1);
       sim->Generate(static_cast<int>(rate.size()), samples);
       out[s] = Read(std::vector<double>(samples[0].begin(), samples[0].end()), tau0, fit_min_tau);

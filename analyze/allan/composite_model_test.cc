@@ -673,5 +673,33 @@ TEST(CompositeModelTest, NameListsTermsInFixedOrder) {
   EXPECT_EQ(all.Name(), "Q+N+B+K+R+GM+S");
 }
 
+// A model's own figures: N + K has its -1/2 asymptote at N and its minimum
+// where N^2 / tau = K^2 tau / 3 (tau* = sqrt(3) N / K, minimum
+// sqrt(2 N K / sqrt 3)); a Gauss-Markov term fast against 1 s joins the
+// asymptote as white noise (sigma^2 tau0 (1 + phi) / (1 - phi)), a slow one
+// does not; the minimum is searched only inside the taus given.
+TEST(CompositeModelTest, ModelFiguresOverItsTaus) {
+  const double tau0 = 0.01, n = 0.004, k = 1e-4;
+  CompositeModel m;
+  m.terms = {{TermKind::kWhite, n}, {TermKind::kRandomWalk, k}};
+  const ModelCurveFigures f = ModelFiguresOver(m, tau0, 0.01, 1e4);
+  EXPECT_DOUBLE_EQ(f.white_asymptote, n);
+  EXPECT_NEAR(f.tau_at_minimum, std::sqrt(3.0) * n / k, 1e-3 * std::sqrt(3.0) * n / k);
+  EXPECT_NEAR(f.curve_minimum, std::sqrt(2 * n * k / std::sqrt(3.0)), 1e-4 * f.curve_minimum);
+  EXPECT_NEAR(f.curve_minimum, m.Deviation(f.tau_at_minimum / tau0, tau0), 1e-12);
+  // Inside a range that ends before tau*: the minimum is at its end.
+  const ModelCurveFigures short_range = ModelFiguresOver(m, tau0, 0.01, 10.0);
+  EXPECT_NEAR(short_range.tau_at_minimum, 10.0, 1e-6);
+  ModelTerm fast{TermKind::kGaussMarkov, 0.05};
+  fast.correlation_time_s = 0.02;
+  ModelTerm slow = fast;
+  slow.correlation_time_s = 50;
+  m.terms.push_back(fast);
+  m.terms.push_back(slow);
+  const double phi = std::exp(-tau0 / 0.02);
+  EXPECT_NEAR(ModelFiguresOver(m, tau0, 0.01, 1e4).white_asymptote,
+              std::sqrt(n * n + 0.05 * 0.05 * tau0 * (1 + phi) / (1 - phi)), 1e-15);
+}
+
 }  // namespace
 }  // namespace imuqual::allan

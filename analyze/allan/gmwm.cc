@@ -824,10 +824,9 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
     // lower in 2 / 12 / 4 (ax / ay / az); az's twins of N+B+K+2S selected it
     // in 108 with them and 75 without, most of the rest then ending at
     // N+B+R+2S with their curve minimum 3 sigma low. Swaps among all five
-    // terms went further
-    // (white noise for quantization, then neither) and reached models whose
-    // white asymptote is a fast Gauss-Markov term's, 7 sigma off on 8 of
-    // 200 az twins: not taken.
+    // terms went further (white noise for quantization, then neither) and
+    // reached models whose white asymptote is a fast Gauss-Markov term's, 7
+    // sigma off on 8 of 200 az twins: not taken.
     if (!(best_move.criterion < current.criterion - 1e-9)) {
       for (size_t i = 0; i < current.kinds.size(); ++i) {
         const TermKind out = current.kinds[i];
@@ -1406,6 +1405,13 @@ Status GmwmOptions::Validate() const {
     return Status::InvalidArgument("absent_term_bound_delta_j must be in (0, 100]");
   }
   return Status::Ok();
+}
+
+ModelCurveFigures ModelFiguresOver(const CompositeModel& model, double tau0_s, double tau_lo_s,
+                                   double tau_hi_s, const GmwmOptions& options) {
+  const Figures f = ComputeFigures(model, MinimumGrid(tau0_s, tau_lo_s, tau_hi_s), options,
+                                   /*white_region=*/false);
+  return {f.white_asymptote, f.curve_minimum, f.tau_at_minimum};
 }
 
 double AvarCorrelation(const CompositeModel& model, double tau0_s, int64_t m_a, int64_t m_b) {

@@ -242,6 +242,21 @@ std::optional<double> Theo1MomentEdf(const CompositeModel& model, double tau0_s,
 Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& options = {},
                                        std::span<const Theo1Moment> long_taus = {});
 
+// One model's own datasheet figures over the taus [tau_lo_s, tau_hi_s], as
+// FitCompositeModel computes them for each candidate before averaging: the
+// -1/2 asymptote at 1 s (white noise and every Gauss-Markov term faster than
+// options.fast_gauss_markov_fraction of 1 s) and the model deviation's
+// minimum and its tau. (A fit's own figures are averaged over its plausible
+// candidates; this is the figures of a model taken as the truth, e.g. of
+// records simulated from it.)
+struct ModelCurveFigures {
+  double white_asymptote = kNaN;
+  double curve_minimum = kNaN;
+  double tau_at_minimum = kNaN;
+};
+ModelCurveFigures ModelFiguresOver(const CompositeModel& model, double tau0_s, double tau_lo_s,
+                                   double tau_hi_s, const GmwmOptions& options = {});
+
 // Correlation between the AVAR estimates at averaging factors m_a and m_b of
 // a Gaussian process with the model's spectrum (see above); 1 when
 // m_a == m_b. Exposed for tests.
