@@ -17,6 +17,7 @@
 #include <numbers>
 #include <optional>
 #include <random>
+#include <set>
 #include <unsupported/Eigen/NonLinearOptimization>
 
 #include "analyze/allan/confidence.h"
@@ -709,8 +710,9 @@ std::vector<Eigen::VectorXd> GridStarts(const std::vector<TermKind>& kinds,
 }
 
 // Whether two estimates of one model lie in the same minimum of J: their
-// correlation times within 10 % and their frequencies within 0.005 cycles
-// per sample (half the search's grid step near Nyquist), each kind sorted.
+// correlation times within 10 % and their frequencies within 10 % and 0.005
+// cycles per sample (half the search's grid step near Nyquist, where the
+// grid is linear; below 0.05 it is 4 per octave), each kind sorted.
 bool SameMinimum(const Candidate& a, const Candidate& b, const Problem& p) {
   auto nonlinear = [&](const Candidate& c) {
     std::vector<double> ln_t, f;
@@ -729,7 +731,7 @@ bool SameMinimum(const Candidate& a, const Candidate& b, const Problem& p) {
     if (std::abs(ta[i] - tb[i]) > 0.1) return false;
   }
   for (size_t i = 0; i < fa.size(); ++i) {
-    if (std::abs(fa[i] - fb[i]) > 0.005) return false;
+    if (std::abs(fa[i] - fb[i]) > 0.005 || std::abs(std::log(fa[i] / fb[i])) > 0.1) return false;
   }
   return true;
 }
@@ -740,14 +742,17 @@ constexpr size_t kMinimaPerModel = 3;
 
 // `c` into `list`, the kMinimaPerModel lowest distinct minima of one model,
 // lowest first.
+// Entries that `c` lies in the same minimum with are merged into the best
+// of them and `c` (the relation is not transitive: replacing one entry by
+// `c` could otherwise leave two entries of one minimum).
 void AddMinimum(std::vector<Candidate>* list, const Candidate& c, const Problem& p) {
-  auto same = std::find_if(list->begin(), list->end(),
-                           [&](const Candidate& m) { return SameMinimum(m, c, p); });
-  if (same == list->end()) {
-    list->push_back(c);
-  } else if (c.objective < same->objective) {
-    *same = c;
-  }
+  Candidate kept = c;
+  std::erase_if(*list, [&](const Candidate& m) {
+    if (!SameMinimum(m, c, p)) return false;
+    if (m.objective < kept.objective) kept = m;
+    return true;
+  });
+  list->push_back(std::move(kept));
   std::sort(list->begin(), list->end(),
             [](const Candidate& a, const Candidate& b) { return a.objective < b.objective; });
   if (list->size() > kMinimaPerModel) list->resize(kMinimaPerModel);
@@ -755,7 +760,7 @@ void AddMinimum(std::vector<Candidate>* list, const Candidate& c, const Problem&
 
 // Estimates of a model with two sinusoids `a` and `b` from every pair of
 // frequencies of `grid` (the scales re-solved, LinearStart, then a coarse
-// estimate: a relative step tolerance of 1e-2 costs a few evaluations), the
+// estimate to a relative step of 1e-2: ~20 ms for 1176 pairs), the
 // `count` best of distinct minima (SameMinimum), best first. Searched one at
 // a time, the other held, two lines stay in the pair they started from: on
 // the octave points a pair of lines has near-equivalent pairs elsewhere
@@ -835,6 +840,12 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
   // Each correlation time and frequency of the model searched again over
   // its grid, the others held (the scales re-solved): a term added early
   // can sit in a local minimum that a later term moved away from.
+  std::set<std::string> paired;  // models whose two lines were searched as a pair
+  // The pair search's grid: every other frequency of sinusoid_grid (a line's
+  // minimum in J is as wide as the shortest taus' response, ~0.06 cycles
+  // per sample at 16 samples; the estimate then finds its bottom).
+  std::vector<double> pair_grid;
+  for (size_t i = 0; i < sinusoid_grid.size(); i += 2) pair_grid.push_back(sinusoid_grid[i]);
   auto refine = [&] {
     for (size_t t = 0; t < current.kinds.size(); ++t) {
       const TermKind kind = current.kinds[t];
@@ -851,9 +862,9 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
     for (size_t t = 0; t < current.kinds.size(); ++t) {
       if (current.kinds[t] == TermKind::kSinusoid) lines.push_back(t);
     }
-    if (lines.size() == 2) {
-      for (const Candidate& screened :
-           PairStarts(current, lines[0], lines[1], sinusoid_grid, 3, p)) {
+    // Once per model in a search (1225 coarse estimates).
+    if (lines.size() == 2 && paired.insert(NameOf(current.kinds, current.theta, p)).second) {
+      for (const Candidate& screened : PairStarts(current, lines[0], lines[1], pair_grid, 3, p)) {
         const Candidate c = Estimate(current.kinds, screened.theta, p);
         record(c);
         if (c.criterion < current.criterion - 1e-9) current = c;
@@ -1709,14 +1720,17 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
       if (!SameMinimum(m, pass1[i], p1)) starts.push_back(m);
     }
     for (const Candidate& s : starts) {
+      Candidate from_s;
       for (const Candidate& e : {Estimate(s.kinds, s.theta, p2),
                                  Estimate(s.kinds, LinearStart(s.kinds, s.theta, p2), p2)}) {
-        if (e.objective < c.objective) c = e;
+        if (e.objective < from_s.objective) from_s = e;
       }
+      if (!std::isfinite(from_s.criterion)) continue;
+      AddMinimum(&minima2[NameOf(from_s.kinds, from_s.theta, p2)], from_s, p2);
+      if (from_s.objective < c.objective) c = from_s;
     }
     if (!std::isfinite(c.criterion)) continue;
     seen2[NameOf(c.kinds, c.theta, p2)] = c;
-    AddMinimum(&minima2[NameOf(c.kinds, c.theta, p2)], c, p2);
     if (c.criterion < best2.criterion) best2 = c;
   }
   if (!std::isfinite(best2.criterion)) {
@@ -1778,7 +1792,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   // near Nyquist) are averaged over both and their spread joins the u. On
   // 200 twins of the ADIS16405 z gyro the model's white asymptote took one
   // pair or the other from record to record: z rms 2.3 against its u from
-  // one minimum, 1.6 with the others. Only the selected model's: the other
+  // one minimum, 1.15 with the others. Only the selected model's: the other
   // candidates' minima changed nothing but 2 of 144 records' rate random
   // walk (1000 simulated white + flicker + RRW records).
   {
@@ -1884,9 +1898,12 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   // Model averaging of the shared quantities.
   std::vector<double> mean(kShared, 0.0), second(kShared, 0.0);
   double weight_sum = 0;
-  for (size_t c = 0; c < pass2.size() && c < kMaxAveraged; ++c) {
+  // At most kMaxAveraged models; the selected model's other minima come on
+  // top (they do not take the place of another model).
+  for (size_t c = 0, models = 0; c < pass2.size() && models < kMaxAveraged; ++c) {
     const double delta = pass2[c].criterion - best.criterion;
     if (delta > kAveragingSpan || adequate(pass2[c]) != adequate(best)) break;
+    models += pass2[c].minimum_rank == 0;
     const double w = std::exp(-0.5 * delta);
     std::vector<double> q, sd;
     if (c == 0) {
