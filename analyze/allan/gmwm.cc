@@ -760,7 +760,7 @@ void AddMinimum(std::vector<Candidate>* list, const Candidate& c, const Problem&
 
 // Estimates of a model with two sinusoids `a` and `b` from every pair of
 // frequencies of `grid` (the scales re-solved, LinearStart, then a coarse
-// estimate to a relative step of 1e-2: ~20 ms for 1176 pairs), the
+// estimate to a relative step of 1e-2: ~20 ms for ~1200 pairs), the
 // `count` best of distinct minima (SameMinimum), best first. Searched one at
 // a time, the other held, two lines stay in the pair they started from: on
 // the octave points a pair of lines has near-equivalent pairs elsewhere
