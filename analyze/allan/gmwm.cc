@@ -736,15 +736,27 @@ bool SameMinimum(const Candidate& a, const Candidate& b, const Problem& p) {
   return true;
 }
 
+// Whether `large` is `small` in disguise: `small`'s terms plus terms
+// collapsed to nothing (or, with `same_size`, as many terms: the same model
+// with a free correlation time or frequency), J equal to `rel_tol`.
+bool CollapsedInto(const Candidate& large, const Candidate& small, bool same_size, double rel_tol) {
+  if (std::abs(large.objective - small.objective) > rel_tol * (1 + small.objective)) return false;
+  if (same_size && small.kinds.size() == large.kinds.size()) return true;
+  if (small.kinds.size() >= large.kinds.size()) return false;
+  std::vector<TermKind> a = small.kinds, b = large.kinds;
+  std::sort(a.begin(), a.end());
+  std::sort(b.begin(), b.end());
+  return std::includes(b.begin(), b.end(), a.begin(), a.end());
+}
+
 // The best few distinct minima of J found for each model name (Search).
 using Minima = std::map<std::string, std::vector<Candidate>>;
 constexpr size_t kMinimaPerModel = 3;
 
 // `c` into `list`, the kMinimaPerModel lowest distinct minima of one model,
-// lowest first.
-// Entries that `c` lies in the same minimum with are merged into the best
-// of them and `c` (the relation is not transitive: replacing one entry by
-// `c` could otherwise leave two entries of one minimum).
+// lowest first: the entries `c` lies in the same minimum with are merged
+// with it into the best of them (the relation is not transitive: replacing
+// one entry by `c` could otherwise leave two entries of one minimum).
 void AddMinimum(std::vector<Candidate>* list, const Candidate& c, const Problem& p) {
   Candidate kept = c;
   std::erase_if(*list, [&](const Candidate& m) {
@@ -1746,23 +1758,13 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   // J the smaller one's to 1e-9) is that smaller model, not a rival: kept,
   // it took Akaike weight twice over and its bootstrap, flat along the dead
   // term, gave sigmas that moved with the input's last bits.
-  auto nested_in = [](const std::vector<TermKind>& small, const std::vector<TermKind>& large) {
-    if (small.size() >= large.size()) return false;
-    std::vector<TermKind> a = small, b = large;
-    std::sort(a.begin(), a.end());
-    std::sort(b.begin(), b.end());
-    return std::includes(b.begin(), b.end(), a.begin(), a.end());
-  };
   {
     // Decided on the whole list first (erasing while testing against the
     // list would test against moved-from candidates).
     std::vector<bool> drop(pass2.size(), false);
     for (size_t i = 0; i < pass2.size(); ++i) {
       for (const Candidate& d : pass2) {
-        if (nested_in(d.kinds, pass2[i].kinds) &&
-            std::abs(pass2[i].objective - d.objective) <= 1e-9 * (1 + d.objective)) {
-          drop[i] = true;
-        }
+        if (CollapsedInto(pass2[i], d, /*same_size=*/false, 1e-9)) drop[i] = true;
       }
     }
     std::vector<Candidate> kept;
@@ -1804,8 +1806,7 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
       // (a term collapsed to nothing, its correlation time or frequency
       // free: the same J).
       auto copy_of = [&](const Candidate& d) {
-        return (d.kinds.size() == m.kinds.size() || nested_in(d.kinds, m.kinds)) &&
-               std::abs(m.objective - d.objective) <= 1e-6 * (1 + d.objective);
+        return CollapsedInto(m, d, /*same_size=*/true, 1e-6);
       };
       if (SameMinimum(m, top, p2) || std::any_of(pass2.begin(), pass2.end(), copy_of)) continue;
       Candidate alt = m;
