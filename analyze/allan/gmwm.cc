@@ -907,8 +907,9 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
   const std::vector<double> sinusoid_grid = SinusoidGrid(rows);
   for (double t = tau_lo; t <= tau_hi; t *= std::numbers::sqrt2) gm_grid.push_back(t);
   std::vector<double> gm_spread, sinusoid_spread = {0.05, 0.15, 0.245, 0.4};
-  for (int i = 0; i < 5; ++i)
+  for (int i = 0; i < 5; ++i) {
     gm_spread.push_back(tau_lo * std::pow(tau_hi / tau_lo, (i + 0.5) / 5));
+  }
   // Each correlation time and frequency of the model searched again over
   // its grid, the others held (the scales re-solved): a term added early
   // can sit in a local minimum that a later term moved away from.
