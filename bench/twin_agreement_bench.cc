@@ -15,8 +15,9 @@
 // --each prints every twin's selected model, its curve minimum's z and its
 // first four candidates (J, criterion, averaging weight).
 // --pair-check estimates each twin's selected model, where it has two
-// sinusoids, from every pair of the search's frequencies (seconds per twin)
-// and counts the twins where that grid found a lower J than the search.
+// sinusoids or two Gauss-Markov terms, from every pair of the search's
+// frequencies and of its correlation times (seconds per twin) and counts
+// the twins where that grid found a lower J than the search.
 // --lsb adds the rounding to the twins; leave it out where the record's
 // rounding is already in its fitted white noise (it would count twice).
 // CSV: a header line, comma-separated values; the column's values times S.
@@ -48,7 +49,8 @@ struct Reading {
   std::string model, candidates;  // the selected model; the first four candidates
   bool adequate = false;
   // With --pair-check: J of the selected model and the least J of its grid
-  // of full estimates over every pair of frequencies (NaN: not two lines).
+  // of full estimates over every pair of frequencies and of correlation
+  // times (NaN: neither two lines nor two Gauss-Markov terms).
   double objective = NAN, pair_grid_objective = NAN;
 };
 
@@ -332,8 +334,8 @@ int main(int argc, char** argv) {
       worst = std::max(worst, gain);
     }
     std::printf(
-        "# pair search: %d twins selected a model with two lines; the grid found a lower J "
-        "in %d (by more than 0.5 in %d, at most %.3g)\n",
+        "# pair search: %d twins selected a model with two lines or two Gauss-Markov terms; the "
+        "grid found a lower J in %d (by more than 0.5 in %d, at most %.3g)\n",
         with_pair, misses, large, worst);
     std::printf("pair_search_misses %d\npair_search_checked %d\n", misses, with_pair);
   }

@@ -846,25 +846,42 @@ std::vector<double> SinusoidGrid(const std::vector<FitRow>& rows) {
   return grid;
 }
 
+// The correlation times a Gauss-Markov term is searched over: 2 per octave
+// over the analysed taus and an octave beyond.
+std::vector<double> CorrelationTimeGrid(const std::vector<FitRow>& rows) {
+  std::vector<double> grid;
+  const double tau_lo = rows.front().tau_s / 2, tau_hi = rows.back().tau_s * 2;
+  for (double t = tau_lo; t <= tau_hi; t *= std::numbers::sqrt2) grid.push_back(t);
+  return grid;
+}
+
 // The least J of a grid of full estimates of `best` from every pair of
-// frequencies of SinusoidGrid (its other parameters started where the
-// search left them); NaN unless `best` has exactly two sinusoids.
+// values of its two sinusoids' frequencies (SinusoidGrid) and of each pair
+// of its Gauss-Markov terms' correlation times (CorrelationTimeGrid), its
+// other parameters started where the search left them; NaN when `best` has
+// neither two sinusoids nor two Gauss-Markov terms.
 // GmwmOptions::check_pair_search: how often the search misses.
 double PairGridObjective(const Candidate& best, const Problem& p, const std::vector<FitRow>& rows) {
-  std::vector<size_t> lines;
+  std::vector<size_t> lines, gms;
   for (size_t t = 0; t < best.kinds.size(); ++t) {
     if (best.kinds[t] == TermKind::kSinusoid) lines.push_back(t);
+    if (best.kinds[t] == TermKind::kGaussMarkov) gms.push_back(t);
   }
-  if (lines.size() != 2) return kNaN;
-  const std::vector<double> grid = SinusoidGrid(rows);
-  double least = std::numeric_limits<double>::infinity();
-  for (size_t x = 0; x < grid.size(); ++x) {
-    for (size_t y = x + 1; y < grid.size(); ++y) {
-      const Eigen::VectorXd th =
-          WithSecond(best.kinds, WithSecond(best.kinds, best.theta, lines[0], grid[x], p), lines[1],
-                     grid[y], p);
-      least = std::min(least, Estimate(best.kinds, LinearStart(best.kinds, th, p), p).objective);
+  double least = kNaN;
+  auto grid_over = [&](size_t first, size_t second, const std::vector<double>& grid) {
+    for (size_t x = 0; x < grid.size(); ++x) {
+      for (size_t y = x + 1; y < grid.size(); ++y) {
+        const Eigen::VectorXd th = WithSecond(
+            best.kinds, WithSecond(best.kinds, best.theta, first, grid[x], p), second, grid[y], p);
+        const double j = Estimate(best.kinds, LinearStart(best.kinds, th, p), p).objective;
+        if (!(j >= least)) least = j;  // NaN least: the first
+      }
     }
+  };
+  if (lines.size() == 2) grid_over(lines[0], lines[1], SinusoidGrid(rows));
+  for (size_t i = 0; i < gms.size(); ++i) {
+    for (size_t k = i + 1; k < gms.size(); ++k)
+      grid_over(gms[i], gms[k], CorrelationTimeGrid(rows));
   }
   return least;
 }
@@ -901,11 +918,8 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
   if (!std::isfinite(current.criterion)) return current;
   // 2. Forward-backward.
   const double tau_lo = rows.front().tau_s / 2, tau_hi = rows.back().tau_s * 2;
-  // Correlation times 2 per octave over the analysed taus and an octave
-  // beyond; frequencies SinusoidGrid's.
-  std::vector<double> gm_grid;
+  const std::vector<double> gm_grid = CorrelationTimeGrid(rows);
   const std::vector<double> sinusoid_grid = SinusoidGrid(rows);
-  for (double t = tau_lo; t <= tau_hi; t *= std::numbers::sqrt2) gm_grid.push_back(t);
   std::vector<double> gm_spread, sinusoid_spread = {0.05, 0.15, 0.245, 0.4};
   for (int i = 0; i < 5; ++i) {
     gm_spread.push_back(tau_lo * std::pow(tau_hi / tau_lo, (i + 0.5) / 5));

@@ -120,8 +120,10 @@ struct GmwmOptions {
   // covered in 84-91 % there: those records' long-tau points came out low).
   double absent_term_bound_delta_j = 5.412;
   // Check the search (slow: ~5000 full estimates, seconds per fit): where the
-  // selected model has two sinusoids, estimate it from every pair of the
-  // search's frequencies and report the least J (pair_grid_objective).
+  // selected model has two sinusoids or two or more Gauss-Markov terms,
+  // estimate it from every pair of the search's frequencies and from every
+  // pair of correlation times of each pair of its Gauss-Markov terms, and
+  // report the least J (pair_grid_objective).
   bool check_pair_search = false;
 
   // Ok, or InvalidArgument naming the offending field.
@@ -211,8 +213,9 @@ struct CompositeFit {
   // rate_random_walk (and ieee_terms[3]), whose sigma includes it / sqrt(3).
   double flicker_for_rate_random_walk = kNaN;
   // With GmwmOptions::check_pair_search: the least J of the selected model
-  // estimated from every pair of frequencies (NaN unless it has two
-  // sinusoids). Below `objective`: the search missed that minimum.
+  // estimated from every pair of frequencies and of correlation times (NaN
+  // without two sinusoids or two Gauss-Markov terms). Below `objective`:
+  // the search missed that minimum.
   double pair_grid_objective = kNaN;
   double rate_random_walk_half_span = 0;
   ModelFigure bias_instability_ieee;
