@@ -879,9 +879,9 @@ double PairGridObjective(const Candidate& best, const Problem& p, const std::vec
     }
   };
   if (lines.size() == 2) grid_over(lines[0], lines[1], SinusoidGrid(rows));
+  const std::vector<double> times = CorrelationTimeGrid(rows);
   for (size_t i = 0; i < gms.size(); ++i) {
-    for (size_t k = i + 1; k < gms.size(); ++k)
-      grid_over(gms[i], gms[k], CorrelationTimeGrid(rows));
+    for (size_t k = i + 1; k < gms.size(); ++k) grid_over(gms[i], gms[k], times);
   }
   return least;
 }
