@@ -12,7 +12,8 @@
 //
 // Usage: twin_agreement_bench CSV --column NAME --rate HZ [--scale S]
 //          [--fit-min-tau T] [--lsb L] [--twins N] [--threads T] [--each] [--pair-check]
-// --each prints every twin's selected model, its curve minimum's z and its
+// --each prints every twin's number (its seed's index), selected model, its
+// curve minimum's z, with --pair-check its J and the pair grid's, and its
 // first four candidates (J, criterion, averaging weight).
 // --pair-check estimates each twin's selected model, where it has two
 // sinusoids or two Gauss-Markov terms, from every pair of the search's
@@ -273,7 +274,8 @@ int main(int argc, char** argv) {
   // The truth of every twin is the record's model: its minimum and N.
   Stats d_min, d_n, e_ro, e_mo, cross, z_ro, z_mo, ze_n_ro, ze_n_mo;
   int same_model = 0, used = 0;
-  for (const Reading& r : out) {
+  for (size_t s = 0; s < out.size(); ++s) {
+    const Reading& r = out[s];
     // A twin whose fit or read-offs failed counts in no statistic.
     if (r.model.empty() || !std::isfinite(r.readoff_min) || !std::isfinite(r.model_min) ||
         !std::isfinite(r.readoff_n) || !std::isfinite(r.model_n)) {
@@ -281,10 +283,11 @@ int main(int argc, char** argv) {
     }
     ++used;
     if (each) {
-      std::printf("# twin %s %s min %.4g +- %.3g (z %+.2f) N z %+.2f [%s]\n", r.model.c_str(),
+      std::printf("# twin %zu %s %s min %.4g +- %.3g (z %+.2f) N z %+.2f", s, r.model.c_str(),
                   r.adequate ? "ok" : "INADEQUATE", r.model_min, r.model_min_u,
-                  (r.model_min - truth_min) / r.model_min_u, (r.model_n - truth_n) / r.model_n_u,
-                  r.candidates.c_str());
+                  (r.model_min - truth_min) / r.model_min_u, (r.model_n - truth_n) / r.model_n_u);
+      if (pair_check) std::printf(" J %.3f pair grid %.3f", r.objective, r.pair_grid_objective);
+      std::printf(" [%s]\n", r.candidates.c_str());
     }
     d_min.Add(r.readoff_min - r.model_min);
     d_n.Add(r.readoff_n - r.model_n);
