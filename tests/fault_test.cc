@@ -506,20 +506,32 @@ TEST(FaultTest, AcquireKilledEndsTheRunIncompleteAndNothingHangs) {
   EXPECT_EQ(store.Stop(15), 0);
 }
 
-// Processes whose command line mentions `needle`.
-std::vector<pid_t> ProcessesMentioning(const std::string& needle) {
-  std::vector<pid_t> pids;
+// Processes whose command line mentions `needle`, by pid, with the program
+// each runs (argv[0]'s file name). A child forked but not yet exec'd carries
+// its parent's command line, and for a moment inside exec none at all: count
+// programs, not processes, when waiting for a station to be up.
+std::map<pid_t, std::string> ProcessesMentioning(const std::string& needle) {
+  std::map<pid_t, std::string> found;
   DIR* proc = ::opendir("/proc");
-  if (proc == nullptr) return pids;
+  if (proc == nullptr) return found;
   while (dirent* e = ::readdir(proc)) {
     const pid_t pid = static_cast<pid_t>(std::atoi(e->d_name));
     if (pid <= 0 || pid == ::getpid()) continue;
     std::ifstream in("/proc/" + std::string(e->d_name) + "/cmdline");
     std::string cmdline((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (cmdline.find(needle) != std::string::npos) pids.push_back(pid);
+    if (cmdline.find(needle) == std::string::npos) continue;
+    const std::string argv0 = cmdline.substr(0, cmdline.find('\0'));
+    found[pid] = argv0.substr(argv0.find_last_of('/') + 1);
   }
   ::closedir(proc);
-  return pids;
+  return found;
+}
+
+// The distinct programs among ProcessesMentioning(needle).
+std::set<std::string> ProgramsMentioning(const std::string& needle) {
+  std::set<std::string> programs;
+  for (const auto& [pid, program] : ProcessesMentioning(needle)) programs.insert(program);
+  return programs;
 }
 
 TEST(FaultTest, KillingImuqualRunLeavesNoOrphans) {
@@ -534,11 +546,15 @@ TEST(FaultTest, KillingImuqualRunLeavesNoOrphans) {
                                dir.path("run.log"));
   ASSERT_TRUE(run.ok());
   // GIVEN imuqual run with its store, analyze and acquire running
+  const std::set<std::string> station = {"imuqual", "imuqual-store", "imuqual-analyze",
+                                         "imuqual-acquire"};
   const double start_deadline = MonotonicSeconds() + 30;
-  while (ProcessesMentioning(url).size() < 4 && MonotonicSeconds() < start_deadline) {
+  std::set<std::string> up = ProgramsMentioning(url);
+  while (up != station && MonotonicSeconds() < start_deadline) {
     ::usleep(20000);
+    up = ProgramsMentioning(url);
   }
-  ASSERT_EQ(ProcessesMentioning(url).size(), 4u);
+  ASSERT_EQ(up, station);
   // ... and both runs archived as started
   auto archived_runs = [&] {
     auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
