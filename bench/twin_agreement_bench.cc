@@ -13,8 +13,11 @@
 // Usage: twin_agreement_bench CSV --column NAME --rate HZ [--scale S]
 //          [--fit-min-tau T] [--lsb L] [--twins N] [--threads T] [--each] [--pair-check]
 // --each prints every twin's number (its seed's index), selected model, its
-// curve minimum's z, with --pair-check its J and the pair grid's, and its
-// first four candidates (J, criterion, averaging weight).
+// curve minimum's z, with --pair-check its J and the pair grid's, the
+// selected model's terms ({N 0.0045 S 0.0068@0.57Hz GM 0.003/0.12s ...}:
+// scale, a line's frequency, a Gauss-Markov term's correlation time) and its
+// first four candidates (J, criterion, averaging weight). The summary gives
+// the model's z of the minimum and of N by the model each twin selected.
 // --pair-check estimates each twin's selected model, where it has two
 // sinusoids or two Gauss-Markov terms, from every pair of the search's
 // frequencies and of its correlation times (seconds per twin) and counts
@@ -28,6 +31,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -48,6 +52,7 @@ struct Reading {
   double readoff_min = NAN, readoff_min_u = NAN, model_min = NAN, model_min_u = NAN;
   double readoff_n = NAN, readoff_n_u = NAN, model_n = NAN, model_n_u = NAN;
   std::string model, candidates;  // the selected model; the first four candidates
+  std::string terms;              // the selected model's terms with their values
   bool adequate = false;
   // With --pair-check: J of the selected model and the least J of its grid
   // of full estimates over every pair of frequencies and of correlation
@@ -81,6 +86,17 @@ Reading Read(const std::vector<double>& rate, double tau0, double fit_min_tau, b
   r.model_n = fit->white_asymptote.value;
   r.model_n_u = fit->white_asymptote.sigma;
   r.model = fit->model.Name();
+  for (const allan::ModelTerm& t : fit->model.terms) {
+    char b[96];
+    int at = std::snprintf(b, sizeof b, "%s%s %.4g", r.terms.empty() ? "" : " ",
+                           std::string(allan::TermKindSymbol(t.kind)).c_str(), t.scale);
+    if (t.kind == allan::TermKind::kGaussMarkov) {
+      std::snprintf(b + at, sizeof b - at, "/%.4gs", t.correlation_time_s);
+    } else if (t.kind == allan::TermKind::kSinusoid) {
+      std::snprintf(b + at, sizeof b - at, "@%.4gHz", t.frequency_hz);
+    }
+    r.terms += b;
+  }
   r.adequate = fit->adequate;
   r.objective = fit->objective;
   r.pair_grid_objective = fit->pair_grid_objective;
@@ -273,6 +289,9 @@ int main(int argc, char** argv) {
   for (std::thread& t : pool) t.join();
   // The truth of every twin is the record's model: its minimum and N.
   Stats d_min, d_n, e_ro, e_mo, cross, z_ro, z_mo, ze_n_ro, ze_n_mo;
+  // The model's z of the minimum and of N by the model each twin selected:
+  // whether a u fails everywhere or where the selection differs.
+  std::map<std::string, std::pair<Stats, Stats>> by_model;
   int same_model = 0, used = 0;
   for (size_t s = 0; s < out.size(); ++s) {
     const Reading& r = out[s];
@@ -287,7 +306,7 @@ int main(int argc, char** argv) {
                   r.adequate ? "ok" : "INADEQUATE", r.model_min, r.model_min_u,
                   (r.model_min - truth_min) / r.model_min_u, (r.model_n - truth_n) / r.model_n_u);
       if (pair_check) std::printf(" J %.3f pair grid %.3f", r.objective, r.pair_grid_objective);
-      std::printf(" [%s]\n", r.candidates.c_str());
+      std::printf(" {%s} [%s]\n", r.terms.c_str(), r.candidates.c_str());
     }
     d_min.Add(r.readoff_min - r.model_min);
     d_n.Add(r.readoff_n - r.model_n);
@@ -298,6 +317,8 @@ int main(int argc, char** argv) {
     z_mo.Add((r.model_min - truth_min) / r.model_min_u);
     ze_n_ro.Add((r.readoff_n - truth_n) / r.readoff_n_u);
     ze_n_mo.Add((r.model_n - truth_n) / r.model_n_u);
+    by_model[r.model].first.Add((r.model_min - truth_min) / r.model_min_u);
+    by_model[r.model].second.Add((r.model_n - truth_n) / r.model_n_u);
     same_model += r.model == real.model;
   }
   const double corr =
@@ -320,6 +341,13 @@ int main(int argc, char** argv) {
               real.readoff_min - real.model_min, zr_min);
   std::printf("# N: read-off z rms %.2f, model z rms %.2f\n", std::sqrt(ze_n_ro.sum2 / ze_n_ro.n),
               std::sqrt(ze_n_mo.sum2 / ze_n_mo.n));
+  for (const auto& [model, z] : by_model) {
+    std::printf(
+        "# selected %s in %.0f: model minimum z mean %+.2f rms %.2f, model N z mean %+.2f rms "
+        "%.2f\n",
+        model.c_str(), z.first.n, z.first.Mean(), std::sqrt(z.first.sum2 / z.first.n),
+        z.second.Mean(), std::sqrt(z.second.sum2 / z.second.n));
+  }
   std::printf("twin_n_difference_mean %.6g\ntwin_n_difference_sd %.6g\n", d_n.Mean(), d_n.Sd());
   std::printf("record_n_difference %.6g\nrecord_n_difference_z %.2f\n",
               real.readoff_n - real.model_n, zr_n);
