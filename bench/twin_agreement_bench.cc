@@ -164,6 +164,7 @@ struct Stats {
   }
   double Mean() const { return sum / n; }
   double Sd() const { return std::sqrt(std::max(0.0, (sum2 - sum * sum / n) / (n - 1))); }
+  double Rms() const { return std::sqrt(sum2 / n); }
 };
 
 int Fail(const std::string& why) {
@@ -331,22 +332,19 @@ int main(int argc, char** argv) {
   std::printf(
       "# curve minimum: read-off error mean %+.3g sd %.3g (z rms %.2f), model error "
       "mean %+.3g sd %.3g (z rms %.2f), correlation %.2f\n",
-      e_ro.Mean(), e_ro.Sd(), std::sqrt(z_ro.sum2 / z_ro.n), e_mo.Mean(), e_mo.Sd(),
-      std::sqrt(z_mo.sum2 / z_mo.n), corr);
+      e_ro.Mean(), e_ro.Sd(), z_ro.Rms(), e_mo.Mean(), e_mo.Sd(), z_mo.Rms(), corr);
   const double zr_min = (real.readoff_min - real.model_min - d_min.Mean()) / d_min.Sd();
   const double zr_n = (real.readoff_n - real.model_n - d_n.Mean()) / d_n.Sd();
   std::printf("twin_minimum_difference_mean %.6g\ntwin_minimum_difference_sd %.6g\n", d_min.Mean(),
               d_min.Sd());
   std::printf("record_minimum_difference %.6g\nrecord_minimum_difference_z %.2f\n",
               real.readoff_min - real.model_min, zr_min);
-  std::printf("# N: read-off z rms %.2f, model z rms %.2f\n", std::sqrt(ze_n_ro.sum2 / ze_n_ro.n),
-              std::sqrt(ze_n_mo.sum2 / ze_n_mo.n));
+  std::printf("# N: read-off z rms %.2f, model z rms %.2f\n", ze_n_ro.Rms(), ze_n_mo.Rms());
   for (const auto& [model, z] : by_model) {
     std::printf(
         "# selected %s in %.0f: model minimum z mean %+.2f rms %.2f, model N z mean %+.2f rms "
         "%.2f\n",
-        model.c_str(), z.first.n, z.first.Mean(), std::sqrt(z.first.sum2 / z.first.n),
-        z.second.Mean(), std::sqrt(z.second.sum2 / z.second.n));
+        model.c_str(), z.first.n, z.first.Mean(), z.first.Rms(), z.second.Mean(), z.second.Rms());
   }
   std::printf("twin_n_difference_mean %.6g\ntwin_n_difference_sd %.6g\n", d_n.Mean(), d_n.Sd());
   std::printf("record_n_difference %.6g\nrecord_n_difference_z %.2f\n",

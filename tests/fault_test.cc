@@ -527,13 +527,6 @@ std::map<pid_t, std::string> ProcessesMentioning(const std::string& needle) {
   return found;
 }
 
-// The distinct programs among ProcessesMentioning(needle).
-std::set<std::string> ProgramsMentioning(const std::string& needle) {
-  std::set<std::string> programs;
-  for (const auto& [pid, program] : ProcessesMentioning(needle)) programs.insert(program);
-  return programs;
-}
-
 TEST(FaultTest, KillingImuqualRunLeavesNoOrphans) {
   testing::TempDir dir("fault_orphans");
   const std::string db = dir.path("orphans.db");
@@ -548,13 +541,19 @@ TEST(FaultTest, KillingImuqualRunLeavesNoOrphans) {
   // GIVEN imuqual run with its store, analyze and acquire running
   const std::set<std::string> station = {"imuqual", "imuqual-store", "imuqual-analyze",
                                          "imuqual-acquire"};
+  // Waited for and asserted on one snapshot: its programs and its count.
   const double start_deadline = MonotonicSeconds() + 30;
-  std::set<std::string> up = ProgramsMentioning(url);
-  while (up != station && MonotonicSeconds() < start_deadline) {
+  std::map<pid_t, std::string> up;
+  std::set<std::string> programs;
+  for (;;) {
+    up = ProcessesMentioning(url);
+    programs.clear();
+    for (const auto& [pid, program] : up) programs.insert(program);
+    if (programs == station || MonotonicSeconds() >= start_deadline) break;
     ::usleep(20000);
-    up = ProgramsMentioning(url);
   }
-  ASSERT_EQ(up, station);
+  ASSERT_EQ(programs, station);
+  ASSERT_EQ(up.size(), 4u);
   // ... and both runs archived as started
   auto archived_runs = [&] {
     auto a = store::Archive::Open(db, store::Archive::Mode::kRead);
