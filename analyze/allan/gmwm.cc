@@ -128,6 +128,10 @@ struct Problem {
   // Per point, the Gauss-Markov table (null at AVAR points); shared by the
   // passes and the profiles' copies of a problem.
   std::vector<std::shared_ptr<const GaussMarkovTheo1Table>> gm_theo1;
+  // The search's problems: a candidate with a term the fitted points cannot
+  // tell from another kind (Identified) is not a candidate. Off for a
+  // bootstrap replicate's refit and a profile, which stay with the model.
+  bool identified_only = false;
 
   int points() const { return static_cast<int>(m.size()); }
 };
@@ -167,6 +171,7 @@ Problem MakeProblem(const std::vector<FitRow>& rows, const std::vector<char>& th
   p.block = block;
   p.penalty = options.parameter_penalty;
   p.single_penalty = options.single_term_penalty;
+  p.identified_only = true;
   p.tau0_s = tau0_s;
   const int n = static_cast<int>(rows.size());
   p.y.resize(n);
@@ -476,6 +481,33 @@ double Criterion(double objective, const std::vector<TermKind>& kinds, int point
   return objective + cost + 2.0 * k * (k + 1.0) / denom;
 }
 
+// Whether every term of a candidate is the kind it is named to the fitted
+// points: a Gauss-Markov term whose correlation time lies more than two
+// octaves below the shortest fitted tau is white noise there, and more than
+// two octaves beyond the longest a random walk; a sinusoid above a cycle per
+// shortest fitted tau shows only through the zeros of its sin^4 at the
+// points (a free value for the first point or two: a tau^-2 term), and one
+// below a cycle per eight longest taus a drift (each an octave beyond the
+// range the search's grids start from).
+bool Identified(const std::vector<TermKind>& kinds, const Eigen::VectorXd& theta,
+                const Problem& p) {
+  const double tau_first = p.m.front() * p.tau0_s, tau_last = p.m.back() * p.tau0_s;
+  int i = 0;
+  for (TermKind kind : kinds) {
+    const ModelTerm t = ToTerm(kind, theta, i, p);
+    if (kind == TermKind::kGaussMarkov &&
+        (t.correlation_time_s < tau_first / 4 || t.correlation_time_s > 4 * tau_last)) {
+      return false;
+    }
+    if (kind == TermKind::kSinusoid &&
+        (t.frequency_hz * tau_first > 1 || t.frequency_hz * tau_last < 0.125)) {
+      return false;
+    }
+    i += ParameterCount(kind);
+  }
+  return true;
+}
+
 // `tolerance`: LM's relative step tolerance in theta (1e-7: estimates; a
 // profile's J needs far less).
 Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, const Problem& p,
@@ -496,6 +528,9 @@ Candidate Estimate(const std::vector<TermKind>& kinds, Eigen::VectorXd theta, co
   c.theta = theta;
   c.objective = r.squaredNorm();
   c.criterion = Criterion(c.objective, kinds, p.points(), p.penalty, p.single_penalty);
+  if (p.identified_only && !Identified(kinds, theta, p)) {
+    c.criterion = std::numeric_limits<double>::infinity();
+  }
   return c;
 }
 
@@ -821,7 +856,7 @@ std::vector<Candidate> PairStarts(const Candidate& c, size_t a, size_t b,
         if (!best_time.empty()) th = best_time.front();
       }
       Candidate e = Estimate(c.kinds, LinearStart(c.kinds, th, p), p, kScreenTolerance);
-      if (std::isfinite(e.objective)) screened.push_back(std::move(e));
+      if (std::isfinite(e.criterion)) screened.push_back(std::move(e));  // candidates only
     }
   }
   std::sort(screened.begin(), screened.end(),
@@ -837,13 +872,22 @@ std::vector<Candidate> PairStarts(const Candidate& c, size_t a, size_t b,
   return out;
 }
 
+// The highest frequency (cycles per sample) a line of the model may have: a
+// cycle per shortest fitted tau (Identified), at most Nyquist.
+double SinusoidBandTop(const std::vector<FitRow>& rows) {
+  return std::min(0.5, 1.0 / static_cast<double>(rows.front().m));
+}
+
 // The frequencies (cycles per sample) a sinusoid is searched over: every
 // 0.01 from Nyquist down to 0.05 (the octave points' sin^4(pi f m) turns
 // fast in f there), then 4 per octave down to a cycle per 4 longest
 // averaging times.
 std::vector<double> SinusoidGrid(const std::vector<FitRow>& rows) {
   std::vector<double> grid;
-  for (double f = 0.49; f > 0.0499; f -= 0.01) grid.push_back(f);
+  const double f_hi = SinusoidBandTop(rows);
+  for (double f = 0.49; f > 0.0499; f -= 0.01) {
+    if (f <= f_hi) grid.push_back(f);
+  }
   const double f_lo = 1.0 / (static_cast<double>(rows.back().m) * 4.0);
   for (double f = 0.05 / std::pow(2.0, 0.25); f > f_lo; f /= std::pow(2.0, 0.25)) {
     grid.push_back(f);
@@ -869,8 +913,9 @@ std::vector<double> CorrelationTimeGrid(const std::vector<FitRow>& rows) {
 // The least J of a grid of full estimates of `best` from every pair of
 // values of its two sinusoids' frequencies (SinusoidGrid) and of each pair
 // of its Gauss-Markov terms' correlation times (CorrelationTimeGrid), its
-// other parameters started where the search left them; NaN when `best` has
-// neither two sinusoids nor two Gauss-Markov terms.
+// other parameters started where the search left them (the estimates that
+// are candidates); NaN when `best` has neither two sinusoids nor two
+// Gauss-Markov terms.
 // GmwmOptions::check_pair_search: how often the search misses.
 double PairGridObjective(const Candidate& best, const Problem& p, const std::vector<FitRow>& rows) {
   std::vector<size_t> lines, gms;
@@ -884,8 +929,9 @@ double PairGridObjective(const Candidate& best, const Problem& p, const std::vec
       for (size_t y = x + 1; y < grid.size(); ++y) {
         const Eigen::VectorXd th =
             WithPair(best.kinds, best.theta, first, grid[x], second, grid[y], p);
-        const double j = Estimate(best.kinds, LinearStart(best.kinds, th, p), p).objective;
-        if (!(j >= least)) least = j;  // NaN least: the first
+        const Candidate c = Estimate(best.kinds, LinearStart(best.kinds, th, p), p);
+        if (!std::isfinite(c.criterion)) continue;         // not a candidate (Identified)
+        if (!(c.objective >= least)) least = c.objective;  // NaN least: the first
       }
     }
   };
@@ -933,7 +979,11 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
   const auto [tau_lo, tau_hi] = CorrelationTimeRange(rows);
   const std::vector<double> gm_grid = CorrelationTimeGrid(rows);
   const std::vector<double> sinusoid_grid = SinusoidGrid(rows);
-  std::vector<double> gm_spread, sinusoid_spread = {0.05, 0.15, 0.245, 0.4};
+  // A new line's starts spread over the band the fitted points resolve (up to
+  // Nyquist over every point).
+  std::vector<double> gm_spread, sinusoid_spread;
+  for (double f : {0.05, 0.15, 0.245, 0.4})
+    sinusoid_spread.push_back(f * SinusoidBandTop(rows) / 0.5);
   for (int i = 0; i < 5; ++i) {
     gm_spread.push_back(tau_lo * std::pow(tau_hi / tau_lo, (i + 0.5) / 5));
   }
@@ -1152,6 +1202,7 @@ std::vector<double> BootstrapSigmas(const Candidate& best, const Problem& p, int
   const int n = p.points();
   const Eigen::VectorXd base = LogModel(ToModel(best.kinds, best.theta, p), p);
   Problem replicate = p;
+  replicate.identified_only = false;
   std::vector<double> sum(count, 0.0), sum2(count, 0.0);
   std::vector<int> used(count, 0);
   for (int r = 0; r < replicates; ++r) {
@@ -1500,6 +1551,7 @@ Candidate WithFixedTerm(const Candidate& best, TermKind kind, const Problem& p, 
   CompositeModel term;
   term.terms.push_back(ModelTerm{kind, scale});
   Problem fixed = p;
+  fixed.identified_only = false;
   fixed.fixed_avar.resize(p.points());
   for (int j = 0; j < p.points(); ++j) fixed.fixed_avar(j) = TermMoment(term.terms[0], p, j);
   return Estimate(best.kinds, best.theta, fixed, kProfileTolerance);
@@ -1812,7 +1864,10 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
   std::map<std::string, Candidate> seen2;
   Minima minima2;
   Candidate best2;
-  for (size_t i = 0; i < pass1.size() && static_cast<int>(i) < kPass2Candidates; ++i) {
+  // Pass 1's best kPass2Candidates that are still candidates under the full
+  // covariance (an estimate can move a term out of what the points identify).
+  for (size_t i = 0, survived = 0;
+       i < pass1.size() && static_cast<int>(survived) < kPass2Candidates; ++i) {
     // From each of pass 1's distinct minima of the model, and from each
     // with its scales re-solved under the full covariance (its minimum can
     // lie elsewhere): the best of them.
@@ -1825,13 +1880,14 @@ Result<CompositeFit> FitCompositeModel(const Curve& curve, const GmwmOptions& op
       Candidate from_s;
       for (const Candidate& e : {Estimate(s.kinds, s.theta, p2),
                                  Estimate(s.kinds, LinearStart(s.kinds, s.theta, p2), p2)}) {
-        if (e.objective < from_s.objective) from_s = e;
+        if (std::isfinite(e.criterion) && e.objective < from_s.objective) from_s = e;
       }
       if (!std::isfinite(from_s.criterion)) continue;
       AddMinimum(&minima2[NameOf(from_s.kinds, from_s.theta, p2)], from_s, p2);
       if (from_s.objective < c.objective) c = from_s;
     }
     if (!std::isfinite(c.criterion)) continue;
+    ++survived;
     seen2[NameOf(c.kinds, c.theta, p2)] = c;
     if (c.criterion < best2.criterion) best2 = c;
   }
