@@ -491,7 +491,9 @@ double Criterion(double objective, const std::vector<TermKind>& kinds, int point
 // range the search's grids start from).
 bool Identified(const std::vector<TermKind>& kinds, const Eigen::VectorXd& theta,
                 const Problem& p) {
-  const double tau_first = p.m.front() * p.tau0_s, tau_last = p.m.back() * p.tau0_s;
+  // A Theo1 point's tau is 0.75 m (rows' tau_s).
+  const double tau_first = p.m.front() * p.tau0_s;
+  const double tau_last = (p.theo1.back() ? 0.75 : 1.0) * p.m.back() * p.tau0_s;
   int i = 0;
   for (TermKind kind : kinds) {
     const ModelTerm t = ToTerm(kind, theta, i, p);
@@ -878,8 +880,8 @@ double SinusoidBandTop(const std::vector<FitRow>& rows) {
   return std::min(0.5, 1.0 / static_cast<double>(rows.front().m));
 }
 
-// The frequencies (cycles per sample) a sinusoid is searched over: every
-// 0.01 from Nyquist down to 0.05 (the octave points' sin^4(pi f m) turns
+// The frequencies (cycles per sample) a sinusoid is searched over, within
+// SinusoidBandTop: every 0.01 from Nyquist down to 0.05 (the octave points' sin^4(pi f m) turns
 // fast in f there), then 4 per octave down to a cycle per 4 longest
 // averaging times.
 std::vector<double> SinusoidGrid(const std::vector<FitRow>& rows) {
@@ -890,7 +892,7 @@ std::vector<double> SinusoidGrid(const std::vector<FitRow>& rows) {
   }
   const double f_lo = 1.0 / (static_cast<double>(rows.back().m) * 4.0);
   for (double f = 0.05 / std::pow(2.0, 0.25); f > f_lo; f /= std::pow(2.0, 0.25)) {
-    grid.push_back(f);
+    if (f <= f_hi) grid.push_back(f);
   }
   return grid;
 }
