@@ -487,8 +487,9 @@ double Criterion(double objective, const std::vector<TermKind>& kinds, int point
 // two octaves beyond the longest a random walk; a sinusoid above a cycle per
 // shortest fitted tau shows only through the zeros of its sin^4 at the
 // points (a free value for the first point or two: a tau^-2 term), and one
-// below a cycle per eight longest taus a drift (each an octave beyond the
-// range the search's grids start from).
+// below a cycle per eight longest taus a drift (the correlation times and the
+// slow lines an octave beyond the range the search's grids cover; the fast
+// lines at the grid's top, SinusoidBandTop).
 bool Identified(const std::vector<TermKind>& kinds, const Eigen::VectorXd& theta,
                 const Problem& p) {
   // A Theo1 point's tau is 0.75 m (rows' tau_s).
@@ -880,10 +881,10 @@ double SinusoidBandTop(const std::vector<FitRow>& rows) {
   return std::min(0.5, 1.0 / static_cast<double>(rows.front().m));
 }
 
-// The frequencies (cycles per sample) a sinusoid is searched over, within
-// SinusoidBandTop: every 0.01 from Nyquist down to 0.05 (the octave points' sin^4(pi f m) turns
-// fast in f there), then 4 per octave down to a cycle per 4 longest
-// averaging times.
+// The frequencies (cycles per sample) a sinusoid is searched over, up to
+// SinusoidBandTop: every 0.01 from Nyquist down to 0.05 (the octave points'
+// sin^4(pi f m) turns fast in f there), then 4 per octave down to a cycle
+// per 4 longest averaging times.
 std::vector<double> SinusoidGrid(const std::vector<FitRow>& rows) {
   std::vector<double> grid;
   const double f_hi = SinusoidBandTop(rows);
@@ -984,8 +985,8 @@ Candidate Search(const Problem& p, const std::vector<FitRow>& rows, const GmwmOp
   // A new line's starts spread over the band the fitted points resolve (up to
   // Nyquist over every point).
   std::vector<double> gm_spread, sinusoid_spread;
-  for (double f : {0.05, 0.15, 0.245, 0.4})
-    sinusoid_spread.push_back(f * SinusoidBandTop(rows) / 0.5);
+  const double band_scale = SinusoidBandTop(rows) / 0.5;
+  for (double f : {0.05, 0.15, 0.245, 0.4}) sinusoid_spread.push_back(f * band_scale);
   for (int i = 0; i < 5; ++i) {
     gm_spread.push_back(tau_lo * std::pow(tau_hi / tau_lo, (i + 0.5) / 5));
   }
