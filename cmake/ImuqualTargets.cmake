@@ -20,10 +20,15 @@ function(imuqual_executable name)
   target_link_libraries(${name} PRIVATE ${ARG_DEPS})
 endfunction()
 
-# imuqual_test(NAME SOURCES ... DEPS ... [LABELS ...] [TIMEOUT s] [NETNS])
+# imuqual_test(NAME SOURCES ... DEPS ... [LABELS ...] [TIMEOUT s] [NETNS]
+#              [SANITIZER_SKIP Suite.Case ...])
 # NETNS: run in a private network namespace (tests/netns_run) when possible.
+# SANITIZER_SKIP: cases left out of the ASan + UBSan build (IMUQUAL_SANITIZE)
+# only: Monte Carlo rates and long-run arithmetic that run the code of a
+# sibling case many times over. The Release pass asserts them; the memory
+# checks see their code in the sibling.
 function(imuqual_test name)
-  cmake_parse_arguments(ARG "NETNS" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "NETNS" "TIMEOUT" "SOURCES;DEPS;LABELS;SANITIZER_SKIP" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
   target_compile_options(${name} PRIVATE ${IMUQUAL_WARNINGS})
@@ -40,6 +45,10 @@ function(imuqual_test name)
     set(ARG_TIMEOUT 300)
   endif()
   set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
+  if(IMUQUAL_SANITIZE AND ARG_SANITIZER_SKIP)
+    list(JOIN ARG_SANITIZER_SKIP ":" skipped)
+    set_tests_properties(${name} PROPERTIES ENVIRONMENT "GTEST_FILTER=-${skipped}")
+  endif()
 endfunction()
 
 # imuqual_fuzzer(NAME SOURCES ... DEPS ...): a libFuzzer binary in build/fuzz/

@@ -12,6 +12,22 @@
 
 namespace imuqual::testing {
 
+// True in an AddressSanitizer build (GCC says so with __SANITIZE_ADDRESS__,
+// Clang with __has_feature): a Monte Carlo case there runs a few records
+// for the memory checks and leaves its rates to the Release pass, which
+// asserts them on every record.
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kUnderSanitizers = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kUnderSanitizers = true;
+#else
+inline constexpr bool kUnderSanitizers = false;
+#endif
+#else
+inline constexpr bool kUnderSanitizers = false;
+#endif
+
 struct CommandResult {
   int exit_code = -1;
   std::string output;  // stdout (stderr goes to the test log)
