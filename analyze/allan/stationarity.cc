@@ -213,10 +213,12 @@ class AxisGls {
       const int ia = Map(c.a), ib = c.b >= 0 ? Map(c.b) : -2;
       if (ia < 0 || ib == -1) continue;
       double gpg = c.wa * c.wa * p_(ia, ia);
-      gpx = c.wa * px_.row(ia).transpose();
+      // Without nuisances px_ has no columns (and no storage: a row of it
+      // would offset a null pointer), and gpx is not used.
+      if (q > 0) gpx = c.wa * px_.row(ia).transpose();
       if (ib >= 0) {
         gpg += c.wb * c.wb * p_(ib, ib) + 2 * c.wa * c.wb * p_(ia, ib);
-        gpx += c.wb * px_.row(ib).transpose();
+        if (q > 0) gpx += c.wb * px_.row(ib).transpose();
       }
       const double den2 = q == 0 ? gpg : gpg - gpx.dot(m_ * gpx);
       if (!(den2 > 1e-12 * gpg)) continue;
