@@ -522,7 +522,9 @@ TEST(StreamingAllanTest, SegmentBetweenMarksHasTheStretchsOwnTerms) {
       EXPECT_EQ(got.points[i].m, want.points[i].m);
       EXPECT_EQ(got.points[i].n, want.points[i].n) << "m " << want.points[i].m;
       EXPECT_NEAR(got.points[i].dev, want.points[i].dev, 1e-9 * want.points[i].dev);
-      if (ci == CiMethod::kChi2) EXPECT_NEAR(got.points[i].edf, want.points[i].edf, 1e-6);
+      if (ci == CiMethod::kChi2) {
+        EXPECT_NEAR(got.points[i].edf, want.points[i].edf, 1e-6);
+      }
     }
   }
   // Marks every 256 samples: fewer terms, and the deviation within its own
