@@ -138,9 +138,9 @@ Result<pb::SimTruth> ReadModelFile(const std::string& path, const pb::TestPlan& 
     }
     *truth.add_axes() = TruthOf(*model, axis.name());
   }
+  // Not a structured binding: Clang 14 cannot capture one in the lambda.
   for (const auto& entry : terms) {
-    const std::string& axis =
-        entry.first;  // a lambda cannot capture a structured binding in Clang 14
+    const std::string& axis = entry.first;
     if (std::none_of(plan.axes().begin(), plan.axes().end(),
                      [&](const pb::Axis& a) { return a.name() == axis; })) {
       return Status::InvalidArgument(path + ": axis '" + axis + "' is not one of the plan's");
