@@ -124,16 +124,58 @@ double FlickerNoise::Psd(double f_hz) const {
   return 2 * tau0_s_ * gain_ * gain_ * ResponseSquared(f_hz);
 }
 
-double FlickerNoise::Next(Random& rng) {
-  if (sections_.empty()) return 0;
-  double x = rng.Gaussian();
-  for (Section& s : sections_) {
-    const double y = x - s.zero * s.x_prev + s.pole * s.y_prev;
-    s.x_prev = x;
-    s.y_prev = y;
-    x = y;
+namespace {
+
+// One section's recursion, y_k = x_k - zero x_{k-1} + pole y_{k-1}, its state
+// held in registers while a block runs.
+struct SectionState {
+  double zero, pole, x_prev, y_prev;
+  double Step(double x) {
+    const double y = x - zero * x_prev + pole * y_prev;
+    x_prev = x;
+    y_prev = y;
+    return y;
   }
-  return gain_ * x;
+};
+
+// Sections first .. first + G - 1 over x, in place. Section j runs sample
+// k - j at step k: it reads what section j - 1 wrote a step before, and the
+// G recursions (each a multiply and an add deep per sample) overlap.
+template <int G, typename Section>
+void CascadeSkewed(Section* first, double* x, std::ptrdiff_t n) {
+  SectionState lane[G];
+  for (int j = 0; j < G; ++j)
+    lane[j] = {first[j].zero, first[j].pole, first[j].x_prev, first[j].y_prev};
+  const auto step_edge = [&](std::ptrdiff_t k) {
+    for (int j = 0; j < G; ++j) {
+      const std::ptrdiff_t i = k - j;
+      if (i >= 0 && i < n) x[i] = lane[j].Step(x[i]);
+    }
+  };
+  std::ptrdiff_t k = 0;
+  for (; k < std::min<std::ptrdiff_t>(G - 1, n); ++k) step_edge(k);
+  for (; k < n; ++k) {
+    for (int j = 0; j < G; ++j) x[k - j] = lane[j].Step(x[k - j]);
+  }
+  for (; k < n + G - 1; ++k) step_edge(k);
+  for (int j = 0; j < G; ++j) {
+    first[j].x_prev = lane[j].x_prev;
+    first[j].y_prev = lane[j].y_prev;
+  }
+}
+
+}  // namespace
+
+void FlickerNoise::Filter(std::span<double> x) {
+  if (sections_.empty()) {
+    std::fill(x.begin(), x.end(), 0.0);
+    return;
+  }
+  const auto n = static_cast<std::ptrdiff_t>(x.size());
+  size_t s = 0;
+  for (; s + 4 <= sections_.size(); s += 4) CascadeSkewed<4>(&sections_[s], x.data(), n);
+  for (; s < sections_.size(); ++s) CascadeSkewed<1>(&sections_[s], x.data(), n);
+  for (double& v : x) v *= gain_;
 }
 
 ImuSimulator::ImuSimulator(const pb::SimTruth& truth)
@@ -203,53 +245,97 @@ Result<ImuSimulator> ImuSimulator::Create(const pb::SimTruth& truth) {
 
 // Warm-up from ambient to 35 C (15 min time constant) with a 0.5 C, 1 h
 // chamber cycle on top.
-double ImuSimulator::temperature_c() const {
-  const double t = static_cast<double>(k_) * tau0_s_;
+double ImuSimulator::TemperatureAt(int64_t k) const {
+  const double t = static_cast<double>(k) * tau0_s_;
   return kAmbientC + 10.0 * (1.0 - std::exp(-t / 900.0)) + 0.5 * std::sin(2 * kPi * t / 3600.0);
 }
 
+double ImuSimulator::temperature_c() const { return TemperatureAt(k_); }
+
+// Axis by axis (each draws from its own generator) in blocks: a block's
+// deviates first, in the order the model draws them per sample, then the
+// flicker cascade over the whole block, then each sample's sum in the
+// model's order. The samples are those of stepping every term one sample at
+// a time, bit for bit (ImuSimulatorTest's recorded hashes).
 void ImuSimulator::Generate(int count, std::vector<std::vector<float>>& samples) {
-  for (int i = 0; i < count; ++i, ++k_) {
-    const double t = static_cast<double>(k_) * tau0_s_;
-    const double temp_offset = temperature_c() - kAmbientC;
-    for (size_t a = 0; a < axes_.size(); ++a) {
-      AxisState& s = axes_[a];
-      const pb::AxisTruth& p = s.truth;
-      double y = p.bias() + p.rate_ramp() * t + p.temp_coefficient() * temp_offset;
-      if (s.white_scale > 0) {
-        const double e = s.rng.Gaussian();
-        y += s.white_lowpass ? s.white_lowpass->Next(e) : s.white_scale * e;
-      }
-      y += s.flicker.Next(s.rng);
-      if (s.walk_step > 0) {
-        y += s.walk;
-        s.walk += s.walk_step * s.rng.Gaussian();
-      }
-      if (p.sine_amplitude() != 0) {
-        y += p.sine_amplitude() * std::sin(2 * kPi * p.sine_frequency_hz() * t + s.sine_phase);
-      }
-      for (Ar1Process& g : s.gauss_markov) y += g.Next(s.rng.Gaussian());
-      for (const AxisState::Line& line : s.lines) {
-        y += line.amplitude * std::sin(2 * kPi * line.frequency_hz * t + line.phase);
-      }
-      if (s.spike_probability > 0) {
-        // One uniform deviate u decides both: a spike when u < spike_probability,
-        // downwards when u is in the lower half of that interval.
-        const double u = s.rng.Uniform();
-        if (u < s.spike_probability) {
-          y += u < 0.5 * s.spike_probability ? -p.spike_amplitude() : p.spike_amplitude();
-        }
-      }
-      if (s.quantum > 0) {
-        // Output whole quanta of accumulated angle; carry the remainder.
-        s.residual += y * tau0_s_;
-        const double quanta = std::floor(s.residual / s.quantum);
-        s.residual -= quanta * s.quantum;
-        y = quanta * s.quantum / tau0_s_;
-      }
-      if (s.rate_lsb > 0) y = s.rate_lsb * std::round(y / s.rate_lsb);
-      samples[a].push_back(static_cast<float>(y));
+  constexpr int kBlock = 4096;
+  // The chamber temperature (an exp and a sin per sample) only where an axis
+  // reads it.
+  const bool any_temp = std::any_of(axes_.begin(), axes_.end(), [](const AxisState& s) {
+    return s.truth.temp_coefficient() != 0;
+  });
+  std::vector<double> temp_offsets;
+  for (int done = 0; done < count;) {
+    const int n = std::min(kBlock, count - done);
+    temp_offsets.clear();
+    for (int i = 0; any_temp && i < n; ++i)
+      temp_offsets.push_back(TemperatureAt(k_ + i) - kAmbientC);
+    for (size_t a = 0; a < axes_.size(); ++a) GenerateAxis(axes_[a], n, temp_offsets, samples[a]);
+    k_ += n;
+    done += n;
+  }
+}
+
+void ImuSimulator::GenerateAxis(AxisState& s, int n, const std::vector<double>& temp_offsets,
+                                std::vector<float>& out) {
+  const pb::AxisTruth& p = s.truth;
+  const bool white = s.white_scale > 0;
+  const bool walk = s.walk_step > 0;
+  const bool spike = s.spike_probability > 0;
+  const size_t gm = s.gauss_markov.size();
+  Deviates& d = deviates_;
+  d.white.resize(n);
+  d.flicker.resize(n);
+  d.walk.resize(n);
+  d.gauss_markov.resize(n * gm);
+  d.spike.resize(n);
+  // Per sample the IEEE terms draw first (white, flicker, walk), then each
+  // Gauss-Markov term, then the spike lottery.
+  for (int i = 0; i < n; ++i) {
+    if (white) d.white[i] = s.rng.Gaussian();
+    if (!s.flicker.empty()) d.flicker[i] = s.rng.Gaussian();
+    if (walk) d.walk[i] = s.rng.Gaussian();
+    for (size_t j = 0; j < gm; ++j) d.gauss_markov[i * gm + j] = s.rng.Gaussian();
+    if (spike) d.spike[i] = s.rng.Uniform();
+  }
+  s.flicker.Filter(std::span<double>(d.flicker.data(), n));
+  for (int i = 0; i < n; ++i) {
+    const double t = static_cast<double>(k_ + i) * tau0_s_;
+    double y = p.bias() + p.rate_ramp() * t;
+    if (p.temp_coefficient() != 0) y += p.temp_coefficient() * temp_offsets[i];
+    if (white) {
+      const double e = d.white[i];
+      y += s.white_lowpass ? s.white_lowpass->Next(e) : s.white_scale * e;
     }
+    y += d.flicker[i];
+    if (walk) {
+      y += s.walk;
+      s.walk += s.walk_step * d.walk[i];
+    }
+    if (p.sine_amplitude() != 0) {
+      y += p.sine_amplitude() * std::sin(2 * kPi * p.sine_frequency_hz() * t + s.sine_phase);
+    }
+    for (size_t j = 0; j < gm; ++j) y += s.gauss_markov[j].Next(d.gauss_markov[i * gm + j]);
+    for (const AxisState::Line& line : s.lines) {
+      y += line.amplitude * std::sin(2 * kPi * line.frequency_hz * t + line.phase);
+    }
+    if (spike) {
+      // One uniform deviate u decides both: a spike when u < spike_probability,
+      // downwards when u is in the lower half of that interval.
+      const double u = d.spike[i];
+      if (u < s.spike_probability) {
+        y += u < 0.5 * s.spike_probability ? -p.spike_amplitude() : p.spike_amplitude();
+      }
+    }
+    if (s.quantum > 0) {
+      // Output whole quanta of accumulated angle; carry the remainder.
+      s.residual += y * tau0_s_;
+      const double quanta = std::floor(s.residual / s.quantum);
+      s.residual -= quanta * s.quantum;
+      y = quanta * s.quantum / tau0_s_;
+    }
+    if (s.rate_lsb > 0) y = s.rate_lsb * std::round(y / s.rate_lsb);
+    out.push_back(static_cast<float>(y));
   }
 }
 

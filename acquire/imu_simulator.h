@@ -46,6 +46,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "acquire/random.h"
@@ -60,7 +61,14 @@ class FlickerNoise {
   // Band [f_low_hz, f_high_hz] over which the PSD follows 1/f; f_high must be
   // below Nyquist. `bias_instability` is B (IEEE 952) in output units.
   FlickerNoise(double bias_instability, double tau0_s, double f_low_hz, double f_high_hz);
-  double Next(Random& rng);
+  bool empty() const { return sections_.empty(); }
+  // The next x.size() outputs, in place: x holds the standard normal
+  // deviates that drive them, one per sample in order, and is overwritten
+  // with the outputs (all 0 when the generator is empty). The sections run
+  // four at a time, skewed by a sample each, so their recursions overlap;
+  // every output is the same double as stepping the cascade one sample at
+  // a time.
+  void Filter(std::span<double> x);
   // One-sided PSD of the output at f (for tests), output units^2 / Hz.
   double Psd(double f_hz) const;
 
@@ -143,12 +151,22 @@ class ImuSimulator {
     double spike_probability = 0;  // per sample: spike_rate_hz tau0
     double rate_lsb = 0;
   };
+  // A block's deviates of one axis, drawn ahead in the model's order.
+  struct Deviates {
+    std::vector<double> white, flicker, walk, gauss_markov, spike;
+  };
   explicit ImuSimulator(const pb::SimTruth& truth);
+  double TemperatureAt(int64_t k) const;
+  // Samples k_ .. k_ + n - 1 of one axis onto `out`; `temp_offsets` holds
+  // T - 25 C per sample where the axis has a temperature coefficient.
+  void GenerateAxis(AxisState& s, int n, const std::vector<double>& temp_offsets,
+                    std::vector<float>& out);
 
   pb::SimTruth truth_;
   double tau0_s_;
   int64_t k_ = 0;
   std::vector<AxisState> axes_;
+  Deviates deviates_;  // scratch, reused block to block
 };
 
 }  // namespace imuqual::sim

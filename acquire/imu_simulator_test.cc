@@ -214,6 +214,11 @@ TEST(ImuSimulatorTest, RejectsNegativeNoiseTerms) {
 // exact samples of these truths.
 TEST(ImuSimulatorTest, TruthWithoutNewTermsIsBitIdenticalToBefore) {
   EXPECT_EQ(SampleHash(SimulateAll(OldFieldsTruth(), 20000)), 0x54cdcb1da97e945fULL);
+  // No axis with a temperature coefficient: the chamber temperature is not
+  // computed at all (recorded at 0a4971a, before that shortcut).
+  pb::SimTruth no_temp = OldFieldsTruth();
+  no_temp.mutable_axes(0)->clear_temp_coefficient();
+  EXPECT_EQ(SampleHash(SimulateAll(no_temp, 20000)), 0x2faa9e5b02d2d863ULL);
   const struct {
     const char* profile;
     int index;

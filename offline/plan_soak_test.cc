@@ -1,8 +1,6 @@
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <string>
 
@@ -10,6 +8,7 @@
 #include "analyze/judge/plan.h"
 #include "offline/plan_soak_command.h"
 #include "store/archive.h"
+#include "tests/test_util.h"
 
 namespace imuqual::offline {
 namespace {
@@ -23,8 +22,14 @@ constexpr char kPlan[] = R"pb(
   limits { measurement: "angle_random_walk" axis_kind: GYRO high: 0.6 unit: "deg/sqrt(h)" }
   early_decision { risk: 0.01 min_duration_s: 60 look_period_s: 30 })pb";
 
+// This process's scratch directory, removed when the test binary exits.
+const testing::TempDir& Scratch() {
+  static const testing::TempDir dir("plan_soak");
+  return dir;
+}
+
 std::string Write(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "-" + name;
+  const std::string path = Scratch().path(name);
   std::ofstream(path) << text;
   return path;
 }
@@ -100,8 +105,7 @@ TEST(PlanSoak, ModelFileRunsAndBadFilesNameTheirProblem) {
 // A past lot's archived noise models: each unit's latest run, units without
 // an adequate model on every plan axis left out and counted.
 TEST(PlanSoak, LotUsesEachUnitsLatestAdequateModel) {
-  const std::string db = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "-lot.db";
-  std::remove(db.c_str());
+  const std::string db = Scratch().path("lot.db");
   {
     auto archive = store::Archive::Open(db, store::Archive::Mode::kWrite);
     ASSERT_TRUE(archive.ok()) << archive.status().ToString();
@@ -169,7 +173,6 @@ TEST(PlanSoak, LotUsesEachUnitsLatestAdequateModel) {
   EXPECT_EQ(PlanSoakCommand(o), 2);
   const std::string err = ::testing::internal::GetCapturedStderr();
   EXPECT_NE(err.find("NO-SUCH-LOT"), std::string::npos) << err;
-  std::remove(db.c_str());
 }
 
 }  // namespace

@@ -11,31 +11,32 @@ namespace {
 // the integer conversion defined.
 constexpr double kMaxAbsDelta = 8.0;
 
-double Dot(const std::vector<double>& a, const std::vector<double>& b) {
-  double sum = 0.0;
-  for (size_t k = 0; k < a.size(); ++k) sum += a[k] * b[k];
-  return sum;
-}
-
 // Removes the least-squares quadratic a + b k + c k^2 from z. On the symmetric
 // abscissa u_k = (2k - (n-1)) / (n-1) in [-1, 1], the polynomials 1, u and
 // u^2 - mean(u^2) are mutually orthogonal, so the fit is three independent
 // projections (applied to the running residual, i.e. modified Gram-Schmidt).
+// The basis is evaluated where it is used, not stored: the first points of a
+// curve identify over the whole record.
 void RemoveQuadratic(std::vector<double>* z) {
   const size_t n = z->size();
   const double half_span = 0.5 * static_cast<double>(n - 1);
-  std::vector<double> p0(n, 1.0);
-  std::vector<double> p1(n);
-  std::vector<double> p2(n);
-  for (size_t k = 0; k < n; ++k) p1[k] = (static_cast<double>(k) - half_span) / half_span;
+  const auto u = [half_span](size_t k) { return (static_cast<double>(k) - half_span) / half_span; };
   double mean_u2 = 0.0;
-  for (size_t k = 0; k < n; ++k) mean_u2 += p1[k] * p1[k];
+  for (size_t k = 0; k < n; ++k) mean_u2 += u(k) * u(k);
   mean_u2 /= static_cast<double>(n);
-  for (size_t k = 0; k < n; ++k) p2[k] = p1[k] * p1[k] - mean_u2;
-  for (const std::vector<double>* basis : {&p0, &p1, &p2}) {
-    const double coefficient = Dot(*z, *basis) / Dot(*basis, *basis);
-    for (size_t k = 0; k < n; ++k) (*z)[k] -= coefficient * (*basis)[k];
-  }
+  const auto project_out = [z, n](auto basis) {
+    double zb = 0.0;
+    double bb = 0.0;
+    for (size_t k = 0; k < n; ++k) {
+      zb += (*z)[k] * basis(k);
+      bb += basis(k) * basis(k);
+    }
+    const double coefficient = zb / bb;
+    for (size_t k = 0; k < n; ++k) (*z)[k] -= coefficient * basis(k);
+  };
+  project_out([](size_t) { return 1.0; });
+  project_out(u);
+  project_out([&u, mean_u2](size_t k) { return u(k) * u(k) - mean_u2; });
 }
 
 // r1 = sum_{k<n-1} (z_k - zbar)(z_{k+1} - zbar) / sum_k (z_k - zbar)^2;
@@ -63,8 +64,9 @@ std::optional<NoiseId> IdentifyNoiseLag1(const PhaseRecord& phase, int64_t m, in
   const int64_t count = (span.size() + m - 1) / m;
   if (count < kMinNoiseIdPoints) return std::nullopt;
 
-  std::vector<double> z(static_cast<size_t>(count));
-  for (int64_t k = 0; k < count; ++k) z[k] = phase.x[span.begin + k * m];
+  std::vector<double> z;
+  z.reserve(static_cast<size_t>(count));
+  for (int64_t k = 0; k < count; ++k) z.push_back(phase.x[span.begin + k * m]);
   RemoveQuadratic(&z);
 
   int d = 0;
