@@ -45,8 +45,9 @@ function(imuqual_test name)
     set(ARG_TIMEOUT 300)
   endif()
   set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
-  if(IMUQUAL_SANITIZE AND "long" IN_LIST ARG_LABELS)
-    # The sanitizer pass leaves `long` tests out (scripts/test): not built there.
+  if(IMUQUAL_SANITIZE AND ("long" IN_LIST ARG_LABELS OR "statistical" IN_LIST ARG_LABELS))
+    # The sanitizer pass leaves `long` and `statistical` tests out
+    # (scripts/test): not built there.
     set_target_properties(${name} PROPERTIES EXCLUDE_FROM_ALL TRUE)
   endif()
   if(IMUQUAL_SANITIZE AND ARG_SANITIZER_SKIP)
